@@ -1,0 +1,134 @@
+"""The ``derive`` command line.
+
+Exit status: 0 success, 1 a check or comparison failed, 2 bad input (the message names
+the field and the rule; no traceback).
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+from typing import Sequence
+
+
+class UsageError(Exception):
+    """Bad input from the user: printed as one line, exit status 2."""
+
+
+# ---- equations --------------------------------------------------------------------
+def cmd_equations(args: argparse.Namespace) -> int:
+    from .equations import BUILDERS, derived, render_latex, render_text
+    ids = [args.id] if args.id else list(BUILDERS)
+    for eid in ids:
+        if eid not in BUILDERS:
+            raise UsageError(f"--id: {eid!r} is not a derived equation; "
+                             f"choose one of {', '.join(BUILDERS)}")
+    render = render_latex if args.latex else render_text
+    for k, eid in enumerate(ids):
+        if k:
+            print()
+        print(render(derived(eid)))
+    return 0
+
+
+# ---- prove ------------------------------------------------------------------------
+def _load_paper_checks():
+    try:
+        from paper_checks import catalogue, registry
+    except ImportError as exc:
+        raise UsageError("prove: the paper_checks/ folder is not importable from here "
+                         f"({exc}); run from a checkout installed with pip install -e .")
+    return catalogue, registry
+
+
+def cmd_prove(args: argparse.Namespace) -> int:
+    import time
+    catalogue, registry = _load_paper_checks()
+    entries = catalogue.entries()
+    if args.section:
+        entries = [e for e in entries if e.section in args.section]
+    if args.id:
+        known = {e.id for e in entries}
+        bad = [i for i in args.id if i not in known]
+        if bad:
+            raise UsageError(f"--id: {', '.join(bad)} not in CLAIMS.md (section filter "
+                             f"{args.section or 'all'})")
+        entries = [e for e in entries if e.id in args.id]
+    start = time.perf_counter()
+    outcomes = []
+    width = max(len(e.id) for e in entries) if entries else 4
+    print(f"{'ID':<{width}}  {'status':<8} {'seconds':>8}  detail")
+    for entry in entries:
+        outcome = registry.run(entry.id)
+        outcomes.append(outcome)
+        detail = outcome.detail.splitlines()[0][:90] if outcome.detail else ""
+        print(f"{entry.id:<{width}}  {outcome.status:<8} {outcome.seconds:8.2f}  {detail}",
+              flush=True)
+    total = time.perf_counter() - start
+    errata = [er for o in outcomes for er in o.errata]
+    if errata:
+        print("\nErrata found by the checks:")
+        for er in errata:
+            print(f"  {er.id}: printed   {er.printed}\n"
+                  f"  {' ' * len(er.id)}  correct   {er.correct}\n"
+                  f"  {' ' * len(er.id)}  so        {er.consequence}")
+    bad = [o for o in outcomes if o.status not in ("pass", "erratum")]
+    counts = {s: sum(o.status == s for o in outcomes)
+              for s in ("pass", "erratum", "fail", "error", "missing")}
+    summary = ", ".join(f"{v} {k}" for k, v in counts.items() if v)
+    print(f"\n{len(outcomes)} IDs in {total:.1f} s: {summary}")
+    return 1 if bad else 0
+
+
+# ---- parser -----------------------------------------------------------------------
+def _section(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"section must be 1, 2, 3 or 4, not {text!r}")
+    if value not in (1, 2, 3, 4):
+        raise argparse.ArgumentTypeError(f"section must be 1, 2, 3 or 4, not {value}")
+    return value
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message: str):  # argparse's own errors: exit 2, one line
+        self.print_usage(sys.stderr)
+        print(f"{self.prog}: error: {message}", file=sys.stderr)
+        raise SystemExit(2)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = _Parser(prog="derive", description=(
+        "Dynamics of a rigid body carrying a moving material point and bouncing on a "
+        "plane (Markeev 2012): derive, prove, emit, simulate, measure."))
+    sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
+
+    p = sub.add_parser("equations", help="print the derived equations with their IDs")
+    p.add_argument("--latex", action="store_true", help="LaTeX instead of plain text")
+    p.add_argument("--id", help="only this ID (e.g. E1.7)")
+    p.set_defaults(func=cmd_equations)
+
+    p = sub.add_parser("prove", help="run paper_checks/: every ID of CLAIMS.md")
+    p.add_argument("--section", type=_section, action="append",
+                   help="only this section (repeatable)")
+    p.add_argument("--id", action="append", help="only this ID (repeatable)")
+    p.set_defaults(func=cmd_prove)
+
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        return int(args.func(args) or 0)
+    except UsageError as exc:
+        print(f"derive {args.command}: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,1 @@
+"""Emitters: from :mod:`derive.models` specifications to code (C, CasADi, NumPy)."""

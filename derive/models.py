@@ -1,0 +1,202 @@
+"""The models and their functions, as symbolic specifications for the emitters.
+
+A :class:`FunctionSpec` lists named inputs (vectors of symbols), named outputs (vectors
+of expressions) and the linear solves with ``J`` that the outputs need.  The unknowns of
+a solve appear as symbols in the outputs; emitters solve numerically (LDL^T), never by a
+symbolic inverse.
+
+State layouts (``a_ij = cos(fixed axis i, body axis j)``; row 3 is n in body axes):
+
+* ``general`` (18): X_C, Y_C, Z_C, X_C', Y_C', Z_C', omega_x, omega_y, omega_z,
+  a11, a12, a13, a21, a22, a23, a31, a32, a33
+* ``vertical`` (8): Z_C, Z_C', omega_x, omega_y, omega_z, a31, a32, a33
+* ``attitude`` (3): omega_x, omega_y, omega_z
+
+Common inputs: ``u = (x, y, z, x', y', z', x'', y'', z'')`` (point law in body axes),
+``p = (M, m, J_x, J_y, J_z, g)``, ``s = OS = (x*, y*, z*)``, restitution ``e``.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import lru_cache
+
+import sympy as sp
+
+from . import notation as nt
+from .impact import K_SYMBOL, V_N_MINUS, height, impact_map, lever
+from .kinematics import poisson_equations
+from .momentum import flight_dynamics_structured
+from . import surfaces
+
+
+@dataclass(frozen=True)
+class Vector:
+    name: str
+    entries: tuple            # symbols (inputs) or expressions (outputs)
+    labels: tuple             # one name per entry, for documentation and CSV headers
+
+
+@dataclass(frozen=True)
+class LinearSolve:
+    """``matrix @ unknowns[k] = rhs[k]`` for each k; ``matrix`` symmetric positive
+    definite 3x3."""
+    matrix: sp.Matrix
+    rhs: tuple
+    unknowns: tuple
+
+
+@dataclass(frozen=True)
+class FunctionSpec:
+    name: str
+    doc: str
+    inputs: tuple
+    outputs: tuple
+    solves: tuple = ()
+
+    def input(self, name: str) -> Vector:
+        return next(v for v in self.inputs if v.name == name)
+
+    def output(self, name: str) -> Vector:
+        return next(v for v in self.outputs if v.name == name)
+
+
+# ---- layouts ----------------------------------------------------------------------
+A_FLAT = tuple(nt.a[i, j] for i in range(3) for j in range(3))
+STATES = {
+    "general": (nt.X_C, nt.Y_C, nt.Z_C, nt.X_Cd, nt.Y_Cd, nt.Z_Cd, *nt.omega, *A_FLAT),
+    "vertical": (nt.Z_C, nt.Z_Cd, *nt.omega, *nt.n),
+    "attitude": tuple(nt.omega),
+}
+STATE_LABELS = {
+    "general": ("X_C", "Y_C", "Z_C", "X_C'", "Y_C'", "Z_C'", "omega_x", "omega_y",
+                "omega_z", "a11", "a12", "a13", "a21", "a22", "a23", "a31", "a32", "a33"),
+    "vertical": ("Z_C", "Z_C'", "omega_x", "omega_y", "omega_z", "a31", "a32", "a33"),
+    "attitude": ("omega_x", "omega_y", "omega_z"),
+}
+U = (nt.x, nt.y, nt.z, nt.xd, nt.yd, nt.zd, nt.xdd, nt.ydd, nt.zdd)
+U_LABELS = ("x", "y", "z", "x'", "y'", "z'", "x''", "y''", "z''")
+P = (nt.M, nt.m, nt.J_x, nt.J_y, nt.J_z, nt.g)
+P_LABELS = ("M", "m", "J_x", "J_y", "J_z", "g")
+S = tuple(nt.OS)
+S_LABELS = ("x*", "y*", "z*")
+MODELS = tuple(STATES)
+
+
+def _q(model: str) -> Vector:
+    return Vector("q", STATES[model], STATE_LABELS[model])
+
+
+def _u() -> Vector:
+    return Vector("u", U, U_LABELS)
+
+
+def _p() -> Vector:
+    return Vector("p", P, P_LABELS)
+
+
+def _s() -> Vector:
+    return Vector("s", S, S_LABELS)
+
+
+def _e() -> Vector:
+    return Vector("e", (nt.e,), ("e",))
+
+
+def _physical(expr):
+    """Emitted code takes M and m; mu is their derived combination."""
+    return expr.xreplace({nt.mu: nt.MU_DEFINITION})
+
+
+def _rates(model: str) -> dict:
+    """Time derivative of each state symbol (omega' is the unknown of the solve)."""
+    poisson = poisson_equations()
+    rates = {nt.X_C: nt.X_Cd, nt.Y_C: nt.Y_Cd, nt.Z_C: nt.Z_Cd,
+             nt.X_Cd: sp.Integer(0), nt.Y_Cd: sp.Integer(0), nt.Z_Cd: -nt.g}
+    rates.update({w: wd for w, wd in zip(nt.omega, nt.omega_dot)})
+    rates.update({nt.a[i, j]: poisson[i, j] for i in range(3) for j in range(3)})
+    return rates
+
+
+@lru_cache(maxsize=None)
+def flight_rhs(model: str) -> FunctionSpec:
+    """``<model>_flight_rhs(q, u, p) -> dq``: E1.2, E1.7 (solved numerically), E1.8."""
+    fd = flight_dynamics_structured()
+    rates = _rates(model)
+    dq = tuple(rates[s] for s in STATES[model])
+    solve = LinearSolve(matrix=fd.mass_matrix.applyfunc(_physical),
+                        rhs=(fd.forcing.applyfunc(_physical),),
+                        unknowns=(nt.omega_dot,))
+    return FunctionSpec(
+        name=f"{model}_flight_rhs",
+        doc=f"Flight right-hand side of the {model} model: dq/dt (E1.2, E1.7, E1.8).",
+        inputs=(_q(model), _u(), _p()),
+        outputs=(Vector("dq", dq, tuple(f"d({lb})/dt" for lb in STATE_LABELS[model])),),
+        solves=(solve,))
+
+
+@lru_cache(maxsize=None)
+def impact(model: str) -> FunctionSpec:
+    """``<model>_impact(q, u, s, p, e) -> (q_plus, I)``: E1.11, E1.12, E1.15, E1.16."""
+    if model == "attitude":
+        raise ValueError("the attitude model has no contact geometry")
+    im = impact_map()
+    _, d = lever()
+    fd = flight_dynamics_structured()
+    impulse = im.impulse.xreplace({V_N_MINUS: im.normal_velocity, K_SYMBOL: im.k})
+    after = {nt.X_Cd: nt.X_Cd + im.velocity_jump[0], nt.Y_Cd: nt.Y_Cd + im.velocity_jump[1],
+             nt.Z_Cd: nt.Z_Cd + im.velocity_jump[2]}
+    after.update({nt.omega[i]: im.omega_plus[i] for i in range(3)})
+    q_plus = tuple(after.get(s, s) for s in STATES[model])
+    outputs = (Vector("q_plus", q_plus, STATE_LABELS[model]),
+               Vector("I", (nt.I,), ("I",)))
+    # I itself is an intermediate: substitute it last so that CSE sees one impulse
+    outputs = tuple(Vector(v.name, tuple(_physical(ex.xreplace({nt.I: impulse}))
+                                         for ex in v.entries), v.labels) for v in outputs)
+    solve = LinearSolve(matrix=fd.mass_matrix.applyfunc(_physical), rhs=(d,),
+                        unknowns=(nt.W,))
+    return FunctionSpec(
+        name=f"{model}_impact",
+        doc=f"Impact map of the {model} model: state just after the impact and the "
+            "impulse I (E1.11, E1.12, E1.15, E1.16); apply only when v_n < 0.",
+        inputs=(_q(model), _u(), _s(), _p(), _e()),
+        outputs=outputs, solves=(solve,))
+
+
+@lru_cache(maxsize=None)
+def gap(model: str) -> FunctionSpec:
+    """``<model>_gap(q, u, s, p) -> (h, v_n)``: height of S and its rate (E1.14)."""
+    if model == "attitude":
+        raise ValueError("the attitude model has no contact geometry")
+    h = _physical(height())
+    v_n = _physical(impact_map().normal_velocity)
+    return FunctionSpec(
+        name=f"{model}_gap",
+        doc=f"Height h of the lowest point S above the plane and its rate v_n (E1.14), "
+            f"{model} model.",
+        inputs=(_q(model), _u(), _s(), _p()),
+        outputs=(Vector("h", (h,), ("h",)), Vector("v_n", (v_n,), ("v_n",))))
+
+
+@lru_cache(maxsize=None)
+def lowest_point(shape: str) -> FunctionSpec:
+    """``lowest_point_<shape>(n, center, radius|semi_axes) -> s``."""
+    lp = surfaces.SHAPES[shape]().point
+    center = Vector("center", tuple(surfaces.center), ("c_x", "c_y", "c_z"))
+    if shape == "sphere":
+        size = Vector("radius", (surfaces.radius,), ("R",))
+    else:
+        size = Vector("semi_axes", tuple(surfaces.semi_axes), ("a", "b", "c"))
+    return FunctionSpec(
+        name=f"lowest_point_{shape}",
+        doc=f"Lowest point S of a {shape} (centre anywhere in the body) for the vertical "
+            "n, body axes.",
+        inputs=(Vector("n", tuple(nt.n), ("a31", "a32", "a33")), center, size),
+        outputs=(Vector("s", tuple(lp), S_LABELS),))
+
+
+def all_specs() -> list[FunctionSpec]:
+    specs = [flight_rhs(mdl) for mdl in MODELS]
+    specs += [impact(mdl) for mdl in ("general", "vertical")]
+    specs += [gap(mdl) for mdl in ("general", "vertical")]
+    specs += [lowest_point(shape) for shape in ("sphere", "ellipsoid")]
+    return specs

@@ -1,0 +1,121 @@
+"""Flight: the momentum Q and the angular momentum K about C from their definitions, and
+the theorems of momentum and angular momentum (E1.1) turned into E1.2–E1.7 and E1.9.
+
+Definitions used (and nothing the paper prints):
+
+* ``C`` is the centre of mass: ``OC = m/(m+M) OP`` (body axes).
+* ``Q = M V_O + m V_P`` (absolute velocities, fixed axes).
+* ``K`` about ``C`` is the sum over the system of ``rho x (d rho/dt)`` with ``rho`` the
+  position relative to ``C``.  The carrier's own part about its centre ``O`` is
+  ``diag(J_x, J_y, J_z) omega`` (``Oxyz`` are its principal central axes), so
+  ``K = diag(J) omega + M rho_O x rho_O' + m rho_P x rho_P'``.
+* The theorems in flight: ``dQ/dt = -(m+M) g e_Z`` and ``dK/dt = 0``.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import lru_cache
+
+import sympy as sp
+
+from .kinematics import absolute_rate_in_body_axes, centre_of_mass_offset_t
+from .notation import (E_Z, J_x, J_y, J_z, M, OP_t, X_C_t, Y_C_t, Z_C_t, a_t, cross, freeze,
+                       g, m, omega, omega_dot, omega_vec_t, t, thaw, to_paper_notation)
+
+
+@dataclass(frozen=True)
+class AngularMomentum:
+    K: sp.Matrix          # E1.6: components in body axes, paper notation (mu)
+    J: sp.Matrix          # E1.5: dK/d omega
+    own: sp.Matrix        # K - J omega: the part carried by the relative motion of P
+    K_definition: sp.Matrix   # straight from the definition, in M and m
+
+
+@lru_cache(maxsize=None)
+def angular_momentum() -> AngularMomentum:
+    """E1.4–E1.6 from the definition of K about C."""
+    oc = centre_of_mass_offset_t()
+    rho_O = -oc                       # O relative to C
+    rho_P = OP_t - oc                 # P relative to C
+    J_O = sp.diag(J_x, J_y, J_z)
+    K_def = (J_O * omega_vec_t
+             + M * cross(rho_O, absolute_rate_in_body_axes(rho_O))
+             + m * cross(rho_P, absolute_rate_in_body_axes(rho_P)))
+    K_def = freeze(K_def)
+    K = K_def.applyfunc(to_paper_notation)
+    J = K.jacobian(omega)
+    own = (K - J * omega).applyfunc(sp.expand)
+    if own.jacobian(omega) != sp.zeros(3, 3):
+        raise AssertionError("K is not affine in omega")
+    return AngularMomentum(K=K, J=J, own=own, K_definition=K_def)
+
+
+@dataclass(frozen=True)
+class FlightDynamics:
+    residual: sp.Matrix     # E1.7: dK~/dt + omega x K, linear in omega'
+    mass_matrix: sp.Matrix  # coefficient of omega' (equals J)
+    forcing: sp.Matrix      # J omega' = forcing along E1.7
+
+
+@lru_cache(maxsize=None)
+def relative_rate_equation():
+    """E1.3: ``dK~/dt + omega x K = 0`` for generic body components ``K(t)``."""
+    K_t = sp.Matrix([sp.Function(f"K_{c}", real=True)(t) for c in "xyz"])
+    return K_t, absolute_rate_in_body_axes(K_t)
+
+
+@lru_cache(maxsize=None)
+def flight_dynamics() -> FlightDynamics:
+    """E1.7: the angular-momentum theorem ``dK/dt = 0`` in body axes with K of E1.6."""
+    K = angular_momentum().K
+    residual = freeze(absolute_rate_in_body_axes(thaw(K)))
+    residual = residual.applyfunc(lambda r: sp.collect(sp.expand(r), omega_dot))
+    mass = residual.jacobian(omega_dot)
+    forcing = -(residual - mass * omega_dot).applyfunc(sp.expand)
+    if forcing.jacobian(omega_dot) != sp.zeros(3, 3):
+        raise AssertionError("E1.7 is not linear in omega'")
+    return FlightDynamics(residual=residual, mass_matrix=mass, forcing=forcing)
+
+
+@lru_cache(maxsize=None)
+def flight_dynamics_structured() -> FlightDynamics:
+    """E1.7 with the same content, kept factored for code generation.
+
+    ``dK~/dt = J omega' + J' omega + own'``; differentiating the factors of E1.4 instead
+    of the expanded polynomial keeps the operation count low.  ``emit`` uses this form;
+    ``tests`` check that it equals :func:`flight_dynamics`.
+    """
+    am = angular_momentum()
+    J, own, K = am.J, am.own, am.K
+    J_rate = freeze(thaw(J).diff(t))
+    own_rate = freeze(thaw(own).diff(t))
+    forcing = -(J_rate * omega + own_rate + cross(omega, K))
+    residual = J * omega_dot - forcing
+    return FlightDynamics(residual=residual, mass_matrix=J, forcing=forcing)
+
+
+@lru_cache(maxsize=None)
+def centre_of_mass_motion():
+    """E1.1 (momentum) -> E1.2.
+
+    Returns ``(Q, r_C'', Q - (m+M) r_C')`` where the last is identically zero: the
+    momentum of the system is carried by its centre of mass.
+    """
+    r_O = sp.Matrix([sp.Function(f"{c}_O", real=True)(t) for c in "XYZ"])
+    r_P = r_O + a_t * OP_t
+    Q = M * r_O.diff(t) + m * r_P.diff(t)
+    r_C_t = (M * r_O + m * r_P) / (m + M)
+    lemma = (Q - (m + M) * r_C_t.diff(t)).applyfunc(sp.simplify)
+    # theorem of momentum: dQ/dt = -(m+M) g e_Z, with Q = (m+M) r_C'
+    r_C = sp.Matrix([X_C_t, Y_C_t, Z_C_t])
+    acc = sp.Matrix([sp.Derivative(c, (t, 2)) for c in r_C])
+    theorem = (m + M) * acc - (-(m + M) * g * E_Z)
+    sol = sp.solve(list(theorem), list(acc), dict=True)[0]
+    return Q, freeze(sp.Matrix([sol[c] for c in acc])), lemma
+
+
+@lru_cache(maxsize=None)
+def integral_of_kinetic_moment() -> sp.Expr:
+    """The quantity of E1.9, ``K_x^2 + K_y^2 + K_z^2``."""
+    K = angular_momentum().K
+    return sp.expand(sum((k ** 2 for k in K), sp.Integer(0)))

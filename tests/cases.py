@@ -1,0 +1,69 @@
+"""Random physical states shared by the cross-check tests."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+def rotation_from_quaternion(qv: np.ndarray) -> np.ndarray:
+    w, x, y, z = qv / np.linalg.norm(qv)
+    return np.array([
+        [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+        [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+        [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
+
+
+@dataclass
+class Case:
+    M: float
+    m: float
+    J: np.ndarray        # J_x, J_y, J_z
+    g: float
+    e: float
+    A: np.ndarray        # a_ij = cos(fixed i, body j): fixed = A @ body
+    omega: np.ndarray    # body axes
+    r: np.ndarray        # OP, body axes
+    v: np.ndarray        # V_r
+    acc: np.ndarray      # relative acceleration
+    s: np.ndarray        # OS
+    R_C: np.ndarray      # fixed axes
+    V_C: np.ndarray
+
+    @property
+    def p(self) -> np.ndarray:
+        return np.array([self.M, self.m, *self.J, self.g])
+
+    @property
+    def u(self) -> np.ndarray:
+        return np.concatenate([self.r, self.v, self.acc])
+
+    @property
+    def q_general(self) -> np.ndarray:
+        return np.concatenate([self.R_C, self.V_C, self.omega, self.A.reshape(-1)])
+
+    @property
+    def q_vertical(self) -> np.ndarray:
+        return np.concatenate([[self.R_C[2], self.V_C[2]], self.omega, self.A[2]])
+
+
+def random_case(rng: np.random.Generator) -> Case:
+    # principal moments of a real mass distribution: J_x = B + C etc., B, C > 0
+    second = rng.uniform(0.02, 1.0, 3)
+    J = np.array([second[1] + second[2], second[0] + second[2], second[0] + second[1]])
+    return Case(M=rng.uniform(0.5, 5.0), m=rng.uniform(0.05, 2.0), J=J, g=9.81,
+                e=rng.uniform(0.0, 1.0), A=rotation_from_quaternion(rng.normal(size=4)),
+                omega=rng.normal(0, 2, 3), r=rng.uniform(-1, 1, 3),
+                v=rng.normal(0, 1, 3), acc=rng.normal(0, 3, 3), s=rng.uniform(-1, 1, 3),
+                R_C=rng.normal(0, 1, 3), V_C=rng.normal(0, 1, 3))
+
+
+def cases(n: int, seed: int = 2012) -> list[Case]:
+    rng = np.random.default_rng(seed)
+    return [random_case(rng) for _ in range(n)]
+
+
+def rel_err(a, b) -> float:
+    """Max-norm error of ``a`` relative to the max-norm of the reference ``b``."""
+    a, b = np.asarray(a, float).ravel(), np.asarray(b, float).ravel()
+    return float(np.max(np.abs(a - b)) / max(np.max(np.abs(b)), 1e-300))

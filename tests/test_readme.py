@@ -1,0 +1,26 @@
+"""The README's two commands stay true: CI runs the README's test command verbatim."""
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def readme_commands() -> list[str]:
+    text = (ROOT / "README.md").read_text(encoding="utf-8")
+    return re.findall(r"```sh\n(.+?)\n```", text)
+
+
+def test_readme_opens_with_two_commands():
+    commands = readme_commands()
+    assert len(commands) >= 2
+    install = "pip install -e '.[test]'"
+    assert all(install in c for c in commands[:2])
+
+
+def test_ci_runs_the_readme_test_command():
+    test_command = readme_commands()[1].split("&&")[-1].strip()
+    ci = (ROOT / ".ci" / "run").read_text(encoding="utf-8").splitlines()
+    assert test_command in [line.strip() for line in ci], \
+        f".ci/run does not run the README's test command {test_command!r}"
