@@ -79,6 +79,46 @@ def cmd_prove(args: argparse.Namespace) -> int:
     return 1 if bad else 0
 
 
+# ---- emit -------------------------------------------------------------------------
+def cmd_emit(args: argparse.Namespace) -> int:
+    import time
+    from .emit import driver
+    start = time.perf_counter()
+    files = driver.render_all()
+    if args.check:
+        delta = driver.diff(files)
+        if delta:
+            sys.stdout.write(delta)
+            print("\ngenerated/ differs from a fresh render: run `derive emit`",
+                  file=sys.stderr)
+            return 1
+        print(f"generated/ matches a fresh render ({len(files)} files, "
+              f"{time.perf_counter() - start:.1f} s)")
+        return 0
+    changed = driver.write(files)
+    print(f"rendered {len(files)} files in {time.perf_counter() - start:.1f} s; "
+          f"{len(changed)} changed" + (": " + ", ".join(changed) if changed else ""))
+    return 0
+
+
+# ---- bench ------------------------------------------------------------------------
+def _progress(message: str) -> None:
+    print(f"  ... {message}", file=sys.stderr, flush=True)
+
+
+def cmd_bench(args: argparse.Namespace) -> int:
+    import shlex
+    if args.what == "rhs":
+        from .bench import rhs
+        cflags = tuple(shlex.split(args.cflags))
+        rows = rhs.run(cflags=cflags, progress=_progress)
+        print(f"cost per evaluation, compiled with {' '.join(cflags)} "
+              f"(C: throughput over 1024 states, min of 15 trials)")
+        print(rhs.report(rows))
+        return 0
+    raise UsageError(f"unknown benchmark {args.what!r}")
+
+
 # ---- parser -----------------------------------------------------------------------
 def _section(text: str) -> int:
     try:
@@ -113,6 +153,18 @@ def build_parser() -> argparse.ArgumentParser:
                    help="only this section (repeatable)")
     p.add_argument("--id", action="append", help="only this ID (repeatable)")
     p.set_defaults(func=cmd_prove)
+
+    p = sub.add_parser("emit", help="render generated/ (CasADi functions, standalone C)")
+    p.add_argument("--check", action="store_true",
+                   help="compare generated/ with a fresh render; exit 1 with a diff")
+    p.set_defaults(func=cmd_emit)
+
+    p = sub.add_parser("bench", help="benchmarks: ratios against peers in the same run")
+    p.add_argument("what", choices=["rhs"], help="rhs: cost per evaluation of the "
+                   "generated functions against CasADi's C, CasADi from Python and NumPy")
+    p.add_argument("--cflags", default="-O2", help="compiler flags for every C build "
+                   "(default: -O2)")
+    p.set_defaults(func=cmd_bench)
 
     return parser
 

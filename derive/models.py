@@ -52,6 +52,14 @@ class FunctionSpec:
     inputs: tuple
     outputs: tuple
     solves: tuple = ()
+    definitions: tuple = ()   # ((symbol, expr), ...): named quantities computed first
+
+    def inlined(self, expr):
+        """``expr`` with the definitions substituted (for references that want one
+        expression in the inputs only)."""
+        for sym, value in reversed(self.definitions):
+            expr = expr.xreplace({sym: value})
+        return expr
 
     def input(self, name: str) -> Vector:
         return next(v for v in self.inputs if v.name == name)
@@ -102,9 +110,14 @@ def _e() -> Vector:
     return Vector("e", (nt.e,), ("e",))
 
 
+# Emitted code takes M and m; mu = M nu and nu = m/(m+M) are computed once, first.
+MASS_DEFINITIONS = ((nt.nu, nt.MASS_FRACTION), (nt.mu, nt.M * nt.nu))
+
+
 def _physical(expr):
-    """Emitted code takes M and m; mu is their derived combination."""
-    return expr.xreplace({nt.mu: nt.MU_DEFINITION})
+    """Express the mass ratios through nu (and mu), the named quantities above."""
+    expr = sp.sympify(expr).subs(nt.MASS_FRACTION, nt.nu)
+    return expr.subs(nt.MU_DEFINITION, nt.mu)
 
 
 def _rates(model: str) -> dict:
@@ -115,6 +128,19 @@ def _rates(model: str) -> dict:
     rates.update({w: wd for w, wd in zip(nt.omega, nt.omega_dot)})
     rates.update({nt.a[i, j]: poisson[i, j] for i in range(3) for j in range(3)})
     return rates
+
+
+def scaled_by_total_mass(expr):
+    """``(m + M) expr`` for an expression affine in mu, with ``(m + M) mu = m M``.
+
+    E1.7 times the total mass has the same solution and no division in its
+    coefficients: the emitted code then starts the solve without waiting for one.
+    """
+    expr = sp.sympify(expr)
+    slope = sp.diff(expr, nt.mu)
+    if sp.diff(slope, nt.mu) != 0:
+        raise ValueError("expression is not affine in mu")
+    return (nt.M + nt.m) * expr.xreplace({nt.mu: 0}) + nt.M * nt.m * slope
 
 
 @lru_cache(maxsize=None)
@@ -128,10 +154,11 @@ def flight_rhs(model: str) -> FunctionSpec:
                         unknowns=(nt.omega_dot,))
     return FunctionSpec(
         name=f"{model}_flight_rhs",
-        doc=f"Flight right-hand side of the {model} model: dq/dt (E1.2, E1.7, E1.8).",
+        doc=f"Flight right-hand side of the {model} model: dq/dt (E1.2, E1.7 times m+M, "
+            "E1.8).",
         inputs=(_q(model), _u(), _p()),
         outputs=(Vector("dq", dq, tuple(f"d({lb})/dt" for lb in STATE_LABELS[model])),),
-        solves=(solve,))
+        solves=(solve,), definitions=MASS_DEFINITIONS)
 
 
 @lru_cache(maxsize=None)
@@ -159,7 +186,7 @@ def impact(model: str) -> FunctionSpec:
         doc=f"Impact map of the {model} model: state just after the impact and the "
             "impulse I (E1.11, E1.12, E1.15, E1.16); apply only when v_n < 0.",
         inputs=(_q(model), _u(), _s(), _p(), _e()),
-        outputs=outputs, solves=(solve,))
+        outputs=outputs, solves=(solve,), definitions=MASS_DEFINITIONS)
 
 
 @lru_cache(maxsize=None)
@@ -174,7 +201,8 @@ def gap(model: str) -> FunctionSpec:
         doc=f"Height h of the lowest point S above the plane and its rate v_n (E1.14), "
             f"{model} model.",
         inputs=(_q(model), _u(), _s(), _p()),
-        outputs=(Vector("h", (h,), ("h",)), Vector("v_n", (v_n,), ("v_n",))))
+        outputs=(Vector("h", (h,), ("h",)), Vector("v_n", (v_n,), ("v_n",))),
+        definitions=MASS_DEFINITIONS)
 
 
 @lru_cache(maxsize=None)
@@ -194,9 +222,36 @@ def lowest_point(shape: str) -> FunctionSpec:
         outputs=(Vector("s", tuple(lp), S_LABELS),))
 
 
+@lru_cache(maxsize=None)
+def kinetic_moment(model: str) -> FunctionSpec:
+    """``<model>_kinetic_moment(q, u, p) -> K``: E1.6, body axes (|K| is E1.9's integral)."""
+    from .momentum import angular_momentum
+    K = tuple(_physical(k) for k in angular_momentum().K)
+    return FunctionSpec(
+        name=f"{model}_kinetic_moment",
+        doc=f"Angular momentum K about C in body axes (E1.6), {model} model.",
+        inputs=(_q(model), _u(), _p()),
+        outputs=(Vector("K", K, ("K_x", "K_y", "K_z")),),
+        definitions=MASS_DEFINITIONS)
+
+
 def all_specs() -> list[FunctionSpec]:
     specs = [flight_rhs(mdl) for mdl in MODELS]
+    specs += [kinetic_moment(mdl) for mdl in MODELS]
     specs += [impact(mdl) for mdl in ("general", "vertical")]
     specs += [gap(mdl) for mdl in ("general", "vertical")]
     specs += [lowest_point(shape) for shape in ("sphere", "ellipsoid")]
     return specs
+
+
+def layout_doc() -> str:
+    """The state layouts as documented in the README and the generated header."""
+    lines = ["State layouts (a_ij = cos(fixed axis i, body axis j), so row 3 is the "
+             "vertical n in body axes):"]
+    for model in MODELS:
+        lines.append(f"- {model}, {len(STATES[model])} states: "
+                     f"({', '.join(STATE_LABELS[model])})")
+    lines.append(f"Common inputs: u = ({', '.join(U_LABELS)}), the point's kinematics in "
+                 "body axes; p = (M, m, J_x, J_y, J_z, g);")
+    lines.append("s = OS = (x*, y*, z*), the lowest point in body axes; restitution e.")
+    return "\n".join(lines)

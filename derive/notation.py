@@ -20,6 +20,7 @@ t = sp.Symbol("t", real=True)
 M = sp.Symbol("M", positive=True)          # carrier mass
 m = sp.Symbol("m", positive=True)          # point mass
 mu = sp.Symbol("mu", positive=True)        # reduced mass, defined by MU_DEFINITION
+nu = sp.Symbol("nu", positive=True)        # mass fraction m/(m+M), by MASS_FRACTION
 J_x, J_y, J_z = sp.symbols("J_x J_y J_z", positive=True)   # principal central inertia
 g = sp.Symbol("g", positive=True)
 e = sp.Symbol("e", nonnegative=True)       # restitution coefficient
@@ -164,7 +165,8 @@ def to_paper_notation(expr: sp.Expr) -> sp.Expr:
     expr = sp.expand(expr)
     gens = sorted(expr.free_symbols - {M, m}, key=sp.default_sort_key)
     if not gens:
-        return expr
+        ratio = sp.cancel(expr / MU_DEFINITION)
+        return ratio * mu if not ratio.free_symbols & {M, m} else expr
     poly = sp.Poly(expr, *gens)
     out = sp.Integer(0)
     for monom, coeff in poly.terms():

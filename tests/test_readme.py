@@ -24,3 +24,11 @@ def test_ci_runs_the_readme_test_command():
     ci = (ROOT / ".ci" / "run").read_text(encoding="utf-8").splitlines()
     assert test_command in [line.strip() for line in ci], \
         f".ci/run does not run the README's test command {test_command!r}"
+
+
+def test_readme_documents_the_state_layouts_as_the_code_has_them():
+    from derive.models import STATE_LABELS
+    text = (ROOT / "README.md").read_text(encoding="utf-8")
+    flat = " ".join(text.split())
+    for model, labels in STATE_LABELS.items():
+        assert f"`{model}`, {len(labels)} states: `({', '.join(labels)})`" in flat, model

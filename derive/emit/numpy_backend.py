@@ -19,11 +19,11 @@ def compile_spec(spec: FunctionSpec) -> Callable[..., tuple]:
     args = [list(v.entries) for v in spec.inputs]
     stage1 = []
     for solve in spec.solves:
-        stage1.append(list(solve.matrix))
-        stage1 += [list(r) for r in solve.rhs]
+        stage1.append([spec.inlined(v) for v in solve.matrix])
+        stage1 += [[spec.inlined(v) for v in r] for r in solve.rhs]
     unknowns = [list(u) for solve in spec.solves for u in solve.unknowns]
     f1 = sp.lambdify(args, stage1, modules="numpy", cse=True) if stage1 else None
-    outs = [list(v.entries) for v in spec.outputs]
+    outs = [[spec.inlined(v) for v in vec.entries] for vec in spec.outputs]
     f2 = sp.lambdify(args + unknowns, outs, modules="numpy", cse=True)
 
     def evaluate(*inputs):

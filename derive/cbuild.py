@@ -1,0 +1,96 @@
+"""Compile C into a shared library, cached by a hash of the sources and the compiler.
+
+Nothing recompiles when nothing changed: the cache key covers every source's name and
+bytes, the flags and the compiler's own version line.  The cache lives in
+``$DERIVE_CACHE`` (default ``~/.cache/markeev-carrier``); a library is built in a
+temporary folder and renamed into place, so concurrent builds cannot see half a file.
+"""
+from __future__ import annotations
+
+import hashlib
+import os
+import shutil
+import subprocess
+import tempfile
+from functools import lru_cache
+from pathlib import Path
+
+WARNINGS = ("-std=c99", "-Wall", "-Wextra", "-Wpedantic", "-Werror")
+OPTIMISE = ("-O2",)
+
+
+class BuildError(RuntimeError):
+    """The C compiler rejected generated code (a bug in derive, not in the input)."""
+
+
+def compiler() -> str:
+    return os.environ.get("CC", "cc")
+
+
+@lru_cache(maxsize=None)
+def compiler_id(cc: str) -> str:
+    try:
+        out = subprocess.run([cc, "--version"], capture_output=True, text=True, check=True)
+    except (OSError, subprocess.CalledProcessError) as exc:
+        raise BuildError(f"no working C compiler {cc!r} ({exc}); set CC") from None
+    return out.stdout.splitlines()[0] if out.stdout else cc
+
+
+def cache_dir() -> Path:
+    root = os.environ.get("DERIVE_CACHE")
+    return Path(root) if root else Path.home() / ".cache" / "markeev-carrier"
+
+
+def build_shared(sources: dict[str, str | bytes], *, flags: tuple = OPTIMISE,
+                 name: str = "lib") -> Path:
+    """Compile ``{file name: text}`` (``.c`` compiled, ``.h`` available to include)
+    into ``<cache>/<hash>/<name>.so`` and return its path."""
+    cc = compiler()
+    h = hashlib.sha256()
+    for part in (compiler_id(cc), cc, " ".join(WARNINGS), " ".join(flags)):
+        h.update(part.encode() + b"\0")
+    for fname in sorted(sources):
+        data = sources[fname]
+        h.update(fname.encode() + b"\0")
+        h.update(data.encode() if isinstance(data, str) else data)
+        h.update(b"\0")
+    target_dir = cache_dir() / h.hexdigest()[:24]
+    lib = target_dir / f"{name}.so"
+    if lib.is_file():
+        return lib
+    target_dir.parent.mkdir(parents=True, exist_ok=True)
+    with tempfile.TemporaryDirectory(dir=target_dir.parent) as tmp:
+        tmp_path = Path(tmp)
+        for fname, data in sources.items():
+            path = tmp_path / fname
+            if isinstance(data, str):
+                path.write_text(data, encoding="utf-8")
+            else:
+                path.write_bytes(data)
+        c_files = sorted(f for f in sources if f.endswith(".c"))
+        cmd = [cc, *WARNINGS, *flags, "-fPIC", "-shared", "-I", str(tmp_path),
+               "-o", str(tmp_path / f"{name}.so"), *[str(tmp_path / f) for f in c_files], "-lm"]
+        proc = subprocess.run(cmd, capture_output=True, text=True)
+        if proc.returncode != 0:
+            raise BuildError("the C compiler rejected the generated code:\n"
+                             + proc.stderr[-4000:])
+        try:
+            os.replace(tmp_path, target_dir)
+        except OSError:
+            # another process finished the same build first: use it
+            if not lib.is_file():
+                raise
+        else:
+            # os.replace moved the folder; recreate tmp so TemporaryDirectory can remove it
+            Path(tmp).mkdir(exist_ok=True)
+    return lib
+
+
+def generated_sources(folder: Path) -> dict[str, bytes]:
+    """Every ``.c`` and ``.h`` of a folder, for :func:`build_shared`."""
+    return {p.name: p.read_bytes() for p in sorted(folder.iterdir())
+            if p.suffix in (".c", ".h")}
+
+
+def clear_cache() -> None:
+    shutil.rmtree(cache_dir(), ignore_errors=True)

@@ -1,0 +1,68 @@
+"""``derive emit``: render everything under ``generated/``, or compare with it."""
+from __future__ import annotations
+
+import difflib
+from pathlib import Path
+
+from ..models import all_specs, layout_doc
+from .c_backend import render_c
+from .casadi_backend import render_casadi
+from .render import GENERATED
+
+MANAGED = ("c", "casadi")      # folders of generated/ owned entirely by emit
+
+
+def render_all() -> dict[str, bytes]:
+    specs = all_specs()
+    files = {k: v.encode("utf-8") for k, v in render_c(specs, GENERATED, layout_doc()).items()}
+    files.update(render_casadi(specs))
+    return dict(sorted(files.items()))
+
+
+def existing(root: Path) -> dict[str, bytes]:
+    found: dict[str, bytes] = {}
+    for folder in MANAGED:
+        base = root / folder
+        if base.is_dir():
+            for path in sorted(base.rglob("*")):
+                if path.is_file():
+                    found[path.relative_to(root).as_posix()] = path.read_bytes()
+    makefile = root / "Makefile"
+    if makefile.is_file():
+        found["Makefile"] = makefile.read_bytes()
+    return found
+
+
+def write(files: dict[str, bytes], root: Path = GENERATED) -> list[str]:
+    """Write ``files`` and delete managed files that are no longer produced."""
+    changed = []
+    old = existing(root)
+    for rel, data in files.items():
+        path = root / rel
+        if old.get(rel) != data:
+            path.parent.mkdir(parents=True, exist_ok=True)
+            path.write_bytes(data)
+            changed.append(rel)
+    for rel in sorted(set(old) - set(files)):
+        (root / rel).unlink()
+        changed.append(rel)
+    return changed
+
+
+def diff(files: dict[str, bytes], root: Path = GENERATED) -> str:
+    """Unified diff from what is in ``root`` to a fresh render (empty if identical)."""
+    old = existing(root)
+    chunks: list[str] = []
+    for rel in sorted(set(old) | set(files)):
+        a, b = old.get(rel), files.get(rel)
+        if a == b:
+            continue
+        if rel.endswith(".casadi"):
+            state = "missing" if a is None else ("stale" if b is None else "differs")
+            chunks.append(f"--- generated/{rel}\n+++ fresh render\n(binary-safe file {state})\n")
+            continue
+        a_lines = [] if a is None else a.decode("utf-8").splitlines(keepends=True)
+        b_lines = [] if b is None else b.decode("utf-8").splitlines(keepends=True)
+        chunks.append("".join(difflib.unified_diff(
+            a_lines, b_lines, fromfile=f"generated/{rel}", tofile=f"fresh/{rel}")))
+    return "".join(chunks)
