@@ -76,6 +76,10 @@ def cmd_prove(args: argparse.Namespace) -> int:
               for s in ("pass", "erratum", "fail", "error", "missing")}
     summary = ", ".join(f"{v} {k}" for k, v in counts.items() if v)
     print(f"\n{len(outcomes)} IDs in {total:.1f} s: {summary}")
+    if args.report:
+        from paper_checks.report import write_report
+        paths = write_report(args.report, entries, outcomes)
+        print("report: " + ", ".join(str(p) for p in paths))
     return 1 if bad else 0
 
 
@@ -152,6 +156,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--section", type=_section, action="append",
                    help="only this section (repeatable)")
     p.add_argument("--id", action="append", help="only this ID (repeatable)")
+    p.add_argument("--report", metavar="DIR",
+                   help="also write DIR/prove.md and DIR/prove.tex (claims, derived "
+                        "expressions, verdicts, errata)")
     p.set_defaults(func=cmd_prove)
 
     p = sub.add_parser("emit", help="render generated/ (CasADi functions, standalone C)")

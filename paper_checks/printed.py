@@ -104,3 +104,105 @@ E1_16 = 1 / (m + M) + W.dot(E1_10_D)
 
 # (1.15): I = -(1 + e)/k [Z_C'- - m/(m+M)(V_r, n) + (omega-, d)]
 E1_15 = -(1 + e) / E1_16 * (Z_Cd - m / (m + M) * V_r.dot(n) + omega.dot(E1_10_D))
+
+
+# ======================================================================================
+# Section 2
+# ======================================================================================
+# (2.1): y z'' - z y'' = 0 (x, y, z)
+E2_1 = sp.Matrix(cyclic(y * zdd - z * ydd, XYZ))
+
+# (2.2): x = x0 + x0' t (x, y, z)
+x0, y0, z0 = sp.symbols("x_0 y_0 z_0", real=True)
+x0d, y0d, z0d = sp.symbols("x_0' y_0' z_0'", real=True)
+E2_2 = sp.Matrix([x0 + x0d * t, y0 + y0d * t, z0 + z0d * t])
+
+# (2.3): y z' - z y' = c_x (x, y, z)
+c_x, c_y, c_z = sp.symbols("c_x c_y c_z", real=True)
+E2_3 = sp.Matrix(cyclic(y * zd - z * yd, XYZ))
+E2_3_C = sp.Matrix([c_x, c_y, c_z])
+
+# (2.4): K_x = [J_x + mu (y^2 + z^2)] omega_x - mu x y omega_y - mu x z omega_z (x, y, z)
+E2_4 = sp.Matrix(cyclic((J_x + mu * (y**2 + z**2)) * omega_x - mu * x * y * omega_y
+                        - mu * x * z * omega_z, XYZ))
+
+# (2.5): V = K_x^2 + K_y^2 + K_z^2
+E2_5 = sum((k**2 for k in E2_4), sp.Integer(0))
+
+# ======================================================================================
+# Section 3: J_x = J_y, x = y = 0, z = z(t)
+# ======================================================================================
+z_t = sp.Function("z", real=True)(t)
+wx_t, wy_t, wz_t = (sp.Function(f"omega_{c}", real=True)(t) for c in "xyz")
+
+# (3.1)
+E3_1 = sp.Matrix([(J_x + mu * z**2) * omega_x, (J_x + mu * z**2) * omega_y, J_z * omega_z])
+
+# (3.2)-(3.4), with d/dt taken on time functions
+E3_2 = (sp.Derivative((J_x + mu * z_t**2) * wx_t, t).doit()
+        + (J_z - J_x - mu * z_t**2) * wy_t * wz_t)
+E3_3 = (sp.Derivative((J_x + mu * z_t**2) * wy_t, t).doit()
+        - (J_z - J_x - mu * z_t**2) * wz_t * wx_t)
+E3_4 = sp.Derivative(J_z * wz_t, t).doit()
+
+# (3.5)
+E3_5 = (J_x + mu * z**2)**2 * (omega_x**2 + omega_y**2) + J_z**2 * omega_z**2
+
+# (3.6): omega_z = omega_z^0 = const
+omega_z0 = sp.Symbol("omega_z0", real=True)
+
+# (3.7), (3.8): alpha, the direction cosines of a fixed axis u in body axes
+alpha_x, alpha_y, alpha_z = sp.symbols("alpha_x alpha_y alpha_z", real=True)
+E3_7 = alpha_x**2 + alpha_y**2 + alpha_z**2
+E3_8 = (J_x + mu * z**2) * (omega_x * alpha_x + omega_y * alpha_y) + J_z * omega_z * alpha_z
+
+# the stationary rotation of C3.1
+C3_1_OMEGA = sp.Matrix([0, 0, omega_z0])
+C3_1_ALPHA = sp.Matrix([0, 0, 1])
+
+# perturbations and the integrals V1..V4 as printed before (3.9)
+xi = sp.symbols("xi_1:7", real=True)
+K_sym = sp.Symbol("K", positive=True)
+E3_9_V1 = (J_x + mu * z**2)**2 * (xi[0]**2 + xi[1]**2)
+E3_9_V2 = xi[2]
+E3_9_V3 = 2 * xi[5] + xi[3]**2 + xi[4]**2 + xi[5]**2
+E3_9_V4 = (J_x + mu * z**2) * (xi[0] * xi[3] + xi[1] * xi[4]) + J_z * (omega_z0 + xi[2]) * xi[5]
+# (3.10): xi_6 = -1/2 (xi_4^2 + xi_5^2) + ...
+E3_10_XI6 = -sp.Rational(1, 2) * (xi[3]**2 + xi[4]**2)
+# V4 on V1 = V2 = V3 = 0, as printed: -1/2 omega_z0 (xi_4^2 + xi_5^2) + ...
+E3_9_V4_RESTRICTED_AS_PRINTED = -sp.Rational(1, 2) * omega_z0 * (xi[3]**2 + xi[4]**2)
+
+# (3.11)-(3.14): Euler angles psi, theta, phi relative to axes with OZ~ along K
+theta0 = sp.Symbol("theta_0", real=True)
+psi_t, phi_t = sp.Function("psi", real=True)(t), sp.Function("phi", real=True)(t)
+E3_11_COS = J_z * omega_z0 / K_sym
+E3_12 = sp.Matrix([sp.Derivative(psi_t, t) * sp.sin(theta0) * sp.sin(phi_t),
+                   sp.Derivative(psi_t, t) * sp.sin(theta0) * sp.cos(phi_t),
+                   sp.Derivative(psi_t, t) * sp.cos(theta0) + sp.Derivative(phi_t, t)])
+E3_13 = sp.Matrix([K_sym * sp.sin(theta0) * sp.sin(phi_t),
+                   K_sym * sp.sin(theta0) * sp.cos(phi_t)])     # = (J_x + mu z^2) omega_{x,y}
+E3_14_PSI_DOT = K_sym / (J_x + mu * z**2)
+E3_14_PHI_DOT = omega_z0 * (1 - J_z / (J_x + mu * z**2))
+
+# ======================================================================================
+# Section 4
+# ======================================================================================
+# (4.1): [J_z + mu (x^2 + y^2)] omega_z' + mu [x y'' - y x'' + 2 (x x' + y y') omega_z] = 0
+E4_1 = ((J_z + mu * (x**2 + y**2)) * omega_zd
+        + mu * (x * ydd - y * xdd + 2 * (x * xd + y * yd) * omega_z))
+# (4.2)
+E4_2 = (J_z + mu * (x**2 + y**2)) * omega_z + mu * (x * yd - y * xd)
+# (4.3): omega_x = 0, omega_y = 0, omega_z = omega
+omega_s = sp.Symbol("omega", real=True)
+E4_3 = sp.Matrix([0, 0, omega_s])
+# (4.4)-(4.6)
+E4_4 = z * y * omega_s**2 + y * zdd - z * ydd - 2 * xd * z * omega_s
+E4_5 = -x * z * omega_s**2 + z * xdd - x * zdd - 2 * yd * z * omega_s
+E4_6 = x * ydd - y * xdd + 2 * (x * xd + y * yd) * omega_s
+# (4.7): x = x0, y = y0, z'' + omega^2 z = 0
+E4_7_XY = (x0, y0)
+E4_7_ZDD = sp.solve(sp.Eq(zdd + omega_s**2 * z, 0), zdd)[0]
+# (4.8): x = R cos(omega t/2), y = -R sin(omega t/2), z'' + omega^2 z/4 = 0
+R_cyl = sp.Symbol("R", positive=True)
+E4_8_XY = (R_cyl * sp.cos(omega_s * t / 2), -R_cyl * sp.sin(omega_s * t / 2))
+E4_8_ZDD = sp.solve(sp.Eq(zdd + omega_s**2 * z / 4, 0), zdd)[0]

@@ -26,6 +26,7 @@ class Outcome:
     seconds: float = 0.0
     detail: str = ""
     errata: list[Erratum] = field(default_factory=list)
+    shown: list = field(default_factory=list)    # (label, expression) for the report
 
 
 class Report:
@@ -35,9 +36,14 @@ class Report:
         self.id = check_id
         self.errata: list[Erratum] = []
         self.detail = ""
+        self.shown: list = []
 
     def erratum(self, printed: str, correct: str, consequence: str) -> None:
         self.errata.append(Erratum(self.id, printed, correct, consequence))
+
+    def show(self, label: str, expr) -> None:
+        """A derived expression the report prints beside the verdict."""
+        self.shown.append((label, expr))
 
 
 CHECKS: dict[str, Callable[[Report], None]] = {}
@@ -73,4 +79,4 @@ def run(check_id: str) -> Outcome:
         return Outcome(check_id, "error", time.perf_counter() - start, tb)
     status = "erratum" if report.errata else "pass"
     return Outcome(check_id, status, time.perf_counter() - start, report.detail,
-                   report.errata)
+                   report.errata, report.shown)

@@ -32,3 +32,30 @@ def test_e1_12_without_the_typo_is_not_an_erratum(monkeypatch):
 def test_k_with_a_wrong_mass_term_is_caught(monkeypatch):
     monkeypatch.setattr(printed, "E1_16", printed.E1_16 + 1 / nt.M - 1 / (nt.M + nt.m))
     assert run("E1.16").status == "fail"
+
+
+def test_a_wrong_sign_in_e3_3_is_caught(monkeypatch):
+    monkeypatch.setattr(printed, "E3_3", printed.E3_3.xreplace({nt.J_z: -nt.J_z}))
+    assert run("E3.3").status == "fail"
+
+
+def test_c3_2_without_the_typo_is_not_an_erratum(monkeypatch):
+    monkeypatch.setattr(printed, "E3_9_V4_RESTRICTED_AS_PRINTED",
+                        printed.E3_9_V4_RESTRICTED_AS_PRINTED * nt.J_z)
+    assert run("C3.2").status == "fail"
+
+
+def test_a_wrong_stationary_condition_is_caught(monkeypatch):
+    monkeypatch.setattr(printed, "E4_5", printed.E4_5 + 2 * nt.x * nt.zd * printed.omega_s)
+    assert run("E4.5").status == "fail"
+
+
+def test_a_law_outside_the_claim_fails_c4_2(monkeypatch):
+    # z'' + omega^2 z/4 = 0 is C4.3's axial law, not C4.2's: with it (4.4) does not vanish
+    monkeypatch.setattr(printed, "E4_7_ZDD", printed.E4_8_ZDD)
+    assert run("C4.2").status == "fail"
+
+
+def test_a_wrong_psi_rate_is_caught(monkeypatch):
+    monkeypatch.setattr(printed, "E3_14_PSI_DOT", printed.E3_14_PSI_DOT * 2)
+    assert run("E3.14").status == "fail"

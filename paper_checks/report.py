@@ -1,0 +1,93 @@
+"""``derive prove --report DIR``: a Markdown and a LaTeX summary of the checks."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import sympy as sp
+
+from derive.notation import LATEX_NAMES
+
+
+def _derived_latex(check_id: str) -> str | None:
+    from derive.equations import BUILDERS, derived, render_latex
+    if check_id not in BUILDERS:
+        return None
+    return render_latex(derived(check_id))
+
+
+def _tex(expr) -> str:
+    return sp.latex(expr, symbol_names=LATEX_NAMES)
+
+
+def _escape(text: str) -> str:
+    for a, b in (("\\", r"\textbackslash{}"), ("&", r"\&"), ("%", r"\%"), ("_", r"\_"),
+                 ("#", r"\#"), ("^", r"\^{}"), ("~", r"\~{}"), ("$", r"\$"),
+                 ("{", r"\{"), ("}", r"\}")):
+        text = text.replace(a, b)
+    return text
+
+
+def _cell(text: str) -> str:
+    return text.replace("|", "\\|")
+
+
+def write_report(out_dir, entries, outcomes) -> list[Path]:
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    by_id = {o.id: o for o in outcomes}
+    md = ["# Checks of Markeev (2012) against the derivation", "",
+          "| ID | claim | status | seconds | detail |", "|---|---|---|---|---|"]
+    for e in entries:
+        o = by_id[e.id]
+        md.append(f"| {e.id} | {_cell(e.what)} | {o.status} | {o.seconds:.2f} | "
+                  f"{_cell(o.detail)} |")
+    errata = [er for o in outcomes for er in o.errata]
+    md += ["", "## Errata", ""]
+    md += [f"- **{er.id}**: printed `{er.printed}`; correct `{er.correct}`; "
+           f"{er.consequence}." for er in errata] or ["None found."]
+    md += ["", "## Derived expressions", ""]
+    for e in entries:
+        o = by_id[e.id]
+        derived = _derived_latex(e.id)
+        if not (o.shown or derived):
+            continue
+        md.append(f"### {e.id}: {e.what}")
+        md.append("")
+        if derived:
+            md += ["```latex", derived, "```"]
+        for label, expr in o.shown:
+            md.append(f"- {label}: `{sp.sstr(expr)}`")
+        md.append("")
+    md_path = out / "prove.md"
+    md_path.write_text("\n".join(md) + "\n", encoding="utf-8")
+
+    tex = [r"\documentclass{article}", r"\usepackage{amsmath,longtable}",
+           r"\begin{document}", r"\section*{Checks of Markeev (2012)}",
+           r"\begin{longtable}{llrp{7cm}}", r"ID & status & s & claim \\ \hline"]
+    for e in entries:
+        o = by_id[e.id]
+        tex.append(f"{e.id} & {o.status} & {o.seconds:.2f} & {_escape(e.what)} \\\\")
+    tex.append(r"\end{longtable}")
+    tex.append(r"\subsection*{Errata}")
+    if errata:
+        tex.append(r"\begin{itemize}")
+        for er in errata:
+            tex.append(rf"\item {er.id}: printed \texttt{{{_escape(er.printed)}}}; correct "
+                       rf"\texttt{{{_escape(er.correct)}}}; {_escape(er.consequence)}.")
+        tex.append(r"\end{itemize}")
+    else:
+        tex.append("None found.")
+    tex.append(r"\subsection*{Derived expressions}")
+    for e in entries:
+        o = by_id[e.id]
+        derived = _derived_latex(e.id)
+        if derived:
+            tex.append(rf"\paragraph{{{e.id}}}")
+            tex.append(derived.replace(r"\begin{align}", r"\begin{align*}")
+                       .replace(r"\end{align}", r"\end{align*}"))
+        for label, expr in o.shown:
+            tex.append(rf"\paragraph{{{e.id}, {_escape(label)}}} $\displaystyle {_tex(expr)}$")
+    tex.append(r"\end{document}")
+    tex_path = out / "prove.tex"
+    tex_path.write_text("\n".join(tex) + "\n", encoding="utf-8")
+    return [md_path, tex_path]
