@@ -16,7 +16,7 @@ from functools import lru_cache
 
 import sympy as sp
 
-from .notation import MASS_FRACTION, OP_t, a_t, cross, freeze, omega_vec_t, t
+from .notation import OP_t, a_t, cross, freeze, nu, omega_vec_t, t
 
 
 def absolute_rate_in_body_axes(b_t: sp.Matrix) -> sp.Matrix:
@@ -61,5 +61,6 @@ def carrier_centre_position():
 
 
 def centre_of_mass_offset_t() -> sp.Matrix:
-    """``OC = m/(m+M) OP`` in body axes, as time functions."""
-    return MASS_FRACTION * OP_t
+    """``OC = nu OP`` in body axes, as time functions, with ``nu = m/(m+M)`` (the
+    definition of C; ``notation.MASS_FRACTION``)."""
+    return nu * OP_t

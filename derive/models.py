@@ -110,14 +110,9 @@ def _e() -> Vector:
     return Vector("e", (nt.e,), ("e",))
 
 
-# Emitted code takes M and m; mu = M nu and nu = m/(m+M) are computed once, first.
+# The derivation states the mass ratios as nu = m/(m+M) and mu = mM/(m+M) = M nu;
+# emitted code takes M and m and computes these once, first.
 MASS_DEFINITIONS = ((nt.nu, nt.MASS_FRACTION), (nt.mu, nt.M * nt.nu))
-
-
-def _physical(expr):
-    """Express the mass ratios through nu (and mu), the named quantities above."""
-    expr = sp.sympify(expr).subs(nt.MASS_FRACTION, nt.nu)
-    return expr.subs(nt.MU_DEFINITION, nt.mu)
 
 
 def _rates(model: str) -> dict:
@@ -149,8 +144,8 @@ def flight_rhs(model: str) -> FunctionSpec:
     fd = flight_dynamics_structured()
     rates = _rates(model)
     dq = tuple(rates[s] for s in STATES[model])
-    solve = LinearSolve(matrix=fd.mass_matrix.applyfunc(_physical),
-                        rhs=(fd.forcing.applyfunc(_physical),),
+    solve = LinearSolve(matrix=fd.mass_matrix,
+                        rhs=(fd.forcing,),
                         unknowns=(nt.omega_dot,))
     return FunctionSpec(
         name=f"{model}_flight_rhs",
@@ -177,9 +172,9 @@ def impact(model: str) -> FunctionSpec:
     outputs = (Vector("q_plus", q_plus, STATE_LABELS[model]),
                Vector("I", (nt.I,), ("I",)))
     # I itself is an intermediate: substitute it last so that CSE sees one impulse
-    outputs = tuple(Vector(v.name, tuple(_physical(ex.xreplace({nt.I: impulse}))
+    outputs = tuple(Vector(v.name, tuple(ex.xreplace({nt.I: impulse})
                                          for ex in v.entries), v.labels) for v in outputs)
-    solve = LinearSolve(matrix=fd.mass_matrix.applyfunc(_physical), rhs=(d,),
+    solve = LinearSolve(matrix=fd.mass_matrix, rhs=(d,),
                         unknowns=(nt.W,))
     return FunctionSpec(
         name=f"{model}_impact",
@@ -194,8 +189,8 @@ def gap(model: str) -> FunctionSpec:
     """``<model>_gap(q, u, s, p) -> (h, v_n)``: height of S and its rate (E1.14)."""
     if model == "attitude":
         raise ValueError("the attitude model has no contact geometry")
-    h = _physical(height())
-    v_n = _physical(impact_map().normal_velocity)
+    h = height()
+    v_n = impact_map().normal_velocity
     return FunctionSpec(
         name=f"{model}_gap",
         doc=f"Height h of the lowest point S above the plane and its rate v_n (E1.14), "
@@ -222,11 +217,64 @@ def lowest_point(shape: str) -> FunctionSpec:
         outputs=(Vector("s", tuple(lp), S_LABELS),))
 
 
+OMEGA_DOT_FREE = sp.Matrix(sp.symbols("omega_x'0 omega_y'0 omega_z'0", real=True))
+SDOT = tuple(nt.OS_rate)
+SDOT_LABELS = ("x*'", "y*'", "z*'")
+
+
+@lru_cache(maxsize=None)
+def contact_rhs(model: str) -> FunctionSpec:
+    """``<model>_contact_rhs(q, u, s, sdot, p) -> (dq, N)``: S held on the plane by the
+    normal reaction N (derive.contact); valid while N >= 0."""
+    if model == "attitude":
+        raise ValueError("the attitude model has no contact geometry")
+    from .contact import A_FREE, contact_dynamics
+    cd = contact_dynamics()
+    im = impact_map()
+    fd = flight_dynamics_structured()
+    f, d = cd.omega_rhs
+    a_free = cd.a_free.xreplace(dict(zip(nt.omega_dot, OMEGA_DOT_FREE)))
+    normal = cd.normal_force.xreplace({A_FREE: a_free, K_SYMBOL: im.k})
+    omega_dot = OMEGA_DOT_FREE + nt.N * nt.W
+    rates = _rates(model)
+    rates[nt.Z_Cd] = cd.z_acceleration
+    rates.update(dict(zip(nt.omega, omega_dot)))
+    dq = tuple(sp.sympify(rates[s]).xreplace({nt.N: normal}) for s in STATES[model])
+    solve = LinearSolve(matrix=fd.mass_matrix,
+                        rhs=(f, d),
+                        unknowns=(OMEGA_DOT_FREE, nt.W))
+    return FunctionSpec(
+        name=f"{model}_contact_rhs",
+        doc=f"Persistent contact of the {model} model: dq/dt with S held on the plane "
+            "and the normal reaction N (derive.contact); lift-off where N < 0.",
+        inputs=(_q(model), _u(), _s(), Vector("sdot", SDOT, SDOT_LABELS), _p()),
+        outputs=(Vector("dq", tuple(v for v in dq),
+                        tuple(f"d({lb})/dt" for lb in STATE_LABELS[model])),
+                 Vector("N", (normal,), ("N",))),
+        solves=(solve,), definitions=MASS_DEFINITIONS)
+
+
+@lru_cache(maxsize=None)
+def lowest_point_rate(shape: str) -> FunctionSpec:
+    """``lowest_point_rate_<shape>(n, omega, radius|semi_axes) -> sdot`` (the centre
+    does not move in the body, so it does not enter)."""
+    rate = surfaces.SHAPES[shape]().rate
+    base = lowest_point(shape)
+    n_vec, _, size = base.inputs
+    return FunctionSpec(
+        name=f"lowest_point_rate_{shape}",
+        doc=f"Rate of the lowest point S of a {shape} in body axes as the body turns "
+            "(Poisson's equations for n).",
+        inputs=(n_vec, Vector("omega", tuple(nt.omega), ("omega_x", "omega_y", "omega_z")),
+                size),
+        outputs=(Vector("sdot", tuple(rate), SDOT_LABELS),))
+
+
 @lru_cache(maxsize=None)
 def kinetic_moment(model: str) -> FunctionSpec:
     """``<model>_kinetic_moment(q, u, p) -> K``: E1.6, body axes (|K| is E1.9's integral)."""
     from .momentum import angular_momentum
-    K = tuple(_physical(k) for k in angular_momentum().K)
+    K = tuple(k for k in angular_momentum().K)
     return FunctionSpec(
         name=f"{model}_kinetic_moment",
         doc=f"Angular momentum K about C in body axes (E1.6), {model} model.",
@@ -240,7 +288,9 @@ def all_specs() -> list[FunctionSpec]:
     specs += [kinetic_moment(mdl) for mdl in MODELS]
     specs += [impact(mdl) for mdl in ("general", "vertical")]
     specs += [gap(mdl) for mdl in ("general", "vertical")]
+    specs += [contact_rhs(mdl) for mdl in ("general", "vertical")]
     specs += [lowest_point(shape) for shape in ("sphere", "ellipsoid")]
+    specs += [lowest_point_rate(shape) for shape in ("sphere", "ellipsoid")]
     return specs
 
 

@@ -20,7 +20,7 @@ import sympy as sp
 
 from .kinematics import absolute_rate_in_body_axes, centre_of_mass_offset_t
 from .notation import (E_Z, MASS_FRACTION, J_x, J_y, J_z, M, OP_t, X_C_t, Y_C_t, Z_C_t, a_t,
-                       cross, freeze, from_paper_notation, g, m, omega, omega_dot,
+                       cross, freeze, from_paper_notation, g, m, nu, omega, omega_dot,
                        omega_vec_t, t, thaw, to_paper_notation)
 
 
@@ -43,7 +43,7 @@ def angular_momentum() -> AngularMomentum:
     K_def = (J_O * omega_vec_t
              + M * cross(rho_O, absolute_rate_in_body_axes(rho_O))
              + m * cross(rho_P, absolute_rate_in_body_axes(rho_P)))
-    K_def = freeze(K_def)
+    K_def = freeze(K_def).xreplace({nu: MASS_FRACTION})     # OC = m/(m+M) OP
     K = K_def.applyfunc(to_paper_notation)
     J = K.jacobian(omega)
     own = (K - J * omega).applyfunc(sp.expand)

@@ -181,5 +181,5 @@ def to_paper_notation(expr: sp.Expr) -> sp.Expr:
 
 
 def from_paper_notation(expr: sp.Expr) -> sp.Expr:
-    """Replace the symbol ``mu`` by its definition ``mM/(m+M)``."""
-    return expr.xreplace({mu: MU_DEFINITION})
+    """Replace the symbols ``mu`` and ``nu`` by their definitions in ``M`` and ``m``."""
+    return expr.xreplace({mu: MU_DEFINITION, nu: MASS_FRACTION})

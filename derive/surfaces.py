@@ -46,9 +46,11 @@ def _lowest_point(n: sp.Matrix, c: sp.Matrix, axes: sp.Matrix) -> sp.Matrix:
     return lower.applyfunc(sp.simplify)
 
 
-def _with_rate(point: sp.Matrix) -> LowestPoint:
+def _with_rate(point: sp.Matrix, simplify: bool = False) -> LowestPoint:
     ndot = poisson_equations()[2, :].T
-    rate = (point.jacobian(n_body) * ndot).applyfunc(sp.simplify)
+    rate = point.jacobian(n_body) * ndot
+    # for a sphere, (n, n') = 0 collapses the rate to -R n'/|n| (simplify finds it)
+    rate = rate.applyfunc(sp.simplify if simplify else sp.factor_terms)
     return LowestPoint(point=point, rate=rate)
 
 
@@ -62,7 +64,10 @@ def sphere() -> LowestPoint:
     """The ellipsoid with equal semi-axes: ``c - R n/|n|`` (``|n| = 1`` exactly, but
     keeping the norm makes S insensitive to round-off drift of the direction cosines)."""
     point = ellipsoid().point.xreplace({v: radius for v in semi_axes})
-    return _with_rate(point.applyfunc(sp.simplify))
+    # sqrt(R^2 (n, n)) = R |n| for R > 0: factor the radicand so SymPy sees it
+    point = point.replace(lambda e: e.is_Pow and e.exp.is_Rational and e.exp.q == 2,
+                          lambda e: sp.Pow(sp.factor(e.base), e.exp))
+    return _with_rate(point, simplify=True)
 
 
 SHAPES = {"sphere": sphere, "ellipsoid": ellipsoid}

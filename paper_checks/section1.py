@@ -15,8 +15,9 @@ from .registry import CheckFailed, Report, check
 
 
 def paper(expr):
-    """Derived expressions carry the symbol mu; the comparison is with mu = mM/(m+M)."""
-    return expr.xreplace({nt.mu: nt.MU_DEFINITION}) if hasattr(expr, "xreplace") else expr
+    """Derived expressions carry the symbols mu and nu; the paper writes mM/(m+M) and
+    m/(m+M)."""
+    return nt.from_paper_notation(expr) if hasattr(expr, "xreplace") else expr
 
 
 # w = J^-1 d with the printed J of (1.5) and the printed d of (1.10)
@@ -98,11 +99,10 @@ def e1_9(r: Report) -> None:
 
 @check("E1.10")
 def e1_10(r: Report) -> None:
-    _, d = lever()
-    assert_same("E1.10 d", d, P.E1_10_D)
+    CS, d = lever()
+    assert_same("E1.10 d", paper(d), P.E1_10_D)
     # the angular impulse about C of the vertical impulse I n applied at S is I d
-    CS, _ = lever()
-    assert_same("E1.10 moment", nt.cross(CS, nt.I * nt.n), nt.I * P.E1_10_D)
+    assert_same("E1.10 moment", paper(nt.cross(CS, nt.I * nt.n)), nt.I * P.E1_10_D)
 
 
 @check("E1.11")
@@ -140,27 +140,27 @@ def e1_13(r: Report) -> None:
     post = im.normal_velocity.xreplace({
         nt.Z_Cd: nt.Z_Cd + im.velocity_jump[2].xreplace({nt.I: impulse}),
         **{nt.omega[i]: im.omega_plus[i].xreplace({nt.I: impulse}) for i in range(3)}})
-    newton = sp.numer(sp.together(post - P.E1_13(im.normal_velocity)))
-    assert_zero("v_n+ + e v_n-", newton.xreplace({K_SYMBOL: im.k}))
-    assert_numeric("E1.13", post.xreplace({K_SYMBOL: im.k}), P.E1_13(im.normal_velocity),
-                   given=W_IS_JINV_D)
+    newton = sp.numer(sp.together(paper(post - P.E1_13(im.normal_velocity))))
+    assert_zero("v_n+ + e v_n-", newton.xreplace({K_SYMBOL: paper(im.k)}))
+    assert_numeric("E1.13", paper(post.xreplace({K_SYMBOL: im.k})),
+                   paper(P.E1_13(im.normal_velocity)), given=W_IS_JINV_D)
 
 
 @check("E1.14")
 def e1_14(r: Report) -> None:
-    assert_same("E1.14", impact_map().normal_velocity, P.E1_14)
+    assert_same("E1.14", paper(impact_map().normal_velocity), P.E1_14)
 
 
 @check("E1.15")
 def e1_15(r: Report) -> None:
     im = impact_map()
     derived = im.impulse.xreplace({V_N_MINUS: im.normal_velocity, K_SYMBOL: im.k})
-    assert_same("E1.15", derived, P.E1_15, given=W_IS_JINV_D)
+    assert_same("E1.15", paper(derived), P.E1_15, given=W_IS_JINV_D)
 
 
 @check("E1.16")
 def e1_16(r: Report) -> None:
-    assert_same("E1.16", impact_map().k, P.E1_16, given=W_IS_JINV_D)
+    assert_same("E1.16", paper(impact_map().k), P.E1_16, given=W_IS_JINV_D)
 
 
 @check("R1")

@@ -8,6 +8,7 @@ import sympy as sp
 
 from derive import notation as nt
 from derive.kinematics import poisson_equations
+from derive import reduced
 from derive.momentum import angular_momentum, flight_dynamics
 
 from . import printed as P
@@ -169,86 +170,63 @@ def c3_2(r: Report) -> None:
                 " V4 there = J_z omega_z0 (sqrt(1-rho^2)-1), definite")
 
 
-# ---- Euler angles psi, theta, phi of the body relative to axes with OZ~ along K ------
-@lru_cache(maxsize=None)
-def _euler():
+# ---- the quadrature solution (derive.reduced) against (3.11)-(3.14) -------------------
+def _frozen_printed(expr):
+    """The printed (3.12)-(3.14) use psi(t), phi(t); derive.reduced states them in the
+    plain symbols psi, phi, psi', phi'."""
     t = nt.t
-    psi, theta, phi = P.psi_t, sp.Function("theta", real=True)(t), P.phi_t
-
-    def Rz(a):
-        return sp.Matrix([[sp.cos(a), -sp.sin(a), 0], [sp.sin(a), sp.cos(a), 0], [0, 0, 1]])
-
-    def Rx(a):
-        return sp.Matrix([[1, 0, 0], [0, sp.cos(a), -sp.sin(a)], [0, sp.sin(a), sp.cos(a)]])
-
-    R = Rz(psi) * Rx(theta) * Rz(phi)                    # body -> axes along K
-    Om = (R.T * R.diff(t)).applyfunc(sp.simplify)
-    omega = sp.Matrix([Om[2, 1], Om[0, 2], Om[1, 0]]).applyfunc(sp.simplify)
-    k_body = R[2, :].T                                   # OZ~ (the direction of K) in body axes
-    at_theta0 = {sp.Derivative(theta, t): 0}
-    return (omega.xreplace(at_theta0).xreplace({theta: P.theta0}),
-            k_body.xreplace({theta: P.theta0}))
+    return expr.xreplace({sp.Derivative(P.psi_t, t): reduced.psi_d,
+                          sp.Derivative(P.phi_t, t): reduced.phi_d}).xreplace(
+        {P.psi_t: reduced.psi, P.phi_t: reduced.phi})
 
 
 @check("E3.11")
 def e3_11(r: Report) -> None:
-    _, k_body = _euler()
-    # K = K k_body (K fixed in space along OZ~); the z component is J_z omega_z (3.1)
-    cos_theta = sp.solve(sp.Eq(P.K_sym * k_body[2], K3()[2].xreplace(
-        {nt.omega_z: P.omega_z0})), sp.cos(P.theta0))
-    if len(cos_theta) != 1:
-        raise CheckFailed(f"E3.11: {cos_theta}")
-    assert_same("E3.11 (3.11)", cos_theta[0], P.E3_11_COS)
-    r.detail = "K cos(theta) = K_z = J_z omega_z0: constant, so theta is constant"
+    a = reduced.axisymmetric()
+    assert_same("E3.11 K_z of (3.1)", a.K_body[2], K3()[2])
+    assert_same("E3.11 (3.11)", a.cos_theta0, P.E3_11_COS)
+    r.detail = "K cos(theta) = K_z = J_z omega_z0 with omega_z, |K| constant: theta constant"
 
 
 @check("E3.12")
 def e3_12(r: Report) -> None:
-    omega, _ = _euler()
-    assert_zero("E3.12 (3.12)", (omega - P.E3_12).applyfunc(sp.simplify))
+    a = reduced.axisymmetric()
+    assert_zero("E3.12 (3.12)", (a.omega - _frozen_printed(P.E3_12)).applyfunc(sp.simplify))
 
 
 @check("E3.13")
 def e3_13(r: Report) -> None:
-    _, k_body = _euler()
-    K_body = P.K_sym * k_body
-    # (J_x + mu z^2) omega_x and _y are the derived K_x, K_y of (3.1)
+    a = reduced.axisymmetric()
+    # (J_x + mu z^2) omega_x, _y are the derived K_x, K_y of (3.1); K_body = |K| k
     assert_same("K_x, K_y", K3()[:2, 0],
                 sp.Matrix([(nt.J_x + nt.mu * nt.z**2) * nt.omega_x,
                            (nt.J_x + nt.mu * nt.z**2) * nt.omega_y]))
-    assert_zero("E3.13 (3.13)", (K_body[:2, 0] - P.E3_13).applyfunc(sp.simplify))
+    K_body = reduced.K_norm * a.k_direction
+    assert_zero("E3.13 (3.13)",
+                (K_body[:2, 0] - _frozen_printed(P.E3_13)).applyfunc(sp.simplify))
 
 
 @check("E3.14")
 def e3_14(r: Report) -> None:
     t = nt.t
-    omega, k_body = _euler()
-    psi_d, phi_d = sp.Derivative(P.psi_t, t), sp.Derivative(P.phi_t, t)
-    ps, fs = sp.symbols("psi' phi'", real=True)
-    Jeff = nt.J_x + nt.mu * nt.z**2
-    # (3.12) = omega, (3.13): Jeff omega_{x,y} = K k_body_{x,y}, omega_z = omega_z0
-    eqs = [Jeff * omega[0] - P.K_sym * k_body[0], omega[2] - P.omega_z0]
-    eqs = [e.xreplace({psi_d: ps, phi_d: fs}) for e in eqs]
-    sol = sp.solve(eqs, [ps, fs], dict=True)
-    if len(sol) != 1:
-        raise CheckFailed(f"E3.14: {sol}")
-    cos0 = P.E3_11_COS
-    psi_dot = sp.simplify(sol[0][ps])
-    phi_dot = sp.simplify(sol[0][fs].xreplace({sp.cos(P.theta0): cos0}))
-    assert_same("E3.14 psi'", psi_dot, P.E3_14_PSI_DOT)
-    assert_same("E3.14 phi'", phi_dot, P.E3_14_PHI_DOT)
-    r.show("psi'", psi_dot)
-    r.show("phi'", phi_dot)
-    # the quadrature solution satisfies (3.2)-(3.4) for an arbitrary z(t)
+    a = reduced.axisymmetric()
+    assert_same("E3.14 psi'", a.psi_rate, P.E3_14_PSI_DOT)
+    assert_same("E3.14 phi'", a.phi_rate, P.E3_14_PHI_DOT)
+    r.show("psi'", a.psi_rate)
+    r.show("phi'", a.phi_rate)
+    # the quadrature solution satisfies (3.2)-(3.4) for an arbitrary z(t): omega(t) of
+    # (3.12) with phi(t) a function whose rate is (3.14), differentiated in t
     z_t = sp.Function("z", real=True)(t)
+    phi_f = sp.Function("phi", real=True)(t)
     law_t = {nt.z: z_t, nt.zd: z_t.diff(t), nt.zdd: z_t.diff(t, 2)}
-    rates = {psi_d: P.E3_14_PSI_DOT.xreplace(law_t),
-             phi_d: P.E3_14_PHI_DOT.xreplace(law_t)}
-    w = omega.xreplace(rates)                               # omega(t) of the solution
-    w_dot = w.diff(t).xreplace(rates)
+    rates = {reduced.psi_d: a.psi_rate.xreplace(law_t),
+             reduced.phi_d: a.phi_rate.xreplace(law_t)}
+    w = a.omega.xreplace(rates).xreplace({reduced.phi: phi_f})
+    w_dot = w.diff(t).xreplace({sp.Derivative(phi_f, t): rates[reduced.phi_d]})
+    cos0 = a.cos_theta0
     sin0 = sp.sqrt(1 - cos0**2)
     table = {**law_t, **dict(zip(nt.omega, w)), **dict(zip(nt.omega_dot, w_dot))}
-    res = residual3().xreplace(table).xreplace({sp.sin(P.theta0): sin0,
-                                                sp.cos(P.theta0): cos0})
+    res = residual3().xreplace(table).xreplace({sp.sin(reduced.theta0): sin0,
+                                                sp.cos(reduced.theta0): cos0})
     assert_zero("(3.2)-(3.4) on the quadrature solution", res.applyfunc(sp.simplify))
     r.detail = "psi', phi' from (3.12)-(3.13); with them omega(t) solves (3.2)-(3.4), any z(t)"

@@ -4,6 +4,7 @@ from __future__ import annotations
 import sympy as sp
 
 from derive import notation as nt
+from derive import reduced
 from derive.momentum import angular_momentum, flight_dynamics
 
 from . import printed as P
@@ -34,12 +35,12 @@ def e4_2(r: Report) -> None:
     assert_same("E4.2 (4.2) is K_z", Kz, P.E4_2)
     rate = nt.freeze(nt.thaw(P.E4_2).diff(nt.t))
     assert_same("d/dt (4.2) = (4.1)", rate, P.E4_1)
-    # omega_z by quadrature, in fact algebraically: solve (4.2) = kappa for omega_z
-    kappa = sp.Symbol("kappa", real=True)
-    sol = sp.solve(sp.Eq(P.E4_2, kappa), nt.omega_z)
-    assert len(sol) == 1
-    r.show("omega_z", sol[0])
-    r.detail = f"d/dt of (4.2) is (4.1); omega_z = {sp.sstr(sp.factor(sol[0]))}"
+    # omega_z algebraically: derive.reduced solves K_z = kappa; it satisfies (4.2)
+    pl = reduced.planar()
+    assert_same("(4.2) at the derived omega_z", P.E4_2.xreplace({nt.omega_z: pl.omega_z}),
+                pl.kappa)
+    r.show("omega_z", pl.omega_z)
+    r.detail = f"d/dt of (4.2) is (4.1); omega_z = {sp.sstr(pl.omega_z)}"
 
 
 @check("E4.4")

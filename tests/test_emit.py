@@ -38,6 +38,10 @@ def inputs_for(spec, c, rng):
             values.append(c.s)
         elif vec.name == "e":
             values.append(np.array([c.e]))
+        elif vec.name == "sdot":
+            values.append(rng.normal(size=3))
+        elif vec.name == "omega":
+            values.append(c.omega)
         elif vec.name == "n":
             values.append(c.A[2])
         elif vec.name == "center":

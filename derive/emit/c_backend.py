@@ -46,12 +46,30 @@ def _names(program: Program, inputs: list[CArg], scalar_inputs_by_value: bool) -
                 names[sym] = arg.name
             else:
                 names[sym] = f"{arg.name}[{k}]"
+    taken = {arg.name for arg in inputs}
     for sym, _ in program.steps:
-        names[sym] = sym.name.lstrip("_")
+        names[sym] = _identifier(sym.name, taken)
     return names
 
 
-def function_context(spec: FunctionSpec, program: Program | None = None) -> dict:
+def _identifier(name: str, taken: set) -> str:
+    """A C identifier for a symbol's name (``x''`` -> ``x_dd``), unique in ``taken``."""
+    out = name.lstrip("_").replace("'", "_d")
+    out = "".join(ch if ch.isalnum() or ch == "_" else "_" for ch in out) or "v"
+    if out[0].isdigit():
+        out = "v" + out
+    base, k = out, 1
+    while out in taken:
+        out = f"{base}_{k}"
+        k += 1
+    taken.add(out)
+    return out
+
+
+def body(spec: FunctionSpec, program: Program | None = None) -> dict:
+    """The statements of a function: ``steps`` (temporaries) and ``assigned`` (one list
+    of (target, C expression) per output), with inputs named by the spec (scalar inputs
+    by value) and the operation count."""
     program = program or build(spec)
     inputs = [CArg(v.name, len(v.entries), v.labels) for v in spec.inputs]
     outputs = [CArg(v.name, len(v.entries), v.labels) for v in spec.outputs]
@@ -61,16 +79,23 @@ def function_context(spec: FunctionSpec, program: Program | None = None) -> dict
     for arg, values in zip(outputs, program.outputs):
         assigned.append([(f"{arg.name}[{k}]", c_expression(sp.sympify(v), names))
                          for k, v in enumerate(values)])
+    read = set()
+    for _, expr in program.steps:
+        read |= expr.free_symbols
+    for values in program.outputs:
+        for v in values:
+            read |= sp.sympify(v).free_symbols
+    unused = [arg.name for arg, vec in zip(inputs, program.inputs) if not set(vec) & read]
+    return {"inputs": inputs, "outputs": outputs, "steps": steps, "assigned": assigned,
+            "ops": program.ops, "n_steps": len(program.steps), "unused": unused}
+
+
+def function_context(spec: FunctionSpec, program: Program | None = None) -> dict:
     return {
         "name": spec.name,
         "prefix": PREFIX,
         "doc": spec.doc,
-        "inputs": inputs,
-        "outputs": outputs,
-        "steps": steps,
-        "assigned": assigned,
-        "ops": program.ops,
-        "n_steps": len(program.steps),
+        **body(spec, program),
         "signature": signature(spec),
     }
 

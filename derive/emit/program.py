@@ -1,10 +1,13 @@
 """A :class:`~derive.models.FunctionSpec` as a straight-line program.
 
-One common-subexpression elimination over every output of the function together with
-the matrices and right-hand sides of its solves; temporaries that need the unknowns of a
-solve are scheduled after the numeric LDL^T (:mod:`derive.emit.linalg`), the others
-before it.  The program is what the C backend prints; its operation count is what the
-preambles and the benchmarks report.
+One common-subexpression elimination over everything the function computes: its named
+definitions (``nu``, ``mu``, a scene's point law ...), the matrices and right-hand sides
+of its solves, and its outputs.  The steps are then scheduled by dependency: a
+temporary is emitted once what it reads is available, the numeric LDL^T of each solve
+(:mod:`derive.emit.linalg`) as soon as its matrix and right-hand sides are, and the
+temporaries that read the unknowns after it.  Definitions that are plain numbers are
+propagated first.  The program is what the C backend prints; its operation count is
+what the preambles and the benchmarks report.
 """
 from __future__ import annotations
 
@@ -38,6 +41,25 @@ def _temps(prefix: str):
         k += 1
 
 
+def _propagate_constants(spec: FunctionSpec):
+    """Definitions whose value is a number are substituted everywhere, repeatedly."""
+    definitions = [(s, sp.sympify(v)) for s, v in spec.definitions]
+    constants: dict = {}
+    changed = True
+    while changed:
+        changed = False
+        kept = []
+        for sym, value in definitions:
+            value = value.xreplace(constants) if constants else value
+            if value.is_Number:
+                constants[sym] = value
+                changed = True
+            else:
+                kept.append((sym, value))
+        definitions = kept
+    return definitions, constants
+
+
 def _prune(steps: list, outputs: list) -> list:
     """Drop steps nothing downstream uses (a definition such as mu in a function that
     needs only nu)."""
@@ -52,56 +74,84 @@ def _prune(steps: list, outputs: list) -> list:
 
 def build(spec: FunctionSpec) -> Program:
     """CSE over everything the function computes, then scheduling around the solves."""
-    stage1: list = []
+    definitions, constants = _propagate_constants(spec)
+
+    def prepared(v):
+        v = sp.sympify(v)
+        return v.xreplace(constants) if constants else v
+
+    pool = [value for _, value in definitions]
+    n_def = len(pool)
     for solve in spec.solves:
-        stage1 += [sp.sympify(v) for v in lower_triangle(solve.matrix)]
+        pool += [prepared(v) for v in lower_triangle(solve.matrix)]
         for rhs in solve.rhs:
-            stage1 += [sp.sympify(v) for v in rhs]
-    outs = [sp.sympify(v) for vec in spec.outputs for v in vec.entries]
+            pool += [prepared(v) for v in rhs]
+    n_stage1 = len(pool)
+    pool += [prepared(v) for vec in spec.outputs for v in vec.entries]
     unknowns = {s for solve in spec.solves for vec in solve.unknowns for s in vec}
 
-    replacements, reduced = sp.cse(stage1 + outs, symbols=_temps("_c"), order="canonical")
+    replacements, reduced = sp.cse(pool, symbols=_temps("_c"), order="canonical")
 
-    # schedule: a temporary is late if it depends on an unknown or on a late temporary
-    late_syms: set = set()
-    early, late = [], []
-    for sym, expr in replacements:
-        if expr.free_symbols & (unknowns | late_syms):
-            late_syms.add(sym)
-            late.append((sym, expr))
-        else:
-            early.append((sym, expr))
-
-    steps = [(sym, sp.sympify(expr)) for sym, expr in spec.definitions] + early
-    solution: dict = {}
-    k = 0
+    # pending assignments: CSE temporaries and definitions, in their natural order
+    pending = list(replacements) + [(sym, reduced[k]) for k, (sym, _) in enumerate(definitions)]
+    # the solves, each waiting for its matrix and right-hand sides
+    solve_blocks = []
+    k = n_def
     for index, solve in enumerate(spec.solves):
-        if any(v.free_symbols & unknowns for v in reduced[k:k + 6 + 3 * len(solve.rhs)]):
+        n_values = 6 + 3 * len(solve.rhs)
+        values = reduced[k:k + n_values]
+        k += n_values
+        if any(v.free_symbols & unknowns for v in values):
             raise ValueError(f"{spec.name}: a solve's matrix or right-hand side needs "
                              "the unknown of a solve")
-        tri = reduced[k:k + 6]
-        k += 6
-        rhs_values = []
-        for _ in solve.rhs:
-            rhs_values.append(reduced[k:k + 3])
-            k += 3
-        names = iter(_temps(f"_s{index}_"))
+        solve_blocks.append((index, solve, values))
+    assert k == n_stage1
+    out_values = list(reduced[n_stage1:])
 
-        def assign(_label, value, names=names):
-            if value.is_Atom:
-                return value
-            sym = next(names)
-            steps.append((sym, value))
-            return sym
+    assigned = {s for vec in spec.inputs for s in vec.entries}
+    produced = {sym for sym, _ in pending} | unknowns
+    steps: list = []
+    while pending or solve_blocks:
+        progress = False
+        for item in list(pending):
+            sym, expr = item
+            if (expr.free_symbols & produced) <= assigned:
+                steps.append((sym, expr))
+                assigned.add(sym)
+                pending.remove(item)
+                progress = True
+        for block in list(solve_blocks):
+            index, solve, values = block
+            if not all((v.free_symbols & produced) <= assigned for v in values):
+                continue
+            names = _temps(f"_s{index}_")
 
-        tri = [assign("a", v) for v in tri]
-        rhs_values = [[assign("b", v) for v in vec] for vec in rhs_values]
-        solved = ldlt3_solve(tri, rhs_values, assign)
-        for vec, values in zip(solve.unknowns, solved):
-            solution.update(dict(zip(vec, values)))
-    steps += [(sym, expr.xreplace(solution)) for sym, expr in late]
-    out_values = [expr.xreplace(solution) for expr in reduced[k:]]
+            def assign(_label, value, names=names):
+                if value.is_Atom:
+                    return value
+                sym = next(names)
+                steps.append((sym, value))
+                return sym
 
+            tri = [assign("a", v) for v in values[:6]]
+            rhs = [[assign("b", v) for v in values[6 + 3 * j:9 + 3 * j]]
+                   for j in range(len(solve.rhs))]
+            solution = ldlt3_solve(tri, rhs, assign)
+            for vec, sol in zip(solve.unknowns, solution):
+                for u, val in zip(vec, sol):
+                    steps.append((u, val))
+                    assigned.add(u)
+            solve_blocks.remove(block)
+            progress = True
+        if not progress:
+            missing = sorted(str(s) for _, e in pending
+                             for s in (e.free_symbols & produced) - assigned)
+            raise ValueError(f"{spec.name}: cannot schedule (waiting for {missing[:5]})")
+
+    # unknowns were bound to their solution values: substitute the trivial ones away
+    alias = {sym: val for sym, val in steps if sym in unknowns and val.is_Atom}
+    steps = [(sym, expr.xreplace(alias)) for sym, expr in steps if sym not in alias]
+    out_values = [v.xreplace(alias) for v in out_values]
     steps = _prune(steps, out_values)
     grouped, pos = [], 0
     for vec in spec.outputs:

@@ -20,21 +20,21 @@
  */
 void carrier_attitude_flight_rhs(const double *q, const double *u, const double *p, double *restrict dq)
 {
-  const double nu = p[1]/(p[0] + p[1]);
-  const double mu = p[0]*nu;
   const double c0 = u[1]*u[1];
   const double c1 = u[2]*u[2];
-  const double c2 = mu*u[0];
   const double c3 = u[0]*u[0];
   const double c4 = -q[0]*u[2] + q[2]*u[0] + u[4];
   const double c5 = q[1]*u[2] - q[2]*u[1] + u[3];
-  const double c6 = p[4]*q[2] + mu*(c4*u[0] - c5*u[1]);
   const double c7 = q[0]*u[1] - q[1]*u[0] + u[5];
-  const double c8 = p[3]*q[1] + mu*(c5*u[2] - c7*u[0]);
   const double c9 = q[0]*u[4] - q[1]*u[3] + u[8];
   const double c10 = -q[0]*u[5] + q[2]*u[3] + u[7];
-  const double c11 = p[2]*q[0] + mu*(-c4*u[2] + c7*u[1]);
   const double c12 = q[1]*u[5] - q[2]*u[4] + u[6];
+  const double nu = p[1]/(p[0] + p[1]);
+  const double mu = p[0]*nu;
+  const double c2 = mu*u[0];
+  const double c6 = p[4]*q[2] + mu*(c4*u[0] - c5*u[1]);
+  const double c8 = p[3]*q[1] + mu*(c5*u[2] - c7*u[0]);
+  const double c11 = p[2]*q[0] + mu*(-c4*u[2] + c7*u[1]);
   const double s0_0 = p[2] + mu*(c0 + c1);
   const double s0_1 = -c2*u[1];
   const double s0_2 = p[3] + mu*(c1 + c3);

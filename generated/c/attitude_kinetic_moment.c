@@ -20,13 +20,13 @@
  */
 void carrier_attitude_kinetic_moment(const double *q, const double *u, const double *p, double *restrict K)
 {
-  const double nu = p[1]/(p[0] + p[1]);
-  const double mu = p[0]*nu;
   const double c0 = u[1]*u[1];
   const double c1 = u[2]*u[2];
   const double c2 = u[0]*u[1];
   const double c3 = q[2]*u[2];
   const double c4 = u[0]*u[0];
+  const double nu = p[1]/(p[0] + p[1]);
+  const double mu = p[0]*nu;
   K[0] = p[2]*q[0] + mu*(c0*q[0] + c1*q[0] - c2*q[1] - c3*u[0] + u[1]*u[5] - u[4]*u[2]);
   K[1] = p[3]*q[1] + mu*(c1*q[1] - c2*q[0] - c3*u[1] + c4*q[1] - u[0]*u[5] + u[3]*u[2]);
   K[2] = p[4]*q[2] + mu*(c0*q[2] + c4*q[2] - q[0]*u[0]*u[2] - q[1]*u[1]*u[2] + u[0]*u[4] - u[3]*u[1]);

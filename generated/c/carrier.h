@@ -188,6 +188,38 @@ void vertical_gap_release(int mem);
 void vertical_gap_incref(void);
 void vertical_gap_decref(void);
 
+/* general_contact_rhs(q[18], u[9], s[3], sdot[3], p[6]) -> (dq[18], N[1]): Persistent contact of the general model: dq/dt with S held on the plane and the normal reaction N (derive.contact); lift-off where N < 0. */
+void carrier_general_contact_rhs(const double *q, const double *u, const double *s, const double *sdot, const double *p, double *restrict dq, double *restrict N);
+int general_contact_rhs(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int general_contact_rhs_n_in(void);
+casadi_int general_contact_rhs_n_out(void);
+const char *general_contact_rhs_name_in(casadi_int i);
+const char *general_contact_rhs_name_out(casadi_int i);
+const casadi_int *general_contact_rhs_sparsity_in(casadi_int i);
+const casadi_int *general_contact_rhs_sparsity_out(casadi_int i);
+int general_contact_rhs_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real general_contact_rhs_default_in(casadi_int i);
+int general_contact_rhs_checkout(void);
+void general_contact_rhs_release(int mem);
+void general_contact_rhs_incref(void);
+void general_contact_rhs_decref(void);
+
+/* vertical_contact_rhs(q[8], u[9], s[3], sdot[3], p[6]) -> (dq[8], N[1]): Persistent contact of the vertical model: dq/dt with S held on the plane and the normal reaction N (derive.contact); lift-off where N < 0. */
+void carrier_vertical_contact_rhs(const double *q, const double *u, const double *s, const double *sdot, const double *p, double *restrict dq, double *restrict N);
+int vertical_contact_rhs(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int vertical_contact_rhs_n_in(void);
+casadi_int vertical_contact_rhs_n_out(void);
+const char *vertical_contact_rhs_name_in(casadi_int i);
+const char *vertical_contact_rhs_name_out(casadi_int i);
+const casadi_int *vertical_contact_rhs_sparsity_in(casadi_int i);
+const casadi_int *vertical_contact_rhs_sparsity_out(casadi_int i);
+int vertical_contact_rhs_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real vertical_contact_rhs_default_in(casadi_int i);
+int vertical_contact_rhs_checkout(void);
+void vertical_contact_rhs_release(int mem);
+void vertical_contact_rhs_incref(void);
+void vertical_contact_rhs_decref(void);
+
 /* lowest_point_sphere(n[3], center[3], radius[1]) -> (s[3]): Lowest point S of a sphere (centre anywhere in the body) for the vertical n, body axes. */
 void carrier_lowest_point_sphere(const double *n, const double *center, double radius, double *restrict s);
 int lowest_point_sphere(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
@@ -219,6 +251,38 @@ int lowest_point_ellipsoid_checkout(void);
 void lowest_point_ellipsoid_release(int mem);
 void lowest_point_ellipsoid_incref(void);
 void lowest_point_ellipsoid_decref(void);
+
+/* lowest_point_rate_sphere(n[3], omega[3], radius[1]) -> (sdot[3]): Rate of the lowest point S of a sphere in body axes as the body turns (Poisson's equations for n). */
+void carrier_lowest_point_rate_sphere(const double *n, const double *omega, double radius, double *restrict sdot);
+int lowest_point_rate_sphere(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int lowest_point_rate_sphere_n_in(void);
+casadi_int lowest_point_rate_sphere_n_out(void);
+const char *lowest_point_rate_sphere_name_in(casadi_int i);
+const char *lowest_point_rate_sphere_name_out(casadi_int i);
+const casadi_int *lowest_point_rate_sphere_sparsity_in(casadi_int i);
+const casadi_int *lowest_point_rate_sphere_sparsity_out(casadi_int i);
+int lowest_point_rate_sphere_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real lowest_point_rate_sphere_default_in(casadi_int i);
+int lowest_point_rate_sphere_checkout(void);
+void lowest_point_rate_sphere_release(int mem);
+void lowest_point_rate_sphere_incref(void);
+void lowest_point_rate_sphere_decref(void);
+
+/* lowest_point_rate_ellipsoid(n[3], omega[3], semi_axes[3]) -> (sdot[3]): Rate of the lowest point S of a ellipsoid in body axes as the body turns (Poisson's equations for n). */
+void carrier_lowest_point_rate_ellipsoid(const double *n, const double *omega, const double *semi_axes, double *restrict sdot);
+int lowest_point_rate_ellipsoid(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int lowest_point_rate_ellipsoid_n_in(void);
+casadi_int lowest_point_rate_ellipsoid_n_out(void);
+const char *lowest_point_rate_ellipsoid_name_in(casadi_int i);
+const char *lowest_point_rate_ellipsoid_name_out(casadi_int i);
+const casadi_int *lowest_point_rate_ellipsoid_sparsity_in(casadi_int i);
+const casadi_int *lowest_point_rate_ellipsoid_sparsity_out(casadi_int i);
+int lowest_point_rate_ellipsoid_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real lowest_point_rate_ellipsoid_default_in(casadi_int i);
+int lowest_point_rate_ellipsoid_checkout(void);
+void lowest_point_rate_ellipsoid_release(int mem);
+void lowest_point_rate_ellipsoid_incref(void);
+void lowest_point_rate_ellipsoid_decref(void);
 
 #ifdef __cplusplus
 }

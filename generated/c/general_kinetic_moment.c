@@ -20,13 +20,13 @@
  */
 void carrier_general_kinetic_moment(const double *q, const double *u, const double *p, double *restrict K)
 {
-  const double nu = p[1]/(p[0] + p[1]);
-  const double mu = p[0]*nu;
   const double c0 = u[1]*u[1];
   const double c1 = u[2]*u[2];
   const double c2 = u[0]*u[1];
   const double c3 = q[8]*u[2];
   const double c4 = u[0]*u[0];
+  const double nu = p[1]/(p[0] + p[1]);
+  const double mu = p[0]*nu;
   K[0] = p[2]*q[6] + mu*(c0*q[6] + c1*q[6] - c2*q[7] - c3*u[0] + u[1]*u[5] - u[4]*u[2]);
   K[1] = p[3]*q[7] + mu*(c1*q[7] - c2*q[6] - c3*u[1] + c4*q[7] - u[0]*u[5] + u[3]*u[2]);
   K[2] = p[4]*q[8] + mu*(c0*q[8] + c4*q[8] - q[6]*u[0]*u[2] - q[7]*u[1]*u[2] + u[0]*u[4] - u[3]*u[1]);

@@ -3,7 +3,7 @@
  * Regenerate with `derive emit`; `derive emit --check` compares with a fresh render.
  * Tools: sympy 1.14.0, casadi 3.8.2 (ABI), jinja2 3.1.6.
  * vertical_impact(q[8], u[9], s[3], p[6], e[1]) -> (q_plus[8], I[1])
- * Total ops: 160 (SymPy count_ops of the program after CSE), 44 intermediate terms.
+ * Total ops: 158 (SymPy count_ops of the program after CSE), 43 intermediate terms.
  */
 
 #include <math.h>
@@ -23,35 +23,34 @@
  */
 void carrier_vertical_impact(const double *q, const double *u, const double *s, const double *p, double e, double *restrict q_plus, double *restrict I)
 {
-  const double nu = p[1]/(p[0] + p[1]);
+  const double c0 = 1.0/(p[0] + p[1]);
+  const double c1 = u[1]*u[1];
+  const double c2 = u[2]*u[2];
+  const double c4 = u[0]*u[0];
+  const double c11 = q[5]*s[1];
+  const double c12 = q[6]*s[2];
+  const double c13 = q[7]*s[0];
+  const double nu = c0*p[1];
   const double mu = p[0]*nu;
-  const double c0 = u[1]*u[1];
-  const double c1 = u[2]*u[2];
-  const double c2 = mu*u[0];
-  const double c3 = u[0]*u[0];
-  const double c4 = 1.0/(p[0] + p[1]);
-  const double c5 = c4*p[1];
-  const double c6 = -c5*u[2] + s[2];
-  const double c7 = -c5*u[1] + s[1];
-  const double c8 = -c5*u[0] + s[0];
-  const double c9 = q[5]*s[1];
-  const double c10 = q[6]*s[2];
-  const double c11 = q[7]*s[0];
-  const double c12 = q[5]*nu;
-  const double c13 = q[6]*nu;
-  const double c14 = q[7]*nu;
-  const double c15 = c12*u[2];
-  const double c16 = c13*u[0];
-  const double c17 = c14*u[1];
-  const double s0_0 = p[2] + mu*(c0 + c1);
-  const double s0_1 = -c2*u[1];
-  const double s0_2 = p[3] + mu*(c1 + c3);
-  const double s0_3 = -c2*u[2];
+  const double c3 = mu*u[0];
+  const double c5 = nu*u[2];
+  const double c6 = -c5 + s[2];
+  const double c7 = nu*u[1];
+  const double c8 = -c7 + s[1];
+  const double c9 = nu*u[0];
+  const double c10 = -c9 + s[0];
+  const double c14 = c5*q[5];
+  const double c15 = c9*q[6];
+  const double c16 = c7*q[7];
+  const double s0_0 = p[2] + mu*(c1 + c2);
+  const double s0_1 = -c3*u[1];
+  const double s0_2 = p[3] + mu*(c2 + c4);
+  const double s0_3 = -c3*u[2];
   const double s0_4 = -mu*u[1]*u[2];
-  const double s0_5 = p[4] + mu*(c0 + c3);
-  const double s0_6 = -c6*q[6] + c7*q[7];
-  const double s0_7 = c6*q[5] - c8*q[7];
-  const double s0_8 = -c7*q[5] + c8*q[6];
+  const double s0_5 = p[4] + mu*(c1 + c4);
+  const double s0_6 = -c6*q[6] + c8*q[7];
+  const double s0_7 = -c10*q[7] + c6*q[5];
+  const double s0_8 = c10*q[6] - c8*q[5];
   const double s0_9 = 1.0/s0_0;
   const double s0_10 = s0_1*s0_9;
   const double s0_11 = s0_3*s0_9;
@@ -66,16 +65,16 @@ void carrier_vertical_impact(const double *q, const double *u, const double *s, 
   const double s0_20 = s0_17*s0_19;
   const double s0_21 = s0_13*s0_18 - s0_15*s0_20;
   const double s0_22 = -s0_10*s0_21 - s0_11*s0_20 + s0_6*s0_9;
-  const double c18 = (-e - 1.0)*(q[1] - c10*q[2] - c11*q[3] - c12*u[3] - c13*u[4] - c14*u[5] - c15*q[3] - c16*q[4] - c17*q[2] - c9*q[4] + q[5]*nu*q[4]*u[1] + q[5]*q[3]*s[2] + q[6]*nu*q[2]*u[2] + q[6]*q[4]*s[0] + q[7]*nu*q[3]*u[0] + q[7]*q[2]*s[1])/(-c10*s0_22 - c11*s0_21 + c12*s0_20*u[1] + c13*s0_22*u[2] + c14*s0_21*u[0] - c15*s0_21 - c16*s0_20 - c17*s0_22 + c4 - c9*s0_20 + s0_20*q[6]*s[0] + s0_21*q[5]*s[2] + s0_22*q[7]*s[1]);
+  const double c17 = (-e - 1.0)*(q[1] - c11*q[4] - c12*q[2] - c13*q[3] - c14*q[3] - c15*q[4] - c16*q[2] + q[5]*nu*q[4]*u[1] - q[5]*nu*u[3] + q[5]*q[3]*s[2] + q[6]*nu*q[2]*u[2] - q[6]*nu*u[4] + q[6]*q[4]*s[0] + q[7]*nu*q[3]*u[0] - q[7]*nu*u[5] + q[7]*q[2]*s[1])/(c0 - c11*s0_20 - c12*s0_22 - c13*s0_21 - c14*s0_21 - c15*s0_20 - c16*s0_22 + c5*s0_22*q[6] + c7*s0_20*q[5] + c9*s0_21*q[7] + s0_20*q[6]*s[0] + s0_21*q[5]*s[2] + s0_22*q[7]*s[1]);
   q_plus[0] = q[0];
-  q_plus[1] = q[1] + c18*c4;
-  q_plus[2] = c18*s0_22 + q[2];
-  q_plus[3] = c18*s0_21 + q[3];
-  q_plus[4] = c18*s0_20 + q[4];
+  q_plus[1] = q[1] + c0*c17;
+  q_plus[2] = c17*s0_22 + q[2];
+  q_plus[3] = c17*s0_21 + q[3];
+  q_plus[4] = c17*s0_20 + q[4];
   q_plus[5] = q[5];
   q_plus[6] = q[6];
   q_plus[7] = q[7];
-  I[0] = c18;
+  I[0] = c17;
 }
 
 /* ---- CasADi external-function ABI ------------------------------------------------ */

@@ -1,0 +1,1 @@
+"""The thin runtime around the generated code: scenes, model choice, specialised C."""

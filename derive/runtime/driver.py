@@ -1,0 +1,215 @@
+"""``derive.simulate(scene) -> Result``: choose the model, specialise, compile (cached),
+integrate with the C runtime, and post-process into the layout the scene asked for."""
+from __future__ import annotations
+
+import ctypes
+import sys
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .. import models as dm
+from .build import compile_scene, render
+from .geometry import lowest_point_numeric
+from .scene import Scene, law_functions, load_scene
+from .scene_models import SceneModel, build
+
+STATUSES = {0: "paused", 1: "done", 2: "max_events", 3: "step_underflow", 4: "nonfinite",
+            5: "max_steps", 6: "bad_options"}
+METHODS = {"rk4": 0, "dopri5": 1, "dop853": 2}
+EVENT_KINDS = {1: "impact", 2: "contact", 3: "liftoff", 4: "graze"}
+STAT_NAMES = ("steps", "rejected", "rhs_evaluations", "event_function_evaluations",
+              "impacts", "contacts", "liftoffs", "grazes")
+ROW_KINDS = {0: "step", 1: "before_event", 2: "after_event"}
+
+
+@dataclass
+class Result:
+    t: np.ndarray                 # (N,)
+    q: np.ndarray                 # (N, n_states)
+    state_names: tuple
+    impacts: np.ndarray           # (K, 4): t, I, v_n-, v_n+
+    status: str
+    model: str
+    why: str
+    events: list = field(default_factory=list)     # dicts: t, kind, value, v_minus, v_plus
+    row_kind: np.ndarray = None   # per row: 0 step, 1 just before an event, 2 just after
+    stats: dict = field(default_factory=dict)
+    timings: dict = field(default_factory=dict)
+    ops: dict = field(default_factory=dict)
+    extras: dict = field(default_factory=dict)      # omega, height, momentum as asked
+    scene: Scene = None
+    model_q: np.ndarray = None    # the trajectory in the model's own layout
+    model_labels: tuple = ()
+    scene_model: SceneModel = None
+
+
+class _Progress:
+    """A progress bar on stderr, shown only when a run takes longer than a second."""
+
+    def __init__(self, t0: float, t1: float, enabled: bool):
+        self.t0, self.t1, self.enabled = t0, t1, enabled
+        self.start = time.perf_counter()
+        self.shown = False
+
+    def update(self, t: float) -> None:
+        if not self.enabled or time.perf_counter() - self.start < 1.0:
+            return
+        frac = min(max((t - self.t0) / (self.t1 - self.t0), 0.0), 1.0)
+        bar = "#" * int(30 * frac)
+        print(f"\r  simulating [{bar:<30}] {100 * frac:5.1f}%  t = {t:.4g}",
+              end="", file=sys.stderr, flush=True)
+        self.shown = True
+
+    def close(self) -> None:
+        if self.shown:
+            print(file=sys.stderr, flush=True)
+
+
+def _options(scene: Scene) -> np.ndarray:
+    opt = np.zeros(13)
+    opt[0] = METHODS[scene.method]
+    opt[1], opt[2] = scene.rtol, scene.atol
+    opt[3] = 0.0                                      # initial step: automatic
+    opt[4] = scene.duration / 4.0 if scene.method != "rk4" else scene.step
+    opt[5] = scene.step
+    opt[6] = scene.max_steps
+    opt[7] = scene.max_events
+    opt[8] = scene.output_dt
+    opt[9] = 1.0 if scene.keep_orthonormal else 0.0
+    opt[10] = scene.duration                          # time scale
+    opt[11] = scene.zeno_dt
+    opt[12] = 1e-13                                   # event location, relative to the scale
+    return opt
+
+
+def prepare(scene) -> tuple[Scene, SceneModel, object, dict]:
+    """Validate, choose and build the model, render and compile its runtime."""
+    timings = {}
+    start = time.perf_counter()
+    scene = load_scene(scene)
+    model = build(scene)
+    timings["specialise_s"] = time.perf_counter() - start
+    start = time.perf_counter()
+    rendered = render(model, scene.name)
+    timings["render_s"] = time.perf_counter() - start
+    start = time.perf_counter()
+    library = compile_scene(rendered)
+    timings["compile_s"] = time.perf_counter() - start
+    ops = {"rhs_specialised": rendered.rhs_ops, "rhs_generic": rendered.generic_ops}
+    return scene, model, library, {"timings": timings, "ops": ops}
+
+
+def run_library(library, scene: Scene, model: SceneModel, progress: bool = True,
+                chunk: int = 8192):
+    """Integrate with the compiled runtime; returns raw rows, events, stats, status."""
+    lib = library.lib
+    nq = library.nq
+    session = ctypes.create_string_buffer(library.session_size + 64)
+    base = ctypes.addressof(session)
+    aligned = ctypes.c_void_p((base + 63) // 64 * 64)
+    opt = _options(scene)
+    q0 = np.ascontiguousarray(model.q0, dtype=float)
+    dp = ctypes.POINTER(ctypes.c_double)
+    ip = ctypes.POINTER(ctypes.c_int)
+    status = lib.crt_init(aligned, opt.ctypes.data_as(dp), scene.t0, q0.ctypes.data_as(dp))
+    t_buf = np.empty(chunk)
+    q_buf = np.empty((chunk, nq))
+    k_buf = np.empty(chunk, dtype=np.intc)
+    ev_buf = np.empty((chunk, 5))
+    n_out, n_ev = ctypes.c_int(0), ctypes.c_int(0)
+    ts, qs, kinds, evs = [], [], [], []
+    t_end = scene.t0 + scene.duration
+    bar = _Progress(scene.t0, t_end, progress)
+    while status == 0:
+        status = lib.crt_advance(aligned, t_end, t_buf.ctypes.data_as(dp),
+                                 q_buf.ctypes.data_as(dp), k_buf.ctypes.data_as(ip), chunk,
+                                 ctypes.byref(n_out), ev_buf.ctypes.data_as(dp), chunk,
+                                 ctypes.byref(n_ev))
+        ts.append(t_buf[:n_out.value].copy())
+        qs.append(q_buf[:n_out.value].copy())
+        kinds.append(k_buf[:n_out.value].copy())
+        evs.append(ev_buf[:n_ev.value].copy())
+        bar.update(lib.crt_time(aligned))
+    bar.close()
+    stats = (ctypes.c_long * 8)()
+    lib.crt_stats(aligned, stats)
+    return (np.concatenate(ts), np.concatenate(qs), np.concatenate(kinds),
+            np.concatenate(evs), dict(zip(STAT_NAMES, list(stats))),
+            STATUSES.get(status, str(status)))
+
+
+def simulate(scene, progress: bool = True) -> Result:
+    """Simulate a scene (a path, TOML text via a path, a dict of the schema, or a
+    :class:`Scene`)."""
+    scene, model, library, info = prepare(scene)
+    start = time.perf_counter()
+    t, Q, kinds, ev, stats, status = run_library(library, scene, model, progress)
+    info["timings"]["run_s"] = time.perf_counter() - start
+    start = time.perf_counter()
+    result = _assemble(scene, model, t, Q, kinds, ev, stats, status)
+    info["timings"]["post_s"] = time.perf_counter() - start
+    result.timings, result.ops = info["timings"], info["ops"]
+    return result
+
+
+def _assemble(scene, model, t, Q, kinds, ev, stats, status) -> Result:
+    events = [{"t": float(r[0]), "kind": EVENT_KINDS.get(int(r[1]), str(int(r[1]))),
+               "value": float(r[2]), "v_minus": float(r[3]), "v_plus": float(r[4])}
+              for r in ev]
+    impacts = np.array([[e["t"], e["value"], e["v_minus"], e["v_plus"]]
+                        for e in events if e["kind"] == "impact"]).reshape(-1, 4)
+    wants = set(scene.outputs)
+    general = model.to_general(t, Q) if model.to_general is not None else None
+    if "pose" in wants:
+        q, names = general, dm.STATE_LABELS["general"]
+    else:
+        q, names = Q, model.labels
+    extras = {}
+    omega = model.omega_of(t, Q) if model.omega_of is not None else None
+    if "omega" in wants and omega is not None:
+        extras["omega"] = omega
+    if "height" in wants or (scene.contact_possible and general is not None):
+        h = _height(scene, model, t, Q, general)
+        if h is not None and "height" in wants:
+            extras["height"] = h
+    if "momentum" in wants and omega is not None:
+        extras["momentum"] = _momentum(scene, t, omega, general)
+    return Result(t=t, q=q, state_names=tuple(names), impacts=impacts, status=status,
+                  model=model.kind, why=model.why, events=events, row_kind=kinds,
+                  stats=stats, extras=extras, scene=scene, model_q=Q,
+                  model_labels=model.labels, scene_model=model)
+
+
+def _height(scene, model, t, Q, general):
+    """Height of the lowest point S above the plane (Z = 0)."""
+    if scene.shape == "none":
+        return None
+    if general is not None:
+        Z, N = general[:, 2], general[:, 15:18]
+    elif model.kind == "vertical":
+        Z, N = Q[:, 0], Q[:, 5:8]
+    else:
+        return None
+    law = law_functions(scene)(t)
+    r = law[[0, 3, 6]].T
+    nu = scene.m / (scene.m + scene.M)
+    s = np.array([lowest_point_numeric(scene, n) for n in N])
+    return Z + np.einsum("ij,ij->i", N, s - nu * r)
+
+
+def _momentum(scene, t, omega, general):
+    """K about C in body axes (E1.4 with E1.5), its norm, and in fixed axes when the
+    attitude is known."""
+    law = law_functions(scene)(t)
+    r, v = law[[0, 3, 6]].T, law[[1, 4, 7]].T
+    mu = scene.mu
+    J = np.asarray(scene.J)
+    K = J * omega + mu * (np.einsum("ij,ij->i", r, r)[:, None] * omega
+                          - r * np.einsum("ij,ij->i", r, omega)[:, None] + np.cross(r, v))
+    out = {"K_body": K, "K_norm": np.linalg.norm(K, axis=1)}
+    if general is not None:
+        A = general[:, 9:18].reshape(-1, 3, 3)
+        out["K_fixed"] = np.einsum("nij,nj->ni", A, K)
+    return out

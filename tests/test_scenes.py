@@ -1,0 +1,162 @@
+"""Scenes: every rule names its field, the CLI exits 2 without a traceback and writes
+nothing; laws are parsed by a whitelist; model selection says which and why."""
+from __future__ import annotations
+
+import math
+import subprocess
+import sys
+import tomllib
+
+import pytest
+
+from derive.runtime.lawparse import LawError, parse_law
+from derive.runtime.scene import DEFAULT_SCENE, SceneError, parse_scene
+from derive.runtime.scene_models import choose
+
+
+def doc(**changes):
+    d = tomllib.loads(DEFAULT_SCENE)
+    for path, value in changes.items():
+        section, _, key = path.partition("__")
+        if key:
+            if value is None:
+                d[section].pop(key, None)
+            else:
+                d.setdefault(section, {})[key] = value
+        elif value is None:
+            d.pop(section, None)
+        else:
+            d[section] = value
+    return d
+
+
+BAD = [
+    ({"body__colour": "red"}, "[body].colour", "not a known key"),
+    ({"wheels": 3}, "wheels", "not a known key"),
+    ({"body__mass": "1"}, "[body].mass", "must be a number"),
+    ({"body__mass": float("nan")}, "[body].mass", "finite"),
+    ({"body__mass": float("inf")}, "[body].mass", "finite"),
+    ({"body__mass": 0.0}, "[body].mass", "> 0"),
+    ({"point__mass": -0.1}, "[point].mass", "> 0"),
+    ({"body__inertia": [0.1, 0.1, 0.3]}, "[body].inertia[2]", "exceeds the sum"),
+    ({"body__inertia": [0.1, 0.0, 0.1]}, "[body].inertia[1]", "> 0"),
+    ({"body__inertia": [0.1, 0.1]}, "[body].inertia", "list of 3"),
+    ({"plane__restitution": 1.5}, "[plane].restitution", "[0, 1]"),
+    ({"plane__restitution": -0.1}, "[plane].restitution", "[0, 1]"),
+    ({"point__law": ["0.2*sin(3*t)", "__import__('os')", "0"]}, "[point].law[1]", "unexpected"),
+    ({"point__law": ["exec(t)", "0", "0"]}, "[point].law[0]", "unknown name"),
+    ({"point__law": ["sin(3*t", "0", "0"]}, "[point].law[0]", "expected ')'"),
+    ({"point__law": ["0", "0"]}, "[point].law", "three strings"),
+    ({"point__law": ["sqrt(t)", "0", "0"]}, "[point].law[0]", "not twice differentiable"),
+    ({"point__law": ["log(t - 1)", "0", "0"]}, "[point].law[0]", "not twice differentiable"),
+    ({"initial__com": [0.0, 0.0, 0.2]}, "[initial].com", "below the plane"),
+    ({"initial__quaternion": [0.0, 0.0, 0.0, 0.0]}, "[initial].quaternion", "zero norm"),
+    ({"initial__matrix": [[1, 0, 0], [0, 1, 0], [0, 0, -1]]}, "[initial].quaternion",
+     "either quaternion or matrix"),
+    ({"body__shape": "cube"}, "[body].shape", "one of"),
+    ({"body__radius": -1.0}, "[body].radius", "> 0"),
+    ({"run__method": "euler"}, "[run].method", "one of"),
+    ({"run__outputs": ["pose", "colour"]}, "[run].outputs", "not one of"),
+    ({"run__duration": -5.0}, "[run].duration", "> 0"),
+    ({"run__rtol": 0.0}, "[run].rtol", "[1e-16, 1)"),
+    ({"plane": {}}, "[plane].restitution", "required"),
+    ({"body__inertia": [1e-13, 0.5, 0.5], "point__law": ["0", "0", "0"]}, "[body].inertia",
+     "singular"),
+]
+
+
+@pytest.mark.parametrize("changes,where,rule", BAD, ids=[b[1] + ":" + b[2] for b in BAD])
+def test_bad_scene_names_the_field_and_the_rule(changes, where, rule):
+    with pytest.raises(SceneError) as info:
+        parse_scene(doc(**changes))
+    assert info.value.where == where, str(info.value)
+    assert rule in info.value.rule, str(info.value)
+
+
+def test_matrix_must_be_a_rotation():
+    d = doc()
+    d["initial"].pop("quaternion")
+    d["initial"]["matrix"] = [[1, 0, 0], [0, 1, 0], [0, 0, -1]]
+    with pytest.raises(SceneError, match="reflection"):
+        parse_scene(d)
+
+
+def test_cli_bad_scene_exit_2_no_traceback_nothing_written(tmp_path):
+    scene = tmp_path / "bad.toml"
+    scene.write_text(DEFAULT_SCENE.replace("mass = 1.0", "mass = -1.0"))
+    out = tmp_path / "out"
+    proc = subprocess.run([sys.executable, "-m", "derive", "simulate", str(scene), "-o",
+                           str(out)], capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 2
+    assert "[body].mass: must be > 0" in proc.stderr
+    assert "Traceback" not in proc.stderr
+    assert not out.exists()
+
+
+def test_cli_missing_and_malformed_files(tmp_path):
+    proc = subprocess.run([sys.executable, "-m", "derive", "simulate",
+                           str(tmp_path / "nope.toml")], capture_output=True, text=True)
+    assert proc.returncode == 2 and "no such scene file" in proc.stderr
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[body\nmass = 1")
+    proc = subprocess.run([sys.executable, "-m", "derive", "simulate", str(bad)],
+                          capture_output=True, text=True)
+    assert proc.returncode == 2 and "not valid TOML" in proc.stderr
+    assert "Traceback" not in proc.stderr
+
+
+def test_cli_default_scene_writes_everything(tmp_path):
+    out = tmp_path / "out"
+    proc = subprocess.run([sys.executable, "-m", "derive", "simulate", "-o", str(out), "-q"],
+                          capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, proc.stderr
+    for name in ("trajectory.csv", "impacts.csv", "summary.json", "height.png", "omega.png",
+                 "K_drift.png", "impulses.png"):
+        assert (out / name).is_file(), name
+    header = (out / "trajectory.csv").read_text().splitlines()[0].split(",")
+    assert header[:4] == ["t", "X_C", "Y_C", "Z_C"] and header[-1] == "a33"
+    import json
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["status"] == "done" and summary["model"] == "general"
+    assert summary["counts"]["impacts"] == 8
+    assert summary["invariants"]["K_norm_relative_drift_between_events"] < 1e-9
+
+
+def test_law_parser_builds_the_expected_expressions():
+    import sympy as sp
+    t = sp.Symbol("t", real=True)
+    cases = {"0.2*sin(3*t)": 0.2 * sp.sin(3 * t), "-2^2": -4, "2**-1": sp.Rational(1, 2),
+             "(1+t)/(2-t)": (1 + t) / (2 - t), "1e-3*cos(2*pi*t)": 0.001 * sp.cos(2 * sp.pi * t)}
+    for text, expected in cases.items():
+        got = sp.lambdify(t, parse_law(text))
+        want = sp.lambdify(t, expected)
+        for tv in (0.0, 0.3, 1.7):
+            assert abs(got(tv) - want(tv)) <= 1e-15 * (1 + abs(want(tv))), text
+    for text in ("t.__class__", "lambda: 0", "[t]", "t if t else 0", "os", "sin", "1e309",
+                 "a" * 3000):
+        with pytest.raises(LawError):
+            parse_law(text)
+
+
+def test_model_selection_and_reasons():
+    assert choose(parse_scene(doc()))[0] == "general"
+    d = doc(run__outputs=["omega", "height", "impacts"])
+    kind, why = choose(parse_scene(d))
+    assert kind == "vertical" and "pose is not asked" in why
+    d = doc(plane=None, run__outputs=["omega"])
+    assert choose(parse_scene(d))[0] == "attitude"
+    d = doc(initial__omega=[0.0, 0.0, 0.0], point__law=["0", "0", "0.1*sin(t)"])
+    kind, why = choose(parse_scene(d))
+    assert kind == "translational" and "C2.4" in why
+    # the same but the point off the vertical through O: d != 0 at impacts
+    d = doc(initial__omega=[0.0, 0.0, 0.0], point__law=["0.1", "0", "0.1*sin(t)"])
+    assert choose(parse_scene(d))[0] == "general"
+    s = math.sqrt(0.5)
+    d = doc(point__law=["0.2*cos(t)", "0.1", "0"], initial__omega=[0.0, 0.0, 1.0],
+            initial__quaternion=[s, s, 0.0, 0.0])
+    assert choose(parse_scene(d))[0] == "planar"
+    d = doc(plane=None, body__inertia=[0.1, 0.1, 0.15], point__law=["0", "0", "0.1*t"])
+    assert choose(parse_scene(d))[0] == "axisymmetric"
+    d = doc(run__model="vertical")          # forced, but the pose is asked
+    with pytest.raises(SceneError, match=r"\[run\].model"):
+        choose(parse_scene(d))
