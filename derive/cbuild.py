@@ -17,6 +17,15 @@ from pathlib import Path
 
 WARNINGS = ("-std=c99", "-Wall", "-Wextra", "-Wpedantic", "-Werror")
 OPTIMISE = ("-O2",)
+# the runtime libraries derive builds for its own runs: for this machine, with fused
+# multiply-adds (the generated C itself is compiled by its users with their flags)
+RUNTIME_FLAGS = ("-O3", "-march=native", "-ffp-contract=fast")
+
+
+def runtime_flags() -> tuple:
+    """``$DERIVE_CFLAGS`` (split on spaces) or :data:`RUNTIME_FLAGS`."""
+    env = os.environ.get("DERIVE_CFLAGS")
+    return tuple(env.split()) if env else RUNTIME_FLAGS
 
 
 class BuildError(RuntimeError):
@@ -36,6 +45,22 @@ def compiler_id(cc: str) -> str:
     return out.stdout.splitlines()[0] if out.stdout else cc
 
 
+@lru_cache(maxsize=None)
+def native_target(cc: str) -> str:
+    """What ``-march=native`` resolves to, so that a cache shared between machines never
+    hands one machine another's instructions."""
+    try:
+        out = subprocess.run([cc, "-march=native", "-Q", "--help=target"], capture_output=True,
+                             text=True, timeout=30).stdout
+    except (OSError, subprocess.SubprocessError):
+        out = ""
+    for line in out.splitlines():
+        if line.strip().startswith("-march="):
+            return line.split()[-1]
+    import platform
+    return platform.machine() + " " + platform.processor()
+
+
 def cache_dir() -> Path:
     root = os.environ.get("DERIVE_CACHE")
     return Path(root) if root else Path.home() / ".cache" / "markeev-carrier"
@@ -47,7 +72,10 @@ def build_shared(sources: dict[str, str | bytes], *, flags: tuple = OPTIMISE,
     into ``<cache>/<hash>/<name>.so`` and return its path."""
     cc = compiler()
     h = hashlib.sha256()
-    for part in (compiler_id(cc), cc, " ".join(WARNINGS), " ".join(flags)):
+    parts = [compiler_id(cc), cc, " ".join(WARNINGS), " ".join(flags)]
+    if "-march=native" in flags:
+        parts.append(native_target(cc))
+    for part in parts:
         h.update(part.encode() + b"\0")
     for fname in sorted(sources):
         data = sources[fname]

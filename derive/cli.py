@@ -146,6 +146,20 @@ def cmd_bench(args: argparse.Namespace) -> int:
               f"(C: throughput over 1024 states, min of 15 trials)")
         print(rhs.report(rows))
         return 0
+    if args.what == "sim":
+        from .bench import sim
+        from .runtime.scene import SceneError, load_scene
+        doc = None
+        if args.scene:
+            import tomllib
+            try:
+                load_scene(args.scene)
+                doc = tomllib.loads(open(args.scene, encoding="utf-8").read())
+            except SceneError as exc:
+                raise UsageError(str(exc)) from None
+        out = sim.run(doc, progress=_progress, repeats=args.repeats)
+        print(sim.report(out))
+        return 0
     raise UsageError(f"unknown benchmark {args.what!r}")
 
 
@@ -200,10 +214,14 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_simulate)
 
     p = sub.add_parser("bench", help="benchmarks: ratios against peers in the same run")
-    p.add_argument("what", choices=["rhs"], help="rhs: cost per evaluation of the "
-                   "generated functions against CasADi's C, CasADi from Python and NumPy")
-    p.add_argument("--cflags", default="-O2", help="compiler flags for every C build "
+    p.add_argument("what", choices=["rhs", "sim"], help="rhs: cost per evaluation of the "
+                   "generated functions against CasADi's C, CasADi from Python and NumPy; "
+                   "sim: time to simulate a scene to a max state error of 1e-9 against "
+                   "SciPy and CasADi routes")
+    p.add_argument("--cflags", default="-O2", help="rhs: compiler flags for every C build "
                    "(default: -O2)")
+    p.add_argument("--scene", help="sim: scene TOML (default: the built-in one)")
+    p.add_argument("--repeats", type=int, default=7, help="timing repetitions (min taken)")
     p.set_defaults(func=cmd_bench)
 
     return parser

@@ -27,7 +27,7 @@ MAIN = """
 #include <stdio.h>
 int main(void)
 {
-  static const double opt[13] = {%(opt)s};
+  static const double opt[14] = {%(opt)s};
   static const double q0[NQ] = {%(q0)s};
   crt_session s;
   double t[16], q[16 * NQ], ev[8 * 5];

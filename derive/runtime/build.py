@@ -6,7 +6,7 @@ import ctypes
 from dataclasses import dataclass
 from functools import lru_cache
 
-from ..cbuild import build_shared
+from ..cbuild import build_shared, runtime_flags
 from ..emit.c_backend import body
 from ..emit.program import build as build_program
 from ..emit.render import environment, versions
@@ -16,6 +16,11 @@ from .scene_models import SceneModel, generic_reference
 
 def _c(x) -> str:
     return repr(float(x))
+
+
+def _pairs(values) -> list:
+    """(index, C literal) for the nonzero coefficients."""
+    return [(j, _c(v)) for j, v in enumerate(values) if float(v) != 0.0]
 
 
 @lru_cache(maxsize=None)
@@ -31,10 +36,11 @@ def tableau_context() -> dict:
     return {
         "dopri5": {"a": dense_rows(T.DOPRI5_A, 7), "c": [_c(v) for v in T.DOPRI5_C],
                    "e": [_c(v) for v in T.DOPRI5_E], "d": [_c(v) for v in T.DOPRI5_D]},
-        "dop853": {"a": dense_rows(T.DOP853_A, 16), "c": [_c(v) for v in T.DOP853_C],
-                   "b": [_c(v) for v in T.DOP853_B], "e3": [_c(v) for v in T.DOP853_E3],
-                   "e5": [_c(v) for v in T.DOP853_E5],
-                   "d": [[_c(v) for v in row] for row in T.DOP853_D]},
+        "dop853": {"a_pairs": [[(j, _c(v)) for j, v in row if float(v) != 0.0]
+                               for row in T.DOP853_A],
+                   "c": [_c(v) for v in T.DOP853_C], "b_pairs": _pairs(T.DOP853_B),
+                   "e3_pairs": _pairs(T.DOP853_E3), "e5_pairs": _pairs(T.DOP853_E5),
+                   "d_pairs": [_pairs(row) for row in T.DOP853_D]},
     }
 
 
@@ -86,6 +92,9 @@ class Library:
         self.session_size = lib.crt_sizeof()
 
 
-def compile_scene(rendered: Rendered, flags: tuple = ("-O2",)) -> Library:
+def compile_scene(rendered: Rendered, flags: tuple | None = None) -> Library:
+    flags = runtime_flags() if flags is None else flags
     path = build_shared({"scene_runtime.c": rendered.source}, flags=flags, name="scene")
-    return Library(path)
+    library = Library(path)
+    library.flags = flags
+    return library

@@ -67,8 +67,17 @@ class _Progress:
             print(file=sys.stderr, flush=True)
 
 
+def gap_margin(scene: Scene) -> float:
+    """How far the point's own motion can move S between the ends of a step:
+    the nu n.OP term of the gap varies by at most 2 nu max|OP| (sampled finely)."""
+    ts = np.linspace(scene.t0, scene.t0 + scene.duration, 20001)
+    r = law_functions(scene)(ts)[[0, 3, 6]]
+    nu = scene.m / (scene.m + scene.M)
+    return float(2.0 * nu * np.max(np.linalg.norm(r, axis=0)) * 1.01)
+
+
 def _options(scene: Scene) -> np.ndarray:
-    opt = np.zeros(13)
+    opt = np.zeros(14)
     opt[0] = METHODS[scene.method]
     opt[1], opt[2] = scene.rtol, scene.atol
     opt[3] = 0.0                                      # initial step: automatic
@@ -80,7 +89,8 @@ def _options(scene: Scene) -> np.ndarray:
     opt[9] = 1.0 if scene.keep_orthonormal else 0.0
     opt[10] = scene.duration                          # time scale
     opt[11] = scene.zeno_dt
-    opt[12] = 1e-13                                   # event location, relative to the scale
+    opt[12] = 1e-15                                   # event location, relative to the scale
+    opt[13] = gap_margin(scene)
     return opt
 
 
@@ -98,46 +108,64 @@ def prepare(scene) -> tuple[Scene, SceneModel, object, dict]:
     library = compile_scene(rendered)
     timings["compile_s"] = time.perf_counter() - start
     ops = {"rhs_specialised": rendered.rhs_ops, "rhs_generic": rendered.generic_ops}
-    return scene, model, library, {"timings": timings, "ops": ops}
+    return scene, model, library, {"timings": timings, "ops": ops, "options": _options(scene)}
+
+
+class Session:
+    """A runtime session with its buffers, reusable for repeated runs of one scene."""
+
+    def __init__(self, library, scene: Scene, model: SceneModel, chunk: int = 8192,
+                 options: np.ndarray | None = None):
+        self.library, self.scene, self.model = library, scene, model
+        nq = library.nq
+        self._session = ctypes.create_string_buffer(library.session_size + 64)
+        base = ctypes.addressof(self._session)
+        self._handle = ctypes.c_void_p((base + 63) // 64 * 64)
+        self.options = np.ascontiguousarray(options if options is not None else _options(scene))
+        self.q0 = np.ascontiguousarray(model.q0, dtype=float)
+        self.chunk = chunk
+        self.t_buf = np.zeros(chunk)
+        self.q_buf = np.zeros((chunk, nq))
+        self.k_buf = np.zeros(chunk, dtype=np.intc)
+        self.ev_buf = np.zeros((chunk, 5))
+        dp, ip = ctypes.POINTER(ctypes.c_double), ctypes.POINTER(ctypes.c_int)
+        self._ptrs = (self.options.ctypes.data_as(dp), self.q0.ctypes.data_as(dp),
+                      self.t_buf.ctypes.data_as(dp), self.q_buf.ctypes.data_as(dp),
+                      self.k_buf.ctypes.data_as(ip), self.ev_buf.ctypes.data_as(dp))
+        self._n_out, self._n_ev = ctypes.c_int(0), ctypes.c_int(0)
+
+    def run(self, progress: bool = False):
+        """Integrate once; returns rows (t, q, kind), events, stats, status."""
+        lib = self.library.lib
+        opt_p, q0_p, t_p, q_p, k_p, ev_p = self._ptrs
+        scene = self.scene
+        status = lib.crt_init(self._handle, opt_p, scene.t0, q0_p)
+        t_end = scene.t0 + scene.duration
+        ts, qs, kinds, evs = [], [], [], []
+        bar = _Progress(scene.t0, t_end, progress)
+        while status == 0:
+            status = lib.crt_advance(self._handle, t_end, t_p, q_p, k_p, self.chunk,
+                                     ctypes.byref(self._n_out), ev_p, self.chunk,
+                                     ctypes.byref(self._n_ev))
+            n, ne = self._n_out.value, self._n_ev.value
+            ts.append(self.t_buf[:n].copy())
+            qs.append(self.q_buf[:n].copy())
+            kinds.append(self.k_buf[:n].copy())
+            evs.append(self.ev_buf[:ne].copy())
+            if progress:
+                bar.update(lib.crt_time(self._handle))
+        bar.close()
+        stats = (ctypes.c_long * 8)()
+        lib.crt_stats(self._handle, stats)
+        join = (lambda parts: parts[0]) if len(ts) == 1 else np.concatenate
+        return (join(ts), join(qs), join(kinds), join(evs),
+                dict(zip(STAT_NAMES, list(stats))), STATUSES.get(status, str(status)))
 
 
 def run_library(library, scene: Scene, model: SceneModel, progress: bool = True,
-                chunk: int = 8192):
+                chunk: int = 8192, options: np.ndarray | None = None):
     """Integrate with the compiled runtime; returns raw rows, events, stats, status."""
-    lib = library.lib
-    nq = library.nq
-    session = ctypes.create_string_buffer(library.session_size + 64)
-    base = ctypes.addressof(session)
-    aligned = ctypes.c_void_p((base + 63) // 64 * 64)
-    opt = _options(scene)
-    q0 = np.ascontiguousarray(model.q0, dtype=float)
-    dp = ctypes.POINTER(ctypes.c_double)
-    ip = ctypes.POINTER(ctypes.c_int)
-    status = lib.crt_init(aligned, opt.ctypes.data_as(dp), scene.t0, q0.ctypes.data_as(dp))
-    t_buf = np.empty(chunk)
-    q_buf = np.empty((chunk, nq))
-    k_buf = np.empty(chunk, dtype=np.intc)
-    ev_buf = np.empty((chunk, 5))
-    n_out, n_ev = ctypes.c_int(0), ctypes.c_int(0)
-    ts, qs, kinds, evs = [], [], [], []
-    t_end = scene.t0 + scene.duration
-    bar = _Progress(scene.t0, t_end, progress)
-    while status == 0:
-        status = lib.crt_advance(aligned, t_end, t_buf.ctypes.data_as(dp),
-                                 q_buf.ctypes.data_as(dp), k_buf.ctypes.data_as(ip), chunk,
-                                 ctypes.byref(n_out), ev_buf.ctypes.data_as(dp), chunk,
-                                 ctypes.byref(n_ev))
-        ts.append(t_buf[:n_out.value].copy())
-        qs.append(q_buf[:n_out.value].copy())
-        kinds.append(k_buf[:n_out.value].copy())
-        evs.append(ev_buf[:n_ev.value].copy())
-        bar.update(lib.crt_time(aligned))
-    bar.close()
-    stats = (ctypes.c_long * 8)()
-    lib.crt_stats(aligned, stats)
-    return (np.concatenate(ts), np.concatenate(qs), np.concatenate(kinds),
-            np.concatenate(evs), dict(zip(STAT_NAMES, list(stats))),
-            STATUSES.get(status, str(status)))
+    return Session(library, scene, model, chunk, options).run(progress)
 
 
 def simulate(scene, progress: bool = True) -> Result:
@@ -145,7 +173,8 @@ def simulate(scene, progress: bool = True) -> Result:
     :class:`Scene`)."""
     scene, model, library, info = prepare(scene)
     start = time.perf_counter()
-    t, Q, kinds, ev, stats, status = run_library(library, scene, model, progress)
+    t, Q, kinds, ev, stats, status = run_library(library, scene, model, progress,
+                                                 options=info["options"])
     info["timings"]["run_s"] = time.perf_counter() - start
     start = time.perf_counter()
     result = _assemble(scene, model, t, Q, kinds, ev, stats, status)

@@ -70,20 +70,65 @@ def number_subs(scene: Scene) -> dict:
     return subs
 
 
+MAX_MULTIPLE = 4
+
+
+def share_harmonics(exprs: list) -> list:
+    """Rewrite sin/cos of k t + c, for frequencies k that are small integer multiples
+    n w0 of one base frequency, as polynomials in sin(w0 t), cos(w0 t) (``expand_trig``):
+    one ``sincos`` per call instead of one per frequency.  Only multiples up to
+    :data:`MAX_MULTIPLE` (coefficients <= 8, a few ulps of error), and only when there are
+    at least two distinct frequencies; otherwise the expressions are returned unchanged."""
+    from fractions import Fraction
+    t = nt.t
+    atoms = set()
+    for e in exprs:
+        atoms |= {a for a in sp.sympify(e).atoms(sp.sin, sp.cos)}
+    freqs = {}
+    for a in atoms:
+        arg = sp.expand(a.args[0])
+        k = arg.coeff(t)
+        if not k.is_number or k == 0 or (arg - k * t).has(t):
+            return exprs
+        freqs[a] = (float(k), arg - k * t)
+    distinct = sorted({abs(k) for k, _ in freqs.values()})
+    if len(distinct) < 2:
+        return exprs
+    base = distinct[0]
+    multiples = []
+    for k in distinct:
+        ratio = Fraction(k / base).limit_denominator(MAX_MULTIPLE)
+        multiples.append(ratio)
+    w0 = base / float(max(r.denominator for r in multiples))
+    table = {}
+    X = sp.Dummy("X")
+    for a, (k, phase) in freqs.items():
+        n = round(k / w0)
+        if n == 0 or abs(n) > MAX_MULTIPLE or abs(k - n * w0) > 1e-14 * abs(k):
+            return exprs
+        expanded = sp.expand_trig(a.func(n * X + phase))
+        base_arg = t if w0 == 1.0 else sp.Float(repr(w0), 17) * t
+        table[a] = expanded.xreplace({X: base_arg})
+    return [sp.sympify(e).xreplace(table) for e in exprs]
+
+
 def law_parts(scene: Scene) -> tuple[dict, list]:
     """The point law: constant entries as substitutions, the others as definitions
     evaluated once per call (so that CSE shares them, as it shares the inputs ``u`` of
     the generic code)."""
     t = nt.t
     subs, definitions = {}, []
+    syms_all, values_all = [], []
     for f, syms in zip(scene.law, ((nt.x, nt.xd, nt.xdd), (nt.y, nt.yd, nt.ydd),
                                    (nt.z, nt.zd, nt.zdd))):
         for sym, value in zip(syms, (f, sp.diff(f, t), sp.diff(f, t, 2))):
-            value = sp.sympify(value)
-            if value.free_symbols:
-                definitions.append((sym, value))
-            else:
-                subs[sym] = sp.Float(value, 17) if not value.is_Integer else value
+            syms_all.append(sym)
+            values_all.append(sp.sympify(value))
+    for sym, value in zip(syms_all, share_harmonics(values_all)):
+        if value.free_symbols:
+            definitions.append((sym, value))
+        else:
+            subs[sym] = sp.Float(value, 17) if not value.is_Integer else value
     return subs, definitions
 
 
