@@ -1,0 +1,184 @@
+"""Exact reference solutions of the paper, for tests and benchmarks.
+
+Each takes a free-flight :class:`~derive.runtime.scene.Scene` (or builds one) and times
+``t`` and returns the state in the ``general`` layout (N, 18):
+
+* :func:`free_parabola` — the centre of mass C in flight (E1.2), for any scene;
+* :func:`axisymmetric` — J_x = J_y, x = y = 0: theta constant and
+  ``psi' = K/(J_x + mu z^2)``, ``phi' = omega_z0 (1 - J_z/(J_x + mu z^2))`` (E3.11–E3.14),
+  the attitude ``A = R_K Rz(psi) Rx(theta0) Rz(phi)``; the integral of
+  ``1/(J_x + mu z^2)`` is in closed form for ``z = a sin(W t + b)`` (and cosines), else by
+  adaptive Gauss–Kronrod quadrature to 1e-14;
+* :func:`planar` — z = 0, omega = (0, 0, omega_z): omega_z from the integral (4.2) in
+  closed form, its angle by quadrature, ``A = A0 Rz(phi)``;
+* :func:`stationary` — the stationary rotations of C4.1–C4.3 with their point laws:
+  omega constant, ``A = A0 Rz(omega (t - t0))``; :func:`stationary_scene` builds them.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import sympy as sp
+from scipy.integrate import quad
+
+from . import notation as nt
+from .runtime.geometry import rotation_x, rotation_z
+from .runtime.scene import DEFAULT_SCENE, Scene, law_functions, parse_scene
+
+
+def free_parabola(scene: Scene, t) -> tuple[np.ndarray, np.ndarray]:
+    """X_C, Y_C, Z_C and their rates in flight (E1.2)."""
+    dt = np.asarray(t, dtype=float) - scene.t0
+    r0, v0 = np.asarray(scene.com), np.asarray(scene.com_velocity)
+    g = np.array([0.0, 0.0, -scene.g])
+    R = r0 + dt[:, None] * v0 + 0.5 * dt[:, None] ** 2 * g
+    V = v0 + dt[:, None] * g
+    return R, V
+
+
+def _cumulative(fun, t0: float, ts: np.ndarray) -> np.ndarray:
+    """int_{t0}^{t} fun for every t in ts (sorted), by adaptive quadrature per interval."""
+    out = np.empty(len(ts))
+    acc, last = 0.0, t0
+    for k, tk in enumerate(ts):
+        if tk > last:
+            piece, _ = quad(fun, last, tk, epsabs=1e-14, epsrel=1e-13, limit=200)
+            acc += piece
+            last = tk
+        out[k] = acc
+    return out
+
+
+def _harmonic(expr: sp.Expr):
+    """(a, W, b) when expr is a sin(W t + b) or a cos(W t + b) (then b + pi/2), else None."""
+    t = nt.t
+    a, W, b = sp.Wild("a", exclude=[t]), sp.Wild("W", exclude=[t]), sp.Wild("b", exclude=[t])
+    for fn, shift in ((sp.sin, 0.0), (sp.cos, math.pi / 2)):
+        m = sp.expand(expr).match(a * fn(W * t + b))
+        if m and m[W] != 0:
+            return float(m[a]), float(m[W]), float(m[b]) + shift
+    return None
+
+
+def inverse_inertia_integral(scene: Scene, ts: np.ndarray, J: float) -> np.ndarray:
+    """``int_{t0}^{t} ds / (J + mu z(s)^2)`` for the scene's z(t).
+
+    For z = a sin(W s + b): with theta = W s + b, A = J, B = mu a^2,
+    ``int dtheta/(A + B sin^2 theta) = G(theta)/sqrt(A (A + B))``, G the continuous
+    angle of (sqrt(A) cos theta, sqrt(A + B) sin theta)."""
+    mu = scene.mu
+    z = scene.law[2]
+    h = _harmonic(z)
+    if h is not None:
+        a, W, b = h
+        A, B = J, mu * a * a
+
+        def G(theta):
+            g = np.arctan2(np.sqrt(A + B) * np.sin(theta), np.sqrt(A) * np.cos(theta))
+            return g + 2 * np.pi * np.round((theta - g) / (2 * np.pi))
+        theta = W * np.asarray(ts) + b
+        theta0 = W * scene.t0 + b
+        return (G(theta) - G(theta0)) / (W * math.sqrt(A * (A + B)))
+    zf = sp.lambdify(nt.t, z, modules="math")
+    return _cumulative(lambda s: 1.0 / (J + mu * zf(s) ** 2), scene.t0, np.asarray(ts))
+
+
+def axisymmetric(scene: Scene, t) -> np.ndarray:
+    """The quadrature solution of section 3 in the general layout."""
+    if abs(scene.J[0] - scene.J[1]) > 1e-12 * max(scene.J) or scene.law[0] != 0 \
+            or scene.law[1] != 0:
+        raise ValueError("axisymmetric reference: needs J_x = J_y and x = y = 0")
+    ts = np.asarray(t, dtype=float)
+    A0, w0 = scene.A0, np.asarray(scene.omega, dtype=float)
+    z0 = float(sp.sympify(scene.law[2]).subs(nt.t, scene.t0))
+    Jx, Jz, mu = scene.J[0], scene.J[2], scene.mu
+    K_body = np.array([(Jx + mu * z0 ** 2) * w0[0], (Jx + mu * z0 ** 2) * w0[1], Jz * w0[2]])
+    K_fixed = A0 @ K_body
+    K = float(np.linalg.norm(K_fixed))
+    e3 = K_fixed / K
+    helper = np.array([1.0, 0.0, 0.0]) if abs(e3[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    e1 = np.cross(helper, e3)
+    e1 /= np.linalg.norm(e1)
+    R_K = np.column_stack([e1, np.cross(e3, e1), e3])
+    B = R_K.T @ A0
+    theta0 = math.acos(max(-1.0, min(1.0, B[2, 2])))         # E3.11: cos = J_z w_z0/K
+    if math.sin(theta0) > 1e-12:
+        phi0, psi0 = math.atan2(B[2, 0], B[2, 1]), math.atan2(B[0, 2], -B[1, 2])
+    else:
+        phi0, psi0 = 0.0, math.atan2(B[1, 0], B[0, 0])
+    integral = inverse_inertia_integral(scene, ts, Jx)
+    psi = psi0 + K * integral
+    phi = phi0 + w0[2] * (ts - scene.t0) - w0[2] * Jz * integral
+    z = np.asarray(law_functions(scene)(ts)[6])
+    psi_dot = K / (Jx + mu * z ** 2)
+    s0 = math.sin(theta0)
+    omega = np.column_stack([psi_dot * s0 * np.sin(phi), psi_dot * s0 * np.cos(phi),
+                             np.full(len(ts), w0[2])])
+    A = R_K[None] @ rotation_z(psi) @ rotation_x(np.full(len(ts), theta0)) @ rotation_z(phi)
+    R, V = free_parabola(scene, ts)
+    return np.column_stack([R, V, omega, A.reshape(len(ts), 9)])
+
+
+def planar(scene: Scene, t) -> np.ndarray:
+    """The plane motion of section 4 (z = 0, omega along z) in the general layout."""
+    if scene.law[2] != 0 or scene.omega[0] != 0 or scene.omega[1] != 0:
+        raise ValueError("planar reference: needs z = 0 and omega(0) along z")
+    ts = np.asarray(t, dtype=float)
+    mu, Jz = scene.mu, scene.J[2]
+    x, y = scene.law[0], scene.law[1]
+    xd, yd = sp.diff(x, nt.t), sp.diff(y, nt.t)
+    # (4.2): [J_z + mu (x^2 + y^2)] omega_z + mu (x y' - y x') = kappa
+    Kz = (Jz + mu * (x ** 2 + y ** 2)) * sp.Symbol("w") + mu * (x * yd - y * xd)
+    kappa = float(Kz.subs({sp.Symbol("w"): scene.omega[2], nt.t: scene.t0}))
+    omega_z = (kappa - mu * (x * yd - y * xd)) / (Jz + mu * (x ** 2 + y ** 2))
+    wz_math = sp.lambdify(nt.t, omega_z, modules="math")
+    wz = np.array([wz_math(float(tk)) for tk in ts])
+    phi = _cumulative(wz_math, scene.t0, ts)
+    A = scene.A0[None] @ rotation_z(phi)
+    R, V = free_parabola(scene, ts)
+    omega = np.column_stack([np.zeros(len(ts)), np.zeros(len(ts)), wz])
+    return np.column_stack([R, V, omega, A.reshape(len(ts), 9)])
+
+
+def stationary_scene(case: str, omega: float = 2.0, duration: float = 3.0,
+                     inertia=(0.10, 0.12, 0.14), **law) -> dict:
+    """A free-flight scene whose point follows the law of C4.1, C4.2 or C4.3 and whose
+    body starts in the stationary rotation omega = (0, 0, omega)."""
+    import tomllib
+    doc = tomllib.loads(DEFAULT_SCENE)
+    doc.pop("plane")
+    w = repr(float(omega))
+    if case == "C4.1":
+        a, W = law.get("a", 0.2), law.get("W", 3.0)
+        laws = ["0", "0", f"{a}*sin({W}*t)"]
+    elif case == "C4.2":
+        x0, y0 = law.get("x0", 0.1), law.get("y0", -0.05)
+        a, b = law.get("a", 0.15), law.get("b", 0.05)
+        laws = [repr(x0), repr(y0), f"{a}*cos({w}*t) + {b}*sin({w}*t)"]
+    elif case == "C4.3":
+        R, a, b = law.get("R", 0.15), law.get("a", 0.1), law.get("b", 0.0)
+        half = repr(float(omega) / 2)
+        laws = [f"{R}*cos({half}*t)", f"-{R}*sin({half}*t)",
+                f"{a}*cos({half}*t) + {b}*sin({half}*t)"]
+    else:
+        raise ValueError(f"unknown stationary case {case!r}")
+    doc["body"]["inertia"] = list(inertia)
+    doc["point"]["law"] = laws
+    doc["initial"].update(omega=[0.0, 0.0, float(omega)], time=0.0)
+    doc["run"].update(duration=duration, outputs=["pose"], model="general")
+    return doc
+
+
+def stationary(scene: Scene, t) -> np.ndarray:
+    """omega = (0, 0, omega) constant; the body turns uniformly about its z axis."""
+    ts = np.asarray(t, dtype=float)
+    w = scene.omega[2]
+    A = scene.A0[None] @ rotation_z(w * (ts - scene.t0))
+    R, V = free_parabola(scene, ts)
+    omega = np.tile(np.asarray(scene.omega, dtype=float), (len(ts), 1))
+    return np.column_stack([R, V, omega, A.reshape(len(ts), 9)])
+
+
+def scene_of(doc) -> Scene:
+    return parse_scene(doc) if isinstance(doc, dict) else doc
