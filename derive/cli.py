@@ -160,6 +160,22 @@ def cmd_bench(args: argparse.Namespace) -> int:
         out = sim.run(doc, progress=_progress, repeats=args.repeats)
         print(sim.report(out))
         return 0
+    if args.what == "precision":
+        from .bench import precision
+        scenes = args.scenes.split(",") if args.scenes else None
+        known = set(precision.reference_scenes())
+        if scenes and not set(scenes) <= known:
+            raise UsageError(f"--scenes: choose from {', '.join(sorted(known))}")
+        summary = precision.run(args.output, quick=args.quick, repeats=args.repeats,
+                                periods=args.periods, scenes=scenes, progress=_progress)
+        print(precision.report(summary))
+        print(f"charts and data in {args.output}")
+        return 0
+    if args.what == "failures":
+        from .bench import failures
+        outcomes = failures.run(progress=_progress)
+        print(failures.report(outcomes))
+        return 0
     raise UsageError(f"unknown benchmark {args.what!r}")
 
 
@@ -214,14 +230,21 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_simulate)
 
     p = sub.add_parser("bench", help="benchmarks: ratios against peers in the same run")
-    p.add_argument("what", choices=["rhs", "sim"], help="rhs: cost per evaluation of the "
-                   "generated functions against CasADi's C, CasADi from Python and NumPy; "
-                   "sim: time to simulate a scene to a max state error of 1e-9 against "
-                   "SciPy and CasADi routes")
+    p.add_argument("what", choices=["rhs", "sim", "precision", "failures"], help=(
+        "rhs: cost per evaluation of the generated functions against CasADi's C, CasADi "
+        "from Python and NumPy; sim: time to simulate a scene to a max state error of "
+        "1e-9 against SciPy and CasADi routes; precision: work-precision charts on "
+        "reference scenes and the invariant drift of long runs; failures: hard scenes "
+        "through every method"))
+    p.add_argument("-o", "--output", default="bench-out", help="precision: output folder")
+    p.add_argument("--quick", action="store_true", help="precision: three tolerances only")
+    p.add_argument("--periods", type=int, default=10_000,
+                   help="precision: length of the long run in periods of the point")
+    p.add_argument("--scenes", help="precision: comma-separated scene names")
     p.add_argument("--cflags", default="-O2", help="rhs: compiler flags for every C build "
                    "(default: -O2)")
     p.add_argument("--scene", help="sim: scene TOML (default: the built-in one)")
-    p.add_argument("--repeats", type=int, default=7, help="timing repetitions (min taken)")
+    p.add_argument("--repeats", type=int, default=5, help="timing repetitions (min taken)")
     p.set_defaults(func=cmd_bench)
 
     return parser

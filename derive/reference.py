@@ -182,3 +182,183 @@ def stationary(scene: Scene, t) -> np.ndarray:
 
 def scene_of(doc) -> Scene:
     return parse_scene(doc) if isinstance(doc, dict) else doc
+
+
+def vertical_bounce(scene: Scene, t) -> tuple[np.ndarray, np.ndarray]:
+    """C2.4: the carrier translates (omega = 0) with P on the vertical line through O,
+    moving uniformly, z = z0 + w t, and S on that line (a sphere centred on it, the axis
+    vertical).  Then d = 0 at every impact, the height of S is a quadratic between
+    impacts and every impact time is the root of a quadratic.  Returns the general layout
+    at ``t`` and the impact times."""
+    t_sym = nt.t
+    zf = sp.expand(scene.law[2])
+    w = float(sp.diff(zf, t_sym))
+    z0 = float(zf.subs(t_sym, 0))
+    if scene.law[0] != 0 or scene.law[1] != 0 or sp.diff(zf, t_sym, 2) != 0 \
+            or any(scene.omega) or not np.allclose(scene.A0[2], [0, 0, 1]) \
+            or scene.shape != "sphere" or scene.center[0] or scene.center[1]:
+        raise ValueError("vertical bounce: needs x = y = 0, z linear in t, omega = 0, the "
+                         "body z axis vertical and a sphere centred on it")
+    g, e, nu = scene.g, scene.e, scene.m / (scene.m + scene.M)
+    offset = scene.center[2] - scene.size[0]            # OS_z for n = e_z
+
+    def height(Z, tau):
+        return Z + offset - nu * (z0 + w * tau)
+    ts = np.asarray(t, dtype=float)
+    t_end = scene.t0 + scene.duration
+    tk, Zk, Vk = scene.t0, scene.com[2], scene.com_velocity[2]
+    segments, impacts = [(tk, Zk, Vk)], []
+    while True:
+        # height(Z(tau), tau) = -g/2 s^2 + (Vk - nu w) s + height(Zk, tk) = 0, s = tau - tk
+        a, b, c = -0.5 * g, Vk - nu * w, height(Zk, tk)
+        disc = b * b - 4 * a * c
+        if disc < 0:
+            break
+        s = (-b - math.sqrt(disc)) / (2 * a)
+        if s <= 1e-15 or tk + s > t_end:
+            break
+        tk = tk + s
+        Zk = Zk + Vk * s - 0.5 * g * s * s
+        v_minus = (Vk - g * s) - nu * w
+        Vk = nu * w - e * v_minus                      # v_n+ = -e v_n-, d = 0
+        impacts.append(tk)
+        segments.append((tk, Zk, Vk))
+        if len(impacts) > 10000:
+            break
+    starts = np.array([sg[0] for sg in segments])
+    idx = np.searchsorted(starts, ts, side="right") - 1
+    out = np.empty((len(ts), 18))
+    R, V = free_parabola(scene, ts)
+    out[:, 0:2], out[:, 3:5] = R[:, 0:2], V[:, 0:2]
+    for k, (tau, i) in enumerate(zip(ts, idx)):
+        t_i, Z_i, V_i = segments[i]
+        s = tau - t_i
+        out[k, 2] = Z_i + V_i * s - 0.5 * g * s * s
+        out[k, 5] = V_i - g * s
+    out[:, 6:9] = 0.0
+    out[:, 9:18] = scene.A0.reshape(-1)
+    return out, np.array(impacts)
+
+
+def _first_landing(h, hd, t0: float, t_end: float, step: float):
+    """The first time after ``t0`` at which the height ``h`` (rate ``hd``) comes down to
+    zero, S leaving the plane at ``t0`` if it is there; None if it does not before
+    ``t_end``.  Each scan interval is split at the zeros of the rate, so that a flight
+    or a dip shorter than the interval is not missed."""
+    from scipy.optimize import brentq
+    if h(t0) <= 0 and hd(t0) < 0:
+        return t0
+    s0 = t0
+    while s0 < t_end:
+        s1 = min(s0 + step, t_end)
+        points = [s0]
+        d0, d1 = hd(s0), hd(s1)
+        if (d0 > 0 > d1) or (d0 < 0 < d1):
+            points.append(brentq(hd, s0, s1, xtol=1e-15, rtol=1e-15))
+        elif d0 == 0.0 and d1 != 0.0 and s0 > t0:
+            points.append(s0)
+        points.append(s1)
+        for a, b in zip(points, points[1:]):
+            ha, hb = h(a), h(b)
+            leaving = a == t0 and hd(a) >= 0
+            if (ha > 0 or leaving) and hb <= 0 and b > a:
+                if ha <= 0:
+                    return None if hb == ha else b
+                return brentq(h, a, b, xtol=1e-15, rtol=1e-15)
+        s0 = s1
+    return None
+
+
+def translational_bounce(scene: Scene, t, max_events: int = 100000):
+    """A translating carrier (omega = 0, the body z axis vertical, a sphere centred on it,
+    P on the vertical through O with any law z(t)): C2.4 holds, d = 0 at every impact.
+
+    Flights are exact parabolas of Z_C; the height of S is ``Z_C + offset - nu z(t)`` with
+    the analytic law, its first downward zero located by scanning (steps of 1/200 of the
+    law's time scale, with the sign of its rate to catch dips between samples) and Brent's
+    method to 1e-15.  At impact ``v_n+ = -e v_n-`` with ``v_n = Z_C' - nu z'``.  When the
+    rebound is too small to resolve (below 1e-9 m/s) S rests: ``Z_C = -offset + nu z(t)``
+    while the reaction ``(m + M)(g + nu z'')`` stays positive; lift-off where it turns
+    negative.  Returns the general layout at ``t``, the impact times and the rest
+    intervals."""
+    from scipy.optimize import brentq
+    tt = nt.t
+    zf = scene.law[2]
+    if scene.law[0] != 0 or scene.law[1] != 0 or any(scene.omega) \
+            or not np.allclose(scene.A0[2], [0, 0, 1]) or scene.shape != "sphere" \
+            or scene.center[0] or scene.center[1]:
+        raise ValueError("translational bounce: needs x = y = 0, omega = 0, the body z "
+                         "axis vertical and a sphere centred on it")
+    z = sp.lambdify(tt, zf, modules="math")
+    zd = sp.lambdify(tt, sp.diff(zf, tt), modules="math")
+    zdd = sp.lambdify(tt, sp.diff(zf, tt, 2), modules="math")
+    g, e, nu = scene.g, scene.e, scene.m / (scene.m + scene.M)
+    offset = scene.center[2] - scene.size[0]
+    t_end = scene.t0 + scene.duration
+    ts_law = np.linspace(scene.t0, t_end, 4001)
+    amp = max(np.ptp([z(v) for v in ts_law]), 1e-12)
+    acc = max(max(abs(zdd(v)) for v in ts_law), 1e-12)
+    dt_scan = min(math.sqrt(amp / acc) / 200.0, scene.duration / 2000.0)
+
+    def flight_h(tk, Zk, Vk):  # noqa: D401
+        return lambda s: Zk + Vk * (s - tk) - 0.5 * g * (s - tk) ** 2 + offset - nu * z(s)
+
+    def flight_hd(tk, Vk):
+        return lambda s: Vk - g * (s - tk) - nu * zd(s)
+
+    segments = []          # (kind, t_start, Z, V): kind "flight" or "rest"
+    impacts = []
+    tk, Zk, Vk = scene.t0, scene.com[2], scene.com_velocity[2]
+    kind = "flight"
+    while tk < t_end and len(impacts) < max_events:
+        segments.append((kind, tk, Zk, Vk))
+        if kind == "rest":
+            # lift-off where g + nu z'' < 0
+            reaction = lambda s: g + nu * zdd(s)      # noqa: E731
+            s0 = tk
+            found = None
+            while s0 < t_end:
+                s1 = min(s0 + dt_scan, t_end)
+                if reaction(s0) >= 0 > reaction(s1):
+                    found = brentq(reaction, s0, s1, xtol=1e-15, rtol=1e-15)
+                    break
+                s0 = s1
+            if found is None:
+                break
+            tk, Zk, Vk, kind = found, -offset + nu * z(found), nu * zd(found), "flight"
+            continue
+        h, hd = flight_h(tk, Zk, Vk), flight_hd(tk, Vk)
+        hit = _first_landing(h, hd, tk, t_end, dt_scan)
+        if hit is None:
+            break
+        V_hit = Vk - g * (hit - tk)
+        Z_hit = Zk + Vk * (hit - tk) - 0.5 * g * (hit - tk) ** 2
+        v_minus = V_hit - nu * zd(hit)
+        if v_minus >= 0:                                   # a graze
+            tk, Zk, Vk = hit + 1e-12, Z_hit, V_hit
+            continue
+        impacts.append(hit)
+        v_plus = -e * v_minus
+        tk, Zk, Vk = hit, Z_hit, nu * zd(hit) + v_plus
+        # impacts accumulate: the next flight would last under 1e-9 of the run
+        pull = g + nu * zdd(hit)
+        if pull > 0 and 2 * v_plus / pull < 1e-9 * scene.duration:
+            kind = "rest"
+            Zk, Vk = -offset + nu * z(hit), nu * zd(hit)
+    ts = np.asarray(t, dtype=float)
+    out = np.empty((len(ts), 18))
+    R, V = free_parabola(scene, ts)
+    out[:, 0:2], out[:, 3:5] = R[:, 0:2], V[:, 0:2]
+    starts = np.array([sg[1] for sg in segments])
+    idx = np.clip(np.searchsorted(starts, ts, side="right") - 1, 0, len(segments) - 1)
+    for k, (tau, i) in enumerate(zip(ts, idx)):
+        kind, t_i, Z_i, V_i = segments[i]
+        if kind == "rest":
+            out[k, 2], out[k, 5] = -offset + nu * z(tau), nu * zd(tau)
+        else:
+            s = tau - t_i
+            out[k, 2], out[k, 5] = Z_i + V_i * s - 0.5 * g * s * s, V_i - g * s
+    out[:, 6:9] = 0.0
+    out[:, 9:18] = scene.A0.reshape(-1)
+    rests = [sg[1] for sg in segments if sg[0] == "rest"]
+    return out, np.array(impacts), rests

@@ -247,3 +247,11 @@ def test_compiled_library_is_cached():
 def test_every_method_runs_the_default_scene(method):
     res = simulate(scene_dict(run={"method": method}), progress=False)
     assert res.status == "done" and len(res.impacts) == 8
+
+
+def test_laws_with_pi_and_every_function_compile_and_run():
+    law = ["0.1*sin(2*pi*t) + 0.01*tanh(t)", "0.05*cos(pi*t)*exp(-t)",
+           "0.02*sqrt(1 + t^2) + 0.01*log(2 + t) + 0.001*atan(t)"]
+    res = simulate(scene_dict(point={"mass": 0.2, "law": law}, run={"duration": 1.0}),
+                   progress=False)
+    assert res.status == "done"

@@ -6,6 +6,8 @@ they round-trip exactly, and symbols printed through a name table (``q[3]``, ``_
 """
 from __future__ import annotations
 
+import math
+
 import sympy as sp
 from sympy.printing.c import C99CodePrinter
 from sympy.printing.precedence import PRECEDENCE, precedence
@@ -24,6 +26,12 @@ class CPrinter(C99CodePrinter):
 
     def _print_Float(self, expr):
         return repr(float(expr))
+
+    def _print_Pi(self, expr):          # M_PI is POSIX, not C99
+        return repr(math.pi)
+
+    def _print_Exp1(self, expr):
+        return repr(math.e)
 
     def _print_Rational(self, expr):
         return f"({expr.p}.0/{expr.q}.0)"

@@ -76,12 +76,27 @@ def gap_margin(scene: Scene) -> float:
     return float(2.0 * nu * np.max(np.linalg.norm(r, axis=0)) * 1.01)
 
 
+def law_time_scale(scene: Scene) -> float:
+    """sqrt(amplitude / max |OP''|): 1/W for a harmonic law of frequency W."""
+    ts = np.linspace(scene.t0, scene.t0 + scene.duration, 20001)
+    v = law_functions(scene)(ts)
+    r, a = v[[0, 3, 6]], v[[2, 5, 8]]
+    amp = np.max(np.linalg.norm(r - r.mean(axis=1, keepdims=True), axis=0))
+    acc = np.max(np.linalg.norm(a, axis=0))
+    return float(np.sqrt(amp / acc)) if acc > 0 and amp > 0 else np.inf
+
+
 def _options(scene: Scene) -> np.ndarray:
     opt = np.zeros(14)
     opt[0] = METHODS[scene.method]
     opt[1], opt[2] = scene.rtol, scene.atol
     opt[3] = 0.0                                      # initial step: automatic
-    opt[4] = scene.duration / 4.0 if scene.method != "rk4" else scene.step
+    h_max = scene.duration / 4.0
+    if scene.contact_possible:
+        # the gap depends on the law directly, which the step control does not see:
+        # at least about six steps per period of the point's motion
+        h_max = min(h_max, law_time_scale(scene))
+    opt[4] = h_max if scene.method != "rk4" else scene.step
     opt[5] = scene.step
     opt[6] = scene.max_steps
     opt[7] = scene.max_events

@@ -1,0 +1,202 @@
+"""``derive bench failures``: hard scenes through every method, and what came out.
+
+Scenes (each against a reference computed another way):
+
+* impacts accumulating to resting contact (e = 0.5, e = 0.1) and a plastic ball lifted
+  off by its point (e = 0): :func:`derive.reference.translational_bounce`, flights in
+  closed form, only 1-D root finding numerical;
+* a grazing impact (a floating carrier, g = 0, whose point's oscillation brings S to the
+  plane with v_n close to 0) and chatter on a fast-vibrating point (impacts 1e-9 s apart,
+  several inside one step, then rest and lift-off): the same reference;
+* a nearly singular J (a thin rod, J_x << J_y = J_z, with a heavy point close to its
+  axis) and a fast spin (omega large against the point's frequency): the runtime at
+  1e-13 checked against SciPy's DOP853 at 1e-13.
+
+Outcomes: ``correct`` (max state error on the grid <= 1e-6 and no event missed),
+``wrong`` (with the error), ``missed events``, ``fell through the plane`` (S below the
+plane by more than 1e-6 on the grid), or a named status: ``step_underflow``,
+``max_steps``, ``max_events``, ``nonfinite`` from the runtime, ``stopped at a limit``
+(evaluation, impact or time budget) or ``failed`` from a peer.
+"""
+from __future__ import annotations
+
+import copy
+import math
+import time
+import tomllib
+from dataclasses import dataclass
+
+import numpy as np
+
+from .. import reference
+from ..runtime.scene import DEFAULT_SCENE, parse_scene
+from .routes import Casadi, Run, Runtime, Scipy, StopRun, errors
+
+CORRECT = 1e-6
+TIME_LIMIT = 20.0
+
+
+def _ball(e, law, z0=1.5, g=9.81, duration=3.0, vz=0.0) -> dict:
+    doc = tomllib.loads(DEFAULT_SCENE)
+    doc["point"]["law"] = list(law)
+    doc["initial"].update(omega=[0.0, 0.0, 0.0], com=[0.0, 0.0, z0],
+                          com_velocity=[0.3, 0.0, vz])
+    doc["plane"]["restitution"] = e
+    doc["run"].update(duration=duration, g=g)
+    return doc
+
+
+def _free(**updates) -> dict:
+    doc = tomllib.loads(DEFAULT_SCENE)
+    doc.pop("plane")
+    for section, values in updates.items():
+        doc[section].update(values)
+    return doc
+
+
+NU = 0.2 / 1.2          # m/(m+M) of the default bodies
+
+
+def scenes() -> dict:
+    """name -> (scene dict, kind of reference)."""
+    return {
+        "impacts accumulate, e = 0.5": (_ball(0.5, ["0", "0", "0"]), "translational"),
+        "impacts accumulate, e = 0.1": (_ball(0.1, ["0", "0", "0"]), "translational"),
+        "lift-off by the point, e = 0": (_ball(0.0, ["0", "0", "0.3*sin(20*t)"], z0=0.51,
+                                               duration=1.0), "translational"),
+        "grazing impact": (_ball(0.9, ["0", "0", "0.2*sin(5*t)"], z0=0.5 + 0.2 * NU - 1e-7,
+                                 g=0.0, duration=1.0), "translational"),
+        "impacts inside one step (chatter)": (_ball(0.3, ["0", "0", "0.2*sin(40*t)"],
+                                                    z0=0.5 + 0.2 * NU + 0.01, duration=1.0),
+                                              "translational"),
+        "thin rod, heavy point near its axis": (_free(
+            body={"mass": 1.0, "inertia": [1e-5, 0.1, 0.1]},
+            point={"mass": 1.0, "law": ["0.3*sin(2*t)", "0.002", "0.002*cos(t)"]},
+            initial={"omega": [2.0, 0.5, 0.3]}, run={"duration": 2.0}), "numerical"),
+        "fast spin": (_free(initial={"omega": [0.5, 0.1, 300.0]},
+                            run={"duration": 1.0}), "numerical"),
+    }
+
+
+def methods():
+    """(label, factory(doc)) at each method's default setting, tolerance 1e-10."""
+    return [
+        ("runtime default (DOPRI5)", lambda d: Runtime(d, "dopri5", 1e-10)),
+        ("runtime DOP853", lambda d: Runtime(d, "dop853", 1e-10)),
+        ("runtime DOP853+orth", lambda d: Runtime(d, "dop853+orth", 1e-10)),
+        ("runtime RK4 (T/2000)",
+         lambda d: Runtime(d, "rk4", d["run"].get("duration", 5.0) / 2000)),
+        ("scipy DOP853", lambda d: Scipy(d, "DOP853", 1e-10, max_impacts=2000)),
+        ("scipy RK45", lambda d: Scipy(d, "RK45", 1e-10, max_impacts=2000)),
+        ("scipy Radau", lambda d: Scipy(d, "Radau", 1e-8, max_impacts=2000)),
+        ("casadi cvodes", lambda d: Casadi(d, 1e-10, budget=50_000)),
+    ]
+
+
+def reference_run(doc: dict, kind: str) -> Run:
+    probe = Runtime(doc, "dopri5", 1e-8)           # for the grid
+    grid = probe.grid
+    if kind == "translational":
+        states, impacts, _ = reference.translational_bounce(parse_scene(doc), grid)
+        return Run(states, impacts, 0, "done")
+    ref = Runtime(doc, "dop853", 1e-13).result()
+    check = Scipy(doc, "DOP853", 1e-13).result()
+    err, _ = errors(check, ref)
+    ref.extra["scipy_check"] = err
+    return ref
+
+
+@dataclass
+class Outcome:
+    scene: str
+    method: str
+    outcome: str
+    error: float
+    impacts: int
+    reference_impacts: int
+    seconds: float
+
+
+def classify(run: Run, ref: Run, scene_has_plane: bool) -> tuple[str, float]:
+    """Accumulating impacts resolved as persistent contact give fewer impacts than the
+    reference with the same states: an impact count alone does not make a miss; a miss
+    is fewer impacts and a state that went wrong."""
+    status = run.status
+    if status.startswith("stopped"):
+        return "stopped at a limit", math.nan
+    if status.startswith("failed"):
+        return status, math.nan
+    if status != "done":
+        return status, math.nan
+    if scene_has_plane and run.min_height < -CORRECT:
+        return "fell through the plane", math.nan
+    err, _ = errors(run, ref)
+    if not np.isfinite(err):
+        return "wrong (incomplete)", math.nan
+    if err <= CORRECT:
+        return "correct", err
+    if len(run.impacts) < len(ref.impacts):
+        return "missed events", err
+    return "wrong", err
+
+
+class _Timeout:
+    """Stops a peer after TIME_LIMIT seconds of its own evaluations."""
+
+    def __init__(self, route):
+        self.route, self.start = route, None
+        inner = getattr(route, "f", None)
+        if inner is not None:
+            def f(t, q):
+                if time.perf_counter() - self.start > TIME_LIMIT:
+                    raise StopRun("time limit")
+                return inner(t, q)
+            route.f = f
+
+    def result(self):
+        self.start = time.perf_counter()
+        return self.route.result()
+
+
+def run(progress=lambda m: None, only: list[str] | None = None,
+        method_filter: list[str] | None = None) -> list[Outcome]:
+    out = []
+    for name, (doc, kind) in scenes().items():
+        if only and name not in only:
+            continue
+        progress(f"{name}: reference")
+        ref = reference_run(doc, kind)
+        plane = "plane" in doc
+        for label, make in methods():
+            if method_filter and label not in method_filter:
+                continue
+            progress(f"{name}: {label}")
+            start = time.perf_counter()
+            try:
+                result = _Timeout(make(copy.deepcopy(doc))).result()
+            except Exception as exc:                # a peer's own failure is an outcome
+                result = Run(np.empty((0, 18)), np.array([]), 0,
+                             f"failed: {str(exc).splitlines()[0][:60]}")
+            seconds = time.perf_counter() - start
+            outcome, err = classify(result, ref, plane)
+            out.append(Outcome(name, label, outcome, err, len(result.impacts),
+                               len(ref.impacts), seconds))
+    return out
+
+
+def report(outcomes: list[Outcome]) -> str:
+    scenes_ = list(dict.fromkeys(o.scene for o in outcomes))
+    methods_ = list(dict.fromkeys(o.method for o in outcomes))
+    width = max(len(m) for m in methods_) + 2
+    lines = []
+    for sc in scenes_:
+        lines.append(sc)
+        for m in methods_:
+            o = next((x for x in outcomes if x.scene == sc and x.method == m), None)
+            if o is None:
+                continue
+            err = f"err {o.error:.1e}" if np.isfinite(o.error) else ""
+            imp = (f"impacts {o.impacts}/{o.reference_impacts}"
+                   if o.reference_impacts or o.impacts else "")
+            lines.append(f"  {m:<{width}}{o.outcome:<28}{err:<14}{imp:<18}{o.seconds:8.2f} s")
+    return "\n".join(lines)

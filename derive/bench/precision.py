@@ -1,0 +1,374 @@
+"""``derive bench precision [-o DIR]``: work-precision diagrams against peer tools, and
+the drift of the invariants over long runs.
+
+Reference scenes with exact answers (:mod:`derive.reference`): the axisymmetric carrier
+with the point on its axis (E3.14), a plane motion (E4.2), stationary rotations with a
+moving point (C4.2, C4.3), a vertical bounce with closed-form impact times (C2.4); and
+the built-in bouncing ball, which has none: its reference is the runtime at tolerance
+1e-14, checked against an arbitrary-precision (mpmath, 30 digits) integration of its first
+flight.  Every method integrates the ``general`` model.  Error: the max over the output
+grid of the state error (general layout), and for bouncing scenes the max error of the
+impact times.  Time: the minimum of several repetitions after a warm-up.
+
+Outputs: per scene a PNG with error against wall time and against RHS evaluations (one
+curve per method), ``precision.csv`` and ``precision.json`` with every point, the speed
+ratios at matched error printed; ``long_run.png`` and ``long_run.csv`` with the relative
+drift of |K|, of the inertial K and of the orthonormality of A over 10^4 periods.
+"""
+from __future__ import annotations
+
+import copy
+import json
+import math
+import platform
+import time
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .. import reference
+from ..runtime.scene import DEFAULT_SCENE, parse_scene
+from .routes import Casadi, Run, Runtime, Scipy, errors
+
+LEVELS = [1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11, 1e-12]
+
+
+def _base() -> dict:
+    import tomllib
+    return tomllib.loads(DEFAULT_SCENE)
+
+
+def _free(**updates) -> dict:
+    doc = _base()
+    doc.pop("plane")
+    for section, values in updates.items():
+        doc[section].update(values)
+    doc["run"]["duration"] = doc["run"].get("duration", 3.0)
+    return doc
+
+
+def reference_scenes() -> dict:
+    """name -> (scene dict, exact(scene, t) -> (states, impacts) or None)."""
+    def wrap(fn):
+        return lambda scene, t: (fn(scene, t), np.array([]))
+    axi = _free(body={"inertia": [0.1, 0.1, 0.15]},
+                point={"mass": 0.4, "law": ["0", "0", "0.3*sin(4*t)"]}, run={"duration": 3.0})
+    planar = _free(point={"mass": 0.3, "law": ["0.2*cos(3*t)", "0.1*sin(2*t)", "0"]},
+                   initial={"omega": [0.0, 0.0, 1.5]}, run={"duration": 3.0})
+    bounce = _base()
+    bounce["point"]["law"] = ["0", "0", "0.05*t"]
+    bounce["initial"]["omega"] = [0.0, 0.0, 0.0]
+    bounce["run"]["duration"] = 3.0
+    default = _base()
+    return {
+        "axisymmetric E3.14": (axi, wrap(reference.axisymmetric)),
+        "planar E4.2": (planar, wrap(reference.planar)),
+        "stationary C4.2": (reference.stationary_scene("C4.2", duration=3.0),
+                            wrap(reference.stationary)),
+        "stationary C4.3": (reference.stationary_scene("C4.3", duration=3.0),
+                            wrap(reference.stationary)),
+        "vertical bounce C2.4": (bounce, reference.vertical_bounce),
+        "bouncing ball (default)": (default, None),
+    }
+
+
+# methods: (label, factory(doc, setting), settings)
+def methods(quick: bool = False):
+    tols = [1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11, 1e-12, 1e-13]
+    if quick:
+        tols = [1e-6, 1e-9, 1e-12]
+    steps = [0.02, 0.01, 0.005, 0.002, 0.001, 5e-4, 2e-4] if not quick else [0.01, 0.001]
+    return [
+        ("runtime RK4", lambda d, s: Runtime(d, "rk4", s), steps),
+        ("runtime DOPRI5", lambda d, s: Runtime(d, "dopri5", s), tols),
+        ("runtime DOP853", lambda d, s: Runtime(d, "dop853", s), tols),
+        ("runtime DOP853+orth", lambda d, s: Runtime(d, "dop853+orth", s), tols),
+        ("scipy DOP853", lambda d, s: Scipy(d, "DOP853", s), tols),
+        ("scipy RK45", lambda d, s: Scipy(d, "RK45", s), [t for t in tols if t >= 1e-10]),
+        ("scipy Radau", lambda d, s: Scipy(d, "Radau", s), [t for t in tols if t >= 1e-9]),
+        ("scipy DOP853 (C RHS)", lambda d, s: Scipy(d, "DOP853", s, rhs="c"), tols),
+        ("casadi cvodes", lambda d, s: Casadi(d, s), tols),
+    ]
+
+
+@dataclass
+class Point:
+    scene: str
+    method: str
+    setting: float
+    seconds: float
+    error: float
+    impact_error: float
+    evaluations: int
+    status: str
+
+
+def mpmath_check(doc: dict, t_end: float = 0.3, dps: int = 30) -> float:
+    """Max difference, at t_end (before the first impact), between the runtime at 1e-14
+    and mpmath's Taylor-series integrator (``odefun``) of the same derived equations at
+    ``dps`` digits."""
+    import mpmath as mp
+    import sympy as sp
+    from .. import notation as nt
+    from ..models import flight_rhs
+    scene = parse_scene(doc)
+    spec = flight_rhs("general")
+    solve = spec.solves[0]
+    args = [list(v.entries) for v in spec.inputs]
+    mat = sp.lambdify(args, spec.inlined(solve.matrix), modules="mpmath")
+    rhs = sp.lambdify(args, [spec.inlined(v) for v in solve.rhs[0]], modules="mpmath")
+    outs = sp.lambdify(args + [list(solve.unknowns[0])],
+                       [spec.inlined(v) for v in spec.outputs[0].entries], modules="mpmath")
+    laws = [[sp.lambdify(nt.t, sp.diff(e, nt.t, k), modules="mpmath") for k in range(3)]
+            for e in scene.law]
+    old = mp.mp.dps
+    mp.mp.dps = dps
+    try:
+        p = [mp.mpf(repr(v)) for v in scene.p]
+
+        def F(t, y):
+            u = [laws[i][k](t) for k in range(3) for i in range(3)]
+            w = mp.lu_solve(mp.matrix(mat(list(y), u, p)), mp.matrix(rhs(list(y), u, p)))
+            return outs(list(y), u, p, [w[0], w[1], w[2]])
+        y0 = [mp.mpf(repr(float(v))) for v in np.r_[scene.com, scene.com_velocity,
+                                                      scene.omega, scene.A0.reshape(-1)]]
+        exact = np.array([float(v) for v in mp.odefun(F, scene.t0, y0)(mp.mpf(repr(t_end)))])
+    finally:
+        mp.mp.dps = old
+    d = copy.deepcopy(doc)
+    d["run"].update(duration=t_end, model="general")
+    ref = Runtime(d, "dop853", 1e-14, dt=t_end).result()
+    return float(np.max(np.abs(ref.states[-1] - exact)))
+
+
+def _reference(name: str, doc: dict, exact, progress) -> Run:
+    if exact is not None:
+        scene = parse_scene(doc)
+        grid = Runtime(doc, "dop853", 1e-6).grid
+        states, impacts = exact(scene, grid)
+        return Run(states, np.asarray(impacts), 0, "done")
+    progress(f"{name}: reference run at 1e-14")
+    return Runtime(doc, "dop853", 1e-14).result()
+
+
+def sweep(name, doc, ref, quick, repeats, progress, time_limit=20.0) -> list[Point]:
+    points = []
+    for label, make, settings in methods(quick):
+        for setting in settings:
+            progress(f"{name}: {label} at {setting:g}")
+            try:
+                route = make(doc, setting)
+                start = time.perf_counter()
+                result = route.result()
+                once = time.perf_counter() - start
+            except Exception as exc:          # a peer that fails is a data point
+                points.append(Point(name, label, setting, math.nan, math.inf, math.inf, 0,
+                                    f"failed: {exc}".splitlines()[0][:80]))
+                break
+            err, ierr = errors(result, ref)
+            reps = repeats if once < 0.05 else (2 if once < 1.0 else 0)
+            seconds = route.timed(reps) if reps and result.status == "done" else once
+            points.append(Point(name, label, setting, seconds, err, ierr, result.evaluations,
+                                result.status))
+            if once > time_limit or result.status != "done":
+                break                          # tighter settings only cost more
+    return points
+
+
+def time_at(points: list[Point], method: str, level: float, bouncing: bool) -> float:
+    """The least time among the method's runs whose error is within ``level``."""
+    ok = [p.seconds for p in points if p.method == method and p.status == "done"
+          and p.error <= level and (not bouncing or p.impact_error <= level)
+          and np.isfinite(p.seconds)]
+    return min(ok) if ok else math.nan
+
+
+def matched_ratios(points: list[Point], bouncing: bool) -> list[dict]:
+    names = sorted({p.method for p in points})
+    ours = [n for n in names if n.startswith("runtime")]
+    rows = []
+    for level in LEVELS:
+        best_ours = min((time_at(points, n, level, bouncing) for n in ours),
+                        key=lambda v: (math.isnan(v), v), default=math.nan)
+        row = {"level": level, "runtime_best_s": best_ours}
+        for peer in [n for n in names if not n.startswith("runtime")]:
+            tp = time_at(points, peer, level, bouncing)
+            row[peer] = tp / best_ours if np.isfinite(tp) and np.isfinite(best_ours) else None
+        rows.append(row)
+    return rows
+
+
+def machine() -> str:
+    try:
+        for line in open("/proc/cpuinfo", encoding="utf-8"):
+            if line.startswith("model name"):
+                return f"{line.split(':', 1)[1].strip()}, {platform.system()}"
+    except OSError:
+        pass
+    return f"{platform.machine()} {platform.system()}"
+
+
+def chart(name: str, points: list[Point], bouncing: bool, path: Path) -> None:
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    fig, axes = plt.subplots(1, 2, figsize=(13, 5))
+    styles = {}
+    for k, method in enumerate(sorted({p.method for p in points})):
+        styles[method] = dict(marker="os^vD<>ph*"[k % 10],
+                              linestyle="-" if method.startswith("runtime") else "--")
+        pts = sorted((p for p in points if p.method == method and p.status == "done"
+                      and np.isfinite(p.error) and p.error > 0 and np.isfinite(p.seconds)),
+                     key=lambda p: p.setting, reverse=True)
+        if not pts:
+            continue
+        err = [max(p.error, p.impact_error if bouncing else 0.0) for p in pts]
+        axes[0].loglog(err, [p.seconds for p in pts], label=method, **styles[method])
+        axes[1].loglog(err, [max(p.evaluations, 1) for p in pts], label=method, **styles[method])
+    what = "max error (state on the grid" + (", impact times)" if bouncing else ")")
+    axes[0].set_xlabel(f"{what} [m, m/s, rad/s; s]")
+    axes[0].set_ylabel("wall time per run [s]")
+    axes[1].set_xlabel(f"{what} [m, m/s, rad/s; s]")
+    axes[1].set_ylabel("right-hand-side evaluations (CasADi: integrator calls)")
+    for ax in axes:
+        ax.grid(True, which="both", alpha=0.3)
+    handles, labels = axes[0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="lower center", ncol=5, fontsize=8, frameon=False)
+    fig.suptitle(f"work-precision: {name} — {machine()}")
+    fig.tight_layout(rect=(0, 0.08, 1, 1))
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+# ---- long runs ----------------------------------------------------------------------------
+def long_run_scene(periods: int = 10_000) -> dict:
+    doc = _base()
+    doc.pop("plane")
+    doc["point"]["law"] = ["0.2*sin(2*pi*t)", "0.1", "0.05*cos(2*pi*t)"]
+    doc["run"].update(duration=float(periods), model="general", outputs=["pose"])
+    return doc
+
+
+def long_run(periods: int = 10_000, progress=lambda m: None) -> dict:
+    """Drift of |K| (E1.9), of the inertial K and of A's orthonormality over ``periods``
+    periods of the point's law (period 1 s)."""
+    doc = long_run_scene(periods)
+    dt = max(periods / 1000.0, 1.0)
+    out = {}
+    for label, method, setting in (("runtime RK4", "rk4", 0.01),
+                                   ("runtime DOPRI5", "dopri5", 1e-9),
+                                   ("runtime DOP853", "dop853", 1e-9),
+                                   ("runtime DOP853+orth", "dop853+orth", 1e-9)):
+        progress(f"long run: {label}")
+        route = Runtime(doc, method, setting, dt=dt)
+        start = time.perf_counter()
+        t, Q, kinds, _, stats, status = route.run_raw()
+        seconds = time.perf_counter() - start
+        rows = kinds == 0
+        t, G = t[rows], route.model.to_general(t[rows], Q[rows])
+        from ..runtime.driver import _momentum
+        mom = _momentum(route.scene, t, G[:, 6:9], G)
+        K, Kf = mom["K_norm"], mom["K_fixed"]
+        A = G[:, 9:18].reshape(-1, 3, 3)
+        orth = np.abs(np.einsum("nij,nkj->nik", A, A) - np.eye(3)).max(axis=(1, 2))
+        out[label] = {"t": t, "K": np.abs(K - K[0]) / K[0],
+                      "K_fixed": np.linalg.norm(Kf - Kf[0], axis=1) / K[0],
+                      "orthonormality": orth, "seconds": seconds, "status": status,
+                      "steps": stats["steps"]}
+    return out
+
+
+def long_chart(data: dict, periods: int, path: Path) -> None:
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    fig, axes = plt.subplots(1, 3, figsize=(15, 4.5), sharex=True)
+    for label, d in data.items():
+        for ax, key in zip(axes, ("K", "K_fixed", "orthonormality")):
+            ax.loglog(d["t"][1:], np.maximum(d[key][1:], 1e-17),
+                      label=f"{label} ({d['seconds']:.2f} s)")
+    axes[0].set_ylabel("| |K| - |K|(0) | / |K|(0)   (E1.9)")
+    axes[1].set_ylabel("| K_fixed - K_fixed(0) | / |K|(0)")
+    axes[2].set_ylabel("max | A A^T - 1 |")
+    for ax in axes:
+        ax.set_xlabel("t [s] (the point's period is 1 s)")
+        ax.grid(True, which="both", alpha=0.3)
+    axes[0].legend(fontsize=8)
+    fig.suptitle(f"invariant drift over {periods} periods, free flight, general model — "
+                 f"{machine()}")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def run(out_dir, quick: bool = False, repeats: int = 5, periods: int = 10_000,
+        scenes: list[str] | None = None, progress=lambda m: None) -> dict:
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    all_points: list[Point] = []
+    summary = {"machine": machine(), "scenes": {}}
+    for name, (doc, exact) in reference_scenes().items():
+        if scenes and name not in scenes:
+            continue
+        bouncing = "plane" in doc
+        ref = _reference(name, doc, exact, progress)
+        info = {}
+        if exact is None:
+            progress(f"{name}: mpmath check of the reference (first flight)")
+            info["mpmath_check_first_flight"] = mpmath_check(doc)
+        points = sweep(name, doc, ref, quick, repeats, progress)
+        all_points += points
+        slug = name.split()[0].lower().replace("(", "").replace(")", "")
+        chart(name, points, bouncing, out / f"precision_{slug}.png")
+        info["matched"] = matched_ratios(points, bouncing)
+        summary["scenes"][name] = info
+    with open(out / "precision.csv", "w", encoding="utf-8") as fh:
+        fh.write("scene,method,setting,seconds,error,impact_error,evaluations,status\n")
+        for p in all_points:
+            fh.write(f"{p.scene},{p.method},{p.setting!r},{p.seconds!r},{p.error!r},"
+                     f"{p.impact_error!r},{p.evaluations},{p.status}\n")
+    if periods:
+        data = long_run(periods, progress)
+        long_chart(data, periods, out / "long_run.png")
+        with open(out / "long_run.csv", "w", encoding="utf-8") as fh:
+            fh.write("method,t,K_rel,K_fixed_rel,orthonormality\n")
+            for label, d in data.items():
+                for k in range(len(d["t"])):
+                    fh.write(f"{label},{d['t'][k]!r},{d['K'][k]!r},{d['K_fixed'][k]!r},"
+                             f"{d['orthonormality'][k]!r}\n")
+        summary["long_run"] = {label: {"seconds": d["seconds"], "steps": d["steps"],
+                                       "K_final": float(d["K"][-1]),
+                                       "K_fixed_final": float(d["K_fixed"][-1]),
+                                       "orthonormality_final": float(d["orthonormality"][-1])}
+                               for label, d in data.items()}
+    summary["points"] = [asdict(p) for p in all_points]
+    (out / "precision.json").write_text(json.dumps(summary, indent=1, default=float) + "\n",
+                                        encoding="utf-8")
+    return summary
+
+
+def report(summary: dict) -> str:
+    lines = [f"machine: {summary['machine']}"]
+    for name, info in summary["scenes"].items():
+        lines.append(f"\n{name}" + (f"  (reference vs mpmath on the first flight: "
+                                     f"{info['mpmath_check_first_flight']:.1e})"
+                                     if "mpmath_check_first_flight" in info else ""))
+        peers = [k for k in info["matched"][0] if k not in ("level", "runtime_best_s")]
+        lines.append(f"  {'error <=':>9}{'runtime [ms]':>14}" +
+                     "".join(f"{p[:16]:>18}" for p in peers))
+        for row in info["matched"]:
+            ours = row["runtime_best_s"]
+            cells = "".join(f"{(f'{row[p]:.0f}x' if row[p] is not None else '-'):>18}"
+                            for p in peers)
+            ms = 1e3 * ours if np.isfinite(ours) else math.nan
+            lines.append(f"  {row['level']:>9.0e}{ms:>14.3f}" + cells)
+    if "long_run" in summary:
+        lines.append("\nlong run (relative drift at the end: |K|, inertial K, orthonormality):")
+        for label, d in summary["long_run"].items():
+            lines.append(f"  {label:<22}{d['K_final']:>10.1e}{d['K_fixed_final']:>10.1e}"
+                         f"{d['orthonormality_final']:>10.1e}   {d['seconds']:.2f} s, "
+                         f"{d['steps']} steps")
+    lines.append("\nratios: peer time / the runtime's best time at the same error (>1: the "
+                 "runtime is faster); '-': the peer never reached that error")
+    return "\n".join(lines)

@@ -1,0 +1,329 @@
+"""Ways of simulating a scene, measured side by side by the benchmarks.
+
+Every route takes a scene (a dict of the scene schema) and a setting (a tolerance, or a
+step for RK4), and ``result()`` returns a :class:`Run`: the state in the ``general``
+layout on a common output grid, the impact times, the number of RHS evaluations, a
+status and the lowest height of S seen on the grid.  ``timed()`` is the minimum over
+repetitions after a warm-up.
+
+* :class:`Runtime` — this project's C runtime (rk4, dopri5, dop853, dop853 keeping A
+  orthonormal), model forced to ``general`` so that every route integrates the same
+  equations;
+* :class:`Scipy` — ``solve_ivp`` (DOP853, RK45, Radau) with the NumPy evaluation of the
+  derived RHS or with the generated C RHS through ctypes, a terminal event on the gap
+  and the derived impact map with a restart at each impact;
+* :class:`Casadi` — CasADi's ``cvodes`` on the emitted CasADi RHS over the output grid,
+  segment by segment, with regula falsi (Illinois) on re-integrations for impacts.
+
+Peers stop at an evaluation budget (``StopRun``), reported as a status, never a hang.
+"""
+from __future__ import annotations
+
+import copy
+import time
+from dataclasses import dataclass, field
+
+import casadi as ca
+import numpy as np
+import sympy as sp
+from scipy.integrate import solve_ivp
+
+from .. import notation as nt
+from ..emit.casadi_backend import Translator, build_function
+from ..emit.numpy_backend import compile_spec
+from ..models import flight_rhs, gap, impact, lowest_point
+from ..runtime.driver import Session, prepare
+from ..runtime.geometry import lowest_point_numeric
+from ..runtime.scene import Scene, law_functions, parse_scene
+
+GRID_DT = 0.05
+EVAL_BUDGET = 3_000_000
+
+
+class StopRun(RuntimeError):
+    """A peer exceeded its evaluation budget."""
+
+
+@dataclass
+class Run:
+    states: np.ndarray            # (n_grid, 18), general layout
+    impacts: np.ndarray           # impact times
+    evaluations: int
+    status: str
+    min_height: float = np.inf
+    extra: dict = field(default_factory=dict)
+
+
+def grid_of(scene: Scene, dt: float = GRID_DT) -> np.ndarray:
+    n = int(round(scene.duration / dt))
+    return scene.t0 + dt * np.arange(n + 1)
+
+
+def heights(scene: Scene, t: np.ndarray, states: np.ndarray) -> np.ndarray:
+    if not scene.contact_possible or not len(states):
+        return np.full(len(states), np.inf)
+    r = law_functions(scene)(t)[[0, 3, 6]].T
+    nu = scene.m / (scene.m + scene.M)
+    out = []
+    for k in range(len(states)):
+        n = states[k, 15:18]
+        s = lowest_point_numeric(scene, n)
+        out.append(states[k, 2] + n @ (s - nu * r[k]))
+    return np.array(out)
+
+
+def _timed(fn, repeats: int) -> float:
+    fn()
+    best = np.inf
+    for _ in range(repeats):
+        start = time.perf_counter()
+        fn()
+        best = min(best, time.perf_counter() - start)
+    return best
+
+
+def _initial(scene: Scene) -> np.ndarray:
+    return np.r_[scene.com, scene.com_velocity, scene.omega, scene.A0.reshape(-1)]
+
+
+# ---- the runtime -----------------------------------------------------------------------------
+class Runtime:
+    label_of = {"rk4": "runtime RK4", "dopri5": "runtime DOPRI5", "dop853": "runtime DOP853",
+                "dop853+orth": "runtime DOP853+orth"}
+
+    def __init__(self, doc: dict, method: str, setting: float, dt: float = GRID_DT,
+                 model: str = "general"):
+        d = copy.deepcopy(doc)
+        run = d.setdefault("run", {})
+        orth = method.endswith("+orth")
+        run.update(method=method.replace("+orth", ""), output_dt=dt, outputs=["pose", "impacts"],
+                   model=model, keep_orthonormal=orth)
+        if method == "rk4":
+            run["step"] = setting
+        else:
+            run.update(rtol=setting, atol=setting * 1e-2)
+        run.setdefault("max_steps", 20_000_000)
+        self.label = self.label_of[method]
+        self.scene, self.model, self.library, self.info = prepare(d)
+        self.grid = grid_of(self.scene, dt)
+        self.session = Session(self.library, self.scene, self.model, options=self.info["options"])
+
+    def run_raw(self):
+        return self.session.run()
+
+    def result(self) -> Run:
+        t, Q, kinds, ev, stats, status = self.run_raw()
+        general = self.model.to_general(t, Q)
+        rows = kinds == 0
+        tt, qq = t[rows], general[rows]
+        idx = np.clip(np.searchsorted(tt, self.grid - 1e-12), 0, max(len(tt) - 1, 0))
+        states = qq[idx] if len(tt) else np.empty((0, 18))
+        if len(tt) and status == "done" and np.max(np.abs(tt[idx] - self.grid)) > 1e-9:
+            raise RuntimeError("the output grid was not produced")
+        impacts = np.array([r[0] for r in ev if int(r[1]) == 1])
+        h = heights(self.scene, tt, qq)
+        return Run(states, impacts, stats["rhs_evaluations"], status,
+                   float(np.min(h)) if len(h) else np.inf,
+                   {"contacts": stats["contacts"], "steps": stats["steps"]})
+
+    def timed(self, repeats: int) -> float:
+        return _timed(self.run_raw, repeats)
+
+
+# ---- SciPy -------------------------------------------------------------------------------------
+class Scipy:
+    def __init__(self, doc: dict, method: str, setting: float, rhs: str = "numpy",
+                 dt: float = GRID_DT, budget: int = EVAL_BUDGET, max_impacts: int = 20000):
+        self.scene = parse_scene(doc)
+        self.method, self.rtol, self.budget = method, setting, budget
+        self.max_impacts = max_impacts
+        self.label = f"scipy {method}" + (" (C RHS)" if rhs == "c" else "")
+        s = self.scene
+        if rhs == "c":
+            from ..clib import load_generated
+            funcs = load_generated()
+            self.rhs, self.gap_f = funcs["general_flight_rhs"], funcs["general_gap"]
+            self.imp_f = funcs["general_impact"]
+            shape = "sphere" if s.shape == "sphere" else "ellipsoid"
+            self.lp = funcs[f"lowest_point_{shape}"]
+        else:
+            self.rhs = compile_spec(flight_rhs("general"))
+            self.gap_f = compile_spec(gap("general"))
+            self.imp_f = compile_spec(impact("general"))
+            shape = "sphere" if s.shape == "sphere" else "ellipsoid"
+            self.lp = compile_spec(lowest_point(shape))
+        self.size = [s.size[0]] if s.shape == "sphere" else list(s.size)
+        self.law = law_functions(s)
+        self.p = np.array(s.p)
+        self.grid = grid_of(s, dt)
+        self.calls = 0
+
+    def u(self, t):
+        v = self.law(np.array([t]))[:, 0]
+        return v[[0, 3, 6, 1, 4, 7, 2, 5, 8]]
+
+    def f(self, t, q):
+        self.calls += 1
+        if self.calls > self.budget:
+            raise StopRun("evaluation budget exhausted")
+        return self.rhs(q, self.u(t), self.p)[0]
+
+    def gap_at(self, t, q):
+        s = self.scene
+        sv = self.lp(q[15:18], s.center, self.size)[0]
+        return self.gap_f(q, self.u(t), sv, self.p)[0][0]
+
+    def result(self) -> Run:
+        s = self.scene
+        self.calls = 0
+        plane = s.contact_possible
+        event = None
+        if plane:
+            def event(t, q):
+                return self.gap_at(t, q)
+            event.terminal, event.direction = True, -1
+        t, q = s.t0, _initial(s)
+        t_end = s.t0 + s.duration
+        states = np.empty((len(self.grid), 18))
+        filled, impacts = 0, []
+        try:
+            while t < t_end - 1e-15:
+                grid = self.grid[filled:]
+                sol = solve_ivp(self.f, (t, t_end), q, method=self.method, rtol=self.rtol,
+                                atol=self.rtol * 1e-2, events=event,
+                                t_eval=grid if len(grid) else None)
+                if len(grid):
+                    n = np.asarray(sol.y).reshape(18, -1).shape[1]
+                    states[filled:filled + n] = np.asarray(sol.y).reshape(18, -1).T
+                    filled += n
+                if sol.status == 1:
+                    t, q = sol.t_events[0][0], np.asarray(sol.y_events[0][0])
+                    sv = self.lp(q[15:18], s.center, self.size)[0]
+                    q = self.imp_f(q, self.u(t), sv, self.p, [s.e])[0]
+                    impacts.append(t)
+                    if len(impacts) > self.max_impacts:
+                        raise StopRun("impacts do not stop")
+                    step = solve_ivp(self.f, (t, min(t + 1e-9, t_end)), q, method=self.method,
+                                     rtol=self.rtol, atol=self.rtol * 1e-2)
+                    t, q = step.t[-1], step.y[:, -1]
+                elif sol.status == 0:
+                    break
+                else:
+                    return Run(states[:filled], np.array(impacts), self.calls,
+                               "failed: " + sol.message)
+        except StopRun as exc:
+            return Run(states[:filled], np.array(impacts), self.calls, f"stopped: {exc}")
+        h = heights(s, self.grid[:filled], states[:filled])
+        return Run(states[:filled], np.array(impacts), self.calls, "done",
+                   float(np.min(h)) if len(h) else np.inf)
+
+    def timed(self, repeats: int) -> float:
+        return _timed(self.result, repeats)
+
+
+# ---- CasADi cvodes -------------------------------------------------------------------------------
+class Casadi:
+    def __init__(self, doc: dict, setting: float, dt: float = GRID_DT,
+                 budget: int = 200_000):
+        self.scene = s = parse_scene(doc)
+        self.rtol, self.budget = setting, budget
+        self.label = "casadi cvodes"
+        self.grid = grid_of(s, dt)
+        rhs = build_function(flight_rhs("general"))
+        self.gap_f = build_function(gap("general"))
+        self.imp_f = build_function(impact("general"))
+        shape = "sphere" if s.shape == "sphere" else "ellipsoid"
+        self.lp_f = build_function(lowest_point(shape))
+        self.size = [s.size[0]] if s.shape == "sphere" else list(s.size)
+        x = ca.SX.sym("x", 18)
+        prm = ca.SX.sym("prm", 2)                       # segment start and length
+        tau = ca.SX.sym("tau")
+        t_sym = ca.SX.sym("t")
+        tr = Translator({nt.t: t_sym})
+        law = []
+        for f in s.law:
+            law += [tr(f), tr(sp.diff(f, nt.t)), tr(sp.diff(f, nt.t, 2))]
+        u_of_t = ca.vertcat(*[law[i] for i in (0, 3, 6, 1, 4, 7, 2, 5, 8)])
+        self.u_fun = ca.Function("u", [t_sym], [u_of_t])
+        ode = prm[1] * rhs(x, self.u_fun(prm[0] + tau * prm[1]), ca.DM(s.p))
+        self.integrator = ca.integrator(
+            "I", "cvodes", {"x": x, "p": prm, "t": tau, "ode": ode}, 0.0, 1.0,
+            {"abstol": setting * 1e-2, "reltol": setting, "linear_multistep_method": "adams",
+             "max_num_steps": 100000})
+        self.calls = 0
+
+    def _flow(self, t0, length, x0):
+        self.calls += 1
+        if self.calls > self.budget:
+            raise StopRun("integrator-call budget exhausted")
+        return np.array(self.integrator(x0=x0, p=[t0, length])["xf"].full()).ravel()
+
+    def _gap(self, t, x):
+        s = self.scene
+        sv = self.lp_f(x[15:18], s.center, self.size)
+        h, _ = self.gap_f(x, self.u_fun(t), sv, s.p)
+        return float(h)
+
+    def result(self) -> Run:
+        s = self.scene
+        self.calls = 0
+        x, t = _initial(s), s.t0
+        states, impacts = [x.copy()], []
+        tol_t = 1e-13 * s.duration
+        plane = s.contact_possible
+        try:
+            for target in self.grid[1:]:
+                while True:
+                    x_end = self._flow(t, target - t, x)
+                    if not plane or self._gap(target, x_end) >= 0.0:
+                        t, x = target, x_end
+                        break
+                    a, ga, b, gb = t, self._gap(t, x), target, self._gap(target, x_end)
+                    xb, side = x_end, 0
+                    for _ in range(200):
+                        c = b - gb * (b - a) / (gb - ga)
+                        if not (a < c < b):
+                            c = 0.5 * (a + b)
+                        xc = self._flow(t, c - t, x)
+                        gc = self._gap(c, xc)
+                        if gc > 0:
+                            if side == 1:
+                                gb *= 0.5
+                            a, ga, side = c, gc, 1
+                        else:
+                            if side == -1:
+                                ga *= 0.5
+                            b, gb, xb, side = c, gc, xc, -1
+                        if b - a < tol_t or gc == 0.0:
+                            break
+                    sv = self.lp_f(xb[15:18], s.center, self.size)
+                    q_plus, _ = self.imp_f(xb, self.u_fun(b), sv, s.p, s.e)
+                    impacts.append(b)
+                    if len(impacts) > 20000:
+                        raise StopRun("impacts do not stop")
+                    x = self._flow(b, 1e-9, np.array(q_plus.full()).ravel())
+                    t = b + 1e-9
+                states.append(x.copy())
+        except StopRun as exc:
+            return Run(np.array(states), np.array(impacts), self.calls, f"stopped: {exc}")
+        except RuntimeError as exc:                # cvodes failures
+            return Run(np.array(states), np.array(impacts), self.calls,
+                       f"failed: {str(exc).splitlines()[0][:80]}")
+        st = np.array(states)
+        h = heights(s, self.grid[:len(st)], st)
+        return Run(st, np.array(impacts), self.calls, "done",
+                   float(np.min(h)) if len(h) else np.inf)
+
+    def timed(self, repeats: int) -> float:
+        return _timed(self.result, repeats)
+
+
+def errors(run: Run, ref: Run) -> tuple[float, float]:
+    """Max state error on the grid and max impact-time error (inf if counts differ)."""
+    if len(run.states) != len(ref.states):
+        return np.inf, np.inf
+    err = float(np.max(np.abs(run.states - ref.states))) if len(ref.states) else 0.0
+    if len(run.impacts) != len(ref.impacts):
+        return err, np.inf
+    ierr = float(np.max(np.abs(run.impacts - ref.impacts))) if len(ref.impacts) else 0.0
+    return err, ierr
