@@ -131,6 +131,60 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     return 0 if result.status == "done" else 1
 
 
+# ---- stability --------------------------------------------------------------------
+def cmd_stability(args: argparse.Namespace) -> int:
+    import json
+    from dataclasses import replace
+    from .runtime.scene import SceneError, load_scene, parse_scene
+    from .stability import scenes, sweep
+    from .stability.families import FamilyError
+    if bool(args.scene) == bool(args.family):
+        raise UsageError("give a SCENE file or --family (not both)")
+    if args.set and not args.family:
+        raise UsageError("--set: only with --family")
+    try:
+        if args.family:
+            settings = dict(sweep.parse_setting(text) for text in args.set or [])
+            scene = parse_scene(scenes.example(args.family, settings), f"--family {args.family}")
+        else:
+            scene = load_scene(args.scene)
+        if args.long is not None:
+            if args.long < 0:
+                raise SceneError("--long", f"must be >= 0 (got {args.long})")
+            scene = replace(scene, stability=replace(scene.stability, long_periods=args.long))
+        result = scenes.analyse(scene, progress=not args.quiet)
+    except (SceneError, FamilyError) as exc:
+        raise UsageError(str(exc)) from None
+    if args.json:
+        print(json.dumps(result, indent=2))
+    else:
+        print(scenes.text(result))
+    return 0 if scenes.checks_hold(result) else 1
+
+
+def cmd_chart(args: argparse.Namespace) -> int:
+    from .stability import chart, sweep
+    from .stability.families import FamilyError, family
+    try:
+        family(args.family)
+        x = sweep.parse_axis(args.x, args.family, "--x")
+        y = sweep.parse_axis(args.y, args.family, "--y")
+        fixed = dict(sweep.parse_setting(text) for text in args.set or [])
+        result = sweep.run(args.family, x, y, fixed, workers=args.workers,
+                           scheduler=args.scheduler, progress=not args.quiet)
+    except FamilyError as exc:
+        raise UsageError(str(exc)) from None
+    paths = chart.write(result, args.output)
+    c = chart.counts(result)
+    print(f"{args.family}: {x} against {y}: {c['points']} points, {c['unstable']} unstable, "
+          f"{c['stable_linear']} linearly stable, {c['critical_jordan']} critical with a "
+          f"Jordan block at rho = 1" +
+          (f", {c['no_body']} with no body" if c["no_body"] else "") +
+          f"; {result.seconds:.1f} s on {result.executor} ({result.workers} workers)")
+    print("wrote " + ", ".join(str(p) for p in paths))
+    return 0
+
+
 # ---- bench ------------------------------------------------------------------------
 def _progress(message: str) -> None:
     print(f"  ... {message}", file=sys.stderr, flush=True)
@@ -228,6 +282,39 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-o", "--output", default="out", help="output folder (default: out)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_simulate)
+
+    p = sub.add_parser("stability", help="multipliers and verdict of a scene's periodic "
+                       "motion (a stationary rotation in flight, or periodic bouncing)")
+    p.add_argument("scene", nargs="?", help="scene TOML file, with an optional [stability] "
+                   "table")
+    p.add_argument("--family", help="instead of a scene: a member of C4.1, C4.2, C4.3 (a "
+                   "stationary rotation) or bounce (reference [5])")
+    p.add_argument("--set", action="append", metavar="NAME=VALUE",
+                   help="with --family: a parameter (repeatable)")
+    p.add_argument("--json", action="store_true", help="print JSON instead of text")
+    p.add_argument("--long", type=int, metavar="PERIODS",
+                   help="perturbed runs this many periods long where the linear test is "
+                        "critical (overrides [stability].long_periods)")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=cmd_stability)
+
+    p = sub.add_parser("chart", help="stability charts: sweep two parameters of a family")
+    p.add_argument("what", choices=["stability"], help="stability: max |rho| of the "
+                   "stationary rotations of a family over a grid")
+    p.add_argument("--family", default="C4.1", help="C4.1 (default), C4.2 or C4.3")
+    p.add_argument("--x", default="a=0:0.8:41", help="x axis, name=lo:hi:n "
+                   "(default a=0:0.8:41)")
+    p.add_argument("--y", default="J_z=0.03:0.22:39", help="y axis, name=lo:hi:n "
+                   "(default J_z=0.03:0.22:39)")
+    p.add_argument("--set", action="append", metavar="NAME=VALUE",
+                   help="fix a parameter (repeatable); others keep their defaults")
+    p.add_argument("--workers", type=int, help="local processes (default: every core; 1: "
+                   "serial)")
+    p.add_argument("--scheduler", help="a Dask scheduler address (tcp://host:port): run "
+                   "the sweep on that cluster instead")
+    p.add_argument("-o", "--output", default="chart-out", help="output folder")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=cmd_chart)
 
     p = sub.add_parser("bench", help="benchmarks: ratios against peers in the same run")
     p.add_argument("what", choices=["rhs", "sim", "precision", "failures"], help=(

@@ -6,9 +6,7 @@ import pytest
 from paper_checks.catalogue import entries
 from paper_checks.registry import run
 
-NUMERIC_LATER = {"O4": "the numeric stability check lands with the stability work"}
-IDS = [pytest.param(e.id, marks=pytest.mark.skip(reason=NUMERIC_LATER[e.id]))
-       if e.id in NUMERIC_LATER else e.id for e in entries()]
+IDS = [e.id for e in entries()]
 
 
 @pytest.mark.parametrize("claim_id", IDS)

@@ -38,8 +38,9 @@ class CArg:
         return self.size == 1
 
 
-def _names(program: Program, inputs: list[CArg], scalar_inputs_by_value: bool) -> dict:
-    names: dict = {}
+def _names(program: Program, inputs: list[CArg], scalar_inputs_by_value: bool,
+           params: tuple = ()) -> dict:
+    names: dict = {sym: f"env->prm[{k}]" for k, sym in enumerate(params)}
     for vec, arg in zip(program.inputs, inputs):
         for k, sym in enumerate(vec):
             if arg.scalar and scalar_inputs_by_value:
@@ -66,14 +67,15 @@ def _identifier(name: str, taken: set) -> str:
     return out
 
 
-def body(spec: FunctionSpec, program: Program | None = None) -> dict:
+def body(spec: FunctionSpec, program: Program | None = None, params: tuple = ()) -> dict:
     """The statements of a function: ``steps`` (temporaries) and ``assigned`` (one list
     of (target, C expression) per output), with inputs named by the spec (scalar inputs
-    by value) and the operation count."""
+    by value) and the operation count.  ``params`` are symbols read at run time from
+    ``env->prm[k]`` (the runtime's parametric models)."""
     program = program or build(spec)
     inputs = [CArg(v.name, len(v.entries), v.labels) for v in spec.inputs]
     outputs = [CArg(v.name, len(v.entries), v.labels) for v in spec.outputs]
-    names = _names(program, inputs, scalar_inputs_by_value=True)
+    names = _names(program, inputs, scalar_inputs_by_value=True, params=params)
     steps = [(names[sym], c_expression(expr, names)) for sym, expr in program.steps]
     assigned = []
     for arg, values in zip(outputs, program.outputs):

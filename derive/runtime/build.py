@@ -51,9 +51,11 @@ class Rendered:
     generic_ops: int
 
 
-def render(model: SceneModel, scene_name: str) -> Rendered:
+def render(model: SceneModel, scene_name: str, params: tuple = ()) -> Rendered:
+    """``params``: symbols left in the model, read at run time from ``env->prm``
+    (set with ``crt_set_params``): one compiled library for a whole parameter sweep."""
     env = environment()
-    bodies = {name: body(spec) for name, spec in model.specs.items()}
+    bodies = {name: body(spec, params=params) for name, spec in model.specs.items()}
     generic = generic_reference(model.kind)
     generic_ops = build_program(generic).ops
     ctx = {"template": "templates/runtime/scene_model.c.jinja", "versions": versions(),
@@ -61,6 +63,7 @@ def render(model: SceneModel, scene_name: str) -> Rendered:
            "labels": model.labels, "plane": model.has_plane, "z_index": model.z_index,
            "zd_index": model.zd_index, "normalize": model.normalize,
            "rhs_ops": bodies["rhs"]["ops"], "generic_ops": generic_ops,
+           "params": [str(p) for p in params],
            "generic_name": generic.name, **bodies}
     source = env.get_template("runtime/scene_model.c.jinja").render(**ctx)
     source += env.get_template("runtime/runtime.c.jinja").render(**tableau_context())
@@ -87,9 +90,12 @@ class Library:
         lib.crt_time.restype = ctypes.c_double
         lib.crt_phase.argtypes = [ctypes.c_void_p]
         lib.crt_phase.restype = ctypes.c_int
+        lib.crt_set_params.argtypes = [ctypes.c_void_p, d]
+        lib.crt_n_params.restype = ctypes.c_int
         self.lib = lib
         self.nq = lib.crt_nq()
         self.session_size = lib.crt_sizeof()
+        self.n_params = lib.crt_n_params()
 
 
 def compile_scene(rendered: Rendered, flags: tuple | None = None) -> Library:

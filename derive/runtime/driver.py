@@ -3,13 +3,13 @@ integrate with the C runtime, and post-process into the layout the scene asked f
 from __future__ import annotations
 
 import ctypes
-import sys
 import time
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from .. import models as dm
+from ..progress import Bar
 from .build import compile_scene, render
 from .geometry import lowest_point_numeric
 from .scene import Scene, law_functions, load_scene
@@ -45,31 +45,11 @@ class Result:
     scene_model: SceneModel = None
 
 
-class _Progress:
-    """A progress bar on stderr, shown only when a run takes longer than a second."""
-
-    def __init__(self, t0: float, t1: float, enabled: bool):
-        self.t0, self.t1, self.enabled = t0, t1, enabled
-        self.start = time.perf_counter()
-        self.shown = False
-
-    def update(self, t: float) -> None:
-        if not self.enabled or time.perf_counter() - self.start < 1.0:
-            return
-        frac = min(max((t - self.t0) / (self.t1 - self.t0), 0.0), 1.0)
-        bar = "#" * int(30 * frac)
-        print(f"\r  simulating [{bar:<30}] {100 * frac:5.1f}%  t = {t:.4g}",
-              end="", file=sys.stderr, flush=True)
-        self.shown = True
-
-    def close(self) -> None:
-        if self.shown:
-            print(file=sys.stderr, flush=True)
-
-
 def gap_margin(scene: Scene) -> float:
     """How far the point's own motion can move S between the ends of a step:
     the nu n.OP term of the gap varies by at most 2 nu max|OP| (sampled finely)."""
+    if not scene.contact_possible:
+        return 0.0
     ts = np.linspace(scene.t0, scene.t0 + scene.duration, 20001)
     r = law_functions(scene)(ts)[[0, 3, 6]]
     nu = scene.m / (scene.m + scene.M)
@@ -149,15 +129,22 @@ class Session:
                       self.k_buf.ctypes.data_as(ip), self.ev_buf.ctypes.data_as(dp))
         self._n_out, self._n_ev = ctypes.c_int(0), ctypes.c_int(0)
 
-    def run(self, progress: bool = False):
-        """Integrate once; returns rows (t, q, kind), events, stats, status."""
+    def run(self, progress: bool = False, params=None):
+        """Integrate once; returns rows (t, q, kind), events, stats, status.
+        ``params``: the values of a parametric model's parameters."""
         lib = self.library.lib
         opt_p, q0_p, t_p, q_p, k_p, ev_p = self._ptrs
         scene = self.scene
+        if params is not None:
+            prm = np.ascontiguousarray(params, dtype=float)
+            if prm.size != self.library.n_params:
+                raise ValueError(f"{prm.size} parameters for a model with "
+                                 f"{self.library.n_params}")
+            lib.crt_set_params(self._handle, prm.ctypes.data_as(ctypes.POINTER(ctypes.c_double)))
         status = lib.crt_init(self._handle, opt_p, scene.t0, q0_p)
         t_end = scene.t0 + scene.duration
         ts, qs, kinds, evs = [], [], [], []
-        bar = _Progress(scene.t0, t_end, progress)
+        bar = Bar("simulating", progress)
         while status == 0:
             status = lib.crt_advance(self._handle, t_end, t_p, q_p, k_p, self.chunk,
                                      ctypes.byref(self._n_out), ev_p, self.chunk,
@@ -168,7 +155,8 @@ class Session:
             kinds.append(self.k_buf[:n].copy())
             evs.append(self.ev_buf[:ne].copy())
             if progress:
-                bar.update(lib.crt_time(self._handle))
+                t_now = lib.crt_time(self._handle)
+                bar.update((t_now - scene.t0) / scene.duration, f"t = {t_now:.4g}")
         bar.close()
         stats = (ctypes.c_long * 8)()
         lib.crt_stats(self._handle, stats)

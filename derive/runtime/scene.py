@@ -68,6 +68,15 @@ class SceneError(ValueError):
 
 
 @dataclass(frozen=True)
+class Stability:
+    """``[stability]``: what ``derive stability`` analyses (see the README)."""
+    period: float | None = None          # free flight: default, the law's period
+    impacts_every: int = 1               # on the plane: one impact per n law periods
+    long_periods: int = 0                # critical cases: perturbed runs this long
+    perturbations: tuple = (1e-6, 1e-4, 1e-2)  # their sizes
+
+
+@dataclass(frozen=True)
 class Scene:
     name: str
     M: float
@@ -99,6 +108,7 @@ class Scene:
     model: str = "auto"
     zeno_dt: float = 1e-9
     source: str = ""
+    stability: Stability = Stability()
 
     @property
     def contact_possible(self) -> bool:
@@ -115,13 +125,14 @@ class Scene:
 
 # ---- field checks ---------------------------------------------------------------------
 ALLOWED = {
-    "": {"name", "body", "point", "plane", "initial", "run"},
+    "": {"name", "body", "point", "plane", "initial", "run", "stability"},
     "body": {"mass", "inertia", "shape", "radius", "semi_axes", "center"},
     "point": {"mass", "law"},
     "plane": {"restitution"},
     "initial": {"time", "com", "com_velocity", "omega", "quaternion", "matrix"},
     "run": {"duration", "method", "rtol", "atol", "g", "outputs", "step", "max_events",
             "max_steps", "output_dt", "keep_orthonormal", "model", "zeno_dt"},
+    "stability": {"period", "impacts_every", "long_periods", "perturbations"},
 }
 
 
@@ -234,6 +245,31 @@ def _law(point: dict) -> tuple:
         except LawError as exc:
             raise SceneError(f"[point].law[{k}]", f"{exc} in {text!r}") from None
     return tuple(law), tuple(exprs)
+
+
+def _integer(table: dict, name: str, key: str, default: int, lo: int, hi: int) -> int:
+    value = _number(table, name, key, float(default))
+    if value != int(value) or not lo <= value <= hi:
+        raise SceneError(_where(name, key), f"must be an integer in [{lo}, {hi}] (got {value:g})")
+    return int(value)
+
+
+def _stability(table: dict) -> Stability:
+    period = _number(table, "stability", "period", None)
+    if period is not None and period <= 0:
+        raise SceneError("[stability].period", f"must be > 0 (got {period})")
+    every = _integer(table, "stability", "impacts_every", 1, 1, 64)
+    long_periods = _integer(table, "stability", "long_periods", 0, 0, 1_000_000)
+    sizes = table.get("perturbations", [1e-6, 1e-4, 1e-2])
+    if not isinstance(sizes, list) or not sizes:
+        raise SceneError("[stability].perturbations", "must be a non-empty list of numbers")
+    out = []
+    for k, v in enumerate(sizes):
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not 0 < v <= 0.1:
+            raise SceneError(f"[stability].perturbations[{k}]",
+                             f"must be a number in (0, 0.1] (got {v!r})")
+        out.append(float(v))
+    return Stability(period, every, long_periods, tuple(out))
 
 
 def parse_scene(source: str | dict, origin: str = "scene") -> Scene:
@@ -353,13 +389,15 @@ def parse_scene(source: str | dict, origin: str = "scene") -> Scene:
     if not 0 < zeno_dt < 1:
         raise SceneError("[run].zeno_dt", f"must be in (0, 1) (got {zeno_dt})")
 
+    stability = _stability(_table(doc, "stability", False))
+
     scene = Scene(name=name, M=M, J=J, shape=shape, size=size, center=center, m=m,
                   law_text=law_text, law=law, plane=plane, e=e, t0=t0, com=com,
                   com_velocity=com_v, omega=omega, A0=A0, duration=duration, method=method,
                   rtol=rtol, atol=atol, g=g, outputs=tuple(dict.fromkeys(outputs)),
                   step=step, max_events=int(max_events), max_steps=int(max_steps),
                   output_dt=output_dt, keep_orthonormal=keep, model=model, zeno_dt=zeno_dt,
-                  source=origin)
+                  source=origin, stability=stability)
     _check_along_law(scene)
     _check_start_above_plane(scene)
     return scene

@@ -1,0 +1,30 @@
+"""A progress bar on stderr for long work (simulations, sweeps), shown only when the
+work takes longer than ``delay`` seconds."""
+from __future__ import annotations
+
+import sys
+import time
+
+
+class Bar:
+    def __init__(self, label: str, enabled: bool = True, delay: float = 1.0, width: int = 30):
+        self.label, self.enabled, self.delay, self.width = label, enabled, delay, width
+        self.start = time.perf_counter()
+        self.shown = False
+
+    def update(self, fraction: float, note: str = "") -> None:
+        if not self.enabled:
+            return
+        elapsed = time.perf_counter() - self.start
+        if elapsed < self.delay:
+            return
+        frac = min(max(fraction, 0.0), 1.0)
+        eta = f"  {elapsed * (1 - frac) / frac:5.0f} s left" if 0 < frac < 1 else ""
+        bar = "#" * int(self.width * frac)
+        print(f"\r  {self.label} [{bar:<{self.width}}] {100 * frac:5.1f}%  {note}{eta}",
+              end="", file=sys.stderr, flush=True)
+        self.shown = True
+
+    def close(self) -> None:
+        if self.shown:
+            print(file=sys.stderr, flush=True)

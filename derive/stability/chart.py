@@ -1,0 +1,109 @@
+"""Stability diagrams from a :class:`~derive.stability.sweep.Sweep`: max |rho| as colour,
+the unstable regions outlined, as PNG plus the data (CSV per point, JSON for the run)."""
+from __future__ import annotations
+
+import csv
+import json
+from pathlib import Path
+
+import numpy as np
+
+from .families import family
+from .sweep import Sweep
+
+
+VERDICTS = ("linearly stable", "critical, Jordan block at 1", "unstable", "no body")
+
+
+def categories(sw: Sweep) -> np.ndarray:
+    """Index into VERDICTS per point."""
+    out = np.zeros(sw.max_modulus.shape, dtype=int)
+    out[sw.jordan > 0.5] = 1
+    out[sw.max_modulus > 1 + sw.tol] = 2
+    out[~np.isfinite(sw.max_modulus)] = 3
+    return out
+
+
+def counts(sw: Sweep) -> dict:
+    cat = categories(sw)
+    keys = ("stable_linear", "critical_jordan", "unstable", "no_body")
+    return {"points": int(cat.size), **{k: int(np.sum(cat == i)) for i, k in enumerate(keys)}}
+
+
+def fixed_values(sw: Sweep) -> dict:
+    """Every parameter that is not swept, at its value in the sweep."""
+    values = family(sw.family).values(sw.fixed | {sw.x.name: sw.x.lo, sw.y.name: sw.y.lo})
+    return {k: v for k, v in values.items() if k not in (sw.x.name, sw.y.name)}
+
+
+def summary(sw: Sweep) -> dict:
+    fam = family(sw.family)
+    finite = sw.max_modulus[np.isfinite(sw.max_modulus)]
+    return {"family": sw.family, "law": fam.title, "x": str(sw.x), "y": str(sw.y),
+            "fixed": fixed_values(sw),
+            "unstable_if": f"max |rho| > 1 + {sw.tol:g}", "rtol": sw.rtol,
+            "counts": counts(sw),
+            "max_modulus": float(finite.max()) if finite.size else None,
+            "max_base_drift": float(np.nanmax(sw.drift)) if finite.size else None,
+            "executor": sw.executor, "workers": sw.workers, "seconds": sw.seconds,
+            "library": sw.library}
+
+
+def write(sw: Sweep, folder: str | Path, plot: bool = True) -> list[Path]:
+    out = Path(folder)
+    out.mkdir(parents=True, exist_ok=True)
+    stem = f"stability-{sw.family.replace('.', '_')}-{sw.x.name}-{sw.y.name}"
+    paths = [out / f"{stem}.csv", out / f"{stem}.json"]
+    with open(paths[0], "w", newline="", encoding="utf-8") as fh:
+        w = csv.writer(fh)
+        w.writerow([sw.x.name, sw.y.name, "max_modulus", "base_drift", "verdict"])
+        cat = categories(sw)
+        for j, yv in enumerate(sw.y.values):
+            for i, xv in enumerate(sw.x.values):
+                w.writerow([repr(float(xv)), repr(float(yv)), repr(float(sw.max_modulus[j, i])),
+                            repr(float(sw.drift[j, i])), VERDICTS[cat[j, i]]])
+    paths[1].write_text(json.dumps(summary(sw), indent=2) + "\n", encoding="utf-8")
+    if plot:
+        paths.append(draw(sw, out / f"{stem}.png"))
+    return paths
+
+
+def draw(sw: Sweep, path: Path) -> Path:
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.colors import LogNorm
+    from matplotlib.ticker import FormatStrFormatter
+
+    fam = family(sw.family)
+    X, Y = np.meshgrid(sw.x.values, sw.y.values)
+    Z = np.ma.masked_invalid(sw.max_modulus)
+    top = float(Z.max()) if Z.count() else 1.0
+    fig, ax = plt.subplots(figsize=(7.0, 5.2), constrained_layout=True)
+    ax.set_facecolor("0.85")                     # masked (no body): grey
+    mesh = ax.pcolormesh(X, Y, np.ma.maximum(Z, 1.0), shading="nearest", cmap="magma_r",
+                         norm=LogNorm(vmin=1.0, vmax=max(top, 1.0 + 1e-3)))
+    bar = fig.colorbar(mesh, ax=ax, label="max |rho| (monodromy over one period)")
+    bar.ax.yaxis.set_major_formatter(FormatStrFormatter("%.3g"))
+    bar.ax.yaxis.set_minor_formatter(FormatStrFormatter("%.3g"))
+    if np.nanmax(sw.max_modulus, initial=0.0) > 1 + sw.tol and \
+            np.nanmin(sw.max_modulus, initial=2.0) <= 1 + sw.tol:
+        ax.contour(X, Y, np.nan_to_num(sw.max_modulus, nan=1.0), levels=[1 + sw.tol],
+                   colors="tab:cyan", linewidths=1.4)
+    if np.any(sw.jordan > 0.5):
+        ax.contourf(X, Y, sw.jordan, levels=[0.5, 1.5], colors="none", hatches=["...."])
+    c = counts(sw)
+    others = ", ".join(f"{k}={v:g}" for k, v in fixed_values(sw).items())
+    ax.set_title(f"{fam.name} stationary rotation: {fam.title}\n{others}", fontsize=9)
+    ax.set_xlabel(sw.x.name)
+    ax.set_ylabel(sw.y.name)
+    ax.text(0.01, 0.01, f"unstable (outlined, max |rho| > 1 + {sw.tol:g}): {c['unstable']}"
+            f"   linearly stable: {c['stable_linear']}"
+            + (f"\ncritical with a Jordan block at rho = 1 (dotted): {c['critical_jordan']}"
+               if c["critical_jordan"] else "")
+            + (f"   no body (grey): {c['no_body']}" if c["no_body"] else ""),
+            transform=ax.transAxes, fontsize=8, va="bottom",
+            bbox={"facecolor": "white", "alpha": 0.8, "edgecolor": "none"})
+    fig.savefig(path, dpi=130)
+    plt.close(fig)
+    return path

@@ -1,0 +1,194 @@
+"""Parametric families of stationary rotations, for stability charts.
+
+Each family is a point law with named parameters whose every member has the stationary
+rotation omega = (0, 0, omega) about the body axis Oz, the axis fixed in space
+(C4.1–C4.3, E4.4–E4.6):
+
+* ``C4.1``: x = y = 0, z = a sin(W t) (any inertia);
+* ``C4.2``: x = x0, y = y0, z = a cos(omega t) + b sin(omega t) (4.7);
+* ``C4.3``: x = R cos(omega t/2), y = -R sin(omega t/2),
+  z = a cos(omega t/2) + b sin(omega t/2) (4.8).
+
+One variational library is compiled per family with the parameters (the law's and J_x,
+J_y, J_z, M, m) read at run time, so a whole sweep costs one compilation.  A member is
+judged by the multipliers of the (omega, n) block of its monodromy over the law's period:
+in free flight the centre of mass decouples (a Jordan block at 1 that says nothing about
+the rotation).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+from functools import lru_cache
+from pathlib import Path
+
+import numpy as np
+import sympy as sp
+
+from .. import notation as nt
+from ..runtime.scene import SceneError, parse_scene
+from .floquet import UNIT_TOL, block_verdict
+
+COMMON = {"J_x": 0.10, "J_y": 0.12, "J_z": 0.14, "M": 1.0, "m": 0.2, "omega": 2.0}
+MODEL_SYMBOLS = {"J_x": nt.J_x, "J_y": nt.J_y, "J_z": nt.J_z, "M": nt.M, "m": nt.m}
+LAW_SYMBOLS = {name: sp.Symbol(f"p_{name}", real=True)
+               for name in ("a", "b", "W", "omega", "x0", "y0", "R")}
+
+
+class FamilyError(SceneError):
+    """A family's parameter (or a sweep option) that breaks a rule: ``where`` names it,
+    ``rule`` says what."""
+
+
+@dataclass(frozen=True)
+class Family:
+    name: str
+    title: str
+    law_names: tuple          # the law's parameters, in the order of LAW_SYMBOLS use
+    defaults: dict            # every parameter's default value
+    period_factor: float      # period = period_factor * 2 pi / (frequency parameter)
+    frequency: str            # the parameter that sets the period
+
+    @property
+    def parameters(self) -> tuple:
+        return tuple(self.defaults)
+
+    def law(self) -> tuple:
+        s = LAW_SYMBOLS
+        t = nt.t
+        if self.name == "C4.1":
+            return (sp.Integer(0), sp.Integer(0), s["a"] * sp.sin(s["W"] * t))
+        if self.name == "C4.2":
+            w = s["omega"]
+            return (s["x0"], s["y0"], s["a"] * sp.cos(w * t) + s["b"] * sp.sin(w * t))
+        half = s["omega"] * t / 2
+        return (s["R"] * sp.cos(half), -s["R"] * sp.sin(half),
+                s["a"] * sp.cos(half) + s["b"] * sp.sin(half))
+
+    def law_text(self, values: dict) -> list:
+        """The law with numbers, as a scene's [point].law strings."""
+        v = {LAW_SYMBOLS[k]: sp.Float(repr(float(values[k])), 17) for k in self.law_names}
+        return [str(e.xreplace(v)) for e in self.law()]
+
+    def period(self, values: dict) -> float:
+        return self.period_factor * 2 * math.pi / values[self.frequency]
+
+    def values(self, given: dict | None = None) -> dict:
+        """Defaults updated with ``given``, checked; FamilyError names a bad one."""
+        given = dict(given or {})
+        unknown = sorted(set(given) - set(self.defaults))
+        if unknown:
+            raise FamilyError(unknown[0], f"is not a parameter of family {self.name} "
+                                          f"(parameters: {', '.join(self.parameters)})")
+        out = {**self.defaults, **{k: float(v) for k, v in given.items()}}
+        check(self, out)
+        return out
+
+    def parametric_values(self, values: dict) -> np.ndarray:
+        """The runtime parameter vector, in the order of :func:`parameter_symbols`."""
+        return np.array([values[k] for k in self.runtime_names()])
+
+    def runtime_names(self) -> tuple:
+        return tuple(MODEL_SYMBOLS) + tuple(k for k in self.law_names)
+
+    def scene(self, values: dict, duration: float | None = None) -> dict:
+        """A free-flight scene (TOML as a dict) of this member, started in the rotation."""
+        return {"name": f"{self.name} stationary rotation",
+                "body": {"mass": values["M"], "shape": "none",
+                         "inertia": [values["J_x"], values["J_y"], values["J_z"]]},
+                "point": {"mass": values["m"], "law": self.law_text(values)},
+                "initial": {"time": 0.0, "omega": [0.0, 0.0, values["omega"]]},
+                "run": {"duration": duration or self.period(values), "model": "vertical",
+                        "method": "dop853", "rtol": 1e-12, "atol": 1e-14,
+                        "outputs": ["omega"]}}
+
+
+FAMILIES = {
+    "C4.1": Family("C4.1", "x = y = 0, z = a sin(W t)", ("a", "W"),
+                   {**COMMON, "a": 0.2, "W": 3.0}, 1.0, "W"),
+    "C4.2": Family("C4.2", "x = x0, y = y0, z = a cos(omega t) + b sin(omega t)  (4.7)",
+                   ("x0", "y0", "a", "b", "omega"),
+                   {**COMMON, "x0": 0.1, "y0": -0.05, "a": 0.15, "b": 0.05}, 1.0, "omega"),
+    "C4.3": Family("C4.3", "x = R cos(omega t/2), y = -R sin(omega t/2), "
+                           "z = a cos(omega t/2) + b sin(omega t/2)  (4.8)",
+                   ("R", "a", "b", "omega"),
+                   {**COMMON, "R": 0.15, "a": 0.1, "b": 0.0}, 2.0, "omega"),
+}
+
+
+def family(name: str) -> Family:
+    if name not in FAMILIES:
+        raise FamilyError("family", f"{name!r} is not one of {', '.join(FAMILIES)}")
+    return FAMILIES[name]
+
+
+def check(fam: Family, v: dict) -> None:
+    for key in ("M", "m", "J_x", "J_y", "J_z"):
+        if not v[key] > 0:
+            raise FamilyError(key, f"must be > 0 (got {v[key]})")
+    J = (v["J_x"], v["J_y"], v["J_z"])
+    for k, c in enumerate("xyz"):
+        others = J[(k + 1) % 3] + J[(k + 2) % 3]
+        if J[k] > others * (1 + 1e-12):
+            raise FamilyError(f"J_{c}", f"= {J[k]} exceeds the sum of the other two "
+                                        f"({others}): no body has these moments")
+    if not v[fam.frequency] > 0:
+        raise FamilyError(fam.frequency, f"must be > 0: it sets the period "
+                                         f"(got {v[fam.frequency]})")
+    if v["omega"] == 0:
+        raise FamilyError("omega", "must be nonzero (a rotation)")
+    for key, value in v.items():
+        if not math.isfinite(value):
+            raise FamilyError(key, f"must be finite (got {value})")
+
+
+def is_valid(fam: Family, v: dict) -> bool:
+    try:
+        check(fam, v)
+    except FamilyError:
+        return False
+    return True
+
+
+# ---- the compiled family ------------------------------------------------------------
+class Member:
+    """Evaluates members of one family with one compiled library."""
+
+    def __init__(self, name: str, rtol: float = 1e-12, library_path: str | None = None):
+        from .variational import Monodromy
+        self.family = family(name)
+        defaults = self.family.defaults
+        base = parse_scene(self.family.scene(defaults))
+        law = self.family.law()
+        symbolic = replace(base, law=law, law_text=tuple(str(e) for e in law))
+        params = tuple(MODEL_SYMBOLS.values()) + tuple(LAW_SYMBOLS[k]
+                                                        for k in self.family.law_names)
+        overrides = {s: s for s in MODEL_SYMBOLS.values()}
+        self.mono = Monodromy(symbolic, rtol=rtol, overrides=overrides, params=params,
+                              library_path=library_path)
+        self.library_path = str(self.mono.library.path)
+
+    def monodromy(self, values: dict) -> tuple[np.ndarray, np.ndarray]:
+        """(q(T) - q(0), M) for the member ``values`` (checked beforehand)."""
+        q0 = np.array([0.0, 0.0, 0.0, 0.0, values["omega"], 0.0, 0.0, 1.0])
+        qT, M = self.mono.flow(0.0, q0, self.family.period(values),
+                               self.family.parametric_values(values))
+        return qT - q0, M
+
+    def point(self, values: dict) -> tuple[float, float, float]:
+        """(max |rho| of the rotation block, 1.0 if it is critical with a Jordan block at
+        rho = 1 else 0.0, drift of the base motion over the period)."""
+        dq, M = self.monodromy(values)
+        block = block_verdict(M[2:, 2:])
+        jordan = block["max_modulus"] <= 1 + UNIT_TOL and \
+            block["rho_1_geometric"] < block["rho_1_algebraic"]
+        return block["max_modulus"], float(jordan), float(np.max(np.abs(dq[2:])))
+
+
+@lru_cache(maxsize=8)
+def member(name: str, rtol: float = 1e-12, library_path: str | None = None) -> Member:
+    """One :class:`Member` per process (sweep workers reuse it for every task); with
+    ``library_path`` of an existing build no symbolic work is repeated."""
+    if library_path is not None and not Path(library_path).is_file():
+        library_path = None          # another machine: build it here
+    return Member(name, rtol, library_path)

@@ -1,0 +1,106 @@
+"""``derive stability SCENE.toml``: the multipliers of a scene's periodic motion.
+
+* Free flight (no plane, or shape "none"): the scene's initial state must lie on a
+  periodic motion (a stationary rotation of C3.1, C4.1–C4.3, the translational motion
+  of C2.5, ...) with the law's period or ``[stability].period``; see
+  :mod:`derive.stability.floquet`.
+* On the plane: the periodic bouncing of reference [5] with one impact every
+  ``[stability].impacts_every`` periods of the point, found by Newton from the table's
+  orbit (the scene gives the body, the law, e and the spin); see
+  :mod:`derive.stability.bouncing`.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ..runtime.scene import Scene, load_scene
+from . import bouncing, floquet
+
+
+BOUNCE_DEFAULTS = {"e": 0.5, "a": 0.1, "W": 30.0, "spin": 3.0, "J_x": 0.1, "J_z": 0.15,
+                   "M": 1.0, "m": 0.25, "radius": 0.5, "n": 1, "g": 9.81}
+
+
+def example(name: str, settings: dict | None = None) -> dict:
+    """A scene (as a dict) of a family: ``C4.1``, ``C4.2``, ``C4.3`` (a stationary
+    rotation, parameters as in :mod:`families`) or ``bounce`` (the reference-[5] carrier
+    on the table's n-orbit: e, a, W, spin, J_x = J_y, J_z, M, m, radius, n, g)."""
+    from .families import FamilyError, family
+    settings = dict(settings or {})
+    if name != "bounce":
+        fam = family(name)
+        return fam.scene(fam.values(settings))
+    unknown = sorted(set(settings) - set(BOUNCE_DEFAULTS))
+    if unknown:
+        raise FamilyError(unknown[0], "is not a parameter of bounce (parameters: "
+                                      f"{', '.join(BOUNCE_DEFAULTS)})")
+    v = {**BOUNCE_DEFAULTS, **settings}
+    if v["n"] != int(v["n"]) or v["n"] < 1:
+        raise FamilyError("n", f"must be a positive integer (got {v['n']})")
+    for key in ("e", "a", "W", "J_x", "J_z", "M", "m", "radius", "g"):
+        if not v[key] > 0:
+            raise FamilyError(key, f"must be > 0 (got {v[key]})")
+    nu = v["m"] / (v["m"] + v["M"])
+    Gamma = nu * v["a"] * v["W"] ** 2 / v["g"]
+    if not 0 < v["e"] < 1:
+        raise FamilyError("e", f"must be in (0, 1) (got {v['e']})")
+    threshold = bouncing.existence_threshold(v["e"], int(v["n"]))
+    if Gamma < threshold:
+        raise FamilyError("a", f"gives Gamma = {Gamma:.4g}, below the existence threshold "
+                               f"{threshold:.4g} of the {int(v['n'])}-orbit")
+    doc = bouncing.bouncing_scene(e=v["e"], a=v["a"], W=v["W"], spin=v["spin"],
+                                  inertia=(v["J_x"], v["J_x"], v["J_z"]), M=v["M"], m=v["m"],
+                                  radius=v["radius"], n=int(v["n"]), g=v["g"])
+    doc["stability"] = {"impacts_every": int(v["n"])}
+    return doc
+
+
+def analyse(scene, progress: bool = False) -> dict:
+    scene: Scene = load_scene(scene)
+    st = scene.stability
+    if scene.contact_possible:
+        result = bouncing.analyse(scene, n=st.impacts_every).as_dict()
+    else:
+        result = floquet.analyse(scene, period=st.period, long_periods=st.long_periods,
+                                 perturbations=st.perturbations,
+                                 progress=progress).as_dict()
+    result["scene"] = scene.name
+    return result
+
+
+def text(result: dict) -> str:
+    """The human-readable report of :func:`analyse`'s result."""
+    lines = [f"{result['scene']}: {result['kind']}, period {result['period']:.12g}"]
+    if result["kind"] == "periodic bouncing":
+        lines.append(f"  one impact per {result['n']} period(s) of the point, at "
+                     f"t = {result['t_impact']:.12g}")
+    lines.append("  multipliers (monodromy over one period)       |rho|")
+    for (re, im), mod in zip(result["multipliers"], result["moduli"]):
+        lines.append(f"    {re:+.12f} {im:+.12f}i   {mod:.12f}")
+    if result["kind"] == "periodic bouncing":
+        vert = np.array([complex(*p) for p in result["vertical_multipliers"]])
+        table = np.array([complex(*p) for p in result["analytic_table_multipliers"]])
+        lines.append("  vertical block " + ", ".join(f"{v:.10g}" for v in np.sort_complex(vert))
+                     + "; ball on a vibrating table (closed form) "
+                     + ", ".join(f"{v:.10g}" for v in np.sort_complex(table)))
+    else:
+        lines.append(f"  det M = {result['det']:.12g}; Liouville exp(int tr A) = "
+                     f"{result['liouville']:.12g}")
+        for name, block in result["blocks"].items():
+            lines.append(f"  block ({name}): {block['verdict']}")
+    lines.append("  checks:")
+    for name, c in result["checks"].items():
+        lines.append(f"    {name:<22} {c['value']:.2e}  (bound {c['bound']:.0e})  "
+                     + ("ok" if c["ok"] else "FAILED"))
+    for run in result.get("long_runs", []):
+        lines.append(f"  perturbed run, eps = {run['eps']:.0e}, {run['periods']} periods:")
+        for label, sfx in (("(omega, n)", ""), ("omega", "_omega")):
+            lines.append(f"    {label:<10} max deviation {run['max_deviation' + sfx]:.3e} "
+                         f"(x{run['growth_ratio' + sfx]:.3g}), envelope ~ "
+                         f"t^{run['envelope_exponent' + sfx]:.2f}: {run['growth' + sfx]}")
+    lines.append(f"  verdict: {result['verdict']}")
+    return "\n".join(lines)
+
+
+def checks_hold(result: dict) -> bool:
+    return all(c["ok"] for c in result["checks"].values())

@@ -1,0 +1,184 @@
+"""Two-parameter sweeps of a family's multipliers, on local cores or a Dask cluster.
+
+A sweep is split into rows (one task per value of the y parameter); every task evaluates
+its points with the family's one compiled library (:func:`families.member`, built once
+in the parent and loaded by each worker), so a point's result is the same arithmetic
+whichever process or machine ran it: serial, local processes and Dask give identical
+arrays (the tests compare them bit for bit).
+"""
+from __future__ import annotations
+
+import multiprocessing
+import os
+import time
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..progress import Bar
+from .families import FamilyError, family, is_valid, member
+from .floquet import UNIT_TOL
+
+MAX_POINTS = 250_000
+
+
+@dataclass(frozen=True)
+class Axis:
+    name: str
+    lo: float
+    hi: float
+    n: int
+
+    @property
+    def values(self) -> np.ndarray:
+        return np.linspace(self.lo, self.hi, self.n)
+
+    def __str__(self) -> str:
+        return f"{self.name}={self.lo:g}:{self.hi:g}:{self.n}"
+
+
+def parse_axis(text: str, family_name: str, where: str) -> Axis:
+    """``name=lo:hi:n`` (n points from lo to hi inclusive)."""
+    fam = family(family_name)
+    name, sep, rng = text.partition("=")
+    name = name.strip()
+    if not sep:
+        raise FamilyError(where, f"must be name=lo:hi:n, e.g. a=0:0.5:41 (got {text!r})")
+    if name not in fam.defaults:
+        raise FamilyError(where, f"{name!r} is not a parameter of family {fam.name} "
+                                 f"(parameters: {', '.join(fam.parameters)})")
+    parts = rng.split(":")
+    if len(parts) != 3:
+        raise FamilyError(where, f"range must be lo:hi:n (got {rng!r})")
+    try:
+        lo, hi = float(parts[0]), float(parts[1])
+        n = int(parts[2])
+    except ValueError:
+        raise FamilyError(where, f"lo and hi must be numbers and n an integer "
+                                 f"(got {rng!r})") from None
+    if not (np.isfinite(lo) and np.isfinite(hi)) or not hi > lo:
+        raise FamilyError(where, f"needs finite lo < hi (got {lo:g}, {hi:g})")
+    if not 2 <= n <= 2000:
+        raise FamilyError(where, f"n must be in [2, 2000] (got {n})")
+    return Axis(name, lo, hi, n)
+
+
+def parse_setting(text: str, where: str = "--set") -> tuple[str, float]:
+    name, sep, value = text.partition("=")
+    if not sep:
+        raise FamilyError(where, f"must be name=value (got {text!r})")
+    try:
+        return name.strip(), float(value)
+    except ValueError:
+        raise FamilyError(where, f"value of {name.strip()!r} must be a number "
+                                 f"(got {value!r})") from None
+
+
+@dataclass
+class Sweep:
+    family: str
+    x: Axis
+    y: Axis
+    fixed: dict
+    rtol: float
+    max_modulus: np.ndarray          # (ny, nx); NaN where no body has the parameters
+    jordan: np.ndarray               # (ny, nx) 1 where critical with a Jordan block at 1
+    drift: np.ndarray                # (ny, nx) |q(T) - q(0)| of the base rotation
+    executor: str = "serial"
+    workers: int = 1
+    seconds: float = 0.0
+    library: str = ""
+    tol: float = 0.0
+    meta: dict = field(default_factory=dict)
+
+
+def _row(task: tuple) -> tuple[int, np.ndarray]:
+    """One row of the grid (runs in a worker): (j, (nx, 3) array)."""
+    name, rtol, library_path, j, points = task
+    fam = family(name)
+    mb = member(name, rtol, library_path)
+    out = np.full((len(points), 3), np.nan)
+    for i, values in enumerate(points):
+        if is_valid(fam, values):
+            out[i] = mb.point(values)
+    return j, out
+
+
+def tasks(name: str, x: Axis, y: Axis, fixed: dict, rtol: float, library_path: str):
+    fam = family(name)
+    base = fam.values(fixed)
+    return [(name, rtol, library_path, j,
+             [{**base, x.name: float(xv), y.name: float(yv)} for xv in x.values])
+            for j, yv in enumerate(y.values)]
+
+
+def run(name: str, x: Axis, y: Axis, fixed: dict | None = None, rtol: float = 1e-12,
+        workers: int | None = None, scheduler: str | None = None,
+        progress: bool = True) -> Sweep:
+    """Sweep ``x`` against ``y`` with the other parameters at ``fixed`` or their
+    defaults.  ``workers``: local processes (default: every core; 1 runs in this
+    process); ``scheduler``: a Dask scheduler address (tcp://host:port) instead."""
+    fixed = dict(fixed or {})
+    if x.name == y.name:
+        raise FamilyError("--y", f"sweeps {y.name!r} like --x; choose another parameter")
+    for ax in (x, y):
+        if ax.name in fixed:
+            raise FamilyError("--set", f"{ax.name!r} is swept; it cannot also be fixed")
+    if x.n * y.n > MAX_POINTS:
+        raise FamilyError("--x/--y", f"{x.n * y.n} points exceed {MAX_POINTS}")
+    family(name).values(fixed)                          # check the fixed values early
+    if workers is not None and workers < 1:
+        raise FamilyError("--workers", f"must be >= 1 (got {workers})")
+    start = time.perf_counter()
+    lib = member(name, rtol).library_path               # compile once, here
+    work = tasks(name, x, y, fixed, rtol, lib)
+    grid = np.full((y.n, x.n, 3), np.nan)
+    bar = Bar(f"sweeping {name}", progress, delay=0.5)
+    done = 0
+
+    def collect(j, rows):
+        nonlocal done
+        grid[j] = rows
+        done += 1
+        bar.update(done / len(work), f"{done}/{len(work)} rows")
+
+    if scheduler:
+        executor, n_workers = "dask", _dask(work, scheduler, collect)
+    elif workers == 1:
+        executor, n_workers = "serial", 1
+        for task in work:
+            collect(*_row(task))
+    else:
+        n_workers = min(workers or os.cpu_count() or 1, len(work))
+        executor = "processes"
+        # fork: the workers inherit the loaded library (and need no main-module guard)
+        methods = multiprocessing.get_all_start_methods()
+        context = multiprocessing.get_context("fork" if "fork" in methods else "spawn")
+        with ProcessPoolExecutor(max_workers=n_workers, mp_context=context) as pool:
+            for fut in as_completed([pool.submit(_row, task) for task in work]):
+                collect(*fut.result())
+    bar.close()
+    return Sweep(name, x, y, fixed, rtol, grid[..., 0], grid[..., 1], grid[..., 2],
+                 executor=executor, workers=n_workers, seconds=time.perf_counter() - start,
+                 library=lib, tol=UNIT_TOL)
+
+
+def _dask(work: list, scheduler: str, collect) -> int:
+    try:
+        from distributed import Client
+        from distributed import as_completed as dask_completed
+    except ImportError:
+        raise FamilyError("--scheduler", "needs Dask: pip install -e '.[cluster]'") from None
+    try:
+        client = Client(scheduler, timeout="10s")
+    except (OSError, TimeoutError, ValueError) as exc:
+        raise FamilyError("--scheduler", f"cannot reach {scheduler} ({exc})") from None
+    try:
+        n_workers = max(len(client.scheduler_info().get("workers", {})), 1)
+        futures = client.map(_row, work, pure=False)
+        for fut in dask_completed(futures):
+            collect(*fut.result())
+    finally:
+        client.close()
+    return n_workers

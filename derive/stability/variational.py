@@ -1,0 +1,114 @@
+"""Variational equations as generated code, integrated by the runtime.
+
+For a model's flight RHS ``q' = f(t, q)`` the augmented system ``(q, Phi)`` with
+``Phi' = (df/dq) Phi`` is specialised to a scene like any model and rendered with the
+runtime; ``Phi(T)`` over a period is the monodromy matrix.
+
+The Jacobian is taken from the derived expressions: where ``f`` reads the unknown
+``omega'`` of the solve ``J omega' = F(t, q)``, ``d omega'/dq_k = J^-1 dF/dq_k`` since
+``J`` depends on the point's law only, not on the state; these are further right-hand
+sides of the same LDL^T (no inverse is formed).
+"""
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import sympy as sp
+
+from .. import models as dm
+from ..runtime.build import Library, compile_scene, render
+from ..runtime.driver import Session
+from ..runtime.scene import Scene
+from ..runtime.scene_models import T_VEC, SceneModel, _common, specialise
+
+
+def augmented_labels(base: str) -> tuple:
+    """The state labels followed by those of Phi, row-major."""
+    n = len(dm.STATES[base])
+    return dm.STATE_LABELS[base] + tuple(f"Phi[{i},{j}]" for i in range(n) for j in range(n))
+
+
+def variational_spec(scene: Scene, base: str = "vertical",
+                     overrides: dict | None = None) -> tuple[dm.FunctionSpec, tuple]:
+    """The augmented RHS for the scene, and its state labels.  ``overrides`` replace
+    some of the scene's numbers by symbols (a parametric model)."""
+    subs, defs = _common(scene)
+    subs.update(overrides or {})
+    q = dm.STATES[base]
+    labels = dm.STATE_LABELS[base]
+    flight = specialise(dm.flight_rhs(base), subs, defs, q, labels, "flight")
+    (solve,) = flight.solves
+    (U,) = solve.unknowns
+    (F,) = solve.rhs
+    n = len(q)
+    f = list(flight.outputs[0].entries)
+    for sym in q:
+        if any(sym in J.free_symbols for J in solve.matrix):
+            raise ValueError(f"J depends on the state ({sym}): not this model's structure")
+    X = [sp.Matrix(sp.symbols(f"X{k}_0:3", real=True)) for k in range(n)]
+    dF = [F.diff(qk) for qk in q]
+    Phi = sp.Matrix(n, n, lambda i, j: sp.Symbol(f"Phi_{i}_{j}", real=True))
+    # A = df/dq, with d omega'/dq_k = X_k
+    A = sp.zeros(n, n)
+    for i, fi in enumerate(f):
+        fi = sp.sympify(fi)
+        for k, qk in enumerate(q):
+            entry = fi.diff(qk)
+            for j, u in enumerate(U):
+                coeff = fi.diff(u)
+                if coeff != 0:
+                    entry += coeff * X[k][j]
+            A[i, k] = entry
+    APhi = A * Phi
+    outputs = tuple(f) + tuple(APhi[i, j] for i in range(n) for j in range(n))
+    aug = augmented_labels(base)
+    spec = dm.FunctionSpec(
+        name="variational", doc=f"{base} flight RHS with its variational equations",
+        inputs=(T_VEC, dm.Vector("q", tuple(q) + tuple(Phi), aug)),
+        outputs=(dm.Vector("dq", outputs, aug),),
+        solves=(dm.LinearSolve(matrix=solve.matrix, rhs=(F, *dF),
+                               unknowns=(U, *[tuple(x) for x in X])),),
+        definitions=flight.definitions)
+    return spec, aug
+
+
+class Monodromy:
+    """The compiled variational runtime of one scene (free flight).  With ``params``
+    (symbols in ``overrides`` or in the scene's law) one library serves every value."""
+
+    def __init__(self, scene: Scene, base: str = "vertical", rtol: float = 1e-12,
+                 overrides: dict | None = None, params: tuple = (),
+                 library_path: str | None = None):
+        self.base = base
+        self.scene = replace(scene, plane=False, method="dop853", rtol=rtol,
+                             atol=rtol * 1e-2, output_dt=0.0, keep_orthonormal=False)
+        self.n = len(dm.STATES[base])
+        self.params = tuple(params)
+        labels = augmented_labels(base)
+        self.model = SceneModel(kind=f"variational-{base}", why="monodromy", labels=labels,
+                                q0=np.zeros(len(labels)), specs={}, normalize="none")
+        if library_path is not None:        # an existing build of the same model
+            self.library = Library(library_path)
+            if self.library.nq != len(labels) or self.library.n_params != len(self.params):
+                raise ValueError(f"{library_path} is not this variational model")
+            return
+        spec, _ = variational_spec(self.scene, base, overrides)
+        self.model.specs["rhs"] = spec
+        self.library = compile_scene(render(self.model, scene.name, params=self.params))
+
+    def flow(self, t0: float, q0, duration: float, values=None):
+        """(q(t0 + duration), Phi(t0 + duration, t0)) from q(t0) = q0, Phi(t0) = I;
+        ``values`` of the parameters for a parametric model."""
+        n = self.n
+        sc = replace(self.scene, t0=float(t0), duration=float(duration))
+        self.model.q0 = np.r_[np.asarray(q0, dtype=float), np.eye(n).ravel()]
+        opt = np.zeros(14)
+        opt[:13] = (2, sc.rtol, sc.atol, 0.0, sc.duration / 4.0, sc.step, sc.max_steps,
+                    sc.max_events, 0.0, 0.0, sc.duration, sc.zeno_dt, 1e-15)
+        session = Session(self.library, sc, self.model, chunk=4096, options=opt)
+        t, Q, kinds, _, _, status = session.run(params=values)
+        if status != "done":
+            raise RuntimeError(f"variational integration ended with {status}")
+        end = Q[-1]
+        return end[:n], end[n:].reshape(n, n)

@@ -1,0 +1,128 @@
+"""Stability charts: the sweep against Euler's closed form on its a = 0 edge, identical
+results from every executor (serial, local processes, a local Dask cluster), the files
+written, and the command line's handling of bad input."""
+from __future__ import annotations
+
+import csv
+import json
+import math
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from derive.stability import chart, sweep
+from derive.stability.families import FamilyError
+
+X = sweep.Axis("a", 0.0, 0.6, 7)
+Y = sweep.Axis("J_z", 0.04, 0.2, 9)
+FIXED = {"omega": 2.0, "W": 3.0, "J_x": 0.1, "J_y": 0.12}
+
+
+@pytest.fixture(scope="module")
+def serial():
+    return sweep.run("C4.1", X, Y, FIXED, workers=1, progress=False)
+
+
+def test_edge_a_zero_is_euler(serial):
+    """At a = 0 the body is rigid: unstable iff J_z is the intermediate moment, with
+    max |rho| = exp(T omega sqrt((J_y - J_z)(J_z - J_x)/(J_x J_y))), T = 2 pi/W."""
+    Jx, Jy, w, T = 0.1, 0.12, 2.0, 2 * math.pi / 3.0
+    for j, Jz in enumerate(Y.values):
+        s = (Jy - Jz) * (Jz - Jx) / (Jx * Jy)
+        want = math.exp(T * w * math.sqrt(s)) if s > 0 else 1.0
+        assert serial.max_modulus[j, 0] == pytest.approx(want, abs=1e-9)
+
+
+def test_executors_agree_bit_for_bit(serial):
+    procs = sweep.run("C4.1", X, Y, FIXED, workers=2, progress=False)
+    assert procs.executor == "processes"
+    for name in ("max_modulus", "jordan", "drift"):
+        assert np.array_equal(getattr(serial, name), getattr(procs, name), equal_nan=True)
+
+
+def test_dask_local_cluster_agrees_bit_for_bit(serial):
+    distributed = pytest.importorskip("distributed")
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                  dashboard_address=None) as cluster:
+        dask = sweep.run("C4.1", X, Y, FIXED, scheduler=cluster.scheduler_address,
+                         progress=False)
+    assert dask.executor == "dask" and dask.workers == 2
+    for name in ("max_modulus", "jordan", "drift"):
+        assert np.array_equal(getattr(serial, name), getattr(dask, name), equal_nan=True)
+
+
+def test_files(serial, tmp_path):
+    paths = chart.write(serial, tmp_path)
+    csv_path, json_path, png = paths
+    rows = list(csv.DictReader(open(csv_path, encoding="utf-8")))
+    assert len(rows) == X.n * Y.n
+    summary = json.loads(json_path.read_text())
+    verdicts = [r["verdict"] for r in rows]
+    assert summary["counts"]["unstable"] == verdicts.count("unstable") > 0
+    assert summary["counts"]["stable_linear"] == verdicts.count("linearly stable") > 0
+    assert summary["fixed"]["J_y"] == 0.12 and "a" not in summary["fixed"]
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_bodies_that_cannot_exist_are_masked():
+    sw = sweep.run("C4.1", sweep.Axis("J_z", 0.01, 0.29, 5), sweep.Axis("a", 0.0, 0.1, 2),
+                   {"J_x": 0.1, "J_y": 0.12}, workers=1, progress=False)
+    # J_z = 0.29 > J_x + J_y and J_z = 0.01 < J_y - J_x: no body, NaN, counted
+    assert np.isnan(sw.max_modulus[:, 0]).all() and np.isnan(sw.max_modulus[:, -1]).all()
+    assert chart.counts(sw)["no_body"] == 4
+
+
+@pytest.mark.parametrize("text,message", [
+    ("a0:1:3", "must be name=lo:hi:n"), ("q=0:1:3", "not a parameter"),
+    ("a=1:0:3", "lo < hi"), ("a=0:1:1", r"n must be in \[2, 2000\]"),
+    ("a=0:x:3", "must be numbers")])
+def test_bad_axes(text, message):
+    with pytest.raises(FamilyError, match=message):
+        sweep.parse_axis(text, "C4.1", "--x")
+
+
+def _cli(*args):
+    return subprocess.run([sys.executable, "-m", "derive", *args], capture_output=True,
+                          text=True, timeout=600)
+
+
+def test_cli_chart_and_errors(tmp_path):
+    out = tmp_path / "chart"
+    proc = _cli("chart", "stability", "--family", "C4.2", "--x", "a=0:0.3:4", "--y",
+                "J_z=0.08:0.16:5", "--set", "x0=0.05", "-o", str(out), "-q", "--workers", "1")
+    assert proc.returncode == 0, proc.stderr
+    assert "20 points" in proc.stdout
+    assert (out / "stability-C4_2-a-J_z.png").is_file()
+    for args, message in [(("--x", "a=0:1"), "--x: range must be lo:hi:n"),
+                          (("--set", "nope=1"), "nope: is not a parameter"),
+                          (("--set", "J_x=-1"), "J_x: must be > 0"),
+                          (("--family", "C9"), "family: 'C9' is not one of"),
+                          (("--x", "a=0:1:3", "--set", "a=1"), "'a' is swept"),
+                          (("--workers", "0"), "--workers: must be >= 1")]:
+        proc = _cli("chart", "stability", "-o", str(tmp_path / "bad"), "-q", *args)
+        assert proc.returncode == 2, (args, proc.stderr)
+        assert message in proc.stderr and "Traceback" not in proc.stderr
+    assert not (tmp_path / "bad").exists()
+
+
+def test_cli_stability_scene_file_and_errors(tmp_path):
+    scene = tmp_path / "c41.toml"
+    scene.write_text('name = "axial"\n[body]\nmass = 1.0\ninertia = [0.1, 0.1, 0.14]\n'
+                     'shape = "none"\n[point]\nmass = 0.2\nlaw = ["0", "0", "0.2*sin(3*t)"]\n'
+                     '[initial]\nomega = [0.0, 0.0, 2.0]\n[stability]\nlong_periods = 20\n')
+    proc = _cli("stability", str(scene), "--json")
+    assert proc.returncode == 0, proc.stderr
+    result = json.loads(proc.stdout)
+    assert result["blocks"]["omega, n"]["verdict"].startswith("linearly stable")
+    assert len(result["long_runs"]) == 3 and all(c["ok"] for c in result["checks"].values())
+    scene.write_text(scene.read_text().replace("long_periods = 20", "long_periods = -1"))
+    proc = _cli("stability", str(scene))
+    assert proc.returncode == 2
+    assert "[stability].long_periods: must be an integer" in proc.stderr
+    scene.write_text(scene.read_text().replace("long_periods = -1", "")
+                     .replace("[0.0, 0.0, 2.0]", "[0.3, 0.0, 2.0]"))
+    proc = _cli("stability", str(scene))
+    assert proc.returncode == 2 and "[initial]: the motion is not periodic" in proc.stderr
+    assert "Traceback" not in proc.stderr
