@@ -157,6 +157,41 @@ def flight_rhs(model: str) -> FunctionSpec:
 
 
 @lru_cache(maxsize=None)
+def flight_jacobian(model: str) -> FunctionSpec:
+    """``<model>_flight_jacobian(q, u, p) -> A``: A = d(dq/dt)/dq, row-major, from the
+    derived expressions.  Where dq/dt reads omega', solved from ``J omega' = F(q, u, p)``,
+    ``d omega'/dq_k = X_k`` with ``J X_k = dF/dq_k``: J depends on u and p only, so these
+    are further right-hand sides of the same LDL^T solve (no inverse is formed)."""
+    rhs = flight_rhs(model)
+    (solve,) = rhs.solves
+    (F,) = solve.rhs
+    (unknown,) = solve.unknowns
+    q = STATES[model]
+    for sym in q:
+        if any(sym in entry.free_symbols for entry in solve.matrix):
+            raise ValueError(f"J depends on the state ({sym}): not this model's structure")
+    X = [tuple(sp.symbols(f"X{k}_0:3", real=True)) for k in range(len(q))]
+    entries = []
+    for fi in rhs.outputs[0].entries:
+        fi = sp.sympify(fi)
+        coeffs = [fi.diff(w) for w in unknown]
+        for k, qk in enumerate(q):
+            entries.append(fi.diff(qk) + sum((c * x for c, x in zip(coeffs, X[k]) if c != 0),
+                                             sp.Integer(0)))
+    labels = STATE_LABELS[model]
+    return FunctionSpec(
+        name=f"{model}_flight_jacobian",
+        doc=f"Jacobian of the {model} flight right-hand side with respect to the state, "
+            "A[i*n + k] = d(dq_i/dt)/dq_k (E1.2, E1.7, E1.8 differentiated).",
+        inputs=(_q(model), _u(), _p()),
+        outputs=(Vector("A", tuple(entries),
+                        tuple(f"d({a}')/d({b})" for a in labels for b in labels)),),
+        solves=(LinearSolve(matrix=solve.matrix, rhs=tuple(F.diff(qk) for qk in q),
+                            unknowns=tuple(X)),),
+        definitions=MASS_DEFINITIONS)
+
+
+@lru_cache(maxsize=None)
 def impact(model: str) -> FunctionSpec:
     """``<model>_impact(q, u, s, p, e) -> (q_plus, I)``: E1.11, E1.12, E1.15, E1.16."""
     if model == "attitude":
@@ -285,6 +320,7 @@ def kinetic_moment(model: str) -> FunctionSpec:
 
 def all_specs() -> list[FunctionSpec]:
     specs = [flight_rhs(mdl) for mdl in MODELS]
+    specs += [flight_jacobian(mdl) for mdl in MODELS]
     specs += [kinetic_moment(mdl) for mdl in MODELS]
     specs += [impact(mdl) for mdl in ("general", "vertical")]
     specs += [gap(mdl) for mdl in ("general", "vertical")]

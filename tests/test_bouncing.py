@@ -102,3 +102,15 @@ def test_below_existence_and_wrong_structure_are_refused():
     doc["initial"]["com"][2] += 0.2
     with pytest.raises(SceneError, match=r"\[point\].law\[2\].*a\*sin\(W\*t\)"):
         bouncing.analyse(parse_scene(doc))
+
+
+def test_carrier_doubles_period_at_the_table_threshold():
+    """The runtime's orbit of the carrier loses stability through -1 where the closed
+    form puts Gamma_pd (1.527 for e = 0.5), within 1 % on each side."""
+    nu = 0.25 / 1.25
+    pd = bouncing.period_doubling_threshold(0.5)
+    rho = {}
+    for factor in (0.99, 1.01):
+        a = factor * pd * G / (nu * W * W)
+        rho[factor] = bouncing.analyse(_scene(a)).vertical_multipliers.real
+    assert -1 < np.min(rho[0.99]) < -0.9 and -1.1 < np.min(rho[1.01]) < -1

@@ -31,44 +31,30 @@ def augmented_labels(base: str) -> tuple:
 
 def variational_spec(scene: Scene, base: str = "vertical",
                      overrides: dict | None = None) -> tuple[dm.FunctionSpec, tuple]:
-    """The augmented RHS for the scene, and its state labels.  ``overrides`` replace
+    """The augmented RHS for the scene, and its state labels: the derived flight RHS and
+    its Jacobian (:func:`derive.models.flight_jacobian`) specialised to the scene, with
+    one solve serving omega' and every column of d omega'/dq.  ``overrides`` replace
     some of the scene's numbers by symbols (a parametric model)."""
     subs, defs = _common(scene)
     subs.update(overrides or {})
     q = dm.STATES[base]
     labels = dm.STATE_LABELS[base]
     flight = specialise(dm.flight_rhs(base), subs, defs, q, labels, "flight")
-    (solve,) = flight.solves
-    (U,) = solve.unknowns
-    (F,) = solve.rhs
+    jac = specialise(dm.flight_jacobian(base), subs, defs, q, labels, "jacobian")
+    (fs,), (js,) = flight.solves, jac.solves
     n = len(q)
-    f = list(flight.outputs[0].entries)
-    for sym in q:
-        if any(sym in J.free_symbols for J in solve.matrix):
-            raise ValueError(f"J depends on the state ({sym}): not this model's structure")
-    X = [sp.Matrix(sp.symbols(f"X{k}_0:3", real=True)) for k in range(n)]
-    dF = [F.diff(qk) for qk in q]
+    A = sp.Matrix(n, n, jac.outputs[0].entries)
     Phi = sp.Matrix(n, n, lambda i, j: sp.Symbol(f"Phi_{i}_{j}", real=True))
-    # A = df/dq, with d omega'/dq_k = X_k
-    A = sp.zeros(n, n)
-    for i, fi in enumerate(f):
-        fi = sp.sympify(fi)
-        for k, qk in enumerate(q):
-            entry = fi.diff(qk)
-            for j, u in enumerate(U):
-                coeff = fi.diff(u)
-                if coeff != 0:
-                    entry += coeff * X[k][j]
-            A[i, k] = entry
     APhi = A * Phi
-    outputs = tuple(f) + tuple(APhi[i, j] for i in range(n) for j in range(n))
+    outputs = tuple(flight.outputs[0].entries) + tuple(APhi[i, j] for i in range(n)
+                                                       for j in range(n))
     aug = augmented_labels(base)
     spec = dm.FunctionSpec(
         name="variational", doc=f"{base} flight RHS with its variational equations",
         inputs=(T_VEC, dm.Vector("q", tuple(q) + tuple(Phi), aug)),
         outputs=(dm.Vector("dq", outputs, aug),),
-        solves=(dm.LinearSolve(matrix=solve.matrix, rhs=(F, *dF),
-                               unknowns=(U, *[tuple(x) for x in X])),),
+        solves=(dm.LinearSolve(matrix=fs.matrix, rhs=fs.rhs + js.rhs,
+                               unknowns=fs.unknowns + js.unknowns),),
         definitions=flight.definitions)
     return spec, aug
 

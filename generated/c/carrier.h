@@ -76,6 +76,54 @@ void attitude_flight_rhs_release(int mem);
 void attitude_flight_rhs_incref(void);
 void attitude_flight_rhs_decref(void);
 
+/* general_flight_jacobian(q[18], u[9], p[6]) -> (A[324]): Jacobian of the general flight right-hand side with respect to the state, A[i*n + k] = d(dq_i/dt)/dq_k (E1.2, E1.7, E1.8 differentiated). */
+void carrier_general_flight_jacobian(const double *q, const double *u, const double *p, double *restrict A);
+int general_flight_jacobian(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int general_flight_jacobian_n_in(void);
+casadi_int general_flight_jacobian_n_out(void);
+const char *general_flight_jacobian_name_in(casadi_int i);
+const char *general_flight_jacobian_name_out(casadi_int i);
+const casadi_int *general_flight_jacobian_sparsity_in(casadi_int i);
+const casadi_int *general_flight_jacobian_sparsity_out(casadi_int i);
+int general_flight_jacobian_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real general_flight_jacobian_default_in(casadi_int i);
+int general_flight_jacobian_checkout(void);
+void general_flight_jacobian_release(int mem);
+void general_flight_jacobian_incref(void);
+void general_flight_jacobian_decref(void);
+
+/* vertical_flight_jacobian(q[8], u[9], p[6]) -> (A[64]): Jacobian of the vertical flight right-hand side with respect to the state, A[i*n + k] = d(dq_i/dt)/dq_k (E1.2, E1.7, E1.8 differentiated). */
+void carrier_vertical_flight_jacobian(const double *q, const double *u, const double *p, double *restrict A);
+int vertical_flight_jacobian(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int vertical_flight_jacobian_n_in(void);
+casadi_int vertical_flight_jacobian_n_out(void);
+const char *vertical_flight_jacobian_name_in(casadi_int i);
+const char *vertical_flight_jacobian_name_out(casadi_int i);
+const casadi_int *vertical_flight_jacobian_sparsity_in(casadi_int i);
+const casadi_int *vertical_flight_jacobian_sparsity_out(casadi_int i);
+int vertical_flight_jacobian_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real vertical_flight_jacobian_default_in(casadi_int i);
+int vertical_flight_jacobian_checkout(void);
+void vertical_flight_jacobian_release(int mem);
+void vertical_flight_jacobian_incref(void);
+void vertical_flight_jacobian_decref(void);
+
+/* attitude_flight_jacobian(q[3], u[9], p[6]) -> (A[9]): Jacobian of the attitude flight right-hand side with respect to the state, A[i*n + k] = d(dq_i/dt)/dq_k (E1.2, E1.7, E1.8 differentiated). */
+void carrier_attitude_flight_jacobian(const double *q, const double *u, const double *p, double *restrict A);
+int attitude_flight_jacobian(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int attitude_flight_jacobian_n_in(void);
+casadi_int attitude_flight_jacobian_n_out(void);
+const char *attitude_flight_jacobian_name_in(casadi_int i);
+const char *attitude_flight_jacobian_name_out(casadi_int i);
+const casadi_int *attitude_flight_jacobian_sparsity_in(casadi_int i);
+const casadi_int *attitude_flight_jacobian_sparsity_out(casadi_int i);
+int attitude_flight_jacobian_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real attitude_flight_jacobian_default_in(casadi_int i);
+int attitude_flight_jacobian_checkout(void);
+void attitude_flight_jacobian_release(int mem);
+void attitude_flight_jacobian_incref(void);
+void attitude_flight_jacobian_decref(void);
+
 /* general_kinetic_moment(q[18], u[9], p[6]) -> (K[3]): Angular momentum K about C in body axes (E1.6), general model. */
 void carrier_general_kinetic_moment(const double *q, const double *u, const double *p, double *restrict K);
 int general_kinetic_moment(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
