@@ -23,7 +23,7 @@ import sympy as sp
 from scipy.integrate import quad
 
 from . import notation as nt
-from .runtime.geometry import rotation_x, rotation_z
+from .runtime.geometry import momentum_frame, rotation_x, rotation_z
 from .runtime.scene import DEFAULT_SCENE, Scene, law_functions, parse_scene
 
 
@@ -94,19 +94,7 @@ def axisymmetric(scene: Scene, t) -> np.ndarray:
     z0 = float(sp.sympify(scene.law[2]).subs(nt.t, scene.t0))
     Jx, Jz, mu = scene.J[0], scene.J[2], scene.mu
     K_body = np.array([(Jx + mu * z0 ** 2) * w0[0], (Jx + mu * z0 ** 2) * w0[1], Jz * w0[2]])
-    K_fixed = A0 @ K_body
-    K = float(np.linalg.norm(K_fixed))
-    e3 = K_fixed / K
-    helper = np.array([1.0, 0.0, 0.0]) if abs(e3[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
-    e1 = np.cross(helper, e3)
-    e1 /= np.linalg.norm(e1)
-    R_K = np.column_stack([e1, np.cross(e3, e1), e3])
-    B = R_K.T @ A0
-    theta0 = math.acos(max(-1.0, min(1.0, B[2, 2])))         # E3.11: cos = J_z w_z0/K
-    if math.sin(theta0) > 1e-12:
-        phi0, psi0 = math.atan2(B[2, 0], B[2, 1]), math.atan2(B[0, 2], -B[1, 2])
-    else:
-        phi0, psi0 = 0.0, math.atan2(B[1, 0], B[0, 0])
+    K, R_K, psi0, theta0, phi0 = momentum_frame(A0 @ K_body, A0)  # E3.11: cos = J_z w_z0/K
     integral = inverse_inertia_integral(scene, ts, Jx)
     psi = psi0 + K * integral
     phi = phi0 + w0[2] * (ts - scene.t0) - w0[2] * Jz * integral

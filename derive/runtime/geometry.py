@@ -27,3 +27,24 @@ def rotation_x(angle):
     z, o = np.zeros_like(c), np.ones_like(c)
     return np.stack([np.stack([o, z, z], -1), np.stack([z, c, -s], -1),
                      np.stack([z, s, c], -1)], -2)
+
+
+def momentum_frame(K_fixed, A0):
+    """The frame whose third axis is K (given in fixed axes) and the body's Euler angles
+    in it, ``A0 = R_K Rz(psi) Rx(theta) Rz(phi)``: returns (|K|, R_K, psi, theta, phi)
+    (psi = 0 chosen when theta = 0, where only psi + phi is defined)."""
+    K_fixed = np.asarray(K_fixed, dtype=float)
+    K = float(np.linalg.norm(K_fixed))
+    e3 = K_fixed / K
+    helper = np.array([1.0, 0.0, 0.0]) if abs(e3[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    e1 = np.cross(helper, e3)
+    e1 /= np.linalg.norm(e1)
+    R_K = np.column_stack([e1, np.cross(e3, e1), e3])     # K-frame axes in fixed axes
+    B = R_K.T @ A0
+    theta = float(np.arccos(np.clip(B[2, 2], -1.0, 1.0)))
+    if np.sin(theta) > 1e-12:
+        phi = float(np.arctan2(B[2, 0], B[2, 1]))
+        psi = float(np.arctan2(B[0, 2], -B[1, 2]))
+    else:
+        phi, psi = 0.0, float(np.arctan2(B[1, 0], B[0, 0]))
+    return K, R_K, psi, theta, phi

@@ -31,7 +31,7 @@ from .. import notation as nt
 from .. import surfaces
 from ..impact import lever
 from ..reduced import axisymmetric, planar
-from .geometry import lowest_point_numeric, rotation_x, rotation_z
+from .geometry import lowest_point_numeric, momentum_frame, rotation_x, rotation_z
 from .scene import Scene, SceneError, law_functions
 
 T_VEC = dm.Vector("t", (nt.t,), ("t",))
@@ -422,21 +422,7 @@ def _axisymmetric(scene: Scene, why: str) -> SceneModel:
     r0 = law_functions(scene)(np.array([scene.t0]))[6, 0]
     Jeff0 = scene.J[0] + scene.mu * r0 ** 2
     K_body = np.array([Jeff0 * w0[0], Jeff0 * w0[1], scene.J[2] * w0[2]])
-    K_fixed = A0 @ K_body
-    K = float(np.linalg.norm(K_fixed))
-    e3 = K_fixed / K
-    helper = np.array([1.0, 0.0, 0.0]) if abs(e3[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
-    e1 = np.cross(helper, e3)
-    e1 /= np.linalg.norm(e1)
-    e2 = np.cross(e3, e1)
-    R_K = np.column_stack([e1, e2, e3])               # K-frame axes in fixed axes
-    B = R_K.T @ A0                                      # = Rz(psi) Rx(theta) Rz(phi)
-    theta0 = float(np.arccos(np.clip(B[2, 2], -1.0, 1.0)))
-    if np.sin(theta0) > 1e-12:
-        phi0 = float(np.arctan2(B[2, 0], B[2, 1]))
-        psi0 = float(np.arctan2(B[0, 2], -B[1, 2]))
-    else:
-        phi0, psi0 = 0.0, float(np.arctan2(B[1, 0], B[0, 0]))
+    K, R_K, psi0, theta0, phi0 = momentum_frame(A0 @ K_body, A0)
     subs, defs = _common(scene)
     from ..reduced import K_norm, omega_z0, phi, psi
     consts = {K_norm: _float(K), omega_z0: _float(w0[2])}

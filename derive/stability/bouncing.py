@@ -45,10 +45,12 @@ from dataclasses import dataclass, replace
 
 import casadi as ca
 import numpy as np
+import sympy as sp
 
+from .. import notation as nt
 from ..emit.casadi_backend import build_function
 from ..runtime.driver import Session, prepare
-from ..runtime.scene import Scene
+from ..runtime.scene import Scene, SceneError
 from .floquet import complex_pairs
 from .variational import Monodromy
 
@@ -163,9 +165,7 @@ class HybridMap:
     def run(self, t0: float, q0, duration: float):
         sc = replace(self.scene, t0=float(t0), duration=float(duration))
         self.model.q0 = np.asarray(q0, dtype=float)
-        from ..runtime.driver import _options
-        opt = _options(sc)
-        return Session(self.library, sc, self.model, chunk=4096, options=opt).run()
+        return Session(self.library, sc, self.model, chunk=4096).run()
 
     def to_next_impact(self, t0: float, q0, horizon: float):
         """Post-impact time and state of the first impact after t0 (None if none)."""
@@ -233,9 +233,6 @@ def reference5(scene: Scene) -> dict:
     """The amplitude a, frequency W and spin of a scene of reference [5], checked: J_x =
     J_y, x = y = 0, z = a sin(W t) (a, W > 0), a shape symmetric about Oz and centred on
     it, the axis vertical, omega = (0, 0, spin).  SceneError names what breaks."""
-    import sympy as sp
-    from .. import notation as nt
-    from ..runtime.scene import SceneError
     if not scene.contact_possible:
         raise SceneError("[plane]", "periodic bouncing needs the plane and a shape")
     if abs(scene.J[0] - scene.J[1]) > 1e-12 * scene.J[0]:
@@ -266,7 +263,6 @@ def table_guess(scene: Scene, n: int) -> np.ndarray:
     """Newton's start: (impact time, post-impact Z_C', omega, n_x, n_y) of the table's
     symmetric n-orbit, with the scene's spin.  SceneError below the existence
     threshold."""
-    from ..runtime.scene import SceneError
     p = reference5(scene)
     nu = scene.m / (scene.m + scene.M)
     Gamma = nu * p["a"] * p["W"] ** 2 / scene.g

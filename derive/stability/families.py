@@ -28,6 +28,7 @@ import sympy as sp
 from .. import notation as nt
 from ..runtime.scene import SceneError, parse_scene
 from .floquet import UNIT_TOL, block_verdict
+from .variational import Monodromy
 
 COMMON = {"J_x": 0.10, "J_y": 0.12, "J_z": 0.14, "M": 1.0, "m": 0.2, "omega": 2.0}
 MODEL_SYMBOLS = {"J_x": nt.J_x, "J_y": nt.J_y, "J_z": nt.J_z, "M": nt.M, "m": nt.m}
@@ -155,7 +156,6 @@ class Member:
     """Evaluates members of one family with one compiled library."""
 
     def __init__(self, name: str, rtol: float = 1e-12, library_path: str | None = None):
-        from .variational import Monodromy
         self.family = family(name)
         defaults = self.family.defaults
         base = parse_scene(self.family.scene(defaults))

@@ -26,15 +26,20 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from fractions import Fraction
 
+import casadi as ca
 import numpy as np
 import sympy as sp
 
 from .. import models as dm
 from .. import notation as nt
+from ..emit.casadi_backend import build_function
 from ..emit.numpy_backend import compile_spec
+from ..runtime.driver import simulate
 from ..runtime.scene import Scene, SceneError
-from .variational import Monodromy, variational_spec
+from ..runtime.scene_models import _common, specialise
+from .variational import Monodromy
 
 UNIT_TOL = 1e-6         # |rho| - 1 beyond this: unstable
 
@@ -83,7 +88,6 @@ class Analysis:
 def law_period(scene: Scene) -> float:
     """The common period of the point's law: every sin/cos argument must be k t + c
     with frequencies commensurate (ratios of small integers); constant laws have none."""
-    from fractions import Fraction
     hint = "set [stability].period"
     freqs = set()
     for expr in scene.law:
@@ -112,25 +116,22 @@ def initial_state(scene: Scene) -> np.ndarray:
 
 
 class TraceOfJacobian:
-    """tr(df/dq)(t, q) from the derived expressions, evaluated with NumPy."""
+    """tr(df/dq)(t, q): the diagonal of the derived flight Jacobian
+    (:func:`derive.models.flight_jacobian`) specialised to the scene, evaluated with
+    NumPy (an evaluation independent of the compiled variational runtime)."""
 
     def __init__(self, scene: Scene, base: str = "vertical"):
-        spec, _ = variational_spec(scene, base)
-        n = len(dm.STATES[base])
-        out = spec.outputs[0].entries
-        # tr(A) = sum_i (A Phi)_ii at Phi = I
-        phi = spec.inputs[1].entries[n:]
-        at_identity = {phi[i * n + j]: (1 if i == j else 0) for i in range(n) for j in range(n)}
-        trace = sum((sp.sympify(out[n + i * n + i]).xreplace(at_identity) for i in range(n)),
-                    sp.Integer(0))
-        self.fn = compile_spec(dm.FunctionSpec(
-            name="trace", doc="", inputs=spec.inputs, outputs=(dm.Vector("tr", (trace,), ("tr",)),),
-            solves=spec.solves, definitions=spec.definitions))
-        self.n = n
+        subs, defs = _common(scene)
+        q, labels = dm.STATES[base], dm.STATE_LABELS[base]
+        jac = dm.flight_jacobian(base)
+        n = len(q)
+        A = jac.outputs[0].entries
+        trace = sum((A[i * n + i] for i in range(n)), sp.Integer(0))
+        self.fn = compile_spec(specialise(jac, subs, defs, q, labels, "trace",
+                                          outputs=[("tr", (trace,), ("tr",))]))
 
     def __call__(self, t: float, q) -> float:
-        aug = np.r_[np.asarray(q, dtype=float), np.eye(self.n).ravel()]
-        return float(self.fn([t], aug)[0][0])
+        return float(self.fn([t], np.asarray(q, dtype=float))[0][0])
 
 
 def analyse(scene: Scene, period: float | None = None, fd_eps: float = 1e-6,
@@ -150,17 +151,18 @@ def analyse(scene: Scene, period: float | None = None, fd_eps: float = 1e-6,
                                       "[stability].period)")
     rho = np.linalg.eigvals(M)
     det = float(np.linalg.det(M))
-    # Liouville: the trace along the (periodic) base solution, Gauss-Legendre on 64 panels
+    # Liouville: the trace along the (periodic) base solution, Gauss-Legendre on 64
+    # panels; the base solution is carried from node to node
     tr = TraceOfJacobian(scene)
     nodes, weights = np.polynomial.legendre.leggauss(12)
     panels = np.linspace(0.0, T, 65)
-    total = 0.0
+    total, t_prev, q_prev = 0.0, 0.0, q0
     for a, b in zip(panels[:-1], panels[1:]):
-        ts = 0.5 * (b - a) * nodes + 0.5 * (a + b)
         values = []
-        for tk in ts:
-            qk, _ = mono.flow(scene.t0, q0, tk) if tk > 0 else (q0, None)
-            values.append(tr(scene.t0 + tk, qk))
+        for tk in 0.5 * (b - a) * nodes + 0.5 * (a + b):
+            q_prev, _ = mono.flow(scene.t0 + t_prev, q_prev, tk - t_prev)
+            t_prev = tk
+            values.append(tr(scene.t0 + tk, q_prev))
         total += 0.5 * (b - a) * float(np.dot(weights, values))
     liouville = math.exp(total)
     trivial = {name: float(np.max(np.abs(g @ M - g)) / max(np.max(np.abs(g)), 1e-300))
@@ -207,16 +209,20 @@ def runs_verdict(runs: list, suffix: str = "") -> str:
 
 
 def integral_gradients(scene: Scene, q0) -> dict:
-    """Gradients in the vertical layout of the integrals of free flight at q0 (time t0)."""
-    from ..runtime.scene import law_functions
-    v = law_functions(scene)(np.array([scene.t0]))[:, 0]
-    r, vr = v[[0, 3, 6]], v[[1, 4, 7]]
-    J = np.diag(scene.J) + scene.mu * ((r @ r) * np.eye(3) - np.outer(r, r))
-    omega, n = q0[2:5], q0[5:8]
-    K = J @ omega + scene.mu * np.cross(r, vr)
-    grads = {"|K|^2": np.r_[0, 0, 2 * J @ K, 0, 0, 0],
-             "K.n": np.r_[0, 0, J @ n, K],
-             "|n|^2": np.r_[0, 0, 0, 0, 0, 2 * n],
+    """Gradients in the vertical layout, at q0 and time t0, of the integrals of free
+    flight: |K|^2 (E1.9) and K.n (E3.8) by CasADi's AD of the derived kinetic moment
+    (:func:`derive.models.kinetic_moment`) specialised to the scene, |n|^2 and Z_C'."""
+    subs, defs = _common(scene)
+    q, labels = dm.STATES["vertical"], dm.STATE_LABELS["vertical"]
+    K_fn = build_function(specialise(dm.kinetic_moment("vertical"), subs, defs, q, labels,
+                                     "K"))
+    x = ca.SX.sym("q", len(q))
+    K = K_fn(scene.t0, x)
+    grad = ca.Function("grad", [x], [ca.gradient(ca.dot(K, K), x),
+                                     ca.gradient(ca.dot(K, x[5:8]), x)])
+    gK2, gKn = (np.array(v.full()).ravel() for v in grad(np.asarray(q0, dtype=float)))
+    n = np.asarray(q0[5:8], dtype=float)
+    grads = {"|K|^2": gK2, "K.n": gKn, "|n|^2": np.r_[0, 0, 0, 0, 0, 2 * n],
              "Z_C'": np.r_[0, 1, 0, 0, 0, 0, 0, 0]}
     return {k: g for k, g in grads.items() if np.max(np.abs(g)) > 0}
 
@@ -246,7 +252,6 @@ def long_run(scene: Scene, T: float, periods: int, eps: float, seed: int = 0,
              progress: bool = False) -> dict:
     """Perturb omega and the axis by ``eps`` (a fixed random direction, n renormalised)
     and follow the nonlinear motion for ``periods`` periods, sampled once per period."""
-    from ..runtime.driver import simulate
     rng = np.random.default_rng(seed)
     d = rng.normal(size=6)
     d /= np.linalg.norm(d)

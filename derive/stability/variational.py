@@ -89,10 +89,7 @@ class Monodromy:
         n = self.n
         sc = replace(self.scene, t0=float(t0), duration=float(duration))
         self.model.q0 = np.r_[np.asarray(q0, dtype=float), np.eye(n).ravel()]
-        opt = np.zeros(14)
-        opt[:13] = (2, sc.rtol, sc.atol, 0.0, sc.duration / 4.0, sc.step, sc.max_steps,
-                    sc.max_events, 0.0, 0.0, sc.duration, sc.zeno_dt, 1e-15)
-        session = Session(self.library, sc, self.model, chunk=4096, options=opt)
+        session = Session(self.library, sc, self.model, chunk=4096)
         t, Q, kinds, _, _, status = session.run(params=values)
         if status != "done":
             raise RuntimeError(f"variational integration ended with {status}")
