@@ -36,8 +36,7 @@ def compiler() -> str:
     return os.environ.get("CC", "cc")
 
 
-@lru_cache(maxsize=None)
-def compiler_id(cc: str) -> str:
+def _ask_compiler_id(cc: str) -> str:
     try:
         out = subprocess.run([cc, "--version"], capture_output=True, text=True, check=True)
     except (OSError, subprocess.CalledProcessError) as exc:
@@ -45,10 +44,7 @@ def compiler_id(cc: str) -> str:
     return out.stdout.splitlines()[0] if out.stdout else cc
 
 
-@lru_cache(maxsize=None)
-def native_target(cc: str) -> str:
-    """What ``-march=native`` resolves to, so that a cache shared between machines never
-    hands one machine another's instructions."""
+def _ask_native_target(cc: str) -> str:
     try:
         out = subprocess.run([cc, "-march=native", "-Q", "--help=target"], capture_output=True,
                              text=True, timeout=30).stdout
@@ -59,6 +55,58 @@ def native_target(cc: str) -> str:
             return line.split()[-1]
     import platform
     return platform.machine() + " " + platform.processor()
+
+
+def _fingerprint(cc: str) -> str | None:
+    """The compiler's executable (path, size, time) and the machine: a cheap stand-in for
+    its identity, under which its version and native target are remembered."""
+    path = shutil.which(cc)
+    if path is None:
+        return None
+    real = os.path.realpath(path)
+    st = os.stat(real)
+    import platform
+    return f"{cc}|{real}|{st.st_size}|{st.st_mtime_ns}|{platform.node()}"
+
+
+@lru_cache(maxsize=None)
+def _compiler_facts(cc: str) -> tuple:
+    """(version line, -march=native target) of ``cc``: asked once per compiler binary and
+    machine, then read from ``<cache>/compilers.json`` (two subprocesses would otherwise
+    cost every process 0.1 s before it may load a cached library)."""
+    import json
+    key = _fingerprint(cc)
+    memo = cache_dir() / "compilers.json"
+    known = {}
+    if key is not None and memo.is_file():
+        try:
+            known = json.loads(memo.read_text(encoding="utf-8"))
+        except (OSError, ValueError):
+            known = {}
+        if isinstance(known, dict) and isinstance(known.get(key), list):
+            return tuple(known[key])
+    facts = (_ask_compiler_id(cc), _ask_native_target(cc))
+    if key is not None:
+        known = known if isinstance(known, dict) else {}
+        known[key] = list(facts)
+        try:
+            memo.parent.mkdir(parents=True, exist_ok=True)
+            tmp = memo.with_suffix(f".{os.getpid()}.tmp")
+            tmp.write_text(json.dumps(known), encoding="utf-8")
+            os.replace(tmp, memo)
+        except OSError:
+            pass
+    return facts
+
+
+def compiler_id(cc: str) -> str:
+    return _compiler_facts(cc)[0]
+
+
+def native_target(cc: str) -> str:
+    """What ``-march=native`` resolves to, so that a cache shared between machines never
+    hands one machine another's instructions."""
+    return _compiler_facts(cc)[1]
 
 
 def cache_dir() -> Path:

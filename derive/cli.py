@@ -107,26 +107,34 @@ def cmd_emit(args: argparse.Namespace) -> int:
 
 # ---- simulate ---------------------------------------------------------------------
 def cmd_simulate(args: argparse.Namespace) -> int:
-    from .runtime.scene import DEFAULT_SCENE, SceneError, load_scene, parse_scene
+    import time
+    start = time.perf_counter()
+    from .runtime.scene import SceneError, builtin_doc, load_scene, parse_scene
     try:
-        scene = load_scene(args.scene) if args.scene else parse_scene(DEFAULT_SCENE,
+        scene = load_scene(args.scene) if args.scene else parse_scene(builtin_doc(),
                                                                       "built-in scene")
         from .runtime.driver import simulate
         result = simulate(scene, progress=not args.quiet)
     except SceneError as exc:
         raise UsageError(str(exc)) from None
     from .runtime.outputs import write_all
-    written = write_all(result, args.output)
+    t_written = time.perf_counter()
+    written = write_all(result, args.output, plot=not args.no_plots)
+    t_done = time.perf_counter()
     info = result.stats
     print(f"{scene.name}: {result.status}; model {result.model} ({result.why})")
     print(f"  {scene.method}, {info['steps']} steps ({info['rejected']} rejected), "
           f"{info['rhs_evaluations']} RHS evaluations, {info['impacts']} impacts, "
           f"{info['contacts']} contact phases, {info['liftoffs']} lift-offs")
-    print(f"  RHS ops: {result.ops['rhs_specialised']} specialised (with the point law) "
-          f"vs {result.ops['rhs_generic']} generic (law evaluated by the caller)")
+    if scene.contact_possible:
+        mh, mn = result.min_height, result.min_normal
+        print(f"  lowest height of S {mh:.3g} m" +
+              (f", smallest reaction in contact {mn:.4g} N" if mn < float("inf") else ""))
     t = result.timings
-    print(f"  specialise {t['specialise_s']:.2f} s, compile {t['compile_s']:.2f} s "
-          f"(cached when unchanged), run {1e3 * t['run_s']:.2f} ms")
+    build = f", library built in {t['library_build_s']:.2f} s (once per machine)" \
+        if t.get("load_s", 0.0) > 0.05 else ""
+    print(f"  validate {1e3 * t['prepare_s']:.2f} ms, run {1e3 * t['run_s']:.2f} ms{build}, "
+          f"outputs {t_done - t_written:.2f} s; {t_done - start:.2f} s in all")
     print(f"  wrote {', '.join(p.name for p in written)} to {args.output}")
     return 0 if result.status == "done" else 1
 
@@ -281,6 +289,8 @@ def build_parser() -> argparse.ArgumentParser:
                    "bouncing ball)")
     p.add_argument("-o", "--output", default="out", help="output folder (default: out)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--no-plots", action="store_true", help="write the tables and the "
+                   "summary only")
     p.set_defaults(func=cmd_simulate)
 
     p = sub.add_parser("stability", help="multipliers and verdict of a scene's periodic "

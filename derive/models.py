@@ -341,3 +341,61 @@ def layout_doc() -> str:
                  "body axes; p = (M, m, J_x, J_y, J_z, g);")
     lines.append("s = OS = (x*, y*, z*), the lowest point in body axes; restitution e.")
     return "\n".join(lines)
+
+
+# ---- the runtime's models ------------------------------------------------------------------
+# The C runtime (``generated/runtime/``) is compiled once per model and reads every number
+# of a scene at run time.  Besides the functions above it needs the contact right-hand side
+# with the free normal acceleration, and the closed forms of the reduced models.
+@lru_cache(maxsize=None)
+def runtime_contact(model: str) -> FunctionSpec:
+    """``contact_rhs`` with a third output, ``a_free`` = dv_n/dt without the reaction
+    (the runtime compares it with 0 to tell resting from leaving)."""
+    from .contact import contact_dynamics
+    base = contact_rhs(model)
+    a_free = contact_dynamics().a_free.xreplace(dict(zip(nt.omega_dot, OMEGA_DOT_FREE)))
+    return FunctionSpec(name=f"{model}_contact_rhs_free", doc=base.doc + " Also a_free.",
+                        inputs=base.inputs,
+                        outputs=base.outputs + (Vector("a_free", (a_free,), ("a_free",)),),
+                        solves=base.solves, definitions=base.definitions)
+
+
+PLANAR_KAPPA = sp.Symbol("kappa", real=True)
+
+
+@lru_cache(maxsize=None)
+def planar_functions() -> tuple[FunctionSpec, FunctionSpec, FunctionSpec]:
+    """The plane motion of E4.1/E4.2 (z = 0, omega = (0, 0, omega_z)): ``omega_z`` from
+    the integral ``kappa = K_z`` (derive.reduced.planar), ``K_z`` from ``omega_z`` (after
+    an impact), and ``d_z`` of the lever ``d = CS x n`` (dK_z/dt = N d_z in contact)."""
+    from .reduced import planar
+    pl = planar()
+    _, d = lever()
+    kappa = Vector("kappa", (pl.kappa,), ("kappa",))
+    wz = Vector("omega_z", (nt.omega_z,), ("omega_z",))
+    omega_z = FunctionSpec(
+        name="planar_omega_z", doc="omega_z of the plane motion from K_z = kappa (E4.2).",
+        inputs=(kappa, _u(), _p()), outputs=(Vector("omega_z", (pl.omega_z,), ("omega_z",)),),
+        definitions=MASS_DEFINITIONS)
+    K_z = FunctionSpec(
+        name="planar_kappa", doc="K_z of the plane motion from omega_z (E4.2's integral).",
+        inputs=(wz, _u(), _p()), outputs=(Vector("kappa", (pl.K_z,), ("kappa",)),),
+        definitions=MASS_DEFINITIONS)
+    lever_z = FunctionSpec(
+        name="planar_lever_z", doc="d_z, the vertical body component of d = CS x n (E1.10).",
+        inputs=(_q("vertical"), _u(), _s(), _p()), outputs=(Vector("d_z", (d[2],), ("d_z",)),),
+        definitions=MASS_DEFINITIONS)
+    return omega_z, K_z, lever_z
+
+
+@lru_cache(maxsize=None)
+def axisymmetric_rates() -> FunctionSpec:
+    """``(psi', phi')`` of the axisymmetric carrier with P on its axis (E3.14), with the
+    constants of the flight ``c = (|K|, omega_z0)``."""
+    from .reduced import K_norm, axisymmetric, omega_z0
+    ax = axisymmetric()
+    return FunctionSpec(
+        name="axisymmetric_rates", doc="psi' and phi' of E3.14 (J_x = J_y, x = y = 0).",
+        inputs=(_u(), _p(), Vector("c", (K_norm, omega_z0), ("K", "omega_z0"))),
+        outputs=(Vector("rates", (ax.psi_rate, ax.phi_rate), ("psi'", "phi'")),),
+        definitions=MASS_DEFINITIONS)

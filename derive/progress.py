@@ -1,5 +1,6 @@
 """A progress bar on stderr for long work (simulations, sweeps), shown only when the
-work takes longer than ``delay`` seconds."""
+work takes longer than ``delay`` seconds.  On a terminal it redraws one line; otherwise
+(a log file, CI) it writes a plain line at most every 10 % and no carriage returns."""
 from __future__ import annotations
 
 import sys
@@ -11,6 +12,8 @@ class Bar:
         self.label, self.enabled, self.delay, self.width = label, enabled, delay, width
         self.start = time.perf_counter()
         self.shown = False
+        self.tty = sys.stderr.isatty()
+        self.last_decile = -1
 
     def update(self, fraction: float, note: str = "") -> None:
         if not self.enabled:
@@ -20,6 +23,13 @@ class Bar:
             return
         frac = min(max(fraction, 0.0), 1.0)
         eta = f"  {elapsed * (1 - frac) / frac:5.0f} s left" if 0 < frac < 1 else ""
+        if not self.tty:
+            decile = int(10 * frac)
+            if decile > self.last_decile:
+                self.last_decile = decile
+                print(f"  {self.label}: {100 * frac:3.0f}%  {note}{eta}", file=sys.stderr,
+                      flush=True)
+            return
         bar = "#" * int(self.width * frac)
         print(f"\r  {self.label} [{bar:<{self.width}}] {100 * frac:5.1f}%  {note}{eta}",
               end="", file=sys.stderr, flush=True)

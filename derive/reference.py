@@ -24,7 +24,7 @@ from scipy.integrate import quad
 
 from . import notation as nt
 from .runtime.geometry import momentum_frame, rotation_x, rotation_z
-from .runtime.scene import DEFAULT_SCENE, Scene, law_functions, parse_scene
+from .runtime.scene import DEFAULT_SCENE, Scene, parse_scene
 
 
 def free_parabola(scene: Scene, t) -> tuple[np.ndarray, np.ndarray]:
@@ -68,7 +68,7 @@ def inverse_inertia_integral(scene: Scene, ts: np.ndarray, J: float) -> np.ndarr
     ``int dtheta/(A + B sin^2 theta) = G(theta)/sqrt(A (A + B))``, G the continuous
     angle of (sqrt(A) cos theta, sqrt(A + B) sin theta)."""
     mu = scene.mu
-    z = scene.law[2]
+    z = scene.law.sympy()[2]
     h = _harmonic(z)
     if h is not None:
         a, W, b = h
@@ -86,19 +86,19 @@ def inverse_inertia_integral(scene: Scene, ts: np.ndarray, J: float) -> np.ndarr
 
 def axisymmetric(scene: Scene, t) -> np.ndarray:
     """The quadrature solution of section 3 in the general layout."""
-    if abs(scene.J[0] - scene.J[1]) > 1e-12 * max(scene.J) or scene.law[0] != 0 \
-            or scene.law[1] != 0:
+    if abs(scene.J[0] - scene.J[1]) > 1e-12 * max(scene.J) or scene.law.sympy()[0] != 0 \
+            or scene.law.sympy()[1] != 0:
         raise ValueError("axisymmetric reference: needs J_x = J_y and x = y = 0")
     ts = np.asarray(t, dtype=float)
     A0, w0 = scene.A0, np.asarray(scene.omega, dtype=float)
-    z0 = float(sp.sympify(scene.law[2]).subs(nt.t, scene.t0))
+    z0 = float(sp.sympify(scene.law.sympy()[2]).subs(nt.t, scene.t0))
     Jx, Jz, mu = scene.J[0], scene.J[2], scene.mu
     K_body = np.array([(Jx + mu * z0 ** 2) * w0[0], (Jx + mu * z0 ** 2) * w0[1], Jz * w0[2]])
     K, R_K, psi0, theta0, phi0 = momentum_frame(A0 @ K_body, A0)  # E3.11: cos = J_z w_z0/K
     integral = inverse_inertia_integral(scene, ts, Jx)
     psi = psi0 + K * integral
     phi = phi0 + w0[2] * (ts - scene.t0) - w0[2] * Jz * integral
-    z = np.asarray(law_functions(scene)(ts)[6])
+    z = np.asarray(scene.law.jets(ts)[6])
     psi_dot = K / (Jx + mu * z ** 2)
     s0 = math.sin(theta0)
     omega = np.column_stack([psi_dot * s0 * np.sin(phi), psi_dot * s0 * np.cos(phi),
@@ -110,11 +110,11 @@ def axisymmetric(scene: Scene, t) -> np.ndarray:
 
 def planar(scene: Scene, t) -> np.ndarray:
     """The plane motion of section 4 (z = 0, omega along z) in the general layout."""
-    if scene.law[2] != 0 or scene.omega[0] != 0 or scene.omega[1] != 0:
+    if scene.law.sympy()[2] != 0 or scene.omega[0] != 0 or scene.omega[1] != 0:
         raise ValueError("planar reference: needs z = 0 and omega(0) along z")
     ts = np.asarray(t, dtype=float)
     mu, Jz = scene.mu, scene.J[2]
-    x, y = scene.law[0], scene.law[1]
+    x, y = scene.law.sympy()[0], scene.law.sympy()[1]
     xd, yd = sp.diff(x, nt.t), sp.diff(y, nt.t)
     # (4.2): [J_z + mu (x^2 + y^2)] omega_z + mu (x y' - y x') = kappa
     Kz = (Jz + mu * (x ** 2 + y ** 2)) * sp.Symbol("w") + mu * (x * yd - y * xd)
@@ -179,10 +179,10 @@ def vertical_bounce(scene: Scene, t) -> tuple[np.ndarray, np.ndarray]:
     impacts and every impact time is the root of a quadratic.  Returns the general layout
     at ``t`` and the impact times."""
     t_sym = nt.t
-    zf = sp.expand(scene.law[2])
+    zf = sp.expand(scene.law.sympy()[2])
     w = float(sp.diff(zf, t_sym))
     z0 = float(zf.subs(t_sym, 0))
-    if scene.law[0] != 0 or scene.law[1] != 0 or sp.diff(zf, t_sym, 2) != 0 \
+    if scene.law.sympy()[0] != 0 or scene.law.sympy()[1] != 0 or sp.diff(zf, t_sym, 2) != 0 \
             or any(scene.omega) or not np.allclose(scene.A0[2], [0, 0, 1]) \
             or scene.shape != "sphere" or scene.center[0] or scene.center[1]:
         raise ValueError("vertical bounce: needs x = y = 0, z linear in t, omega = 0, the "
@@ -271,8 +271,8 @@ def translational_bounce(scene: Scene, t, max_events: int = 100000):
     intervals."""
     from scipy.optimize import brentq
     tt = nt.t
-    zf = scene.law[2]
-    if scene.law[0] != 0 or scene.law[1] != 0 or any(scene.omega) \
+    zf = scene.law.sympy()[2]
+    if scene.law.sympy()[0] != 0 or scene.law.sympy()[1] != 0 or any(scene.omega) \
             or not np.allclose(scene.A0[2], [0, 0, 1]) or scene.shape != "sphere" \
             or scene.center[0] or scene.center[1]:
         raise ValueError("translational bounce: needs x = y = 0, omega = 0, the body z "

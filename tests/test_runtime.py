@@ -198,7 +198,8 @@ def test_attitude_and_vertical_equal_general():
 
 def test_accumulating_impacts_end_in_resting_contact():
     """e = 0.5: the impacts accumulate (Zeno); the runtime switches to contact with the
-    reaction of a resting ball, (m + M) g, instead of stepping forever or falling."""
+    reaction of a resting ball, (m + M) g, instead of stepping forever or falling, and
+    predicts the accumulation time of the geometric series of flights."""
     res = simulate(ball(e=0.5, duration=3.0, rtol=1e-10, atol=1e-12, method="dopri5"),
                    progress=False)
     assert res.status == "done"
@@ -208,7 +209,9 @@ def test_accumulating_impacts_end_in_resting_contact():
     assert abs(contact["value"] - 1.2 * 9.81) < 1e-6
     # the Zeno time of the classical ball: t_inf = t1 (1 + 2e/(1-e))
     t1 = math.sqrt(2 * 1.0 / 9.81)
-    assert abs(contact["t"] - t1 * (1 + 2 * 0.5 / 0.5)) < 1e-6
+    t_inf = t1 * (1 + 2 * 0.5 / 0.5)
+    assert abs(contact["t_accumulation"] - t_inf) < 1e-9
+    assert t_inf - 1e-3 < contact["t"] <= t_inf
     z_final = res.q[-1][2]
     assert abs(z_final - 0.5) < 1e-9 and abs(res.q[-1][5]) < 1e-9
 
@@ -235,12 +238,18 @@ def test_max_events_is_a_status_not_a_hang():
     assert res.status == "max_events" and len(res.impacts) == 3
 
 
-def test_compiled_library_is_cached():
-    from derive.runtime.driver import prepare
-    _, _, lib1, info1 = prepare(scene_dict())
-    _, _, lib2, info2 = prepare(scene_dict())
-    assert lib1.path == lib2.path
-    assert info2["timings"]["compile_s"] < 0.05
+def test_compiled_library_is_cached(tmp_path):
+    """Built once per machine: a second process only loads it."""
+    import subprocess
+    import sys
+    from derive.runtime.build import library
+    lib = library("general")
+    code = ("import time; from derive.runtime.build import library; t = time.perf_counter(); "
+            "lib = library('general'); print(lib.path, time.perf_counter() - t)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True).stdout.split()
+    assert out[0] == str(lib.path)
+    assert float(out[1]) < 0.5          # loading, not compiling (a build takes seconds)
 
 
 @pytest.mark.parametrize("method", ["rk4", "dopri5", "dop853"])

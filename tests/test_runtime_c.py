@@ -1,21 +1,22 @@
-"""The scene runtime's C: strict flags, sanitizers, no heap, no writable statics.
+"""The runtime's C: strict flags, sanitizers, no heap, no writable statics.
 
-A scene's rendered runtime (model section + integrators) is compiled with a small C main
-that drives crt_init/crt_advance with tiny buffers (so the pause/resume path runs), under
-AddressSanitizer and UndefinedBehaviorSanitizer, for a scene with impacts and resting
-contact and one without a plane, with every method.
+Each model's generated runtime (``generated/runtime/model_<kind>.c``) is compiled with a
+small C main that drives crt_set_law_*/crt_init/crt_advance with tiny buffers (so the
+pause/resume path runs), under AddressSanitizer and UndefinedBehaviorSanitizer, for a
+scene with impacts and resting contact, one with a tabulated law, and one without a
+plane, with every method.
 """
 from __future__ import annotations
 
 import shutil
 import subprocess
 
+import numpy as np
 import pytest
 
-from derive.runtime.build import render
-from derive.runtime.driver import _options
-from derive.runtime.scene import load_scene
-from derive.runtime.scene_models import build
+from derive.paths import GENERATED
+from derive.runtime import abi
+from derive.runtime.driver import prepare
 
 from test_runtime import ball, scene_dict
 
@@ -24,15 +25,20 @@ pytestmark = pytest.mark.skipif(CC is None, reason="no C compiler")
 STRICT = ["-std=c99", "-Wall", "-Wextra", "-Wpedantic", "-Werror"]
 
 MAIN = """
+#include "model_%(kind)s.c"
 #include <stdio.h>
+%(law_data)s
 int main(void)
 {
-  static const double opt[14] = {%(opt)s};
+  static const double opt[CRT_OPT_COUNT] = {%(opt)s};
+  static const double prm[CRT_P_COUNT] = {%(prm)s};
   static const double q0[NQ] = {%(q0)s};
   crt_session s;
-  double t[16], q[16 * NQ], ev[8 * 5];
+  double t[16], q[16 * NQ], ev[8 * CRT_EVENT_COLUMNS];
   int kind[16], n, n_ev, status, rows = 0, events = 0;
-  status = crt_init(&s, opt, %(t0)s, q0);
+  status = %(set_law)s;
+  if (status != 0) return 3;
+  status = crt_init(&s, opt, prm, %(t0)s, q0);
   while (status == 0) {
     status = crt_advance(&s, %(t1)s, t, q, kind, 16, &n, ev, 8, &n_ev);
     rows += n;
@@ -44,21 +50,46 @@ int main(void)
 """
 
 
+def _c_list(values, fmt=repr) -> str:
+    return ", ".join(fmt(float(v)) if fmt is repr else fmt(v) for v in values)
+
+
 def _source(doc, method):
     doc["run"]["method"] = method
-    scene = load_scene(doc)
-    model = build(scene)
-    src = render(model, scene.name).source
-    opt = _options(scene)
-    return src + MAIN % {"opt": ", ".join(repr(float(v)) for v in opt),
-                         "q0": ", ".join(repr(float(v)) for v in model.q0),
-                         "t0": repr(scene.t0), "t1": repr(scene.t0 + scene.duration)}
+    prep = prepare(doc)
+    law = prep.scene.law
+    arrays = law.arrays()
+    if getattr(law, "kind", "") == "table":
+        data = (f"static const double knots[] = {{{_c_list(arrays['knots'])}}};\n"
+                f"static const double coef[] = {{{_c_list(arrays['coef'])}}};\n")
+        set_law = (f"crt_set_law_table(&s, {len(arrays['knots'])}, knots, coef, "
+                   f"{1 if law.periodic else 0})")
+    else:
+        data = (f"static const int code[] = {{{_c_list(arrays['code'].ravel(), str)}}};\n"
+                f"static const double consts[] = {{{_c_list(arrays['consts'])}}};\n"
+                f"static const int out[3] = {{{_c_list(arrays['outputs'], str)}}};\n")
+        set_law = (f"crt_set_law_program(&s, {len(arrays['code'])}, {arrays['n_const']}, "
+                   f"code, consts, {len(arrays['consts'])}, out)")
+    return MAIN % {"kind": prep.kind, "law_data": data, "set_law": set_law,
+                   "opt": _c_list(prep.options), "prm": _c_list(prep.parameters),
+                   "q0": _c_list(prep.start.q0), "t0": repr(prep.scene.t0),
+                   "t1": repr(prep.scene.t0 + prep.scene.duration)}
+
+
+def _table_scene():
+    ts = np.linspace(0.0, 2 * np.pi / 3, 41)
+    rows = [[float(t), 0.2 * np.sin(3 * t), 0.1, 0.05 * np.cos(3 * t)] for t in ts]
+    rows[-1][1:] = rows[0][1:]
+    doc = scene_dict(run={"duration": 1.5})
+    doc["point"] = {"mass": 0.2, "samples": rows, "ends": "periodic"}
+    return doc
 
 
 SCENES = {
     "bouncing": lambda: scene_dict(run={"duration": 2.0}),
     "contact": lambda: ball(e=0.0, z0=0.5, law=("0", "0", "0.3*sin(20*t)"), duration=0.5,
                             rtol=1e-9, atol=1e-11),
+    "table": _table_scene,
     "free": lambda: scene_dict(plane=None, run={"duration": 1.0}),
 }
 
@@ -66,11 +97,11 @@ SCENES = {
 @pytest.mark.parametrize("method", ["rk4", "dopri5", "dop853"])
 @pytest.mark.parametrize("name", list(SCENES))
 def test_runtime_clean_under_sanitizers(name, method, tmp_path):
-    src = tmp_path / "scene.c"
+    src = tmp_path / "main.c"
     src.write_text(_source(SCENES[name](), method))
-    exe = tmp_path / "scene"
+    exe = tmp_path / "main"
     cmd = [CC, *STRICT, "-O1", "-g", "-fsanitize=address,undefined", "-fno-sanitize-recover=all",
-           str(src), "-o", str(exe), "-lm"]
+           "-I", str(GENERATED / "runtime"), str(src), "-o", str(exe), "-lm"]
     proc = subprocess.run(cmd, capture_output=True, text=True)
     assert proc.returncode == 0, proc.stderr[-3000:]
     run = subprocess.run([str(exe)], capture_output=True, text=True, timeout=300)
@@ -78,16 +109,27 @@ def test_runtime_clean_under_sanitizers(name, method, tmp_path):
     assert "runtime error" not in run.stderr
 
 
-def test_runtime_has_no_writable_statics_and_needs_only_libm(tmp_path):
-    src = tmp_path / "scene.c"
-    scene = load_scene(SCENES["contact"]())
-    src.write_text(render(build(scene), scene.name).source)
-    obj = tmp_path / "scene.o"
-    subprocess.run([CC, *STRICT, "-O2", "-c", str(src), "-o", str(obj)], check=True)
+@pytest.mark.parametrize("kind", ["general", "vertical", "attitude", "translational",
+                                  "planar", "axisymmetric", "variational"])
+def test_runtime_has_no_writable_statics_and_needs_only_libm(kind, tmp_path):
+    obj = tmp_path / "model.o"
+    subprocess.run([CC, *STRICT, "-O2", "-c", str(GENERATED / "runtime" / f"model_{kind}.c"),
+                    "-o", str(obj)], check=True)
     out = subprocess.run(["nm", str(obj)], capture_output=True, text=True, check=True).stdout
     undefined = {line.split()[1] for line in out.splitlines() if line.split()[0] == "U"}
     writable = [line for line in out.splitlines() if len(line.split()) == 3
                 and line.split()[1] in "BbDdGgSs"]
     assert undefined <= {"sqrt", "pow", "sin", "cos", "sincos", "exp", "log", "tan", "atan",
-                         "asin", "acos", "sinh", "cosh", "tanh"}, undefined
+                         "asin", "acos", "sinh", "cosh", "tanh", "fmod"}, undefined
     assert not writable, writable
+
+
+def test_the_library_and_abi_agree_on_every_name():
+    """One source of truth: the compiled name tables equal derive/runtime/abi.py (the
+    library refuses to load otherwise), and the header's enums are rendered from it."""
+    from derive.runtime.build import library
+    lib = library("vertical")
+    assert lib._names("crt_option_name", len(abi.OPTIONS)) == abi.names(abi.OPTIONS)
+    header = (GENERATED / "runtime" / "crt_abi.h").read_text()
+    for k, name in enumerate(abi.names(abi.STATUSES)):
+        assert f"CRT_{name.upper()} = {k}," in header

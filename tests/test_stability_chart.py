@@ -120,7 +120,7 @@ def test_cli_stability_scene_file_and_errors(tmp_path):
     scene.write_text(scene.read_text().replace("long_periods = 20", "long_periods = -1"))
     proc = _cli("stability", str(scene))
     assert proc.returncode == 2
-    assert "[stability].long_periods: must be an integer" in proc.stderr
+    assert "[stability].long_periods: must be >= 0" in proc.stderr
     scene.write_text(scene.read_text().replace("long_periods = -1", "")
                      .replace("[0.0, 0.0, 2.0]", "[0.3, 0.0, 2.0]"))
     proc = _cli("stability", str(scene))

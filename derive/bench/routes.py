@@ -32,9 +32,9 @@ from .. import notation as nt
 from ..emit.casadi_backend import Translator, build_function
 from ..emit.numpy_backend import compile_spec
 from ..models import flight_rhs, gap, impact, lowest_point
-from ..runtime.driver import Session, prepare
-from ..runtime.geometry import lowest_point_numeric
-from ..runtime.scene import Scene, law_functions, parse_scene
+from ..runtime import geometry
+from ..runtime.driver import Session, prepare, run_prepared
+from ..runtime.scene import Scene, parse_scene
 
 GRID_DT = 0.05
 EVAL_BUDGET = 3_000_000
@@ -62,14 +62,7 @@ def grid_of(scene: Scene, dt: float = GRID_DT) -> np.ndarray:
 def heights(scene: Scene, t: np.ndarray, states: np.ndarray) -> np.ndarray:
     if not scene.contact_possible or not len(states):
         return np.full(len(states), np.inf)
-    r = law_functions(scene)(t)[[0, 3, 6]].T
-    nu = scene.m / (scene.m + scene.M)
-    out = []
-    for k in range(len(states)):
-        n = states[k, 15:18]
-        s = lowest_point_numeric(scene, n)
-        out.append(states[k, 2] + n @ (s - nu * r[k]))
-    return np.array(out)
+    return geometry.heights(scene, t, states[:, 2], states[:, 15:18])
 
 
 def _timed(fn, repeats: int) -> float:
@@ -104,23 +97,28 @@ class Runtime:
             run.update(rtol=setting, atol=setting * 1e-2)
         run.setdefault("max_steps", 20_000_000)
         self.label = self.label_of[method]
-        self.scene, self.model, self.library, self.info = prepare(d)
+        self.prep = prepare(d)
+        self.scene = self.prep.scene
         self.grid = grid_of(self.scene, dt)
-        self.session = Session(self.library, self.scene, self.model, options=self.info["options"])
+        self.session = Session(self.prep.library)
+        self.session.set_law(self.scene.law)
 
     def run_raw(self):
-        return self.session.run()
+        p = self.prep
+        return self.session.run(p.scene.t0, p.scene.duration, p.start.q0, p.options,
+                                p.parameters)
 
     def result(self) -> Run:
-        t, Q, kinds, ev, stats, status = self.run_raw()
-        general = self.model.to_general(t, Q)
+        res = run_prepared(self.prep, self.session)
+        t, kinds, status, stats = res.t, res.row_kind, res.status, res.stats
+        general = res.general
         rows = kinds == 0
         tt, qq = t[rows], general[rows]
         idx = np.clip(np.searchsorted(tt, self.grid - 1e-12), 0, max(len(tt) - 1, 0))
         states = qq[idx] if len(tt) else np.empty((0, 18))
         if len(tt) and status == "done" and np.max(np.abs(tt[idx] - self.grid)) > 1e-9:
             raise RuntimeError("the output grid was not produced")
-        impacts = np.array([r[0] for r in ev if int(r[1]) == 1])
+        impacts = res.impacts[:, 0]
         h = heights(self.scene, tt, qq)
         return Run(states, impacts, stats["rhs_evaluations"], status,
                    float(np.min(h)) if len(h) else np.inf,
@@ -153,7 +151,7 @@ class Scipy:
             shape = "sphere" if s.shape == "sphere" else "ellipsoid"
             self.lp = compile_spec(lowest_point(shape))
         self.size = [s.size[0]] if s.shape == "sphere" else list(s.size)
-        self.law = law_functions(s)
+        self.law = s.law.jets
         self.p = np.array(s.p)
         self.grid = grid_of(s, dt)
         self.calls = 0

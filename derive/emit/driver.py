@@ -8,13 +8,15 @@ from ..models import all_specs, layout_doc
 from .c_backend import render_c
 from .casadi_backend import render_casadi
 from .render import GENERATED
+from .runtime_backend import render_runtime
 
-MANAGED = ("c", "casadi")      # folders of generated/ owned entirely by emit
+MANAGED = ("c", "casadi", "runtime")      # folders of generated/ owned entirely by emit
 
 
 def render_all() -> dict[str, bytes]:
     specs = all_specs()
     files = {k: v.encode("utf-8") for k, v in render_c(specs, GENERATED, layout_doc()).items()}
+    files.update({k: v.encode("utf-8") for k, v in render_runtime().items()})
     files.update(render_casadi(specs))
     return dict(sorted(files.items()))
 

@@ -3,13 +3,9 @@ from __future__ import annotations
 
 from functools import lru_cache
 from importlib import metadata
-from pathlib import Path
-
 import jinja2
 
-ROOT = Path(__file__).resolve().parents[2]
-TEMPLATES = ROOT / "templates"
-GENERATED = ROOT / "generated"
+from ..paths import GENERATED, ROOT, TEMPLATES  # noqa: F401  (re-exported)
 
 
 def _version(dist: str) -> str:

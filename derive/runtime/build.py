@@ -1,106 +1,121 @@
-"""Render a scene's model and the runtime into one C file, compile it (cached) and load
-it with ctypes."""
+"""The compiled runtime of each model: built once per machine from ``generated/runtime``,
+cached, and loaded with ctypes.
+
+``library(kind)`` compiles ``generated/runtime/model_<kind>.c`` (with the runtime headers
+beside it) the first time it is asked for on a machine; the build is cached by a hash of
+the sources, the flags and the compiler (:mod:`derive.cbuild`), so later calls, in this
+process or any other, only load it.  No SymPy, no code generation and no compiler run on
+the path of a simulation once the library exists.
+"""
 from __future__ import annotations
 
 import ctypes
-from dataclasses import dataclass
+import time
 from functools import lru_cache
+from pathlib import Path
 
 from ..cbuild import build_shared, runtime_flags
-from ..emit.c_backend import body
-from ..emit.program import build as build_program
-from ..emit.render import environment, versions
-from . import tableaus as T
-from .scene_models import SceneModel, generic_reference
+from . import abi
+
+KINDS = ("general", "vertical", "attitude", "translational", "planar", "axisymmetric",
+         "variational")
+
+DP = ctypes.POINTER(ctypes.c_double)
+IP = ctypes.POINTER(ctypes.c_int)
 
 
-def _c(x) -> str:
-    return repr(float(x))
+def runtime_dir() -> Path:
+    from ..paths import GENERATED
+    return GENERATED / "runtime"
 
 
-def _pairs(values) -> list:
-    """(index, C literal) for the nonzero coefficients."""
-    return [(j, _c(v)) for j, v in enumerate(values) if float(v) != 0.0]
-
-
-@lru_cache(maxsize=None)
-def tableau_context() -> dict:
-    def dense_rows(rows, n):
-        out = []
-        for i in range(n):
-            row = [0.0] * i
-            for j, v in rows[i] if i < len(rows) else ():
-                row[j] = float(v)
-            out.append([_c(v) for v in row])
-        return out
-    return {
-        "dopri5": {"a": dense_rows(T.DOPRI5_A, 7), "c": [_c(v) for v in T.DOPRI5_C],
-                   "e": [_c(v) for v in T.DOPRI5_E], "d": [_c(v) for v in T.DOPRI5_D]},
-        "dop853": {"a_pairs": [[(j, _c(v)) for j, v in row if float(v) != 0.0]
-                               for row in T.DOP853_A],
-                   "c": [_c(v) for v in T.DOP853_C], "b_pairs": _pairs(T.DOP853_B),
-                   "e3_pairs": _pairs(T.DOP853_E3), "e5_pairs": _pairs(T.DOP853_E5),
-                   "d_pairs": [_pairs(row) for row in T.DOP853_D]},
-    }
-
-
-@dataclass
-class Rendered:
-    source: str
-    rhs_ops: int
-    generic_ops: int
-
-
-def render(model: SceneModel, scene_name: str, params: tuple = ()) -> Rendered:
-    """``params``: symbols left in the model, read at run time from ``env->prm``
-    (set with ``crt_set_params``): one compiled library for a whole parameter sweep."""
-    env = environment()
-    bodies = {name: body(spec, params=params) for name, spec in model.specs.items()}
-    generic = generic_reference(model.kind)
-    generic_ops = build_program(generic).ops
-    ctx = {"template": "templates/runtime/scene_model.c.jinja", "versions": versions(),
-           "scene_name": scene_name, "kind": model.kind, "nq": len(model.labels),
-           "labels": model.labels, "plane": model.has_plane, "z_index": model.z_index,
-           "zd_index": model.zd_index, "normalize": model.normalize,
-           "rhs_ops": bodies["rhs"]["ops"], "generic_ops": generic_ops,
-           "params": [str(p) for p in params],
-           "generic_name": generic.name, **bodies}
-    source = env.get_template("runtime/scene_model.c.jinja").render(**ctx)
-    source += env.get_template("runtime/runtime.c.jinja").render(**tableau_context())
-    return Rendered(source=source, rhs_ops=bodies["rhs"]["ops"], generic_ops=generic_ops)
+def sources(kind: str) -> dict[str, bytes]:
+    folder = runtime_dir()
+    if kind not in KINDS:
+        raise KeyError(kind)
+    names = ["crt_abi.h", "crt_law.h", "crt_integrators.h", "crt_core.h", f"model_{kind}.c"]
+    missing = [n for n in names if not (folder / n).is_file()]
+    if missing:
+        raise FileNotFoundError(f"{folder} lacks {', '.join(missing)}: run `derive emit`")
+    return {n: (folder / n).read_bytes() for n in names}
 
 
 class Library:
-    """The compiled runtime of one scene, through ctypes."""
+    """One model's runtime through ctypes; checks its name tables against
+    :mod:`derive.runtime.abi` when loaded."""
 
-    def __init__(self, path):
-        self.path = path
+    def __init__(self, path: Path, kind: str, build_seconds: float = 0.0):
+        self.path, self.kind, self.build_seconds = Path(path), kind, build_seconds
         lib = ctypes.CDLL(str(path))
-        d = ctypes.POINTER(ctypes.c_double)
-        i = ctypes.POINTER(ctypes.c_int)
-        lib.crt_sizeof.restype = ctypes.c_int
-        lib.crt_nq.restype = ctypes.c_int
-        lib.crt_init.argtypes = [ctypes.c_void_p, d, ctypes.c_double, d]
-        lib.crt_init.restype = ctypes.c_int
-        lib.crt_advance.argtypes = [ctypes.c_void_p, ctypes.c_double, d, d, i, ctypes.c_int, i,
-                                    d, ctypes.c_int, i]
-        lib.crt_advance.restype = ctypes.c_int
-        lib.crt_stats.argtypes = [ctypes.c_void_p, ctypes.POINTER(ctypes.c_long)]
-        lib.crt_time.argtypes = [ctypes.c_void_p]
-        lib.crt_time.restype = ctypes.c_double
-        lib.crt_phase.argtypes = [ctypes.c_void_p]
-        lib.crt_phase.restype = ctypes.c_int
-        lib.crt_set_params.argtypes = [ctypes.c_void_p, d]
-        lib.crt_n_params.restype = ctypes.c_int
+        c = ctypes
+        for name, res, args in (
+                ("crt_sizeof", c.c_int, []), ("crt_nq", c.c_int, []),
+                ("crt_has_plane", c.c_int, []), ("crt_model_name", c.c_char_p, []),
+                ("crt_count", c.c_int, [c.c_int]),
+                ("crt_state_name", c.c_char_p, [c.c_int]),
+                ("crt_set_law_program", c.c_int, [c.c_void_p, c.c_int, c.c_int, IP, DP,
+                                                  c.c_int, IP]),
+                ("crt_set_law_table", c.c_int, [c.c_void_p, c.c_int, DP, DP, c.c_int]),
+                ("crt_law_at", None, [c.c_void_p, c.c_double, DP]),
+                ("crt_init", c.c_int, [c.c_void_p, DP, DP, c.c_double, DP]),
+                ("crt_advance", c.c_int, [c.c_void_p, c.c_double, DP, DP, IP, c.c_int, IP,
+                                          DP, c.c_int, IP]),
+                ("crt_stats", None, [c.c_void_p, c.POINTER(c.c_long)]),
+                ("crt_summary", None, [c.c_void_p, DP]),
+                ("crt_time", c.c_double, [c.c_void_p]),
+                ("crt_phase", c.c_int, [c.c_void_p]),
+                ("crt_state", None, [c.c_void_p, DP]),
+                ("crt_eval_rhs", None, [c.c_void_p, c.c_double, DP, DP]),
+                ("crt_eval_rhs_rows", None, [c.c_void_p, c.c_int, DP, DP, DP])):
+            fn = getattr(lib, name)
+            fn.restype, fn.argtypes = res, args
+        for name in ("option", "parameter", "method", "status", "event", "stat", "summary",
+                     "opcode"):
+            fn = getattr(lib, f"crt_{name}_name")
+            fn.restype, fn.argtypes = c.c_char_p, [c.c_int]
         self.lib = lib
         self.nq = lib.crt_nq()
         self.session_size = lib.crt_sizeof()
-        self.n_params = lib.crt_n_params()
+        self.has_plane = bool(lib.crt_has_plane())
+        self.labels = tuple(lib.crt_state_name(i).decode() for i in range(self.nq))
+        self._check_names()
+
+    def _names(self, fn: str, count: int) -> tuple:
+        getter = getattr(self.lib, fn)
+        return tuple(getter(i).decode() for i in range(count))
+
+    def _check_names(self) -> None:
+        """The library and abi.py must agree on every name and position."""
+        tables = (("crt_option_name", abi.OPTIONS), ("crt_parameter_name", abi.PARAMETERS),
+                  ("crt_method_name", abi.METHODS), ("crt_status_name", abi.STATUSES),
+                  ("crt_event_name", abi.EVENT_KINDS), ("crt_stat_name", abi.STATS),
+                  ("crt_summary_name", abi.SUMMARY), ("crt_opcode_name", abi.OPCODES))
+        for fn, table in tables:
+            got = self._names(fn, len(table))
+            if got != abi.names(table):
+                raise RuntimeError(f"{self.path}: {fn} disagrees with derive/runtime/abi.py "
+                                   "(run `derive emit`)")
+        counts = [self.lib.crt_count(k) for k in range(7)]
+        want = [len(abi.OPTIONS), len(abi.PARAMETERS), len(abi.STATS), len(abi.SUMMARY),
+                len(abi.OPCODES), len(abi.EVENT_COLUMNS), abi.LAW_MAX_NODES]
+        if counts != want:
+            raise RuntimeError(f"{self.path}: table sizes {counts} differ from abi.py {want}")
 
 
-def compile_scene(rendered: Rendered, flags: tuple | None = None) -> Library:
+@lru_cache(maxsize=None)
+def library(kind: str, flags: tuple | None = None) -> Library:
+    """The compiled runtime of a model (built on first use on this machine, then cached)."""
     flags = runtime_flags() if flags is None else flags
-    path = build_shared({"scene_runtime.c": rendered.source}, flags=flags, name="scene")
-    library = Library(path)
-    library.flags = flags
-    return library
+    start = time.perf_counter()
+    path = build_shared(sources(kind), flags=flags, name=f"crt_{kind}")
+    return Library(path, kind, time.perf_counter() - start)
+
+
+def build_all(progress=None) -> dict[str, float]:
+    """Compile every model (``derive build``): seconds per model."""
+    out = {}
+    for kind in KINDS:
+        if progress:
+            progress(kind)
+        out[kind] = library(kind).build_seconds
+    return out

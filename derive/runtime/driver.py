@@ -1,247 +1,322 @@
-"""``derive.simulate(scene) -> Result``: choose the model, specialise, compile (cached),
-integrate with the C runtime, and post-process into the layout the scene asked for."""
+"""``derive.simulate(scene) -> Result``: validate once, choose a precompiled model, fill
+its numbers, run the C runtime, and read the results back lazily.
+
+The data flows once: the scene is parsed and validated (its law compiled into a program,
+cached by its text), the model chosen, and what the C needs — options, parameters, the
+law's arrays, the initial state — handed to a :class:`Session` of the model's library.
+Extras (the general layout, omega, the height of S, K) are computed only when read.
+"""
 from __future__ import annotations
 
 import ctypes
 import time
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 
-from .. import models as dm
-from ..progress import Bar
-from .build import compile_scene, render
-from .geometry import lowest_point_numeric
-from .scene import Scene, law_functions, load_scene
-from .scene_models import SceneModel, build
+from . import abi, choice
+from .build import DP, IP, Library, library
+from .geometry import heights, kinetic_moment
+from .scene import Scene, load_scene
 
-STATUSES = {0: "paused", 1: "done", 2: "max_events", 3: "step_underflow", 4: "nonfinite",
-            5: "max_steps", 6: "bad_options"}
-METHODS = {"rk4": 0, "dopri5": 1, "dop853": 2}
-EVENT_KINDS = {1: "impact", 2: "contact", 3: "liftoff", 4: "graze"}
-STAT_NAMES = ("steps", "rejected", "rhs_evaluations", "event_function_evaluations",
-              "impacts", "contacts", "liftoffs", "grazes")
-ROW_KINDS = {0: "step", 1: "before_event", 2: "after_event"}
+STATUSES = abi.names(abi.STATUSES)
+EVENT_KINDS = abi.names(abi.EVENT_KINDS)
+STAT_NAMES = abi.names(abi.STATS)
+ROW_KINDS = abi.names(abi.ROW_KINDS)
+METHODS = {name: k for k, name in enumerate(abi.names(abi.METHODS))}
 
 
-@dataclass
-class Result:
-    t: np.ndarray                 # (N,)
-    q: np.ndarray                 # (N, n_states)
-    state_names: tuple
-    impacts: np.ndarray           # (K, 4): t, I, v_n-, v_n+
-    status: str
-    model: str
-    why: str
-    events: list = field(default_factory=list)     # dicts: t, kind, value, v_minus, v_plus
-    row_kind: np.ndarray = None   # per row: 0 step, 1 just before an event, 2 just after
-    stats: dict = field(default_factory=dict)
-    timings: dict = field(default_factory=dict)
-    ops: dict = field(default_factory=dict)
-    extras: dict = field(default_factory=dict)      # omega, height, momentum as asked
-    scene: Scene = None
-    model_q: np.ndarray = None    # the trajectory in the model's own layout
-    model_labels: tuple = ()
-    scene_model: SceneModel = None
-
-
-def gap_margin(scene: Scene) -> float:
-    """How far the point's own motion can move S between the ends of a step:
-    the nu n.OP term of the gap varies by at most 2 nu max|OP| (sampled finely)."""
-    if not scene.contact_possible:
-        return 0.0
-    ts = np.linspace(scene.t0, scene.t0 + scene.duration, 20001)
-    r = law_functions(scene)(ts)[[0, 3, 6]]
-    nu = scene.m / (scene.m + scene.M)
-    return float(2.0 * nu * np.max(np.linalg.norm(r, axis=0)) * 1.01)
-
-
-def law_time_scale(scene: Scene) -> float:
-    """sqrt(amplitude / max |OP''|): 1/W for a harmonic law of frequency W."""
-    ts = np.linspace(scene.t0, scene.t0 + scene.duration, 20001)
-    v = law_functions(scene)(ts)
-    r, a = v[[0, 3, 6]], v[[2, 5, 8]]
-    amp = np.max(np.linalg.norm(r - r.mean(axis=1, keepdims=True), axis=0))
-    acc = np.max(np.linalg.norm(a, axis=0))
-    return float(np.sqrt(amp / acc)) if acc > 0 and amp > 0 else np.inf
-
-
-def _options(scene: Scene) -> np.ndarray:
-    opt = np.zeros(14)
-    opt[0] = METHODS[scene.method]
-    opt[1], opt[2] = scene.rtol, scene.atol
-    opt[3] = 0.0                                      # initial step: automatic
+def options(scene: Scene, kind: str) -> np.ndarray:
+    """The option vector of a run (indices from abi.OPTIONS)."""
+    opt = np.zeros(len(abi.OPTIONS))
+    o = abi.OPT
+    opt[o["method"]] = METHODS[scene.method]
+    opt[o["plane"]] = 1.0 if scene.contact_possible else 0.0
+    opt[o["rtol"]], opt[o["atol"]] = scene.rtol, scene.atol
     h_max = scene.duration / 4.0
     if scene.contact_possible:
         # the gap depends on the law directly, which the step control does not see:
         # at least about six steps per period of the point's motion
-        h_max = min(h_max, law_time_scale(scene))
-    opt[4] = h_max if scene.method != "rk4" else scene.step
-    opt[5] = scene.step
-    opt[6] = scene.max_steps
-    opt[7] = scene.max_events
-    opt[8] = scene.output_dt
-    opt[9] = 1.0 if scene.keep_orthonormal else 0.0
-    opt[10] = scene.duration                          # time scale
-    opt[11] = scene.zeno_dt
-    opt[12] = 1e-15                                   # event location, relative to the scale
-    opt[13] = gap_margin(scene)
+        h_max = min(h_max, scene.law_summary.time_scale)
+    opt[o["hmax"]] = h_max if scene.method != "rk4" else scene.step
+    opt[o["rk4_step"]] = scene.step
+    opt[o["max_steps"]] = scene.max_steps
+    opt[o["max_events"]] = scene.max_events
+    opt[o["output_dt"]] = scene.output_dt
+    opt[o["orthonormal"]] = 1.0 if scene.keep_orthonormal else 0.0
+    opt[o["time_scale"]] = scene.duration
+    opt[o["event_tol"]] = 1e-15
+    opt[o["length_scale"]] = choice.length_scale(scene) if scene.contact_possible else 0.0
+    opt[o["zeno_dt"]] = scene.zeno_dt
     return opt
 
 
-def prepare(scene) -> tuple[Scene, SceneModel, object, dict]:
-    """Validate, choose and build the model, render and compile its runtime."""
-    timings = {}
-    start = time.perf_counter()
-    scene = load_scene(scene)
-    model = build(scene)
-    timings["specialise_s"] = time.perf_counter() - start
-    start = time.perf_counter()
-    rendered = render(model, scene.name)
-    timings["render_s"] = time.perf_counter() - start
-    start = time.perf_counter()
-    library = compile_scene(rendered)
-    timings["compile_s"] = time.perf_counter() - start
-    ops = {"rhs_specialised": rendered.rhs_ops, "rhs_generic": rendered.generic_ops}
-    return scene, model, library, {"timings": timings, "ops": ops, "options": _options(scene)}
+@dataclass
+class Raw:
+    """What one run of the C returns."""
+    t: np.ndarray
+    q: np.ndarray
+    kinds: np.ndarray
+    events: np.ndarray            # (K, 6): t, kind, value, v_n-, v_n+, t_accumulation
+    stats: dict
+    summary: dict
+    status: str
 
 
 class Session:
-    """A runtime session with its buffers, reusable for repeated runs of one scene."""
+    """A run buffer over one model's library; reusable for many runs (a law, numbers and
+    an initial state per run)."""
 
-    def __init__(self, library, scene: Scene, model: SceneModel, chunk: int = 8192,
-                 options: np.ndarray | None = None):
-        self.library, self.scene, self.model = library, scene, model
-        nq = library.nq
-        self._session = ctypes.create_string_buffer(library.session_size + 64)
-        base = ctypes.addressof(self._session)
-        self._handle = ctypes.c_void_p((base + 63) // 64 * 64)
-        self.options = np.ascontiguousarray(options if options is not None else _options(scene))
-        self.q0 = np.ascontiguousarray(model.q0, dtype=float)
+    def __init__(self, lib: Library, chunk: int = 8192):
+        self.library = lib
+        self._mem = ctypes.create_string_buffer(lib.session_size + 64)
+        base = ctypes.addressof(self._mem)
+        self.handle = ctypes.c_void_p((base + 63) // 64 * 64)
         self.chunk = chunk
+        nq = lib.nq
         self.t_buf = np.zeros(chunk)
         self.q_buf = np.zeros((chunk, nq))
         self.k_buf = np.zeros(chunk, dtype=np.intc)
-        self.ev_buf = np.zeros((chunk, 5))
-        dp, ip = ctypes.POINTER(ctypes.c_double), ctypes.POINTER(ctypes.c_int)
-        self._ptrs = (self.options.ctypes.data_as(dp), self.q0.ctypes.data_as(dp),
-                      self.t_buf.ctypes.data_as(dp), self.q_buf.ctypes.data_as(dp),
-                      self.k_buf.ctypes.data_as(ip), self.ev_buf.ctypes.data_as(dp))
-        self._n_out, self._n_ev = ctypes.c_int(0), ctypes.c_int(0)
+        self.ev_buf = np.zeros((chunk, len(abi.EVENT_COLUMNS)))
+        self._out = (self.t_buf.ctypes.data_as(DP), self.q_buf.ctypes.data_as(DP),
+                     self.k_buf.ctypes.data_as(IP), self.ev_buf.ctypes.data_as(DP))
+        self._n, self._ne = ctypes.c_int(0), ctypes.c_int(0)
+        self._law = None
+        self._law_key = None
 
-    def run(self, progress: bool = False, params=None):
-        """Integrate once; returns rows (t, q, kind), events, stats, status.
-        ``params``: the values of a parametric model's parameters."""
+    def set_law(self, law) -> None:
+        """Hand the law to the C (kept referenced here: the C reads these arrays)."""
+        key = id(law)
+        if key == self._law_key:
+            return
         lib = self.library.lib
-        opt_p, q0_p, t_p, q_p, k_p, ev_p = self._ptrs
-        scene = self.scene
-        if params is not None:
-            prm = np.ascontiguousarray(params, dtype=float)
-            if prm.size != self.library.n_params:
-                raise ValueError(f"{prm.size} parameters for a model with "
-                                 f"{self.library.n_params}")
-            lib.crt_set_params(self._handle, prm.ctypes.data_as(ctypes.POINTER(ctypes.c_double)))
-        status = lib.crt_init(self._handle, opt_p, scene.t0, q0_p)
-        t_end = scene.t0 + scene.duration
+        arrays = law.arrays()
+        if getattr(law, "kind", "") == "table":
+            status = lib.crt_set_law_table(self.handle, len(arrays["knots"]),
+                                           arrays["knots"].ctypes.data_as(DP),
+                                           arrays["coef"].ctypes.data_as(DP),
+                                           1 if law.periodic else 0)
+        else:
+            code = arrays["code"]
+            status = lib.crt_set_law_program(self.handle, len(code), arrays["n_const"],
+                                             code.ctypes.data_as(IP),
+                                             arrays["consts"].ctypes.data_as(DP),
+                                             len(arrays["consts"]),
+                                             arrays["outputs"].ctypes.data_as(IP))
+        if status != 0:
+            raise RuntimeError(f"the runtime refused the law ({STATUSES[status]})")
+        self._law, self._law_key = (law, arrays), key
+
+    def law_at(self, t: float) -> np.ndarray:
+        u = np.zeros(9)
+        self.library.lib.crt_law_at(self.handle, float(t), u.ctypes.data_as(DP))
+        return u
+
+    def init(self, opt, prm, t0: float, q0) -> None:
+        self._opt = np.ascontiguousarray(opt, dtype=float)
+        self._prm = np.ascontiguousarray(prm, dtype=float)
+        q0 = np.ascontiguousarray(q0, dtype=float)
+        status = self.library.lib.crt_init(self.handle, self._opt.ctypes.data_as(DP),
+                                           self._prm.ctypes.data_as(DP), float(t0),
+                                           q0.ctypes.data_as(DP))
+        if status != 0:
+            raise RuntimeError(f"the runtime refused the run ({STATUSES[status]})")
+
+    def run(self, t0: float, duration: float, q0, opt, prm, progress=None) -> Raw:
+        lib = self.library.lib
+        self.init(opt, prm, t0, q0)
+        t_end = t0 + duration
         ts, qs, kinds, evs = [], [], [], []
-        bar = Bar("simulating", progress)
+        tp, qp, kp, ep = self._out
+        status = 0
         while status == 0:
-            status = lib.crt_advance(self._handle, t_end, t_p, q_p, k_p, self.chunk,
-                                     ctypes.byref(self._n_out), ev_p, self.chunk,
-                                     ctypes.byref(self._n_ev))
-            n, ne = self._n_out.value, self._n_ev.value
+            status = lib.crt_advance(self.handle, t_end, tp, qp, kp, self.chunk,
+                                     ctypes.byref(self._n), ep, self.chunk,
+                                     ctypes.byref(self._ne))
+            n, ne = self._n.value, self._ne.value
             ts.append(self.t_buf[:n].copy())
             qs.append(self.q_buf[:n].copy())
             kinds.append(self.k_buf[:n].copy())
             evs.append(self.ev_buf[:ne].copy())
-            if progress:
-                t_now = lib.crt_time(self._handle)
-                bar.update((t_now - scene.t0) / scene.duration, f"t = {t_now:.4g}")
-        bar.close()
-        stats = (ctypes.c_long * 8)()
-        lib.crt_stats(self._handle, stats)
+            if progress is not None:
+                progress((lib.crt_time(self.handle) - t0) / duration)
+        stats = (ctypes.c_long * len(abi.STATS))()
+        lib.crt_stats(self.handle, stats)
+        summ = np.zeros(len(abi.SUMMARY))
+        lib.crt_summary(self.handle, summ.ctypes.data_as(DP))
         join = (lambda parts: parts[0]) if len(ts) == 1 else np.concatenate
-        return (join(ts), join(qs), join(kinds), join(evs),
-                dict(zip(STAT_NAMES, list(stats))), STATUSES.get(status, str(status)))
+        return Raw(join(ts), join(qs), join(kinds), join(evs),
+                   dict(zip(STAT_NAMES, list(stats))),
+                   dict(zip(abi.names(abi.SUMMARY), summ.tolist())),
+                   STATUSES[status] if 0 <= status < len(STATUSES) else str(status))
+
+    def rhs_rows(self, t, Q) -> np.ndarray:
+        """The flight right-hand side along rows (after ``init``)."""
+        t = np.ascontiguousarray(t, dtype=float)
+        Q = np.ascontiguousarray(Q, dtype=float)
+        out = np.zeros_like(Q)
+        self.library.lib.crt_eval_rhs_rows(self.handle, len(t), t.ctypes.data_as(DP),
+                                           Q.ctypes.data_as(DP), out.ctypes.data_as(DP))
+        return out
 
 
-def run_library(library, scene: Scene, model: SceneModel, progress: bool = True,
-                chunk: int = 8192, options: np.ndarray | None = None):
-    """Integrate with the compiled runtime; returns raw rows, events, stats, status."""
-    return Session(library, scene, model, chunk, options).run(progress)
+@dataclass
+class Prepared:
+    """A scene with everything its run needs (no SymPy, nothing compiled per scene)."""
+    scene: Scene
+    kind: str
+    why: str
+    start: choice.Start
+    options: np.ndarray
+    parameters: np.ndarray
+
+    @property
+    def library(self) -> Library:
+        return library(self.kind)
 
 
-def simulate(scene, progress: bool = True) -> Result:
-    """Simulate a scene (a path, TOML text via a path, a dict of the schema, or a
-    :class:`Scene`)."""
-    scene, model, library, info = prepare(scene)
+def prepare(scene) -> Prepared:
+    scene = load_scene(scene)
+    kind, why = choice.choose(scene)
+    st = choice.start(scene, kind)
+    return Prepared(scene, kind, why, st, options(scene, kind),
+                    choice.parameters(scene, st.constants))
+
+
+@dataclass
+class Result:
+    """The run of a scene.  ``t``, ``q`` (general layout when the pose is asked, else the
+    model's own), ``state_names``, ``impacts`` (t, I, v_n-, v_n+), ``status``; the rest on
+    demand: ``general``, ``omega``, ``height``, ``momentum``, ``extras``."""
+    scene: Scene
+    model: str
+    why: str
+    t: np.ndarray
+    model_q: np.ndarray
+    model_labels: tuple
+    row_kind: np.ndarray
+    event_rows: np.ndarray
+    stats: dict
+    summary: dict
+    status: str
+    start: choice.Start
+    session: Session = field(repr=False, default=None)
+    timings: dict = field(default_factory=dict)
+
+    @cached_property
+    def _rates(self):
+        if self.model not in ("planar", "axisymmetric"):
+            return None
+        return self.session.rhs_rows(self.t, self.model_q)
+
+    @cached_property
+    def omega(self) -> np.ndarray:
+        return choice.omega_of(self.scene, self.model, self.start, self.t, self.model_q,
+                               self._rates)
+
+    @cached_property
+    def general(self) -> np.ndarray | None:
+        return choice.to_general(self.scene, self.model, self.start, self.t, self.model_q,
+                                 self.omega if self.model in ("planar", "axisymmetric")
+                                 else None)
+
+    @property
+    def q(self) -> np.ndarray:
+        return self.general if "pose" in self.scene.outputs and self.general is not None \
+            else self.model_q
+
+    @property
+    def state_names(self) -> tuple:
+        return choice.GENERAL_LABELS if "pose" in self.scene.outputs and \
+            self.general is not None else self.model_labels
+
+    @cached_property
+    def height(self) -> np.ndarray | None:
+        if not self.scene.size:
+            return None
+        zn = choice.vertical_of(self.model, self.general, self.model_q)
+        if zn is None:
+            return None
+        return heights(self.scene, self.t, *zn)
+
+    @cached_property
+    def momentum(self) -> dict:
+        """K about C in body axes (E1.4), |K|, and K in fixed axes when the attitude is
+        known."""
+        K = kinetic_moment(self.scene, self.omega, self.scene.law.jets(self.t))
+        out = {"K_body": K, "K_norm": np.linalg.norm(K, axis=1)}
+        if self.general is not None:
+            A = self.general[:, 9:18].reshape(-1, 3, 3)
+            out["K_fixed"] = np.einsum("nij,nj->ni", A, K)
+        return out
+
+    @property
+    def extras(self) -> dict:
+        wants = set(self.scene.outputs)
+        out = {}
+        if "omega" in wants:
+            out["omega"] = self.omega
+        if "height" in wants and self.height is not None:
+            out["height"] = self.height
+        if "momentum" in wants:
+            out["momentum"] = self.momentum
+        return out
+
+    @cached_property
+    def events(self) -> list:
+        cols = abi.EVENT_COLUMNS
+        return [{"t": float(r[0]), "kind": EVENT_KINDS[int(r[1])], "value": float(r[2]),
+                 "v_minus": float(r[3]), "v_plus": float(r[4]),
+                 **({cols[5]: float(r[5])} if int(r[1]) == abi.index(abi.EVENT_KINDS,
+                                                                     "contact") else {})}
+                for r in self.event_rows]
+
+    @cached_property
+    def impacts(self) -> np.ndarray:
+        rows = self.event_rows
+        sel = rows[:, 1] == abi.index(abi.EVENT_KINDS, "impact") if len(rows) else []
+        return rows[sel][:, [0, 2, 3, 4]] if len(rows) else np.zeros((0, 4))
+
+    @property
+    def min_height(self) -> float:
+        return self.summary["min_height"]
+
+    @property
+    def min_normal(self) -> float:
+        return self.summary["min_normal"]
+
+
+def run_prepared(prep: Prepared, session: Session | None = None, progress=None) -> Result:
+    timings = {}
     start = time.perf_counter()
-    t, Q, kinds, ev, stats, status = run_library(library, scene, model, progress,
-                                                 options=info["options"])
-    info["timings"]["run_s"] = time.perf_counter() - start
+    lib = prep.library
+    timings["load_s"] = time.perf_counter() - start
+    session = session or Session(lib)
     start = time.perf_counter()
-    result = _assemble(scene, model, t, Q, kinds, ev, stats, status)
-    info["timings"]["post_s"] = time.perf_counter() - start
-    result.timings, result.ops = info["timings"], info["ops"]
+    session.set_law(prep.scene.law)
+    raw = session.run(prep.scene.t0, prep.scene.duration, prep.start.q0, prep.options,
+                      prep.parameters, progress)
+    timings["run_s"] = time.perf_counter() - start
+    return Result(scene=prep.scene, model=prep.kind, why=prep.why, t=raw.t, model_q=raw.q,
+                  model_labels=lib.labels, row_kind=raw.kinds, event_rows=raw.events,
+                  stats=raw.stats, summary=raw.summary, status=raw.status, start=prep.start,
+                  session=session, timings=timings)
+
+
+def simulate(scene, progress: bool = False) -> Result:
+    """Simulate a scene (a path, a dict of the schema, or a :class:`Scene`); see the
+    README.  ``progress``: a bar on stderr for runs longer than a second."""
+    start = time.perf_counter()
+    prep = prepare(scene)
+    t_prepare = time.perf_counter() - start
+    bar = None
+    if progress:
+        from ..progress import Bar
+        bar = Bar("simulating")
+    result = run_prepared(prep, progress=bar.update if bar else None)
+    if bar:
+        bar.close()
+    result.timings = {"prepare_s": t_prepare, **result.timings,
+                      "library_build_s": prep.library.build_seconds}
     return result
-
-
-def _assemble(scene, model, t, Q, kinds, ev, stats, status) -> Result:
-    events = [{"t": float(r[0]), "kind": EVENT_KINDS.get(int(r[1]), str(int(r[1]))),
-               "value": float(r[2]), "v_minus": float(r[3]), "v_plus": float(r[4])}
-              for r in ev]
-    impacts = np.array([[e["t"], e["value"], e["v_minus"], e["v_plus"]]
-                        for e in events if e["kind"] == "impact"]).reshape(-1, 4)
-    wants = set(scene.outputs)
-    general = model.to_general(t, Q) if model.to_general is not None else None
-    if "pose" in wants:
-        q, names = general, dm.STATE_LABELS["general"]
-    else:
-        q, names = Q, model.labels
-    extras = {}
-    omega = model.omega_of(t, Q) if model.omega_of is not None else None
-    if "omega" in wants and omega is not None:
-        extras["omega"] = omega
-    if "height" in wants or (scene.contact_possible and general is not None):
-        h = _height(scene, model, t, Q, general)
-        if h is not None and "height" in wants:
-            extras["height"] = h
-    if "momentum" in wants and omega is not None:
-        extras["momentum"] = _momentum(scene, t, omega, general)
-    return Result(t=t, q=q, state_names=tuple(names), impacts=impacts, status=status,
-                  model=model.kind, why=model.why, events=events, row_kind=kinds,
-                  stats=stats, extras=extras, scene=scene, model_q=Q,
-                  model_labels=model.labels, scene_model=model)
-
-
-def _height(scene, model, t, Q, general):
-    """Height of the lowest point S above the plane (Z = 0)."""
-    if scene.shape == "none":
-        return None
-    if general is not None:
-        Z, N = general[:, 2], general[:, 15:18]
-    elif model.kind == "vertical":
-        Z, N = Q[:, 0], Q[:, 5:8]
-    else:
-        return None
-    law = law_functions(scene)(t)
-    r = law[[0, 3, 6]].T
-    nu = scene.m / (scene.m + scene.M)
-    s = np.array([lowest_point_numeric(scene, n) for n in N])
-    return Z + np.einsum("ij,ij->i", N, s - nu * r)
-
-
-def _momentum(scene, t, omega, general):
-    """K about C in body axes (E1.4 with E1.5), its norm, and in fixed axes when the
-    attitude is known."""
-    law = law_functions(scene)(t)
-    r, v = law[[0, 3, 6]].T, law[[1, 4, 7]].T
-    mu = scene.mu
-    J = np.asarray(scene.J)
-    K = J * omega + mu * (np.einsum("ij,ij->i", r, r)[:, None] * omega
-                          - r * np.einsum("ij,ij->i", r, omega)[:, None] + np.cross(r, v))
-    out = {"K_body": K, "K_norm": np.linalg.norm(K, axis=1)}
-    if general is not None:
-        A = general[:, 9:18].reshape(-1, 3, 3)
-        out["K_fixed"] = np.einsum("nij,nj->ni", A, K)
-    return out

@@ -48,3 +48,26 @@ def momentum_frame(K_fixed, A0):
     else:
         phi, psi = 0.0, float(np.arctan2(B[1, 0], B[0, 0]))
     return K, R_K, psi, theta, phi
+
+
+def kinetic_moment(scene, omega, jets) -> np.ndarray:
+    """K about C in body axes along rows (E1.4 with the J of E1.5): ``omega`` (N, 3), the
+    law's ``jets`` (9, N).  tests/test_runtime_models.py compares it with the derived
+    ``general_kinetic_moment`` of the generated C."""
+    r, v = jets[[0, 3, 6]].T, jets[[1, 4, 7]].T
+    omega = np.asarray(omega, dtype=float)
+    J = np.asarray(scene.J, dtype=float)
+    rr = np.einsum("ij,ij->i", r, r)[:, None]
+    rw = np.einsum("ij,ij->i", r, omega)[:, None]
+    return J * omega + scene.mu * (rr * omega - r * rw + np.cross(r, v))
+
+
+def heights(scene, t, Z, n) -> np.ndarray:
+    """Height of the lowest point S above the plane along rows (Z_C and the vertical n in
+    body axes given per row)."""
+    c = np.asarray(scene.center, dtype=float)
+    axes = np.full(3, scene.size[0]) if scene.shape == "sphere" else np.asarray(scene.size)
+    D2n = axes ** 2 * n
+    s = c - D2n / np.sqrt(np.einsum("ij,ij->i", n, D2n))[:, None]
+    r = scene.law.jets(t)[[0, 3, 6]].T
+    return Z + np.einsum("ij,ij->i", n, s - scene.nu * r)

@@ -27,26 +27,21 @@ def _segments(result: Result):
 def invariant_drift(result: Result) -> dict:
     """Relative drift of |K| within each flight phase (E1.9), and of A's orthonormality."""
     out = {}
-    omega = result.extras.get("omega")
-    mom = result.extras.get("momentum")
-    model = result.scene_model
-    if mom is None and omega is None and model is not None and model.omega_of is not None:
-        omega = model.omega_of(result.t, result.model_q)
-    if mom is None and omega is not None:
-        from .driver import _momentum
-        mom = _momentum(result.scene, result.t, omega, None)
-    if mom is not None:
-        K = mom["K_norm"]
-        worst = 0.0
-        for a, b in _segments(result):
-            if b - a > 1 and K[a] > 0:
-                worst = max(worst, float(np.max(np.abs(K[a:b] - K[a])) / K[a]))
-        out["K_norm_relative_drift_between_events"] = worst
-    if "a11" in result.state_names:
-        A = result.q[:, 9:18].reshape(-1, 3, 3)
+    K = result.momentum["K_norm"]
+    worst = 0.0
+    for a, b in _segments(result):
+        if b - a > 1 and K[a] > 0:
+            worst = max(worst, float(np.max(np.abs(K[a:b] - K[a])) / K[a]))
+    out["K_norm_relative_drift_between_events"] = worst
+    if result.general is not None:
+        A = result.general[:, 9:18].reshape(-1, 3, 3)
         err = np.abs(np.einsum("nij,nkj->nik", A, A) - np.eye(3)).max(axis=(1, 2))
         out["orthonormality_error_max"] = float(err.max())
     return out
+
+
+def _finite(x: float):
+    return float(x) if np.isfinite(x) else None
 
 
 def summary(result: Result) -> dict:
@@ -61,11 +56,9 @@ def summary(result: Result) -> dict:
         "duration": s.duration,
         "counts": {**result.stats, "rows": int(len(result.t)),
                    "events": len(result.events)},
-        "operation_counts": {
-            "rhs_specialised": result.ops.get("rhs_specialised"),
-            "rhs_generic": result.ops.get("rhs_generic"),
-            "note": "specialised counts the point law (sin, cos one op each); the generic "
-                    "function takes the law as an input evaluated by its caller"},
+        "contact": {"min_height_of_S": _finite(result.min_height),
+                    "t_min_height": _finite(result.summary["t_min_height"]),
+                    "min_normal_force_in_contact": _finite(result.min_normal)},
         "invariants": invariant_drift(result),
         "timings_s": result.timings,
         "machine": {"processor": platform.processor() or platform.machine(),
@@ -111,11 +104,7 @@ def plots(result: Result, out: Path) -> list[Path]:
         plt.close(fig)
         written.append(path)
 
-    height = result.extras.get("height")
-    if height is None and result.scene.contact_possible:
-        from .driver import _height
-        height = _height(result.scene, _model_of(result), t, result.model_q,
-                         result.q if "a11" in result.state_names else None)
+    height = result.height
     if height is not None:
         fig, ax = plt.subplots(figsize=(8, 3.5))
         ax.plot(t, height, lw=1)
@@ -126,11 +115,7 @@ def plots(result: Result, out: Path) -> list[Path]:
         ax.set_ylabel("height of S [m]")
         ax.set_title(f"{title}: height of the lowest point")
         save(fig, "height.png")
-    omega = result.extras.get("omega")
-    if omega is None:
-        model = _model_of(result)
-        if model.omega_of is not None:
-            omega = model.omega_of(t, result.model_q)
+    omega = result.omega
     if omega is not None:
         fig, ax = plt.subplots(figsize=(8, 3.5))
         for k, c in enumerate("xyz"):
@@ -140,8 +125,7 @@ def plots(result: Result, out: Path) -> list[Path]:
         ax.legend(loc="best")
         ax.set_title(f"{title}: angular velocity (body axes)")
         save(fig, "omega.png")
-        from .driver import _momentum
-        K = _momentum(result.scene, t, omega, None)["K_norm"]
+        K = result.momentum["K_norm"]
         fig, ax = plt.subplots(figsize=(8, 3.5))
         for a, b in _segments(result):
             if b - a > 1 and K[a] > 0:
@@ -160,11 +144,7 @@ def plots(result: Result, out: Path) -> list[Path]:
     return written
 
 
-def _model_of(result: Result):
-    return result.scene_model
-
-
-def write_all(result: Result, out_dir) -> list[Path]:
+def write_all(result: Result, out_dir, plot: bool = True) -> list[Path]:
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     written = []
@@ -174,7 +154,8 @@ def write_all(result: Result, out_dir) -> list[Path]:
     write_csv(out / "impacts.csv", ["t", "I", "v_n_minus", "v_n_plus"], result.impacts)
     written.append(out / "impacts.csv")
     info = summary(result)
-    written += plots(result, out)
+    if plot:
+        written += plots(result, out)
     (out / "summary.json").write_text(json.dumps(info, indent=2) + "\n", encoding="utf-8")
     written.append(out / "summary.json")
     return written

@@ -1,79 +1,183 @@
-"""Scenes: the TOML files through which people use the runtime, and their validation.
+"""Scenes: the TOML files through which people use the runtime.  The schema is written
+once, here (:data:`FIELDS` and :data:`RULES`); validation, defaults, the README's table
+(``schema_table``), the template of ``derive scene new`` (``template``) and the built-in
+scene all come from it.
 
-Every rule failure raises :class:`SceneError` naming the field and the rule; nothing in
-a scene is executed (laws go through :mod:`derive.runtime.lawparse`).  See the README
-for the schema; :data:`DEFAULT_SCENE` is the built-in bouncing ball.
+A scene is untrusted input.  Nothing in it is executed or pasted into source: laws go
+through :mod:`derive.runtime.law` (a whitelist parser into a program the C runtime
+interprets), tables through :mod:`derive.runtime.table`, numbers are checked finite and
+in range, and every failure raises :class:`SceneError` naming the field and the rule.
 """
 from __future__ import annotations
 
 import math
+import re
 import tomllib
 from dataclasses import dataclass, field
+from functools import lru_cache
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable
 
 import numpy as np
-import sympy as sp
 
-from .. import notation as nt
-from .lawparse import LawError, parse_law
+from . import law as lawmod
+from .law import CoordinateError, LawError, LawSummary
 
-METHODS = ("rk4", "dopri5", "dop853")
-OUTPUTS = ("pose", "omega", "height", "impacts", "momentum")
-SHAPES = ("sphere", "ellipsoid", "none")
-MODELS = ("auto", "general", "vertical", "attitude", "translational", "planar",
-          "axisymmetric")
+class _Required:
+    def __repr__(self) -> str:
+        return "REQUIRED"
 
-DEFAULT_SCENE = """\
-# The built-in scene: a ball whose internal point moves, bouncing on the plane.
-name = "bouncing-ball"
 
-[body]
-mass = 1.0                       # M > 0
-inertia = [0.10, 0.12, 0.14]     # J_x, J_y, J_z > 0, each <= the sum of the other two
-shape = "sphere"                 # "sphere" | "ellipsoid" | "none" (no contact possible)
-radius = 0.5                     # sphere
-center = [0.0, 0.0, 0.0]         # shape centre in body axes (default: O)
-
-[point]
-mass = 0.2                       # m > 0
-law = ["0.2*sin(3*t)", "0.1", "0.05*cos(2*t)"]   # x(t), y(t), z(t) in body axes
-
-[plane]
-restitution = 0.9                # 0 <= e <= 1
-
-[initial]
-time = 0.0
-com = [0.0, 0.0, 1.5]            # X_C, Y_C, Z_C
-com_velocity = [0.3, 0.0, 0.0]
-omega = [0.5, -0.3, 1.0]         # body axes
-quaternion = [1.0, 0.0, 0.0, 0.0]
-
-[run]
-duration = 5.0
-method = "dopri5"                # rk4 | dopri5 | dop853
-rtol = 1e-10
-atol = 1e-12
-g = 9.81
-outputs = ["pose", "impacts"]    # any of: pose, omega, height, impacts, momentum
-"""
+REQUIRED = _Required()     # a field's default when the scene must give it
 
 
 class SceneError(ValueError):
-    """A scene that breaks a rule: ``field`` names where, ``rule`` says what."""
+    """A scene that breaks a rule: ``where`` names the field, ``rule`` says what."""
 
     def __init__(self, where: str, rule: str):
         super().__init__(f"{where}: {rule}")
         self.where, self.rule = where, rule
 
 
+# ---- the schema ---------------------------------------------------------------------------
+@dataclass(frozen=True)
+class Field:
+    table: str                 # "" for the top level
+    key: str
+    kind: str                  # number integer vector string choice choices bool laws
+                               # matrix numbers samples
+    default: Any               # REQUIRED, None (may be absent) or the default value
+    doc: str
+    lo: float | None = None
+    hi: float | None = None
+    lo_open: bool = False      # lo excluded
+    size: int = 0              # vectors: the number of entries
+    choices: tuple = ()
+    example: Any = None        # what `derive scene new` writes (None: the default)
+    when: str = ""             # the condition under which the field applies
+
+    @property
+    def where(self) -> str:
+        return f"[{self.table}].{self.key}" if self.table else self.key
+
+    @property
+    def rule(self) -> str:
+        if self.choices:
+            return "one of " + ", ".join(self.choices)
+        if self.lo is None and self.hi is None:
+            return ""
+        lo = "(" if self.lo_open else "["
+        if self.hi is None:
+            return f"{'>' if self.lo_open else '>='} {self.lo:g}"
+        return f"in {lo}{self.lo:g}, {self.hi:g}]"
+
+
+F = Field
+MAX_MASS = 1e9
+MAX_LENGTH = 1e6
+MAX_DURATION = 1e7
+MAX_ROWS = 10_000_000
+FIELDS = (
+    F("", "name", "string", "scene", "a label for the outputs: at most 80 ASCII letters, "
+      "digits, spaces and - _ . , : ; = + ( ) [ ] / # @ & '", example="my-scene"),
+    F("body", "mass", "number", REQUIRED, "M, mass of the carrier", 0, MAX_MASS, True,
+      example=1.0),
+    F("body", "inertia", "vector", REQUIRED, "J_x, J_y, J_z, principal central moments of "
+      "the carrier; each at most the sum of the other two", 0, MAX_MASS, True, size=3,
+      example=[0.10, 0.12, 0.14]),
+    F("body", "shape", "choice", REQUIRED, "the surface that meets the plane (none: no "
+      "contact possible)", choices=("sphere", "ellipsoid", "none"), example="sphere"),
+    F("body", "radius", "number", None, "sphere radius", 0, MAX_LENGTH, True,
+      example=0.5, when='shape = "sphere"'),
+    F("body", "semi_axes", "vector", None, "ellipsoid semi-axes along the body axes", 0,
+      MAX_LENGTH, True, size=3, example=[0.5, 0.4, 0.3], when='shape = "ellipsoid"'),
+    F("body", "center", "vector", [0.0, 0.0, 0.0], "centre of the shape in body axes",
+      -MAX_LENGTH, MAX_LENGTH, size=3),
+    F("point", "mass", "number", REQUIRED, "m, mass of the point", 0, MAX_MASS, True,
+      example=0.2),
+    F("point", "law", "laws", None, "x(t), y(t), z(t) in body axes: formulas in t, pi, "
+      "numbers, + - * / ** ^ and sin cos tan exp log sqrt sinh cosh tanh asin acos atan",
+      example=["0.2*sin(3*t)", "0.1", "0.05*cos(2*t)"], when="one of law, table, samples"),
+    F("point", "table", "string", None, "a CSV file (path relative to the scene) with "
+      "columns t, x, y, z: the law as samples, interpolated by a cubic spline",
+      when="one of law, table, samples"),
+    F("point", "samples", "samples", None, "the law as rows [t, x, y, z] in the scene itself",
+      when="one of law, table, samples"),
+    F("point", "ends", "choice", "free", "a table's ends: periodic (the law repeats), rest "
+      "(P at rest at both ends), free (not-a-knot; the run stays inside the table)",
+      choices=("periodic", "rest", "free"), when="table or samples"),
+    F("point", "max_distance", "number", None, "how far P may go from O (default: 10 body "
+      "sizes)", 0, MAX_LENGTH, True),
+    F("plane", "restitution", "number", REQUIRED, "e of Newton's law v_n+ = -e v_n- (E1.13)",
+      0, 1, example=0.9, when="[plane] given (absent: free flight)"),
+    F("initial", "time", "number", 0.0, "t0", -1e9, 1e9),
+    F("initial", "com", "vector", [0.0, 0.0, 0.0], "X_C, Y_C, Z_C", -1e9, 1e9, size=3,
+      example=[0.0, 0.0, 1.5]),
+    F("initial", "com_velocity", "vector", [0.0, 0.0, 0.0], "X_C', Y_C', Z_C'", -1e6, 1e6,
+      size=3, example=[0.3, 0.0, 0.0]),
+    F("initial", "omega", "vector", [0.0, 0.0, 0.0], "angular velocity in body axes", -1e6,
+      1e6, size=3, example=[0.5, -0.3, 1.0]),
+    F("initial", "quaternion", "vector", [1.0, 0.0, 0.0, 0.0], "attitude as a unit "
+      "quaternion (w, x, y, z), normalised; or give matrix", -1e9, 1e9, size=4),
+    F("initial", "matrix", "matrix", None, "attitude as the matrix a_ij = cos(fixed axis i, "
+      "body axis j), a rotation", -1.0 - 1e-6, 1.0 + 1e-6),
+    F("run", "duration", "number", 5.0, "length of the run", 0, MAX_DURATION, True),
+    F("run", "method", "choice", "dopri5", "integrator", choices=("rk4", "dopri5", "dop853")),
+    F("run", "rtol", "number", 1e-10, "relative tolerance", 1e-15, 1e-2),
+    F("run", "atol", "number", 1e-12, "absolute tolerance", 0, 1, True),
+    F("run", "g", "number", 9.81, "gravity", 0, 1e4),
+    F("run", "outputs", "choices", ["pose", "impacts"], "what the result holds",
+      choices=("pose", "omega", "height", "impacts", "momentum")),
+    F("run", "step", "number", None, "RK4 step (default: the least of duration/2000, "
+      "0.04/|omega(0)| and a tenth of the law's time scale)", 0, MAX_DURATION, True),
+    F("run", "max_events", "integer", 100_000, "stop after this many events", 1, 1e9),
+    F("run", "max_steps", "integer", 10_000_000, "stop after this many steps", 1, 1e10),
+    F("run", "output_dt", "number", 0.0, "rows every output_dt (0: one per step)", 0,
+      MAX_DURATION),
+    F("run", "keep_orthonormal", "bool", False, "project the attitude onto the rotations "
+      "after every step"),
+    F("run", "model", "choice", "auto", "the model (auto: the smallest that answers the "
+      "scene)", choices=("auto", "general", "vertical", "attitude", "translational",
+                         "planar", "axisymmetric")),
+    F("run", "zeno_dt", "number", 1e-9, "accumulating impacts: enter contact when the "
+      "remaining flights sum to less than zeno_dt x duration", 0, 1, True),
+    F("stability", "period", "number", None, "free flight: the period (default: the law's)",
+      0, MAX_DURATION, True),
+    F("stability", "impacts_every", "integer", 1, "on the plane: one impact per n periods",
+      1, 64),
+    F("stability", "long_periods", "integer", 0, "perturbed runs this many periods long "
+      "where the linear test is critical", 0, 1_000_000),
+    F("stability", "perturbations", "numbers", [1e-6, 1e-4, 1e-2], "their sizes", 0, 0.1,
+      True),
+)
+TABLES = ("", "body", "point", "plane", "initial", "run", "stability")
+_BY_TABLE = {t: {f.key: f for f in FIELDS if f.table == t} for t in TABLES}
+
+# cross-field rules, in the order they are checked (their text goes into the README)
+RULES = (
+    "[body].inertia: each moment at most the sum of the other two (a real mass "
+    "distribution), the smallest at least 1e-9 of the largest",
+    "[body]: radius for a sphere, semi_axes for an ellipsoid, neither for none; the centre "
+    "within 100 sizes of O",
+    "[point]: exactly one of law, table, samples; ends only with a table or samples",
+    "[point].law[k]: x, y, z and their first two derivatives finite and continuous over "
+    "the whole run (proved by interval arithmetic: no vanishing denominator, log, sqrt or "
+    "non-integer power of a non-positive number, asin/acos outside (-1, 1) or tan pole)",
+    "[point]: P stays within max_distance of O; J of E1.5 stays non-singular (R1)",
+    "[point].table: a periodic table repeats; otherwise the run stays inside its times",
+    "[initial]: quaternion or matrix, not both; S starts on or above the plane",
+    "[run]: at most 1e7 output rows (duration/output_dt) and 1e8 RK4 steps",
+)
+
+
+# ---- the scene ----------------------------------------------------------------------------
 @dataclass(frozen=True)
 class Stability:
     """``[stability]``: what ``derive stability`` analyses (see the README)."""
-    period: float | None = None          # free flight: default, the law's period
-    impacts_every: int = 1               # on the plane: one impact per n law periods
-    long_periods: int = 0                # critical cases: perturbed runs this long
-    perturbations: tuple = (1e-6, 1e-4, 1e-2)  # their sizes
+    period: float | None = None
+    impacts_every: int = 1
+    long_periods: int = 0
+    perturbations: tuple = (1e-6, 1e-4, 1e-2)
 
 
 @dataclass(frozen=True)
@@ -85,8 +189,8 @@ class Scene:
     size: tuple                # (radius,) or semi-axes
     center: tuple
     m: float
-    law_text: tuple
-    law: tuple                 # SymPy expressions in t
+    law: Any                   # law.Program or table.TableLaw
+    law_text: tuple            # the three strings, or () for a table
     plane: bool
     e: float
     t0: float
@@ -100,7 +204,7 @@ class Scene:
     atol: float = 1e-12
     g: float = 9.81
     outputs: tuple = ("pose", "impacts")
-    step: float = 0.0          # RK4 step; 0: duration/2000
+    step: float = 0.0          # RK4 step
     max_events: int = 100000
     max_steps: int = 10_000_000
     output_dt: float = 0.0
@@ -109,6 +213,9 @@ class Scene:
     zeno_dt: float = 1e-9
     source: str = ""
     stability: Stability = Stability()
+    law_summary: LawSummary | None = field(default=None, compare=False)
+    max_distance: float = 0.0
+    doc: dict = field(default_factory=dict, compare=False, repr=False)
 
     @property
     def contact_possible(self) -> bool:
@@ -119,359 +226,532 @@ class Scene:
         return self.M * self.m / (self.M + self.m)
 
     @property
+    def nu(self) -> float:
+        return self.m / (self.M + self.m)
+
+    @property
     def p(self) -> tuple:
         return (self.M, self.m, *self.J, self.g)
 
+    @property
+    def body_size(self) -> float:
+        """The shape's largest semi-axis, or sqrt(J_max/M) for a body with no shape."""
+        if self.size:
+            return float(max(self.size))
+        return math.sqrt(max(self.J) / self.M)
 
-# ---- field checks ---------------------------------------------------------------------
-ALLOWED = {
-    "": {"name", "body", "point", "plane", "initial", "run", "stability"},
-    "body": {"mass", "inertia", "shape", "radius", "semi_axes", "center"},
-    "point": {"mass", "law"},
-    "plane": {"restitution"},
-    "initial": {"time", "com", "com_velocity", "omega", "quaternion", "matrix"},
-    "run": {"duration", "method", "rtol", "atol", "g", "outputs", "step", "max_events",
-            "max_steps", "output_dt", "keep_orthonormal", "model", "zeno_dt"},
-    "stability": {"period", "impacts_every", "long_periods", "perturbations"},
-}
+    def jets(self, ts) -> np.ndarray:
+        """The point law at ``ts``: (9, N) x, x', x'', y, y', y'', z, z', z''."""
+        return self.law.jets(ts)
 
 
-def _where(table: str, key: str) -> str:
-    return f"[{table}].{key}" if table else key
+def law_functions(scene: Scene):
+    """``ts -> (9, N)`` jets of the law (compatibility with the older API)."""
+    return scene.law.jets
 
 
-def _number(table: dict, name: str, key: str, default: Any = None, *, required=False):
-    if key not in table:
-        if required:
-            raise SceneError(_where(name, key), "is required")
-        return default
-    value = table[key]
+# ---- values -------------------------------------------------------------------------------
+def _type_name(value) -> str:
+    return {bool: "a boolean", int: "an integer", float: "a number", str: "a string",
+            list: "a list", dict: "a table"}.get(type(value), type(value).__name__)
+
+
+def _num(f: Field, value, where: str | None = None) -> float:
+    where = where or f.where
     if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise SceneError(_where(name, key), f"must be a number, not {type(value).__name__}")
-    value = float(value)
-    if not math.isfinite(value):
-        raise SceneError(_where(name, key), "must be finite (no NaN or infinity)")
-    return value
+        raise SceneError(where, f"must be a number, not {_type_name(value)}")
+    if isinstance(value, int) and abs(value) > 2 ** 53:
+        raise SceneError(where, f"is too large ({value:.3e} exceeds 2^53)")
+    x = float(value)
+    if not math.isfinite(x):
+        raise SceneError(where, "must be finite (no NaN or infinity)")
+    if f.lo is not None:
+        low_bad = x <= f.lo if f.lo_open else x < f.lo
+        high_bad = f.hi is not None and x > f.hi
+        if (low_bad or high_bad) and f.hi is not None and f.hi <= 1.0:
+            raise SceneError(where, f"must be {f.rule} (got {x:g})")     # a fraction
+        if low_bad:
+            raise SceneError(where, f"must be {'>' if f.lo_open else '>='} {f.lo:g} "
+                                    f"(got {x:g})")
+        if high_bad:
+            raise SceneError(where, f"must be at most {f.hi:g} (got {x:g}): beyond any "
+                                    "physical scene this runtime is meant for")
+    return x
 
 
-def _vector(table: dict, name: str, key: str, n: int, default=None, *, required=False):
-    if key not in table:
-        if required:
-            raise SceneError(_where(name, key), "is required")
-        return default
-    value = table[key]
-    if not isinstance(value, list) or len(value) != n:
-        raise SceneError(_where(name, key), f"must be a list of {n} numbers")
-    out = []
-    for k, v in enumerate(value):
-        if isinstance(v, bool) or not isinstance(v, (int, float)):
-            raise SceneError(f"{_where(name, key)}[{k}]",
-                             f"must be a number, not {type(v).__name__}")
-        if not math.isfinite(float(v)):
-            raise SceneError(f"{_where(name, key)}[{k}]", "must be finite (no NaN or infinity)")
-        out.append(float(v))
-    return tuple(out)
+def _vector(f: Field, value, size: int) -> tuple:
+    if not isinstance(value, list) or len(value) != size:
+        raise SceneError(f.where, f"must be a list of {size} numbers")
+    return tuple(_num(f, v, f"{f.where}[{k}]") for k, v in enumerate(value))
 
 
-def _string(table: dict, name: str, key: str, choices, default):
-    if key not in table:
-        return default
-    value = table[key]
-    if not isinstance(value, str):
-        raise SceneError(_where(name, key), f"must be a string, not {type(value).__name__}")
-    if choices is not None and value not in choices:
-        raise SceneError(_where(name, key), f"must be one of {', '.join(choices)}; "
-                                            f"got {value!r}")
-    return value
+_NAME = re.compile(r"[A-Za-z0-9 _.,:;=+()\[\]/#@&'\-]{1,80}", re.ASCII)
 
 
-def _table(doc: dict, key: str, required: bool) -> dict:
-    if key not in doc:
-        if required:
-            raise SceneError(f"[{key}]", "is required")
-        return {}
-    value = doc[key]
+def _value(f: Field, value):
+    k = f.kind
+    if k == "number":
+        return _num(f, value)
+    if k == "integer":
+        x = _num(f, value)
+        if x != int(x):
+            raise SceneError(f.where, f"must be an integer (got {x:g})")
+        return int(x)
+    if k == "vector":
+        return _vector(f, value, f.size)
+    if k == "bool":
+        if not isinstance(value, bool):
+            raise SceneError(f.where, "must be true or false")
+        return value
+    if k == "string":
+        if not isinstance(value, str):
+            raise SceneError(f.where, f"must be a string, not {_type_name(value)}")
+        if f.key == "name" and not _NAME.fullmatch(value):
+            raise SceneError(f.where, "must be 1 to 80 ASCII letters, digits, spaces or "
+                                      "- _ . , : ; = + ( ) [ ] / # @ & '")
+        if len(value) > 4096:
+            raise SceneError(f.where, "is longer than 4096 characters")
+        return value
+    if k == "choice":
+        if not isinstance(value, str):
+            raise SceneError(f.where, f"must be a string, not {_type_name(value)}")
+        if value not in f.choices:
+            shown = value if len(value) <= 30 else value[:27] + "..."
+            raise SceneError(f.where, f"must be {f.rule}; got {shown!r}")
+        return value
+    if k == "choices":
+        if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
+            raise SceneError(f.where, f"must be a list of strings, each {f.rule}")
+        for v in value:
+            if v not in f.choices:
+                shown = v if len(v) <= 30 else v[:27] + "..."
+                raise SceneError(f.where, f"{shown!r} is not {f.rule}")
+        return tuple(dict.fromkeys(value))
+    if k == "numbers":
+        if not isinstance(value, list) or not value or len(value) > 64:
+            raise SceneError(f.where, "must be a list of 1 to 64 numbers")
+        return tuple(_num(f, v, f"{f.where}[{i}]") for i, v in enumerate(value))
+    if k == "matrix":
+        if not isinstance(value, list) or len(value) != 3:
+            raise SceneError(f.where, "must be a list of 3 rows of 3 numbers")
+        rows = []
+        for i, row in enumerate(value):
+            if not isinstance(row, list) or len(row) != 3:
+                raise SceneError(f"{f.where}[{i}]", "must be a row of 3 numbers")
+            rows.append([_num(f, v, f"{f.where}[{i}][{j}]") for j, v in enumerate(row)])
+        return np.array(rows)
+    if k == "laws":
+        if not isinstance(value, list) or len(value) != 3:
+            raise SceneError(f.where, "must be a list of three strings: x(t), y(t), z(t)")
+        for i, text in enumerate(value):
+            if not isinstance(text, str):
+                raise SceneError(f"{f.where}[{i}]", f"must be a string, not {_type_name(text)}")
+        return tuple(value)
+    if k == "samples":
+        if not isinstance(value, list) or not 4 <= len(value) <= 100_000:
+            raise SceneError(f.where, "must be a list of 4 to 100000 rows [t, x, y, z]")
+        rows = []
+        for i, row in enumerate(value):
+            if not isinstance(row, list) or len(row) != 4:
+                raise SceneError(f"{f.where}[{i}]", "must be a row of 4 numbers [t, x, y, z]")
+            rows.append([_num(Field("point", "samples", "number", None, ""), v,
+                              f"{f.where}[{i}][{j}]") for j, v in enumerate(row)])
+        return rows
+    raise AssertionError(k)
+
+
+def _table(doc: dict, name: str) -> dict | None:
+    if name not in doc:
+        return None
+    value = doc[name]
     if not isinstance(value, dict):
-        raise SceneError(f"[{key}]", "must be a table")
-    unknown = sorted(set(value) - ALLOWED[key])
-    if unknown:
-        raise SceneError(f"[{key}].{unknown[0]}",
-                         f"is not a known key (known: {', '.join(sorted(ALLOWED[key]))})")
+        raise SceneError(f"[{name}]", "must be a table")
     return value
 
 
-def _rotation_from_quaternion(qv) -> np.ndarray:
-    w, x, y, z = np.asarray(qv) / np.linalg.norm(qv)
+def _read(doc: dict) -> dict:
+    """Every field of the schema: its value, its default, or REQUIRED when absent."""
+    unknown = sorted(k for k in doc if k not in TABLES[1:] and k not in _BY_TABLE[""])
+    if unknown:
+        known = ", ".join(sorted(list(TABLES[1:]) + list(_BY_TABLE[""])))
+        raise SceneError(str(unknown[0])[:40], f"is not a known key (known: {known})")
+    out: dict = {}
+    for table in TABLES:
+        tab = doc if table == "" else _table(doc, table)
+        fields = _BY_TABLE[table]
+        if tab is None:
+            tab = {}
+        elif table:
+            bad = sorted(k for k in tab if k not in fields)
+            if bad:
+                raise SceneError(f"[{table}].{str(bad[0])[:40]}",
+                                 f"is not a known key (known: {', '.join(fields)})")
+        for key, f in fields.items():
+            if key in tab:
+                out[f.where] = _value(f, tab[key])
+            else:
+                out[f.where] = f.default if f.default is None or f.default is REQUIRED \
+                    else _value(f, f.default)
+    out["__plane__"] = "plane" in doc
+    return out
+
+
+def _require(v: dict, where: str, what: str = "is required"):
+    if v[where] is None or v[where] is REQUIRED:
+        raise SceneError(where, what)
+    return v[where]
+
+
+# ---- orientation ----------------------------------------------------------------------------
+def rotation_from_quaternion(qv) -> np.ndarray:
+    w, x, y, z = np.asarray(qv, dtype=float) / np.linalg.norm(qv)
     return np.array([
         [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
         [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
         [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
 
 
-def _orientation(init: dict) -> np.ndarray:
-    if "quaternion" in init and "matrix" in init:
+def _orientation(v: dict, given: set) -> np.ndarray:
+    if "[initial].quaternion" in given and "[initial].matrix" in given:
         raise SceneError("[initial].quaternion", "give either quaternion or matrix, not both")
-    if "matrix" in init:
-        rows = init["matrix"]
-        if not isinstance(rows, list) or len(rows) != 3:
-            raise SceneError("[initial].matrix", "must be a list of 3 rows of 3 numbers")
-        A = np.array([_vector({"row": r}, "initial", "row", 3, required=True) for r in rows])
-        err = np.max(np.abs(A @ A.T - np.eye(3)))
+    if v["[initial].matrix"] is not None:
+        A = v["[initial].matrix"]
+        err = float(np.max(np.abs(A @ A.T - np.eye(3))))
         if err > 1e-6:
             raise SceneError("[initial].matrix", f"must be orthonormal (A A^T - 1 is {err:.1e})")
         if np.linalg.det(A) < 0:
             raise SceneError("[initial].matrix", "must be a rotation (det = +1), not a reflection")
         u, _, vt = np.linalg.svd(A)
         return u @ vt
-    qv = _vector(init, "initial", "quaternion", 4, (1.0, 0.0, 0.0, 0.0))
+    qv = v["[initial].quaternion"]
     norm = math.sqrt(sum(c * c for c in qv))
     if norm < 1e-12:
         raise SceneError("[initial].quaternion", "must not have zero norm")
-    return _rotation_from_quaternion(qv)
+    return rotation_from_quaternion(qv)
 
 
-def _law(point: dict) -> tuple:
-    if "law" not in point:
-        raise SceneError("[point].law", "is required (three strings: x(t), y(t), z(t))")
-    law = point["law"]
-    if not isinstance(law, list) or len(law) != 3:
-        raise SceneError("[point].law", "must be a list of three strings: x(t), y(t), z(t)")
-    exprs = []
-    for k, text in enumerate(law):
-        if not isinstance(text, str):
-            raise SceneError(f"[point].law[{k}]", f"must be a string, not {type(text).__name__}")
+# ---- the law over the run ---------------------------------------------------------------------
+@lru_cache(maxsize=1024)
+def _analyse_program(key: tuple, program, t0: float, t1: float) -> LawSummary:
+    sing = lawmod.find_singularity(program, t0, t1)
+    if sing is not None:
+        raise SceneError(f"[point].law[{sing.coordinate}]",
+                         f"is not twice differentiable on the run: {sing.what} near "
+                         f"t = {sing.t:.9g}")
+    ts = np.linspace(t0, t1, lawmod.SAMPLES)
+    jets = program.jets(ts)
+    bad = ~np.isfinite(jets)
+    if bad.any():
+        row, col = np.argwhere(bad)[0]
+        names = ("x", "x'", "x''", "y", "y'", "y''", "z", "z'", "z''")
+        raise SceneError(f"[point].law[{row // 3}]",
+                         f"{names[row]} is not finite at t = {ts[col]:.9g} (overflow)")
+    return lawmod.summarise(jets)
+
+
+def _compile_law(texts: tuple):
+    try:
+        return lawmod.compile_law(texts)
+    except CoordinateError as exc:
+        raise SceneError(f"[point].law[{exc.k}]", str(exc)) from None
+    except LawError as exc:
+        raise SceneError("[point].law", str(exc)) from None
+
+
+def _point_law(v: dict, base: Path | None):
+    sources = [k for k in ("law", "table", "samples") if v[f"[point].{k}"] is not None]
+    if len(sources) != 1:
+        raise SceneError("[point].law", "give exactly one of law (three formulas), table (a "
+                         "CSV file) or samples (rows [t, x, y, z])" +
+                         (f"; got {', '.join(sources)}" if sources else ""))
+    kind = sources[0]
+    if kind == "law":
+        texts = v["[point].law"]
+        return _compile_law(texts), texts
+    from . import table as tablemod
+    ends = v["[point].ends"]
+    try:
+        if kind == "samples":
+            return tablemod.build(v["[point].samples"], ends, "samples"), ()
+        rel = v["[point].table"]
+        path = Path(rel)
+        if base is None or path.is_absolute() or ".." in path.parts:
+            raise SceneError("[point].table", "must be a relative path below the scene "
+                                              "file's folder (scenes given as text or dicts "
+                                              "use samples)")
+        full = base / path
+        if not full.is_file():
+            raise SceneError("[point].table", f"no such file {rel!r} beside the scene")
+        if full.stat().st_size > tablemod.MAX_BYTES:
+            raise SceneError("[point].table", f"is larger than {tablemod.MAX_BYTES} bytes")
         try:
-            exprs.append(parse_law(text))
+            text = full.read_text(encoding="utf-8")
+        except (OSError, UnicodeDecodeError) as exc:
+            raise SceneError("[point].table", f"cannot be read ({type(exc).__name__})") from None
+        rows = tablemod.read_rows(text, rel)
+        return tablemod.build(rows, ends, rel), ()
+    except LawError as exc:
+        raise SceneError(f"[point].{kind}", str(exc)) from None
+
+
+def _check_law(scene_law, t0: float, t1: float) -> LawSummary:
+    if getattr(scene_law, "kind", None) == "table":
+        try:
+            scene_law.check_run(t0, t1)
         except LawError as exc:
-            raise SceneError(f"[point].law[{k}]", f"{exc} in {text!r}") from None
-    return tuple(law), tuple(exprs)
+            raise SceneError("[point].table", str(exc)) from None
+        return scene_law.summary(t0, t1)
+    return _analyse_program(scene_law.key, scene_law, t0, t1)
 
 
-def _integer(table: dict, name: str, key: str, default: int, lo: int, hi: int) -> int:
-    value = _number(table, name, key, float(default))
-    if value != int(value) or not lo <= value <= hi:
-        raise SceneError(_where(name, key), f"must be an integer in [{lo}, {hi}] (got {value:g})")
-    return int(value)
-
-
-def _stability(table: dict) -> Stability:
-    period = _number(table, "stability", "period", None)
-    if period is not None and period <= 0:
-        raise SceneError("[stability].period", f"must be > 0 (got {period})")
-    every = _integer(table, "stability", "impacts_every", 1, 1, 64)
-    long_periods = _integer(table, "stability", "long_periods", 0, 0, 1_000_000)
-    sizes = table.get("perturbations", [1e-6, 1e-4, 1e-2])
-    if not isinstance(sizes, list) or not sizes:
-        raise SceneError("[stability].perturbations", "must be a non-empty list of numbers")
-    out = []
-    for k, v in enumerate(sizes):
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or not 0 < v <= 0.1:
-            raise SceneError(f"[stability].perturbations[{k}]",
-                             f"must be a number in (0, 0.1] (got {v!r})")
-        out.append(float(v))
-    return Stability(period, every, long_periods, tuple(out))
-
-
-def parse_scene(source: str | dict, origin: str = "scene") -> Scene:
-    """Validate a scene given as TOML text or as an already-parsed dict."""
-    if isinstance(source, str):
-        try:
-            doc = tomllib.loads(source)
-        except tomllib.TOMLDecodeError as exc:
-            raise SceneError(origin, f"is not valid TOML ({exc})") from None
-    elif isinstance(source, dict):
-        doc = source
-    else:
-        raise SceneError(origin, "must be TOML text, a path or a dict")
-    unknown = sorted(set(doc) - ALLOWED[""])
-    if unknown:
-        known = ", ".join(sorted(ALLOWED[""]))
-        raise SceneError(unknown[0], f"is not a known key (known: {known})")
-    name = doc.get("name", "scene")
-    if not isinstance(name, str) or not name.strip():
-        raise SceneError("name", "must be a non-empty string")
-
-    body = _table(doc, "body", True)
-    M = _number(body, "body", "mass", required=True)
-    if M <= 0:
-        raise SceneError("[body].mass", f"must be > 0 (got {M})")
-    J = _vector(body, "body", "inertia", 3, required=True)
-    for k, c in enumerate("xyz"):
-        if J[k] <= 0:
-            raise SceneError(f"[body].inertia[{k}]", f"J_{c} must be > 0 (got {J[k]})")
+def _inertia_ok(J: tuple) -> None:
     for k, c in enumerate("xyz"):
         others = J[(k + 1) % 3] + J[(k + 2) % 3]
         if J[k] > others * (1 + 1e-12):
             raise SceneError(f"[body].inertia[{k}]",
-                             f"J_{c} = {J[k]} exceeds the sum of the other two ({others}): "
-                             "no mass distribution has these principal moments")
-    shape = _string(body, "body", "shape", SHAPES, None)
-    if shape is None:
-        raise SceneError("[body].shape", f"is required (one of {', '.join(SHAPES)})")
+                             f"J_{c} = {J[k]:g} exceeds the sum of the other two "
+                             f"({others:g}): no mass distribution has these principal moments")
+    if min(J) < 1e-9 * max(J):
+        raise SceneError("[body].inertia", "J is near-singular: the smallest moment is below "
+                                           "1e-9 of the largest (R1 needs det J != 0)")
+
+
+def _singular_J(scene: Scene, summary: LawSummary) -> None:
+    """R1: J = diag(J) + mu (|r|^2 1 - r r^T) non-singular along the law; its eigenvalues
+    are at least min(J) (the added term is positive semi-definite), so only the ratio
+    to the largest can degrade: bounded through max |OP|."""
+    largest = max(scene.J) + scene.mu * summary.max_radius ** 2
+    if not min(scene.J) > 1e-12 * largest:
+        raise SceneError("[body].inertia", f"J of E1.5 is near-singular along the law "
+                                           f"(smallest/largest below 1e-12); R1 needs det J != 0")
+
+
+def _lowest_point(scene: Scene, n: np.ndarray) -> np.ndarray:
+    c = np.asarray(scene.center, dtype=float)
+    axes = np.full(3, scene.size[0]) if scene.shape == "sphere" else np.asarray(scene.size)
+    D2n = axes ** 2 * n
+    return c - D2n / np.sqrt(n @ D2n)
+
+
+def _start_above_plane(scene: Scene) -> None:
+    if not scene.contact_possible:
+        return
+    n = scene.A0[2]
+    s = _lowest_point(scene, n)
+    r0 = scene.law.jets(np.array([scene.t0]))[[0, 3, 6], 0]
+    h = scene.com[2] + n @ (s - scene.nu * r0)
+    if h < -1e-12 * scene.body_size:
+        raise SceneError("[initial].com", f"the lowest point S starts below the plane "
+                                          f"(height {h:.6g}); raise Z_C")
+
+
+# ---- parsing ---------------------------------------------------------------------------------
+def parse_scene(source: str | dict, origin: str = "scene", base: Path | None = None) -> Scene:
+    """Validate a scene given as TOML text or as an already-parsed dict; ``base`` is the
+    folder a ``[point].table`` path is relative to."""
+    if isinstance(source, str):
+        if len(source) > 16 * 1024 * 1024:
+            raise SceneError(origin, "is larger than 16 MB")
+        try:
+            doc = tomllib.loads(source)
+        except tomllib.TOMLDecodeError as exc:
+            raise SceneError(origin, f"is not valid TOML ({str(exc)[:200]})") from None
+        except RecursionError:
+            raise SceneError(origin, "is nested too deeply") from None
+    elif isinstance(source, dict):
+        doc = source
+    else:
+        raise SceneError(origin, "must be TOML text, a path or a dict")
+    v = _read(doc)
+    given = {f.where for f in FIELDS
+             if (doc if not f.table else (doc.get(f.table) or {})).get(f.key) is not None}
+    for f in FIELDS:
+        if v[f.where] is REQUIRED and (f.table != "plane" or v["__plane__"]):
+            if f.table in ("body", "point") and f.table not in doc:
+                raise SceneError(f"[{f.table}]", "is required")
+            raise SceneError(f.where, "is required" + (f" ({f.rule})" if f.choices else ""))
+
+    M, m = v["[body].mass"], v["[point].mass"]
+    J = v["[body].inertia"]
+    _inertia_ok(J)
+    shape = v["[body].shape"]
     if shape == "sphere":
-        if "semi_axes" in body:
+        if v["[body].semi_axes"] is not None:
             raise SceneError("[body].semi_axes", "belongs to an ellipsoid; a sphere has radius")
-        radius = _number(body, "body", "radius", required=True)
-        if radius <= 0:
-            raise SceneError("[body].radius", f"must be > 0 (got {radius})")
-        size: tuple = (radius,)
+        size: tuple = (_require(v, "[body].radius", 'is required for shape = "sphere"'),)
     elif shape == "ellipsoid":
-        if "radius" in body:
+        if v["[body].radius"] is not None:
             raise SceneError("[body].radius", "belongs to a sphere; an ellipsoid has semi_axes")
-        size = _vector(body, "body", "semi_axes", 3, required=True)
-        for k, a in enumerate(size):
-            if a <= 0:
-                raise SceneError(f"[body].semi_axes[{k}]", f"must be > 0 (got {a})")
+        size = _require(v, "[body].semi_axes", 'is required for shape = "ellipsoid"')
     else:
         for key in ("radius", "semi_axes"):
-            if key in body:
+            if v[f"[body].{key}"] is not None:
                 raise SceneError(f"[body].{key}", "a body of shape 'none' has no size")
         size = ()
-    center = _vector(body, "body", "center", 3, (0.0, 0.0, 0.0))
-
-    point = _table(doc, "point", True)
-    m = _number(point, "point", "mass", required=True)
-    if m <= 0:
-        raise SceneError("[point].mass", f"must be > 0 (got {m})")
-    law_text, law = _law(point)
-
-    plane_table = _table(doc, "plane", False)
-    plane = "plane" in doc
-    e = _number(plane_table, "plane", "restitution", 1.0)
-    if plane and "restitution" not in plane_table:
-        raise SceneError("[plane].restitution", "is required when [plane] is given")
-    if not 0.0 <= e <= 1.0:
-        raise SceneError("[plane].restitution", f"must be in [0, 1] (got {e})")
-
-    init = _table(doc, "initial", False)
-    t0 = _number(init, "initial", "time", 0.0)
-    com = _vector(init, "initial", "com", 3, (0.0, 0.0, 0.0))
-    com_v = _vector(init, "initial", "com_velocity", 3, (0.0, 0.0, 0.0))
-    omega = _vector(init, "initial", "omega", 3, (0.0, 0.0, 0.0))
-    A0 = _orientation(init)
-
-    run = _table(doc, "run", False)
-    duration = _number(run, "run", "duration", 5.0)
-    if duration <= 0:
-        raise SceneError("[run].duration", f"must be > 0 (got {duration})")
-    method = _string(run, "run", "method", METHODS, "dopri5")
-    rtol = _number(run, "run", "rtol", 1e-10)
-    atol = _number(run, "run", "atol", 1e-12)
-    if not 1e-16 <= rtol < 1:
-        raise SceneError("[run].rtol", f"must be in [1e-16, 1) (got {rtol})")
-    if not 0 < atol < 1:
-        raise SceneError("[run].atol", f"must be in (0, 1) (got {atol})")
-    g = _number(run, "run", "g", 9.81)
-    if g < 0:
-        raise SceneError("[run].g", f"must be >= 0 (got {g})")
-    outputs = run.get("outputs", ["pose", "impacts"])
-    if not isinstance(outputs, list) or not all(isinstance(o, str) for o in outputs):
-        raise SceneError("[run].outputs", f"must be a list of strings from {', '.join(OUTPUTS)}")
-    for o in outputs:
-        if o not in OUTPUTS:
-            raise SceneError("[run].outputs", f"{o!r} is not one of {', '.join(OUTPUTS)}")
-    step = _number(run, "run", "step", duration / 2000.0)
-    if step <= 0:
-        raise SceneError("[run].step", f"must be > 0 (got {step})")
-    max_events = _number(run, "run", "max_events", 100000.0)
-    max_steps = _number(run, "run", "max_steps", 1e7)
-    for key, value in (("max_events", max_events), ("max_steps", max_steps)):
-        if value < 1 or value != int(value):
-            raise SceneError(f"[run].{key}", f"must be a positive integer (got {value})")
-    output_dt = _number(run, "run", "output_dt", 0.0)
-    if output_dt < 0:
-        raise SceneError("[run].output_dt", f"must be >= 0 (got {output_dt})")
-    keep = run.get("keep_orthonormal", False)
-    if not isinstance(keep, bool):
-        raise SceneError("[run].keep_orthonormal", "must be true or false")
-    model = _string(run, "run", "model", MODELS, "auto")
-    zeno_dt = _number(run, "run", "zeno_dt", 1e-9)
-    if not 0 < zeno_dt < 1:
-        raise SceneError("[run].zeno_dt", f"must be in (0, 1) (got {zeno_dt})")
-
-    stability = _stability(_table(doc, "stability", False))
-
-    scene = Scene(name=name, M=M, J=J, shape=shape, size=size, center=center, m=m,
-                  law_text=law_text, law=law, plane=plane, e=e, t0=t0, com=com,
-                  com_velocity=com_v, omega=omega, A0=A0, duration=duration, method=method,
-                  rtol=rtol, atol=atol, g=g, outputs=tuple(dict.fromkeys(outputs)),
-                  step=step, max_events=int(max_events), max_steps=int(max_steps),
-                  output_dt=output_dt, keep_orthonormal=keep, model=model, zeno_dt=zeno_dt,
-                  source=origin, stability=stability)
-    _check_along_law(scene)
-    _check_start_above_plane(scene)
+    center = v["[body].center"]
+    if size and math.sqrt(sum(c * c for c in center)) > 100 * max(size):
+        raise SceneError("[body].center", "is more than 100 sizes away from O")
+    if v["[point].ends"] != "free" and "[point].ends" in given \
+            and v["[point].law"] is not None:
+        raise SceneError("[point].ends", "applies to a table or samples, not to a law")
+    plane = v["__plane__"]
+    e = v["[plane].restitution"] if plane else 1.0
+    t0, duration = v["[initial].time"], v["[run].duration"]
+    t1 = t0 + duration
+    if not math.isfinite(t1) or (t1 - t0) < 1e-9 * duration:
+        raise SceneError("[run].duration", f"is lost in the magnitude of the start time "
+                                           f"{t0:g}")
+    out_dt = v["[run].output_dt"]
+    if out_dt > 0 and duration / out_dt > MAX_ROWS:
+        raise SceneError("[run].output_dt", f"gives {duration / out_dt:.3g} rows (at most "
+                                            f"{MAX_ROWS:.0e}); use a larger output_dt")
+    law, law_text = _point_law(v, base)
+    A0 = _orientation(v, given)
+    body_size = float(max(size)) if size else math.sqrt(max(J) / M)
+    max_distance = v["[point].max_distance"] or 10.0 * body_size
+    summary = _check_law(law, t0, t1)
+    if summary.max_radius > max_distance:
+        where = "[point].law" if law_text else "[point].table"
+        raise SceneError(where, f"takes P {summary.max_radius:.3g} from O, beyond "
+                                f"max_distance = {max_distance:.3g} (10 body sizes unless "
+                                "[point].max_distance says otherwise)")
+    step = v["[run].step"]
+    if step is None:
+        # RK4 has no error control: a step that resolves the spin and the point's motion
+        spin = max(math.sqrt(sum(w * w for w in v["[initial].omega"])), 1e-300)
+        step = min(duration / 2000.0, 0.04 / spin, summary.time_scale / 10.0)
+    if v["[run].method"] == "rk4" and duration / step > 1e8:
+        raise SceneError("[run].step", f"gives {duration / step:.3g} RK4 steps (at most 1e8)")
+    st = Stability(v["[stability].period"], v["[stability].impacts_every"],
+                   v["[stability].long_periods"], v["[stability].perturbations"])
+    scene = Scene(name=v["name"], M=M, J=J, shape=shape, size=size, center=center, m=m,
+                  law=law, law_text=law_text, plane=plane, e=e, t0=t0, com=v["[initial].com"],
+                  com_velocity=v["[initial].com_velocity"], omega=v["[initial].omega"],
+                  A0=A0, duration=duration, method=v["[run].method"], rtol=v["[run].rtol"],
+                  atol=v["[run].atol"], g=v["[run].g"], outputs=v["[run].outputs"],
+                  step=step, max_events=v["[run].max_events"],
+                  max_steps=v["[run].max_steps"], output_dt=out_dt,
+                  keep_orthonormal=v["[run].keep_orthonormal"], model=v["[run].model"],
+                  zeno_dt=v["[run].zeno_dt"], source=origin, stability=st,
+                  law_summary=summary, max_distance=max_distance, doc=doc)
+    _singular_J(scene, summary)
+    _start_above_plane(scene)
     return scene
 
 
 def load_scene(scene) -> Scene:
-    """A :class:`Scene` from a path, TOML text, a dict or a Scene."""
+    """A :class:`Scene` from a path, a dict or a Scene."""
     if isinstance(scene, Scene):
         return scene
     if isinstance(scene, dict):
         return parse_scene(scene, "scene")
     path = Path(scene)
     if not path.is_file():
-        raise SceneError(str(scene), "no such scene file")
+        raise SceneError(str(scene)[:200], "no such scene file")
+    if path.stat().st_size > 16 * 1024 * 1024:
+        raise SceneError(str(scene)[:200], "is larger than 16 MB")
     try:
         text = path.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as exc:
-        raise SceneError(str(scene), f"cannot be read ({exc})") from None
-    return parse_scene(text, str(path))
+        raise SceneError(str(scene)[:200], f"cannot be read ({type(exc).__name__})") from None
+    return parse_scene(text, str(path), base=path.parent)
 
 
-# ---- checks along the law ---------------------------------------------------------------
-def law_functions(scene: Scene):
-    """NumPy callables for x, x', x'' of each coordinate (from the parsed expressions)."""
-    t = nt.t
-    exprs = [[c, sp.diff(c, t), sp.diff(c, t, 2)] for c in scene.law]
-    flat = [e for trio in exprs for e in trio]
-    fn = sp.lambdify(t, flat, modules="numpy")
-
-    def evaluate(ts):
-        ts = np.asarray(ts, dtype=float)
-        with np.errstate(all="ignore"):
-            values = fn(ts)
-        return np.array([np.broadcast_to(np.asarray(v, dtype=float), ts.shape)
-                         for v in values])     # (9, len(ts)): x, x', x'', y, ...
-    return evaluate
+def replace_values(scene: Scene, **changes) -> Scene:
+    """A copy of ``scene`` with some attributes changed, re-checked where they matter."""
+    from dataclasses import replace
+    new = replace(scene, **changes)
+    if {"t0", "duration", "law"} & set(changes):
+        summary = _check_law(new.law, new.t0, new.t0 + new.duration)
+        new = replace(new, law_summary=summary)
+    return new
 
 
-def _check_along_law(scene: Scene) -> None:
-    ts = np.linspace(scene.t0, scene.t0 + scene.duration, 2001)
-    values = law_functions(scene)(ts)
-    names = ("x", "x'", "x''", "y", "y'", "y''", "z", "z'", "z''")
-    bad = ~np.isfinite(values)
-    if bad.any():
-        row, col = np.argwhere(bad)[0]
-        raise SceneError(f"[point].law[{row // 3}]",
-                         f"is not twice differentiable on the run: {names[row]} is not finite "
-                         f"at t = {ts[col]:.6g}")
-    r = values[[0, 3, 6]]
-    mu = scene.mu
-    worst, where = np.inf, scene.t0
-    for k in range(0, ts.size, 10):
-        rk = r[:, k]
-        J = np.diag(scene.J) + mu * ((rk @ rk) * np.eye(3) - np.outer(rk, rk))
-        ev = np.linalg.eigvalsh(J)
-        ratio = ev[0] / ev[-1]
-        if ratio < worst:
-            worst, where = ratio, ts[k]
-    if not worst > 1e-12:
-        raise SceneError("[body].inertia",
-                         f"J is singular along the law (smallest/largest eigenvalue "
-                         f"{worst:.1e} at t = {where:.6g}); R1 needs det J != 0")
+# ---- what the schema gives besides validation --------------------------------------------------
+def _toml(value) -> str:
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, str):
+        return '"' + value.replace("\\", "\\\\").replace('"', '\\"') + '"'
+    if isinstance(value, (list, tuple)):
+        return "[" + ", ".join(_toml(x) for x in value) + "]"
+    if isinstance(value, float):
+        return repr(value)
+    return str(value)
 
 
-def _check_start_above_plane(scene: Scene) -> None:
-    if not scene.contact_possible:
-        return
-    from .geometry import lowest_point_numeric
-    n = scene.A0[2]
-    s = lowest_point_numeric(scene, n)
-    r0 = law_functions(scene)(np.array([scene.t0]))[[0, 3, 6], 0]
-    nu = scene.m / (scene.m + scene.M)
-    h = scene.com[2] + n @ (s - nu * r0)
-    scale = max(max(scene.size), 1e-3)
-    if h < -1e-12 * scale:
-        raise SceneError("[initial].com", f"the lowest point S starts below the plane "
-                                          f"(height {h:.6g}); raise Z_C")
+def template(shape: str = "sphere") -> str:
+    """A commented scene of every field (``derive scene new``)."""
+    lines = ["# A scene for `derive simulate` (every key; defaults where not required).",
+             "# Schema: README.md, section 'Scene schema'."]
+    table = None
+    skip = {"sphere": {"semi_axes"}, "ellipsoid": {"radius"}, "none": {"radius", "semi_axes"}}
+    for f in FIELDS:
+        if f.table != table:
+            table = f.table
+            lines.append("")
+            if f.table:
+                lines.append(f"[{f.table}]")
+        if f.key in skip.get(shape, set()) or f.table == "stability":
+            continue
+        value = f.example if f.example is not None else (
+            None if f.default is None or f.default is REQUIRED else f.default)
+        if f.key == "shape":
+            value = shape
+        note = f.doc + (f"; {f.rule}" if f.rule else "") + (f" ({f.when})" if f.when else "")
+        if value is None or f.key in ("table", "samples", "matrix"):
+            lines.append(f"# {f.key} = ...{' ' * 20}# {note}")
+        else:
+            lines.append(f"{f.key} = {_toml(value)}  # {note}")
+    lines.append("")
+    lines.append("# [stability] (optional): period, impacts_every, long_periods, perturbations")
+    return "\n".join(lines) + "\n"
+
+
+def schema_table() -> str:
+    """The README's schema table (a test keeps the README equal to it)."""
+    rows = ["| field | type | default | rule | meaning |", "|---|---|---|---|---|"]
+    for f in FIELDS:
+        if f.default is REQUIRED:
+            default = "required"
+        elif f.default is None:
+            default = "—"
+        else:
+            default = f"`{_toml(f.default)}`"
+        kind = f"{f.kind}[{f.size}]" if f.size else f.kind
+        doc = f.doc + (f" ({f.when})" if f.when else "")
+        rows.append(f"| `{f.where}` | {kind} | {default} | {f.rule} | {doc} |")
+    rows.append("")
+    rows.append("Rules across fields:")
+    rows.append("")
+    rows += [f"- {r}" for r in RULES]
+    return "\n".join(rows)
+
+
+def builtin_doc() -> dict:
+    """The built-in scene: a ball whose internal point moves, bouncing on the plane."""
+    return {
+        "name": "bouncing-ball",
+        "body": {"mass": 1.0, "inertia": [0.10, 0.12, 0.14], "shape": "sphere", "radius": 0.5,
+                 "center": [0.0, 0.0, 0.0]},
+        "point": {"mass": 0.2, "law": ["0.2*sin(3*t)", "0.1", "0.05*cos(2*t)"]},
+        "plane": {"restitution": 0.9},
+        "initial": {"time": 0.0, "com": [0.0, 0.0, 1.5], "com_velocity": [0.3, 0.0, 0.0],
+                    "omega": [0.5, -0.3, 1.0], "quaternion": [1.0, 0.0, 0.0, 0.0]},
+        "run": {"duration": 5.0, "method": "dopri5", "rtol": 1e-10, "atol": 1e-12, "g": 9.81,
+                "outputs": ["pose", "impacts"]},
+    }
+
+
+def _builtin_toml() -> str:
+    doc = builtin_doc()
+    lines = ["# The built-in scene: a ball whose internal point moves, bouncing on the plane.",
+             f"name = {_toml(doc['name'])}"]
+    for table in TABLES[1:]:
+        if table in doc:
+            lines += ["", f"[{table}]"]
+            lines += [f"{k} = {_toml(v)}" for k, v in doc[table].items()]
+    return "\n".join(lines) + "\n"
+
+
+DEFAULT_SCENE = _builtin_toml()

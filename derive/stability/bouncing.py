@@ -49,9 +49,11 @@ import sympy as sp
 
 from .. import notation as nt
 from ..emit.casadi_backend import build_function
+from .. import models as dm
 from ..runtime.driver import Session, prepare
 from ..runtime.scene import Scene, SceneError
 from .floquet import complex_pairs
+from .specialise import common, specialise
 from .variational import Monodromy
 
 
@@ -160,26 +162,33 @@ class HybridMap:
     """Runs of the full hybrid model (vertical layout) through the compiled runtime."""
 
     def __init__(self, scene):
-        self.scene, self.model, self.library, self.info = prepare(scene)
+        prep = prepare(scene)
+        if prep.kind != "vertical":
+            raise SceneError("[run].model", "periodic bouncing runs the vertical model")
+        self.prep = prep
+        self.scene = prep.scene
+        self.session = Session(prep.library, chunk=4096)
+        self.session.set_law(self.scene.law)
 
     def run(self, t0: float, q0, duration: float):
         sc = replace(self.scene, t0=float(t0), duration=float(duration))
-        self.model.q0 = np.asarray(q0, dtype=float)
-        return Session(self.library, sc, self.model, chunk=4096).run()
+        from ..runtime.driver import options
+        return self.session.run(sc.t0, sc.duration, np.asarray(q0, dtype=float),
+                                options(sc, "vertical"), self.prep.parameters)
 
     def to_next_impact(self, t0: float, q0, horizon: float):
         """Post-impact time and state of the first impact after t0 (None if none)."""
-        t, Q, kinds, ev, _, _ = self.run(t0, q0, horizon)
-        for i, k in enumerate(kinds):
+        raw = self.run(t0, q0, horizon)
+        for i, k in enumerate(raw.kinds):
             if k == 2:                      # the row just after an event
-                return t[i], Q[i]
+                return raw.t[i], raw.q[i]
         return None
 
     def at(self, t0: float, q0, duration: float):
-        t, Q, _, _, _, status = self.run(t0, q0, duration)
-        if status != "done":
-            raise RuntimeError(f"hybrid run ended with {status}")
-        return Q[-1]
+        raw = self.run(t0, q0, duration)
+        if raw.status != "done":
+            raise RuntimeError(f"hybrid run ended with {raw.status}")
+        return raw.q[-1]
 
 
 def _pack(q) -> np.ndarray:
@@ -204,10 +213,15 @@ def hybrid_gap(hybrid: HybridMap, t: float, q) -> float:
 
 
 def _casadi_functions(hybrid: HybridMap) -> dict:
-    """CasADi functions of the scene's specialised rhs, gap and impact (built once)."""
+    """CasADi functions of (t, q) of the scene's vertical rhs, gap and impact (the derived
+    functions with the scene's numbers and law substituted; built once)."""
     if not hasattr(hybrid, "casadi"):
-        specs = hybrid.model.specs
-        hybrid.casadi = {name: build_function(specs[name]) for name in ("rhs", "gap", "impact")}
+        subs, defs = common(hybrid.scene)
+        q, labels = dm.STATES["vertical"], dm.STATE_LABELS["vertical"]
+        specs = {"rhs": dm.flight_rhs("vertical"), "gap": dm.gap("vertical"),
+                 "impact": dm.impact("vertical")}
+        hybrid.casadi = {name: build_function(specialise(spec, subs, defs, q, labels, name))
+                         for name, spec in specs.items()}
     return hybrid.casadi
 
 
@@ -238,10 +252,10 @@ def reference5(scene: Scene) -> dict:
     if abs(scene.J[0] - scene.J[1]) > 1e-12 * scene.J[0]:
         raise SceneError("[body].inertia", "periodic bouncing of reference [5] needs a "
                                            f"symmetric carrier, J_x = J_y (got {scene.J[:2]})")
-    if scene.law[0] != 0 or scene.law[1] != 0:
+    if not (scene.law.is_zero(0) and scene.law.is_zero(1)):
         raise SceneError("[point].law", "the point must move along the symmetry axis: "
                                         "x = y = 0")
-    amp, factor = sp.sympify(scene.law[2]).as_coeff_Mul()
+    amp, factor = sp.sympify(scene.law.sympy()[2]).as_coeff_Mul()
     ok = isinstance(factor, sp.sin) and amp.is_number and float(amp) > 0
     if ok:
         W = sp.expand(factor.args[0]).coeff(nt.t)

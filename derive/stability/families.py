@@ -9,8 +9,8 @@ rotation omega = (0, 0, omega) about the body axis Oz, the axis fixed in space
 * ``C4.3``: x = R cos(omega t/2), y = -R sin(omega t/2),
   z = a cos(omega t/2) + b sin(omega t/2) (4.8).
 
-One variational library is compiled per family with the parameters (the law's and J_x,
-J_y, J_z, M, m) read at run time, so a whole sweep costs one compilation.  A member is
+Every member runs on the precompiled variational runtime (numbers and law at run time),
+so a whole sweep costs no compilation.  A member is
 judged by the multipliers of the (omega, n) block of its monodromy over the law's period:
 in free flight the centre of mass decouples (a Jordan block at 1 that says nothing about
 the rotation).
@@ -18,9 +18,8 @@ the rotation).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from functools import lru_cache
-from pathlib import Path
 
 import numpy as np
 import sympy as sp
@@ -31,7 +30,6 @@ from .floquet import UNIT_TOL, block_verdict
 from .variational import Monodromy
 
 COMMON = {"J_x": 0.10, "J_y": 0.12, "J_z": 0.14, "M": 1.0, "m": 0.2, "omega": 2.0}
-MODEL_SYMBOLS = {"J_x": nt.J_x, "J_y": nt.J_y, "J_z": nt.J_z, "M": nt.M, "m": nt.m}
 LAW_SYMBOLS = {name: sp.Symbol(f"p_{name}", real=True)
                for name in ("a", "b", "W", "omega", "x0", "y0", "R")}
 
@@ -67,9 +65,17 @@ class Family:
                 s["a"] * sp.cos(half) + s["b"] * sp.sin(half))
 
     def law_text(self, values: dict) -> list:
-        """The law with numbers, as a scene's [point].law strings."""
-        v = {LAW_SYMBOLS[k]: sp.Float(repr(float(values[k])), 17) for k in self.law_names}
-        return [str(e.xreplace(v)) for e in self.law()]
+        """The law with numbers, as a scene's [point].law strings (the same expressions
+        as :meth:`law`, numbers printed so that they round-trip)."""
+        v = {k: repr(float(values[k])) for k in self.law_names}
+        if self.name == "C4.1":
+            return ["0", "0", f"{v['a']}*sin({v['W']}*t)"]
+        if self.name == "C4.2":
+            w = v["omega"]
+            return [v["x0"], v["y0"], f"{v['a']}*cos({w}*t) + {v['b']}*sin({w}*t)"]
+        half = f"({v['omega']}*t/2)"
+        return [f"{v['R']}*cos{half}", f"-{v['R']}*sin{half}",
+                f"{v['a']}*cos{half} + {v['b']}*sin{half}"]
 
     def period(self, values: dict) -> float:
         return self.period_factor * 2 * math.pi / values[self.frequency]
@@ -84,13 +90,6 @@ class Family:
         out = {**self.defaults, **{k: float(v) for k, v in given.items()}}
         check(self, out)
         return out
-
-    def parametric_values(self, values: dict) -> np.ndarray:
-        """The runtime parameter vector, in the order of :func:`parameter_symbols`."""
-        return np.array([values[k] for k in self.runtime_names()])
-
-    def runtime_names(self) -> tuple:
-        return tuple(MODEL_SYMBOLS) + tuple(k for k in self.law_names)
 
     def scene(self, values: dict, duration: float | None = None) -> dict:
         """A free-flight scene (TOML as a dict) of this member, started in the rotation."""
@@ -151,28 +150,20 @@ def is_valid(fam: Family, v: dict) -> bool:
     return True
 
 
-# ---- the compiled family ------------------------------------------------------------
+# ---- evaluating members ---------------------------------------------------------------
 class Member:
-    """Evaluates members of one family with one compiled library."""
+    """Evaluates members of one family with the precompiled variational runtime: a member
+    is a scene (its law a new program, no compilation)."""
 
-    def __init__(self, name: str, rtol: float = 1e-12, library_path: str | None = None):
+    def __init__(self, name: str, rtol: float = 1e-12):
         self.family = family(name)
-        defaults = self.family.defaults
-        base = parse_scene(self.family.scene(defaults))
-        law = self.family.law()
-        symbolic = replace(base, law=law, law_text=tuple(str(e) for e in law))
-        params = tuple(MODEL_SYMBOLS.values()) + tuple(LAW_SYMBOLS[k]
-                                                        for k in self.family.law_names)
-        overrides = {s: s for s in MODEL_SYMBOLS.values()}
-        self.mono = Monodromy(symbolic, rtol=rtol, overrides=overrides, params=params,
-                              library_path=library_path)
-        self.library_path = str(self.mono.library.path)
+        self.rtol = rtol
 
     def monodromy(self, values: dict) -> tuple[np.ndarray, np.ndarray]:
         """(q(T) - q(0), M) for the member ``values`` (checked beforehand)."""
+        scene = parse_scene(self.family.scene(values))
         q0 = np.array([0.0, 0.0, 0.0, 0.0, values["omega"], 0.0, 0.0, 1.0])
-        qT, M = self.mono.flow(0.0, q0, self.family.period(values),
-                               self.family.parametric_values(values))
+        qT, M = Monodromy(scene, rtol=self.rtol).flow(0.0, q0, self.family.period(values))
         return qT - q0, M
 
     def point(self, values: dict) -> tuple[float, float, float]:
@@ -186,9 +177,5 @@ class Member:
 
 
 @lru_cache(maxsize=8)
-def member(name: str, rtol: float = 1e-12, library_path: str | None = None) -> Member:
-    """One :class:`Member` per process (sweep workers reuse it for every task); with
-    ``library_path`` of an existing build no symbolic work is repeated."""
-    if library_path is not None and not Path(library_path).is_file():
-        library_path = None          # another machine: build it here
-    return Member(name, rtol, library_path)
+def member(name: str, rtol: float = 1e-12) -> Member:
+    return Member(name, rtol)

@@ -38,7 +38,8 @@ from ..emit.casadi_backend import build_function
 from ..emit.numpy_backend import compile_spec
 from ..runtime.driver import simulate
 from ..runtime.scene import Scene, SceneError
-from ..runtime.scene_models import _common, specialise
+from .specialise import common as _common
+from .specialise import specialise
 from .variational import Monodromy
 
 UNIT_TOL = 1e-6         # |rho| - 1 beyond this: unstable
@@ -90,7 +91,7 @@ def law_period(scene: Scene) -> float:
     with frequencies commensurate (ratios of small integers); constant laws have none."""
     hint = "set [stability].period"
     freqs = set()
-    for expr in scene.law:
+    for expr in scene.law.sympy():
         expr = sp.sympify(expr)
         for atom in expr.atoms(sp.sin, sp.cos):
             arg = sp.expand(atom.args[0])

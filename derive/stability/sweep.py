@@ -1,9 +1,9 @@
 """Two-parameter sweeps of a family's multipliers, on local cores or a Dask cluster.
 
 A sweep is split into rows (one task per value of the y parameter); every task evaluates
-its points with the family's one compiled library (:func:`families.member`, built once
-in the parent and loaded by each worker), so a point's result is the same arithmetic
-whichever process or machine ran it: serial, local processes and Dask give identical
+its points with the precompiled variational runtime (built once per machine, loaded by
+each worker), so a point's result is the same arithmetic whichever process or machine
+ran it: serial, local processes and Dask give identical
 arrays (the tests compare them bit for bit).
 """
 from __future__ import annotations
@@ -95,9 +95,9 @@ class Sweep:
 
 def _row(task: tuple) -> tuple[int, np.ndarray]:
     """One row of the grid (runs in a worker): (j, (nx, 3) array)."""
-    name, rtol, library_path, j, points = task
+    name, rtol, j, points = task
     fam = family(name)
-    mb = member(name, rtol, library_path)
+    mb = member(name, rtol)
     out = np.full((len(points), 3), np.nan)
     for i, values in enumerate(points):
         if is_valid(fam, values):
@@ -105,10 +105,10 @@ def _row(task: tuple) -> tuple[int, np.ndarray]:
     return j, out
 
 
-def tasks(name: str, x: Axis, y: Axis, fixed: dict, rtol: float, library_path: str):
+def tasks(name: str, x: Axis, y: Axis, fixed: dict, rtol: float):
     fam = family(name)
     base = fam.values(fixed)
-    return [(name, rtol, library_path, j,
+    return [(name, rtol, j,
              [{**base, x.name: float(xv), y.name: float(yv)} for xv in x.values])
             for j, yv in enumerate(y.values)]
 
@@ -131,8 +131,9 @@ def run(name: str, x: Axis, y: Axis, fixed: dict | None = None, rtol: float = 1e
     if workers is not None and workers < 1:
         raise FamilyError("--workers", f"must be >= 1 (got {workers})")
     start = time.perf_counter()
-    lib = member(name, rtol).library_path               # compile once, here
-    work = tasks(name, x, y, fixed, rtol, lib)
+    from ..runtime.build import library
+    lib = str(library("variational").path)           # built once per machine, here
+    work = tasks(name, x, y, fixed, rtol)
     grid = np.full((y.n, x.n, 3), np.nan)
     bar = Bar(f"sweeping {name}", progress, delay=0.5)
     done = 0

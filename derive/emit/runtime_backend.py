@@ -1,0 +1,143 @@
+"""The C runtime, rendered once by ``derive emit`` into ``generated/runtime/``.
+
+One C file per model (``model_<kind>.c``): the derived functions it calls (generic in
+every number of a scene: the parameters arrive at run time in ``prm[]``), the model's
+thin wrappers, and ``#include`` of the shared runtime headers:
+
+* ``crt_abi.h``: enums and names from :mod:`derive.runtime.abi`;
+* ``crt_law.h``: the point-law interpreter and splines;
+* ``crt_integrators.h``: RK4, DOPRI5, DOP853 with dense output;
+* ``crt_core.h``: sessions, events, impacts, contact, output, the public API.
+
+Nothing of a scene reaches this code: it is rendered from the derivation alone, and
+:mod:`derive.runtime.build` compiles each model once per machine.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import lru_cache
+
+from .. import models as dm
+from ..runtime import abi
+from ..runtime import tableaus as T
+from .c_backend import body
+from .render import environment, versions
+
+
+@dataclass(frozen=True)
+class RuntimeModel:
+    kind: str
+    labels: tuple
+    plane: bool
+    z_index: int
+    zd_index: int
+    normalize: str            # matrix | vector | none
+    summary: str
+
+    def specs(self) -> list:
+        contact = ["lowest_point_ellipsoid", "lowest_point_rate_ellipsoid"]
+        if self.kind in ("general", "vertical"):
+            return [dm.flight_rhs(self.kind), dm.gap(self.kind), dm.impact(self.kind),
+                    dm.runtime_contact(self.kind), dm.lowest_point("ellipsoid"),
+                    dm.lowest_point_rate("ellipsoid")]
+        if self.kind == "attitude":
+            return [dm.flight_rhs("attitude")]
+        if self.kind == "translational":
+            return [dm.gap("vertical"), dm.impact("vertical"), dm.runtime_contact("vertical"),
+                    dm.lowest_point("ellipsoid"), dm.lowest_point_rate("ellipsoid")]
+        if self.kind == "planar":
+            return [dm.gap("vertical"), dm.impact("vertical"), dm.runtime_contact("vertical"),
+                    *dm.planar_functions(), dm.lowest_point("ellipsoid"),
+                    dm.lowest_point_rate("ellipsoid")]
+        if self.kind == "axisymmetric":
+            return [dm.axisymmetric_rates()]
+        if self.kind == "variational":
+            return [dm.flight_rhs("vertical"), dm.flight_jacobian("vertical")]
+        raise ValueError(contact)
+
+
+def _variational_labels() -> tuple:
+    base = dm.STATE_LABELS["vertical"]
+    n = len(base)
+    return base + tuple(f"Phi[{i},{j}]" for i in range(n) for j in range(n))
+
+
+MODELS = (
+    RuntimeModel("general", dm.STATE_LABELS["general"], True, 2, 5, "matrix",
+                 "E1.2, E1.7, E1.8 in flight; impacts (E1.10-E1.16); persistent contact."),
+    RuntimeModel("vertical", dm.STATE_LABELS["vertical"], True, 0, 1, "vector",
+                 "the general model without the horizontal motion of C and the heading."),
+    RuntimeModel("attitude", dm.STATE_LABELS["attitude"], False, -1, -1, "none",
+                 "E1.7 alone: free flight, omega only."),
+    RuntimeModel("translational", ("Z_C", "Z_C'"), True, 0, 1, "none",
+                 "omega = 0 kept by the law of areas (C2.1-C2.4): the vertical motion of C."),
+    RuntimeModel("planar", ("Z_C", "Z_C'", "kappa", "phi"), True, 0, 1, "none",
+                 "z = 0, omega along z (E4.1, E4.2): omega_z from the integral kappa = K_z."),
+    RuntimeModel("axisymmetric", ("psi", "phi"), False, -1, -1, "none",
+                 "J_x = J_y, P on the axis, free flight: the quadratures of E3.14."),
+    RuntimeModel("variational", _variational_labels(), False, -1, -1, "none",
+                 "the vertical flight with its variational equations Phi' = (df/dq) Phi."),
+)
+KINDS = tuple(m.kind for m in MODELS)
+
+
+def model(kind: str) -> RuntimeModel:
+    for m in MODELS:
+        if m.kind == kind:
+            return m
+    raise KeyError(kind)
+
+
+def _c(x) -> str:
+    return repr(float(x))
+
+
+def _pairs(values) -> list:
+    return [(j, _c(v)) for j, v in enumerate(values) if float(v) != 0.0]
+
+
+@lru_cache(maxsize=None)
+def tableau_context() -> dict:
+    def dense_rows(rows, n):
+        out = []
+        for i in range(n):
+            row = [0.0] * i
+            for j, v in rows[i] if i < len(rows) else ():
+                row[j] = float(v)
+            out.append([_c(v) for v in row])
+        return out
+    return {
+        "dopri5": {"a": dense_rows(T.DOPRI5_A, 7), "c": [_c(v) for v in T.DOPRI5_C],
+                   "e": [_c(v) for v in T.DOPRI5_E], "d": [_c(v) for v in T.DOPRI5_D]},
+        "dop853": {"a_pairs": [[(j, _c(v)) for j, v in row if float(v) != 0.0]
+                               for row in T.DOP853_A],
+                   "c": [_c(v) for v in T.DOP853_C], "b_pairs": _pairs(T.DOP853_B),
+                   "e3_pairs": _pairs(T.DOP853_E3), "e5_pairs": _pairs(T.DOP853_E5),
+                   "d_pairs": [_pairs(row) for row in T.DOP853_D]},
+    }
+
+
+def render_model(m: RuntimeModel) -> str:
+    env = environment()
+    functions = []
+    for spec in m.specs():
+        b = body(spec)
+        functions.append({"name": spec.name, "doc": spec.doc, **b})
+    ctx = {"template": "templates/runtime/model.c.jinja", "versions": versions(),
+           "kind": m.kind, "nq": len(m.labels), "labels": m.labels, "plane": m.plane,
+           "z_index": m.z_index, "zd_index": m.zd_index, "normalize": m.normalize,
+           "summary": m.summary, "functions": functions}
+    return env.get_template("runtime/model.c.jinja").render(**ctx)
+
+
+def render_runtime() -> dict[str, str]:
+    """Every file of ``generated/runtime`` as text."""
+    env = environment()
+    common = {"versions": versions(), **abi.c_context(), **tableau_context()}
+    files = {}
+    for name in ("crt_abi.h", "crt_law.h", "crt_integrators.h", "crt_core.h"):
+        files[f"runtime/{name}"] = env.get_template(f"runtime/{name}.jinja").render(
+            template=f"templates/runtime/{name}.jinja", **common)
+    for m in MODELS:
+        files[f"runtime/model_{m.kind}.c"] = render_model(m)
+    return files

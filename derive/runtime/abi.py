@@ -1,0 +1,169 @@
+"""The runtime's names, in one place: options, parameters, statuses, event kinds, counters,
+row kinds and the opcodes of the point-law interpreter.
+
+Everything the C runtime and Python exchange by position is listed here once, in order.
+``derive emit`` renders ``generated/runtime/crt_abi.h`` from these lists (enums, and
+name tables the compiled library exports), and Python reads the same lists; a test loads
+a compiled runtime and compares its name tables with these.  Nothing else in the project
+numbers an option, a status or a counter.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class Name:
+    name: str
+    doc: str
+
+
+def _names(*pairs) -> tuple:
+    return tuple(Name(n, d) for n, d in pairs)
+
+
+# Options: a double vector the caller fills by these indices (crt_init copies it).
+OPTIONS = _names(
+    ("method", "integrator: an index into METHODS"),
+    ("plane", "1: the plane is there (a model with contact); 0: free flight"),
+    ("rtol", "relative tolerance of the adaptive methods"),
+    ("atol", "absolute tolerance of the adaptive methods"),
+    ("h0", "first step (0: chosen automatically)"),
+    ("hmax", "largest step"),
+    ("rk4_step", "step of the fixed-step RK4"),
+    ("max_steps", "stop with max_steps after this many accepted steps"),
+    ("max_events", "stop with max_events after this many events"),
+    ("output_dt", "rows every output_dt from the dense output (0: one row per step)"),
+    ("orthonormal", "1: project the attitude onto the rotations after every step"),
+    ("time_scale", "the scene's time scale (its duration): tolerances of time are relative to it"),
+    ("event_tol", "event location tolerance, relative to the time scale"),
+    ("length_scale", "the largest |CS| (surface and point): heights are resolved relative "
+                     "to it"),
+    ("zeno_dt", "accumulating impacts: enter contact when the remaining flights sum to less "
+                "than zeno_dt times the time scale"),
+)
+
+# Parameters: a double vector of the scene's numbers, read by the model functions.
+PARAMETERS = _names(
+    ("M", "mass of the carrier"),
+    ("m", "mass of the point"),
+    ("J_x", "principal central moment of inertia of the carrier about Ox"),
+    ("J_y", "... about Oy"),
+    ("J_z", "... about Oz"),
+    ("g", "gravity"),
+    ("e", "restitution coefficient of the plane"),
+    ("axis_a", "semi-axis of the shape along Ox (the radius for a sphere)"),
+    ("axis_b", "semi-axis along Oy"),
+    ("axis_c", "semi-axis along Oz"),
+    ("center_x", "centre of the shape in body axes"),
+    ("center_y", "..."),
+    ("center_z", "..."),
+    ("n0_x", "translational and planar models: the vertical n in body axes at the start"),
+    ("n0_y", "..."),
+    ("n0_z", "..."),
+    ("K", "axisymmetric model: |K|, constant in flight"),
+    ("omega_z0", "axisymmetric model: omega_z, constant in flight (E3.6)"),
+)
+
+METHODS = _names(
+    ("rk4", "classical Runge-Kutta, fixed step, cubic Hermite dense output"),
+    ("dopri5", "Dormand-Prince 5(4), adaptive, 4th-order dense output"),
+    ("dop853", "Dormand-Prince 8(5,3), adaptive, 7th-order dense output"),
+)
+
+STATUSES = _names(
+    ("paused", "the output buffer is full: call crt_advance again"),
+    ("done", "the end time was reached"),
+    ("max_events", "max_events events happened"),
+    ("step_underflow", "the step size fell below 1e-14 of the time scale"),
+    ("nonfinite", "the state or the right-hand side became NaN or infinite"),
+    ("max_steps", "max_steps steps were taken"),
+    ("bad_options", "an option is out of range"),
+    ("penetration", "S went below the plane and the event could not be located"),
+)
+
+PHASES = _names(
+    ("flight", "S above the plane"),
+    ("contact", "S held on the plane by the reaction N >= 0"),
+)
+
+EVENT_KINDS = _names(
+    ("none", "(unused)"),
+    ("impact", "S hit the plane with v_n < 0: the impact map applied"),
+    ("contact", "impacts accumulated: S now rests on the plane"),
+    ("liftoff", "N reached 0: S leaves the plane"),
+    ("graze", "S touched the plane without approaching it"),
+)
+
+STATS = _names(
+    ("steps", "accepted steps"),
+    ("rejected", "rejected steps"),
+    ("rhs_evaluations", "right-hand side evaluations"),
+    ("event_function_evaluations", "evaluations of the gap or of N"),
+    ("impacts", "impacts"),
+    ("contacts", "entries into persistent contact"),
+    ("liftoffs", "lift-offs"),
+    ("grazes", "grazes"),
+    ("law_evaluations", "evaluations of the point law"),
+)
+
+ROW_KINDS = _names(
+    ("step", "a step's end or an output_dt sample"),
+    ("before_event", "the state just before an event"),
+    ("after_event", "the state just after an event"),
+)
+
+# Summary values the runtime keeps while it runs (crt_summary).
+SUMMARY = _names(
+    ("min_height", "lowest height of S at the ends of steps and at events, in flight"),
+    ("min_normal", "smallest reaction N seen in contact (inf if never in contact)"),
+    ("t_min_height", "when the lowest height was seen"),
+)
+
+# Law kinds and opcodes of the interpreter (derive/runtime/law.py compiles to these).
+LAW_KINDS = _names(
+    ("none", "not set yet"),
+    ("program", "an expression program: opcodes over a table of constants"),
+    ("table", "a cubic spline through samples"),
+)
+
+OPCODES = _names(
+    ("const", "the constant consts[a]"),
+    ("t", "the time"),
+    ("add", "a + b"), ("sub", "a - b"), ("mul", "a * b"), ("div", "a / b"), ("neg", "-a"),
+    ("powi", "a ** n, n = consts[b] an integer"),
+    ("powr", "a ** r, r = consts[b] a non-integer, a > 0"),
+    ("pow", "a ** b = exp(b log a), a > 0"),
+    ("sin", ""), ("cos", ""), ("tan", ""), ("exp", ""), ("log", ""), ("sqrt", ""),
+    ("sinh", ""), ("cosh", ""), ("tanh", ""), ("asin", ""), ("acos", ""), ("atan", ""),
+)
+
+LAW_MAX_NODES = 1024      # nodes of one law (three coordinates): the C jet workspace
+
+
+def index(table: tuple, name: str) -> int:
+    for k, entry in enumerate(table):
+        if entry.name == name:
+            return k
+    raise KeyError(name)
+
+
+def names(table: tuple) -> tuple:
+    return tuple(entry.name for entry in table)
+
+
+OPT = {entry.name: k for k, entry in enumerate(OPTIONS)}
+PRM = {entry.name: k for k, entry in enumerate(PARAMETERS)}
+OP = {entry.name: k for k, entry in enumerate(OPCODES)}
+
+
+EVENT_COLUMNS = ("t", "kind", "value", "v_minus", "v_plus", "t_accumulation")
+
+
+def c_context() -> dict:
+    """What ``templates/runtime/crt_abi.h.jinja`` and ``crt_core.h.jinja`` render."""
+    return {"options": OPTIONS, "parameters": PARAMETERS, "methods": METHODS,
+            "statuses": STATUSES, "phases": PHASES, "event_kinds": EVENT_KINDS,
+            "stats": STATS, "row_kinds": ROW_KINDS, "summary": SUMMARY,
+            "law_kinds": LAW_KINDS, "opcodes": OPCODES, "law_max_nodes": LAW_MAX_NODES,
+            "event_columns": EVENT_COLUMNS}

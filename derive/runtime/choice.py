@@ -1,0 +1,226 @@
+"""The smallest model that answers a scene, its inputs, and its results read back.
+
+Every model is compiled once per machine (:mod:`derive.runtime.build`); here a scene only
+chooses one and fills its numbers:
+
+* ``translational`` (Z_C, Z_C'): omega(0) = 0, the law satisfies (2.1) (C2.1, C2.3) and,
+  if contact is possible, d = CS x n vanishes at every contact (C2.4);
+* ``planar`` (Z_C, Z_C', kappa = K_z, phi): z = 0 in the law, omega(0) along z and, if
+  contact is possible, the body z axis horizontal with S in the plane z = 0 (E4.1, E4.2);
+* ``axisymmetric`` (psi, phi): free flight, J_x = J_y, x = y = 0 (E3.14);
+* ``attitude`` (omega): free flight and only omega or momentum asked;
+* ``vertical`` (Z_C, Z_C', omega, n): contact possible, the pose not asked;
+* ``general`` (18 states) otherwise.
+
+The conditions read the law's program (``is_zero``) and its samples; nothing symbolic.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import abi
+from .geometry import kinetic_moment, lowest_point_numeric, momentum_frame, rotation_x, rotation_z
+from .scene import Scene, SceneError
+
+POSE = "pose"
+GENERAL_LABELS = ("X_C", "Y_C", "Z_C", "X_C'", "Y_C'", "Z_C'", "omega_x", "omega_y",
+                  "omega_z", "a11", "a12", "a13", "a21", "a22", "a23", "a31", "a32", "a33")
+
+
+def _samples(scene: Scene, n: int = 801) -> tuple:
+    ts = np.linspace(scene.t0, scene.t0 + scene.duration, n)
+    return ts, scene.law.jets(ts)
+
+
+def _translational_reason(scene: Scene) -> str | None:
+    if any(w != 0.0 for w in scene.omega):
+        return None
+    _, vals = _samples(scene)
+    r, a = vals[[0, 3, 6]], vals[[2, 5, 8]]
+    cross = np.cross(r.T, a.T)
+    scale = max(np.max(np.linalg.norm(r, axis=0)) * np.max(np.linalg.norm(a, axis=0)), 1e-300)
+    if np.max(np.abs(cross)) > 1e-12 * scale:
+        return None
+    why = "omega(0) = 0 and the law satisfies (2.1), OP x A_r = 0 (C2.1, C2.3)"
+    if scene.contact_possible:
+        n0 = scene.A0[2]
+        rn = np.cross(r.T, n0)
+        size = max(max(scene.size), np.max(np.linalg.norm(r, axis=0)), 1e-300)
+        s0 = lowest_point_numeric(scene, n0)
+        if np.max(np.abs(rn)) > 1e-12 * size or np.max(np.abs(np.cross(s0, n0))) > 1e-12 * size:
+            return None
+        why += "; P and S stay on the vertical through O, so d = 0 at impacts (C2.4)"
+    return why
+
+
+def _planar_reason(scene: Scene) -> str | None:
+    if scene.omega[0] != 0.0 or scene.omega[1] != 0.0 or not scene.law.is_zero(2):
+        return None
+    why = "z = 0 in the law and omega(0) along z: omega_x = omega_y = 0 persists (E4.1)"
+    if scene.contact_possible:
+        if abs(scene.A0[2][2]) > 1e-12 or abs(scene.center[2]) > 1e-12:
+            return None
+        why += ("; the body z axis is horizontal and S lies in z = 0, so d stays along z "
+                "through impacts and contact")
+    return why
+
+
+def _axisymmetric_reason(scene: Scene) -> str | None:
+    if scene.contact_possible or abs(scene.J[0] - scene.J[1]) > 1e-12 * max(scene.J):
+        return None
+    if not (scene.law.is_zero(0) and scene.law.is_zero(1)) or all(w == 0.0 for w in scene.omega):
+        return None
+    return "free flight, J_x = J_y and P on the symmetry axis: quadratures (E3.11-E3.14)"
+
+
+def candidates(scene: Scene) -> list:
+    wants = set(scene.outputs)
+    out = []
+    for kind, reason in (("translational", _translational_reason),
+                         ("planar", _planar_reason), ("axisymmetric", _axisymmetric_reason)):
+        why = reason(scene)
+        if why:
+            out.append((kind, why))
+    if not scene.contact_possible and wants <= {"omega", "momentum"}:
+        out.append(("attitude", "free flight and only omega/momentum asked: E1.7 alone"))
+    if POSE not in wants:
+        out.append(("vertical", "the pose is not asked: the horizontal motion of C is "
+                                "uniform and the heading is not needed"))
+    out.append(("general", "the pose is asked and no symmetry reduces the model"
+                if POSE in wants else "no smaller model applies"))
+    return out
+
+
+def choose(scene: Scene) -> tuple[str, str]:
+    """The model and why (for ``model = "auto"``), or the forced one checked."""
+    found = candidates(scene)
+    if scene.model == "auto":
+        return found[0]
+    for kind, why in found:
+        if kind == scene.model:
+            return kind, f"forced by [run].model; {why}"
+    raise SceneError("[run].model", f"{scene.model!r} cannot answer this scene "
+                                    f"(possible: {', '.join(k for k, _ in found)})")
+
+
+# ---- what a model reads ------------------------------------------------------------------------
+def length_scale(scene: Scene) -> float:
+    """The largest |CS| = |OS - nu OP|: the surface's reach from O plus the point's."""
+    if not scene.size:
+        return 0.0
+    reach = float(np.linalg.norm(scene.center)) + max(scene.size)
+    return reach + scene.nu * scene.law_summary.max_radius
+
+
+@dataclass
+class Start:
+    """A model's initial state and the constants it reads from ``prm``."""
+    q0: np.ndarray
+    constants: dict
+
+
+def start(scene: Scene, kind: str) -> Start:
+    A0 = scene.A0
+    if kind == "general":
+        return Start(np.r_[scene.com, scene.com_velocity, scene.omega, A0.reshape(-1)], {})
+    if kind == "vertical":
+        return Start(np.r_[scene.com[2], scene.com_velocity[2], scene.omega, A0[2]], {})
+    if kind == "attitude":
+        return Start(np.asarray(scene.omega, dtype=float), {})
+    n0 = {"n0_x": A0[2][0], "n0_y": A0[2][1], "n0_z": A0[2][2]}
+    if kind == "translational":
+        return Start(np.array([scene.com[2], scene.com_velocity[2]]), n0)
+    jets = scene.law.jets(np.array([scene.t0]))[:, 0]
+    if kind == "planar":
+        K = kinetic_moment(scene, np.array([[0.0, 0.0, scene.omega[2]]]), jets[:, None])[0]
+        return Start(np.array([scene.com[2], scene.com_velocity[2], K[2], 0.0]), n0)
+    if kind == "axisymmetric":
+        K_body = kinetic_moment(scene, np.asarray([scene.omega], dtype=float), jets[:, None])[0]
+        K, R_K, psi0, theta0, phi0 = momentum_frame(A0 @ K_body, A0)
+        st = Start(np.array([psi0, phi0]), {"K": K, "omega_z0": scene.omega[2]})
+        st.constants["_frame"] = (R_K, theta0)
+        return st
+    raise KeyError(kind)
+
+
+def parameters(scene: Scene, constants: dict) -> np.ndarray:
+    prm = np.zeros(len(abi.PARAMETERS))
+    P = abi.PRM
+    prm[P["M"]], prm[P["m"]] = scene.M, scene.m
+    prm[P["J_x"]], prm[P["J_y"]], prm[P["J_z"]] = scene.J
+    prm[P["g"]], prm[P["e"]] = scene.g, scene.e
+    if scene.size:
+        axes = (scene.size[0],) * 3 if scene.shape == "sphere" else scene.size
+        prm[P["axis_a"]], prm[P["axis_b"]], prm[P["axis_c"]] = axes
+        prm[P["center_x"]], prm[P["center_y"]], prm[P["center_z"]] = scene.center
+    for name, value in constants.items():
+        if not name.startswith("_"):
+            prm[P[name]] = value
+    return prm
+
+
+# ---- results in the general layout -------------------------------------------------------------
+def _uniform_horizontal(scene: Scene, t):
+    dt = np.asarray(t) - scene.t0
+    return (scene.com[0] + scene.com_velocity[0] * dt, scene.com[1] + scene.com_velocity[1] * dt,
+            np.full_like(dt, scene.com_velocity[0]), np.full_like(dt, scene.com_velocity[1]))
+
+
+def omega_of(scene: Scene, kind: str, st: Start, t, Q, rates=None) -> np.ndarray:
+    """omega in body axes along the rows; ``rates`` (dq/dt of the rows, from the library)
+    for the models whose omega is a rate (planar: phi', axisymmetric: psi')."""
+    n = len(t)
+    if kind == "general":
+        return Q[:, 6:9]
+    if kind == "vertical":
+        return Q[:, 2:5]
+    if kind == "attitude":
+        return Q[:, 0:3]
+    if kind == "translational":
+        return np.zeros((n, 3))
+    if kind == "planar":
+        return np.column_stack([np.zeros(n), np.zeros(n), rates[:, 3]])
+    if kind == "axisymmetric":
+        _, theta0 = st.constants["_frame"]
+        s0 = np.sin(theta0)
+        return np.column_stack([rates[:, 0] * s0 * np.sin(Q[:, 1]),
+                                rates[:, 0] * s0 * np.cos(Q[:, 1]),
+                                np.full(n, st.constants["omega_z0"])])
+    raise KeyError(kind)
+
+
+def to_general(scene: Scene, kind: str, st: Start, t, Q, omega) -> np.ndarray | None:
+    """The rows in the general layout (None for models that cannot give the pose)."""
+    n = len(t)
+    A0 = scene.A0
+    if kind == "general":
+        return Q
+    if kind in ("vertical", "attitude"):
+        return None
+    X, Y, VX, VY = _uniform_horizontal(scene, t)
+    if kind == "translational":
+        return np.column_stack([X, Y, Q[:, 0], VX, VY, Q[:, 1], np.zeros((n, 3)),
+                                np.tile(A0.reshape(-1), (n, 1))])
+    if kind == "planar":
+        A = A0[None] @ rotation_z(Q[:, 3])
+        return np.column_stack([X, Y, Q[:, 0], VX, VY, Q[:, 1], omega, A.reshape(n, 9)])
+    if kind == "axisymmetric":
+        R_K, theta0 = st.constants["_frame"]
+        dt = np.asarray(t) - scene.t0
+        Z = scene.com[2] + scene.com_velocity[2] * dt - 0.5 * scene.g * dt ** 2
+        VZ = scene.com_velocity[2] - scene.g * dt
+        A = (R_K[None] @ rotation_z(Q[:, 0]) @ rotation_x(np.full(n, theta0))
+             @ rotation_z(Q[:, 1]))
+        return np.column_stack([X, Y, Z, VX, VY, VZ, omega, A.reshape(n, 9)])
+    raise KeyError(kind)
+
+
+def vertical_of(kind: str, general, Q) -> tuple | None:
+    """(Z_C, n) along the rows, for the height of S."""
+    if general is not None:
+        return general[:, 2], general[:, 15:18]
+    if kind == "vertical":
+        return Q[:, 0], Q[:, 5:8]
+    return None

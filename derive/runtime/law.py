@@ -1,0 +1,826 @@
+"""Point laws ``x(t), y(t), z(t)`` given as formulas: parsed by a whitelist, checked over
+the whole run, and compiled into a program the C runtime interprets.
+
+A law string never reaches generated source, ``eval`` or SymPy: the parser turns it into
+a :class:`Program` (nodes of a few opcodes over a table of float constants), which is
+data for the C interpreter (``templates/runtime/law.c.jinja``: value, first and second
+derivative in one pass, forward mode), for NumPy (:meth:`Program.jets`) and, when a
+symbolic tool asks, for SymPy (:meth:`Program.sympy`).
+
+Grammar (precedence climbing; ``**`` and ``^`` are right-associative and bind tighter
+than unary minus, as in Python)::
+
+    expr   := term (("+" | "-") term)*
+    term   := unary (("*" | "/") unary)*
+    unary  := ("+" | "-") unary | power
+    power  := atom (("**" | "^") unary)?
+    atom   := NUMBER | "t" | "pi" | NAME "(" expr ")" | "(" expr ")"
+
+Limits: ASCII only, spaces and tabs as the only white space, at most
+:data:`MAX_LENGTH` characters, nesting at most :data:`MAX_DEPTH`, at most
+:data:`MAX_NODES` distinct operations per law, integer exponents at most
+:data:`MAX_POWER` in size.  Constant subexpressions are evaluated in floats when parsed
+and must be finite and real.
+
+Over a run ``[t0, t1]`` (:func:`analyse`) the law must have no singular point: interval
+arithmetic over boxes of t, bisected where a box cannot be cleared, proves that no
+denominator vanishes, that ``log``, ``sqrt`` and non-integer powers see positive
+arguments, ``asin``/``acos`` arguments inside (-1, 1) and ``tan`` no pole.  These are
+exactly the conditions under which x, x' and x'' exist and are continuous, so a law
+that passes is C^2 on the whole run, not only on a grid of samples.
+"""
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass, field
+from functools import lru_cache
+
+import numpy as np
+
+from . import abi
+
+FUNCTIONS = ("sin", "cos", "tan", "exp", "log", "sqrt", "sinh", "cosh", "tanh",
+             "asin", "acos", "atan")
+MAX_LENGTH = 2000
+MAX_DEPTH = 60
+MAX_NODES = 300
+MAX_POWER = 64
+
+_TOKEN = re.compile(r"""
+    (?P<ws>[ \t]+)
+  | (?P<number>(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?)
+  | (?P<name>[A-Za-z_][A-Za-z_0-9]*)
+  | (?P<op>\*\*|[-+*/^()])
+""", re.VERBOSE | re.ASCII)
+
+
+class LawError(ValueError):
+    """A law that is malformed, unsafe, or not twice differentiable on the run."""
+
+
+# ---- the program ---------------------------------------------------------------------
+_MATH = {"sin": math.sin, "cos": math.cos, "tan": math.tan, "exp": math.exp,
+         "log": math.log, "sqrt": math.sqrt, "sinh": math.sinh, "cosh": math.cosh,
+         "tanh": math.tanh, "asin": math.asin, "acos": math.acos, "atan": math.atan}
+
+
+@dataclass(eq=False)
+class Program:
+    """Nodes in topological order: ``ops[k]`` with arguments ``a[k]``, ``b[k]`` (node
+    indices, or for ``const``/``powi``/``powr`` an index into ``consts``); the nodes
+    ``outputs`` are x, y, z.  Constant nodes come first, then ``t``, then the rest."""
+    ops: tuple
+    a: tuple
+    b: tuple
+    consts: tuple
+    outputs: tuple
+    text: tuple = ()                       # the three source strings
+    _sympy: tuple | None = field(default=None, repr=False, compare=False)
+
+    @property
+    def key(self) -> tuple:
+        return (self.ops, self.a, self.b, self.consts, self.outputs)
+
+    def is_zero(self, k: int) -> bool:
+        node = self.outputs[k]
+        return self.ops[node] == "const" and self.consts[self.a[node]] == 0.0
+
+    def is_constant(self, k: int) -> bool:
+        return self.ops[self.outputs[k]] == "const"
+
+    def constant(self, k: int) -> float:
+        node = self.outputs[k]
+        return self.consts[self.a[node]] if self.ops[node] == "const" else math.nan
+
+    # -- evaluation with NumPy ---------------------------------------------------------
+    def jets(self, ts) -> np.ndarray:
+        """(9, N): x, x', x'', y, y', y'', z, z', z'' at the times ``ts``."""
+        ts = np.asarray(ts, dtype=float).reshape(-1)
+        n = ts.size
+        zero = np.zeros(n)
+        val: list = [None] * len(self.ops)
+        with np.errstate(all="ignore"):
+            for k, op in enumerate(self.ops):
+                a, b = self.a[k], self.b[k]
+                if op == "const":
+                    val[k] = (np.full(n, self.consts[a]), zero, zero)
+                elif op == "t":
+                    val[k] = (ts, np.ones(n), zero)
+                else:
+                    val[k] = _jet_numpy(op, val, a, b, self.consts)
+        out = []
+        for node in self.outputs:
+            out.extend(np.broadcast_to(v, (n,)) for v in val[node])
+        return np.array(out)
+
+    # -- for the C interpreter -----------------------------------------------------------
+    def arrays(self) -> dict:
+        """int32 ``code`` rows (op, a, b) and float64 ``consts`` for the runtime."""
+        code = np.array([[abi.OP[op], a, b] for op, a, b in zip(self.ops, self.a, self.b)],
+                        dtype=np.int32).reshape(-1, 3)
+        n_const = sum(1 for op in self.ops if op == "const")
+        return {"code": np.ascontiguousarray(code),
+                "consts": np.ascontiguousarray(self.consts or (0.0,), dtype=float),
+                "outputs": np.array(self.outputs, dtype=np.int32), "n_const": n_const}
+
+    # -- text and SymPy ----------------------------------------------------------------------
+    def node_text(self, k: int) -> str:
+        return _text(self, k)
+
+    def sympy(self) -> tuple:
+        """The three coordinates as SymPy expressions in ``derive.notation.t`` (for the
+        symbolic tools; the runtime never needs this)."""
+        if self._sympy is None:
+            self._sympy = _to_sympy(self)
+        return self._sympy
+
+    def coordinate_of(self, node: int) -> int:
+        """The first coordinate whose expression uses ``node``."""
+        for k, out in enumerate(self.outputs):
+            if node in _reachable(self, out):
+                return k
+        return 0
+
+
+def _reachable(p: Program, root: int) -> set:
+    seen, stack = set(), [root]
+    while stack:
+        k = stack.pop()
+        if k in seen:
+            continue
+        seen.add(k)
+        op = p.ops[k]
+        if op in ("const", "t"):
+            continue
+        stack.append(p.a[k])
+        if op in ("add", "sub", "mul", "div", "pow"):
+            stack.append(p.b[k])
+    return seen
+
+
+# ---- building: hash-consing, constant folding ----------------------------------------------
+class _Builder:
+    def __init__(self):
+        self.nodes: list = []          # (op, a, b)
+        self.value: list = []          # float for constant nodes, else None
+        self.consts: list = []
+        self.index: dict = {}
+        self.const_index: dict = {}
+
+    def _node(self, op, a, b, value=None) -> int:
+        key = (op, a, b)
+        k = self.index.get(key)
+        if k is None:
+            k = len(self.nodes)
+            if k >= MAX_NODES:
+                raise LawError(f"has more than {MAX_NODES} distinct operations")
+            self.nodes.append(key)
+            self.value.append(value)
+            self.index[key] = k
+        return k
+
+    def _cidx(self, v: float) -> int:
+        key = float(v).hex()
+        if key not in self.const_index:
+            self.const_index[key] = len(self.consts)
+            self.consts.append(float(v))
+        return self.const_index[key]
+
+    def const(self, v: float, what: str = "a constant subexpression") -> int:
+        if isinstance(v, complex) or not math.isfinite(v):
+            raise LawError(f"{what} is not a finite real number")
+        v = float(v) + 0.0                    # -0.0 -> 0.0
+        return self._node("const", self._cidx(v), 0, v)
+
+    def t(self) -> int:
+        return self._node("t", 0, 0)
+
+    def is_const(self, k: int, v: float | None = None) -> bool:
+        x = self.value[k]
+        return x is not None and (v is None or x == v)
+
+    def binary(self, op: str, a: int, b: int, text) -> int:
+        va, vb = self.value[a], self.value[b]
+        if va is not None and vb is not None:
+            try:
+                r = {"add": va + vb, "sub": va - vb, "mul": va * vb}[op] if op != "div" \
+                    else va / vb
+            except ZeroDivisionError:
+                raise LawError(f"divides by zero in {text()}") from None
+            return self.const(r, f"{text()}")
+        if op == "add":
+            if self.is_const(a, 0.0):
+                return b
+            if self.is_const(b, 0.0):
+                return a
+        elif op == "sub":
+            if a == b:
+                return self.const(0.0)
+            if self.is_const(b, 0.0):
+                return a
+            if self.is_const(a, 0.0):
+                return self._node("neg", b, 0)
+        elif op == "mul":
+            if self.is_const(a, 1.0):
+                return b
+            if self.is_const(b, 1.0):
+                return a
+            if self.is_const(a, -1.0):
+                return self.neg(b)
+            if self.is_const(b, -1.0):
+                return self.neg(a)
+        elif op == "div":
+            if self.is_const(b, 0.0):
+                raise LawError(f"divides by zero in {text()}")
+            if self.is_const(b, 1.0):
+                return a
+        if op in ("add", "mul") and b < a:
+            a, b = b, a                       # commutative: one canonical order
+        return self._node(op, a, b)
+
+    def neg(self, a: int) -> int:
+        if self.value[a] is not None:
+            return self.const(-self.value[a])
+        op, x, _ = self.nodes[a]
+        if op == "neg":
+            return x
+        return self._node("neg", a, 0)
+
+    def call(self, name: str, a: int, text) -> int:
+        va = self.value[a]
+        if va is not None:
+            try:
+                r = _MATH[name](va)
+            except (ValueError, OverflowError):
+                raise LawError(f"{text()} is not a finite real number") from None
+            return self.const(r, text())
+        return self._node(name, a, 0)
+
+    def power(self, a: int, b: int, text) -> int:
+        va, vb = self.value[a], self.value[b]
+        if vb is not None and abs(vb) > MAX_POWER:
+            raise LawError(f"exponent {vb:g} in {text()} is larger than {MAX_POWER} in size")
+        if va is not None and vb is not None:
+            try:
+                r = math.pow(va, vb)
+            except (ValueError, OverflowError, ZeroDivisionError):
+                raise LawError(f"{text()} is not a finite real number") from None
+            return self.const(r, text())
+        if vb is not None:
+            if vb == 1.0:
+                return a
+            if vb == 0.0:
+                return self.const(1.0)
+            if vb == int(vb):
+                return self._node("powi", a, self._cidx(vb))
+            return self._node("powr", a, self._cidx(vb))
+        return self._node("pow", a, b)
+
+    def program(self, outputs: tuple, text: tuple) -> Program:
+        """Prune to what the outputs use and renumber: constants, t, then the rest."""
+        used = set()
+        stack = list(outputs)
+        while stack:
+            k = stack.pop()
+            if k in used:
+                continue
+            used.add(k)
+            op, a, b = self.nodes[k]
+            if op in ("const", "t"):
+                continue
+            stack.append(a)
+            if op in ("add", "sub", "mul", "div", "pow"):
+                stack.append(b)
+        order = sorted(used, key=lambda k: (self.nodes[k][0] != "const",
+                                            self.nodes[k][0] != "t", k))
+        new = {k: i for i, k in enumerate(order)}
+        consts, cnew = [], {}
+
+        def cref(c):
+            if c not in cnew:
+                cnew[c] = len(consts)
+                consts.append(self.consts[c])
+            return cnew[c]
+        ops, aa, bb = [], [], []
+        for k in order:
+            op, a, b = self.nodes[k]
+            ops.append(op)
+            if op == "const":
+                aa.append(cref(a)); bb.append(0)
+            elif op == "t":
+                aa.append(0); bb.append(0)
+            elif op in ("powi", "powr"):
+                aa.append(new[a]); bb.append(cref(b))
+            elif op in ("add", "sub", "mul", "div", "pow"):
+                aa.append(new[a]); bb.append(new[b])
+            else:
+                aa.append(new[a]); bb.append(0)
+        return Program(tuple(ops), tuple(aa), tuple(bb), tuple(consts),
+                       tuple(new[k] for k in outputs), text)
+
+
+# ---- parsing -------------------------------------------------------------------------
+def _tokens(text: str) -> list:
+    out, pos = [], 0
+    while pos < len(text):
+        m = _TOKEN.match(text, pos)
+        if not m:
+            ch = text[pos]
+            shown = repr(ch) if ch.isprintable() and ch.isascii() else f"U+{ord(ch):04X}"
+            raise LawError(f"unexpected character {shown} at position {pos + 1} (laws are "
+                           "ASCII: digits 0-9, t, pi, + - * / ** ^ ( ) and "
+                           f"{', '.join(FUNCTIONS)})")
+        kind = m.lastgroup
+        if kind != "ws":
+            out.append((kind, m.group(), pos + 1, m.end()))
+        pos = m.end()
+    return out
+
+
+class _Parser:
+    def __init__(self, text: str, builder: _Builder):
+        self.src = text
+        self.tokens = _tokens(text)
+        self.i = 0
+        self.depth = 0
+        self.b = builder
+
+    def peek(self):
+        return self.tokens[self.i] if self.i < len(self.tokens) else ("end", "", -1, -1)
+
+    def take(self, value=None):
+        tok = self.peek()
+        if value is not None and tok[1] != value:
+            where = f"position {tok[2]}" if tok[2] > 0 else "the end"
+            raise LawError(f"expected {value!r} at {where}")
+        self.i += 1
+        return tok
+
+    def deeper(self):
+        self.depth += 1
+        if self.depth > MAX_DEPTH:
+            raise LawError(f"is nested deeper than {MAX_DEPTH} levels")
+
+    def span(self, start: int):
+        """A callable giving the source text from token ``start`` to the current one
+        (only built when a message needs it)."""
+        end = self.i
+        def text():
+            lo = self.tokens[start][2] - 1
+            hi = self.tokens[end - 1][3] if end > start else lo
+            s = self.src[lo:hi].strip()
+            return repr(s if len(s) <= 60 else s[:57] + "...")
+        return text
+
+    def expr(self) -> int:
+        self.deeper()
+        start = self.i
+        left = self.term()
+        while self.peek()[1] in ("+", "-"):
+            op = self.take()[1]
+            right = self.term()
+            left = self.b.binary("add" if op == "+" else "sub", left, right, self.span(start))
+        self.depth -= 1
+        return left
+
+    def term(self) -> int:
+        start = self.i
+        left = self.unary()
+        while self.peek()[1] in ("*", "/"):
+            op = self.take()[1]
+            right = self.unary()
+            left = self.b.binary("mul" if op == "*" else "div", left, right, self.span(start))
+        return left
+
+    def unary(self) -> int:
+        if self.peek()[1] in ("+", "-"):
+            op = self.take()[1]
+            self.deeper()
+            value = self.unary()
+            self.depth -= 1
+            return value if op == "+" else self.b.neg(value)
+        return self.power()
+
+    def power(self) -> int:
+        start = self.i
+        base = self.atom()
+        if self.peek()[1] in ("**", "^"):
+            self.take()
+            self.deeper()
+            exponent = self.unary()
+            self.depth -= 1
+            return self.b.power(base, exponent, self.span(start))
+        return base
+
+    def atom(self) -> int:
+        kind, value, pos, _ = self.peek()
+        start = self.i
+        if kind == "number":
+            self.take()
+            number = float(value)
+            if not math.isfinite(number):
+                raise LawError(f"number {value!r} at position {pos} is not finite")
+            if number == 0.0 and re.search(r"[1-9]", value.split("e")[0].split("E")[0]):
+                raise LawError(f"number {value!r} at position {pos} underflows to zero")
+            if 0.0 < abs(number) < 2.2250738585072014e-308:
+                raise LawError(f"number {value!r} at position {pos} is subnormal")
+            return self.b.const(number)
+        if kind == "name":
+            self.take()
+            if value == "t":
+                return self.b.t()
+            if value == "pi":
+                return self.b.const(math.pi)
+            if value in FUNCTIONS:
+                self.take("(")
+                self.deeper()
+                arg = self.expr()
+                self.depth -= 1
+                self.take(")")
+                return self.b.call(value, arg, self.span(start))
+            allowed = ", ".join(["t", "pi", *FUNCTIONS])
+            shown = value if len(value) <= 20 else value[:17] + "..."
+            raise LawError(f"unknown name {shown!r} at position {pos} (allowed: {allowed})")
+        if value == "(":
+            self.take()
+            inner = self.expr()
+            self.take(")")
+            return inner
+        where = f"position {pos}" if pos > 0 else "the end"
+        raise LawError(f"expected a number, t, a function or '(' at {where}")
+
+
+def parse_one(text: str, builder: _Builder) -> int:
+    if not isinstance(text, str):
+        raise LawError("must be a string")
+    if len(text) > MAX_LENGTH:
+        raise LawError(f"is longer than {MAX_LENGTH} characters ({len(text)})")
+    if not text.strip():
+        raise LawError("is empty")
+    parser = _Parser(text, builder)
+    node = parser.expr()
+    if parser.i != len(parser.tokens):
+        _, tok, pos, _ = parser.peek()
+        raise LawError(f"unexpected {tok!r} at position {pos}")
+    return node
+
+
+class CoordinateError(LawError):
+    """A :class:`LawError` in coordinate ``k`` of the law."""
+
+    def __init__(self, k: int, message: str):
+        super().__init__(message)
+        self.k = k
+
+
+@lru_cache(maxsize=512)
+def compile_law(texts: tuple) -> Program:
+    """The program of a law given as three strings (cached by the text)."""
+    if len(texts) != 3:
+        raise LawError("must be three strings: x(t), y(t), z(t)")
+    b = _Builder()
+    outs = []
+    for k, text in enumerate(texts):
+        try:
+            outs.append(parse_one(text, b))
+        except CoordinateError:
+            raise
+        except LawError as exc:
+            raise CoordinateError(k, str(exc)) from None
+    return b.program(tuple(outs), tuple(texts))
+
+
+def parse_law(text: str) -> Program:
+    """One coordinate as a program (x = the law, y = z = 0): for tests and tools."""
+    return compile_law((text, "0", "0"))
+
+
+# ---- NumPy jets ---------------------------------------------------------------------------
+def _jet_numpy(op, val, a, b, consts):
+    x, dx, ddx = val[a]
+    if op in ("add", "sub", "mul", "div", "pow"):
+        y, dy, ddy = val[b]
+    if op == "add":
+        return x + y, dx + dy, ddx + ddy
+    if op == "sub":
+        return x - y, dx - dy, ddx - ddy
+    if op == "neg":
+        return -x, -dx, -ddx
+    if op == "mul":
+        return x * y, dx * y + x * dy, ddx * y + 2.0 * dx * dy + x * ddy
+    if op == "div":
+        q = x / y
+        dq = (dx - q * dy) / y
+        return q, dq, (ddx - 2.0 * dq * dy - q * ddy) / y
+    if op in ("powi", "powr"):
+        r = consts[b]
+        p2 = x ** (r - 2.0) if op == "powr" else _powi(x, int(r) - 2)
+        p1 = p2 * x
+        p0 = p1 * x
+        return _chain(p0, r * p1, r * (r - 1.0) * p2, dx, ddx)
+    if op == "pow":
+        lx = np.log(x)
+        e = np.exp(y * lx)
+        # d(y ln x) = dy ln x + y dx/x; second derivative of the exponent
+        u1 = dy * lx + y * dx / x
+        u2 = ddy * lx + 2.0 * dy * dx / x + y * (ddx / x - dx * dx / (x * x))
+        return e, e * u1, e * (u2 + u1 * u1)
+    f0, f1, f2 = _unary_numpy(op, x)
+    return _chain(f0, f1, f2, dx, ddx)
+
+
+def _powi(x, n: int):
+    return x ** float(n)
+
+
+def _chain(f0, f1, f2, dx, ddx):
+    return f0, f1 * dx, f2 * dx * dx + f1 * ddx
+
+
+def _unary_numpy(op, x):
+    if op == "sin":
+        s, c = np.sin(x), np.cos(x)
+        return s, c, -s
+    if op == "cos":
+        s, c = np.sin(x), np.cos(x)
+        return c, -s, -c
+    if op == "tan":
+        tn = np.tan(x)
+        sec2 = 1.0 + tn * tn
+        return tn, sec2, 2.0 * tn * sec2
+    if op == "exp":
+        e = np.exp(x)
+        return e, e, e
+    if op == "log":
+        r = 1.0 / x
+        return np.log(x), r, -r * r
+    if op == "sqrt":
+        s = np.sqrt(x)
+        return s, 0.5 / s, -0.25 / (s * x)
+    if op == "sinh":
+        s, c = np.sinh(x), np.cosh(x)
+        return s, c, s
+    if op == "cosh":
+        s, c = np.sinh(x), np.cosh(x)
+        return c, s, c
+    if op == "tanh":
+        th = np.tanh(x)
+        d = 1.0 - th * th
+        return th, d, -2.0 * th * d
+    if op in ("asin", "acos"):
+        w = 1.0 - x * x
+        r = 1.0 / np.sqrt(w)
+        sign = 1.0 if op == "asin" else -1.0
+        f0 = np.arcsin(x) if op == "asin" else np.arccos(x)
+        return f0, sign * r, sign * x * r / w
+    if op == "atan":
+        w = 1.0 / (1.0 + x * x)
+        return np.arctan(x), w, -2.0 * x * w * w
+    raise ValueError(op)
+
+
+# ---- text and SymPy -----------------------------------------------------------------------------
+_INFIX = {"add": " + ", "sub": " - ", "mul": "*", "div": "/"}
+
+
+def _text(p: Program, k: int, depth: int = 0) -> str:
+    op, a, b = p.ops[k], p.a[k], p.b[k]
+    if depth > 12:
+        return "..."
+    if op == "const":
+        return f"{p.consts[a]:.15g}"
+    if op == "t":
+        return "t"
+    if op in _INFIX:
+        return f"({_text(p, a, depth + 1)}{_INFIX[op]}{_text(p, b, depth + 1)})"
+    if op == "neg":
+        return f"-{_text(p, a, depth + 1)}"
+    if op in ("powi", "powr"):
+        return f"{_text(p, a, depth + 1)}**{p.consts[b]:.15g}"
+    if op == "pow":
+        return f"{_text(p, a, depth + 1)}**{_text(p, b, depth + 1)}"
+    return f"{op}({_text(p, a, depth + 1)})"
+
+
+def _to_sympy(p: Program) -> tuple:
+    import sympy as sp
+    from .. import notation as nt
+    fns = {"sin": sp.sin, "cos": sp.cos, "tan": sp.tan, "exp": sp.exp, "log": sp.log,
+           "sqrt": sp.sqrt, "sinh": sp.sinh, "cosh": sp.cosh, "tanh": sp.tanh,
+           "asin": sp.asin, "acos": sp.acos, "atan": sp.atan}
+    val: list = []
+    for op, a, b in zip(p.ops, p.a, p.b):
+        if op == "const":
+            c = p.consts[a]
+            v = sp.Integer(int(c)) if c == int(c) and abs(c) < 2 ** 53 else sp.Float(repr(c), 17)
+            if c == math.pi:
+                v = sp.pi
+        elif op == "t":
+            v = nt.t
+        elif op == "add":
+            v = val[a] + val[b]
+        elif op == "sub":
+            v = val[a] - val[b]
+        elif op == "mul":
+            v = val[a] * val[b]
+        elif op == "div":
+            v = val[a] / val[b]
+        elif op == "neg":
+            v = -val[a]
+        elif op == "powi":
+            v = val[a] ** sp.Integer(int(p.consts[b]))
+        elif op == "powr":
+            v = val[a] ** sp.Float(repr(p.consts[b]), 17)
+        elif op == "pow":
+            v = val[a] ** val[b]
+        else:
+            v = fns[op](val[a])
+        val.append(v)
+    return tuple(val[k] for k in p.outputs)
+
+
+# ---- the whole run: interval arithmetic ------------------------------------------------------------
+_HALF_PI = 0.5 * math.pi
+MAX_BOXES = 512
+
+
+@dataclass(frozen=True)
+class Singularity:
+    coordinate: int
+    t: float
+    what: str
+
+
+def _interval(op, lo, hi, a, b, consts):
+    """Enclosure of node ``op`` and a flag per box where the node may be singular."""
+    n = lo[a].shape[0]
+    flag = np.zeros(n, dtype=bool)
+    alo, ahi = lo[a], hi[a]
+    if op in ("add", "sub", "mul", "div", "pow"):
+        blo, bhi = lo[b], hi[b]
+    if op == "add":
+        return alo + blo, ahi + bhi, flag
+    if op == "sub":
+        return alo - bhi, ahi - blo, flag
+    if op == "neg":
+        return -ahi, -alo, flag
+    if op == "mul":
+        c = np.stack([alo * blo, alo * bhi, ahi * blo, ahi * bhi])
+        c = np.where(np.isnan(c), 0.0, c)            # 0 * inf
+        return c.min(0), c.max(0), flag
+    if op == "div":
+        flag = (blo <= 0.0) & (bhi >= 0.0)
+        rlo = np.where(flag, 1.0, 1.0 / np.where(flag, 1.0, bhi))
+        rhi = np.where(flag, 1.0, 1.0 / np.where(flag, 1.0, blo))
+        c = np.stack([alo * rlo, alo * rhi, ahi * rlo, ahi * rhi])
+        c = np.where(np.isnan(c), 0.0, c)
+        return np.where(flag, -np.inf, c.min(0)), np.where(flag, np.inf, c.max(0)), flag
+    if op == "powi":
+        nexp = int(consts[b])
+        if nexp < 0:
+            flag = (alo <= 0.0) & (ahi >= 0.0)
+        p_lo, p_hi = alo ** float(nexp), ahi ** float(nexp)
+        if nexp % 2 == 0:
+            straddle = (alo < 0.0) & (ahi > 0.0)
+            rlo = np.where(straddle, 0.0 if nexp > 0 else -np.inf, np.minimum(p_lo, p_hi))
+            rhi = np.where(straddle, np.maximum(p_lo, p_hi) if nexp > 0 else np.inf,
+                           np.maximum(p_lo, p_hi))
+            if nexp < 0:
+                rlo = np.where(flag, 0.0, rlo)
+                rhi = np.where(flag, np.inf, rhi)
+            return rlo, rhi, flag
+        if nexp < 0:
+            return (np.where(flag, -np.inf, np.minimum(p_lo, p_hi)),
+                    np.where(flag, np.inf, np.maximum(p_lo, p_hi)), flag)
+        return p_lo, p_hi, flag
+    if op in ("powr", "pow", "log", "sqrt"):
+        flag = alo <= 0.0
+        safe_lo = np.where(flag, 1e-300, alo)
+        safe_hi = np.maximum(ahi, safe_lo)
+        if op == "log":
+            return np.log(safe_lo), np.log(safe_hi), flag
+        if op == "sqrt":
+            return np.sqrt(safe_lo), np.sqrt(safe_hi), flag
+        if op == "powr":
+            r = consts[b]
+            c = np.stack([safe_lo ** r, safe_hi ** r])
+            return c.min(0), c.max(0), flag
+        llo, lhi = np.log(safe_lo), np.log(safe_hi)
+        c = np.stack([llo * blo, llo * bhi, lhi * blo, lhi * bhi])
+        c = np.where(np.isnan(c), 0.0, c)
+        return np.exp(c.min(0)), np.exp(c.max(0)), flag
+    if op in ("sin", "cos"):
+        shift = _HALF_PI if op == "cos" else 0.0
+        x0, x1 = alo + shift, ahi + shift
+        wide = ~np.isfinite(x0) | ~np.isfinite(x1) | (x1 - x0 >= 2 * math.pi)
+        x0s, x1s = np.where(wide, 0.0, x0), np.where(wide, 0.0, x1)
+        s0, s1 = np.sin(x0s), np.sin(x1s)
+        # maxima at pi/2 + 2k pi, minima at -pi/2 + 2k pi
+        kmax = np.ceil((x0s - _HALF_PI) / (2 * math.pi))
+        has_max = _HALF_PI + 2 * math.pi * kmax <= x1s
+        kmin = np.ceil((x0s + _HALF_PI) / (2 * math.pi))
+        has_min = -_HALF_PI + 2 * math.pi * kmin <= x1s
+        rlo = np.where(has_min | wide, -1.0, np.minimum(s0, s1))
+        rhi = np.where(has_max | wide, 1.0, np.maximum(s0, s1))
+        return rlo, rhi, flag
+    if op == "tan":
+        wide = ~np.isfinite(alo) | ~np.isfinite(ahi) | (ahi - alo >= math.pi)
+        lo_s, hi_s = np.where(wide, 0.0, alo), np.where(wide, 0.0, ahi)
+        k = np.ceil((lo_s - _HALF_PI) / math.pi)
+        flag = wide | (_HALF_PI + math.pi * k <= hi_s)
+        return (np.where(flag, -np.inf, np.tan(lo_s)), np.where(flag, np.inf, np.tan(hi_s)),
+                flag)
+    if op in ("asin", "acos"):
+        flag = (alo <= -1.0) | (ahi >= 1.0)
+        clo, chi = np.clip(alo, -1.0, 1.0), np.clip(ahi, -1.0, 1.0)
+        if op == "asin":
+            return np.arcsin(clo), np.arcsin(chi), flag
+        return np.arccos(chi), np.arccos(clo), flag
+    if op == "cosh":
+        straddle = (alo < 0.0) & (ahi > 0.0)
+        c0, c1 = np.cosh(alo), np.cosh(ahi)
+        return np.where(straddle, 1.0, np.minimum(c0, c1)), np.maximum(c0, c1), flag
+    fn = {"exp": np.exp, "sinh": np.sinh, "tanh": np.tanh, "atan": np.arctan}[op]
+    return fn(alo), fn(ahi), flag
+
+
+_SINGULAR = {"div": "a division by zero", "powi": "a division by zero",
+             "powr": "a power of a non-positive number", "pow": "a power of a non-positive "
+             "number", "log": "log of a non-positive number", "sqrt": "sqrt of a non-positive "
+             "number (not twice differentiable where it reaches 0)",
+             "tan": "a pole of tan", "asin": "asin outside (-1, 1)",
+             "acos": "acos outside (-1, 1)"}
+
+
+def find_singularity(p: Program, t0: float, t1: float) -> Singularity | None:
+    """The earliest point of [t0, t1] near which the law may not be twice continuously
+    differentiable, or None when interval arithmetic proves it is everywhere.  A box is
+    bisected while some node may be singular in it; a box narrower than 1e-12 of the run
+    (or 1e-300) that still may be singular is reported."""
+    ops = p.ops
+    if all(op in ("const", "t", "add", "sub", "mul", "neg", "sin", "cos", "exp", "sinh",
+                  "cosh", "tanh", "atan") or (op == "powi" and p.consts[p.b[k]] > 0)
+           for k, op in enumerate(ops)):
+        return None                         # entire functions only: nothing to prove
+    width_min = max(1e-12 * (t1 - t0), 1e-12 * max(abs(t0), abs(t1)), 1e-300)
+    edges = np.linspace(t0, t1, 65)
+    lo_t, hi_t = edges[:-1], edges[1:]
+    with np.errstate(all="ignore"):
+        for _ in range(200):
+            n = lo_t.size
+            lo: list = [None] * len(ops)
+            hi: list = [None] * len(ops)
+            bad = np.zeros(n, dtype=bool)
+            first_bad = np.full(n, -1)
+            for k, op in enumerate(ops):
+                if op == "const":
+                    lo[k] = hi[k] = np.full(n, p.consts[p.a[k]])
+                    continue
+                if op == "t":
+                    lo[k], hi[k] = lo_t, hi_t
+                    continue
+                lo[k], hi[k], flag = _interval(op, lo, hi, p.a[k], p.b[k], p.consts)
+                new = flag & ~bad
+                first_bad[new] = k
+                bad |= flag
+            if not bad.any():
+                return None
+            idx = np.flatnonzero(bad)
+            narrow = idx[(hi_t[idx] - lo_t[idx]) <= width_min]
+            if narrow.size:
+                j = narrow[0]
+                node = int(first_bad[j])
+                return Singularity(p.coordinate_of(node), float(0.5 * (lo_t[j] + hi_t[j])),
+                                   _SINGULAR.get(ops[node], "a singular point"))
+            idx = idx[:MAX_BOXES]
+            mid = 0.5 * (lo_t[idx] + hi_t[idx])
+            lo_t = np.concatenate([lo_t[idx], mid])
+            hi_t = np.concatenate([mid, hi_t[idx]])
+            order = np.argsort(lo_t, kind="stable")
+            lo_t, hi_t = lo_t[order], hi_t[order]
+    j = 0
+    return Singularity(0, float(lo_t[j]), "a point that could not be cleared")
+
+
+# ---- what a run needs to know about its law ------------------------------------------------------
+@dataclass(frozen=True)
+class LawSummary:
+    """Facts about a law over a run, from its samples and the interval proof."""
+    max_radius: float           # max |OP|
+    max_speed: float            # max |OP'|
+    max_acceleration: float     # max |OP''|
+    amplitude: float            # max |OP - mean OP|
+    time_scale: float           # sqrt(amplitude / max |OP''|) (inf for a still point)
+
+
+SAMPLES = 4097
+
+
+def summarise(jets: np.ndarray) -> LawSummary:
+    r, v, a = jets[[0, 3, 6]], jets[[1, 4, 7]], jets[[2, 5, 8]]
+    rn = np.sqrt((r * r).sum(0))
+    amp = float(np.sqrt(((r - r.mean(axis=1, keepdims=True)) ** 2).sum(0)).max())
+    acc = float(np.sqrt((a * a).sum(0)).max())
+    scale = math.sqrt(amp / acc) if acc > 0 and amp > 0 else math.inf
+    return LawSummary(float(rn.max()), float(np.sqrt((v * v).sum(0)).max()), acc, amp, scale)
