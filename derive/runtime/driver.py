@@ -151,6 +151,16 @@ class Session:
                    dict(zip(abi.names(abi.SUMMARY), summ.tolist())),
                    STATUSES[status] if 0 <= status < len(STATUSES) else str(status))
 
+    def contact(self, t: float, q) -> tuple[np.ndarray, float, float]:
+        """(dq/dt, N, a_free) of persistent contact at (t, q) (after ``init``)."""
+        q = np.ascontiguousarray(q, dtype=float)
+        dq = np.zeros_like(q)
+        N, a = ctypes.c_double(0.0), ctypes.c_double(0.0)
+        self.library.lib.crt_eval_contact(self.handle, float(t), q.ctypes.data_as(DP),
+                                          dq.ctypes.data_as(DP), ctypes.byref(N),
+                                          ctypes.byref(a))
+        return dq, N.value, a.value
+
     def rhs_rows(self, t, Q) -> np.ndarray:
         """The flight right-hand side along rows (after ``init``)."""
         t = np.ascontiguousarray(t, dtype=float)

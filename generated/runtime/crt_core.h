@@ -845,6 +845,23 @@ void crt_eval_rhs(crt_session *s, double t, const double *q, double *dq)
   crt_rhs(s, t, q, dq);
 }
 
+/* persistent contact at (t, q): dq/dt with S held on the plane, the reaction N and the
+   normal acceleration of S without it, a_free (models with a plane; else N = a_free = 0) */
+void crt_eval_contact(crt_session *s, double t, const double *q, double *dq, double *N,
+                      double *a_free)
+{
+#if MODEL_HAS_PLANE
+  model_contact(s->prm, crt_u(s, t), q, dq, N, a_free);
+#else
+  int i;
+  for (i = 0; i < NQ; ++i) dq[i] = 0.0;
+  (void)t; (void)q;
+  *N = 0.0;
+  *a_free = 0.0;
+  (void)s;
+#endif
+}
+
 /* the flight right-hand side along n rows (t[k], q[k*NQ..]) into dq[k*NQ..] */
 void crt_eval_rhs_rows(crt_session *s, int n, const double *t, const double *q, double *dq)
 {
