@@ -106,13 +106,30 @@ def cmd_emit(args: argparse.Namespace) -> int:
 
 
 # ---- simulate ---------------------------------------------------------------------
+def _scene_doc(args) -> tuple[dict, object, str]:
+    """(the scene as a dict with --set applied, its folder, its name for messages)."""
+    from pathlib import Path
+    from .runtime import batch
+    from .runtime.scene import builtin_doc, load_scene
+    if args.scene:
+        doc, base, origin = load_scene(args.scene).doc, Path(args.scene).parent, args.scene
+    else:
+        doc, base, origin = builtin_doc(), None, "built-in scene"
+    for text in args.set or []:
+        name, value = batch.parse_override(text)
+        batch._set(doc, name, value)
+    return doc, base, origin
+
+
 def cmd_simulate(args: argparse.Namespace) -> int:
     import time
     start = time.perf_counter()
-    from .runtime.scene import SceneError, builtin_doc, load_scene, parse_scene
+    from .runtime.scene import SceneError, parse_scene
+    if args.sweep:
+        return _simulate_sweep(args, start)
     try:
-        scene = load_scene(args.scene) if args.scene else parse_scene(builtin_doc(),
-                                                                      "built-in scene")
+        doc, base, origin = _scene_doc(args)
+        scene = parse_scene(doc, origin, base=base)
         from .runtime.driver import simulate
         result = simulate(scene, progress=not args.quiet)
     except SceneError as exc:
@@ -137,6 +154,52 @@ def cmd_simulate(args: argparse.Namespace) -> int:
           f"outputs {t_done - t_written:.2f} s; {t_done - start:.2f} s in all")
     print(f"  wrote {', '.join(p.name for p in written)} to {args.output}")
     return 0 if result.status == "done" else 1
+
+
+def _simulate_sweep(args, start: float) -> int:
+    """``--sweep``: every combination of the swept values, through simulate_many."""
+    import json
+    import time
+    from pathlib import Path
+    from .runtime import batch
+    from .runtime.scene import SceneError, parse_scene
+    try:
+        doc, base, origin = _scene_doc(args)
+        parse_scene(doc, origin, base=base)             # the base must be valid itself
+        grid = dict(batch.parse_sweep(text) for text in args.sweep)
+        n = 1
+        for values in grid.values():
+            n *= len(values)
+        if n > 1_000_000:
+            raise SceneError("--sweep", f"{n} variants (at most 1e6)")
+        out = batch.simulate_many(doc, grid, workers=args.workers, progress=not args.quiet,
+                                  strict=False)
+    except SceneError as exc:
+        raise UsageError(str(exc)) from None
+    folder = Path(args.output)
+    folder.mkdir(parents=True, exist_ok=True)
+    out.to_csv(folder / "sweep.csv")
+    bad = sum(1 for r in out.rows if "error" in r)
+    statuses = {}
+    for r in out.rows:
+        key = r.get("status", "refused")
+        statuses[key] = statuses.get(key, 0) + 1
+    (folder / "sweep.json").write_text(json.dumps(
+        {"scene": origin, "sweep": {k: list(v) for k, v in grid.items()},
+         "variants": len(out.rows), "statuses": statuses, "seconds": out.seconds,
+         "executor": out.executor, "workers": out.workers}, indent=2) + "\n", encoding="utf-8")
+    written = ["sweep.csv", "sweep.json"]
+    if not args.no_plots and len(grid) <= 2:
+        from .runtime.sweep_plot import sweep_plot
+        written.append(sweep_plot(out, grid, folder).name)
+    print(f"{len(out.rows)} variants of {origin} in {out.seconds:.2f} s on {out.executor} "
+          f"({out.workers} workers): " + ", ".join(f"{v} {k}" for k, v in statuses.items()))
+    if bad:
+        first = next(r["error"] for r in out.rows if "error" in r)
+        print(f"  {bad} refused, e.g. {first}")
+    print(f"  wrote {', '.join(written)} to {args.output}; "
+          f"{time.perf_counter() - start:.2f} s in all")
+    return 0 if statuses.get("done", 0) == len(out.rows) else 1
 
 
 # ---- stability --------------------------------------------------------------------
@@ -291,6 +354,14 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     p.add_argument("--no-plots", action="store_true", help="write the tables and the "
                    "summary only")
+    p.add_argument("--set", action="append", metavar="TABLE.KEY=VALUE",
+                   help="override a field of the scene, e.g. --set body.mass=1.3 or --set "
+                        "initial.com[2]=2.0 (repeatable)")
+    p.add_argument("--sweep", action="append", metavar="TABLE.KEY=LO:HI:N",
+                   help="run every combination of the swept values (lo:hi:n or a,b,c; "
+                        "repeatable): sweep.csv, sweep.json and a plot")
+    p.add_argument("--workers", type=int, help="--sweep: local processes (default: every "
+                   "core; 1: serial)")
     p.set_defaults(func=cmd_simulate)
 
     p = sub.add_parser("stability", help="multipliers and verdict of a scene's periodic "

@@ -132,7 +132,7 @@ def start(scene: Scene, kind: str) -> Start:
     n0 = {"n0_x": A0[2][0], "n0_y": A0[2][1], "n0_z": A0[2][2]}
     if kind == "translational":
         return Start(np.array([scene.com[2], scene.com_velocity[2]]), n0)
-    jets = scene.law.jets(np.array([scene.t0]))[:, 0]
+    jets = scene.law.jets([scene.t0])[:, 0]
     if kind == "planar":
         K = kinetic_moment(scene, np.array([[0.0, 0.0, scene.omega[2]]]), jets[:, None])[0]
         return Start(np.array([scene.com[2], scene.com_velocity[2], K[2], 0.0]), n0)

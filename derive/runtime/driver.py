@@ -211,14 +211,12 @@ class Result:
     summary: dict
     status: str
     start: choice.Start
-    session: Session = field(repr=False, default=None)
+    rates: np.ndarray | None = field(repr=False, default=None)   # dq/dt rows (planar, axisym.)
     timings: dict = field(default_factory=dict)
 
-    @cached_property
+    @property
     def _rates(self):
-        if self.model not in ("planar", "axisymmetric"):
-            return None
-        return self.session.rhs_rows(self.t, self.model_q)
+        return self.rates
 
     @cached_property
     def omega(self) -> np.ndarray:
@@ -297,21 +295,32 @@ class Result:
         return self.summary["min_normal"]
 
 
+_SESSIONS: dict = {}
+
+
+def session_for(kind: str) -> Session:
+    """This process's session of a model (buffers allocated once, reused by every run)."""
+    if kind not in _SESSIONS:
+        _SESSIONS[kind] = Session(library(kind))
+    return _SESSIONS[kind]
+
+
 def run_prepared(prep: Prepared, session: Session | None = None, progress=None) -> Result:
     timings = {}
     start = time.perf_counter()
-    lib = prep.library
+    session = session or session_for(prep.kind)
     timings["load_s"] = time.perf_counter() - start
-    session = session or Session(lib)
     start = time.perf_counter()
     session.set_law(prep.scene.law)
     raw = session.run(prep.scene.t0, prep.scene.duration, prep.start.q0, prep.options,
                       prep.parameters, progress)
+    rates = session.rhs_rows(raw.t, raw.q) if prep.kind in ("planar", "axisymmetric") \
+        else None
     timings["run_s"] = time.perf_counter() - start
     return Result(scene=prep.scene, model=prep.kind, why=prep.why, t=raw.t, model_q=raw.q,
-                  model_labels=lib.labels, row_kind=raw.kinds, event_rows=raw.events,
-                  stats=raw.stats, summary=raw.summary, status=raw.status, start=prep.start,
-                  session=session, timings=timings)
+                  model_labels=session.library.labels, row_kind=raw.kinds,
+                  event_rows=raw.events, stats=raw.stats, summary=raw.summary,
+                  status=raw.status, start=prep.start, rates=rates, timings=timings)
 
 
 def simulate(scene, progress: bool = False) -> Result:

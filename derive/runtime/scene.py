@@ -14,7 +14,7 @@ import math
 import re
 import tomllib
 from dataclasses import dataclass, field
-from functools import lru_cache
+from functools import cached_property, lru_cache
 from pathlib import Path
 from typing import Any, Callable
 
@@ -56,7 +56,7 @@ class Field:
     example: Any = None        # what `derive scene new` writes (None: the default)
     when: str = ""             # the condition under which the field applies
 
-    @property
+    @cached_property
     def where(self) -> str:
         return f"[{self.table}].{self.key}" if self.table else self.key
 
@@ -258,6 +258,9 @@ def _type_name(value) -> str:
 
 def _num(f: Field, value, where: str | None = None) -> float:
     where = where or f.where
+    if type(value) is float and f.lo is not None and (f.hi is None or value <= f.hi) and \
+            (value > f.lo if f.lo_open else value >= f.lo):
+        return value                        # the common case, checked in one line
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise SceneError(where, f"must be a number, not {_type_name(value)}")
     if isinstance(value, int) and abs(value) > 2 ** 53:
@@ -369,31 +372,38 @@ def _table(doc: dict, name: str) -> dict | None:
     return value
 
 
-def _read(doc: dict) -> dict:
-    """Every field of the schema: its value, its default, or REQUIRED when absent."""
-    unknown = sorted(k for k in doc if k not in TABLES[1:] and k not in _BY_TABLE[""])
+@lru_cache(maxsize=1)
+def _defaults() -> dict:
+    """Every field's default, validated once."""
+    return {f.where: (f.default if f.default is None or f.default is REQUIRED
+                      else _value(f, f.default)) for f in FIELDS}
+
+
+def _read(doc: dict) -> tuple[dict, set]:
+    """Every field of the schema (its value, its default, or REQUIRED when absent) and
+    the set of fields the scene gives."""
+    unknown = sorted(str(k) for k in doc if k not in TABLES[1:] and k not in _BY_TABLE[""])
     if unknown:
         known = ", ".join(sorted(list(TABLES[1:]) + list(_BY_TABLE[""])))
-        raise SceneError(str(unknown[0])[:40], f"is not a known key (known: {known})")
-    out: dict = {}
+        raise SceneError(unknown[0][:40], f"is not a known key (known: {known})")
+    out = dict(_defaults())
+    given = set()
     for table in TABLES:
         tab = doc if table == "" else _table(doc, table)
+        if not tab:
+            continue
         fields = _BY_TABLE[table]
-        if tab is None:
-            tab = {}
-        elif table:
-            bad = sorted(k for k in tab if k not in fields)
-            if bad:
-                raise SceneError(f"[{table}].{str(bad[0])[:40]}",
+        for key, value in tab.items():
+            f = fields.get(key)
+            if f is None:
+                if table == "":
+                    continue                   # the tables themselves
+                raise SceneError(f"[{table}].{str(key)[:40]}",
                                  f"is not a known key (known: {', '.join(fields)})")
-        for key, f in fields.items():
-            if key in tab:
-                out[f.where] = _value(f, tab[key])
-            else:
-                out[f.where] = f.default if f.default is None or f.default is REQUIRED \
-                    else _value(f, f.default)
+            out[f.where] = _value(f, value)
+            given.add(f.where)
     out["__plane__"] = "plane" in doc
-    return out
+    return out, given
 
 
 def _require(v: dict, where: str, what: str = "is required"):
@@ -432,7 +442,8 @@ def _orientation(v: dict, given: set) -> np.ndarray:
 
 # ---- the law over the run ---------------------------------------------------------------------
 @lru_cache(maxsize=1024)
-def _analyse_program(key: tuple, program, t0: float, t1: float) -> LawSummary:
+def _analyse_program(program, t0: float, t1: float) -> LawSummary:
+    """(cached by the program object, which compile_law caches by the law's text)"""
     sing = lawmod.find_singularity(program, t0, t1)
     if sing is not None:
         raise SceneError(f"[point].law[{sing.coordinate}]",
@@ -501,7 +512,7 @@ def _check_law(scene_law, t0: float, t1: float) -> LawSummary:
         except LawError as exc:
             raise SceneError("[point].table", str(exc)) from None
         return scene_law.summary(t0, t1)
-    return _analyse_program(scene_law.key, scene_law, t0, t1)
+    return _analyse_program(scene_law, t0, t1)
 
 
 def _inertia_ok(J: tuple) -> None:
@@ -538,7 +549,7 @@ def _start_above_plane(scene: Scene) -> None:
         return
     n = scene.A0[2]
     s = _lowest_point(scene, n)
-    r0 = scene.law.jets(np.array([scene.t0]))[[0, 3, 6], 0]
+    r0 = scene.law.point(scene.t0)[:3]
     h = scene.com[2] + n @ (s - scene.nu * r0)
     if h < -1e-12 * scene.body_size:
         raise SceneError("[initial].com", f"the lowest point S starts below the plane "
@@ -562,12 +573,40 @@ def parse_scene(source: str | dict, origin: str = "scene", base: Path | None = N
         doc = source
     else:
         raise SceneError(origin, "must be TOML text, a path or a dict")
-    v = _read(doc)
-    given = {f.where for f in FIELDS
-             if (doc if not f.table else (doc.get(f.table) or {})).get(f.key) is not None}
+    v, given = _read(doc)
+    return build_scene(v, given, doc, origin, base)
+
+
+def override_fields(v: dict, given: set, name: str, value) -> None:
+    """Validate one override of a variant (``table.key`` or ``table.key[k]``) into the
+    field values ``v`` of an already-read scene (see :func:`derive.runtime.batch`)."""
+    path, _, index = name.partition("[")
+    table, _, key = path.rpartition(".")
+    f = _BY_TABLE.get(table, {}).get(key)
+    if f is None:
+        raise SceneError(name, "is not a scene field")
+    if index:
+        current = v[f.where]
+        k = index.rstrip("]")
+        if f.kind != "vector" or not k.isdigit() or not isinstance(current, tuple) \
+                or not 0 <= int(k) < len(current):
+            raise SceneError(name, f"{f.where} has no entry {k}")
+        entry = _num(f, value, f"{f.where}[{k}]")
+        v[f.where] = current[:int(k)] + (entry,) + current[int(k) + 1:]
+    else:
+        v[f.where] = _value(f, value)
+    given.add(f.where)
+    if table == "plane":
+        v["__plane__"] = True
+
+
+def build_scene(v: dict, given: set, doc: dict, origin: str = "scene",
+                base: Path | None = None) -> Scene:
+    """The cross-field rules over validated field values (from :func:`_read`)."""
     for f in FIELDS:
         if v[f.where] is REQUIRED and (f.table != "plane" or v["__plane__"]):
-            if f.table in ("body", "point") and f.table not in doc:
+            if f.table in ("body", "point") and not any(g.startswith(f"[{f.table}]")
+                                                         for g in given):
                 raise SceneError(f"[{f.table}]", "is required")
             raise SceneError(f.where, "is required" + (f" ({f.rule})" if f.choices else ""))
 

@@ -78,6 +78,10 @@ class TableLaw:
         ddx = 6.0 * c0 * s + 2.0 * c1
         return np.stack([x, dx, ddx], axis=2).reshape(len(ts), 9).T.copy()
 
+    def point(self, t: float) -> np.ndarray:
+        """u = (x, y, z, x', y', z', x'', y'', z'') at one time."""
+        return self.jets([t])[:, 0].reshape(3, 3).T.reshape(-1)
+
     def arrays(self) -> dict:
         return {"knots": np.ascontiguousarray(self.knots, dtype=float),
                 "coef": np.ascontiguousarray(self.coef.reshape(-1), dtype=float)}

@@ -8,14 +8,12 @@ arrays (the tests compare them bit for bit).
 """
 from __future__ import annotations
 
-import multiprocessing
-import os
 import time
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field
 
 import numpy as np
 
+from .. import parallel
 from ..progress import Bar
 from .families import FamilyError, family, is_valid, member
 from .floquet import UNIT_TOL
@@ -93,8 +91,8 @@ class Sweep:
     meta: dict = field(default_factory=dict)
 
 
-def _row(task: tuple) -> tuple[int, np.ndarray]:
-    """One row of the grid (runs in a worker): (j, (nx, 3) array)."""
+def _row(task: tuple) -> np.ndarray:
+    """One row of the grid (runs in a worker): an (nx, 3) array."""
     name, rtol, j, points = task
     fam = family(name)
     mb = member(name, rtol)
@@ -102,7 +100,7 @@ def _row(task: tuple) -> tuple[int, np.ndarray]:
     for i, values in enumerate(points):
         if is_valid(fam, values):
             out[i] = mb.point(values)
-    return j, out
+    return out
 
 
 def tasks(name: str, x: Axis, y: Axis, fixed: dict, rtol: float):
@@ -128,8 +126,6 @@ def run(name: str, x: Axis, y: Axis, fixed: dict | None = None, rtol: float = 1e
     if x.n * y.n > MAX_POINTS:
         raise FamilyError("--x/--y", f"{x.n * y.n} points exceed {MAX_POINTS}")
     family(name).values(fixed)                          # check the fixed values early
-    if workers is not None and workers < 1:
-        raise FamilyError("--workers", f"must be >= 1 (got {workers})")
     start = time.perf_counter()
     from ..runtime.build import library
     lib = str(library("variational").path)           # built once per machine, here
@@ -140,46 +136,16 @@ def run(name: str, x: Axis, y: Axis, fixed: dict | None = None, rtol: float = 1e
 
     def collect(j, rows):
         nonlocal done
-        grid[j] = rows
         done += 1
         bar.update(done / len(work), f"{done}/{len(work)} rows")
 
-    if scheduler:
-        executor, n_workers = "dask", _dask(work, scheduler, collect)
-    elif workers == 1:
-        executor, n_workers = "serial", 1
-        for task in work:
-            collect(*_row(task))
-    else:
-        n_workers = min(workers or os.cpu_count() or 1, len(work))
-        executor = "processes"
-        # fork: the workers inherit the loaded library (and need no main-module guard)
-        methods = multiprocessing.get_all_start_methods()
-        context = multiprocessing.get_context("fork" if "fork" in methods else "spawn")
-        with ProcessPoolExecutor(max_workers=n_workers, mp_context=context) as pool:
-            for fut in as_completed([pool.submit(_row, task) for task in work]):
-                collect(*fut.result())
+    try:
+        rows, executor, n_workers = parallel.run(_row, work, workers, scheduler, collect)
+    except parallel.ExecutorError as exc:
+        raise FamilyError(exc.where, exc.rule) from None
+    for j, r in enumerate(rows):
+        grid[j] = r
     bar.close()
     return Sweep(name, x, y, fixed, rtol, grid[..., 0], grid[..., 1], grid[..., 2],
                  executor=executor, workers=n_workers, seconds=time.perf_counter() - start,
                  library=lib, tol=UNIT_TOL)
-
-
-def _dask(work: list, scheduler: str, collect) -> int:
-    try:
-        from distributed import Client
-        from distributed import as_completed as dask_completed
-    except ImportError:
-        raise FamilyError("--scheduler", "needs Dask: pip install -e '.[cluster]'") from None
-    try:
-        client = Client(scheduler, timeout="10s")
-    except (OSError, TimeoutError, ValueError) as exc:
-        raise FamilyError("--scheduler", f"cannot reach {scheduler} ({exc})") from None
-    try:
-        n_workers = max(len(client.scheduler_info().get("workers", {})), 1)
-        futures = client.map(_row, work, pure=False)
-        for fut in dask_completed(futures):
-            collect(*fut.result())
-    finally:
-        client.close()
-    return n_workers

@@ -1,0 +1,87 @@
+"""Run independent tasks on this process, on local worker processes, or on a Dask
+cluster — one executor for parameter studies (``derive.simulate_many``) and stability
+sweeps (``derive chart stability``).
+
+Tasks are plain picklable tuples and a module-level function; results come back with
+the index of their task, so the caller's arrays do not depend on completion order:
+serial, processes and Dask give the same results bit for bit.
+"""
+from __future__ import annotations
+
+import multiprocessing
+import os
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from typing import Callable, Iterable
+
+
+class ExecutorError(ValueError):
+    """A bad executor setting: ``where`` names the option, ``rule`` says what."""
+
+    def __init__(self, where: str, rule: str):
+        super().__init__(f"{where}: {rule}")
+        self.where, self.rule = where, rule
+
+
+def _indexed(args):
+    fn, index, task = args
+    return index, fn(task)
+
+
+def _chunk(args):
+    fn, items = args
+    return [(index, fn(task)) for index, task in items]
+
+
+def run(fn: Callable, tasks: list, workers: int | None = None, scheduler: str | None = None,
+        collect: Callable | None = None, chunk: int = 1) -> tuple[list, str, int]:
+    """Apply ``fn`` to every task; returns (results in task order, executor name, number
+    of workers).  ``collect(index, result)`` is called as results arrive (progress).
+    ``workers``: local processes (default every core; 1: this process); ``scheduler``: a
+    Dask scheduler address instead.  ``chunk``: tasks per process call (cheap tasks)."""
+    results: list = [None] * len(tasks)
+
+    def got(index, value):
+        results[index] = value
+        if collect:
+            collect(index, value)
+
+    if workers is not None and workers < 1:
+        raise ExecutorError("--workers", f"must be >= 1 (got {workers})")
+    if scheduler:
+        n = _dask(fn, tasks, scheduler, got)
+        return results, "dask", n
+    if workers == 1 or len(tasks) <= 1:
+        for index, task in enumerate(tasks):
+            got(index, fn(task))
+        return results, "serial", 1
+    n = min(workers or os.cpu_count() or 1, len(tasks))
+    # fork: the workers inherit loaded libraries and caches (and need no main guard)
+    methods = multiprocessing.get_all_start_methods()
+    context = multiprocessing.get_context("fork" if "fork" in methods else "spawn")
+    items = list(enumerate(tasks))
+    batches = [items[k:k + chunk] for k in range(0, len(items), chunk)]
+    with ProcessPoolExecutor(max_workers=n, mp_context=context) as pool:
+        for fut in as_completed([pool.submit(_chunk, (fn, b)) for b in batches]):
+            for index, value in fut.result():
+                got(index, value)
+    return results, "processes", n
+
+
+def _dask(fn: Callable, tasks: Iterable, scheduler: str, got: Callable) -> int:
+    try:
+        from distributed import Client
+        from distributed import as_completed as dask_completed
+    except ImportError:
+        raise ExecutorError("--scheduler", "needs Dask: pip install -e '.[cluster]'") from None
+    try:
+        client = Client(scheduler, timeout="10s")
+    except (OSError, TimeoutError, ValueError) as exc:
+        raise ExecutorError("--scheduler", f"cannot reach {scheduler} ({exc})") from None
+    try:
+        n_workers = max(len(client.scheduler_info().get("workers", {})), 1)
+        futures = client.map(_indexed, [(fn, k, t) for k, t in enumerate(tasks)], pure=False)
+        for fut in dask_completed(futures):
+            got(*fut.result())
+    finally:
+        client.close()
+    return n_workers

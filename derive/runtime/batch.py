@@ -1,0 +1,250 @@
+"""Parameter studies: ``derive.simulate_many(scene, variants)`` runs many variants of one
+scene through the precompiled runtime, with no compilation and no Python per step.
+
+Variants are overrides of the scene's fields by dotted name (``"body.mass"``,
+``"plane.restitution"``, ``"initial.com"``, ``"point.law"``, ...): a list of dicts, one
+per variant, or a grid, a dict of lists whose Cartesian product is taken.  Each variant
+is validated like any scene (so a bad value is refused naming the variant and the
+field), its model chosen, and run on this process's session of that model; workers are
+local processes (``workers``, default every core) or a Dask cluster (``scheduler``),
+through :mod:`derive.parallel`.  What comes back per variant is a summary row (``keep =
+"summary"``) or the whole :class:`~derive.runtime.driver.Result` (``keep = "result"``).
+"""
+from __future__ import annotations
+
+import copy
+import itertools
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .. import parallel
+from .scene import FIELDS, Scene, SceneError, load_scene
+
+SUMMARY_COLUMNS = ("status", "model", "t_end", "impacts", "contacts", "liftoffs", "steps",
+                   "rhs_evaluations", "min_height", "first_contact_t", "Z_C_end", "run_ms")
+_KNOWN = {f"{f.table}.{f.key}" if f.table else f.key: f for f in FIELDS}
+
+
+class BatchError(SceneError):
+    """A bad variant or override: ``where`` names it, ``rule`` says what."""
+
+
+def parse_override(text: str) -> tuple[str, object]:
+    """``body.mass=1.3`` (numbers, [lists], "strings" or true/false, as in TOML)."""
+    import tomllib
+    name, sep, value = text.partition("=")
+    name = name.strip()
+    if not sep:
+        raise BatchError("--set", f"must be table.key=value, e.g. body.mass=1.3 (got {text!r})")
+    check_name(name, "--set")
+    try:
+        parsed = tomllib.loads(f"v = {value.strip()}")["v"]
+    except tomllib.TOMLDecodeError:
+        parsed = value.strip()            # a bare string such as dop853
+    return name, parsed
+
+
+def parse_sweep(text: str) -> tuple[str, list]:
+    """``body.mass=0.5:2:7`` (n points from lo to hi) or ``plane.restitution=0.1,0.5,0.9``."""
+    name, sep, spec = text.partition("=")
+    name = name.strip()
+    if not sep:
+        raise BatchError("--sweep", f"must be table.key=lo:hi:n or table.key=a,b,c "
+                                    f"(got {text!r})")
+    check_name(name, "--sweep")
+    try:
+        if ":" in spec:
+            lo, hi, n = spec.split(":")
+            n = int(n)
+            if not 1 <= n <= 100_000:
+                raise BatchError("--sweep", f"{name}: n must be in [1, 100000] (got {n})")
+            values = [float(v) for v in np.linspace(float(lo), float(hi), n)]
+        else:
+            values = [float(v) for v in spec.split(",")]
+    except ValueError:
+        raise BatchError("--sweep", f"{name}: values must be numbers (got {spec!r})") from None
+    if not values or not all(math.isfinite(v) for v in values):
+        raise BatchError("--sweep", f"{name}: values must be finite numbers")
+    return name, values
+
+
+def check_name(name: str, where: str) -> None:
+    base = name.split("[")[0]
+    if base not in _KNOWN:
+        raise BatchError(where, f"{name!r} is not a scene field (fields: "
+                                f"{', '.join(sorted(_KNOWN))})")
+
+
+def _set(doc: dict, name: str, value) -> None:
+    """Set a dotted field (``initial.com[2]`` sets one entry of a vector)."""
+    path, _, index = name.partition("[")
+    table, _, key = path.rpartition(".")
+    target = doc.setdefault(table, {}) if table else doc
+    if not isinstance(target, dict):
+        raise BatchError(name, f"[{table}] is not a table in the base scene")
+    if index:
+        k = int(index.rstrip("]"))
+        vec = target.get(key)
+        if not isinstance(vec, list) or not 0 <= k < len(vec):
+            raise BatchError(name, f"the base scene has no entry {k} in {path}")
+        vec[k] = value
+    else:
+        target[key] = value
+
+
+def expand(variants) -> list[dict]:
+    """A list of override dicts from a list (as is) or a grid (Cartesian product)."""
+    if isinstance(variants, dict):
+        names = list(variants)
+        for n in names:
+            if not isinstance(variants[n], (list, tuple, np.ndarray)):
+                raise BatchError(n, "a grid maps each field to a list of values")
+        return [dict(zip(names, combo))
+                for combo in itertools.product(*(list(variants[n]) for n in names))]
+    return [dict(v) for v in variants]
+
+
+@dataclass
+class Batch:
+    """The variants and what each gave (one row per variant, in order)."""
+    variants: list
+    rows: list                       # dicts of SUMMARY_COLUMNS (or errors)
+    results: list = field(default_factory=list)      # keep = "result"
+    seconds: float = 0.0
+    executor: str = "serial"
+    workers: int = 1
+
+    def column(self, name: str) -> np.ndarray:
+        return np.array([r.get(name, np.nan) for r in self.rows])
+
+    def to_csv(self, path) -> None:
+        names = sorted({k for v in self.variants for k in v})
+        cols = list(names) + ["error", *SUMMARY_COLUMNS]
+        with open(path, "w", encoding="utf-8") as fh:
+            fh.write(",".join(c.replace(".", "_").replace("[", "_").replace("]", "")
+                              for c in cols) + "\n")
+            for v, r in zip(self.variants, self.rows):
+                vals = [v.get(n, "") for n in names] + [r.get("error", "")] + \
+                    [r.get(c, "") for c in SUMMARY_COLUMNS]
+                fh.write(",".join(_csv(x) for x in vals) + "\n")
+
+
+def _csv(x) -> str:
+    if isinstance(x, float):
+        return repr(x)
+    text = str(x)
+    return '"' + text.replace('"', '""') + '"' if ("," in text or '"' in text) else text
+
+
+def summary_row(result) -> dict:
+    from . import abi
+    ev = result.event_rows
+    contact = abi.index(abi.EVENT_KINDS, "contact")
+    first_contact = next((float(r[0]) for r in ev if int(r[1]) == contact), math.nan)
+    g = result.general
+    z_end = float(g[-1, 2]) if g is not None else (
+        float(result.model_q[-1, 0]) if result.model in ("vertical", "translational",
+                                                         "planar") else math.nan)
+    s = result.stats
+    return {"status": result.status, "model": result.model, "t_end": float(result.t[-1]),
+            "impacts": s["impacts"], "contacts": s["contacts"], "liftoffs": s["liftoffs"],
+            "steps": s["steps"], "rhs_evaluations": s["rhs_evaluations"],
+            "min_height": result.min_height, "first_contact_t": first_contact,
+            "Z_C_end": z_end, "run_ms": 1e3 * result.timings.get("run_s", math.nan)}
+
+
+def _run_chunk(task: tuple) -> list:
+    """Runs in a worker: (base doc, origin, [(index, overrides)], keep) -> rows.  The base
+    scene's fields are read once; a variant re-validates only what it overrides, then
+    every cross-field rule (the law's analysis is cached by its text)."""
+    from .driver import prepare, run_prepared
+    from .scene import _read, build_scene, override_fields
+    base, origin, items, keep = task
+    try:
+        base_v, base_given = _read(base)
+    except SceneError as exc:
+        return [(index, {"error": f"base scene: {exc}"}, None) for index, _ in items]
+    out = []
+    for index, overrides in items:
+        v, given = dict(base_v), set(base_given)
+        try:
+            for name, value in overrides.items():
+                override_fields(v, given, name, value)
+            scene = build_scene(v, given, {}, f"variant {index}", base=origin)
+            result = run_prepared(prepare(scene))
+        except SceneError as exc:
+            out.append((index, {"error": f"variant {index}: {exc}"}, None))
+            continue
+        out.append((index, summary_row(result), result if keep == "result" else None))
+    return out
+
+
+def simulate_many(scene, variants, workers: int | None = None, scheduler: str | None = None,
+                  keep: str = "summary", progress: bool = False, chunk: int | None = None,
+                  strict: bool = True) -> Batch:
+    """Run ``variants`` (a list of override dicts, or a grid dict of lists) of ``scene``
+    (a path, a dict or a Scene).  ``strict``: raise on the first invalid variant (else
+    its row holds the error).  See the module's docstring."""
+    from pathlib import Path
+    if keep not in ("summary", "result"):
+        raise BatchError("keep", f"must be 'summary' or 'result' (got {keep!r})")
+    origin = None
+    if isinstance(scene, Scene):
+        base = copy.deepcopy(scene.doc)
+    elif isinstance(scene, dict):
+        base = copy.deepcopy(scene)
+    else:
+        sc = load_scene(scene)
+        base, origin = copy.deepcopy(sc.doc), Path(scene).parent
+    items = list(enumerate(expand(variants)))
+    for _, v in items:
+        for name in v:
+            check_name(name, "variant")
+    start = time.perf_counter()
+    n_items = len(items)
+    if chunk is None:
+        # a few chunks per worker: enough to balance, few enough to keep overhead low
+        import os
+        w = workers or (os.cpu_count() or 1)
+        chunk = max(1, min(64, n_items // (4 * max(w, 1)) or 1))
+    tasks = [(base, origin, items[k:k + chunk], keep) for k in range(0, n_items, chunk)]
+    if workers is None and scheduler is None and n_items <= 8:
+        workers = 1
+    bar = None
+    if progress:
+        from ..progress import Bar
+        bar = Bar("variants")
+    done = [0]
+
+    def collect(_index, rows):
+        done[0] += len(rows)
+        if bar:
+            bar.update(done[0] / n_items, f"{done[0]}/{n_items}")
+    from .driver import prepare
+    try:                                     # the base scene's model, loaded before the
+        prepare(base if origin is None else scene).library     # workers fork
+    except SceneError:
+        pass
+    try:
+        chunks, executor, n_workers = parallel.run(_run_chunk, tasks, workers, scheduler,
+                                                   collect)
+    except parallel.ExecutorError as exc:
+        raise BatchError(exc.where, exc.rule) from None
+    if bar:
+        bar.close()
+    rows: list = [None] * n_items
+    results: list = [None] * n_items if keep == "result" else []
+    for ch in chunks:
+        for index, row, res in ch:
+            rows[index] = row
+            if keep == "result":
+                results[index] = res
+    if strict:
+        bad = next((r for r in rows if "error" in r), None)
+        if bad is not None:
+            raise BatchError("variants", bad["error"])
+    return Batch([v for _, v in items], rows, results, time.perf_counter() - start, executor,
+                 n_workers)
