@@ -16,6 +16,7 @@ The conditions read the law's program (``is_zero``) and its samples; nothing sym
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -110,7 +111,7 @@ def length_scale(scene: Scene) -> float:
     """The largest |CS| = |OS - nu OP|: the surface's reach from O plus the point's."""
     if not scene.size:
         return 0.0
-    reach = float(np.linalg.norm(scene.center)) + max(scene.size)
+    reach = math.sqrt(sum(c * c for c in scene.center)) + max(scene.size)
     return reach + scene.nu * scene.law_summary.max_radius
 
 
@@ -124,9 +125,11 @@ class Start:
 def start(scene: Scene, kind: str) -> Start:
     A0 = scene.A0
     if kind == "general":
-        return Start(np.r_[scene.com, scene.com_velocity, scene.omega, A0.reshape(-1)], {})
+        return Start(np.array([*scene.com, *scene.com_velocity, *scene.omega,
+                               *A0.reshape(-1).tolist()]), {})
     if kind == "vertical":
-        return Start(np.r_[scene.com[2], scene.com_velocity[2], scene.omega, A0[2]], {})
+        return Start(np.array([scene.com[2], scene.com_velocity[2], *scene.omega,
+                               *A0[2].tolist()]), {})
     if kind == "attitude":
         return Start(np.asarray(scene.omega, dtype=float), {})
     n0 = {"n0_x": A0[2][0], "n0_y": A0[2][1], "n0_z": A0[2][2]}

@@ -23,6 +23,7 @@ from .scene import Scene, load_scene
 STATUSES = abi.names(abi.STATUSES)
 EVENT_KINDS = abi.names(abi.EVENT_KINDS)
 STAT_NAMES = abi.names(abi.STATS)
+SUMMARY_NAMES = abi.names(abi.SUMMARY)
 ROW_KINDS = abi.names(abi.ROW_KINDS)
 METHODS = {name: k for k, name in enumerate(abi.names(abi.METHODS))}
 
@@ -84,6 +85,14 @@ class Session:
         self._n, self._ne = ctypes.c_int(0), ctypes.c_int(0)
         self._law = None
         self._law_key = None
+        # the inputs of crt_init and the counters, with their pointers made once
+        self._opt = np.zeros(len(abi.OPTIONS))
+        self._prm = np.zeros(len(abi.PARAMETERS))
+        self._q0 = np.zeros(nq)
+        self._stats = (ctypes.c_long * len(abi.STATS))()
+        self._summ = np.zeros(len(abi.SUMMARY))
+        self._in = (self._opt.ctypes.data_as(DP), self._prm.ctypes.data_as(DP),
+                    self._q0.ctypes.data_as(DP), self._summ.ctypes.data_as(DP))
 
     def set_law(self, law) -> None:
         """Hand the law to the C (kept referenced here: the C reads these arrays)."""
@@ -114,12 +123,11 @@ class Session:
         return u
 
     def init(self, opt, prm, t0: float, q0) -> None:
-        self._opt = np.ascontiguousarray(opt, dtype=float)
-        self._prm = np.ascontiguousarray(prm, dtype=float)
-        q0 = np.ascontiguousarray(q0, dtype=float)
-        status = self.library.lib.crt_init(self.handle, self._opt.ctypes.data_as(DP),
-                                           self._prm.ctypes.data_as(DP), float(t0),
-                                           q0.ctypes.data_as(DP))
+        self._opt[:] = opt
+        self._prm[:] = prm
+        self._q0[:] = q0
+        op, pp, qp, _ = self._in
+        status = self.library.lib.crt_init(self.handle, op, pp, float(t0), qp)
         if status != 0:
             raise RuntimeError(f"the runtime refused the run ({STATUSES[status]})")
 
@@ -141,14 +149,12 @@ class Session:
             evs.append(self.ev_buf[:ne].copy())
             if progress is not None:
                 progress((lib.crt_time(self.handle) - t0) / duration)
-        stats = (ctypes.c_long * len(abi.STATS))()
-        lib.crt_stats(self.handle, stats)
-        summ = np.zeros(len(abi.SUMMARY))
-        lib.crt_summary(self.handle, summ.ctypes.data_as(DP))
+        lib.crt_stats(self.handle, self._stats)
+        lib.crt_summary(self.handle, self._in[3])
         join = (lambda parts: parts[0]) if len(ts) == 1 else np.concatenate
         return Raw(join(ts), join(qs), join(kinds), join(evs),
-                   dict(zip(STAT_NAMES, list(stats))),
-                   dict(zip(abi.names(abi.SUMMARY), summ.tolist())),
+                   dict(zip(STAT_NAMES, self._stats)),
+                   dict(zip(SUMMARY_NAMES, self._summ.tolist())),
                    STATUSES[status] if 0 <= status < len(STATUSES) else str(status))
 
     def contact(self, t: float, q) -> tuple[np.ndarray, float, float]:

@@ -414,7 +414,8 @@ def _require(v: dict, where: str, what: str = "is required"):
 
 # ---- orientation ----------------------------------------------------------------------------
 def rotation_from_quaternion(qv) -> np.ndarray:
-    w, x, y, z = np.asarray(qv, dtype=float) / np.linalg.norm(qv)
+    norm = math.sqrt(sum(c * c for c in qv))
+    w, x, y, z = (c / norm for c in qv)
     return np.array([
         [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
         [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
@@ -537,20 +538,16 @@ def _singular_J(scene: Scene, summary: LawSummary) -> None:
                                            f"(smallest/largest below 1e-12); R1 needs det J != 0")
 
 
-def _lowest_point(scene: Scene, n: np.ndarray) -> np.ndarray:
-    c = np.asarray(scene.center, dtype=float)
-    axes = np.full(3, scene.size[0]) if scene.shape == "sphere" else np.asarray(scene.size)
-    D2n = axes ** 2 * n
-    return c - D2n / np.sqrt(n @ D2n)
-
-
 def _start_above_plane(scene: Scene) -> None:
     if not scene.contact_possible:
         return
-    n = scene.A0[2]
-    s = _lowest_point(scene, n)
+    n = [float(v) for v in scene.A0[2]]
+    axes = (scene.size[0],) * 3 if scene.shape == "sphere" else scene.size
+    D2n = [a * a * nk for a, nk in zip(axes, n)]
+    root = math.sqrt(sum(nk * d for nk, d in zip(n, D2n)))
+    s = [c - d / root for c, d in zip(scene.center, D2n)]       # the support point S
     r0 = scene.law.point(scene.t0)[:3]
-    h = scene.com[2] + n @ (s - scene.nu * r0)
+    h = scene.com[2] + sum(nk * (sk - scene.nu * rk) for nk, sk, rk in zip(n, s, r0))
     if h < -1e-12 * scene.body_size:
         raise SceneError("[initial].com", f"the lowest point S starts below the plane "
                                           f"(height {h:.6g}); raise Z_C")
