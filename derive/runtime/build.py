@@ -57,6 +57,7 @@ class Library:
                                                   c.c_int, IP]),
                 ("crt_set_law_table", c.c_int, [c.c_void_p, c.c_int, DP, DP, c.c_int]),
                 ("crt_law_at", None, [c.c_void_p, c.c_double, DP]),
+                ("crt_law_rows", None, [c.c_void_p, c.c_int, DP, DP]),
                 ("crt_init", c.c_int, [c.c_void_p, DP, DP, c.c_double, DP]),
                 ("crt_advance", c.c_int, [c.c_void_p, c.c_double, DP, DP, IP, c.c_int, IP,
                                           DP, c.c_int, IP]),

@@ -122,6 +122,14 @@ class Session:
         self.library.lib.crt_law_at(self.handle, float(t), u.ctypes.data_as(DP))
         return u
 
+    def law_rows(self, t) -> np.ndarray:
+        """(N, 9): u = (x, y, z, x', y', z', x'', y'', z'') at the times ``t``, by the C."""
+        t = np.ascontiguousarray(t, dtype=float)
+        u = np.zeros((len(t), 9))
+        self.library.lib.crt_law_rows(self.handle, len(t), t.ctypes.data_as(DP),
+                                      u.ctypes.data_as(DP))
+        return u
+
     def init(self, opt, prm, t0: float, q0) -> None:
         self._opt[:] = opt
         self._prm[:] = prm

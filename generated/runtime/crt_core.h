@@ -761,6 +761,16 @@ void crt_law_at(crt_session *s, double t, double *u)
   for (i = 0; i < 9; ++i) u[i] = v[i];
 }
 
+/* the law along n times: u[9 k + i] (outputs, and the law's benchmark) */
+void crt_law_rows(crt_session *s, int n, const double *t, double *u)
+{
+  int k, i;
+  for (k = 0; k < n; ++k) {
+    const double *v = crt_u(s, t[k]);
+    for (i = 0; i < 9; ++i) u[9L * k + i] = v[i];
+  }
+}
+
 /* Start a run at (t0, q0) with the options opt[CRT_OPT_COUNT] and the parameters
    prm[CRT_P_COUNT] (both copied); the law must be set.  Returns CRT_PAUSED when ready. */
 int crt_init(crt_session *s, const double *opt, const double *prm, double t0, const double *q0)
