@@ -261,47 +261,76 @@ def _progress(message: str) -> None:
     print(f"  ... {message}", file=sys.stderr, flush=True)
 
 
-def cmd_bench(args: argparse.Namespace) -> int:
+def cmd_bench_rhs(args) -> int:
     import shlex
-    if args.what == "rhs":
-        from .bench import rhs
-        cflags = tuple(shlex.split(args.cflags))
-        rows = rhs.run(cflags=cflags, progress=_progress)
-        print(f"cost per evaluation, compiled with {' '.join(cflags)} "
-              f"(C: throughput over 1024 states, min of 15 trials)")
-        print(rhs.report(rows))
-        return 0
-    if args.what == "sim":
-        from .bench import sim
-        from .runtime.scene import SceneError, load_scene
-        doc = None
-        if args.scene:
-            import tomllib
-            try:
-                load_scene(args.scene)
-                doc = tomllib.loads(open(args.scene, encoding="utf-8").read())
-            except SceneError as exc:
-                raise UsageError(str(exc)) from None
-        out = sim.run(doc, progress=_progress, repeats=args.repeats)
-        print(sim.report(out))
-        return 0
-    if args.what == "precision":
-        from .bench import precision
-        scenes = args.scenes.split(",") if args.scenes else None
-        known = set(precision.reference_scenes())
-        if scenes and not set(scenes) <= known:
-            raise UsageError(f"--scenes: choose from {', '.join(sorted(known))}")
-        summary = precision.run(args.output, quick=args.quick, repeats=args.repeats,
-                                periods=args.periods, scenes=scenes, progress=_progress)
-        print(precision.report(summary))
-        print(f"charts and data in {args.output}")
-        return 0
-    if args.what == "failures":
-        from .bench import failures
-        outcomes = failures.run(progress=_progress)
-        print(failures.report(outcomes))
-        return 0
-    raise UsageError(f"unknown benchmark {args.what!r}")
+    from .bench import rhs
+    cflags = tuple(shlex.split(args.cflags))
+    rows = rhs.run(cflags=cflags, progress=_progress)
+    print(f"cost per evaluation, compiled with {' '.join(cflags)} "
+          f"(C: throughput over 1024 states, min of 15 trials)")
+    print(rhs.report(rows))
+    return 0
+
+
+def cmd_bench_sim(args) -> int:
+    from .bench import sim
+    from .runtime.scene import SceneError, load_scene
+    doc = None
+    if args.scene:
+        try:
+            doc = load_scene(args.scene).doc
+        except SceneError as exc:
+            raise UsageError(str(exc)) from None
+    out = sim.run(doc, progress=_progress, repeats=args.repeats, quick=args.quick)
+    print(sim.report(out))
+    return 0
+
+
+def cmd_bench_law(args) -> int:
+    from .bench import law
+    print(law.report(law.run(repeats=args.repeats, progress=_progress)))
+    return 0
+
+
+def cmd_bench_precision(args) -> int:
+    from .bench import precision
+    scenes = args.scenes.split(",") if args.scenes else None
+    known = set(precision.reference_scenes())
+    if scenes and not set(scenes) <= known:
+        raise UsageError(f"--scenes: choose from {', '.join(sorted(known))}")
+    summary = precision.run(args.output, quick=args.quick, repeats=args.repeats,
+                            periods=args.periods, scenes=scenes, progress=_progress)
+    print(precision.report(summary))
+    print(f"charts and data in {args.output}")
+    return 0
+
+
+def cmd_bench_failures(args) -> int:
+    from .bench import failures
+    outcomes = failures.run(progress=_progress)
+    print(failures.report(outcomes))
+    return 0
+
+
+def cmd_bench_robustness(args) -> int:
+    import time
+    from .bench import robustness
+    if args.n < 1 or args.n > 10_000_000:
+        raise UsageError(f"-n: must be in [1, 1e7] (got {args.n})")
+    if args.workers is not None and args.workers < 1:
+        raise UsageError(f"--workers: must be >= 1 (got {args.workers})")
+    start = time.perf_counter()
+    outcomes = robustness.run(args.n, seed=args.seed, max_duration=args.duration,
+                              workers=args.workers, progress=_progress)
+    print(robustness.report(outcomes))
+    bad = [o for o in outcomes if o.verdict not in ("ok",)]
+    if args.parser:
+        from .bench import fuzz
+        cases = fuzz.run(args.parser, seed=args.seed, progress=_progress)
+        print(fuzz.report(cases))
+        bad += [c for c in cases if c.bad]
+    print(f"{time.perf_counter() - start:.1f} s in all")
+    return 1 if bad else 0
 
 
 # ---- parser -----------------------------------------------------------------------
@@ -397,23 +426,49 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_chart)
 
-    p = sub.add_parser("bench", help="benchmarks: ratios against peers in the same run")
-    p.add_argument("what", choices=["rhs", "sim", "precision", "failures"], help=(
-        "rhs: cost per evaluation of the generated functions against CasADi's C, CasADi "
-        "from Python and NumPy; sim: time to simulate a scene to a max state error of "
-        "1e-9 against SciPy and CasADi routes; precision: work-precision charts on "
-        "reference scenes and the invariant drift of long runs; failures: hard scenes "
-        "through every method"))
-    p.add_argument("-o", "--output", default="bench-out", help="precision: output folder")
-    p.add_argument("--quick", action="store_true", help="precision: three tolerances only")
-    p.add_argument("--periods", type=int, default=10_000,
-                   help="precision: length of the long run in periods of the point")
-    p.add_argument("--scenes", help="precision: comma-separated scene names")
-    p.add_argument("--cflags", default="-O2", help="rhs: compiler flags for every C build "
+    p = sub.add_parser("bench", help="benchmarks: ratios against peers measured in the same "
+                       "run, each target marked PASS or FAIL")
+    bench = p.add_subparsers(dest="bench", required=True, parser_class=_Parser)
+    b = bench.add_parser("rhs", help="cost per evaluation of the generated functions "
+                         "against CasADi's C, CasADi from Python and NumPy")
+    b.add_argument("--cflags", default="-O2", help="compiler flags for every C build "
                    "(default: -O2)")
-    p.add_argument("--scene", help="sim: scene TOML (default: the built-in one)")
-    p.add_argument("--repeats", type=int, default=5, help="timing repetitions (min taken)")
-    p.set_defaults(func=cmd_bench)
+    b.set_defaults(func=cmd_bench_rhs)
+    b = bench.add_parser("sim", help="what a simulation costs the user end to end (and the "
+                         "C run alone) against SciPy and CasADi at a 1e-9 error; the CLI, "
+                         "simulate_many and the first build")
+    b.add_argument("--scene", help="scene TOML (default: the built-in scene and an offset "
+                   "ellipsoid)")
+    b.add_argument("--repeats", type=int, default=5, help="timing repetitions (min taken)")
+    b.add_argument("--quick", action="store_true", help="the scenes only (no CLI, batch and "
+                   "first-build measurements)")
+    b.set_defaults(func=cmd_bench_sim)
+    b = bench.add_parser("law", help="the point law interpreted against compiled: ns per "
+                         "evaluation, compile time, share of a run")
+    b.add_argument("--repeats", type=int, default=7, help="timing repetitions (min taken)")
+    b.set_defaults(func=cmd_bench_law)
+    b = bench.add_parser("precision", help="work-precision charts on reference scenes and "
+                         "the invariant drift of long runs")
+    b.add_argument("-o", "--output", default="bench-out", help="output folder")
+    b.add_argument("--quick", action="store_true", help="three tolerances only")
+    b.add_argument("--periods", type=int, default=10_000,
+                   help="length of the long run in periods of the point")
+    b.add_argument("--scenes", help="comma-separated reference scene names")
+    b.add_argument("--repeats", type=int, default=5, help="timing repetitions (min taken)")
+    b.set_defaults(func=cmd_bench_precision)
+    b = bench.add_parser("failures", help="hard scenes through every method, peers capped: "
+                         "an outcome table")
+    b.set_defaults(func=cmd_bench_failures)
+    b = bench.add_parser("robustness", help="random valid scenes through the runtime "
+                         "(falls, statuses, invariants, cost) and, with --parser N, random "
+                         "malformed scenes through the parser")
+    b.add_argument("-n", type=int, default=10_000, help="random scenes (default 10000)")
+    b.add_argument("--seed", type=int, default=11, help="the generator's seed")
+    b.add_argument("--duration", type=float, default=60.0, help="longest scene duration")
+    b.add_argument("--workers", type=int, help="local processes (default: every core)")
+    b.add_argument("--parser", type=int, default=0, metavar="N",
+                   help="also N random malformed scenes through the parser and the CLI")
+    b.set_defaults(func=cmd_bench_robustness)
 
     return parser
 

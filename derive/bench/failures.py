@@ -33,7 +33,7 @@ from ..runtime.scene import DEFAULT_SCENE, parse_scene
 from .routes import Casadi, Run, Runtime, Scipy, StopRun, errors
 
 CORRECT = 1e-6
-TIME_LIMIT = 20.0
+TIME_LIMIT = 2.0         # seconds a peer may spend on one scene before it is stopped
 
 
 def _ball(e, law, z0=1.5, g=9.81, duration=3.0, vz=0.0) -> dict:
@@ -145,13 +145,17 @@ class _Timeout:
 
     def __init__(self, route):
         self.route, self.start = route, None
-        inner = getattr(route, "f", None)
-        if inner is not None:
-            def f(t, q):
-                if time.perf_counter() - self.start > TIME_LIMIT:
-                    raise StopRun("time limit")
-                return inner(t, q)
-            route.f = f
+        for name in ("f", "_flow"):               # SciPy's RHS, CasADi's segments
+            inner = getattr(route, name, None)
+            if inner is not None:
+                setattr(route, name, self._capped(inner))
+
+    def _capped(self, inner):
+        def call(*args):
+            if time.perf_counter() - self.start > TIME_LIMIT:
+                raise StopRun(f"time limit ({TIME_LIMIT:g} s)")
+            return inner(*args)
+        return call
 
     def result(self):
         self.start = time.perf_counter()
