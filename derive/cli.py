@@ -202,6 +202,31 @@ def _simulate_sweep(args, start: float) -> int:
     return 0 if statuses.get("done", 0) == len(out.rows) else 1
 
 
+# ---- scene --------------------------------------------------------------------------
+def cmd_scene(args: argparse.Namespace) -> int:
+    from .runtime.scene import SceneError, load_scene, template
+    if args.action == "new":
+        if args.file:
+            raise UsageError("scene new: takes no file (it prints a template: redirect it)")
+        sys.stdout.write(template(args.shape))
+        return 0
+    if not args.file:
+        raise UsageError("scene check: give the scene file")
+    try:
+        scene = load_scene(args.file)
+        from .runtime.choice import choose
+        kind, why = choose(scene)
+    except SceneError as exc:
+        raise UsageError(str(exc)) from None
+    law = scene.law
+    print(f"{args.file}: valid; model {kind} ({why})")
+    summary = scene.law_summary
+    print(f"  law: {'a table of ' + str(len(law.knots)) + ' samples' if law.kind == 'table' else 'formulas'}"
+          f"; P within {summary.max_radius:.4g} of O, |OP''| up to "
+          f"{summary.max_acceleration:.4g}; C^2 over the run")
+    return 0
+
+
 # ---- stability --------------------------------------------------------------------
 def cmd_stability(args: argparse.Namespace) -> int:
     import json
@@ -392,6 +417,14 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--workers", type=int, help="--sweep: local processes (default: every "
                    "core; 1: serial)")
     p.set_defaults(func=cmd_simulate)
+
+    p = sub.add_parser("scene", help="scene files: a commented template, or a check")
+    p.add_argument("action", choices=["new", "check"], help="new: print a template with "
+                   "every field; check: validate a file and say which model would run it")
+    p.add_argument("file", nargs="?", help="check: the scene file")
+    p.add_argument("--shape", choices=["sphere", "ellipsoid", "none"], default="sphere",
+                   help="new: the body's shape (default sphere)")
+    p.set_defaults(func=cmd_scene)
 
     p = sub.add_parser("stability", help="multipliers and verdict of a scene's periodic "
                        "motion (a stationary rotation in flight, or periodic bouncing)")

@@ -32,3 +32,12 @@ def test_readme_documents_the_state_layouts_as_the_code_has_them():
     flat = " ".join(text.split())
     for model, labels in STATE_LABELS.items():
         assert f"`{model}`, {len(labels)} states: `({', '.join(labels)})`" in flat, model
+
+
+def test_readme_schema_table_is_the_schema():
+    """The scene schema is written once: the README's table is rendered from it."""
+    from derive.runtime.scene import schema_table
+    text = (ROOT / "README.md").read_text(encoding="utf-8")
+    block = text.split("<!-- schema:begin -->\n", 1)[1].split("<!-- schema:end -->", 1)[0]
+    assert block.strip() == schema_table().strip(), \
+        "README schema table differs: paste derive.runtime.scene.schema_table()"

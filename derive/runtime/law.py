@@ -70,6 +70,7 @@ class Program:
     """Nodes in topological order: ``ops[k]`` with arguments ``a[k]``, ``b[k]`` (node
     indices, or for ``const``/``powi``/``powr`` an index into ``consts``); the nodes
     ``outputs`` are x, y, z.  Constant nodes come first, then ``t``, then the rest."""
+    kind = "program"
     ops: tuple
     a: tuple
     b: tuple

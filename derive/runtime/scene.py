@@ -723,19 +723,19 @@ def template(shape: str = "sphere") -> str:
     table = None
     skip = {"sphere": {"semi_axes"}, "ellipsoid": {"radius"}, "none": {"radius", "semi_axes"}}
     for f in FIELDS:
+        if f.table == "stability" or f.key in skip.get(shape, set()):
+            continue
         if f.table != table:
             table = f.table
             lines.append("")
             if f.table:
                 lines.append(f"[{f.table}]")
-        if f.key in skip.get(shape, set()) or f.table == "stability":
-            continue
         value = f.example if f.example is not None else (
             None if f.default is None or f.default is REQUIRED else f.default)
         if f.key == "shape":
             value = shape
         note = f.doc + (f"; {f.rule}" if f.rule else "") + (f" ({f.when})" if f.when else "")
-        if value is None or f.key in ("table", "samples", "matrix"):
+        if value is None or f.key in ("table", "samples", "matrix", "ends"):
             lines.append(f"# {f.key} = ...{' ' * 20}# {note}")
         else:
             lines.append(f"{f.key} = {_toml(value)}  # {note}")
