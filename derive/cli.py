@@ -263,8 +263,10 @@ def cmd_chart(args: argparse.Namespace) -> int:
     from .stability.families import FamilyError, family
     try:
         family(args.family)
-        x = sweep.parse_axis(args.x, args.family, "--x")
-        y = sweep.parse_axis(args.y, args.family, "--y")
+        default_x, default_y = (("e=0.1:0.9:17", "Gamma=0.5:3.5:21") if args.family == "bounce"
+                                else ("a=0:0.8:41", "J_z=0.03:0.22:39"))
+        x = sweep.parse_axis(args.x or default_x, args.family, "--x")
+        y = sweep.parse_axis(args.y or default_y, args.family, "--y")
         fixed = dict(sweep.parse_setting(text) for text in args.set or [])
         result = sweep.run(args.family, x, y, fixed, workers=args.workers,
                            scheduler=args.scheduler, progress=not args.quiet)
@@ -444,11 +446,12 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("chart", help="stability charts: sweep two parameters of a family")
     p.add_argument("what", choices=["stability"], help="stability: max |rho| of the "
                    "stationary rotations of a family over a grid")
-    p.add_argument("--family", default="C4.1", help="C4.1 (default), C4.2 or C4.3")
-    p.add_argument("--x", default="a=0:0.8:41", help="x axis, name=lo:hi:n "
-                   "(default a=0:0.8:41)")
-    p.add_argument("--y", default="J_z=0.03:0.22:39", help="y axis, name=lo:hi:n "
-                   "(default J_z=0.03:0.22:39)")
+    p.add_argument("--family", default="C4.1", help="C4.1 (default), C4.2 or C4.3 "
+                   "(stationary rotations), or bounce (periodic bouncing of reference [5])")
+    p.add_argument("--x", help="x axis, name=lo:hi:n (default a=0:0.8:41; bounce: "
+                   "e=0.1:0.9:17)")
+    p.add_argument("--y", help="y axis, name=lo:hi:n (default J_z=0.03:0.22:39; bounce: "
+                   "Gamma=0.5:3.5:21)")
     p.add_argument("--set", action="append", metavar="NAME=VALUE",
                    help="fix a parameter (repeatable); others keep their defaults")
     p.add_argument("--workers", type=int, help="local processes (default: every core; 1: "

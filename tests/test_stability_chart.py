@@ -126,3 +126,29 @@ def test_cli_stability_scene_file_and_errors(tmp_path):
     proc = _cli("stability", str(scene))
     assert proc.returncode == 2 and "[initial]: the motion is not periodic" in proc.stderr
     assert "Traceback" not in proc.stderr
+
+
+def test_bounce_chart_agrees_with_the_table_closed_forms():
+    """The periodic bouncing of reference [5] on one precompiled library: no orbit below
+    the existence threshold Gamma_1 = (1 - e) pi/(1 + e), linearly stable between it and
+    the period doubling Gamma_pd (the vertical multipliers |rho| = e < 1, spin and tilt
+    neutral), unstable beyond (closed forms of derive/stability/bouncing.py)."""
+    from derive.stability import sweep
+    from derive.stability.bouncing import existence_threshold, period_doubling_threshold
+    x = sweep.parse_axis("e=0.2:0.8:4", "bounce", "--x")
+    y = sweep.parse_axis("Gamma=0.5:3:9", "bounce", "--y")
+    sw = sweep.run("bounce", x, y, workers=1, progress=False)
+    checked = 0
+    for j, G in enumerate(y.values):
+        for i, e in enumerate(x.values):
+            rho = sw.max_modulus[j, i]
+            g1, gpd = existence_threshold(e), period_doubling_threshold(e)
+            if G < g1:
+                assert np.isnan(rho), (e, G)
+            elif G < 0.95 * gpd:
+                assert rho <= 1 + 1e-6, (e, G, rho)
+                checked += 1
+            elif G > 1.05 * gpd:
+                assert rho > 1 + 1e-3, (e, G, rho)
+                checked += 1
+    assert checked >= 15

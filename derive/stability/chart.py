@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .families import family
+from .families import FamilyError, family
 from .sweep import Sweep
 
 
@@ -32,8 +32,19 @@ def counts(sw: Sweep) -> dict:
 
 def fixed_values(sw: Sweep) -> dict:
     """Every parameter that is not swept, at its value in the sweep."""
-    values = family(sw.family).values(sw.fixed | {sw.x.name: sw.x.lo, sw.y.name: sw.y.lo})
-    return {k: v for k, v in values.items() if k not in (sw.x.name, sw.y.name)}
+    values = dict(sw.fixed)
+    for corner in ((sw.x.lo, sw.y.lo), (sw.x.hi, sw.y.hi), (sw.x.lo, sw.y.hi),
+                   (sw.x.hi, sw.y.lo)):
+        try:
+            values = family(sw.family).values(sw.fixed | {sw.x.name: corner[0],
+                                                          sw.y.name: corner[1]})
+            break
+        except FamilyError:
+            continue
+    swept = {sw.x.name, sw.y.name}
+    if swept & {"a", "Gamma"}:
+        swept |= {"a", "Gamma"}               # each follows from the other (bounce)
+    return {k: v for k, v in values.items() if k not in swept}
 
 
 def summary(sw: Sweep) -> dict:
@@ -92,16 +103,34 @@ def draw(sw: Sweep, path: Path) -> Path:
                    colors="tab:cyan", linewidths=1.4)
     if np.any(sw.jordan > 0.5):
         ax.contourf(X, Y, sw.jordan, levels=[0.5, 1.5], colors="none", hatches=["...."])
+    if fam.name == "bounce" and {sw.x.name, sw.y.name} == {"e", "Gamma"}:
+        # the closed forms of the ball on a vibrating table: where the n-orbit appears
+        # and where it doubles its period (derive/stability/bouncing.py)
+        from .bouncing import existence_threshold, period_doubling_threshold
+        n = int(fixed_values(sw).get("n", 1))
+        es = np.linspace(min(sw.values_of("e")), max(sw.values_of("e")), 200)
+        curves = {"existence": [existence_threshold(e, n) for e in es],
+                  "period doubling": [period_doubling_threshold(e, n) for e in es]}
+        for (label, g), style in zip(curves.items(), ("--", ":")):
+            xy = (es, g) if sw.x.name == "e" else (g, es)
+            ax.plot(*xy, style, color="tab:blue", lw=1.2, label=f"{label} (closed form)")
+        ax.set_xlim(sw.x.lo - 0.5 * (sw.x.hi - sw.x.lo) / max(sw.x.n - 1, 1),
+                    sw.x.hi + 0.5 * (sw.x.hi - sw.x.lo) / max(sw.x.n - 1, 1))
+        ax.set_ylim(sw.y.lo - 0.5 * (sw.y.hi - sw.y.lo) / max(sw.y.n - 1, 1),
+                    sw.y.hi + 0.5 * (sw.y.hi - sw.y.lo) / max(sw.y.n - 1, 1))
+        ax.legend(loc="upper left", fontsize=8)
     c = counts(sw)
     others = ", ".join(f"{k}={v:g}" for k, v in fixed_values(sw).items())
-    ax.set_title(f"{fam.name} stationary rotation: {fam.title}\n{others}", fontsize=9)
+    what = "" if fam.name == "bounce" else " stationary rotation"
+    ax.set_title(f"{fam.name}{what}: {fam.title}\n{others}", fontsize=9)
     ax.set_xlabel(sw.x.name)
     ax.set_ylabel(sw.y.name)
     ax.text(0.01, 0.01, f"unstable (outlined, max |rho| > 1 + {sw.tol:g}): {c['unstable']}"
             f"   linearly stable: {c['stable_linear']}"
             + (f"\ncritical with a Jordan block at rho = 1 (dotted): {c['critical_jordan']}"
                if c["critical_jordan"] else "")
-            + (f"   no body (grey): {c['no_body']}" if c["no_body"] else ""),
+            + (f"   no {'orbit' if fam.name == 'bounce' else 'body'} (grey): {c['no_body']}"
+               if c["no_body"] else ""),
             transform=ax.transAxes, fontsize=8, va="bottom",
             bbox={"facecolor": "white", "alpha": 0.8, "edgecolor": "none"})
     fig.savefig(path, dpi=130)

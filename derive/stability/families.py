@@ -116,9 +116,82 @@ FAMILIES = {
 }
 
 
-def family(name: str) -> Family:
+BOUNCE_DEFAULTS = {"e": 0.5, "a": 0.1, "W": 30.0, "spin": 3.0, "J_x": 0.1, "J_z": 0.15,
+                   "M": 1.0, "m": 0.25, "radius": 0.5, "n": 1, "g": 9.81}
+
+
+@dataclass(frozen=True)
+class BounceFamily:
+    """The periodic bouncing of reference [5]: the symmetric carrier with z = a sin(W t)
+    on its axis, the axis vertical, on the table's symmetric n-orbit.  ``Gamma`` = nu a
+    W^2/g may be given instead of ``a`` (then a follows from it)."""
+    name: str = "bounce"
+    title: str = "periodic bouncing (reference [5]): z = a sin(W t) on the vertical axis"
+    defaults: tuple = ()
+
+    @property
+    def parameters(self) -> tuple:
+        return tuple(BOUNCE_DEFAULTS) + ("Gamma",)
+
+    def values(self, given: dict | None = None) -> dict:
+        given = dict(given or {})
+        unknown = sorted(set(given) - set(self.parameters))
+        if unknown:
+            raise FamilyError(unknown[0], "is not a parameter of bounce (parameters: "
+                                          f"{', '.join(self.parameters)})")
+        v = {**BOUNCE_DEFAULTS, **{k: float(x) for k, x in given.items() if k != "Gamma"}}
+        for key, value in v.items():
+            if not math.isfinite(value):
+                raise FamilyError(key, f"must be finite (got {value})")
+        for key in ("a", "W", "J_x", "J_z", "M", "m", "radius", "g"):
+            if not v[key] > 0:
+                raise FamilyError(key, f"must be > 0 (got {v[key]})")
+        if v["n"] != int(v["n"]) or v["n"] < 1:
+            raise FamilyError("n", f"must be a positive integer (got {v['n']})")
+        if not 0 < v["e"] < 1:
+            raise FamilyError("e", f"must be in (0, 1) (got {v['e']})")
+        if 2 * v["J_x"] < v["J_z"]:
+            raise FamilyError("J_z", f"= {v['J_z']} exceeds 2 J_x: no body has these moments")
+        nu = v["m"] / (v["m"] + v["M"])
+        if "Gamma" in given:
+            v["a"] = float(given["Gamma"]) * v["g"] / (nu * v["W"] ** 2)
+        v["Gamma"] = nu * v["a"] * v["W"] ** 2 / v["g"]
+        from .bouncing import existence_threshold
+        threshold = existence_threshold(v["e"], int(v["n"]))
+        if v["Gamma"] < threshold:
+            raise FamilyError("a", f"gives Gamma = {v['Gamma']:.4g}, below the existence "
+                                   f"threshold {threshold:.4g} of the {int(v['n'])}-orbit")
+        return v
+
+    def scene(self, v: dict) -> dict:
+        from .bouncing import bouncing_scene
+        doc = bouncing_scene(e=v["e"], a=v["a"], W=v["W"], spin=v["spin"],
+                             inertia=(v["J_x"], v["J_x"], v["J_z"]), M=v["M"], m=v["m"],
+                             radius=v["radius"], n=int(v["n"]), g=v["g"])
+        doc["stability"] = {"impacts_every": int(v["n"])}
+        return doc
+
+
+class BounceMember:
+    """Evaluates bouncing orbits: Newton on the impact-to-impact map and the multipliers,
+    on the precompiled vertical and variational runtimes (no compilation per point)."""
+
+    def __init__(self, rtol: float = 1e-12):
+        self.family = BounceFamily()
+
+    def point(self, values: dict) -> tuple[float, float, float]:
+        """(max |rho| of the whole monodromy, 0.0, Newton's residual)."""
+        from .bouncing import analyse
+        scene = parse_scene(self.family.scene(values))
+        b = analyse(scene, n=int(values["n"]), check=False)
+        return float(np.max(np.abs(b.multipliers))), 0.0, float(b.newton_residual)
+
+
+def family(name: str):
+    if name == "bounce":
+        return BounceFamily()
     if name not in FAMILIES:
-        raise FamilyError("family", f"{name!r} is not one of {', '.join(FAMILIES)}")
+        raise FamilyError("family", f"{name!r} is not one of {', '.join(FAMILIES)}, bounce")
     return FAMILIES[name]
 
 
@@ -177,5 +250,5 @@ class Member:
 
 
 @lru_cache(maxsize=8)
-def member(name: str, rtol: float = 1e-12) -> Member:
-    return Member(name, rtol)
+def member(name: str, rtol: float = 1e-12):
+    return BounceMember(rtol) if name == "bounce" else Member(name, rtol)

@@ -17,42 +17,13 @@ from ..runtime.scene import Scene, load_scene
 from . import bouncing, floquet
 
 
-BOUNCE_DEFAULTS = {"e": 0.5, "a": 0.1, "W": 30.0, "spin": 3.0, "J_x": 0.1, "J_z": 0.15,
-                   "M": 1.0, "m": 0.25, "radius": 0.5, "n": 1, "g": 9.81}
-
-
 def example(name: str, settings: dict | None = None) -> dict:
     """A scene (as a dict) of a family: ``C4.1``, ``C4.2``, ``C4.3`` (a stationary
-    rotation, parameters as in :mod:`families`) or ``bounce`` (the reference-[5] carrier
-    on the table's n-orbit: e, a, W, spin, J_x = J_y, J_z, M, m, radius, n, g)."""
-    from .families import FamilyError, family
-    settings = dict(settings or {})
-    if name != "bounce":
-        fam = family(name)
-        return fam.scene(fam.values(settings))
-    unknown = sorted(set(settings) - set(BOUNCE_DEFAULTS))
-    if unknown:
-        raise FamilyError(unknown[0], "is not a parameter of bounce (parameters: "
-                                      f"{', '.join(BOUNCE_DEFAULTS)})")
-    v = {**BOUNCE_DEFAULTS, **settings}
-    if v["n"] != int(v["n"]) or v["n"] < 1:
-        raise FamilyError("n", f"must be a positive integer (got {v['n']})")
-    for key in ("e", "a", "W", "J_x", "J_z", "M", "m", "radius", "g"):
-        if not v[key] > 0:
-            raise FamilyError(key, f"must be > 0 (got {v[key]})")
-    nu = v["m"] / (v["m"] + v["M"])
-    Gamma = nu * v["a"] * v["W"] ** 2 / v["g"]
-    if not 0 < v["e"] < 1:
-        raise FamilyError("e", f"must be in (0, 1) (got {v['e']})")
-    threshold = bouncing.existence_threshold(v["e"], int(v["n"]))
-    if Gamma < threshold:
-        raise FamilyError("a", f"gives Gamma = {Gamma:.4g}, below the existence threshold "
-                               f"{threshold:.4g} of the {int(v['n'])}-orbit")
-    doc = bouncing.bouncing_scene(e=v["e"], a=v["a"], W=v["W"], spin=v["spin"],
-                                  inertia=(v["J_x"], v["J_x"], v["J_z"]), M=v["M"], m=v["m"],
-                                  radius=v["radius"], n=int(v["n"]), g=v["g"])
-    doc["stability"] = {"impacts_every": int(v["n"])}
-    return doc
+    rotation) or ``bounce`` (the reference-[5] carrier on the table's n-orbit); the
+    parameters and their checks are in :mod:`derive.stability.families`."""
+    from .families import family
+    fam = family(name)
+    return fam.scene(fam.values(settings))
 
 
 def analyse(scene, progress: bool = False) -> dict:

@@ -15,7 +15,7 @@ import numpy as np
 
 from .. import parallel
 from ..progress import Bar
-from .families import FamilyError, family, is_valid, member
+from .families import FamilyError, family, member
 from .floquet import UNIT_TOL
 
 MAX_POINTS = 250_000
@@ -43,7 +43,7 @@ def parse_axis(text: str, family_name: str, where: str) -> Axis:
     name = name.strip()
     if not sep:
         raise FamilyError(where, f"must be name=lo:hi:n, e.g. a=0:0.5:41 (got {text!r})")
-    if name not in fam.defaults:
+    if name not in fam.parameters:
         raise FamilyError(where, f"{name!r} is not a parameter of family {fam.name} "
                                  f"(parameters: {', '.join(fam.parameters)})")
     parts = rng.split(":")
@@ -90,24 +90,30 @@ class Sweep:
     tol: float = 0.0
     meta: dict = field(default_factory=dict)
 
+    def values_of(self, name: str) -> np.ndarray:
+        return self.x.values if self.x.name == name else self.y.values
+
 
 def _row(task: tuple) -> np.ndarray:
-    """One row of the grid (runs in a worker): an (nx, 3) array."""
+    """One row of the grid (runs in a worker): an (nx, 3) array (NaN where no body or no
+    orbit has the parameters)."""
     name, rtol, j, points = task
     fam = family(name)
     mb = member(name, rtol)
     out = np.full((len(points), 3), np.nan)
-    for i, values in enumerate(points):
-        if is_valid(fam, values):
-            out[i] = mb.point(values)
+    for i, given in enumerate(points):
+        try:
+            values = fam.values(given)
+        except FamilyError:
+            continue
+        out[i] = mb.point(values)
     return out
 
 
 def tasks(name: str, x: Axis, y: Axis, fixed: dict, rtol: float):
-    fam = family(name)
-    base = fam.values(fixed)
+    """One task per row: the parameters each point gives (the rest are defaults)."""
     return [(name, rtol, j,
-             [{**base, x.name: float(xv), y.name: float(yv)} for xv in x.values])
+             [{**fixed, x.name: float(xv), y.name: float(yv)} for xv in x.values])
             for j, yv in enumerate(y.values)]
 
 
