@@ -1,0 +1,152 @@
+"""The point law at run time: the C interpreter, NumPy and SymPy agree on random laws of
+the grammar; the interval proof finds singular points from the expression; tabulated
+laws are SciPy's cubic splines."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+import sympy as sp
+
+from derive.runtime.driver import Session, prepare
+from derive.runtime.law import compile_law, find_singularity, parse_law
+from derive.runtime.scene import SceneError, builtin_doc, parse_scene
+
+
+def _random_expr(rng, depth: int) -> str:
+    """A random law of the grammar that is smooth for t in [0, 2] (denominators,
+    log/sqrt arguments and asin/acos arguments kept away from their singular values)."""
+    if depth == 0 or rng.random() < 0.25:
+        return rng.choice(["t", f"{rng.uniform(-2, 2):.4g}", "pi", f"{rng.uniform(0.5, 3):.3g}*t"])
+    a = _random_expr(rng, depth - 1)
+    b = _random_expr(rng, depth - 1)
+    k = rng.integers(0, 12)
+    return [f"({a}) + ({b})", f"({a}) - ({b})", f"({a})*({b})",
+            f"({a})/(2 + sin({b}))", f"sin({a})", f"cos({a})", f"exp(0.3*sin({a}))",
+            f"log(3 + cos({a}))", f"sqrt(2 + sin({a}))", f"atan({a})", f"tanh({a})",
+            f"({a})^2"][k]
+
+
+def _session(law_texts):
+    doc = builtin_doc()
+    doc.pop("plane")
+    doc["point"]["law"] = list(law_texts)
+    doc["point"]["max_distance"] = 1e6
+    doc["run"]["duration"] = 2.0
+    prep = prepare(doc)
+    s = Session(prep.library)
+    s.set_law(prep.scene.law)
+    s.init(prep.options, prep.parameters, 0.0, prep.start.q0)
+    return prep, s
+
+
+def test_interpreter_numpy_and_sympy_agree_on_random_laws():
+    rng = np.random.default_rng(7)
+    ts = np.linspace(0.0, 2.0, 11)
+    t = sp.Symbol("t", real=True)
+    checked = 0
+    for _ in range(60):
+        texts = [_random_expr(rng, 4) for _ in range(3)]
+        try:
+            prep, s = _session(texts)
+        except SceneError:
+            continue                       # e.g. P beyond max_distance: not this test
+        program = prep.scene.law
+        c = s.law_rows(ts)                 # (N, 9): x, y, z, x', y', z', x'', y'', z''
+        npj = program.jets(ts)             # (9, N): x, x', x'', y, ...
+        exprs = program.sympy()
+        for k in range(3):
+            f = [sp.lambdify(t, sp.diff(exprs[k], t, d), "math") for d in range(3)]
+            for d in range(3):
+                ref = np.array([float(f[d](tv)) for tv in ts])
+                scale = 1.0 + np.max(np.abs(ref))
+                assert np.max(np.abs(c[:, 3 * d + k] - ref)) < 1e-11 * scale, texts[k]
+                assert np.max(np.abs(npj[3 * k + d] - ref)) < 1e-11 * scale, texts[k]
+        checked += 1
+    assert checked >= 40
+
+
+@pytest.mark.parametrize("text,t_sing", [
+    ("0.001/(t - 1)", 1.0), ("0.001*tan(t)", math.pi / 2), ("sqrt((t - 0.3)^2)", 0.3),
+    ("log(1.5 - t)", 1.5), ("0.01*asin(0.5*t)", 2.0), ("(t - 2.5)^-2", 2.5),
+    ("0.1*(0.7 - t)^1.5", 0.7), ("1/(sin(t)*cos(t) + 2) + 1/(t^2 - 2)", math.sqrt(2)),
+])
+def test_singular_points_are_found_from_the_expression(text, t_sing):
+    sing = find_singularity(parse_law(text), 0.0, 3.0)
+    assert sing is not None and sing.coordinate == 0
+    assert abs(sing.t - t_sing) < 1e-9
+
+
+@pytest.mark.parametrize("text", ["1/(1 + t^2)", "sqrt(2 + sin(t))", "log(2 + cos(3*t))",
+                                  "0.1*tan(0.4*t)", "asin(0.5*sin(t))", "t^3 - 2*t",
+                                  "exp(-t)*cos(5*t)", "2^t"])
+def test_smooth_laws_are_proved_smooth(text):
+    assert find_singularity(parse_law(text), 0.0, 3.0) is None
+
+
+def test_a_pole_between_samples_is_refused_naming_the_coordinate():
+    doc = builtin_doc()
+    doc["point"]["law"] = ["0.2*sin(3*t)", "0.001/(t - 1.0000001)", "0"]
+    with pytest.raises(SceneError) as info:
+        parse_scene(doc)
+    assert info.value.where == "[point].law[1]"
+    assert "not twice differentiable" in info.value.rule and "1.0000001" in info.value.rule
+
+
+def test_constant_subexpressions_and_sharing():
+    p = compile_law(("2*sin(3*t) + sin(3*t)", "sin(3*t)", "pi^2"))
+    assert sum(op == "sin" for op in p.ops) == 1           # shared
+    assert p.is_constant(2) and p.constant(2) == pytest.approx(math.pi ** 2)
+    assert compile_law(("t - t", "0", "0")).is_zero(0)
+
+
+def _table_doc(rows, ends, duration=1.0):
+    doc = builtin_doc()
+    doc["point"] = {"mass": 0.2, "samples": [list(map(float, r)) for r in rows],
+                    "ends": ends}
+    doc["run"]["duration"] = duration
+    return doc
+
+
+def test_tabulated_law_is_scipys_cubic_spline():
+    from scipy.interpolate import CubicSpline
+    ts = np.linspace(0.0, 2.0, 21)
+    xyz = np.column_stack([0.1 * np.sin(2 * ts), 0.05 * ts, 0.02 * np.cos(ts)])
+    prep = prepare(_table_doc(np.column_stack([ts, xyz]), "free", 2.0))
+    s = Session(prep.library)
+    s.set_law(prep.scene.law)
+    s.init(prep.options, prep.parameters, 0.0, prep.start.q0)
+    tq = np.linspace(0.0, 2.0, 97)
+    got = s.law_rows(tq)
+    cs = CubicSpline(ts, xyz, bc_type="not-a-knot")
+    for d in range(3):
+        ref = cs(tq, d)
+        assert np.max(np.abs(got[:, 3 * d:3 * d + 3] - ref)) < 1e-12
+        assert np.max(np.abs(prep.scene.law.jets(tq)[[d, 3 + d, 6 + d]].T - ref)) < 1e-12
+
+
+def test_periodic_table_wraps_and_matches_its_formula():
+    """A periodic table sampled from 0.2 sin(3t) finely reproduces the formula law's
+    run (to the spline's accuracy), also after several periods."""
+    period = 2 * math.pi / 3
+    ts = np.linspace(0.0, period, 801)
+    rows = np.column_stack([ts, 0.2 * np.sin(3 * ts), np.full_like(ts, 0.1),
+                            0.05 * np.cos(3 * ts)])
+    rows[-1, 1:] = rows[0, 1:]
+    table = _table_doc(rows, "periodic", 4.0)
+    formula = builtin_doc()
+    formula["point"]["law"] = ["0.2*sin(3*t)", "0.1", "0.05*cos(3*t)"]
+    formula["run"]["duration"] = 4.0
+    from derive.runtime.driver import simulate
+    a, b = simulate(table), simulate(formula)
+    assert a.status == b.status == "done" and len(a.impacts) == len(b.impacts)
+    assert np.max(np.abs(a.impacts[:, 0] - b.impacts[:, 0])) < 1e-7
+    assert np.max(np.abs(a.q[-1] - b.q[-1])) < 1e-6
+
+
+def test_a_run_beyond_a_free_table_is_refused():
+    ts = np.linspace(0.0, 1.0, 11)
+    doc = _table_doc(np.column_stack([ts, 0 * ts, 0 * ts, 0 * ts]), "free", 2.0)
+    with pytest.raises(SceneError, match=r"\[point\]\.table|\[point\]\.samples"):
+        parse_scene(doc)
