@@ -95,8 +95,11 @@ def test_a_pole_between_samples_is_refused_naming_the_coordinate():
 
 
 def test_constant_subexpressions_and_sharing():
-    p = compile_law(("2*sin(3*t) + sin(3*t)", "sin(3*t)", "pi^2"))
-    assert sum(op == "sin" for op in p.ops) == 1           # shared
+    p = compile_law(("2*exp(3*t) + exp(3*t)", "exp(3*t)", "pi^2"))
+    assert sum(op == "exp" for op in p.ops) == 1           # shared
+    # a harmonic A sin(w t + p) is one node of the interpreter
+    h = compile_law(("0.2*sin(3*t + 0.5)", "-0.1*cos(t/2 - 1)", "0"))
+    assert [op for op in h.ops if op not in ("const",)] == ["hsin", "hcos"]
     assert p.is_constant(2) and p.constant(2) == pytest.approx(math.pi ** 2)
     assert compile_law(("t - t", "0", "0")).is_zero(0)
 

@@ -56,6 +56,14 @@ def straight_line_c(program) -> str:
         if op == "t":
             lines.append(f"{decl}{v(i, 0)} = t[k], {v(i, 1)} = 1.0, {v(i, 2)} = 0.0;")
             continue
+        if op in ("hsin", "hcos"):
+            A, w, ph = (_c(c) for c in consts[a[i]:a[i] + 3])
+            f, g, sg = ("sin", "cos", "") if op == "hsin" else ("cos", "sin", "-")
+            lines.append(f"{decl}th{i} = {w} * t[k] + {ph}, s{i} = {f}(th{i}), "
+                         f"c{i} = {g}(th{i});")
+            lines.append(f"{decl}{v(i, 0)} = {A} * s{i}, {v(i, 1)} = {sg}({A} * {w}) * c{i}, "
+                         f"{v(i, 2)} = -({A} * {w} * {w}) * s{i};")
+            continue
         x = [v(a[i], d) for d in range(3)]
         if op in ("add", "sub"):
             y = [v(b[i], d) for d in range(3)]

@@ -136,6 +136,8 @@ OPCODES = _names(
     ("pow", "a ** b = exp(b log a), a > 0"),
     ("sin", ""), ("cos", ""), ("tan", ""), ("exp", ""), ("log", ""), ("sqrt", ""),
     ("sinh", ""), ("cosh", ""), ("tanh", ""), ("asin", ""), ("acos", ""), ("atan", ""),
+    ("hsin", "a harmonic A sin(w t + p), (A, w, p) = consts[a], consts[a+1], consts[a+2]"),
+    ("hcos", "a harmonic A cos(w t + p), (A, w, p) = consts[a], consts[a+1], consts[a+2]"),
 )
 
 LAW_MAX_NODES = 1024      # nodes of one law (three coordinates): the C jet workspace

@@ -108,6 +108,8 @@ class Program:
                     val[k] = (np.full(n, self.consts[a]), zero, zero)
                 elif op == "t":
                     val[k] = (ts, np.ones(n), zero)
+                elif op in ("hsin", "hcos"):
+                    val[k] = _harmonic(op, *self.consts[a:a + 3], np.sin, np.cos, ts)
                 else:
                     val[k] = _jet_numpy(op, val, a, b, self.consts)
         out = []
@@ -125,6 +127,8 @@ class Program:
                 val[k] = (self.consts[a], 0.0, 0.0)
             elif op == "t":
                 val[k] = (float(t), 1.0, 0.0)
+            elif op in ("hsin", "hcos"):
+                val[k] = _harmonic(op, *self.consts[a:a + 3], math.sin, math.cos, float(t))
             else:
                 val[k] = _jet_scalar(op, val, a, b, self.consts)
         out = np.empty(9)
@@ -169,7 +173,7 @@ def _reachable(p: Program, root: int) -> set:
             continue
         seen.add(k)
         op = p.ops[k]
-        if op in ("const", "t"):
+        if op in ("const", "t", "hsin", "hcos"):
             continue
         stack.append(p.a[k])
         if op in ("add", "sub", "mul", "div", "pow"):
@@ -185,6 +189,8 @@ class _Builder:
         self.consts: list = []
         self.index: dict = {}
         self.const_index: dict = {}
+        self.affine: dict = {}         # node -> (w, p): the node is w t + p
+        self.harmonic: dict = {}       # node -> (op, A, w, p): A sin|cos(w t + p)
 
     def _node(self, op, a, b, value=None) -> int:
         key = (op, a, b)
@@ -212,7 +218,52 @@ class _Builder:
         return self._node("const", self._cidx(v), 0, v)
 
     def t(self) -> int:
-        return self._node("t", 0, 0)
+        k = self._node("t", 0, 0)
+        self.affine[k] = (1.0, 0.0)
+        return k
+
+    def _harmonic(self, op: str, A: float, w: float, p: float) -> int:
+        """A harmonic as one node (the interpreter's superinstruction): A sin(w t + p) and
+        its two derivatives from one sine and cosine, instead of four nodes."""
+        if A == 0.0:
+            return self.const(0.0)
+        k = self._node(op, float(A).hex(), (float(w).hex(), float(p).hex()))
+        self.harmonic[k] = (op, float(A), float(w), float(p))
+        return k
+
+    def _fused(self, op: str, a: int, b: int) -> int | None:
+        """Harmonics and affine arguments recognised while building: c*(w t + p),
+        (w t + p) + c, c*A sin(...), -A sin(...)."""
+        va, vb = self.value[a], self.value[b]
+        if op == "mul":
+            c, x = (va, b) if va is not None else (vb, a) if vb is not None else (None, None)
+            if c is None:
+                return None
+            if x in self.harmonic:
+                h, A, w, p = self.harmonic[x]
+                return self._harmonic(h, c * A, w, p)
+            if x in self.affine:
+                w, p = self.affine[x]
+                k = self._node("mul", *sorted((a, b)))
+                self.affine[k] = (c * w, c * p)
+                return k
+        elif op == "div" and vb is not None and a in self.affine:
+            w, p = self.affine[a]
+            k = self._node("div", a, b)
+            self.affine[k] = (w / vb, p / vb)
+            return k
+        elif op in ("add", "sub"):
+            if a in self.affine and vb is not None:
+                w, p = self.affine[a]
+                k = self._node(op, a, b)
+                self.affine[k] = (w, p + vb if op == "add" else p - vb)
+                return k
+            if b in self.affine and va is not None:
+                w, p = self.affine[b]
+                k = self._node(op, *((a, b) if op == "sub" else sorted((a, b))))
+                self.affine[k] = (w, va + p) if op == "add" else (-w, va - p)
+                return k
+        return None
 
     def is_const(self, k: int, v: float | None = None) -> bool:
         x = self.value[k]
@@ -253,6 +304,9 @@ class _Builder:
                 raise LawError(f"divides by zero in {text()}")
             if self.is_const(b, 1.0):
                 return a
+        fused = self._fused(op, a, b)
+        if fused is not None:
+            return fused
         if op in ("add", "mul") and b < a:
             a, b = b, a                       # commutative: one canonical order
         return self._node(op, a, b)
@@ -263,6 +317,9 @@ class _Builder:
         op, x, _ = self.nodes[a]
         if op == "neg":
             return x
+        if a in self.harmonic:
+            h, A, w, p = self.harmonic[a]
+            return self._harmonic(h, -A, w, p)
         return self._node("neg", a, 0)
 
     def call(self, name: str, a: int, text) -> int:
@@ -273,6 +330,9 @@ class _Builder:
             except (ValueError, OverflowError):
                 raise LawError(f"{text()} is not a finite real number") from None
             return self.const(r, text())
+        if name in ("sin", "cos") and a in self.affine:
+            w, p = self.affine[a]
+            return self._harmonic("hsin" if name == "sin" else "hcos", 1.0, w, p)
         return self._node(name, a, 0)
 
     def power(self, a: int, b: int, text) -> int:
@@ -305,7 +365,7 @@ class _Builder:
                 continue
             used.add(k)
             op, a, b = self.nodes[k]
-            if op in ("const", "t"):
+            if op in ("const", "t", "hsin", "hcos"):
                 continue
             stack.append(a)
             if op in ("add", "sub", "mul", "div", "pow"):
@@ -330,6 +390,9 @@ class _Builder:
                 aa.append(0); bb.append(0)
             elif op in ("powi", "powr"):
                 aa.append(new[a]); bb.append(cref(b))
+            elif op in ("hsin", "hcos"):
+                aa.append(len(consts)); bb.append(0)
+                consts.extend(self.harmonic[k][1:])          # A, w, p consecutive
             elif op in ("add", "sub", "mul", "div", "pow"):
                 aa.append(new[a]); bb.append(new[b])
             else:
@@ -515,6 +578,15 @@ def parse_law(text: str) -> Program:
 
 
 # ---- NumPy jets ---------------------------------------------------------------------------
+def _harmonic(op, A, w, p, sin, cos, t):
+    """A sin(w t + p) (hsin) or A cos(w t + p) (hcos) and its two derivatives."""
+    th = w * t + p
+    sv, cv = sin(th), cos(th)
+    if op == "hsin":
+        return A * sv, (A * w) * cv, -(A * w * w) * sv
+    return A * cv, -(A * w) * sv, -(A * w * w) * cv
+
+
 def _jet_numpy(op, val, a, b, consts):
     x, dx, ddx = val[a]
     if op in ("add", "sub", "mul", "div", "pow"):
@@ -650,6 +722,9 @@ def _text(p: Program, k: int, depth: int = 0) -> str:
         return f"{p.consts[a]:.15g}"
     if op == "t":
         return "t"
+    if op in ("hsin", "hcos"):
+        A, w, ph = p.consts[a:a + 3]
+        return f"{A:.15g}*{op[1:]}({w:.15g}*t + {ph:.15g})"
     if op in _INFIX:
         return f"({_text(p, a, depth + 1)}{_INFIX[op]}{_text(p, b, depth + 1)})"
     if op == "neg":
@@ -676,6 +751,9 @@ def _to_sympy(p: Program) -> tuple:
                 v = sp.pi
         elif op == "t":
             v = nt.t
+        elif op in ("hsin", "hcos"):
+            A, w, ph = (sp.Float(repr(c), 17) for c in p.consts[a:a + 3])
+            v = A * (sp.sin if op == "hsin" else sp.cos)(w * nt.t + ph)
         elif op == "add":
             v = val[a] + val[b]
         elif op == "sub":
@@ -818,7 +896,7 @@ def find_singularity(p: Program, t0: float, t1: float) -> Singularity | None:
     (or 1e-300) that still may be singular is reported."""
     ops = p.ops
     if all(op in ("const", "t", "add", "sub", "mul", "neg", "sin", "cos", "exp", "sinh",
-                  "cosh", "tanh", "atan") or (op == "powi" and p.consts[p.b[k]] > 0)
+                  "cosh", "tanh", "atan", "hsin", "hcos") or (op == "powi" and p.consts[p.b[k]] > 0)
            for k, op in enumerate(ops)):
         return None                         # entire functions only: nothing to prove
     width_min = max(1e-12 * (t1 - t0), 1e-12 * max(abs(t0), abs(t1)), 1e-300)
@@ -837,6 +915,10 @@ def find_singularity(p: Program, t0: float, t1: float) -> Singularity | None:
                     continue
                 if op == "t":
                     lo[k], hi[k] = lo_t, hi_t
+                    continue
+                if op in ("hsin", "hcos"):                 # bounded, entire
+                    amp = abs(p.consts[p.a[k]])
+                    lo[k], hi[k] = np.full(n, -amp), np.full(n, amp)
                     continue
                 lo[k], hi[k], flag = _interval(op, lo, hi, p.a[k], p.b[k], p.consts)
                 new = flag & ~bad

@@ -153,7 +153,9 @@ enum crt_opcode {
   CRT_OP_ASIN = 19,
   CRT_OP_ACOS = 20,
   CRT_OP_ATAN = 21,
-  CRT_OP_COUNT = 22
+  CRT_OP_HSIN = 22,  /* a harmonic A sin(w t + p), (A, w, p) = consts[a], consts[a+1], consts[a+2] */
+  CRT_OP_HCOS = 23,  /* a harmonic A cos(w t + p), (A, w, p) = consts[a], consts[a+1], consts[a+2] */
+  CRT_OP_COUNT = 24
 };
 
 #define CRT_LAW_MAX_NODES 1024

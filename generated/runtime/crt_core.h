@@ -657,7 +657,7 @@ const char *crt_summary_name(int i)
 
 const char *crt_opcode_name(int i)
 {
-  static const char names[22][6] = {
+  static const char names[24][6] = {
     "const",
     "t",
     "add",
@@ -679,9 +679,11 @@ const char *crt_opcode_name(int i)
     "tanh",
     "asin",
     "acos",
-    "atan"
+    "atan",
+    "hsin",
+    "hcos"
   };
-  return (i >= 0 && i < 22) ? names[i] : "";
+  return (i >= 0 && i < 24) ? names[i] : "";
 }
 
 int crt_count(int which)
@@ -714,6 +716,10 @@ int crt_set_law_program(crt_session *s, int n_nodes, int n_const, const int *cod
       return CRT_BAD_OPTIONS;
     if (op == CRT_OP_CONST) { if (a < 0 || a >= n_consts) return CRT_BAD_OPTIONS; continue; }
     if (op == CRT_OP_T) continue;
+    if (op == CRT_OP_HSIN || op == CRT_OP_HCOS) {
+      if (a < 0 || a + 2 >= n_consts) return CRT_BAD_OPTIONS;
+      continue;
+    }
     if (a < 0 || a >= k) return CRT_BAD_OPTIONS;
     if ((op == CRT_OP_POWI || op == CRT_OP_POWR) && (b < 0 || b >= n_consts))
       return CRT_BAD_OPTIONS;

@@ -93,6 +93,15 @@ static void crt_law_program(const crt_law *L, crt_law_work *w, double t, double 
     double *r = J[k];
     switch (op) {
       case CRT_OP_T: r[0] = t; r[1] = 1.0; r[2] = 0.0; break;
+      case CRT_OP_HSIN: case CRT_OP_HCOS: {
+        /* A sin|cos(w t + p): one sine and cosine for the value and both derivatives */
+        const double A = L->consts[a], w = L->consts[a + 1];
+        const double th = w * t + L->consts[a + 2], sv = sin(th), cv = cos(th);
+        const double Aw = A * w, Aww = A * w * w;
+        if (op == CRT_OP_HSIN) { r[0] = A * sv; r[1] = Aw * cv; r[2] = -Aww * sv; }
+        else { r[0] = A * cv; r[1] = -Aw * sv; r[2] = -Aww * cv; }
+        break;
+      }
       case CRT_OP_ADD: r[0] = J[a][0] + J[b][0]; r[1] = J[a][1] + J[b][1]; r[2] = J[a][2] + J[b][2]; break;
       case CRT_OP_SUB: r[0] = J[a][0] - J[b][0]; r[1] = J[a][1] - J[b][1]; r[2] = J[a][2] - J[b][2]; break;
       case CRT_OP_NEG: r[0] = -J[a][0]; r[1] = -J[a][1]; r[2] = -J[a][2]; break;
