@@ -13,7 +13,7 @@
  *   model_normalize(q)                       projection keeping the attitude orthonormal
  * and, when MODEL_HAS_PLANE:
  *   model_gap(p, u, q, h, v_n)               height of S and its rate (E1.14)
- *   model_impact(p, u, q, q_plus, I)         impact map (E1.10-E1.16)
+ *   model_impact(p, e, u, q, q_plus, I)      impact map (E1.10-E1.16), restitution e
  *   model_contact(p, u, q, dq, N, a_free)    persistent contact: S held on the plane
  * p: the parameters (crt_parameter), u: the point law at t (crt_law.h).
  *
@@ -388,12 +388,20 @@ static int crt_events_exhausted(crt_session *s)
   return 0;
 }
 
-/* Enter persistent contact at (t, s->q): S put on the plane with v_n = 0. */
+/* Enter persistent contact at (t, s->q): S put on the plane, and its normal velocity
+   v_cut (what the remaining hops would have carried) removed by a plastic impulse at S,
+   -v_cut/k along n (the impact map with e = 0): it acts on omega through d as the
+   remaining impacts would, so the state after the cut differs from the accumulated
+   cascade only at second order. */
 static void crt_enter_contact(crt_session *s, crt_out *o, double t, double v_cut,
                               double t_accumulation)
 {
-  double N, a_free;
-  crt_project(s, t, s->q, 1);
+  double N, a_free, q_plastic[NQ], impulse;
+  int i;
+  crt_project(s, t, s->q, 0);
+  model_impact(s->prm, 0.0, crt_u(s, t), s->q, q_plastic, &impulse);
+  for (i = 0; i < NQ; ++i) s->q[i] = q_plastic[i];
+  crt_project(s, t, s->q, 1);               /* the round-off left in h and v_n */
   s->phase = CRT_CONTACT;
   crt_contact_state(s, t, s->q, &N, &a_free);
   if (N < s->summary[CRT_SUMMARY_MIN_NORMAL]) s->summary[CRT_SUMMARY_MIN_NORMAL] = N;
@@ -419,7 +427,7 @@ static void crt_collide(crt_session *s, crt_out *o, double t, const double *q)
   h_res = crt_height_resolution(s, s->q);
   if (v_n < -crt_speed_noise(s, t, s->q)) {
     double q_plus[NQ], impulse, gap2, v_plus;
-    model_impact(s->prm, crt_u(s, t), s->q, q_plus, &impulse);
+    model_impact(s->prm, s->prm[CRT_P_e], crt_u(s, t), s->q, q_plus, &impulse);
     crt_gap(s, t, q_plus, &gap2, &v_plus);
     crt_event(o, t, CRT_EV_IMPACT, impulse, v_n, v_plus, 0.0);
     ++s->stat[CRT_STAT_IMPACTS];

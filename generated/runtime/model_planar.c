@@ -296,13 +296,13 @@ static void model_gap(const double *p, const double *u, const double *q, double 
   vertical_gap(qv, u, s, p, h, v_n);
 }
 
-static void model_impact(const double *p, const double *u, const double *q, double *q_plus,
-                         double *I)
+static void model_impact(const double *p, double e, const double *u, const double *q,
+                         double *q_plus, double *I)
 {
   double qv[8], qv_plus[8], s[3];
   model_vertical_state(p, u, q, qv);
   model_shape(p, qv + 5, s);
-  vertical_impact(qv, u, s, p, p[CRT_P_e], qv_plus, I);
+  vertical_impact(qv, u, s, p, e, qv_plus, I);
   q_plus[0] = qv_plus[0];
   q_plus[1] = qv_plus[1];
   planar_kappa(qv_plus[4], u, p, q_plus + 2);

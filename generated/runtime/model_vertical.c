@@ -306,12 +306,12 @@ static void model_gap(const double *p, const double *u, const double *q, double 
   vertical_gap(q, u, s, p, h, v_n);
 }
 
-static void model_impact(const double *p, const double *u, const double *q, double *q_plus,
-                         double *I)
+static void model_impact(const double *p, double e, const double *u, const double *q,
+                         double *q_plus, double *I)
 {
   double s[3];
   model_shape(p, q + 5, s);
-  vertical_impact(q, u, s, p, p[CRT_P_e], q_plus, I);
+  vertical_impact(q, u, s, p, e, q_plus, I);
 }
 
 static void model_contact(const double *p, const double *u, const double *q, double *dq,
