@@ -108,3 +108,22 @@ def test_plastic_impact_rests_at_once(method):
     kinds = [e["kind"] for e in res.events]
     assert kinds[:2] == ["impact", "contact"] and res.status == "done"
     assert res.events[0]["t"] == pytest.approx(math.sqrt(2 * 1.0 / 9.81), abs=1e-9)
+
+
+def test_the_state_after_accumulated_impacts_converges_with_the_tolerance():
+    """Entering contact cuts the cascade of ever smaller hops; the cut must not cost more
+    than the tolerance.  An offset sphere (so impacts turn the body, d != 0) against the
+    same scene at 1e-14: the error shrinks in proportion to rtol (it shrank like sqrt(rtol)
+    when the cut hop's velocity was removed from Z_C' alone, without the impulse at S)."""
+    from derive.bench.routes import Runtime, errors
+    doc = builtin_doc()
+    doc["body"]["center"] = [0.05, 0.0, 0.03]
+    doc["point"]["law"] = ["0", "0", "0"]
+    doc["plane"]["restitution"] = 0.5
+    doc["initial"]["omega"] = [0.3, 0.2, 0.5]
+    doc["run"]["duration"] = 3.0
+    ref = Runtime(doc, "dop853", 1e-14).result()
+    assert ref.extra["contacts"] == 1
+    for rtol in (1e-8, 1e-10):
+        err, _ = errors(Runtime(doc, "dop853", rtol).result(), ref)
+        assert err < 30 * rtol, (rtol, err)
