@@ -15,7 +15,8 @@ Each function ``<name>`` also gets ``jac_<name>`` (``generated/c/jac_<name>.c``,
 ``casadi.jacobian`` of the loaded functions, and the optimisers built on it, work.
 
 The header ``carrier.h`` declares all of them; a Makefile, a CMake project (with a
-package config for ``find_package(carrier)``) and a README complete the folder.  Output is deterministic: no timestamps, no absolute paths, sorted inputs.
+package config for ``find_package(carrier)``) and a README complete the folder.  Output
+is deterministic: no timestamps, no absolute paths, sorted inputs.
 """
 from __future__ import annotations
 
