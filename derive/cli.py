@@ -86,21 +86,31 @@ def cmd_prove(args: argparse.Namespace) -> int:
 # ---- emit -------------------------------------------------------------------------
 def cmd_emit(args: argparse.Namespace) -> int:
     import time
+    from pathlib import Path
+    from . import paths
     from .emit import driver
+    if args.output:
+        root = Path(args.output)
+    elif paths.CHECKOUT or args.check:
+        root = paths.GENERATED
+    else:
+        raise UsageError(f"derive emit: the generated code of this installation "
+                         f"({paths.GENERATED}) is not rewritten; render into a folder with "
+                         "-o DIR")
     start = time.perf_counter()
     files = driver.render_all()
     if args.check:
-        delta = driver.diff(files)
+        delta = driver.diff(files, root)
         if delta:
             sys.stdout.write(delta)
-            print("\ngenerated/ differs from a fresh render: run `derive emit`",
+            print(f"\n{root} differs from a fresh render: run `derive emit`",
                   file=sys.stderr)
             return 1
-        print(f"generated/ matches a fresh render ({len(files)} files, "
+        print(f"{root} matches a fresh render ({len(files)} files, "
               f"{time.perf_counter() - start:.1f} s)")
         return 0
-    changed = driver.write(files)
-    print(f"rendered {len(files)} files in {time.perf_counter() - start:.1f} s; "
+    changed = driver.write(files, root)
+    print(f"rendered {len(files)} files into {root} in {time.perf_counter() - start:.1f} s; "
           f"{len(changed)} changed" + (": " + ", ".join(changed) if changed else ""))
     return 0
 
@@ -400,7 +410,10 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("emit", help="render generated/ (CasADi functions, standalone C)")
     p.add_argument("--check", action="store_true",
-                   help="compare generated/ with a fresh render; exit 1 with a diff")
+                   help="compare generated/ (or DIR) with a fresh render; exit 1 with a diff")
+    p.add_argument("-o", "--output", metavar="DIR",
+                   help="render into DIR instead of the checkout's generated/ (the only "
+                        "way from an installed wheel)")
     p.set_defaults(func=cmd_emit)
 
     p = sub.add_parser("simulate", help="simulate a scene (default: the built-in one)")

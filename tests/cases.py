@@ -67,3 +67,36 @@ def rel_err(a, b) -> float:
     """Max-norm error of ``a`` relative to the max-norm of the reference ``b``."""
     a, b = np.asarray(a, float).ravel(), np.asarray(b, float).ravel()
     return float(np.max(np.abs(a - b)) / max(np.max(np.abs(b)), 1e-300))
+
+
+def inputs_for(spec, c, rng):
+    """The inputs of a model function (a spec of derive.models) for the case ``c``."""
+    values = []
+    for vec in spec.inputs:
+        if vec.name == "q":
+            model = spec.name.split("_")[0]
+            values.append({"general": c.q_general, "vertical": c.q_vertical,
+                           "attitude": c.omega}[model])
+        elif vec.name == "u":
+            values.append(c.u)
+        elif vec.name == "p":
+            values.append(c.p)
+        elif vec.name == "s":
+            values.append(c.s)
+        elif vec.name == "e":
+            values.append(np.array([c.e]))
+        elif vec.name == "sdot":
+            values.append(rng.normal(size=3))
+        elif vec.name == "omega":
+            values.append(c.omega)
+        elif vec.name == "n":
+            values.append(c.A[2])
+        elif vec.name == "center":
+            values.append(rng.uniform(-0.5, 0.5, 3))
+        elif vec.name == "radius":
+            values.append(rng.uniform(0.1, 2.0, 1))
+        elif vec.name == "semi_axes":
+            values.append(rng.uniform(0.1, 2.0, 3))
+        else:
+            raise KeyError(vec.name)
+    return values

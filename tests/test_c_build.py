@@ -6,23 +6,34 @@
 * every function, through both signatures and with NULL arguments and results, runs
   clean under AddressSanitizer and UndefinedBehaviorSanitizer;
 * a pure-C control loop (tests/c/control_loop.c) builds against it with the Makefile and
-  keeps |K| constant between impacts.
+  keeps |K| constant between impacts;
+* (issue 15) the header and every source compile as C++17 with -Wall -Wextra -Wpedantic
+  -Werror, and a C++ program (tests/c/embed.cpp: the jac_ functions through the CasADi
+  ABI against the hand-derived flight Jacobian, the impact Jacobian against central
+  differences) builds against the shared library with an rpath, and with CMake through
+  add_subdirectory(generated).
 """
 from __future__ import annotations
 
+import os
 import re
 import shutil
 import subprocess
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import pytest
 
 from derive.emit.render import GENERATED
+from derive.jacobians import jacobian
 from derive.models import all_specs
 
 HERE = Path(__file__).parent
 STRICT = ["-std=c99", "-Wall", "-Wextra", "-Wpedantic", "-Werror"]
+STRICT_CXX = ["-std=c++17", "-Wall", "-Wextra", "-Wpedantic", "-Werror"]
 CC = shutil.which("cc") or shutil.which("gcc")
+CXX = shutil.which("c++") or shutil.which("g++")
+CMAKE = shutil.which("cmake")
 pytestmark = pytest.mark.skipif(CC is None, reason="no C compiler")
 
 
@@ -59,6 +70,21 @@ def test_no_heap_no_globals_only_libm(built):
     assert not writable, f"writable static data: {writable}"
 
 
+def _functions() -> list[tuple]:
+    """(name, plain inputs, plain outputs, ABI inputs, ABI outputs) of every generated
+    function and its jac_: the jac_ takes the nominal outputs too and returns every block
+    (the identically zero ones only through the ABI)."""
+    out = []
+    for spec in all_specs():
+        ins = [(v.name, len(v.entries)) for v in spec.inputs]
+        outs = [(v.name, len(v.entries)) for v in spec.outputs]
+        out.append((spec.name, ins, outs, len(ins), len(outs)))
+        jac = jacobian(spec)
+        jouts = [(v.name, len(v.entries)) for v in jac.spec.outputs]
+        out.append((jac.name, ins, jouts, len(ins) + len(outs), len(jac.blocks)))
+    return out
+
+
 def _harness() -> str:
     """Every function, both signatures, random inputs, NULL inputs and outputs."""
     lines = ['#include <math.h>', '#include <stdio.h>', '#include "carrier.h"', "",
@@ -72,10 +98,7 @@ def _harness() -> str:
              "  for (i = 0; i < n; ++i) { if (!isfinite(x[i])) return 0; }",
              "  return 1;", "}",
              "int main(void) {", "  int bad = 0, it;", "  for (it = 0; it < 2000; ++it) {"]
-    for spec in all_specs():
-        ins = [(v.name, len(v.entries)) for v in spec.inputs]
-        outs = [(v.name, len(v.entries)) for v in spec.outputs]
-        tag = spec.name
+    for tag, ins, outs, n_arg, n_res in _functions():
         lines.append("    {")
         for name, n in ins + outs:
             lines.append(f"      double {name}_{tag}[{n}];")
@@ -88,15 +111,22 @@ def _harness() -> str:
         for name, n in outs:
             lines.append(f"      if (!finite({name}_{tag}, {n})) {{ printf(\"nonfinite "
                          f"{tag}\\n\"); ++bad; }}")
-        # the ABI, with every other input NULL (zeros) and the first output NULL
-        arg = ", ".join("0" if k % 2 else f"{name}_{tag}" for k, (name, _) in enumerate(ins))
-        out_ptrs = ", ".join("0" if k == 0 else f"{name}_{tag}" for k, (name, _) in enumerate(outs))
-        lines.append(f"      {{ const double *arg[{len(ins)}] = {{{arg}}};")
-        lines.append(f"        double *res[{len(outs)}] = {{{out_ptrs}}};")
-        lines.append("        casadi_int n_arg, n_res, n_iw, n_w;")
+        # the ABI, with every other input NULL (zeros) and the first output NULL; a
+        # jac_ gets NULL nominal outputs and writes its blocks into one buffer each
+        arg = ", ".join("0" if k % 2 or k >= len(ins) else f"{ins[k][0]}_{tag}"
+                        for k in range(n_arg))
+        lines.append(f"      {{ const double *arg[{n_arg}] = {{{arg}}};")
+        lines.append(f"        double *res[{n_res}];")
+        lines.append("        double buffer[4096];")
+        lines.append("        casadi_int n_arg, n_res, n_iw, n_w, k, used = 0;")
+        lines.append(f"        for (k = 0; k < {n_res}; ++k) {{")
+        lines.append(f"          const casadi_int *sp = {tag}_sparsity_out(k);")
+        lines.append("          res[k] = k == 0 ? 0 : buffer + used;")
+        lines.append("          used += sp[2] == 1 ? sp[0] * sp[1] : sp[2 + sp[1]];")
+        lines.append("        }")
         lines.append(f"        if ({tag}_work(&n_arg, &n_res, &n_iw, &n_w) || n_arg != "
-                     f"{len(ins)} || n_res != {len(outs)}) ++bad;")
-        lines.append(f"        if ({tag}(arg, res, 0, 0, 0)) ++bad; }}")
+                     f"{n_arg} || n_res != {n_res} || {tag}_n_in() != {n_arg}) ++bad;")
+        lines.append(f"        if (used > 4096 || {tag}(arg, res, 0, 0, 0)) ++bad; }}")
         lines.append("    }")
     lines += ["  }", '  printf("bad %d\\n", bad);', "  return bad != 0;", "}"]
     return "\n".join(lines) + "\n"
@@ -106,12 +136,23 @@ def test_sanitizers_clean(tmp_path):
     src = tmp_path / "harness.c"
     src.write_text(_harness())
     exe = tmp_path / "harness"
-    cmd = [CC, *STRICT, "-O1", "-g", "-fsanitize=address,undefined",
-           "-fno-sanitize-recover=all", "-fno-omit-frame-pointer", "-I", str(GENERATED / "c"),
-           str(src), *sorted(str(p) for p in (GENERATED / "c").glob("*.c")), "-o", str(exe),
-           "-lm"]
-    proc = subprocess.run(cmd, capture_output=True, text=True)
-    assert proc.returncode == 0, proc.stderr
+    flags = [*STRICT, "-O1", "-g", "-fsanitize=address,undefined", "-fno-sanitize-recover=all",
+             "-fno-omit-frame-pointer", "-I", str(GENERATED / "c")]
+    sources = [src, *sorted((GENERATED / "c").glob("*.c"))]
+
+    def compile_one(path):     # one object per source, two at a time
+        obj = tmp_path / (path.stem + ".o")
+        proc = subprocess.run([CC, *flags, "-c", str(path), "-o", str(obj)],
+                              capture_output=True, text=True)
+        return obj, proc
+
+    with ThreadPoolExecutor(max_workers=2) as pool:
+        compiled = list(pool.map(compile_one, sources))
+    for _, proc in compiled:
+        assert proc.returncode == 0, proc.stderr
+    link = subprocess.run([CC, *flags, *[str(obj) for obj, _ in compiled], "-o", str(exe),
+                           "-lm"], capture_output=True, text=True)
+    assert link.returncode == 0, link.stderr
     run = subprocess.run([str(exe)], capture_output=True, text=True, timeout=300)
     assert run.returncode == 0, run.stdout + run.stderr
     assert "runtime error" not in run.stderr and "AddressSanitizer" not in run.stderr
@@ -127,3 +168,47 @@ def test_pure_c_control_loop(built, tmp_path):
     run = subprocess.run([str(exe)], capture_output=True, text=True, timeout=120)
     print(run.stdout)
     assert run.returncode == 0, run.stdout
+
+
+@pytest.mark.skipif(CXX is None, reason="no C++ compiler")
+def test_header_and_sources_compile_as_cpp17(tmp_path):
+    """carrier.h (restrict behind CARRIER_RESTRICT) and all sources, one C++ unit."""
+    unit = tmp_path / "all.cpp"
+    unit.write_text("".join(f'#include "{p.name}"\n'
+                            for p in sorted((GENERATED / "c").glob("*.c"))))
+    proc = subprocess.run([CXX, *STRICT_CXX, "-fsyntax-only", "-I", str(GENERATED / "c"),
+                           str(unit)], capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr[-4000:]
+
+
+@pytest.mark.skipif(CXX is None, reason="no C++ compiler")
+def test_cpp_program_against_the_shared_library(built, tmp_path):
+    """tests/c/embed.cpp linked to libcarrier.so with an rpath (the embedding guide's
+    recipe): it runs without LD_LIBRARY_PATH."""
+    exe = tmp_path / "embed"
+    cmd = [CXX, *STRICT_CXX, "-O2", "-I", str(GENERATED / "c"), str(HERE / "c" / "embed.cpp"),
+           f"-L{built}", "-lcarrier", "-lm", f"-Wl,-rpath,{built}", "-o", str(exe)]
+    proc = subprocess.run(cmd, capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr[-4000:]
+    env = {k: v for k, v in os.environ.items() if k != "LD_LIBRARY_PATH"}
+    run = subprocess.run([str(exe)], capture_output=True, text=True, timeout=120, env=env)
+    print(run.stdout)
+    assert run.returncode == 0, run.stdout + run.stderr
+
+
+@pytest.mark.skipif(CMAKE is None or CXX is None, reason="no cmake or no C++ compiler")
+def test_cmake_add_subdirectory(tmp_path):
+    """tests/c/CMakeLists.txt builds embed.cpp with add_subdirectory(generated) and the
+    target carrier::carrier (static)."""
+    build = tmp_path / "build"
+    configure = subprocess.run(
+        [CMAKE, "-S", str(HERE / "c"), "-B", str(build), f"-DCARRIER_SOURCE_DIR={GENERATED}",
+         "-DCMAKE_BUILD_TYPE=Release", "-DCMAKE_C_FLAGS=-Werror"],
+        capture_output=True, text=True)
+    assert configure.returncode == 0, configure.stdout[-3000:] + configure.stderr[-3000:]
+    make = subprocess.run([CMAKE, "--build", str(build), "--parallel", "2"],
+                          capture_output=True, text=True)
+    assert make.returncode == 0, make.stdout[-3000:] + make.stderr[-3000:]
+    run = subprocess.run([str(build / "embed")], capture_output=True, text=True, timeout=120)
+    print(run.stdout)
+    assert run.returncode == 0, run.stdout + run.stderr

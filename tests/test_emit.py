@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 import sympy as sp
 
-from cases import cases, rel_err
+from cases import cases, inputs_for, rel_err
 from derive.clib import generated_library, load_generated
 from derive.emit.numpy_backend import compile_spec
 from derive.emit.render import GENERATED
@@ -21,38 +21,6 @@ from derive.models import all_specs, flight_rhs, gap, impact
 N_STATES = 200
 TOL = 1e-13
 SPECS = all_specs()
-
-
-def inputs_for(spec, c, rng):
-    values = []
-    for vec in spec.inputs:
-        if vec.name == "q":
-            model = spec.name.split("_")[0]
-            values.append({"general": c.q_general, "vertical": c.q_vertical,
-                           "attitude": c.omega}[model])
-        elif vec.name == "u":
-            values.append(c.u)
-        elif vec.name == "p":
-            values.append(c.p)
-        elif vec.name == "s":
-            values.append(c.s)
-        elif vec.name == "e":
-            values.append(np.array([c.e]))
-        elif vec.name == "sdot":
-            values.append(rng.normal(size=3))
-        elif vec.name == "omega":
-            values.append(c.omega)
-        elif vec.name == "n":
-            values.append(c.A[2])
-        elif vec.name == "center":
-            values.append(rng.uniform(-0.5, 0.5, 3))
-        elif vec.name == "radius":
-            values.append(rng.uniform(0.1, 2.0, 1))
-        elif vec.name == "semi_axes":
-            values.append(rng.uniform(0.1, 2.0, 3))
-        else:
-            raise KeyError(vec.name)
-    return values
 
 
 @pytest.fixture(scope="module")

@@ -3,22 +3,30 @@
 Each function gets a file ``generated/c/<name>.c`` holding
 
 * ``carrier_<name>(...)``: the plain convenience signature (inputs ``const double *``,
-  scalar inputs by value, outputs ``double *restrict``);
+  scalar inputs by value, outputs ``double *CARRIER_RESTRICT``: ``restrict`` in C99,
+  the compiler's spelling in C++);
 * ``<name>(arg, res, iw, w, mem)`` and ``<name>_work``, ``_n_in``, ``_n_out``,
   ``_sparsity_in/out``, ``_name_in/out``, ``_checkout``, ``_release``, ``_incref``,
   ``_decref``: CasADi's external-function ABI, so that ``casadi.external(name, lib)``
   loads a compiled library of them.
 
-The header ``carrier.h`` declares all of them; a Makefile and a README complete the
-folder.  Output is deterministic: no timestamps, no absolute paths, sorted inputs.
+Each function ``<name>`` also gets ``jac_<name>`` (``generated/c/jac_<name>.c``, from
+:mod:`derive.jacobians`): its Jacobian blocks in CasADi's ``jac_`` convention, so that
+``casadi.jacobian`` of the loaded functions, and the optimisers built on it, work.
+
+The header ``carrier.h`` declares all of them; a Makefile, a CMake project (with a
+package config for ``find_package(carrier)``) and a README complete the folder.  Output
+is deterministic: no timestamps, no absolute paths, sorted inputs.
 """
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 from pathlib import Path
 
 import sympy as sp
 
+from ..jacobians import JacobianSpec, jacobian
 from ..models import FunctionSpec
 from .c_printer import c_expression
 from .program import Program, build
@@ -92,38 +100,114 @@ def body(spec: FunctionSpec, program: Program | None = None, params: tuple = ())
             "ops": program.ops, "n_steps": len(program.steps), "unused": unused}
 
 
-def function_context(spec: FunctionSpec, program: Program | None = None) -> dict:
+def _sparsity_text(values: tuple, indent: int = 6, width: int = 92) -> str:
+    """``a, b, c`` wrapped into lines of at most ``width`` columns."""
+    lines, line = [], ""
+    for text in (str(v) for v in values):
+        piece = text if not line else line + ", " + text
+        if len(piece) + indent > width and line:
+            lines.append(line + ",")
+            line = text
+        else:
+            line = piece
+    lines.append(line)
+    return ("\n" + " " * indent).join(lines)
+
+
+def _abi(name: str, sparsity: tuple, size: int, index: int, plain) -> dict:
+    return {"name": name, "sparsity": sparsity, "sparsity_text": _sparsity_text(sparsity),
+            "size": size, "index": index, "plain": plain}
+
+
+def function_context(spec: FunctionSpec, program: Program | None = None,
+                     jacobian: JacobianSpec | None = None) -> dict:
+    """What function.c.jinja and the header need.  ``abi_inputs`` / ``abi_outputs``: the
+    CasADi ABI's arguments (for a ``jac_`` function the nominal outputs and the
+    identically zero blocks, which the plain function does not take)."""
+    b = body(spec, program)
+    if jacobian is None:
+        abi_inputs = [_abi(a.name, (a.size, 1, 1), a.size, k, k)
+                      for k, a in enumerate(b["inputs"])]
+        abi_outputs = [_abi(a.name, (a.size, 1, 1), a.size, k, k)
+                       for k, a in enumerate(b["outputs"])]
+        nominal, zero_blocks, of = [], [], None
+    else:
+        n = len(b["inputs"])
+        abi_inputs = [_abi(a.name, (a.size, 1, 1), a.size, k, k)
+                      for k, a in enumerate(b["inputs"])]
+        abi_inputs += [_abi(v.name, (len(v.entries), 1, 0, 0), len(v.entries), n + k, None)
+                       for k, v in enumerate(jacobian.nominal)]
+        plain = {a.name: k for k, a in enumerate(b["outputs"])}
+        abi_outputs = [_abi(blk.name, blk.sparsity(), blk.nnz, k, plain.get(blk.name))
+                       for k, blk in enumerate(jacobian.blocks)]
+        # the nonzeros of a block are documented by their block, not one by one
+        shapes = {blk.name: blk for blk in jacobian.blocks}
+        b["outputs"] = [
+            CArg(a.name, a.size, (f"d {shapes[a.name].out}/d {shapes[a.name].inp} "
+                                  f"({shapes[a.name].nrow}x{shapes[a.name].ncol}), "
+                                  "column-compressed nonzeros",))
+            for a in b["outputs"]]
+        nominal = [v.name for v in jacobian.nominal]
+        zero_blocks = [blk.name for blk in jacobian.blocks if blk.name not in plain]
+        of = jacobian.of.name
     return {
         "name": spec.name,
         "prefix": PREFIX,
         "doc": spec.doc,
-        **body(spec, program),
-        "signature": signature(spec),
+        **b,
+        "signature": signature(spec, jacobian),
+        "abi_inputs": abi_inputs,
+        "abi_outputs": abi_outputs,
+        "nominal": nominal,
+        "zero_blocks": zero_blocks,
+        "jacobian_of": of,
     }
 
 
-def signature(spec: FunctionSpec) -> str:
-    ins = ", ".join(f"{v.name}[{len(v.entries)}]" for v in spec.inputs)
-    outs = ", ".join(f"{v.name}[{len(v.entries)}]" for v in spec.outputs)
+def signature(spec: FunctionSpec, jacobian: JacobianSpec | None = None) -> str:
+    """``name(q[18], u[9], e) -> (I[1])``: scalar inputs are passed by value; a ``jac_``
+    function lists its blocks as ``name[nonzeros of rows x columns]``."""
+    ins = ", ".join(v.name if len(v.entries) == 1 else f"{v.name}[{len(v.entries)}]"
+                    for v in spec.inputs)
+    if jacobian is None:
+        outs = ", ".join(f"{v.name}[{len(v.entries)}]" for v in spec.outputs)
+    else:
+        outs = ", ".join(f"{blk.name}[{blk.nnz} of {blk.nrow}x{blk.ncol}]"
+                         for blk in jacobian.blocks if blk.nnz)
     return f"{spec.name}({ins}) -> ({outs})"
 
 
+def _project_version(version: str) -> str:
+    """CMake wants digits and dots: ``0.1.0`` stays, anything else (``absent``) is 0."""
+    return version if re.fullmatch(r"\d+(\.\d+){0,3}", version) else "0"
+
+
 def render_c(specs: list[FunctionSpec], out_dir: Path, model_doc: str) -> dict[str, str]:
-    """Render every file of ``generated/c`` (and the Makefile beside it) as text."""
+    """Render every file of ``generated/c`` (and the Makefile and CMake files beside it)
+    as text: each function of ``specs`` and its ``jac_`` (derive.jacobians)."""
     env = environment()
     tool_versions = versions()
     contexts = [function_context(spec) for spec in specs]
+    jacobians = [jacobian(spec) for spec in specs]
+    jac_contexts = [function_context(j.spec, jacobian=j) for j in jacobians]
     files: dict[str, str] = {}
     tpl = env.get_template("c/function.c.jinja")
-    for ctx in contexts:
+    for ctx in contexts + jac_contexts:
         files[f"c/{ctx['name']}.c"] = tpl.render(
             **ctx, template="templates/c/function.c.jinja", versions=tool_versions)
     files["c/carrier.h"] = env.get_template("c/carrier.h.jinja").render(
-        functions=contexts, prefix=PREFIX, template="templates/c/carrier.h.jinja",
-        versions=tool_versions, model_doc=model_doc)
+        functions=contexts, jacobians=jac_contexts, prefix=PREFIX,
+        template="templates/c/carrier.h.jinja", versions=tool_versions, model_doc=model_doc)
     files["c/README.md"] = env.get_template("c/README.md.jinja").render(
-        functions=contexts, prefix=PREFIX, versions=tool_versions, model_doc=model_doc)
+        functions=contexts, jacobians=jac_contexts, prefix=PREFIX, versions=tool_versions,
+        model_doc=model_doc)
+    sources = sorted(f"c/{ctx['name']}.c" for ctx in contexts + jac_contexts)
     files["Makefile"] = env.get_template("make/Makefile.jinja").render(
-        sources=sorted(f"c/{ctx['name']}.c" for ctx in contexts),
-        template="templates/make/Makefile.jinja", versions=tool_versions)
+        sources=sources, template="templates/make/Makefile.jinja", versions=tool_versions)
+    files["CMakeLists.txt"] = env.get_template("cmake/CMakeLists.txt.jinja").render(
+        sources=sources, template="templates/cmake/CMakeLists.txt.jinja",
+        versions=tool_versions, project_version=_project_version(tool_versions["derive"]))
+    files["cmake/carrierConfig.cmake"] = env.get_template(
+        "cmake/carrierConfig.cmake.jinja").render(
+        template="templates/cmake/carrierConfig.cmake.jinja", versions=tool_versions)
     return files

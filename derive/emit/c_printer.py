@@ -39,6 +39,24 @@ class CPrinter(C99CodePrinter):
     def _print_Integer(self, expr):
         return f"{int(expr)}.0" if abs(int(expr)) < 2**53 else repr(float(expr))
 
+    def _print_Mul(self, expr):
+        # SymPy prints x*y**-2 as "x/" + the denominator y**2, which _print_Pow writes
+        # as the product "y*y": "x/y*y" would divide once and multiply once.  Such
+        # denominators are printed through a placeholder that stands for "(y*y)".
+        subs = {}
+        for k, factor in enumerate(expr.args):
+            if factor.is_Pow and factor.exp.is_Integer and -4 <= factor.exp <= -2:
+                hold = sp.Symbol(f"_denominator{k}")
+                self._names[hold] = f"({self._print(sp.Pow(factor.base, -factor.exp))})"
+                subs[factor] = 1 / hold
+        if not subs:
+            return super()._print_Mul(expr)
+        try:
+            return super()._print_Mul(expr.xreplace(subs))
+        finally:
+            for value in subs.values():
+                self._names.pop(1 / value, None)
+
     def _print_Pow(self, expr):
         base, exp = expr.base, expr.exp
         prec = precedence(expr)

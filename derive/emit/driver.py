@@ -10,7 +10,8 @@ from .casadi_backend import render_casadi
 from .render import GENERATED
 from .runtime_backend import render_runtime
 
-MANAGED = ("c", "casadi", "runtime")      # folders of generated/ owned entirely by emit
+MANAGED = ("c", "casadi", "cmake", "runtime")   # folders of generated/ owned by emit
+MANAGED_FILES = ("CMakeLists.txt", "Makefile")   # and files at its top
 
 
 def render_all() -> dict[str, bytes]:
@@ -29,10 +30,11 @@ def existing(root: Path) -> dict[str, bytes]:
             for path in sorted(base.rglob("*")):
                 if path.is_file():
                     found[path.relative_to(root).as_posix()] = path.read_bytes()
-    makefile = root / "Makefile"
-    if makefile.is_file():
-        found["Makefile"] = makefile.read_bytes()
-    return found
+    for name in MANAGED_FILES:
+        path = root / name
+        if path.is_file():
+            found[name] = path.read_bytes()
+    return dict(sorted(found.items()))
 
 
 def write(files: dict[str, bytes], root: Path = GENERATED) -> list[str]:

@@ -24,12 +24,9 @@ def _identity(_name: str, value):
     return value
 
 
-def ldlt3_solve(A: Sequence, rhs: Sequence[Sequence],
-                assign: Callable[[str, object], object] = _identity) -> list[list]:
-    """``A``: lower triangle as ``(a00, a10, a11, a20, a21, a22)``; ``rhs``: vectors.
-
-    Returns one solution vector per right-hand side.
-    """
+def ldlt3_factor(A: Sequence, assign: Callable[[str, object], object] = _identity) -> tuple:
+    """The factors of ``A`` (lower triangle ``(a00, a10, a11, a20, a21, a22)``):
+    ``(inv_d0, l10, l20, inv_d1, l21, inv_d2)``."""
     a00, a10, a11, a20, a21, a22 = A
     inv_d0 = assign("inv_d0", 1 / a00)
     l10 = assign("l10", a10 * inv_d0)
@@ -40,6 +37,14 @@ def ldlt3_solve(A: Sequence, rhs: Sequence[Sequence],
     l21 = assign("l21", c21 * inv_d1)
     d2 = assign("d2", a22 - l20 * a20 - l21 * c21)
     inv_d2 = assign("inv_d2", 1 / d2)
+    return inv_d0, l10, l20, inv_d1, l21, inv_d2
+
+
+def ldlt3_apply(factors: Sequence, rhs: Sequence[Sequence],
+                assign: Callable[[str, object], object] = _identity) -> list[list]:
+    """Forward, scale and back substitution with the factors of :func:`ldlt3_factor`:
+    one solution vector per right-hand side."""
+    inv_d0, l10, l20, inv_d1, l21, inv_d2 = factors
     solutions = []
     for k, b in enumerate(rhs):
         y0 = b[0]
@@ -50,6 +55,15 @@ def ldlt3_solve(A: Sequence, rhs: Sequence[Sequence],
         x0 = assign(f"x0_{k}", y0 * inv_d0 - l10 * x1 - l20 * x2)
         solutions.append([x0, x1, x2])
     return solutions
+
+
+def ldlt3_solve(A: Sequence, rhs: Sequence[Sequence],
+                assign: Callable[[str, object], object] = _identity) -> list[list]:
+    """``A``: lower triangle as ``(a00, a10, a11, a20, a21, a22)``; ``rhs``: vectors.
+
+    Returns one solution vector per right-hand side.
+    """
+    return ldlt3_apply(ldlt3_factor(A, assign), rhs, assign)
 
 
 def lower_triangle(matrix) -> tuple:

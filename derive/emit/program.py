@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import sympy as sp
 
 from ..models import FunctionSpec
-from .linalg import ldlt3_solve, lower_triangle
+from .linalg import ldlt3_apply, ldlt3_factor, lower_triangle
 
 
 @dataclass(frozen=True)
@@ -101,9 +101,10 @@ def build(spec: FunctionSpec) -> Program:
         n_values = 6 + 3 * len(solve.rhs)
         values = reduced[k:k + n_values]
         k += n_values
-        if any(v.free_symbols & unknowns for v in values):
+        own = {s for vec in solve.unknowns for s in vec}
+        if any(v.free_symbols & own for v in values):
             raise ValueError(f"{spec.name}: a solve's matrix or right-hand side needs "
-                             "the unknown of a solve")
+                             "its own unknown")
         solve_blocks.append((index, solve, values))
     assert k == n_stage1
     out_values = list(reduced[n_stage1:])
@@ -111,6 +112,7 @@ def build(spec: FunctionSpec) -> Program:
     assigned = {s for vec in spec.inputs for s in vec.entries}
     produced = {sym for sym, _ in pending} | unknowns
     steps: list = []
+    factored: dict = {}       # matrix (after CSE) -> its LDL^T factors, computed once
     while pending or solve_blocks:
         progress = False
         for item in list(pending):
@@ -133,10 +135,17 @@ def build(spec: FunctionSpec) -> Program:
                 steps.append((sym, value))
                 return sym
 
-            tri = [assign("a", v) for v in values[:6]]
+            # a solve with the matrix of an earlier one (the derivatives of its
+            # unknowns, derive.jacobians) reuses that one's factors
+            key = tuple(values[:6])
+            factors = factored.get(key)
+            if factors is None:
+                tri = [assign("a", v) for v in values[:6]]
             rhs = [[assign("b", v) for v in values[6 + 3 * j:9 + 3 * j]]
                    for j in range(len(solve.rhs))]
-            solution = ldlt3_solve(tri, rhs, assign)
+            if factors is None:
+                factors = factored[key] = ldlt3_factor(tri, assign)
+            solution = ldlt3_apply(factors, rhs, assign)
             for vec, sol in zip(solve.unknowns, solution):
                 for u, val in zip(vec, sol):
                     steps.append((u, val))

@@ -26,8 +26,8 @@ def versions() -> dict[str, str]:
 def environment() -> jinja2.Environment:
     if not TEMPLATES.is_dir():
         raise FileNotFoundError(
-            f"templates/ not found at {TEMPLATES}: derive renders code from a checkout "
-            "of the project (install it with pip install -e .)")
+            f"templates/ not found at {TEMPLATES}: neither a checkout nor an installation "
+            "with its package data (derive/paths.py)")
     return jinja2.Environment(
         loader=jinja2.FileSystemLoader(str(TEMPLATES)),
         undefined=jinja2.StrictUndefined, trim_blocks=True, lstrip_blocks=True,

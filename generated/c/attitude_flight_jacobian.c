@@ -18,7 +18,7 @@
  * out A         [9]: d(omega_x')/d(omega_x), d(omega_x')/d(omega_y), d(omega_x')/d(omega_z), d(omega_y')/d(omega_x), d(omega_y')/d(omega_y), d(omega_y')/d(omega_z), d(omega_z')/d(omega_x), d(omega_z')/d(omega_y), d(omega_z')/d(omega_z)
  * Outputs must not alias inputs.
  */
-void carrier_attitude_flight_jacobian(const double *q, const double *u, const double *p, double *restrict A)
+void carrier_attitude_flight_jacobian(const double *q, const double *u, const double *p, double *CARRIER_RESTRICT A)
 {
   const double c0 = u[1]*u[1];
   const double c1 = u[2]*u[2];
@@ -140,7 +140,8 @@ const char *attitude_flight_jacobian_name_out(casadi_int i)
   }
 }
 
-/* dense column vectors in CasADi's compact form {rows, columns, 1} */
+/* CasADi's compressed sparsity: {rows, columns, 1} when dense, else
+   {rows, columns, column offsets (columns + 1), row of each nonzero} */
 const casadi_int *attitude_flight_jacobian_sparsity_in(casadi_int i)
 {
   static const casadi_int s0[3] = {3, 1, 1};

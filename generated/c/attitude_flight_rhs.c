@@ -18,7 +18,7 @@
  * out dq        [3]: d(omega_x)/dt, d(omega_y)/dt, d(omega_z)/dt
  * Outputs must not alias inputs.
  */
-void carrier_attitude_flight_rhs(const double *q, const double *u, const double *p, double *restrict dq)
+void carrier_attitude_flight_rhs(const double *q, const double *u, const double *p, double *CARRIER_RESTRICT dq)
 {
   const double c0 = u[1]*u[1];
   const double c1 = u[2]*u[2];
@@ -103,7 +103,8 @@ const char *attitude_flight_rhs_name_out(casadi_int i)
   }
 }
 
-/* dense column vectors in CasADi's compact form {rows, columns, 1} */
+/* CasADi's compressed sparsity: {rows, columns, 1} when dense, else
+   {rows, columns, column offsets (columns + 1), row of each nonzero} */
 const casadi_int *attitude_flight_rhs_sparsity_in(casadi_int i)
 {
   static const casadi_int s0[3] = {3, 1, 1};

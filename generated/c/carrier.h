@@ -17,6 +17,27 @@
  * s = OS = (x*, y*, z*), the lowest point in body axes; restitution e.
  */
 
+/*
+ * C99 and C++: the outputs of the plain functions are restrict-qualified in C (they never
+ * alias an input); C++ has no restrict, so the compiler's extension is used, or nothing.
+ * Define CARRIER_RESTRICT before including this header to choose yourself.
+ */
+#ifndef CARRIER_RESTRICT
+#if defined(__cplusplus)
+#if defined(__GNUC__) || defined(__clang__)
+#define CARRIER_RESTRICT __restrict__
+#elif defined(_MSC_VER)
+#define CARRIER_RESTRICT __restrict
+#else
+#define CARRIER_RESTRICT
+#endif
+#elif defined(__STDC_VERSION__) && __STDC_VERSION__ >= 199901L
+#define CARRIER_RESTRICT restrict
+#else
+#define CARRIER_RESTRICT
+#endif
+#endif
+
 #ifndef casadi_real
 #define casadi_real double
 #endif
@@ -29,7 +50,7 @@ extern "C" {
 #endif
 
 /* general_flight_rhs(q[18], u[9], p[6]) -> (dq[18]): Flight right-hand side of the general model: dq/dt (E1.2, E1.7 times m+M, E1.8). */
-void carrier_general_flight_rhs(const double *q, const double *u, const double *p, double *restrict dq);
+void carrier_general_flight_rhs(const double *q, const double *u, const double *p, double *CARRIER_RESTRICT dq);
 int general_flight_rhs(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
 casadi_int general_flight_rhs_n_in(void);
 casadi_int general_flight_rhs_n_out(void);
@@ -45,7 +66,7 @@ void general_flight_rhs_incref(void);
 void general_flight_rhs_decref(void);
 
 /* vertical_flight_rhs(q[8], u[9], p[6]) -> (dq[8]): Flight right-hand side of the vertical model: dq/dt (E1.2, E1.7 times m+M, E1.8). */
-void carrier_vertical_flight_rhs(const double *q, const double *u, const double *p, double *restrict dq);
+void carrier_vertical_flight_rhs(const double *q, const double *u, const double *p, double *CARRIER_RESTRICT dq);
 int vertical_flight_rhs(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
 casadi_int vertical_flight_rhs_n_in(void);
 casadi_int vertical_flight_rhs_n_out(void);
@@ -61,7 +82,7 @@ void vertical_flight_rhs_incref(void);
 void vertical_flight_rhs_decref(void);
 
 /* attitude_flight_rhs(q[3], u[9], p[6]) -> (dq[3]): Flight right-hand side of the attitude model: dq/dt (E1.2, E1.7 times m+M, E1.8). */
-void carrier_attitude_flight_rhs(const double *q, const double *u, const double *p, double *restrict dq);
+void carrier_attitude_flight_rhs(const double *q, const double *u, const double *p, double *CARRIER_RESTRICT dq);
 int attitude_flight_rhs(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
 casadi_int attitude_flight_rhs_n_in(void);
 casadi_int attitude_flight_rhs_n_out(void);
@@ -77,7 +98,7 @@ void attitude_flight_rhs_incref(void);
 void attitude_flight_rhs_decref(void);
 
 /* general_flight_jacobian(q[18], u[9], p[6]) -> (A[324]): Jacobian of the general flight right-hand side with respect to the state, A[i*n + k] = d(dq_i/dt)/dq_k (E1.2, E1.7, E1.8 differentiated). */
-void carrier_general_flight_jacobian(const double *q, const double *u, const double *p, double *restrict A);
+void carrier_general_flight_jacobian(const double *q, const double *u, const double *p, double *CARRIER_RESTRICT A);
 int general_flight_jacobian(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
 casadi_int general_flight_jacobian_n_in(void);
 casadi_int general_flight_jacobian_n_out(void);
@@ -93,7 +114,7 @@ void general_flight_jacobian_incref(void);
 void general_flight_jacobian_decref(void);
 
 /* vertical_flight_jacobian(q[8], u[9], p[6]) -> (A[64]): Jacobian of the vertical flight right-hand side with respect to the state, A[i*n + k] = d(dq_i/dt)/dq_k (E1.2, E1.7, E1.8 differentiated). */
-void carrier_vertical_flight_jacobian(const double *q, const double *u, const double *p, double *restrict A);
+void carrier_vertical_flight_jacobian(const double *q, const double *u, const double *p, double *CARRIER_RESTRICT A);
 int vertical_flight_jacobian(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
 casadi_int vertical_flight_jacobian_n_in(void);
 casadi_int vertical_flight_jacobian_n_out(void);
@@ -109,7 +130,7 @@ void vertical_flight_jacobian_incref(void);
 void vertical_flight_jacobian_decref(void);
 
 /* attitude_flight_jacobian(q[3], u[9], p[6]) -> (A[9]): Jacobian of the attitude flight right-hand side with respect to the state, A[i*n + k] = d(dq_i/dt)/dq_k (E1.2, E1.7, E1.8 differentiated). */
-void carrier_attitude_flight_jacobian(const double *q, const double *u, const double *p, double *restrict A);
+void carrier_attitude_flight_jacobian(const double *q, const double *u, const double *p, double *CARRIER_RESTRICT A);
 int attitude_flight_jacobian(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
 casadi_int attitude_flight_jacobian_n_in(void);
 casadi_int attitude_flight_jacobian_n_out(void);
@@ -125,7 +146,7 @@ void attitude_flight_jacobian_incref(void);
 void attitude_flight_jacobian_decref(void);
 
 /* general_kinetic_moment(q[18], u[9], p[6]) -> (K[3]): Angular momentum K about C in body axes (E1.6), general model. */
-void carrier_general_kinetic_moment(const double *q, const double *u, const double *p, double *restrict K);
+void carrier_general_kinetic_moment(const double *q, const double *u, const double *p, double *CARRIER_RESTRICT K);
 int general_kinetic_moment(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
 casadi_int general_kinetic_moment_n_in(void);
 casadi_int general_kinetic_moment_n_out(void);
@@ -141,7 +162,7 @@ void general_kinetic_moment_incref(void);
 void general_kinetic_moment_decref(void);
 
 /* vertical_kinetic_moment(q[8], u[9], p[6]) -> (K[3]): Angular momentum K about C in body axes (E1.6), vertical model. */
-void carrier_vertical_kinetic_moment(const double *q, const double *u, const double *p, double *restrict K);
+void carrier_vertical_kinetic_moment(const double *q, const double *u, const double *p, double *CARRIER_RESTRICT K);
 int vertical_kinetic_moment(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
 casadi_int vertical_kinetic_moment_n_in(void);
 casadi_int vertical_kinetic_moment_n_out(void);
@@ -157,7 +178,7 @@ void vertical_kinetic_moment_incref(void);
 void vertical_kinetic_moment_decref(void);
 
 /* attitude_kinetic_moment(q[3], u[9], p[6]) -> (K[3]): Angular momentum K about C in body axes (E1.6), attitude model. */
-void carrier_attitude_kinetic_moment(const double *q, const double *u, const double *p, double *restrict K);
+void carrier_attitude_kinetic_moment(const double *q, const double *u, const double *p, double *CARRIER_RESTRICT K);
 int attitude_kinetic_moment(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
 casadi_int attitude_kinetic_moment_n_in(void);
 casadi_int attitude_kinetic_moment_n_out(void);
@@ -172,8 +193,8 @@ void attitude_kinetic_moment_release(int mem);
 void attitude_kinetic_moment_incref(void);
 void attitude_kinetic_moment_decref(void);
 
-/* general_impact(q[18], u[9], s[3], p[6], e[1]) -> (q_plus[18], I[1]): Impact map of the general model: state just after the impact and the impulse I (E1.11, E1.12, E1.15, E1.16); apply only when v_n < 0. */
-void carrier_general_impact(const double *q, const double *u, const double *s, const double *p, double e, double *restrict q_plus, double *restrict I);
+/* general_impact(q[18], u[9], s[3], p[6], e) -> (q_plus[18], I[1]): Impact map of the general model: state just after the impact and the impulse I (E1.11, E1.12, E1.15, E1.16); apply only when v_n < 0. */
+void carrier_general_impact(const double *q, const double *u, const double *s, const double *p, double e, double *CARRIER_RESTRICT q_plus, double *CARRIER_RESTRICT I);
 int general_impact(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
 casadi_int general_impact_n_in(void);
 casadi_int general_impact_n_out(void);
@@ -188,8 +209,8 @@ void general_impact_release(int mem);
 void general_impact_incref(void);
 void general_impact_decref(void);
 
-/* vertical_impact(q[8], u[9], s[3], p[6], e[1]) -> (q_plus[8], I[1]): Impact map of the vertical model: state just after the impact and the impulse I (E1.11, E1.12, E1.15, E1.16); apply only when v_n < 0. */
-void carrier_vertical_impact(const double *q, const double *u, const double *s, const double *p, double e, double *restrict q_plus, double *restrict I);
+/* vertical_impact(q[8], u[9], s[3], p[6], e) -> (q_plus[8], I[1]): Impact map of the vertical model: state just after the impact and the impulse I (E1.11, E1.12, E1.15, E1.16); apply only when v_n < 0. */
+void carrier_vertical_impact(const double *q, const double *u, const double *s, const double *p, double e, double *CARRIER_RESTRICT q_plus, double *CARRIER_RESTRICT I);
 int vertical_impact(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
 casadi_int vertical_impact_n_in(void);
 casadi_int vertical_impact_n_out(void);
@@ -205,7 +226,7 @@ void vertical_impact_incref(void);
 void vertical_impact_decref(void);
 
 /* general_gap(q[18], u[9], s[3], p[6]) -> (h[1], v_n[1]): Height h of the lowest point S above the plane and its rate v_n (E1.14), general model. */
-void carrier_general_gap(const double *q, const double *u, const double *s, const double *p, double *restrict h, double *restrict v_n);
+void carrier_general_gap(const double *q, const double *u, const double *s, const double *p, double *CARRIER_RESTRICT h, double *CARRIER_RESTRICT v_n);
 int general_gap(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
 casadi_int general_gap_n_in(void);
 casadi_int general_gap_n_out(void);
@@ -221,7 +242,7 @@ void general_gap_incref(void);
 void general_gap_decref(void);
 
 /* vertical_gap(q[8], u[9], s[3], p[6]) -> (h[1], v_n[1]): Height h of the lowest point S above the plane and its rate v_n (E1.14), vertical model. */
-void carrier_vertical_gap(const double *q, const double *u, const double *s, const double *p, double *restrict h, double *restrict v_n);
+void carrier_vertical_gap(const double *q, const double *u, const double *s, const double *p, double *CARRIER_RESTRICT h, double *CARRIER_RESTRICT v_n);
 int vertical_gap(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
 casadi_int vertical_gap_n_in(void);
 casadi_int vertical_gap_n_out(void);
@@ -237,7 +258,7 @@ void vertical_gap_incref(void);
 void vertical_gap_decref(void);
 
 /* general_contact_rhs(q[18], u[9], s[3], sdot[3], p[6]) -> (dq[18], N[1]): Persistent contact of the general model: dq/dt with S held on the plane and the normal reaction N (derive.contact); lift-off where N < 0. */
-void carrier_general_contact_rhs(const double *q, const double *u, const double *s, const double *sdot, const double *p, double *restrict dq, double *restrict N);
+void carrier_general_contact_rhs(const double *q, const double *u, const double *s, const double *sdot, const double *p, double *CARRIER_RESTRICT dq, double *CARRIER_RESTRICT N);
 int general_contact_rhs(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
 casadi_int general_contact_rhs_n_in(void);
 casadi_int general_contact_rhs_n_out(void);
@@ -253,7 +274,7 @@ void general_contact_rhs_incref(void);
 void general_contact_rhs_decref(void);
 
 /* vertical_contact_rhs(q[8], u[9], s[3], sdot[3], p[6]) -> (dq[8], N[1]): Persistent contact of the vertical model: dq/dt with S held on the plane and the normal reaction N (derive.contact); lift-off where N < 0. */
-void carrier_vertical_contact_rhs(const double *q, const double *u, const double *s, const double *sdot, const double *p, double *restrict dq, double *restrict N);
+void carrier_vertical_contact_rhs(const double *q, const double *u, const double *s, const double *sdot, const double *p, double *CARRIER_RESTRICT dq, double *CARRIER_RESTRICT N);
 int vertical_contact_rhs(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
 casadi_int vertical_contact_rhs_n_in(void);
 casadi_int vertical_contact_rhs_n_out(void);
@@ -268,8 +289,8 @@ void vertical_contact_rhs_release(int mem);
 void vertical_contact_rhs_incref(void);
 void vertical_contact_rhs_decref(void);
 
-/* lowest_point_sphere(n[3], center[3], radius[1]) -> (s[3]): Lowest point S of a sphere (centre anywhere in the body) for the vertical n, body axes. */
-void carrier_lowest_point_sphere(const double *n, const double *center, double radius, double *restrict s);
+/* lowest_point_sphere(n[3], center[3], radius) -> (s[3]): Lowest point S of a sphere (centre anywhere in the body) for the vertical n, body axes. */
+void carrier_lowest_point_sphere(const double *n, const double *center, double radius, double *CARRIER_RESTRICT s);
 int lowest_point_sphere(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
 casadi_int lowest_point_sphere_n_in(void);
 casadi_int lowest_point_sphere_n_out(void);
@@ -285,7 +306,7 @@ void lowest_point_sphere_incref(void);
 void lowest_point_sphere_decref(void);
 
 /* lowest_point_ellipsoid(n[3], center[3], semi_axes[3]) -> (s[3]): Lowest point S of a ellipsoid (centre anywhere in the body) for the vertical n, body axes. */
-void carrier_lowest_point_ellipsoid(const double *n, const double *center, const double *semi_axes, double *restrict s);
+void carrier_lowest_point_ellipsoid(const double *n, const double *center, const double *semi_axes, double *CARRIER_RESTRICT s);
 int lowest_point_ellipsoid(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
 casadi_int lowest_point_ellipsoid_n_in(void);
 casadi_int lowest_point_ellipsoid_n_out(void);
@@ -300,8 +321,8 @@ void lowest_point_ellipsoid_release(int mem);
 void lowest_point_ellipsoid_incref(void);
 void lowest_point_ellipsoid_decref(void);
 
-/* lowest_point_rate_sphere(n[3], omega[3], radius[1]) -> (sdot[3]): Rate of the lowest point S of a sphere in body axes as the body turns (Poisson's equations for n). */
-void carrier_lowest_point_rate_sphere(const double *n, const double *omega, double radius, double *restrict sdot);
+/* lowest_point_rate_sphere(n[3], omega[3], radius) -> (sdot[3]): Rate of the lowest point S of a sphere in body axes as the body turns (Poisson's equations for n). */
+void carrier_lowest_point_rate_sphere(const double *n, const double *omega, double radius, double *CARRIER_RESTRICT sdot);
 int lowest_point_rate_sphere(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
 casadi_int lowest_point_rate_sphere_n_in(void);
 casadi_int lowest_point_rate_sphere_n_out(void);
@@ -317,7 +338,7 @@ void lowest_point_rate_sphere_incref(void);
 void lowest_point_rate_sphere_decref(void);
 
 /* lowest_point_rate_ellipsoid(n[3], omega[3], semi_axes[3]) -> (sdot[3]): Rate of the lowest point S of a ellipsoid in body axes as the body turns (Poisson's equations for n). */
-void carrier_lowest_point_rate_ellipsoid(const double *n, const double *omega, const double *semi_axes, double *restrict sdot);
+void carrier_lowest_point_rate_ellipsoid(const double *n, const double *omega, const double *semi_axes, double *CARRIER_RESTRICT sdot);
 int lowest_point_rate_ellipsoid(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
 casadi_int lowest_point_rate_ellipsoid_n_in(void);
 casadi_int lowest_point_rate_ellipsoid_n_out(void);
@@ -331,6 +352,318 @@ int lowest_point_rate_ellipsoid_checkout(void);
 void lowest_point_rate_ellipsoid_release(int mem);
 void lowest_point_rate_ellipsoid_incref(void);
 void lowest_point_rate_ellipsoid_decref(void);
+
+/*
+ * Derivatives: jac_<name> for every function above, in CasADi's jac_ convention: the
+ * inputs, then the nominal outputs (not read); one output per block d output / d input,
+ * output-major, as column-compressed nonzeros with the pattern in
+ * jac_<name>_sparsity_out.  carrier_jac_<name> writes the blocks that are not
+ * identically zero, in the same order.
+ */
+
+/* jac_general_flight_rhs(q[18], u[9], p[6]) -> (jac_dq_q[48 of 18x18], jac_dq_u[27 of 18x9], jac_dq_p[16 of 18x6]) */
+void carrier_jac_general_flight_rhs(const double *q, const double *u, const double *p, double *CARRIER_RESTRICT jac_dq_q, double *CARRIER_RESTRICT jac_dq_u, double *CARRIER_RESTRICT jac_dq_p);
+int jac_general_flight_rhs(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int jac_general_flight_rhs_n_in(void);
+casadi_int jac_general_flight_rhs_n_out(void);
+const char *jac_general_flight_rhs_name_in(casadi_int i);
+const char *jac_general_flight_rhs_name_out(casadi_int i);
+const casadi_int *jac_general_flight_rhs_sparsity_in(casadi_int i);
+const casadi_int *jac_general_flight_rhs_sparsity_out(casadi_int i);
+int jac_general_flight_rhs_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real jac_general_flight_rhs_default_in(casadi_int i);
+int jac_general_flight_rhs_checkout(void);
+void jac_general_flight_rhs_release(int mem);
+void jac_general_flight_rhs_incref(void);
+void jac_general_flight_rhs_decref(void);
+
+/* jac_vertical_flight_rhs(q[8], u[9], p[6]) -> (jac_dq_q[22 of 8x8], jac_dq_u[27 of 8x9], jac_dq_p[16 of 8x6]) */
+void carrier_jac_vertical_flight_rhs(const double *q, const double *u, const double *p, double *CARRIER_RESTRICT jac_dq_q, double *CARRIER_RESTRICT jac_dq_u, double *CARRIER_RESTRICT jac_dq_p);
+int jac_vertical_flight_rhs(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int jac_vertical_flight_rhs_n_in(void);
+casadi_int jac_vertical_flight_rhs_n_out(void);
+const char *jac_vertical_flight_rhs_name_in(casadi_int i);
+const char *jac_vertical_flight_rhs_name_out(casadi_int i);
+const casadi_int *jac_vertical_flight_rhs_sparsity_in(casadi_int i);
+const casadi_int *jac_vertical_flight_rhs_sparsity_out(casadi_int i);
+int jac_vertical_flight_rhs_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real jac_vertical_flight_rhs_default_in(casadi_int i);
+int jac_vertical_flight_rhs_checkout(void);
+void jac_vertical_flight_rhs_release(int mem);
+void jac_vertical_flight_rhs_incref(void);
+void jac_vertical_flight_rhs_decref(void);
+
+/* jac_attitude_flight_rhs(q[3], u[9], p[6]) -> (jac_dq_q[9 of 3x3], jac_dq_u[27 of 3x9], jac_dq_p[15 of 3x6]) */
+void carrier_jac_attitude_flight_rhs(const double *q, const double *u, const double *p, double *CARRIER_RESTRICT jac_dq_q, double *CARRIER_RESTRICT jac_dq_u, double *CARRIER_RESTRICT jac_dq_p);
+int jac_attitude_flight_rhs(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int jac_attitude_flight_rhs_n_in(void);
+casadi_int jac_attitude_flight_rhs_n_out(void);
+const char *jac_attitude_flight_rhs_name_in(casadi_int i);
+const char *jac_attitude_flight_rhs_name_out(casadi_int i);
+const casadi_int *jac_attitude_flight_rhs_sparsity_in(casadi_int i);
+const casadi_int *jac_attitude_flight_rhs_sparsity_out(casadi_int i);
+int jac_attitude_flight_rhs_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real jac_attitude_flight_rhs_default_in(casadi_int i);
+int jac_attitude_flight_rhs_checkout(void);
+void jac_attitude_flight_rhs_release(int mem);
+void jac_attitude_flight_rhs_incref(void);
+void jac_attitude_flight_rhs_decref(void);
+
+/* jac_general_flight_jacobian(q[18], u[9], p[6]) -> (jac_A_q[63 of 324x18], jac_A_u[45 of 324x9], jac_A_p[45 of 324x6]) */
+void carrier_jac_general_flight_jacobian(const double *q, const double *u, const double *p, double *CARRIER_RESTRICT jac_A_q, double *CARRIER_RESTRICT jac_A_u, double *CARRIER_RESTRICT jac_A_p);
+int jac_general_flight_jacobian(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int jac_general_flight_jacobian_n_in(void);
+casadi_int jac_general_flight_jacobian_n_out(void);
+const char *jac_general_flight_jacobian_name_in(casadi_int i);
+const char *jac_general_flight_jacobian_name_out(casadi_int i);
+const casadi_int *jac_general_flight_jacobian_sparsity_in(casadi_int i);
+const casadi_int *jac_general_flight_jacobian_sparsity_out(casadi_int i);
+int jac_general_flight_jacobian_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real jac_general_flight_jacobian_default_in(casadi_int i);
+int jac_general_flight_jacobian_checkout(void);
+void jac_general_flight_jacobian_release(int mem);
+void jac_general_flight_jacobian_incref(void);
+void jac_general_flight_jacobian_decref(void);
+
+/* jac_vertical_flight_jacobian(q[8], u[9], p[6]) -> (jac_A_q[39 of 64x8], jac_A_u[45 of 64x9], jac_A_p[45 of 64x6]) */
+void carrier_jac_vertical_flight_jacobian(const double *q, const double *u, const double *p, double *CARRIER_RESTRICT jac_A_q, double *CARRIER_RESTRICT jac_A_u, double *CARRIER_RESTRICT jac_A_p);
+int jac_vertical_flight_jacobian(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int jac_vertical_flight_jacobian_n_in(void);
+casadi_int jac_vertical_flight_jacobian_n_out(void);
+const char *jac_vertical_flight_jacobian_name_in(casadi_int i);
+const char *jac_vertical_flight_jacobian_name_out(casadi_int i);
+const casadi_int *jac_vertical_flight_jacobian_sparsity_in(casadi_int i);
+const casadi_int *jac_vertical_flight_jacobian_sparsity_out(casadi_int i);
+int jac_vertical_flight_jacobian_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real jac_vertical_flight_jacobian_default_in(casadi_int i);
+int jac_vertical_flight_jacobian_checkout(void);
+void jac_vertical_flight_jacobian_release(int mem);
+void jac_vertical_flight_jacobian_incref(void);
+void jac_vertical_flight_jacobian_decref(void);
+
+/* jac_attitude_flight_jacobian(q[3], u[9], p[6]) -> (jac_A_q[27 of 9x3], jac_A_u[45 of 9x9], jac_A_p[45 of 9x6]) */
+void carrier_jac_attitude_flight_jacobian(const double *q, const double *u, const double *p, double *CARRIER_RESTRICT jac_A_q, double *CARRIER_RESTRICT jac_A_u, double *CARRIER_RESTRICT jac_A_p);
+int jac_attitude_flight_jacobian(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int jac_attitude_flight_jacobian_n_in(void);
+casadi_int jac_attitude_flight_jacobian_n_out(void);
+const char *jac_attitude_flight_jacobian_name_in(casadi_int i);
+const char *jac_attitude_flight_jacobian_name_out(casadi_int i);
+const casadi_int *jac_attitude_flight_jacobian_sparsity_in(casadi_int i);
+const casadi_int *jac_attitude_flight_jacobian_sparsity_out(casadi_int i);
+int jac_attitude_flight_jacobian_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real jac_attitude_flight_jacobian_default_in(casadi_int i);
+int jac_attitude_flight_jacobian_checkout(void);
+void jac_attitude_flight_jacobian_release(int mem);
+void jac_attitude_flight_jacobian_incref(void);
+void jac_attitude_flight_jacobian_decref(void);
+
+/* jac_general_kinetic_moment(q[18], u[9], p[6]) -> (jac_K_q[9 of 3x18], jac_K_u[15 of 3x9], jac_K_p[9 of 3x6]) */
+void carrier_jac_general_kinetic_moment(const double *q, const double *u, const double *p, double *CARRIER_RESTRICT jac_K_q, double *CARRIER_RESTRICT jac_K_u, double *CARRIER_RESTRICT jac_K_p);
+int jac_general_kinetic_moment(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int jac_general_kinetic_moment_n_in(void);
+casadi_int jac_general_kinetic_moment_n_out(void);
+const char *jac_general_kinetic_moment_name_in(casadi_int i);
+const char *jac_general_kinetic_moment_name_out(casadi_int i);
+const casadi_int *jac_general_kinetic_moment_sparsity_in(casadi_int i);
+const casadi_int *jac_general_kinetic_moment_sparsity_out(casadi_int i);
+int jac_general_kinetic_moment_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real jac_general_kinetic_moment_default_in(casadi_int i);
+int jac_general_kinetic_moment_checkout(void);
+void jac_general_kinetic_moment_release(int mem);
+void jac_general_kinetic_moment_incref(void);
+void jac_general_kinetic_moment_decref(void);
+
+/* jac_vertical_kinetic_moment(q[8], u[9], p[6]) -> (jac_K_q[9 of 3x8], jac_K_u[15 of 3x9], jac_K_p[9 of 3x6]) */
+void carrier_jac_vertical_kinetic_moment(const double *q, const double *u, const double *p, double *CARRIER_RESTRICT jac_K_q, double *CARRIER_RESTRICT jac_K_u, double *CARRIER_RESTRICT jac_K_p);
+int jac_vertical_kinetic_moment(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int jac_vertical_kinetic_moment_n_in(void);
+casadi_int jac_vertical_kinetic_moment_n_out(void);
+const char *jac_vertical_kinetic_moment_name_in(casadi_int i);
+const char *jac_vertical_kinetic_moment_name_out(casadi_int i);
+const casadi_int *jac_vertical_kinetic_moment_sparsity_in(casadi_int i);
+const casadi_int *jac_vertical_kinetic_moment_sparsity_out(casadi_int i);
+int jac_vertical_kinetic_moment_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real jac_vertical_kinetic_moment_default_in(casadi_int i);
+int jac_vertical_kinetic_moment_checkout(void);
+void jac_vertical_kinetic_moment_release(int mem);
+void jac_vertical_kinetic_moment_incref(void);
+void jac_vertical_kinetic_moment_decref(void);
+
+/* jac_attitude_kinetic_moment(q[3], u[9], p[6]) -> (jac_K_q[9 of 3x3], jac_K_u[15 of 3x9], jac_K_p[9 of 3x6]) */
+void carrier_jac_attitude_kinetic_moment(const double *q, const double *u, const double *p, double *CARRIER_RESTRICT jac_K_q, double *CARRIER_RESTRICT jac_K_u, double *CARRIER_RESTRICT jac_K_p);
+int jac_attitude_kinetic_moment(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int jac_attitude_kinetic_moment_n_in(void);
+casadi_int jac_attitude_kinetic_moment_n_out(void);
+const char *jac_attitude_kinetic_moment_name_in(casadi_int i);
+const char *jac_attitude_kinetic_moment_name_out(casadi_int i);
+const casadi_int *jac_attitude_kinetic_moment_sparsity_in(casadi_int i);
+const casadi_int *jac_attitude_kinetic_moment_sparsity_out(casadi_int i);
+int jac_attitude_kinetic_moment_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real jac_attitude_kinetic_moment_default_in(casadi_int i);
+int jac_attitude_kinetic_moment_checkout(void);
+void jac_attitude_kinetic_moment_release(int mem);
+void jac_attitude_kinetic_moment_incref(void);
+void jac_attitude_kinetic_moment_decref(void);
+
+/* jac_general_impact(q[18], u[9], s[3], p[6], e) -> (jac_q_plus_q[42 of 18x18], jac_q_plus_u[24 of 18x9], jac_q_plus_s[12 of 18x3], jac_q_plus_p[20 of 18x6], jac_q_plus_e[4 of 18x1], jac_I_q[7 of 1x18], jac_I_u[6 of 1x9], jac_I_s[3 of 1x3], jac_I_p[5 of 1x6], jac_I_e[1 of 1x1]) */
+void carrier_jac_general_impact(const double *q, const double *u, const double *s, const double *p, double e, double *CARRIER_RESTRICT jac_q_plus_q, double *CARRIER_RESTRICT jac_q_plus_u, double *CARRIER_RESTRICT jac_q_plus_s, double *CARRIER_RESTRICT jac_q_plus_p, double *CARRIER_RESTRICT jac_q_plus_e, double *CARRIER_RESTRICT jac_I_q, double *CARRIER_RESTRICT jac_I_u, double *CARRIER_RESTRICT jac_I_s, double *CARRIER_RESTRICT jac_I_p, double *CARRIER_RESTRICT jac_I_e);
+int jac_general_impact(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int jac_general_impact_n_in(void);
+casadi_int jac_general_impact_n_out(void);
+const char *jac_general_impact_name_in(casadi_int i);
+const char *jac_general_impact_name_out(casadi_int i);
+const casadi_int *jac_general_impact_sparsity_in(casadi_int i);
+const casadi_int *jac_general_impact_sparsity_out(casadi_int i);
+int jac_general_impact_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real jac_general_impact_default_in(casadi_int i);
+int jac_general_impact_checkout(void);
+void jac_general_impact_release(int mem);
+void jac_general_impact_incref(void);
+void jac_general_impact_decref(void);
+
+/* jac_vertical_impact(q[8], u[9], s[3], p[6], e) -> (jac_q_plus_q[32 of 8x8], jac_q_plus_u[24 of 8x9], jac_q_plus_s[12 of 8x3], jac_q_plus_p[20 of 8x6], jac_q_plus_e[4 of 8x1], jac_I_q[7 of 1x8], jac_I_u[6 of 1x9], jac_I_s[3 of 1x3], jac_I_p[5 of 1x6], jac_I_e[1 of 1x1]) */
+void carrier_jac_vertical_impact(const double *q, const double *u, const double *s, const double *p, double e, double *CARRIER_RESTRICT jac_q_plus_q, double *CARRIER_RESTRICT jac_q_plus_u, double *CARRIER_RESTRICT jac_q_plus_s, double *CARRIER_RESTRICT jac_q_plus_p, double *CARRIER_RESTRICT jac_q_plus_e, double *CARRIER_RESTRICT jac_I_q, double *CARRIER_RESTRICT jac_I_u, double *CARRIER_RESTRICT jac_I_s, double *CARRIER_RESTRICT jac_I_p, double *CARRIER_RESTRICT jac_I_e);
+int jac_vertical_impact(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int jac_vertical_impact_n_in(void);
+casadi_int jac_vertical_impact_n_out(void);
+const char *jac_vertical_impact_name_in(casadi_int i);
+const char *jac_vertical_impact_name_out(casadi_int i);
+const casadi_int *jac_vertical_impact_sparsity_in(casadi_int i);
+const casadi_int *jac_vertical_impact_sparsity_out(casadi_int i);
+int jac_vertical_impact_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real jac_vertical_impact_default_in(casadi_int i);
+int jac_vertical_impact_checkout(void);
+void jac_vertical_impact_release(int mem);
+void jac_vertical_impact_incref(void);
+void jac_vertical_impact_decref(void);
+
+/* jac_general_gap(q[18], u[9], s[3], p[6]) -> (jac_h_q[4 of 1x18], jac_h_u[3 of 1x9], jac_h_s[3 of 1x3], jac_h_p[2 of 1x6], jac_v_n_q[7 of 1x18], jac_v_n_u[6 of 1x9], jac_v_n_s[3 of 1x3], jac_v_n_p[2 of 1x6]) */
+void carrier_jac_general_gap(const double *q, const double *u, const double *s, const double *p, double *CARRIER_RESTRICT jac_h_q, double *CARRIER_RESTRICT jac_h_u, double *CARRIER_RESTRICT jac_h_s, double *CARRIER_RESTRICT jac_h_p, double *CARRIER_RESTRICT jac_v_n_q, double *CARRIER_RESTRICT jac_v_n_u, double *CARRIER_RESTRICT jac_v_n_s, double *CARRIER_RESTRICT jac_v_n_p);
+int jac_general_gap(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int jac_general_gap_n_in(void);
+casadi_int jac_general_gap_n_out(void);
+const char *jac_general_gap_name_in(casadi_int i);
+const char *jac_general_gap_name_out(casadi_int i);
+const casadi_int *jac_general_gap_sparsity_in(casadi_int i);
+const casadi_int *jac_general_gap_sparsity_out(casadi_int i);
+int jac_general_gap_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real jac_general_gap_default_in(casadi_int i);
+int jac_general_gap_checkout(void);
+void jac_general_gap_release(int mem);
+void jac_general_gap_incref(void);
+void jac_general_gap_decref(void);
+
+/* jac_vertical_gap(q[8], u[9], s[3], p[6]) -> (jac_h_q[4 of 1x8], jac_h_u[3 of 1x9], jac_h_s[3 of 1x3], jac_h_p[2 of 1x6], jac_v_n_q[7 of 1x8], jac_v_n_u[6 of 1x9], jac_v_n_s[3 of 1x3], jac_v_n_p[2 of 1x6]) */
+void carrier_jac_vertical_gap(const double *q, const double *u, const double *s, const double *p, double *CARRIER_RESTRICT jac_h_q, double *CARRIER_RESTRICT jac_h_u, double *CARRIER_RESTRICT jac_h_s, double *CARRIER_RESTRICT jac_h_p, double *CARRIER_RESTRICT jac_v_n_q, double *CARRIER_RESTRICT jac_v_n_u, double *CARRIER_RESTRICT jac_v_n_s, double *CARRIER_RESTRICT jac_v_n_p);
+int jac_vertical_gap(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int jac_vertical_gap_n_in(void);
+casadi_int jac_vertical_gap_n_out(void);
+const char *jac_vertical_gap_name_in(casadi_int i);
+const char *jac_vertical_gap_name_out(casadi_int i);
+const casadi_int *jac_vertical_gap_sparsity_in(casadi_int i);
+const casadi_int *jac_vertical_gap_sparsity_out(casadi_int i);
+int jac_vertical_gap_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real jac_vertical_gap_default_in(casadi_int i);
+int jac_vertical_gap_checkout(void);
+void jac_vertical_gap_release(int mem);
+void jac_vertical_gap_incref(void);
+void jac_vertical_gap_decref(void);
+
+/* jac_general_contact_rhs(q[18], u[9], s[3], sdot[3], p[6]) -> (jac_dq_q[63 of 18x18], jac_dq_u[36 of 18x9], jac_dq_s[12 of 18x3], jac_dq_sdot[12 of 18x3], jac_dq_p[24 of 18x6], jac_N_q[6 of 1x18], jac_N_u[9 of 1x9], jac_N_s[3 of 1x3], jac_N_sdot[3 of 1x3], jac_N_p[6 of 1x6]) */
+void carrier_jac_general_contact_rhs(const double *q, const double *u, const double *s, const double *sdot, const double *p, double *CARRIER_RESTRICT jac_dq_q, double *CARRIER_RESTRICT jac_dq_u, double *CARRIER_RESTRICT jac_dq_s, double *CARRIER_RESTRICT jac_dq_sdot, double *CARRIER_RESTRICT jac_dq_p, double *CARRIER_RESTRICT jac_N_q, double *CARRIER_RESTRICT jac_N_u, double *CARRIER_RESTRICT jac_N_s, double *CARRIER_RESTRICT jac_N_sdot, double *CARRIER_RESTRICT jac_N_p);
+int jac_general_contact_rhs(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int jac_general_contact_rhs_n_in(void);
+casadi_int jac_general_contact_rhs_n_out(void);
+const char *jac_general_contact_rhs_name_in(casadi_int i);
+const char *jac_general_contact_rhs_name_out(casadi_int i);
+const casadi_int *jac_general_contact_rhs_sparsity_in(casadi_int i);
+const casadi_int *jac_general_contact_rhs_sparsity_out(casadi_int i);
+int jac_general_contact_rhs_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real jac_general_contact_rhs_default_in(casadi_int i);
+int jac_general_contact_rhs_checkout(void);
+void jac_general_contact_rhs_release(int mem);
+void jac_general_contact_rhs_incref(void);
+void jac_general_contact_rhs_decref(void);
+
+/* jac_vertical_contact_rhs(q[8], u[9], s[3], sdot[3], p[6]) -> (jac_dq_q[37 of 8x8], jac_dq_u[36 of 8x9], jac_dq_s[12 of 8x3], jac_dq_sdot[12 of 8x3], jac_dq_p[24 of 8x6], jac_N_q[6 of 1x8], jac_N_u[9 of 1x9], jac_N_s[3 of 1x3], jac_N_sdot[3 of 1x3], jac_N_p[6 of 1x6]) */
+void carrier_jac_vertical_contact_rhs(const double *q, const double *u, const double *s, const double *sdot, const double *p, double *CARRIER_RESTRICT jac_dq_q, double *CARRIER_RESTRICT jac_dq_u, double *CARRIER_RESTRICT jac_dq_s, double *CARRIER_RESTRICT jac_dq_sdot, double *CARRIER_RESTRICT jac_dq_p, double *CARRIER_RESTRICT jac_N_q, double *CARRIER_RESTRICT jac_N_u, double *CARRIER_RESTRICT jac_N_s, double *CARRIER_RESTRICT jac_N_sdot, double *CARRIER_RESTRICT jac_N_p);
+int jac_vertical_contact_rhs(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int jac_vertical_contact_rhs_n_in(void);
+casadi_int jac_vertical_contact_rhs_n_out(void);
+const char *jac_vertical_contact_rhs_name_in(casadi_int i);
+const char *jac_vertical_contact_rhs_name_out(casadi_int i);
+const casadi_int *jac_vertical_contact_rhs_sparsity_in(casadi_int i);
+const casadi_int *jac_vertical_contact_rhs_sparsity_out(casadi_int i);
+int jac_vertical_contact_rhs_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real jac_vertical_contact_rhs_default_in(casadi_int i);
+int jac_vertical_contact_rhs_checkout(void);
+void jac_vertical_contact_rhs_release(int mem);
+void jac_vertical_contact_rhs_incref(void);
+void jac_vertical_contact_rhs_decref(void);
+
+/* jac_lowest_point_sphere(n[3], center[3], radius) -> (jac_s_n[9 of 3x3], jac_s_center[3 of 3x3], jac_s_radius[3 of 3x1]) */
+void carrier_jac_lowest_point_sphere(const double *n, const double *center, double radius, double *CARRIER_RESTRICT jac_s_n, double *CARRIER_RESTRICT jac_s_center, double *CARRIER_RESTRICT jac_s_radius);
+int jac_lowest_point_sphere(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int jac_lowest_point_sphere_n_in(void);
+casadi_int jac_lowest_point_sphere_n_out(void);
+const char *jac_lowest_point_sphere_name_in(casadi_int i);
+const char *jac_lowest_point_sphere_name_out(casadi_int i);
+const casadi_int *jac_lowest_point_sphere_sparsity_in(casadi_int i);
+const casadi_int *jac_lowest_point_sphere_sparsity_out(casadi_int i);
+int jac_lowest_point_sphere_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real jac_lowest_point_sphere_default_in(casadi_int i);
+int jac_lowest_point_sphere_checkout(void);
+void jac_lowest_point_sphere_release(int mem);
+void jac_lowest_point_sphere_incref(void);
+void jac_lowest_point_sphere_decref(void);
+
+/* jac_lowest_point_ellipsoid(n[3], center[3], semi_axes[3]) -> (jac_s_n[9 of 3x3], jac_s_center[3 of 3x3], jac_s_semi_axes[9 of 3x3]) */
+void carrier_jac_lowest_point_ellipsoid(const double *n, const double *center, const double *semi_axes, double *CARRIER_RESTRICT jac_s_n, double *CARRIER_RESTRICT jac_s_center, double *CARRIER_RESTRICT jac_s_semi_axes);
+int jac_lowest_point_ellipsoid(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int jac_lowest_point_ellipsoid_n_in(void);
+casadi_int jac_lowest_point_ellipsoid_n_out(void);
+const char *jac_lowest_point_ellipsoid_name_in(casadi_int i);
+const char *jac_lowest_point_ellipsoid_name_out(casadi_int i);
+const casadi_int *jac_lowest_point_ellipsoid_sparsity_in(casadi_int i);
+const casadi_int *jac_lowest_point_ellipsoid_sparsity_out(casadi_int i);
+int jac_lowest_point_ellipsoid_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real jac_lowest_point_ellipsoid_default_in(casadi_int i);
+int jac_lowest_point_ellipsoid_checkout(void);
+void jac_lowest_point_ellipsoid_release(int mem);
+void jac_lowest_point_ellipsoid_incref(void);
+void jac_lowest_point_ellipsoid_decref(void);
+
+/* jac_lowest_point_rate_sphere(n[3], omega[3], radius) -> (jac_sdot_n[9 of 3x3], jac_sdot_omega[6 of 3x3], jac_sdot_radius[3 of 3x1]) */
+void carrier_jac_lowest_point_rate_sphere(const double *n, const double *omega, double radius, double *CARRIER_RESTRICT jac_sdot_n, double *CARRIER_RESTRICT jac_sdot_omega, double *CARRIER_RESTRICT jac_sdot_radius);
+int jac_lowest_point_rate_sphere(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int jac_lowest_point_rate_sphere_n_in(void);
+casadi_int jac_lowest_point_rate_sphere_n_out(void);
+const char *jac_lowest_point_rate_sphere_name_in(casadi_int i);
+const char *jac_lowest_point_rate_sphere_name_out(casadi_int i);
+const casadi_int *jac_lowest_point_rate_sphere_sparsity_in(casadi_int i);
+const casadi_int *jac_lowest_point_rate_sphere_sparsity_out(casadi_int i);
+int jac_lowest_point_rate_sphere_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real jac_lowest_point_rate_sphere_default_in(casadi_int i);
+int jac_lowest_point_rate_sphere_checkout(void);
+void jac_lowest_point_rate_sphere_release(int mem);
+void jac_lowest_point_rate_sphere_incref(void);
+void jac_lowest_point_rate_sphere_decref(void);
+
+/* jac_lowest_point_rate_ellipsoid(n[3], omega[3], semi_axes[3]) -> (jac_sdot_n[9 of 3x3], jac_sdot_omega[9 of 3x3], jac_sdot_semi_axes[9 of 3x3]) */
+void carrier_jac_lowest_point_rate_ellipsoid(const double *n, const double *omega, const double *semi_axes, double *CARRIER_RESTRICT jac_sdot_n, double *CARRIER_RESTRICT jac_sdot_omega, double *CARRIER_RESTRICT jac_sdot_semi_axes);
+int jac_lowest_point_rate_ellipsoid(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int jac_lowest_point_rate_ellipsoid_n_in(void);
+casadi_int jac_lowest_point_rate_ellipsoid_n_out(void);
+const char *jac_lowest_point_rate_ellipsoid_name_in(casadi_int i);
+const char *jac_lowest_point_rate_ellipsoid_name_out(casadi_int i);
+const casadi_int *jac_lowest_point_rate_ellipsoid_sparsity_in(casadi_int i);
+const casadi_int *jac_lowest_point_rate_ellipsoid_sparsity_out(casadi_int i);
+int jac_lowest_point_rate_ellipsoid_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real jac_lowest_point_rate_ellipsoid_default_in(casadi_int i);
+int jac_lowest_point_rate_ellipsoid_checkout(void);
+void jac_lowest_point_rate_ellipsoid_release(int mem);
+void jac_lowest_point_rate_ellipsoid_incref(void);
+void jac_lowest_point_rate_ellipsoid_decref(void);
 
 #ifdef __cplusplus
 }

@@ -18,7 +18,7 @@
  * out dq        [18]: d(X_C)/dt, d(Y_C)/dt, d(Z_C)/dt, d(X_C')/dt, d(Y_C')/dt, d(Z_C')/dt, d(omega_x)/dt, d(omega_y)/dt, d(omega_z)/dt, d(a11)/dt, d(a12)/dt, d(a13)/dt, d(a21)/dt, d(a22)/dt, d(a23)/dt, d(a31)/dt, d(a32)/dt, d(a33)/dt
  * Outputs must not alias inputs.
  */
-void carrier_general_flight_rhs(const double *q, const double *u, const double *p, double *restrict dq)
+void carrier_general_flight_rhs(const double *q, const double *u, const double *p, double *CARRIER_RESTRICT dq)
 {
   const double c0 = u[1]*u[1];
   const double c1 = u[2]*u[2];
@@ -118,7 +118,8 @@ const char *general_flight_rhs_name_out(casadi_int i)
   }
 }
 
-/* dense column vectors in CasADi's compact form {rows, columns, 1} */
+/* CasADi's compressed sparsity: {rows, columns, 1} when dense, else
+   {rows, columns, column offsets (columns + 1), row of each nonzero} */
 const casadi_int *general_flight_rhs_sparsity_in(casadi_int i)
 {
   static const casadi_int s0[3] = {18, 1, 1};

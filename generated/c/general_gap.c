@@ -20,7 +20,7 @@
  * out v_n       [1]: v_n
  * Outputs must not alias inputs.
  */
-void carrier_general_gap(const double *q, const double *u, const double *s, const double *p, double *restrict h, double *restrict v_n)
+void carrier_general_gap(const double *q, const double *u, const double *s, const double *p, double *CARRIER_RESTRICT h, double *CARRIER_RESTRICT v_n)
 {
   const double nu = p[1]/(p[0] + p[1]);
   const double c0 = q[15]*nu;
@@ -75,7 +75,8 @@ const char *general_gap_name_out(casadi_int i)
   }
 }
 
-/* dense column vectors in CasADi's compact form {rows, columns, 1} */
+/* CasADi's compressed sparsity: {rows, columns, 1} when dense, else
+   {rows, columns, column offsets (columns + 1), row of each nonzero} */
 const casadi_int *general_gap_sparsity_in(casadi_int i)
 {
   static const casadi_int s0[3] = {18, 1, 1};

@@ -18,7 +18,7 @@
  * out s         [3]: x*, y*, z*
  * Outputs must not alias inputs.
  */
-void carrier_lowest_point_ellipsoid(const double *n, const double *center, const double *semi_axes, double *restrict s)
+void carrier_lowest_point_ellipsoid(const double *n, const double *center, const double *semi_axes, double *CARRIER_RESTRICT s)
 {
   const double c0 = semi_axes[0]*semi_axes[0];
   const double c1 = semi_axes[1]*semi_axes[1];
@@ -69,7 +69,8 @@ const char *lowest_point_ellipsoid_name_out(casadi_int i)
   }
 }
 
-/* dense column vectors in CasADi's compact form {rows, columns, 1} */
+/* CasADi's compressed sparsity: {rows, columns, 1} when dense, else
+   {rows, columns, column offsets (columns + 1), row of each nonzero} */
 const casadi_int *lowest_point_ellipsoid_sparsity_in(casadi_int i)
 {
   static const casadi_int s0[3] = {3, 1, 1};

@@ -21,7 +21,7 @@
  * out N         [1]: N
  * Outputs must not alias inputs.
  */
-void carrier_vertical_contact_rhs(const double *q, const double *u, const double *s, const double *sdot, const double *p, double *restrict dq, double *restrict N)
+void carrier_vertical_contact_rhs(const double *q, const double *u, const double *s, const double *sdot, const double *p, double *CARRIER_RESTRICT dq, double *CARRIER_RESTRICT N)
 {
   const double c0 = 1.0/(p[0] + p[1]);
   const double c1 = c0*p[1];
@@ -166,7 +166,8 @@ const char *vertical_contact_rhs_name_out(casadi_int i)
   }
 }
 
-/* dense column vectors in CasADi's compact form {rows, columns, 1} */
+/* CasADi's compressed sparsity: {rows, columns, 1} when dense, else
+   {rows, columns, column offsets (columns + 1), row of each nonzero} */
 const casadi_int *vertical_contact_rhs_sparsity_in(casadi_int i)
 {
   static const casadi_int s0[3] = {8, 1, 1};

@@ -18,7 +18,7 @@
  * out A         [64]: d(Z_C')/d(Z_C), d(Z_C')/d(Z_C'), d(Z_C')/d(omega_x), d(Z_C')/d(omega_y), d(Z_C')/d(omega_z), d(Z_C')/d(a31), d(Z_C')/d(a32), d(Z_C')/d(a33), d(Z_C'')/d(Z_C), d(Z_C'')/d(Z_C'), d(Z_C'')/d(omega_x), d(Z_C'')/d(omega_y), d(Z_C'')/d(omega_z), d(Z_C'')/d(a31), d(Z_C'')/d(a32), d(Z_C'')/d(a33), d(omega_x')/d(Z_C), d(omega_x')/d(Z_C'), d(omega_x')/d(omega_x), d(omega_x')/d(omega_y), d(omega_x')/d(omega_z), d(omega_x')/d(a31), d(omega_x')/d(a32), d(omega_x')/d(a33), d(omega_y')/d(Z_C), d(omega_y')/d(Z_C'), d(omega_y')/d(omega_x), d(omega_y')/d(omega_y), d(omega_y')/d(omega_z), d(omega_y')/d(a31), d(omega_y')/d(a32), d(omega_y')/d(a33), d(omega_z')/d(Z_C), d(omega_z')/d(Z_C'), d(omega_z')/d(omega_x), d(omega_z')/d(omega_y), d(omega_z')/d(omega_z), d(omega_z')/d(a31), d(omega_z')/d(a32), d(omega_z')/d(a33), d(a31')/d(Z_C), d(a31')/d(Z_C'), d(a31')/d(omega_x), d(a31')/d(omega_y), d(a31')/d(omega_z), d(a31')/d(a31), d(a31')/d(a32), d(a31')/d(a33), d(a32')/d(Z_C), d(a32')/d(Z_C'), d(a32')/d(omega_x), d(a32')/d(omega_y), d(a32')/d(omega_z), d(a32')/d(a31), d(a32')/d(a32), d(a32')/d(a33), d(a33')/d(Z_C), d(a33')/d(Z_C'), d(a33')/d(omega_x), d(a33')/d(omega_y), d(a33')/d(omega_z), d(a33')/d(a31), d(a33')/d(a32), d(a33')/d(a33)
  * Outputs must not alias inputs.
  */
-void carrier_vertical_flight_jacobian(const double *q, const double *u, const double *p, double *restrict A)
+void carrier_vertical_flight_jacobian(const double *q, const double *u, const double *p, double *CARRIER_RESTRICT A)
 {
   const double c0 = u[1]*u[1];
   const double c1 = u[2]*u[2];
@@ -195,7 +195,8 @@ const char *vertical_flight_jacobian_name_out(casadi_int i)
   }
 }
 
-/* dense column vectors in CasADi's compact form {rows, columns, 1} */
+/* CasADi's compressed sparsity: {rows, columns, 1} when dense, else
+   {rows, columns, column offsets (columns + 1), row of each nonzero} */
 const casadi_int *vertical_flight_jacobian_sparsity_in(casadi_int i)
 {
   static const casadi_int s0[3] = {8, 1, 1};

@@ -18,7 +18,7 @@
  * out K         [3]: K_x, K_y, K_z
  * Outputs must not alias inputs.
  */
-void carrier_vertical_kinetic_moment(const double *q, const double *u, const double *p, double *restrict K)
+void carrier_vertical_kinetic_moment(const double *q, const double *u, const double *p, double *CARRIER_RESTRICT K)
 {
   const double c0 = u[1]*u[1];
   const double c1 = u[2]*u[2];
@@ -72,7 +72,8 @@ const char *vertical_kinetic_moment_name_out(casadi_int i)
   }
 }
 
-/* dense column vectors in CasADi's compact form {rows, columns, 1} */
+/* CasADi's compressed sparsity: {rows, columns, 1} when dense, else
+   {rows, columns, column offsets (columns + 1), row of each nonzero} */
 const casadi_int *vertical_kinetic_moment_sparsity_in(casadi_int i)
 {
   static const casadi_int s0[3] = {8, 1, 1};
