@@ -231,8 +231,8 @@ def cmd_scene(args: argparse.Namespace) -> int:
     law = scene.law
     print(f"{args.file}: valid; model {kind} ({why})")
     summary = scene.law_summary
-    print(f"  law: {'a table of ' + str(len(law.knots)) + ' samples' if law.kind == 'table' else 'formulas'}"
-          f"; P within {summary.max_radius:.4g} of O, |OP''| up to "
+    given = f"a table of {len(law.knots)} samples" if law.kind == "table" else "formulas"
+    print(f"  law: {given}; P within {summary.max_radius:.4g} of O, |OP''| up to "
           f"{summary.max_acceleration:.4g}; C^2 over the run")
     return 0
 

@@ -99,7 +99,7 @@ def solve(body: Body, q, u, with_reaction=True):
     else:
         x = np.zeros(10)
         x[:9] = np.linalg.solve(K[:9, :9], b[:9])
-    aO, wd, F, N = x[0:3], x[3:6], x[6:9], x[9]
+    aO, wd, N = x[0:3], x[3:6], x[9]           # x[6:9]: the force on the point
     aP = aO + np.cross(wd, r) + np.cross(w, np.cross(w, r)) + 2 * np.cross(w, rd) + rdd
     aC = (M * aO + m * aP) / (M + m)
     hdd = n @ aO + sxn @ wd + h2_rest

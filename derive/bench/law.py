@@ -22,7 +22,6 @@ import numpy as np
 
 from ..cbuild import build_shared, runtime_flags
 from ..runtime.build import DP
-from ..runtime.law import compile_law
 
 LAWS = {
     "built-in": ("0.2*sin(3*t)", "0.1", "0.05*cos(2*t)"),

@@ -9,6 +9,7 @@ Extras (the general layout, omega, the height of S, K) are computed only when re
 from __future__ import annotations
 
 import ctypes
+import threading
 import time
 from dataclasses import dataclass, field
 from functools import cached_property
@@ -309,14 +310,18 @@ class Result:
         return self.summary["min_normal"]
 
 
-_SESSIONS: dict = {}
+_LOCAL = threading.local()
 
 
 def session_for(kind: str) -> Session:
-    """This process's session of a model (buffers allocated once, reused by every run)."""
-    if kind not in _SESSIONS:
-        _SESSIONS[kind] = Session(library(kind))
-    return _SESSIONS[kind]
+    """This thread's session of a model (buffers allocated once, reused by every run of
+    the thread; threads never share one)."""
+    sessions = getattr(_LOCAL, "sessions", None)
+    if sessions is None:
+        sessions = _LOCAL.sessions = {}
+    if kind not in sessions:
+        sessions[kind] = Session(library(kind))
+    return sessions[kind]
 
 
 def run_prepared(prep: Prepared, session: Session | None = None, progress=None) -> Result:

@@ -385,18 +385,20 @@ class _Builder:
             op, a, b = self.nodes[k]
             ops.append(op)
             if op == "const":
-                aa.append(cref(a)); bb.append(0)
+                ref = (cref(a), 0)
             elif op == "t":
-                aa.append(0); bb.append(0)
+                ref = (0, 0)
             elif op in ("powi", "powr"):
-                aa.append(new[a]); bb.append(cref(b))
+                ref = (new[a], cref(b))
             elif op in ("hsin", "hcos"):
-                aa.append(len(consts)); bb.append(0)
+                ref = (len(consts), 0)
                 consts.extend(self.harmonic[k][1:])          # A, w, p consecutive
             elif op in ("add", "sub", "mul", "div", "pow"):
-                aa.append(new[a]); bb.append(new[b])
+                ref = (new[a], new[b])
             else:
-                aa.append(new[a]); bb.append(0)
+                ref = (new[a], 0)
+            aa.append(ref[0])
+            bb.append(ref[1])
         return Program(tuple(ops), tuple(aa), tuple(bb), tuple(consts),
                        tuple(new[k] for k in outputs), text)
 
@@ -776,7 +778,7 @@ def _to_sympy(p: Program) -> tuple:
     return tuple(val[k] for k in p.outputs)
 
 
-# ---- the whole run: interval arithmetic ------------------------------------------------------------
+# ---- the whole run: interval arithmetic -------------------------------------------------
 _HALF_PI = 0.5 * math.pi
 MAX_BOXES = 512
 

@@ -16,7 +16,7 @@ import tomllib
 from dataclasses import dataclass, field
 from functools import cached_property, lru_cache
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 
@@ -534,8 +534,8 @@ def _singular_J(scene: Scene, summary: LawSummary) -> None:
     to the largest can degrade: bounded through max |OP|."""
     largest = max(scene.J) + scene.mu * summary.max_radius ** 2
     if not min(scene.J) > 1e-12 * largest:
-        raise SceneError("[body].inertia", f"J of E1.5 is near-singular along the law "
-                                           f"(smallest/largest below 1e-12); R1 needs det J != 0")
+        raise SceneError("[body].inertia", "J of E1.5 is near-singular along the law "
+                                           "(smallest/largest below 1e-12); R1 needs det J != 0")
 
 
 def _start_above_plane(scene: Scene) -> None:
