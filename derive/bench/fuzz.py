@@ -62,7 +62,7 @@ BAD = ("traceback", "crash", "hang", "silent-accept", "wrong-field", "multi-line
        "outside-files", "fuzzer-error")
 GOOD = ("ran-ok", "ran-status", "refused")
 
-FIELD_RE = re.compile(r"^(\[[^\]\n]+\][^:\n]*|[^\W\d][\w.-]*\s?(\[\d+\])*)( \([^)]*\))?:")
+FIELD_RE = re.compile(r"^(\[[^\]\n]+\][^:\n]*|[^\W\d][\w.\\-]*\s?(\[\d+\])*)( \([^)]*\))?:")
 CONTROL_RE = re.compile(r"[\x00-\x08\x0b-\x1f\x7f\u2028\u2029\u202a-\u202e]")
 
 
@@ -350,13 +350,18 @@ HOSTILE_LAWS = [
     '1/0', '0/0', 'sqrt(-1)', 'log(-1)', 'log(0)', 'asin(2)', 'acos(-1.5)', '(-8)**(1/3)',
     '(-1)**0.5', '0**-1', '1e400', '-1e400', '1e999*t', '1e-400*t', '2**1024', 'exp(1000)',
     'exp(exp(exp(10)))', 'cosh(1000)', '10**10**10', '9**9**9*t', '9^9^9*t', '2**2**2**2**2',
-    '10**308*10', '1e308*10', 'tan(pi/2)*0', '1e300*t', '1e300*t*t',
+    '10**308*10', '1e308*10', '1e300*t', '1e300*t*t',
     # unicode digits, letters and spaces
     '\uff10.1*t', '\u0660.\u0661*t', '\U0001d7ce.1*t', '0.1*t\u00a0', '0.1\u2009*t',
     '0.1*t\u200b', '\u22120.1*t', '\uff53\uff49\uff4e(t)', '\u0455in(t)', '0.1*\u0442',
     '0.1*t\u2028', '\u00b9*t', '0.1\u00b7t', '0.1\u00d7t', '0.1*t\r', '0.1*\nt', '0.1*t\n',
     '0.1*t\x0b',
 ]
+
+
+# odd but legitimate in floats: accepted or refused, never a crash
+EITHER_LAWS = ['tan(pi/2)*0', '0*log(0.5)', '(0.1)^2*t', '- -0.1*t', '+0.1*t', '.5*0.1',
+               '1.e-1*t', '1E-1*t', '0.1*t**2**0.5', '((((t))))*0.1', 'sqrt(t*t+1)*0.01']
 
 
 def deep_laws():
@@ -608,9 +613,9 @@ def scene_mutation(rng: random.Random, index: int, marker: str) -> Case:
                         expect="refuse", fields=f, toml_level_ok=True)
         else:
             doc[where][key] = 1.0
-            f = (f"[{where}].{key[:30]}", key[:30])
+            f = (f"[{where}].{_escaped(key)[:30]}", _escaped(key)[:30])
         if where in ("top", "newtable"):
-            f = (key[:30],)
+            f = (_escaped(key)[:30],)
         return Case(index, "scene", f"extra key {key!r:.40} in {where}", doc,
                     expect="refuse", fields=f)
     # several things at once (either; must not crash)
@@ -622,6 +627,11 @@ def scene_mutation(rng: random.Random, index: int, marker: str) -> Case:
             doc[t].update(v)
     return Case(index, "scene", f"{c1.desc} and {c2.desc}", doc, expect="either",
                 fields=None)
+
+
+def _escaped(key: str) -> str:
+    """How a message shows a key: control characters escaped (\\x00)."""
+    return CONTROL_RE.sub(lambda m: m.group().encode("unicode_escape").decode("ascii"), key)
 
 
 def _short(v) -> str:
@@ -648,8 +658,8 @@ def law_case(rng: random.Random, index: int, marker: str) -> Case:
         desc = f"{kind} at t = {a:.6g} ({'inside' if inside else 'outside'} the run)"
         laws[k] = tree
     elif r < 0.90:
-        text = rng.choice(HOSTILE_LAWS).replace("MARKER", marker)
-        expect, desc = "refuse", "hostile"
+        text = rng.choice(HOSTILE_LAWS + EITHER_LAWS).replace("MARKER", marker)
+        expect, desc = ("either" if text in EITHER_LAWS else "refuse"), "hostile"
         if rng.random() < 0.3:    # inside a valid expression
             text = f"0.1*sin(t) + {text}"
     else:
