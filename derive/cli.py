@@ -238,6 +238,12 @@ def cmd_bench(args: argparse.Namespace) -> int:
         outcomes = failures.run(progress=_progress)
         print(failures.report(outcomes))
         return 0
+    if args.what == "fuzz":
+        from .bench import fuzz
+        outcomes = fuzz.run(args.cases, args.seed, args.mode, progress=_progress,
+                            cli_cases=max(1, args.cases // 10))
+        print(fuzz.report(outcomes))
+        return 1 if any(o.bad for o in outcomes) else 0
     raise UsageError(f"unknown benchmark {args.what!r}")
 
 
@@ -327,12 +333,18 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_chart)
 
     p = sub.add_parser("bench", help="benchmarks: ratios against peers in the same run")
-    p.add_argument("what", choices=["rhs", "sim", "precision", "failures"], help=(
+    p.add_argument("what", choices=["rhs", "sim", "precision", "failures", "fuzz"], help=(
         "rhs: cost per evaluation of the generated functions against CasADi's C, CasADi "
         "from Python and NumPy; sim: time to simulate a scene to a max state error of "
         "1e-9 against SciPy and CasADi routes; precision: work-precision charts on "
         "reference scenes and the invariant drift of long runs; failures: hard scenes "
-        "through every method"))
+        "through every method; fuzz: seeded hostile scenes through the parser, the "
+        "runtime and the command line (exit 1 on any bad outcome)"))
+    p.add_argument("--cases", type=int, default=2000, help="fuzz: number of cases")
+    p.add_argument("--seed", type=int, default=12, help="fuzz: seed")
+    p.add_argument("--mode", choices=["api", "cli", "both"], default="both",
+                   help="fuzz: through the API, the command line (a tenth of the cases "
+                        "with both) or both")
     p.add_argument("-o", "--output", default="bench-out", help="precision: output folder")
     p.add_argument("--quick", action="store_true", help="precision: three tolerances only")
     p.add_argument("--periods", type=int, default=10_000,
