@@ -524,7 +524,7 @@ def scene_mutation(rng: random.Random, index: int, marker: str) -> Case:
         if path == ("run", "step"):
             doc["run"]["method"] = "rk4"
         _set(doc, path, v)
-        return Case(index, "scene", f"{fname(path)} = {v!r:.80}", doc, expect=expect,
+        return Case(index, "scene", f"{fname(path)} = {_short(v)}", doc, expect=expect,
                     fields=fields_for(path), toml_level_ok=kind == "deep")
     if r < 0.55:          # a vector
         path, rule = rng.choice(list(VECTOR_FIELDS.items()))
@@ -635,6 +635,11 @@ def _escaped(key: str) -> str:
 
 
 def _short(v) -> str:
+    depth = 0
+    while isinstance(v, list) and len(v) == 1 and isinstance(v[0], list):
+        v, depth = v[0], depth + 1
+    if depth > 3:
+        return f"a list nested {depth + 1} deep"
     s = repr(v)
     return s if len(s) < 80 else s[:70] + f"...({len(s)} chars)"
 
