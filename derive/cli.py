@@ -349,6 +349,16 @@ def cmd_bench_failures(args) -> int:
     return 0
 
 
+def cmd_bench_fuzz(args) -> int:
+    from .bench import fuzz
+    if not 1 <= args.cases <= 10_000_000:
+        raise UsageError(f"--cases: must be in [1, 1e7] (got {args.cases})")
+    outcomes = fuzz.run(args.cases, args.seed, args.mode, progress=_progress,
+                        cli_cases=max(1, args.cases // 10))
+    print(fuzz.report(outcomes))
+    return 1 if any(o.bad for o in outcomes) else 0
+
+
 def cmd_bench_robustness(args) -> int:
     import time
     from .bench import robustness
@@ -363,7 +373,8 @@ def cmd_bench_robustness(args) -> int:
     bad = [o for o in outcomes if o.verdict not in ("ok",)]
     if args.parser:
         from .bench import fuzz
-        cases = fuzz.run(args.parser, seed=args.seed, progress=_progress)
+        cases = fuzz.run(args.parser, seed=args.seed, mode="both", progress=_progress,
+                         cli_cases=max(1, args.parser // 10))
         print(fuzz.report(cases))
         bad += [c for c in cases if c.bad]
     print(f"{time.perf_counter() - start:.1f} s in all")
@@ -518,6 +529,14 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--parser", type=int, default=0, metavar="N",
                    help="also N random malformed scenes through the parser and the CLI")
     b.set_defaults(func=cmd_bench_robustness)
+    b = bench.add_parser("fuzz", help="seeded hostile scenes through the parser, the "
+                         "runtime and the command line (exit 1 on any bad outcome)")
+    b.add_argument("--cases", type=int, default=2000, help="number of cases")
+    b.add_argument("--seed", type=int, default=12, help="the generator's seed")
+    b.add_argument("--mode", choices=["api", "cli", "both"], default="both",
+                   help="through the API, the command line (a tenth of the cases with "
+                        "both) or both")
+    b.set_defaults(func=cmd_bench_fuzz)
 
     return parser
 

@@ -961,8 +961,10 @@ SAMPLES = 4097
 
 def summarise(jets: np.ndarray) -> LawSummary:
     r, v, a = jets[[0, 3, 6]], jets[[1, 4, 7]], jets[[2, 5, 8]]
-    rn = np.sqrt((r * r).sum(0))
-    amp = float(np.sqrt(((r - r.mean(axis=1, keepdims=True)) ** 2).sum(0)).max())
-    acc = float(np.sqrt((a * a).sum(0)).max())
-    scale = math.sqrt(amp / acc) if acc > 0 and amp > 0 else math.inf
-    return LawSummary(float(rn.max()), float(np.sqrt((v * v).sum(0)).max()), acc, amp, scale)
+    with np.errstate(over="ignore", invalid="ignore"):     # huge laws: inf, then refused
+        rn = np.sqrt((r * r).sum(0))
+        amp = float(np.sqrt(((r - r.mean(axis=1, keepdims=True)) ** 2).sum(0)).max())
+        acc = float(np.sqrt((a * a).sum(0)).max())
+        speed = float(np.sqrt((v * v).sum(0)).max())
+    scale = math.sqrt(amp / acc) if acc > 0 and amp > 0 and math.isfinite(acc) else math.inf
+    return LawSummary(float(rn.max()), speed, acc, amp, scale)

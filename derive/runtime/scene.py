@@ -31,10 +31,21 @@ class _Required:
 REQUIRED = _Required()     # a field's default when the scene must give it
 
 
+_UNPRINTABLE = re.compile("[\x00-\x1f\x7f-\x9f\u2028\u2029\u202a-\u202e\u2066-\u2069]")
+
+
+def _printable(text: str) -> str:
+    """Control, line-break and bidi characters of a scene escaped (\\x1b, \\n, ...): a
+    message is one line and cannot drive the terminal."""
+    return _UNPRINTABLE.sub(lambda m: m.group().encode("unicode_escape").decode("ascii"),
+                            str(text))
+
+
 class SceneError(ValueError):
     """A scene that breaks a rule: ``where`` names the field, ``rule`` says what."""
 
     def __init__(self, where: str, rule: str):
+        where, rule = _printable(where), _printable(rule)
         super().__init__(f"{where}: {rule}")
         self.where, self.rule = where, rule
 
@@ -77,6 +88,7 @@ MAX_MASS = 1e9
 MAX_LENGTH = 1e6
 MAX_DURATION = 1e7
 MAX_ROWS = 10_000_000
+MIN_DURATION = 1e-12       # s: the runtime's steps (duration / 2000, / 4) stay normal floats
 FIELDS = (
     F("", "name", "string", "scene", "a label for the outputs: at most 80 ASCII letters, "
       "digits, spaces and - _ . , : ; = + ( ) [ ] / # @ & '", example="my-scene"),
@@ -264,7 +276,9 @@ def _num(f: Field, value, where: str | None = None) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise SceneError(where, f"must be a number, not {_type_name(value)}")
     if isinstance(value, int) and abs(value) > 2 ** 53:
-        raise SceneError(where, f"is too large ({value:.3e} exceeds 2^53)")
+        shown = f"{value:.3e}" if abs(value).bit_length() <= 1000 else \
+            f"about 2^{abs(value).bit_length() - 1}"
+        raise SceneError(where, f"is too large ({shown} exceeds 2^53)")
     x = float(value)
     if not math.isfinite(x):
         raise SceneError(where, "must be finite (no NaN or infinity)")
@@ -354,11 +368,15 @@ def _value(f: Field, value):
         if not isinstance(value, list) or not 4 <= len(value) <= 100_000:
             raise SceneError(f.where, "must be a list of 4 to 100000 rows [t, x, y, z]")
         rows = []
+        cell = Field("point", "samples", "number", None, "")
+        isfinite = math.isfinite
         for i, row in enumerate(value):
             if not isinstance(row, list) or len(row) != 4:
                 raise SceneError(f"{f.where}[{i}]", "must be a row of 4 numbers [t, x, y, z]")
-            rows.append([_num(Field("point", "samples", "number", None, ""), v,
-                              f"{f.where}[{i}][{j}]") for j, v in enumerate(row)])
+            if all(type(v) is float and isfinite(v) for v in row):
+                rows.append(row)            # the common case, checked without messages
+                continue
+            rows.append([_num(cell, v, f"{f.where}[{i}][{j}]") for j, v in enumerate(row)])
         return rows
     raise AssertionError(k)
 
@@ -492,6 +510,13 @@ def _point_law(v: dict, base: Path | None):
                                               "file's folder (scenes given as text or dicts "
                                               "use samples)")
         full = base / path
+        try:
+            inside = full.resolve().is_relative_to(Path(base).resolve())
+        except (OSError, RuntimeError, ValueError):
+            inside = False
+        if not inside:
+            raise SceneError("[point].table", f"{rel!r} leads outside the scene file's "
+                                              "folder (through a symbolic link)")
         if not full.is_file():
             raise SceneError("[point].table", f"no such file {rel!r} beside the scene")
         if full.stat().st_size > tablemod.MAX_BYTES:
@@ -566,6 +591,8 @@ def parse_scene(source: str | dict, origin: str = "scene", base: Path | None = N
             raise SceneError(origin, f"is not valid TOML ({str(exc)[:200]})") from None
         except RecursionError:
             raise SceneError(origin, "is nested too deeply") from None
+        except ValueError as exc:       # e.g. an integer of more than 4300 digits
+            raise SceneError(origin, f"is not valid TOML ({str(exc)[:120]})") from None
     elif isinstance(source, dict):
         doc = source
     else:
@@ -634,6 +661,9 @@ def build_scene(v: dict, given: set, doc: dict, origin: str = "scene",
     e = v["[plane].restitution"] if plane else 1.0
     t0, duration = v["[initial].time"], v["[run].duration"]
     t1 = t0 + duration
+    if duration < MIN_DURATION:
+        raise SceneError("[run].duration", f"must be at least {MIN_DURATION:g} s (got "
+                                           f"{duration:g}): no step of the runtime resolves it")
     if not math.isfinite(t1) or (t1 - t0) < 1e-9 * duration:
         raise SceneError("[run].duration", f"is lost in the magnitude of the start time "
                                            f"{t0:g}")
@@ -647,7 +677,13 @@ def build_scene(v: dict, given: set, doc: dict, origin: str = "scene",
     max_distance = v["[point].max_distance"] or 10.0 * body_size
     summary = _check_law(law, t0, t1)
     if summary.max_radius > max_distance:
-        where = "[point].law" if law_text else "[point].table"
+        if law_text:
+            with np.errstate(all="ignore"):
+                r = law.jets(np.linspace(t0, t1, lawmod.SAMPLES))[[0, 3, 6]]
+                far = np.nan_to_num(np.abs(r), nan=np.inf).max(axis=1)
+            where = f"[point].law[{int(np.argmax(far))}]"
+        else:
+            where = "[point].samples" if v["[point].samples"] is not None else "[point].table"
         raise SceneError(where, f"takes P {summary.max_radius:.3g} from O, beyond "
                                 f"max_distance = {max_distance:.3g} (10 body sizes unless "
                                 "[point].max_distance says otherwise)")

@@ -1045,7 +1045,12 @@ int crt_advance(crt_session *s, double t_end, double *t_out, double *q_out, int 
     }
     if (s->out_pending) break;
   }
-  if (s->status == CRT_PAUSED && s->t >= t_end && !s->out_pending) s->status = CRT_DONE;
+  if (s->status == CRT_PAUSED && s->t >= t_end && !s->out_pending) {
+    s->status = CRT_DONE;
+    /* the output_dt grid need not land on t_end: the final state is a row too */
+    if (out_dt > 0.0 && (o.n == 0 || o.t[o.n - 1] < s->t))
+      crt_emit(&o, s->t, s->q, CRT_ROW_STEP);
+  }
   *n_out = o.n;
   *n_ev = o.ev_n;
   return s->status;
