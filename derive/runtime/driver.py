@@ -138,7 +138,10 @@ class Session:
         op, pp, qp, _ = self._in
         status = self.library.lib.crt_init(self.handle, op, pp, float(t0), qp)
         if status != 0:
-            raise RuntimeError(f"the runtime refused the run ({STATUSES[status]})")
+            # validation should have refused the scene: say which rule the C applied
+            from .scene import SceneError
+            raise SceneError("[run]", f"the runtime refused the run's options or initial "
+                                      f"state ({STATUSES[status]}); please report this scene")
 
     def run(self, t0: float, duration: float, q0, opt, prm, progress=None) -> Raw:
         lib = self.library.lib
