@@ -318,6 +318,106 @@ def kinetic_moment(model: str) -> FunctionSpec:
         definitions=MASS_DEFINITIONS)
 
 
+# ---- the momentum form (derive.momentum.momentum_form, derive.lie) -------------------------
+def _A() -> Vector:
+    return Vector("A", A_FLAT, tuple(f"a{i}{j}" for i in "123" for j in "123"))
+
+
+def _omega() -> Vector:
+    return Vector("omega", tuple(nt.omega), ("omega_x", "omega_y", "omega_z"))
+
+
+@lru_cache(maxsize=None)
+def momentum_omega() -> FunctionSpec:
+    """``momentum_omega(A, K, u, p) -> omega``: E1.4 solved for omega with K constant in
+    fixed axes (E1.1): ``J omega = A^T K - mu OP x V_r``."""
+    from .momentum import K_BODY, K_FIXED, momentum_form
+    mf = momentum_form()
+    seen = nt.a.T * K_FIXED
+    rhs = mf.body_rhs.xreplace(dict(zip(K_BODY, seen)))
+    return FunctionSpec(
+        name="momentum_omega",
+        doc="omega of the momentum form: E1.4 solved with K constant in fixed axes "
+            "(E1.1), J omega = A^T K - mu OP x V_r.",
+        inputs=(_A(), Vector("K", tuple(K_FIXED), ("K_X", "K_Y", "K_Z")), _u(), _p()),
+        outputs=(_omega(),),
+        solves=(LinearSolve(matrix=mf.J, rhs=(rhs,), unknowns=(nt.omega,)),),
+        definitions=MASS_DEFINITIONS)
+
+
+@lru_cache(maxsize=None)
+def fixed_kinetic_moment() -> FunctionSpec:
+    """``fixed_kinetic_moment(A, omega, u, p) -> K``: K about C in fixed axes, A K of
+    E1.4 (the constant of a flight, E1.1)."""
+    from .momentum import momentum_form
+    return FunctionSpec(
+        name="fixed_kinetic_moment",
+        doc="K about C in fixed axes, A (J omega + mu OP x V_r) (E1.4): constant in flight "
+            "(E1.1).",
+        inputs=(_A(), _omega(), _u(), _p()),
+        outputs=(Vector("K", tuple(momentum_form().fixed), ("K_X", "K_Y", "K_Z")),),
+        definitions=MASS_DEFINITIONS)
+
+
+@lru_cache(maxsize=None)
+def lie_stage() -> FunctionSpec:
+    """``lie_stage(W, k, u, p) -> (dW, omega)``: one stage of a Lie-group step.  With the
+    attitude ``A = A_n cay(W)`` and ``k = A_n^T K`` (K fixed, E1.1), the body components of
+    K are ``cay(W)^T k``; omega solves E1.4 with them, and ``W' = dcayinv(W, omega)`` is
+    Poisson's E1.8 in Cayley coordinates (derive.lie)."""
+    from .lie import CAYLEY_SCALE, OMEGA, W, cayley
+    from .momentum import K_BODY, momentum_form
+    c = cayley()
+    mf = momentum_form()
+    seen = c.matrix.T * K_BODY
+    rhs = mf.body_rhs.xreplace(dict(zip(K_BODY, seen)))
+    dW = c.inverse_differential.xreplace(dict(zip(OMEGA, nt.omega)))
+    return FunctionSpec(
+        name="lie_stage",
+        doc="A stage of the Lie-group flight step: omega from E1.4 with K = cay(W)^T k in "
+            "body axes, and W' = dcayinv(W, omega) (E1.8 in Cayley coordinates).",
+        inputs=(Vector("W", tuple(W), ("W_x", "W_y", "W_z")),
+                Vector("k", tuple(K_BODY), ("k_x", "k_y", "k_z")), _u(), _p()),
+        outputs=(Vector("dW", tuple(dW), ("W_x'", "W_y'", "W_z'")), _omega()),
+        solves=(LinearSolve(matrix=mf.J, rhs=(rhs,), unknowns=(nt.omega,)),),
+        definitions=MASS_DEFINITIONS + ((CAYLEY_SCALE, c.scale),))
+
+
+@lru_cache(maxsize=None)
+def flight_parabola() -> FunctionSpec:
+    """``flight_parabola(c, tau, p) -> c_tau``: C's position and velocity tau after the
+    start of a flight (E1.2 integrated)."""
+    from .momentum import TAU, flight_parabola as parabola
+    position, velocity = parabola()
+    labels = STATE_LABELS["general"][:6]
+    return FunctionSpec(
+        name="flight_parabola",
+        doc="Position and velocity of C a time tau after the start of a flight (E1.2 "
+            "integrated).",
+        inputs=(Vector("c", STATES["general"][:6], labels), Vector("tau", (TAU,), ("tau",)),
+                _p()),
+        outputs=(Vector("c_tau", tuple(position) + tuple(velocity), labels),))
+
+
+@lru_cache(maxsize=None)
+def cayley() -> FunctionSpec:
+    """``cayley(W) -> C``: the rotation ``cay(W)`` (derive.lie), row-major."""
+    from .lie import CAYLEY_SCALE, W, cayley as cay
+    c = cay()
+    return FunctionSpec(
+        name="cayley", doc="The Cayley map of so(3): cay(W) = (1 - W^/2)^-1 (1 + W^/2), "
+                           "row-major (derive.lie).",
+        inputs=(Vector("W", tuple(W), ("W_x", "W_y", "W_z")),),
+        outputs=(Vector("C", tuple(c.matrix), tuple(f"c{i}{j}" for i in "123"
+                                                    for j in "123")),),
+        definitions=((CAYLEY_SCALE, c.scale),))
+
+
+def momentum_specs() -> list[FunctionSpec]:
+    return [momentum_omega(), fixed_kinetic_moment(), lie_stage(), flight_parabola(),
+            cayley()]
+
+
 def all_specs() -> list[FunctionSpec]:
     specs = [flight_rhs(mdl) for mdl in MODELS]
     specs += [flight_jacobian(mdl) for mdl in MODELS]
@@ -327,6 +427,7 @@ def all_specs() -> list[FunctionSpec]:
     specs += [contact_rhs(mdl) for mdl in ("general", "vertical")]
     specs += [lowest_point(shape) for shape in ("sphere", "ellipsoid")]
     specs += [lowest_point_rate(shape) for shape in ("sphere", "ellipsoid")]
+    specs += momentum_specs()
     return specs
 
 

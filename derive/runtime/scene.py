@@ -122,7 +122,8 @@ FIELDS = (
     F("initial", "matrix", "matrix", None, "attitude as the matrix a_ij = cos(fixed axis i, "
       "body axis j), a rotation", -1.0 - 1e-6, 1.0 + 1e-6),
     F("run", "duration", "number", 5.0, "length of the run", 0, MAX_DURATION, True),
-    F("run", "method", "choice", "dopri5", "integrator", choices=("rk4", "dopri5", "dop853")),
+    F("run", "method", "choice", "dopri5", "integrator (lie: the momentum form, see the "
+      "README)", choices=("lie", "lie5", "dopri5", "dop853", "rk4")),
     F("run", "rtol", "number", 1e-10, "relative tolerance", 1e-15, 1e-2),
     F("run", "atol", "number", 1e-12, "absolute tolerance", 0, 1, True),
     F("run", "g", "number", 9.81, "gravity", 0, 1e4),

@@ -332,6 +332,86 @@ void lowest_point_rate_ellipsoid_release(int mem);
 void lowest_point_rate_ellipsoid_incref(void);
 void lowest_point_rate_ellipsoid_decref(void);
 
+/* momentum_omega(A[9], K[3], u[9], p[6]) -> (omega[3]): omega of the momentum form: E1.4 solved with K constant in fixed axes (E1.1), J omega = A^T K - mu OP x V_r. */
+void carrier_momentum_omega(const double *A, const double *K, const double *u, const double *p, double *restrict omega);
+int momentum_omega(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int momentum_omega_n_in(void);
+casadi_int momentum_omega_n_out(void);
+const char *momentum_omega_name_in(casadi_int i);
+const char *momentum_omega_name_out(casadi_int i);
+const casadi_int *momentum_omega_sparsity_in(casadi_int i);
+const casadi_int *momentum_omega_sparsity_out(casadi_int i);
+int momentum_omega_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real momentum_omega_default_in(casadi_int i);
+int momentum_omega_checkout(void);
+void momentum_omega_release(int mem);
+void momentum_omega_incref(void);
+void momentum_omega_decref(void);
+
+/* fixed_kinetic_moment(A[9], omega[3], u[9], p[6]) -> (K[3]): K about C in fixed axes, A (J omega + mu OP x V_r) (E1.4): constant in flight (E1.1). */
+void carrier_fixed_kinetic_moment(const double *A, const double *omega, const double *u, const double *p, double *restrict K);
+int fixed_kinetic_moment(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int fixed_kinetic_moment_n_in(void);
+casadi_int fixed_kinetic_moment_n_out(void);
+const char *fixed_kinetic_moment_name_in(casadi_int i);
+const char *fixed_kinetic_moment_name_out(casadi_int i);
+const casadi_int *fixed_kinetic_moment_sparsity_in(casadi_int i);
+const casadi_int *fixed_kinetic_moment_sparsity_out(casadi_int i);
+int fixed_kinetic_moment_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real fixed_kinetic_moment_default_in(casadi_int i);
+int fixed_kinetic_moment_checkout(void);
+void fixed_kinetic_moment_release(int mem);
+void fixed_kinetic_moment_incref(void);
+void fixed_kinetic_moment_decref(void);
+
+/* lie_stage(W[3], k[3], u[9], p[6]) -> (dW[3], omega[3]): A stage of the Lie-group flight step: omega from E1.4 with K = cay(W)^T k in body axes, and W' = dcayinv(W, omega) (E1.8 in Cayley coordinates). */
+void carrier_lie_stage(const double *W, const double *k, const double *u, const double *p, double *restrict dW, double *restrict omega);
+int lie_stage(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int lie_stage_n_in(void);
+casadi_int lie_stage_n_out(void);
+const char *lie_stage_name_in(casadi_int i);
+const char *lie_stage_name_out(casadi_int i);
+const casadi_int *lie_stage_sparsity_in(casadi_int i);
+const casadi_int *lie_stage_sparsity_out(casadi_int i);
+int lie_stage_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real lie_stage_default_in(casadi_int i);
+int lie_stage_checkout(void);
+void lie_stage_release(int mem);
+void lie_stage_incref(void);
+void lie_stage_decref(void);
+
+/* flight_parabola(c[6], tau[1], p[6]) -> (c_tau[6]): Position and velocity of C a time tau after the start of a flight (E1.2 integrated). */
+void carrier_flight_parabola(const double *c, double tau, const double *p, double *restrict c_tau);
+int flight_parabola(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int flight_parabola_n_in(void);
+casadi_int flight_parabola_n_out(void);
+const char *flight_parabola_name_in(casadi_int i);
+const char *flight_parabola_name_out(casadi_int i);
+const casadi_int *flight_parabola_sparsity_in(casadi_int i);
+const casadi_int *flight_parabola_sparsity_out(casadi_int i);
+int flight_parabola_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real flight_parabola_default_in(casadi_int i);
+int flight_parabola_checkout(void);
+void flight_parabola_release(int mem);
+void flight_parabola_incref(void);
+void flight_parabola_decref(void);
+
+/* cayley(W[3]) -> (C[9]): The Cayley map of so(3): cay(W) = (1 - W^/2)^-1 (1 + W^/2), row-major (derive.lie). */
+void carrier_cayley(const double *W, double *restrict C);
+int cayley(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int cayley_n_in(void);
+casadi_int cayley_n_out(void);
+const char *cayley_name_in(casadi_int i);
+const char *cayley_name_out(casadi_int i);
+const casadi_int *cayley_sparsity_in(casadi_int i);
+const casadi_int *cayley_sparsity_out(casadi_int i);
+int cayley_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real cayley_default_in(casadi_int i);
+int cayley_checkout(void);
+void cayley_release(int mem);
+void cayley_incref(void);
+void cayley_decref(void);
+
 #ifdef __cplusplus
 }
 #endif

@@ -15,6 +15,7 @@
 #define MODEL_HAS_PLANE 0
 #define MODEL_Z -1
 #define MODEL_ZD -1
+#define MODEL_LIE 1
 
 /* State: omega_x, omega_y, omega_z */
 
@@ -66,11 +67,137 @@ static void attitude_flight_rhs(const double *q, const double *u, const double *
   dq[2] = s0_20;
 }
 
+/* A stage of the Lie-group flight step: omega from E1.4 with K = cay(W)^T k in body axes, and W' = dcayinv(W, omega) (E1.8 in Cayley coordinates). (145 ops) */
+static void lie_stage(const double *W, const double *k, const double *u, const double *p, double *restrict dW, double *restrict omega)
+{
+  const double c0 = W[0]*W[0];
+  const double c1 = W[1]*W[1];
+  const double c2 = W[2]*W[2];
+  const double c3 = u[1]*u[1];
+  const double c4 = u[2]*u[2];
+  const double c6 = u[0]*u[0];
+  const double c9 = ((1.0/2.0))*W[0];
+  const double c10 = W[1]*c9;
+  const double c12 = W[2]*c9;
+  const double c14 = ((1.0/2.0))*c1;
+  const double c15 = ((1.0/2.0))*c2;
+  const double c16 = ((1.0/2.0))*W[1];
+  const double c18 = ((1.0/2.0))*c0;
+  const double c19 = ((1.0/2.0))*W[2];
+  const double nu = p[1]/(p[0] + p[1]);
+  const double mu = p[0]*nu;
+  const double s_W = 4.0/(c0 + c1 + c2 + 4.0);
+  const double c5 = mu*u[0];
+  const double c7 = mu*u[2];
+  const double c8 = mu*u[1];
+  const double c11 = k[1]*s_W;
+  const double c13 = k[2]*s_W;
+  const double c17 = k[0]*s_W;
+  const double s0_0 = p[2] + mu*(c3 + c4);
+  const double s0_1 = -c5*u[1];
+  const double s0_2 = p[3] + mu*(c4 + c6);
+  const double s0_3 = -c5*u[2];
+  const double s0_4 = -c7*u[1];
+  const double s0_5 = p[4] + mu*(c3 + c6);
+  const double s0_6 = c11*(W[2] + c10) + c13*(-W[1] + c12) + c7*u[4] - c8*u[5] + k[0]*(s_W*(-c14 - c15) + 1.0);
+  const double s0_7 = c13*(W[0] + W[2]*c16) + c17*(-W[2] + c10) + c5*u[5] - c7*u[3] + k[1]*(s_W*(-c15 - c18) + 1.0);
+  const double s0_8 = c11*(-W[0] + ((1.0/2.0))*W[1]*W[2]) + c17*(W[1] + c12) - c5*u[4] + c8*u[3] + k[2]*(s_W*(-c14 - c18) + 1.0);
+  const double s0_9 = 1.0/s0_0;
+  const double s0_10 = s0_1*s0_9;
+  const double s0_11 = s0_3*s0_9;
+  const double s0_12 = -s0_1*s0_10 + s0_2;
+  const double s0_13 = 1.0/s0_12;
+  const double s0_14 = -s0_1*s0_11 + s0_4;
+  const double s0_15 = s0_13*s0_14;
+  const double s0_16 = -s0_11*s0_3 - s0_14*s0_15 + s0_5;
+  const double s0_17 = 1.0/s0_16;
+  const double s0_18 = -s0_10*s0_6 + s0_7;
+  const double s0_19 = -s0_11*s0_6 - s0_15*s0_18 + s0_8;
+  const double s0_20 = s0_17*s0_19;
+  const double s0_21 = s0_13*s0_18 - s0_15*s0_20;
+  const double s0_22 = -s0_10*s0_21 - s0_11*s0_20 + s0_6*s0_9;
+  const double c20 = ((1.0/4.0))*W[0]*s0_22 + ((1.0/4.0))*W[1]*s0_21 + ((1.0/4.0))*W[2]*s0_20;
+  dW[0] = W[0]*c20 + c16*s0_20 - c19*s0_21 + s0_22;
+  dW[1] = W[1]*c20 + c19*s0_22 - c9*s0_20 + s0_21;
+  dW[2] = W[2]*c20 - c16*s0_22 + c9*s0_21 + s0_20;
+  omega[0] = s0_22;
+  omega[1] = s0_21;
+  omega[2] = s0_20;
+}
+
+/* K about C in fixed axes, A (J omega + mu OP x V_r) (E1.4): constant in flight (E1.1). (68 ops) */
+static void fixed_kinetic_moment(const double *A, const double *omega, const double *u, const double *p, double *restrict K)
+{
+  const double c3 = u[1]*u[1];
+  const double c4 = u[2]*u[2];
+  const double c6 = u[0]*u[0];
+  const double nu = p[1]/(p[0] + p[1]);
+  const double mu = p[0]*nu;
+  const double c0 = mu*u[2];
+  const double c1 = mu*u[0]*u[1];
+  const double c2 = c0*omega[2];
+  const double c5 = -c0*u[4] - c1*omega[1] - c2*u[0] + mu*u[1]*u[5] + omega[0]*(p[2] + mu*(c3 + c4));
+  const double c7 = -c1*omega[0] - c2*u[1] - mu*u[0]*u[5] + mu*u[3]*u[2] + omega[1]*(p[3] + mu*(c4 + c6));
+  const double c8 = -c0*omega[0]*u[0] - c0*omega[1]*u[1] + mu*u[0]*u[4] - mu*u[3]*u[1] + omega[2]*(p[4] + mu*(c3 + c6));
+  K[0] = c5*A[0] + c7*A[1] + c8*A[2];
+  K[1] = c5*A[3] + c7*A[4] + c8*A[5];
+  K[2] = c5*A[6] + c7*A[7] + c8*A[8];
+}
+
+/* The Cayley map of so(3): cay(W) = (1 - W^/2)^-1 (1 + W^/2), row-major (derive.lie). (41 ops) */
+static void cayley(const double *W, double *restrict C)
+{
+  const double c0 = W[0]*W[0];
+  const double c1 = W[1]*W[1];
+  const double c2 = W[2]*W[2];
+  const double c3 = ((1.0/2.0))*c1;
+  const double c4 = ((1.0/2.0))*c2;
+  const double c5 = ((1.0/2.0))*W[0];
+  const double c6 = W[1]*c5;
+  const double c7 = W[2]*c5;
+  const double c8 = ((1.0/2.0))*c0;
+  const double s_W = 4.0/(c0 + c1 + c2 + 4.0);
+  C[0] = s_W*(-c3 - c4) + 1.0;
+  C[1] = s_W*(-W[2] + c6);
+  C[2] = s_W*(W[1] + c7);
+  C[3] = s_W*(W[2] + c6);
+  C[4] = s_W*(-c4 - c8) + 1.0;
+  C[5] = s_W*(-W[0] + ((1.0/2.0))*W[1]*W[2]);
+  C[6] = s_W*(-W[1] + c7);
+  C[7] = s_W*(W[0] + ((1.0/2.0))*W[1]*W[2]);
+  C[8] = s_W*(-c3 - c8) + 1.0;
+}
+
 /* ---- the model: what the runtime (crt_core.h) calls ------------------------------------ */
 
 static void model_rhs(const double *p, const double *u, const double *q, double *dq)
 {
   attitude_flight_rhs(q, u, p, dq);
+}
+
+/* ---- the momentum form (crt_lie.h) ------------------------------------------------------ */
+/* From the state: C (position, velocity; zero where the model has none), omega and the
+   attitude R = (a_ij); returns 0 when R is the whole matrix, 1 when only its third row n
+   is known (n_scale = |n|), 2 when there is none. */
+static int model_lie_read(const double *q, double *c0, double *omega, double *R,
+                          double *n_scale)
+{
+  int i;
+  for (i = 0; i < 6; ++i) c0[i] = 0.0;
+  for (i = 0; i < 9; ++i) R[i] = 0.0;
+  *n_scale = 1.0;
+  for (i = 0; i < 3; ++i) omega[i] = q[i];
+  return 2;
+}
+
+/* The state from the momentum form: C a time tau after the start of the flight on its
+   parabola (flight_parabola, E1.2 integrated), omega and the attitude R. */
+static void model_lie_state(const double *p, const double *c0, double tau,
+                            const double *omega, const double *R, double n_scale, double *q)
+{
+  int i;
+  (void)p; (void)c0; (void)tau; (void)R; (void)n_scale;
+  for (i = 0; i < 3; ++i) q[i] = omega[i];
 }
 
 static void model_normalize(double *q)
