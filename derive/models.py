@@ -359,28 +359,54 @@ def fixed_kinetic_moment() -> FunctionSpec:
         definitions=MASS_DEFINITIONS)
 
 
+def _W() -> Vector:
+    return Vector("W", tuple(_lie().W), ("W_x", "W_y", "W_z"))
+
+
+def _lie():
+    from . import lie
+    return lie
+
+
 @lru_cache(maxsize=None)
 def lie_stage() -> FunctionSpec:
     """``lie_stage(W, k, u, p) -> (dW, omega)``: one stage of a Lie-group step.  With the
-    attitude ``A = A_n cay(W)`` and ``k = A_n^T K`` (K fixed, E1.1), the body components of
-    K are ``cay(W)^T k``; omega solves E1.4 with them, and ``W' = dcayinv(W, omega)`` is
-    Poisson's E1.8 in Cayley coordinates (derive.lie)."""
-    from .lie import CAYLEY_SCALE, OMEGA, W, cayley
+    attitude ``A = A_n exp(skew(W))`` and ``k = A_n^T K`` (K fixed, E1.1), the body
+    components of K are ``exp(-skew(W)) k``; omega solves E1.4 with them, and
+    ``W' = dexpinv(W, omega)`` is Poisson's E1.8 in exponential coordinates (derive.lie)."""
     from .momentum import K_BODY, momentum_form
-    c = cayley()
+    lie = _lie()
+    ch = lie.exponential_chart()
     mf = momentum_form()
-    seen = c.matrix.T * K_BODY
+    seen = ch.body_view(K_BODY)
     rhs = mf.body_rhs.xreplace(dict(zip(K_BODY, seen)))
-    dW = c.inverse_differential.xreplace(dict(zip(OMEGA, nt.omega)))
+    dW = ch.dexpinv(nt.omega)
     return FunctionSpec(
         name="lie_stage",
-        doc="A stage of the Lie-group flight step: omega from E1.4 with K = cay(W)^T k in "
-            "body axes, and W' = dcayinv(W, omega) (E1.8 in Cayley coordinates).",
-        inputs=(Vector("W", tuple(W), ("W_x", "W_y", "W_z")),
-                Vector("k", tuple(K_BODY), ("k_x", "k_y", "k_z")), _u(), _p()),
+        doc="A stage of the Lie-group flight step: omega from E1.4 with K = exp(-W^) k in "
+            "body axes, and W' = dexpinv(W, omega) (E1.8 in exponential coordinates).",
+        inputs=(_W(), Vector("k", tuple(K_BODY), ("k_x", "k_y", "k_z")), _u(), _p()),
         outputs=(Vector("dW", tuple(dW), ("W_x'", "W_y'", "W_z'")), _omega()),
         solves=(LinearSolve(matrix=mf.J, rhs=(rhs,), unknowns=(nt.omega,)),),
-        definitions=MASS_DEFINITIONS + ((CAYLEY_SCALE, c.scale),))
+        definitions=MASS_DEFINITIONS + ((lie.S_W, (lie.W.T * lie.W)[0]),))
+
+
+@lru_cache(maxsize=None)
+def exp_map() -> FunctionSpec:
+    """``exp_map(W) -> (E, quat)``: ``exp(skew(W))`` row-major and its unit quaternion
+    (derive.lie; |W| <= derive.lie.THETA_MAX)."""
+    lie = _lie()
+    ch = lie.exponential_chart()
+    E = ch.exp_matrix()
+    qw, qv = ch.series("quat_w"), ch.series("quat_v")
+    quat = (qw, qv * lie.W[0], qv * lie.W[1], qv * lie.W[2])
+    return FunctionSpec(
+        name="exp_map", doc="The exponential map of so(3): exp(W^) row-major and its unit "
+                            "quaternion (w, x, y, z) (derive.lie, |W| <= 1.25).",
+        inputs=(_W(),),
+        outputs=(Vector("E", tuple(E), tuple(f"e{i}{j}" for i in "123" for j in "123")),
+                 Vector("quat", quat, ("q_w", "q_x", "q_y", "q_z"))),
+        definitions=((lie.S_W, (lie.W.T * lie.W)[0]),))
 
 
 @lru_cache(maxsize=None)
@@ -399,23 +425,9 @@ def flight_parabola() -> FunctionSpec:
         outputs=(Vector("c_tau", tuple(position) + tuple(velocity), labels),))
 
 
-@lru_cache(maxsize=None)
-def cayley() -> FunctionSpec:
-    """``cayley(W) -> C``: the rotation ``cay(W)`` (derive.lie), row-major."""
-    from .lie import CAYLEY_SCALE, W, cayley as cay
-    c = cay()
-    return FunctionSpec(
-        name="cayley", doc="The Cayley map of so(3): cay(W) = (1 - W^/2)^-1 (1 + W^/2), "
-                           "row-major (derive.lie).",
-        inputs=(Vector("W", tuple(W), ("W_x", "W_y", "W_z")),),
-        outputs=(Vector("C", tuple(c.matrix), tuple(f"c{i}{j}" for i in "123"
-                                                    for j in "123")),),
-        definitions=((CAYLEY_SCALE, c.scale),))
-
-
 def momentum_specs() -> list[FunctionSpec]:
     return [momentum_omega(), fixed_kinetic_moment(), lie_stage(), flight_parabola(),
-            cayley()]
+            exp_map()]
 
 
 def all_specs() -> list[FunctionSpec]:

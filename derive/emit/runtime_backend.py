@@ -44,7 +44,7 @@ class RuntimeModel:
 
     def specs(self) -> list:
         contact = ["lowest_point_ellipsoid", "lowest_point_rate_ellipsoid"]
-        momentum = [dm.lie_stage(), dm.fixed_kinetic_moment(), dm.cayley()]
+        momentum = [dm.lie_stage(), dm.fixed_kinetic_moment(), dm.exp_map()]
         if self.kind in ("general", "vertical"):
             return [dm.flight_rhs(self.kind), dm.gap(self.kind), dm.impact(self.kind),
                     dm.runtime_contact(self.kind), dm.lowest_point("ellipsoid"),
@@ -105,6 +105,11 @@ def _pairs(values) -> list:
     return [(j, _c(v)) for j, v in enumerate(values) if float(v) != 0.0]
 
 
+# a Lie step is kept below this turn at the rate of its start (radians; below
+# derive.lie.THETA_MAX, beyond which a step is refused)
+LIE_MAX_TURN = 1.0
+
+
 @lru_cache(maxsize=None)
 def tableau_context() -> dict:
     def dense_rows(rows, n):
@@ -142,7 +147,11 @@ def render_model(m: RuntimeModel) -> str:
 def render_runtime() -> dict[str, str]:
     """Every file of ``generated/runtime`` as text."""
     env = environment()
-    common = {"versions": versions(), **abi.c_context(), **tableau_context()}
+    from .. import lie
+    theta = float(lie.THETA_MAX)
+    common = {"versions": versions(), **abi.c_context(), **tableau_context(),
+              "lie_theta_max": repr(theta), "lie_theta_max2": repr(theta * theta),
+              "lie_max_turn": repr(LIE_MAX_TURN)}
     files = {}
     for name in ("crt_abi.h", "crt_law.h", "crt_integrators.h", "crt_lie.h", "crt_core.h"):
         files[f"runtime/{name}"] = env.get_template(f"runtime/{name}.jinja").render(

@@ -70,7 +70,7 @@ METHODS = _names(
     ("dopri5", "Dormand-Prince 5(4), adaptive, 4th-order dense output"),
     ("dop853", "Dormand-Prince 8(5,3), adaptive, 7th-order dense output"),
     ("lie", "flight on the integral: K constant in fixed axes (E1.1), C on its parabola "
-            "(E1.2), the attitude on SO(3) by Runge-Kutta-Munthe-Kaas in Cayley coordinates "
+            "(E1.2), the attitude on SO(3) by Runge-Kutta-Munthe-Kaas with the exponential map "
             "with the DOP853 coefficients (order 8, 7th-order dense output); DOP853 in "
             "persistent contact and in models without an attitude"),
     ("lie5", "the same with the DOPRI5 coefficients (order 5, 4th-order dense output); "

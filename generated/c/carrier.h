@@ -364,7 +364,7 @@ void fixed_kinetic_moment_release(int mem);
 void fixed_kinetic_moment_incref(void);
 void fixed_kinetic_moment_decref(void);
 
-/* lie_stage(W[3], k[3], u[9], p[6]) -> (dW[3], omega[3]): A stage of the Lie-group flight step: omega from E1.4 with K = cay(W)^T k in body axes, and W' = dcayinv(W, omega) (E1.8 in Cayley coordinates). */
+/* lie_stage(W[3], k[3], u[9], p[6]) -> (dW[3], omega[3]): A stage of the Lie-group flight step: omega from E1.4 with K = exp(-W^) k in body axes, and W' = dexpinv(W, omega) (E1.8 in exponential coordinates). */
 void carrier_lie_stage(const double *W, const double *k, const double *u, const double *p, double *restrict dW, double *restrict omega);
 int lie_stage(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
 casadi_int lie_stage_n_in(void);
@@ -396,21 +396,21 @@ void flight_parabola_release(int mem);
 void flight_parabola_incref(void);
 void flight_parabola_decref(void);
 
-/* cayley(W[3]) -> (C[9]): The Cayley map of so(3): cay(W) = (1 - W^/2)^-1 (1 + W^/2), row-major (derive.lie). */
-void carrier_cayley(const double *W, double *restrict C);
-int cayley(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
-casadi_int cayley_n_in(void);
-casadi_int cayley_n_out(void);
-const char *cayley_name_in(casadi_int i);
-const char *cayley_name_out(casadi_int i);
-const casadi_int *cayley_sparsity_in(casadi_int i);
-const casadi_int *cayley_sparsity_out(casadi_int i);
-int cayley_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
-casadi_real cayley_default_in(casadi_int i);
-int cayley_checkout(void);
-void cayley_release(int mem);
-void cayley_incref(void);
-void cayley_decref(void);
+/* exp_map(W[3]) -> (E[9], quat[4]): The exponential map of so(3): exp(W^) row-major and its unit quaternion (w, x, y, z) (derive.lie, |W| <= 1.25). */
+void carrier_exp_map(const double *W, double *restrict E, double *restrict quat);
+int exp_map(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int exp_map_n_in(void);
+casadi_int exp_map_n_out(void);
+const char *exp_map_name_in(casadi_int i);
+const char *exp_map_name_out(casadi_int i);
+const casadi_int *exp_map_sparsity_in(casadi_int i);
+const casadi_int *exp_map_sparsity_out(casadi_int i);
+int exp_map_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real exp_map_default_in(casadi_int i);
+int exp_map_checkout(void);
+void exp_map_release(int mem);
+void exp_map_incref(void);
+void exp_map_decref(void);
 
 #ifdef __cplusplus
 }

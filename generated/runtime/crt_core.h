@@ -985,7 +985,7 @@ int crt_advance(crt_session *s, double t_end, double *t_out, double *q_out, int 
     }
 #endif
     if (!s->f_valid && !crt_lie_active(s)) { crt_rhs(s, s->t, s->q, s->f); s->f_valid = 1; }
-    h = crt_min(s->h, s->opt[CRT_OPT_HMAX]);
+    h = crt_min(crt_min(s->h, s->opt[CRT_OPT_HMAX]), crt_step_limit(s));
     if (s->t + h > t_end) h = t_end - s->t;
     if (h < h_min && s->t + h < t_end) { s->status = CRT_STEP_UNDERFLOW; break; }
     err = crt_step(s, s->t, s->q, s->f, h, y1, f1, 1);

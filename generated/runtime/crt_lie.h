@@ -15,12 +15,13 @@
  * (set from the state at the start of the run and after every event) and integrate the
  * attitude alone, A' = A skew(omega) (E1.8), with omega from E1.4 solved:
  *     J omega = A^T K - mu OP x V_r                                  (lie_stage)
- * Over a step from t_n the attitude is A = A_n cay(W) with W(t_n) = 0, and the step is a
- * Runge-Kutta step (the DOP853 or DOPRI5 coefficients, with their error estimates and
- * dense outputs) for W' = dcayinv(W, omega) in R^3 (Runge-Kutta-Munthe-Kaas in Cayley
- * coordinates, derive/lie.py).  A stays on SO(3) whatever W the method returns: the
- * session keeps the attitude as a unit quaternion, composed with that of cay(W) at every
- * step, and writes its matrix into the state; K in fixed axes, hence |K| (E1.9), is
+ * Over a step from t_n the attitude is A = A_n exp(W^) with W(t_n) = 0, and the step is
+ * a Runge-Kutta step (the DOP853 or DOPRI5 coefficients, with their error estimates and
+ * dense outputs) for W' = dexpinv(W, omega) in R^3 (Runge-Kutta-Munthe-Kaas with the
+ * exponential map, derive/lie.py; a uniform rotation is integrated exactly).  A stays on
+ * SO(3) whatever W the method returns: the session keeps the attitude as a unit
+ * quaternion, composed with that of exp(W^) at every step, and writes its matrix into the
+ * state; K in fixed axes, hence |K| (E1.9), is
  * exact by construction, and the omega written is the one E1.4 gives for that attitude.
  * The error is controlled on W (radians of attitude: scale atol + rtol).
  * In persistent contact (the reaction's moment changes K) and in models without an
@@ -114,13 +115,6 @@ static void crt_frame_from_axis(const double *n, double *R)
   for (i = 0; i < 3; ++i) { R[i] = e1[i]; R[3 + i] = e2[i]; R[6 + i] = n[i]; }
 }
 
-/* the quaternion of cay(W): (2, W)/|(2, W)| (derive.lie.check_quaternion_form) */
-static void crt_cayley_quat(const double *W, double *q)
-{
-  q[0] = 2.0; q[1] = W[0]; q[2] = W[1]; q[3] = W[2];
-  crt_quat_normalize(q);
-}
-
 /* R^T v */
 static void crt_transpose_times(const double *R, const double *v, double *out)
 {
@@ -166,7 +160,7 @@ static void crt_lie_accept(crt_session *s)
   crt_transpose_times(L->R, L->K, L->k);
 }
 
-/* one stage: W' and omega at (t, W) for the attitude A_n cay(W), k = A_n^T K */
+/* one stage: W' and omega at (t, W) for the attitude A_n exp(W^), k = A_n^T K */
 static void crt_lie_eval(crt_session *s, double t, const double *W, const double *k,
                          double *dW, double *omega)
 {
@@ -178,8 +172,8 @@ static void crt_lie_eval(crt_session *s, double t, const double *W, const double
 static void crt_lie_finish(crt_session *s, double t1, const double *W1, double *y1)
 {
   crt_lie *L = &s->lie;
-  double c[4], R[9];
-  crt_cayley_quat(W1, c);
+  double E[9], c[4], R[9];
+  exp_map(W1, E, c);
   crt_quat_mul(L->quat, c, L->quat_end);
   crt_quat_normalize(L->quat_end);
   crt_quat_matrix(L->quat_end, R);
@@ -199,8 +193,17 @@ static void crt_lie_dense_start(crt_session *s, double t, double h, int m, int p
   d->n_scale = L->n_scale;
 }
 
-/* Cayley coordinates of a step beyond this are refused (|W| = 1: 53 degrees) */
-#define CRT_LIE_MAX_W2 1.0
+/* exponential coordinates of a step beyond |W| = 1.25 rad are refused (the series of
+   derive/lie.py are exact to rounding up to there), and steps are kept below a turn of
+   CRT_LIE_MAX_TURN radians at the rate of the step's start so that this rarely happens */
+#define CRT_LIE_MAX_W2 1.5625
+#define CRT_LIE_MAX_TURN 1.0
+
+/* a refused chart: an error norm that shrinks the step by about 0.45 |W|max/|W| */
+static double crt_lie_refuse(double big, int order)
+{
+  return pow(4.0 * big / CRT_LIE_MAX_W2, 0.5 * order);
+}
 
 /* ---- lie: DOP853's coefficients for W ---------------------------------------------------- */
 static double crt_step_lie8(crt_session *s, double t, double h, double *y1, int with_dense)
@@ -210,7 +213,7 @@ static double crt_step_lie8(crt_session *s, double t, double h, double *y1, int 
   double W[3], omega[3], err3 = 0.0, err5 = 0.0, denom, big = 0.0;
   const double sc = s->opt[CRT_OPT_ATOL] + s->opt[CRT_OPT_RTOL];
   int i;
-  for (i = 0; i < 3; ++i) k[0][i] = L->omega[i];       /* dcayinv(0, omega) = omega */
+  for (i = 0; i < 3; ++i) k[0][i] = L->omega[i];       /* dexpinv(0, omega) = omega */
   for (i = 0; i < 3; ++i) W[i] = h * (0.05260015195876773 * k[0][i]);
   big = crt_max(big, W[0] * W[0] + W[1] * W[1] + W[2] * W[2]);
   crt_lie_eval(s, t + 0.05260015195876773 * h, W, L->k, k[1], omega);
@@ -264,7 +267,7 @@ static double crt_step_lie8(crt_session *s, double t, double h, double *y1, int 
       d->F[2][i] = 2.0 * W[i] - h * (k[0][i] + k[12][i]);
     }
   }
-  if (!(big <= CRT_LIE_MAX_W2)) return 1e10;           /* too far for one chart */
+  if (!(big <= CRT_LIE_MAX_W2)) return crt_lie_refuse(big, 8);   /* too far for one chart */
   denom = err5 + 0.01 * err3;
   if (denom <= 0.0) denom = 1.0;
   return fabs(h) * err5 / sqrt(denom * 3.0);
@@ -352,7 +355,7 @@ static double crt_step_lie5(crt_session *s, double t, double h, double *y1, int 
     }
   }
   (void)c;
-  if (!(big <= CRT_LIE_MAX_W2)) return 1e10;
+  if (!(big <= CRT_LIE_MAX_W2)) return crt_lie_refuse(big, 5);
   return sqrt(err / 3.0);
 }
 
@@ -361,7 +364,7 @@ static double crt_step_lie5(crt_session *s, double t, double h, double *y1, int 
 static void crt_lie_dense_eval(crt_session *s, double t, double *y)
 {
   const crt_dense *d = &s->dense;
-  double w[CRT_MAX_DENSE], W[3], dW[3], omega[3], C[9], R[9];
+  double w[CRT_MAX_DENSE], W[3], dW[3], omega[3], C[9], quat[4], R[9];
   int i, j, l;
   crt_dense_weights(d, t, w);
   for (i = 0; i < 3; ++i) {
@@ -370,7 +373,7 @@ static void crt_lie_dense_eval(crt_session *s, double t, double *y)
     W[i] = acc;
   }
   crt_lie_eval(s, t, W, d->k0, dW, omega);
-  cayley(W, C);
+  exp_map(W, C, quat);
   for (i = 0; i < 3; ++i)
     for (j = 0; j < 3; ++j) {
       double acc = 0.0;
@@ -380,7 +383,7 @@ static void crt_lie_dense_eval(crt_session *s, double t, double *y)
   model_lie_state(s->prm, d->c0, t - d->t_f, omega, R, d->n_scale, y);
 }
 
-/* Hairer's starting step for W' = dcayinv(W, omega), W(t) = 0 */
+/* Hairer's starting step for W' = dexpinv(W, omega), W(t) = 0 */
 static double crt_lie_initial_step(crt_session *s, int order)
 {
   crt_lie *L = &s->lie;
@@ -390,7 +393,8 @@ static double crt_lie_initial_step(crt_session *s, int order)
   if (!L->valid) crt_lie_restart(s);
   for (i = 0; i < 3; ++i) d1 += (L->omega[i] / sc) * (L->omega[i] / sc);
   d1 = sqrt(d1 / 3.0);
-  h0 = d1 < 1e-5 ? 1e-6 : 0.01 / d1;
+  /* Hairer's h0 = 0.01 |y0|/|f0| with the attitude's scale, |y0| = 1 (W itself is 0) */
+  h0 = d1 * sc < 1e-5 ? 1e-6 : 0.01 / (d1 * sc);
   h0 = crt_min(h0, s->opt[CRT_OPT_HMAX]);
   for (i = 0; i < 3; ++i) W[i] = h0 * L->omega[i];
   crt_lie_eval(s, s->t + h0, W, L->k, f1, omega);
@@ -404,6 +408,23 @@ static double crt_lie_initial_step(crt_session *s, int order)
   return crt_min(crt_min(100.0 * h0, h1), s->opt[CRT_OPT_HMAX]);
 }
 #endif /* MODEL_LIE */
+
+/* the longest step the method takes from s->t (HUGE_VAL: no limit of its own) */
+static double crt_step_limit(crt_session *s)
+{
+#if MODEL_LIE
+  if (crt_lie_active(s)) {
+    const double *w;
+    double rate;
+    if (!s->lie.valid) crt_lie_restart(s);
+    w = s->lie.omega;
+    rate = sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2]);
+    return rate > 0.0 ? CRT_LIE_MAX_TURN / rate : HUGE_VAL;
+  }
+#endif
+  (void)s;
+  return HUGE_VAL;
+}
 
 /* ---- dispatch ------------------------------------------------------------------------------ */
 /* One step of the session's method from (t, y0) = (s->t, s->q): returns the error norm (0

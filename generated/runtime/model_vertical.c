@@ -280,41 +280,33 @@ static void lowest_point_rate_ellipsoid(const double *n, const double *omega, co
   sdot[2] = c4*c7*(c12*c18 + c13*c17 + c14*(c5*c8 - 1.0));
 }
 
-/* A stage of the Lie-group flight step: omega from E1.4 with K = cay(W)^T k in body axes, and W' = dcayinv(W, omega) (E1.8 in Cayley coordinates). (145 ops) */
+/* A stage of the Lie-group flight step: omega from E1.4 with K = exp(-W^) k in body axes, and W' = dexpinv(W, omega) (E1.8 in exponential coordinates). (203 ops) */
 static void lie_stage(const double *W, const double *k, const double *u, const double *p, double *restrict dW, double *restrict omega)
 {
-  const double c0 = W[0]*W[0];
-  const double c1 = W[1]*W[1];
-  const double c2 = W[2]*W[2];
-  const double c3 = u[1]*u[1];
-  const double c4 = u[2]*u[2];
-  const double c6 = u[0]*u[0];
-  const double c9 = ((1.0/2.0))*W[0];
-  const double c10 = W[1]*c9;
-  const double c12 = W[2]*c9;
-  const double c14 = ((1.0/2.0))*c1;
-  const double c15 = ((1.0/2.0))*c2;
-  const double c16 = ((1.0/2.0))*W[1];
-  const double c18 = ((1.0/2.0))*c0;
-  const double c19 = ((1.0/2.0))*W[2];
+  const double c0 = u[1]*u[1];
+  const double c1 = u[2]*u[2];
+  const double c3 = u[0]*u[0];
+  const double c6 = W[1]*k[2] - W[2]*k[1];
+  const double c8 = W[0]*k[1] - W[1]*k[0];
+  const double c9 = -W[0]*k[2] + W[2]*k[0];
   const double nu = p[1]/(p[0] + p[1]);
   const double mu = p[0]*nu;
-  const double s_W = 4.0/(c0 + c1 + c2 + 4.0);
-  const double c5 = mu*u[0];
-  const double c7 = mu*u[2];
-  const double c8 = mu*u[1];
-  const double c11 = k[1]*s_W;
-  const double c13 = k[2]*s_W;
-  const double c17 = k[0]*s_W;
-  const double s0_0 = p[2] + mu*(c3 + c4);
-  const double s0_1 = -c5*u[1];
-  const double s0_2 = p[3] + mu*(c4 + c6);
-  const double s0_3 = -c5*u[2];
-  const double s0_4 = -c7*u[1];
-  const double s0_5 = p[4] + mu*(c3 + c6);
-  const double s0_6 = c11*(W[2] + c10) + c13*(-W[1] + c12) + c7*u[4] - c8*u[5] + k[0]*(s_W*(-c14 - c15) + 1.0);
-  const double s0_7 = c13*(W[0] + W[2]*c16) + c17*(-W[2] + c10) + c5*u[5] - c7*u[3] + k[1]*(s_W*(-c15 - c18) + 1.0);
-  const double s0_8 = c11*(-W[0] + ((1.0/2.0))*W[1]*W[2]) + c17*(W[1] + c12) - c5*u[4] + c8*u[3] + k[2]*(s_W*(-c14 - c18) + 1.0);
+  const double s_W = W[0]*W[0] + W[1]*W[1] + W[2]*W[2];
+  const double c2 = mu*u[0];
+  const double c4 = mu*u[2];
+  const double c5 = mu*u[1];
+  const double c7 = s_W*(s_W*(s_W*(s_W*(s_W*(s_W*(s_W*(s_W*(s_W*(1.9572941063391263e-20*s_W - 8.22063524662433e-18) + 2.8114572543455206e-15) - 7.647163731819816e-13) + 1.6059043836821613e-10) - 2.505210838544172e-08) + 2.7557319223985893e-06) - 0.0001984126984126984) + 0.008333333333333333) - 0.16666666666666666) + 1.0;
+  const double c10 = s_W*(s_W*(s_W*(s_W*(s_W*(s_W*(s_W*(s_W*(s_W*(8.896791392450574e-22*s_W - 4.110317623312165e-19) + 1.5619206968586225e-16) - 4.779477332387385e-14) + 1.1470745597729725e-11) - 2.08767569878681e-09) + 2.755731922398589e-07) - 2.48015873015873e-05) + 0.001388888888888889) - 0.041666666666666664) + 0.5;
+  const double c18 = s_W*(s_W*(s_W*(s_W*(s_W*(s_W*(s_W*(s_W*(s_W*(s_W*(s_W*(s_W*(8.953517427037546e-23*s_W + 3.534707039629467e-21) + 1.3954464685812522e-19) + 5.5090028283602295e-18) + 2.174868698558062e-16) + 8.586062056277845e-15) + 3.3896802963225827e-13) + 1.3382536530684679e-11) + 5.284190138687493e-10) + 2.08767569878681e-08) + 8.267195767195768e-07) + 3.306878306878307e-05) + 0.001388888888888889) + 0.08333333333333333;
+  const double s0_0 = p[2] + mu*(c0 + c1);
+  const double s0_1 = -c2*u[1];
+  const double s0_2 = p[3] + mu*(c1 + c3);
+  const double s0_3 = -c2*u[2];
+  const double s0_4 = -c4*u[1];
+  const double s0_5 = p[4] + mu*(c0 + c3);
+  const double s0_6 = c10*(W[1]*c8 - W[2]*c9) + c4*u[4] - c5*u[5] - c6*c7 + k[0];
+  const double s0_7 = c10*(-W[0]*c8 + W[2]*c6) + c2*u[5] - c4*u[3] - c7*c9 + k[1];
+  const double s0_8 = c10*(W[0]*c9 - W[1]*c6) - c2*u[4] + c5*u[3] - c7*c8 + k[2];
   const double s0_9 = 1.0/s0_0;
   const double s0_10 = s0_1*s0_9;
   const double s0_11 = s0_3*s0_9;
@@ -329,10 +321,17 @@ static void lie_stage(const double *W, const double *k, const double *u, const d
   const double s0_20 = s0_17*s0_19;
   const double s0_21 = s0_13*s0_18 - s0_15*s0_20;
   const double s0_22 = -s0_10*s0_21 - s0_11*s0_20 + s0_6*s0_9;
-  const double c20 = ((1.0/4.0))*W[0]*s0_22 + ((1.0/4.0))*W[1]*s0_21 + ((1.0/4.0))*W[2]*s0_20;
-  dW[0] = W[0]*c20 + c16*s0_20 - c19*s0_21 + s0_22;
-  dW[1] = W[1]*c20 + c19*s0_22 - c9*s0_20 + s0_21;
-  dW[2] = W[2]*c20 - c16*s0_22 + c9*s0_21 + s0_20;
+  const double c11 = W[1]*s0_20;
+  const double c12 = W[2]*s0_21;
+  const double c13 = W[0]*s0_21;
+  const double c14 = W[1]*s0_22;
+  const double c15 = c13 - c14;
+  const double c16 = W[0]*s0_20;
+  const double c17 = W[2]*s0_22 - c16;
+  const double c19 = c11 - c12;
+  dW[0] = 0.5*c11 - 0.5*c12 + c18*(W[1]*c15 - W[2]*c17) + s0_22;
+  dW[1] = 0.5*W[2]*s0_22 - 0.5*c16 + c18*(-W[0]*c15 + W[2]*c19) + s0_21;
+  dW[2] = 0.5*c13 - 0.5*c14 + c18*(W[0]*c17 - W[1]*c19) + s0_20;
   omega[0] = s0_22;
   omega[1] = s0_21;
   omega[2] = s0_20;
@@ -357,28 +356,38 @@ static void fixed_kinetic_moment(const double *A, const double *omega, const dou
   K[2] = c5*A[6] + c7*A[7] + c8*A[8];
 }
 
-/* The Cayley map of so(3): cay(W) = (1 - W^/2)^-1 (1 + W^/2), row-major (derive.lie). (41 ops) */
-static void cayley(const double *W, double *restrict C)
+/* The exponential map of so(3): exp(W^) row-major and its unit quaternion (w, x, y, z) (derive.lie, |W| <= 1.25). (108 ops) */
+static void exp_map(const double *W, double *restrict E, double *restrict quat)
 {
   const double c0 = W[0]*W[0];
   const double c1 = W[1]*W[1];
   const double c2 = W[2]*W[2];
-  const double c3 = ((1.0/2.0))*c1;
-  const double c4 = ((1.0/2.0))*c2;
-  const double c5 = ((1.0/2.0))*W[0];
-  const double c6 = W[1]*c5;
-  const double c7 = W[2]*c5;
-  const double c8 = ((1.0/2.0))*c0;
-  const double s_W = 4.0/(c0 + c1 + c2 + 4.0);
-  C[0] = s_W*(-c3 - c4) + 1.0;
-  C[1] = s_W*(-W[2] + c6);
-  C[2] = s_W*(W[1] + c7);
-  C[3] = s_W*(W[2] + c6);
-  C[4] = s_W*(-c4 - c8) + 1.0;
-  C[5] = s_W*(-W[0] + ((1.0/2.0))*W[1]*W[2]);
-  C[6] = s_W*(-W[1] + c7);
-  C[7] = s_W*(W[0] + ((1.0/2.0))*W[1]*W[2]);
-  C[8] = s_W*(-c3 - c8) + 1.0;
+  const double s_W = c0 + c1 + c2;
+  const double c3 = s_W*(s_W*(s_W*(s_W*(s_W*(s_W*(s_W*(s_W*(s_W*(8.896791392450574e-22*s_W - 4.110317623312165e-19) + 1.5619206968586225e-16) - 4.779477332387385e-14) + 1.1470745597729725e-11) - 2.08767569878681e-09) + 2.755731922398589e-07) - 2.48015873015873e-05) + 0.001388888888888889) - 0.041666666666666664) + 0.5;
+  const double c4 = c1*c3;
+  const double c5 = c2*c3 - 1.0;
+  const double c6 = W[0]*c3;
+  const double c7 = W[1]*c6;
+  const double c8 = s_W*(s_W*(s_W*(s_W*(s_W*(s_W*(s_W*(s_W*(s_W*(1.9572941063391263e-20*s_W - 8.22063524662433e-18) + 2.8114572543455206e-15) - 7.647163731819816e-13) + 1.6059043836821613e-10) - 2.505210838544172e-08) + 2.7557319223985893e-06) - 0.0001984126984126984) + 0.008333333333333333) - 0.16666666666666666) + 1.0;
+  const double c9 = W[2]*c8;
+  const double c10 = W[1]*c8;
+  const double c11 = W[2]*c6;
+  const double c12 = c0*c3;
+  const double c13 = W[0]*c8;
+  const double c14 = s_W*(s_W*(s_W*(s_W*(s_W*(s_W*(s_W*(2.1449716601146855e-20*s_W - 2.333729166204778e-17) + 1.9603324996120133e-14) - 1.2232474797578965e-11) + 5.382288910934745e-09) - 1.5500992063492063e-06) + 0.00026041666666666666) - 0.020833333333333332) + 0.5;
+  E[0] = -c4 - c5;
+  E[1] = c7 - c9;
+  E[2] = c10 + c11;
+  E[3] = c7 + c9;
+  E[4] = -c12 - c5;
+  E[5] = W[1]*W[2]*c3 - c13;
+  E[6] = -c10 + c11;
+  E[7] = W[1]*W[2]*c3 + c13;
+  E[8] = -c12 - c4 + 1.0;
+  quat[0] = s_W*(s_W*(s_W*(s_W*(s_W*(s_W*(s_W*(s_W*(7.292903644389931e-19 + (-5.958254611429682e-22)*s_W) - 7.001187498614334e-16) + 5.096864498991235e-13) - 2.691144455467372e-10) + 9.68812003968254e-08) - 2.170138888888889e-05) + 0.0026041666666666665) - 0.125) + 1.0;
+  quat[1] = W[0]*c14;
+  quat[2] = W[1]*c14;
+  quat[3] = W[2]*c14;
 }
 
 /* Position and velocity of C a time tau after the start of a flight (E1.2 integrated). (12 ops) */
