@@ -110,22 +110,81 @@ class ExponentialChart:
     quat_v: list
 
     def series(self, name: str, x=S_W) -> sp.Expr:
-        """The truncated series ``name`` in ``x`` (Horner form)."""
+        """The truncated series ``name`` in ``x`` (Horner form, one expression)."""
         return horner(getattr(self, name), x)
 
-    def exp_matrix(self, w=W, x=S_W) -> sp.Matrix:
+    def exp_matrix(self, w=W, values=None) -> sp.Matrix:
+        a, b = (values or self.values())[:2]
         Wh = skew(w)
-        return sp.eye(3) + self.series("a", x) * Wh + self.series("b", x) * Wh * Wh
+        return sp.eye(3) + a * Wh + b * Wh * Wh
 
-    def body_view(self, k: sp.Matrix, w=W, x=S_W) -> sp.Matrix:
+    def body_view(self, k: sp.Matrix, w=W, values=None) -> sp.Matrix:
         """``exp(-W^) k = exp(W^)^T k``: a vector fixed in space seen from the rotated
         body, ``k - a W x k + b W x (W x k)``."""
+        a, b = (values or self.values())[:2]
         Wk = skew(w) * k
-        return k - self.series("a", x) * Wk + self.series("b", x) * (skew(w) * Wk)
+        return k - a * Wk + b * (skew(w) * Wk)
 
-    def dexpinv(self, omega: sp.Matrix, w=W, x=S_W) -> sp.Matrix:
+    def dexpinv(self, omega: sp.Matrix, w=W, values=None) -> sp.Matrix:
+        alpha, c = (values or self.values())[2:4]
         Wo = skew(w) * omega
-        return omega + self.series("alpha", x) * Wo + self.series("c", x) * (skew(w) * Wo)
+        return omega + alpha * Wo + c * (skew(w) * Wo)
+
+    def values(self, x=S_W) -> tuple:
+        """(a, b, alpha, c, quat_w, quat_v) as expressions in ``x`` (Horner)."""
+        return tuple(self.series(n, x) for n in SERIES)
+
+    def definitions(self, w=W) -> tuple:
+        """``(symbol, expr)`` computing ``s = |W|^2``, its powers and every series by
+        Estrin's scheme (pairs c_2i + c_2i+1 s, then s^2, s^4, ...: the chain of dependent
+        operations grows with the logarithm of the number of terms, not with it as in
+        Horner's), each level a named quantity so that the printed C keeps the order.
+        Returns the definitions and the symbols of (a, b, alpha, c, quat_w, quat_v)."""
+        defs = [(S_W, (w.T * w)[0])]
+        longest = max(len(getattr(self, n)) for n in SERIES)
+        powers = [S_W]
+        while 2 ** len(powers) < longest:
+            p = sp.Symbol(f"s_W{2 ** len(powers)}", nonnegative=True)
+            defs.append((p, powers[-1] * powers[-1]))
+            powers.append(p)
+        out = []
+        for name in SERIES:
+            coeffs = [_number(c) for c in getattr(self, name)]
+            sym = SERIES_SYMBOLS[name]
+            if len(coeffs) == 1:
+                out.append(coeffs[0])
+                continue
+            level = [coeffs[i] + (coeffs[i + 1] * S_W if i + 1 < len(coeffs) else 0)
+                     for i in range(0, len(coeffs), 2)]
+            depth = 1
+            while len(level) > 1:
+                nxt = []
+                for i in range(0, len(level), 2):
+                    if i + 1 < len(level):
+                        nxt.append(level[i] + powers[depth] * level[i + 1])
+                    else:
+                        nxt.append(level[i])
+                named = []
+                for k, expr in enumerate(nxt):
+                    if len(nxt) == 1:
+                        named.append(expr)
+                        break
+                    t = sp.Symbol(f"{sym.name}_{depth}_{k}", real=True)
+                    defs.append((t, expr))
+                    named.append(t)
+                level, depth = named, depth + 1
+            defs.append((sym, level[0]))
+            out.append(sym)
+        return tuple(defs), tuple(out)
+
+
+SERIES = ("a", "b", "alpha", "c", "quat_w", "quat_v")
+SERIES_SYMBOLS = {n: sp.Symbol(f"{n}_W", real=True) for n in SERIES}
+
+
+def _number(c):
+    c = sp.Rational(c)
+    return c if c.q == 1 else sp.Float(float(c), 17)
 
 
 @lru_cache(maxsize=None)

@@ -378,9 +378,10 @@ def lie_stage() -> FunctionSpec:
     lie = _lie()
     ch = lie.exponential_chart()
     mf = momentum_form()
-    seen = ch.body_view(K_BODY)
+    series, values = ch.definitions()
+    seen = ch.body_view(K_BODY, values=values)
     rhs = mf.body_rhs.xreplace(dict(zip(K_BODY, seen)))
-    dW = ch.dexpinv(nt.omega)
+    dW = ch.dexpinv(nt.omega, values=values)
     return FunctionSpec(
         name="lie_stage",
         doc="A stage of the Lie-group flight step: omega from E1.4 with K = exp(-W^) k in "
@@ -388,7 +389,7 @@ def lie_stage() -> FunctionSpec:
         inputs=(_W(), Vector("k", tuple(K_BODY), ("k_x", "k_y", "k_z")), _u(), _p()),
         outputs=(Vector("dW", tuple(dW), ("W_x'", "W_y'", "W_z'")), _omega()),
         solves=(LinearSolve(matrix=mf.J, rhs=(rhs,), unknowns=(nt.omega,)),),
-        definitions=MASS_DEFINITIONS + ((lie.S_W, (lie.W.T * lie.W)[0]),))
+        definitions=MASS_DEFINITIONS + series)
 
 
 @lru_cache(maxsize=None)
@@ -397,8 +398,9 @@ def exp_map() -> FunctionSpec:
     (derive.lie; |W| <= derive.lie.THETA_MAX)."""
     lie = _lie()
     ch = lie.exponential_chart()
-    E = ch.exp_matrix()
-    qw, qv = ch.series("quat_w"), ch.series("quat_v")
+    series, values = ch.definitions()
+    E = ch.exp_matrix(values=values)
+    qw, qv = values[4], values[5]
     quat = (qw, qv * lie.W[0], qv * lie.W[1], qv * lie.W[2])
     return FunctionSpec(
         name="exp_map", doc="The exponential map of so(3): exp(W^) row-major and its unit "
@@ -406,7 +408,7 @@ def exp_map() -> FunctionSpec:
         inputs=(_W(),),
         outputs=(Vector("E", tuple(E), tuple(f"e{i}{j}" for i in "123" for j in "123")),
                  Vector("quat", quat, ("q_w", "q_x", "q_y", "q_z"))),
-        definitions=((lie.S_W, (lie.W.T * lie.W)[0]),))
+        definitions=series)
 
 
 @lru_cache(maxsize=None)

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import sympy as sp
 
 from ..models import FunctionSpec
-from .linalg import ldlt3_solve, lower_triangle
+from .linalg import DEFAULT_SOLVER, SOLVERS, lower_triangle
 
 
 @dataclass(frozen=True)
@@ -72,8 +72,11 @@ def _prune(steps: list, outputs: list) -> list:
     return kept[::-1]
 
 
-def build(spec: FunctionSpec) -> Program:
-    """CSE over everything the function computes, then scheduling around the solves."""
+def build(spec: FunctionSpec, solver: str | None = None) -> Program:
+    """CSE over everything the function computes, then scheduling around the solves
+    (``solver``: a name of :data:`derive.emit.linalg.SOLVERS`, default the emitted
+    one)."""
+    solve3 = SOLVERS[solver or DEFAULT_SOLVER]
     definitions, constants = _propagate_constants(spec)
 
     def prepared(v):
@@ -136,7 +139,7 @@ def build(spec: FunctionSpec) -> Program:
             tri = [assign("a", v) for v in values[:6]]
             rhs = [[assign("b", v) for v in values[6 + 3 * j:9 + 3 * j]]
                    for j in range(len(solve.rhs))]
-            solution = ldlt3_solve(tri, rhs, assign)
+            solution = solve3(tri, rhs, assign)
             for vec, sol in zip(solve.unknowns, solution):
                 for u, val in zip(vec, sol):
                     steps.append((u, val))

@@ -3,7 +3,7 @@
  * Regenerate with `derive emit`; `derive emit --check` compares with a fresh render.
  * Tools: sympy 1.14.0, casadi 3.8.2 (ABI), jinja2 3.1.6.
  * exp_map(W[3]) -> (E[9], quat[4])
- * Total ops: 108 (SymPy count_ops of the program after CSE), 16 intermediate terms.
+ * Total ops: 111 (SymPy count_ops of the program after CSE), 38 intermediate terms.
  */
 
 #include <math.h>
@@ -23,31 +23,53 @@ void carrier_exp_map(const double *W, double *restrict E, double *restrict quat)
   const double c1 = W[1]*W[1];
   const double c2 = W[2]*W[2];
   const double s_W = c0 + c1 + c2;
-  const double c3 = s_W*(s_W*(s_W*(s_W*(s_W*(s_W*(s_W*(s_W*(s_W*(8.896791392450574e-22*s_W - 4.110317623312165e-19) + 1.5619206968586225e-16) - 4.779477332387385e-14) + 1.1470745597729725e-11) - 2.08767569878681e-09) + 2.755731922398589e-07) - 2.48015873015873e-05) + 0.001388888888888889) - 0.041666666666666664) + 0.5;
-  const double c4 = c1*c3;
-  const double c5 = c2*c3 - 1.0;
-  const double c6 = W[0]*c3;
+  const double s_W2 = s_W*s_W;
+  const double s_W4 = s_W2*s_W2;
+  const double s_W8 = s_W4*s_W4;
+  const double a_W_1_0 = -0.16666666666666666*s_W + s_W2*(0.008333333333333333 - 0.0001984126984126984*s_W) + 1.0;
+  const double a_W_1_1 = -2.505210838544172e-08*s_W + s_W2*(1.6059043836821613e-10 - 7.647163731819816e-13*s_W) + 2.7557319223985893e-06;
+  const double a_W_1_2 = -8.22063524662433e-18*s_W + 1.9572941063391263e-20*s_W2 + 2.8114572543455206e-15;
+  const double a_W_2_0 = a_W_1_0 + a_W_1_1*s_W4;
+  const double a_W_2_1 = a_W_1_2;
+  const double a_W = a_W_2_0 + a_W_2_1*s_W8;
+  const double b_W_1_0 = -0.041666666666666664*s_W + s_W2*(0.001388888888888889 - 2.48015873015873e-05*s_W) + 0.5;
+  const double b_W_1_1 = -2.08767569878681e-09*s_W + s_W2*(1.1470745597729725e-11 - 4.779477332387385e-14*s_W) + 2.755731922398589e-07;
+  const double b_W_1_2 = -4.110317623312165e-19*s_W + 8.896791392450574e-22*s_W2 + 1.5619206968586225e-16;
+  const double b_W_2_0 = b_W_1_0 + b_W_1_1*s_W4;
+  const double b_W_2_1 = b_W_1_2;
+  const double b_W = b_W_2_0 + b_W_2_1*s_W8;
+  const double quat_w_W_1_0 = -0.125*s_W + s_W2*(0.0026041666666666665 - 2.170138888888889e-05*s_W) + 1.0;
+  const double quat_w_W_1_1 = -2.691144455467372e-10*s_W + s_W2*(5.096864498991235e-13 - 7.001187498614334e-16*s_W) + 9.68812003968254e-08;
+  const double quat_w_W_1_2 = 7.292903644389931e-19 - 5.958254611429682e-22*s_W;
+  const double quat_w_W_2_0 = quat_w_W_1_0 + quat_w_W_1_1*s_W4;
+  const double quat_w_W_2_1 = quat_w_W_1_2;
+  const double quat_w_W = quat_w_W_2_0 + quat_w_W_2_1*s_W8;
+  const double quat_v_W_1_0 = -0.020833333333333332*s_W + s_W2*(0.00026041666666666666 - 1.5500992063492063e-06*s_W) + 0.5;
+  const double quat_v_W_1_1 = -1.2232474797578965e-11*s_W + s_W2*(1.9603324996120133e-14 - 2.333729166204778e-17*s_W) + 5.382288910934745e-09;
+  const double quat_v_W_2_0 = quat_v_W_1_0 + quat_v_W_1_1*s_W4;
+  const double quat_v_W = quat_v_W_2_0 + 2.1449716601146855e-20*s_W8;
+  const double c3 = c1*b_W;
+  const double c4 = c2*b_W - 1.0;
+  const double c5 = W[2]*a_W;
+  const double c6 = W[0]*b_W;
   const double c7 = W[1]*c6;
-  const double c8 = s_W*(s_W*(s_W*(s_W*(s_W*(s_W*(s_W*(s_W*(s_W*(1.9572941063391263e-20*s_W - 8.22063524662433e-18) + 2.8114572543455206e-15) - 7.647163731819816e-13) + 1.6059043836821613e-10) - 2.505210838544172e-08) + 2.7557319223985893e-06) - 0.0001984126984126984) + 0.008333333333333333) - 0.16666666666666666) + 1.0;
-  const double c9 = W[2]*c8;
-  const double c10 = W[1]*c8;
-  const double c11 = W[2]*c6;
-  const double c12 = c0*c3;
-  const double c13 = W[0]*c8;
-  const double c14 = s_W*(s_W*(s_W*(s_W*(s_W*(s_W*(s_W*(2.1449716601146855e-20*s_W - 2.333729166204778e-17) + 1.9603324996120133e-14) - 1.2232474797578965e-11) + 5.382288910934745e-09) - 1.5500992063492063e-06) + 0.00026041666666666666) - 0.020833333333333332) + 0.5;
-  E[0] = -c4 - c5;
-  E[1] = c7 - c9;
-  E[2] = c10 + c11;
-  E[3] = c7 + c9;
-  E[4] = -c12 - c5;
-  E[5] = W[1]*W[2]*c3 - c13;
-  E[6] = -c10 + c11;
-  E[7] = W[1]*W[2]*c3 + c13;
-  E[8] = -c12 - c4 + 1.0;
-  quat[0] = s_W*(s_W*(s_W*(s_W*(s_W*(s_W*(s_W*(s_W*(7.292903644389931e-19 + (-5.958254611429682e-22)*s_W) - 7.001187498614334e-16) + 5.096864498991235e-13) - 2.691144455467372e-10) + 9.68812003968254e-08) - 2.170138888888889e-05) + 0.0026041666666666665) - 0.125) + 1.0;
-  quat[1] = W[0]*c14;
-  quat[2] = W[1]*c14;
-  quat[3] = W[2]*c14;
+  const double c8 = W[1]*a_W;
+  const double c9 = W[2]*c6;
+  const double c10 = c0*b_W;
+  const double c11 = W[0]*a_W;
+  E[0] = -c3 - c4;
+  E[1] = -c5 + c7;
+  E[2] = c8 + c9;
+  E[3] = c5 + c7;
+  E[4] = -c10 - c4;
+  E[5] = W[1]*W[2]*b_W - c11;
+  E[6] = -c8 + c9;
+  E[7] = W[1]*W[2]*b_W + c11;
+  E[8] = -c10 - c3 + 1.0;
+  quat[0] = quat_w_W;
+  quat[1] = W[0]*quat_v_W;
+  quat[2] = W[1]*quat_v_W;
+  quat[3] = W[2]*quat_v_W;
 }
 
 /* ---- CasADi external-function ABI ------------------------------------------------ */

@@ -3,7 +3,7 @@
  * Regenerate with `derive emit`; `derive emit --check` compares with a fresh render.
  * Tools: sympy 1.14.0, casadi 3.8.2 (ABI), jinja2 3.1.6.
  * momentum_omega(A[9], K[3], u[9], p[6]) -> (omega[3])
- * Total ops: 80 (SymPy count_ops of the program after CSE), 31 intermediate terms.
+ * Total ops: 96 (SymPy count_ops of the program after CSE), 30 intermediate terms.
  */
 
 #include <math.h>
@@ -38,23 +38,22 @@ void carrier_momentum_omega(const double *A, const double *K, const double *u, c
   const double s0_6 = K[0]*A[0] + K[1]*A[3] + K[2]*A[6] + c4*u[4] - c5*u[5];
   const double s0_7 = K[0]*A[1] + K[1]*A[4] + K[2]*A[7] + c2*u[5] - c4*u[3];
   const double s0_8 = K[0]*A[2] + K[1]*A[5] + K[2]*A[8] - c2*u[4] + c5*u[3];
-  const double s0_9 = 1.0/s0_0;
-  const double s0_10 = s0_1*s0_9;
-  const double s0_11 = s0_3*s0_9;
-  const double s0_12 = -s0_1*s0_10 + s0_2;
-  const double s0_13 = 1.0/s0_12;
-  const double s0_14 = -s0_1*s0_11 + s0_4;
-  const double s0_15 = s0_13*s0_14;
-  const double s0_16 = -s0_11*s0_3 - s0_14*s0_15 + s0_5;
-  const double s0_17 = 1.0/s0_16;
-  const double s0_18 = -s0_10*s0_6 + s0_7;
-  const double s0_19 = -s0_11*s0_6 - s0_15*s0_18 + s0_8;
-  const double s0_20 = s0_17*s0_19;
-  const double s0_21 = s0_13*s0_18 - s0_15*s0_20;
-  const double s0_22 = -s0_10*s0_21 - s0_11*s0_20 + s0_6*s0_9;
-  omega[0] = s0_22;
-  omega[1] = s0_21;
-  omega[2] = s0_20;
+  const double s0_9 = s0_2*s0_5 - s0_4*s0_4;
+  const double s0_10 = -s0_1*s0_5 + s0_3*s0_4;
+  const double s0_11 = s0_1*s0_4 - s0_2*s0_3;
+  const double s0_12 = 1.0/(s0_0*s0_9 + s0_1*s0_10 + s0_11*s0_3);
+  const double s0_13 = s0_12*s0_9;
+  const double s0_14 = s0_10*s0_12;
+  const double s0_15 = s0_11*s0_12;
+  const double s0_16 = s0_12*(s0_0*s0_5 - s0_3*s0_3);
+  const double s0_17 = s0_12*(-s0_0*s0_4 + s0_1*s0_3);
+  const double s0_18 = s0_12*(s0_0*s0_2 - s0_1*s0_1);
+  const double s0_19 = s0_13*s0_6 + s0_14*s0_7 + s0_15*s0_8;
+  const double s0_20 = s0_14*s0_6 + s0_16*s0_7 + s0_17*s0_8;
+  const double s0_21 = s0_15*s0_6 + s0_17*s0_7 + s0_18*s0_8;
+  omega[0] = s0_19;
+  omega[1] = s0_20;
+  omega[2] = s0_21;
 }
 
 /* ---- CasADi external-function ABI ------------------------------------------------ */
