@@ -393,6 +393,31 @@ def lie_stage() -> FunctionSpec:
 
 
 @lru_cache(maxsize=None)
+def lie_point() -> FunctionSpec:
+    """``lie_point(W, k, u, p) -> (E, omega)``: the attitude factor ``exp(skew(W))`` of a
+    point of a Lie step and omega there (E1.4 with K = E^T k): what the dense output of
+    the momentum form needs at a time between steps."""
+    from .momentum import K_BODY, momentum_form
+    lie = _lie()
+    ch = lie.exponential_chart()
+    mf = momentum_form()
+    series, values = ch.definitions()
+    E = ch.exp_matrix(values=values)
+    seen = E.T * K_BODY
+    rhs = mf.body_rhs.xreplace(dict(zip(K_BODY, seen)))
+    keep = {lie.S_W} | {sym for sym, _ in series if sym.name.startswith(("a_W", "b_W", "s_W"))}
+    return FunctionSpec(
+        name="lie_point",
+        doc="exp(W^) and omega from E1.4 with K = exp(W^)^T k in body axes: a point of the "
+            "dense output of a Lie-group flight step.",
+        inputs=(_W(), Vector("k", tuple(K_BODY), ("k_x", "k_y", "k_z")), _u(), _p()),
+        outputs=(Vector("E", tuple(E), tuple(f"e{i}{j}" for i in "123" for j in "123")),
+                 _omega()),
+        solves=(LinearSolve(matrix=mf.J, rhs=(rhs,), unknowns=(nt.omega,)),),
+        definitions=MASS_DEFINITIONS + tuple((sym, v) for sym, v in series if sym in keep))
+
+
+@lru_cache(maxsize=None)
 def exp_map() -> FunctionSpec:
     """``exp_map(W) -> (E, quat)``: ``exp(skew(W))`` row-major and its unit quaternion
     (derive.lie; |W| <= derive.lie.THETA_MAX)."""
@@ -428,8 +453,8 @@ def flight_parabola() -> FunctionSpec:
 
 
 def momentum_specs() -> list[FunctionSpec]:
-    return [momentum_omega(), fixed_kinetic_moment(), lie_stage(), flight_parabola(),
-            exp_map()]
+    return [momentum_omega(), fixed_kinetic_moment(), lie_stage(), lie_point(),
+            flight_parabola(), exp_map()]
 
 
 def all_specs() -> list[FunctionSpec]:

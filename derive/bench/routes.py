@@ -83,7 +83,7 @@ def _initial(scene: Scene) -> np.ndarray:
 class Runtime:
     label_of = {"rk4": "runtime RK4", "dopri5": "runtime DOPRI5", "dop853": "runtime DOP853",
                 "dop853+orth": "runtime DOP853+orth", "lie": "runtime LIE",
-                "lie5": "runtime LIE5"}
+                "lie5": "runtime LIE5", "lie8": "runtime LIE8"}
 
     def __init__(self, doc: dict, method: str, setting: float, dt: float = GRID_DT,
                  model: str = "general"):

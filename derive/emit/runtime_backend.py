@@ -44,7 +44,7 @@ class RuntimeModel:
 
     def specs(self) -> list:
         contact = ["lowest_point_ellipsoid", "lowest_point_rate_ellipsoid"]
-        momentum = [dm.lie_stage(), dm.fixed_kinetic_moment(), dm.exp_map()]
+        momentum = [dm.lie_stage(), dm.lie_point(), dm.fixed_kinetic_moment(), dm.exp_map()]
         if self.kind in ("general", "vertical"):
             return [dm.flight_rhs(self.kind), dm.gap(self.kind), dm.impact(self.kind),
                     dm.runtime_contact(self.kind), dm.lowest_point("ellipsoid"),
@@ -108,6 +108,9 @@ def _pairs(values) -> list:
 # a Lie step is kept below this turn at the rate of its start (radians; below
 # derive.lie.THETA_MAX, beyond which a step is refused)
 LIE_MAX_TURN = 1.0
+# the method lie takes the DOP853 coefficients below this rtol, the DOPRI5 ones above
+# (measured on the work-precision charts of derive bench precision)
+LIE_TIGHT = 1e-6
 
 
 @lru_cache(maxsize=None)
@@ -151,7 +154,7 @@ def render_runtime() -> dict[str, str]:
     theta = float(lie.THETA_MAX)
     common = {"versions": versions(), **abi.c_context(), **tableau_context(),
               "lie_theta_max": repr(theta), "lie_theta_max2": repr(theta * theta),
-              "lie_max_turn": repr(LIE_MAX_TURN)}
+              "lie_max_turn": repr(LIE_MAX_TURN), "lie_tight": repr(LIE_TIGHT)}
     files = {}
     for name in ("crt_abi.h", "crt_law.h", "crt_integrators.h", "crt_lie.h", "crt_core.h"):
         files[f"runtime/{name}"] = env.get_template(f"runtime/{name}.jinja").render(

@@ -380,6 +380,22 @@ void lie_stage_release(int mem);
 void lie_stage_incref(void);
 void lie_stage_decref(void);
 
+/* lie_point(W[3], k[3], u[9], p[6]) -> (E[9], omega[3]): exp(W^) and omega from E1.4 with K = exp(W^)^T k in body axes: a point of the dense output of a Lie-group flight step. */
+void carrier_lie_point(const double *W, const double *k, const double *u, const double *p, double *restrict E, double *restrict omega);
+int lie_point(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int lie_point_n_in(void);
+casadi_int lie_point_n_out(void);
+const char *lie_point_name_in(casadi_int i);
+const char *lie_point_name_out(casadi_int i);
+const casadi_int *lie_point_sparsity_in(casadi_int i);
+const casadi_int *lie_point_sparsity_out(casadi_int i);
+int lie_point_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real lie_point_default_in(casadi_int i);
+int lie_point_checkout(void);
+void lie_point_release(int mem);
+void lie_point_incref(void);
+void lie_point_decref(void);
+
 /* flight_parabola(c[6], tau[1], p[6]) -> (c_tau[6]): Position and velocity of C a time tau after the start of a flight (E1.2 integrated). */
 void carrier_flight_parabola(const double *c, double tau, const double *p, double *restrict c_tau);
 int flight_parabola(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);

@@ -630,14 +630,15 @@ const char *crt_parameter_name(int i)
 
 const char *crt_method_name(int i)
 {
-  static const char names[5][7] = {
+  static const char names[6][7] = {
     "rk4",
     "dopri5",
     "dop853",
     "lie",
-    "lie5"
+    "lie5",
+    "lie8"
   };
-  return (i >= 0 && i < 5) ? names[i] : "";
+  return (i >= 0 && i < 6) ? names[i] : "";
 }
 
 const char *crt_status_name(int i)
@@ -1057,8 +1058,10 @@ int crt_advance(crt_session *s, double t_end, double *t_out, double *q_out, int 
       /* RK4: back to the nominal step after a hop or a retry shortened it */
       s->h = crt_min(2.0 * s->h, s->opt[CRT_OPT_RK4_STEP]);
     } else {
-      /* PI step-size control */
-      const double beta = order == 5 ? 0.04 : 0.0;
+      /* PI step-size control (Hairer's beta = 0.04 for DOPRI5 and for the Lie methods:
+         with the attitude alone integrated, the 8th-order estimate can swing by an order
+         of magnitude from step to step, and the PI term damps the rejections it causes) */
+      const double beta = (order == 5 || crt_lie_active(s)) ? 0.04 : 0.0;
       const double alpha = 1.0 / order - 0.75 * beta;
       double fac = 0.9 * pow(crt_max(err, 1e-10), -alpha) * pow(s->err_old, beta);
       fac = crt_min(crt_max(fac, 0.2), 10.0);

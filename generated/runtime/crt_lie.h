@@ -23,15 +23,27 @@
  * quaternion, composed with that of exp(W^) at every step, and writes its matrix into the
  * state; K in fixed axes, hence |K| (E1.9), is
  * exact by construction, and the omega written is the one E1.4 gives for that attitude.
+ * `lie` takes the coefficients of `lie8` when rtol < CRT_LIE_TIGHT, of `lie5` otherwise.
  * The error is controlled on W (radians of attitude: scale atol + rtol).
  * In persistent contact (the reaction's moment changes K) and in models without an
  * attitude the classical method of the same order runs instead (DOP853, DOPRI5).
  */
 
-/* the classical method that stands in for a Lie method where it does not apply */
-static int crt_classical_method(int method)
+/* lie: the order of its coefficients by the tolerance (8 below CRT_LIE_TIGHT, else 5) */
+#define CRT_LIE_TIGHT 1e-06
+
+static int crt_resolve_method(const crt_session *s)
 {
-  if (method == CRT_LIE) return CRT_DOP853;
+  const int method = (int)s->opt[CRT_OPT_METHOD];
+  if (method == CRT_LIE) return s->opt[CRT_OPT_RTOL] < CRT_LIE_TIGHT ? CRT_LIE8 : CRT_LIE5;
+  return method;
+}
+
+/* the classical method that stands in for a Lie method where it does not apply */
+static int crt_classical_method(const crt_session *s)
+{
+  const int method = crt_resolve_method(s);
+  if (method == CRT_LIE8) return CRT_DOP853;
   if (method == CRT_LIE5) return CRT_DOPRI5;
   return method;
 }
@@ -40,7 +52,8 @@ static int crt_lie_active(const crt_session *s)
 {
 #if MODEL_LIE
   const int method = (int)s->opt[CRT_OPT_METHOD];
-  return (method == CRT_LIE || method == CRT_LIE5) && s->phase == CRT_FLIGHT;
+  return (method == CRT_LIE || method == CRT_LIE5 || method == CRT_LIE8)
+         && s->phase == CRT_FLIGHT;
 #else
   (void)s;
   return 0;
@@ -364,7 +377,7 @@ static double crt_step_lie5(crt_session *s, double t, double h, double *y1, int 
 static void crt_lie_dense_eval(crt_session *s, double t, double *y)
 {
   const crt_dense *d = &s->dense;
-  double w[CRT_MAX_DENSE], W[3], dW[3], omega[3], C[9], quat[4], R[9];
+  double w[CRT_MAX_DENSE], W[3], omega[3], C[9], R[9];
   int i, j, l;
   crt_dense_weights(d, t, w);
   for (i = 0; i < 3; ++i) {
@@ -372,8 +385,8 @@ static void crt_lie_dense_eval(crt_session *s, double t, double *y)
     for (j = 0; j < d->m; ++j) acc += w[j] * d->F[j][i];
     W[i] = acc;
   }
-  crt_lie_eval(s, t, W, d->k0, dW, omega);
-  exp_map(W, C, quat);
+  ++s->stat[CRT_STAT_RHS_EVALUATIONS];
+  lie_point(W, d->k0, crt_u(s, t), s->prm, C, omega);
   for (i = 0; i < 3; ++i)
     for (j = 0; j < 3; ++j) {
       double acc = 0.0;
@@ -433,24 +446,22 @@ static double crt_step_limit(crt_session *s)
 static double crt_step(crt_session *s, double t, const double *y0, const double *f0,
                        double h, double *y1, double *f1, int with_dense)
 {
-  const int method = (int)s->opt[CRT_OPT_METHOD];
 #if MODEL_LIE
   if (crt_lie_active(s)) {
     int i;
     if (!s->lie.valid) crt_lie_restart(s);
     for (i = 0; i < NQ; ++i) f1[i] = 0.0;
     (void)y0; (void)f0;
-    return method == CRT_LIE ? crt_step_lie8(s, t, h, y1, with_dense)
-                             : crt_step_lie5(s, t, h, y1, with_dense);
+    return crt_resolve_method(s) == CRT_LIE8 ? crt_step_lie8(s, t, h, y1, with_dense)
+                                            : crt_step_lie5(s, t, h, y1, with_dense);
   }
 #endif
-  return crt_step_classical(s, crt_classical_method(method), t, y0, f0, h, y1, f1,
-                            with_dense);
+  return crt_step_classical(s, crt_classical_method(s), t, y0, f0, h, y1, f1, with_dense);
 }
 
 static int crt_order(const crt_session *s)
 {
-  return crt_order_classical(crt_classical_method((int)s->opt[CRT_OPT_METHOD]));
+  return crt_order_classical(crt_classical_method(s));
 }
 
 static void crt_dense_complete(crt_session *s)
