@@ -23,9 +23,14 @@ def test_precision_quick_run_writes_charts_and_data(tmp_path):
     assert matched[0]["level"] == 1e-4 and np.isfinite(matched[0]["runtime_best_s"])
     lines = (tmp_path / "precision.csv").read_text().splitlines()
     assert lines[0].startswith("scene,method,setting,seconds,error")
-    # the long run's invariants: projection keeps A orthonormal to round-off
+    # the long run's invariants: the momentum form keeps K and A to round-off; projection
+    # keeps A orthonormal to the error of the dense output between steps
     drift = summary["long_run"]
-    assert drift["runtime DOP853+orth"]["orthonormality_final"] < 1e-13
+    lie = drift["runtime LIE"]
+    assert lie["K_max"] < 1e-14 and lie["K_fixed_max"] < 1e-14
+    assert lie["orthonormality_max"] < 1e-14
+    assert drift["runtime DOP853+orth"]["orthonormality_final"] < 1e-11
+    assert drift["runtime DOP853"]["K_fixed_max"] > 100 * lie["K_fixed_max"]
 
 
 def test_errors_are_against_the_closed_form():

@@ -240,7 +240,8 @@ class Casadi:
         t_sym = ca.SX.sym("t")
         tr = Translator({nt.t: t_sym})
         law = []
-        for f in s.law:
+        for f in s.law.sympy():                         # the law as SymPy, in t
+            f = sp.sympify(f)
             law += [tr(f), tr(sp.diff(f, nt.t)), tr(sp.diff(f, nt.t, 2))]
         u_of_t = ca.vertcat(*[law[i] for i in (0, 3, 6, 1, 4, 7, 2, 5, 8)])
         self.u_fun = ca.Function("u", [t_sym], [u_of_t])

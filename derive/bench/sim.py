@@ -32,6 +32,7 @@ def run(scene_doc: dict | None = None, progress=lambda m: None, repeats: int = 7
     ref = Runtime(doc, "dop853", 1e-14).result()
     agreement = errors(Scipy(doc, "DOP853", 1e-13).result(), ref)
     candidates = [
+        (lambda s: Runtime(doc, "lie", s), [1e-7, 1e-8, 1e-9, 1e-10, 1e-11, 1e-12, 1e-13]),
         (lambda s: Runtime(doc, "dop853", s), [1e-7, 1e-8, 1e-9, 1e-10, 1e-11, 1e-12]),
         (lambda s: Runtime(doc, "dopri5", s), [1e-8, 1e-9, 1e-10, 1e-11, 1e-12]),
         (lambda s: Runtime(doc, "rk4", s), [4e-3, 2e-3, 1e-3, 5e-4]),
