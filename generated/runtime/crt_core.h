@@ -518,6 +518,8 @@ static int crt_handle_event(crt_session *s, crt_out *o, double ta, double ga, do
       const double dt = -gap / v_n;
       if (fabs(dt) <= 4.0 * tol || !(t_ev + dt > s->t) || fabs(dt) > (tb - ta) + tol) break;
       t_ev += dt;
+      /* the last correction: step there too, so that the state is the one at t_ev */
+      if (it == 3) crt_step(s, s->t, s->q, s->f, t_ev - s->t, q_ev, f_ev, 0);
     }
   }
   if (!crt_flush_outputs(s, o, t_ev, 0)) return 2;
