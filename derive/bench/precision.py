@@ -267,8 +267,9 @@ def chart(name: str, points: list[Point], bouncing: bool, path: Path) -> None:
     import matplotlib.pyplot as plt
     fig, axes = plt.subplots(1, 2, figsize=(13, 5))
     styles = {}
+    palette = plt.get_cmap("tab20").colors
     for k, method in enumerate(sorted({p.method for p in points})):
-        styles[method] = dict(marker="os^vD<>ph*"[k % 10],
+        styles[method] = dict(marker="os^vD<>ph*"[k % 10], color=palette[(2 * k) % 20 + k // 10],
                               linestyle="-" if method.startswith("runtime") else "--",
                               linewidth=3.0 if method == DEFAULT else 1.2,
                               zorder=3 if method == DEFAULT else 2)

@@ -11,9 +11,9 @@
 
 /*
  * In flight the kinetic moment K about C is constant in fixed axes (E1.1) and C moves on
- * a parabola (E1.2).  The methods `lie` and `lie5` keep them as constants of the flight
- * (set from the state at the start of the run and after every event) and integrate the
- * attitude alone, A' = A skew(omega) (E1.8), with omega from E1.4 solved:
+ * a parabola (E1.2).  The methods `lie`, `lie5` and `lie8` keep them as constants of the
+ * flight (set from the state at the start of the run and after every event) and integrate
+ * the attitude alone, A' = A skew(omega) (E1.8), with omega from E1.4 solved:
  *     J omega = A^T K - mu OP x V_r                                  (lie_stage)
  * Over a step from t_n the attitude is A = A_n exp(W^) with W(t_n) = 0, and the step is
  * a Runge-Kutta step (the DOP853 or DOPRI5 coefficients, with their error estimates and
@@ -21,8 +21,8 @@
  * exponential map, derive/lie.py; a uniform rotation is integrated exactly).  A stays on
  * SO(3) whatever W the method returns: the session keeps the attitude as a unit
  * quaternion, composed with that of exp(W^) at every step, and writes its matrix into the
- * state; K in fixed axes, hence |K| (E1.9), is
- * exact by construction, and the omega written is the one E1.4 gives for that attitude.
+ * state.  K in fixed axes, hence |K| (E1.9), is exact by construction: the omega written
+ * (step ends, dense output, event search) is the one E1.4 gives for that attitude.
  * `lie` takes the coefficients of `lie8` when rtol < CRT_LIE_TIGHT, of `lie5` otherwise.
  * The error is controlled on W (radians of attitude: scale atol + rtol).
  * In persistent contact (the reaction's moment changes K) and in models without an
