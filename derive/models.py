@@ -318,6 +318,145 @@ def kinetic_moment(model: str) -> FunctionSpec:
         definitions=MASS_DEFINITIONS)
 
 
+# ---- the momentum form (derive.momentum.momentum_form, derive.lie) -------------------------
+def _A() -> Vector:
+    return Vector("A", A_FLAT, tuple(f"a{i}{j}" for i in "123" for j in "123"))
+
+
+def _omega() -> Vector:
+    return Vector("omega", tuple(nt.omega), ("omega_x", "omega_y", "omega_z"))
+
+
+@lru_cache(maxsize=None)
+def momentum_omega() -> FunctionSpec:
+    """``momentum_omega(A, K, u, p) -> omega``: E1.4 solved for omega with K constant in
+    fixed axes (E1.1): ``J omega = A^T K - mu OP x V_r``."""
+    from .momentum import K_BODY, K_FIXED, momentum_form
+    mf = momentum_form()
+    seen = nt.a.T * K_FIXED
+    rhs = mf.body_rhs.xreplace(dict(zip(K_BODY, seen)))
+    return FunctionSpec(
+        name="momentum_omega",
+        doc="omega of the momentum form: E1.4 solved with K constant in fixed axes "
+            "(E1.1), J omega = A^T K - mu OP x V_r.",
+        inputs=(_A(), Vector("K", tuple(K_FIXED), ("K_X", "K_Y", "K_Z")), _u(), _p()),
+        outputs=(_omega(),),
+        solves=(LinearSolve(matrix=mf.J, rhs=(rhs,), unknowns=(nt.omega,)),),
+        definitions=MASS_DEFINITIONS)
+
+
+@lru_cache(maxsize=None)
+def fixed_kinetic_moment() -> FunctionSpec:
+    """``fixed_kinetic_moment(A, omega, u, p) -> K``: K about C in fixed axes, A K of
+    E1.4 (the constant of a flight, E1.1)."""
+    from .momentum import momentum_form
+    return FunctionSpec(
+        name="fixed_kinetic_moment",
+        doc="K about C in fixed axes, A (J omega + mu OP x V_r) (E1.4): constant in flight "
+            "(E1.1).",
+        inputs=(_A(), _omega(), _u(), _p()),
+        outputs=(Vector("K", tuple(momentum_form().fixed), ("K_X", "K_Y", "K_Z")),),
+        definitions=MASS_DEFINITIONS)
+
+
+def _W() -> Vector:
+    return Vector("W", tuple(_lie().W), ("W_x", "W_y", "W_z"))
+
+
+def _lie():
+    from . import lie
+    return lie
+
+
+@lru_cache(maxsize=None)
+def lie_stage() -> FunctionSpec:
+    """``lie_stage(W, k, u, p) -> (dW, omega)``: one stage of a Lie-group step.  With the
+    attitude ``A = A_n exp(skew(W))`` and ``k = A_n^T K`` (K fixed, E1.1), the body
+    components of K are ``exp(-skew(W)) k``; omega solves E1.4 with them, and
+    ``W' = dexpinv(W, omega)`` is Poisson's E1.8 in exponential coordinates (derive.lie)."""
+    from .momentum import K_BODY, momentum_form
+    lie = _lie()
+    ch = lie.exponential_chart()
+    mf = momentum_form()
+    series, values = ch.definitions()
+    seen = ch.body_view(K_BODY, values=values)
+    rhs = mf.body_rhs.xreplace(dict(zip(K_BODY, seen)))
+    dW = ch.dexpinv(nt.omega, values=values)
+    return FunctionSpec(
+        name="lie_stage",
+        doc="A stage of the Lie-group flight step: omega from E1.4 with K = exp(-W^) k in "
+            "body axes, and W' = dexpinv(W, omega) (E1.8 in exponential coordinates).",
+        inputs=(_W(), Vector("k", tuple(K_BODY), ("k_x", "k_y", "k_z")), _u(), _p()),
+        outputs=(Vector("dW", tuple(dW), ("W_x'", "W_y'", "W_z'")), _omega()),
+        solves=(LinearSolve(matrix=mf.J, rhs=(rhs,), unknowns=(nt.omega,)),),
+        definitions=MASS_DEFINITIONS + series)
+
+
+@lru_cache(maxsize=None)
+def lie_point() -> FunctionSpec:
+    """``lie_point(W, k, u, p) -> (E, omega)``: the attitude factor ``exp(skew(W))`` of a
+    point of a Lie step and omega there (E1.4 with K = E^T k): what the dense output of
+    the momentum form needs at a time between steps."""
+    from .momentum import K_BODY, momentum_form
+    lie = _lie()
+    ch = lie.exponential_chart()
+    mf = momentum_form()
+    series, values = ch.definitions()
+    E = ch.exp_matrix(values=values)
+    seen = E.T * K_BODY
+    rhs = mf.body_rhs.xreplace(dict(zip(K_BODY, seen)))
+    keep = {lie.S_W} | {sym for sym, _ in series if sym.name.startswith(("a_W", "b_W", "s_W"))}
+    return FunctionSpec(
+        name="lie_point",
+        doc="exp(W^) and omega from E1.4 with K = exp(W^)^T k in body axes: a point of the "
+            "dense output of a Lie-group flight step.",
+        inputs=(_W(), Vector("k", tuple(K_BODY), ("k_x", "k_y", "k_z")), _u(), _p()),
+        outputs=(Vector("E", tuple(E), tuple(f"e{i}{j}" for i in "123" for j in "123")),
+                 _omega()),
+        solves=(LinearSolve(matrix=mf.J, rhs=(rhs,), unknowns=(nt.omega,)),),
+        definitions=MASS_DEFINITIONS + tuple((sym, v) for sym, v in series if sym in keep))
+
+
+@lru_cache(maxsize=None)
+def exp_map() -> FunctionSpec:
+    """``exp_map(W) -> (E, quat)``: ``exp(skew(W))`` row-major and its unit quaternion
+    (derive.lie; |W| <= derive.lie.THETA_MAX)."""
+    lie = _lie()
+    ch = lie.exponential_chart()
+    series, values = ch.definitions()
+    E = ch.exp_matrix(values=values)
+    qw, qv = values[4], values[5]
+    quat = (qw, qv * lie.W[0], qv * lie.W[1], qv * lie.W[2])
+    return FunctionSpec(
+        name="exp_map", doc="The exponential map of so(3): exp(W^) row-major and its unit "
+                            "quaternion (w, x, y, z) (derive.lie, |W| <= 1.25).",
+        inputs=(_W(),),
+        outputs=(Vector("E", tuple(E), tuple(f"e{i}{j}" for i in "123" for j in "123")),
+                 Vector("quat", quat, ("q_w", "q_x", "q_y", "q_z"))),
+        definitions=series)
+
+
+@lru_cache(maxsize=None)
+def flight_parabola() -> FunctionSpec:
+    """``flight_parabola(c, tau, p) -> c_tau``: C's position and velocity tau after the
+    start of a flight (E1.2 integrated)."""
+    from .momentum import TAU, flight_parabola as parabola
+    position, velocity = parabola()
+    labels = STATE_LABELS["general"][:6]
+    return FunctionSpec(
+        name="flight_parabola",
+        doc="Position and velocity of C a time tau after the start of a flight (E1.2 "
+            "integrated).",
+        inputs=(Vector("c", STATES["general"][:6], labels), Vector("tau", (TAU,), ("tau",)),
+                _p()),
+        outputs=(Vector("c_tau", tuple(position) + tuple(velocity), labels),))
+
+
+def momentum_specs() -> list[FunctionSpec]:
+    return [momentum_omega(), fixed_kinetic_moment(), lie_stage(), lie_point(),
+            flight_parabola(), exp_map()]
+
+
 def all_specs() -> list[FunctionSpec]:
     specs = [flight_rhs(mdl) for mdl in MODELS]
     specs += [flight_jacobian(mdl) for mdl in MODELS]
@@ -327,6 +466,7 @@ def all_specs() -> list[FunctionSpec]:
     specs += [contact_rhs(mdl) for mdl in ("general", "vertical")]
     specs += [lowest_point(shape) for shape in ("sphere", "ellipsoid")]
     specs += [lowest_point_rate(shape) for shape in ("sphere", "ellipsoid")]
+    specs += momentum_specs()
     return specs
 
 

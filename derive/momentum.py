@@ -129,3 +129,67 @@ def integral_of_kinetic_moment() -> sp.Expr:
     """The quantity of E1.9, ``K_x^2 + K_y^2 + K_z^2``."""
     K = angular_momentum().K
     return sp.expand(sum((k ** 2 for k in K), sp.Integer(0)))
+
+
+# ---- the momentum form of the flight ---------------------------------------------------------
+K_X, K_Y, K_Z = sp.symbols("K_X K_Y K_Z", real=True)      # K about C, fixed axes
+K_FIXED = sp.Matrix([K_X, K_Y, K_Z])
+k_x, k_y, k_z = sp.symbols("k_x k_y k_z", real=True)      # K about C, body axes (given)
+K_BODY = sp.Matrix([k_x, k_y, k_z])
+
+
+@dataclass(frozen=True)
+class MomentumForm:
+    """Flight on the integral: K in fixed axes is a constant of each flight (E1.1), so the
+    attitude alone is integrated, with omega from E1.4 solved (``J omega = A^T K - own``).
+
+    ``J omega = body_rhs`` holds with ``body_rhs = K_BODY - own`` for ``K_BODY = A^T K``
+    (the fixed K seen in body axes); ``attitude_rate`` is Poisson's ``A' = A skew(omega)``
+    (E1.8).  ``omega_rate_rhs``: along the momentum form, ``J omega' = omega_rate_rhs``
+    (d/dt of ``J omega + own = A^T K`` with ``A' = A skew(omega)``), which
+    ``tests/test_momentum_form.py`` proves equal to E1.7's forcing.
+    """
+    J: sp.Matrix
+    own: sp.Matrix
+    body_rhs: sp.Matrix
+    fixed: sp.Matrix            # A (J omega + own): K in fixed axes from the state
+    omega_rate_rhs: sp.Matrix
+
+
+def _law_rate(expr):
+    """d/dt of an expression in the point's law (x, x', ...) and nothing else moving."""
+    from .notation import xd, xdd, yd, ydd, zd, zdd, x, y, z
+    chain = ((x, xd), (y, yd), (z, zd), (xd, xdd), (yd, ydd), (zd, zdd))
+    return sum((sp.diff(expr, s) * r for s, r in chain), sp.Integer(0))
+
+
+@lru_cache(maxsize=None)
+def momentum_form() -> MomentumForm:
+    from .notation import a, omega as w, skew
+    am = angular_momentum()
+    J, own = am.J, am.own
+    body_rhs = K_BODY - own
+    fixed = a * (J * w + own)
+    # J omega + own = A^T K: differentiate with A' = A skew(omega), K constant:
+    # (A^T)' K = -skew(omega) A^T K = -omega x (J omega + own)
+    K_seen = J * w + own
+    omega_rate_rhs = (-skew(w) * K_seen - J.applyfunc(_law_rate) * w
+                      - own.applyfunc(_law_rate))
+    return MomentumForm(J=J, own=own, body_rhs=body_rhs, fixed=fixed,
+                        omega_rate_rhs=omega_rate_rhs.applyfunc(sp.expand))
+
+
+TAU = sp.Symbol("tau", nonnegative=True)       # time since the start of the flight
+
+
+@lru_cache(maxsize=None)
+def flight_parabola() -> tuple[sp.Matrix, sp.Matrix]:
+    """E1.2 integrated from the start of a flight: ``(r_C(tau), r_C'(tau))`` in terms of
+    the position and velocity of C at ``tau = 0`` (the symbols X_C, ..., Z_C')."""
+    from .notation import R_C, V_C
+    _, acc, _ = centre_of_mass_motion()
+    s = sp.Symbol("s", nonnegative=True)
+    velocity = V_C + acc.applyfunc(lambda c: sp.integrate(c, (s, 0, TAU)))
+    position = R_C + velocity.applyfunc(lambda c: sp.integrate(c.xreplace({TAU: s}),
+                                                                (s, 0, TAU)))
+    return position.applyfunc(sp.expand), velocity.applyfunc(sp.expand)

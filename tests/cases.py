@@ -97,6 +97,17 @@ def inputs_for(spec, c, rng):
             values.append(rng.uniform(0.1, 2.0, 1))
         elif vec.name == "semi_axes":
             values.append(rng.uniform(0.1, 2.0, 3))
+        elif vec.name == "A":                       # the momentum form (issue 13)
+            values.append(c.A.ravel())
+        elif vec.name in ("K", "k"):
+            values.append(rng.normal(size=3))
+        elif vec.name == "W":                       # exponential coordinates, |W| <= 1.25
+            w = rng.normal(size=3)
+            values.append(w * rng.uniform(0.0, 1.25) / np.linalg.norm(w))
+        elif vec.name == "c":
+            values.append(rng.normal(size=6))
+        elif vec.name == "tau":
+            values.append(rng.uniform(0.0, 3.0, 1))
         else:
             raise KeyError(vec.name)
     return values

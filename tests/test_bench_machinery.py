@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 
 import numpy as np
+import pytest
 
 from derive.bench import precision
 from derive.bench.routes import Runtime, Scipy, errors
@@ -22,9 +23,14 @@ def test_precision_quick_run_writes_charts_and_data(tmp_path):
     assert matched[0]["level"] == 1e-4 and np.isfinite(matched[0]["runtime_best_s"])
     lines = (tmp_path / "precision.csv").read_text().splitlines()
     assert lines[0].startswith("scene,method,setting,seconds,error")
-    # the long run's invariants: projection keeps A orthonormal to round-off
+    # the long run's invariants: the momentum form keeps K and A to round-off; projection
+    # keeps A orthonormal to the error of the dense output between steps
     drift = summary["long_run"]
-    assert drift["runtime DOP853+orth"]["orthonormality_final"] < 1e-13
+    lie = drift["runtime LIE"]
+    assert lie["K_max"] < 1e-14 and lie["K_fixed_max"] < 1e-14
+    assert lie["orthonormality_max"] < 1e-14
+    assert drift["runtime DOP853+orth"]["orthonormality_final"] < 1e-11
+    assert drift["runtime DOP853"]["K_fixed_max"] > 100 * lie["K_fixed_max"]
 
 
 def test_errors_are_against_the_closed_form():
@@ -43,3 +49,50 @@ def test_errors_are_against_the_closed_form():
     ref = Run(exact(parse_scene(doc), route.grid)[0], np.array([]), 0, "done")
     loose, _ = errors(route.result(), ref)
     assert loose > 1e-8
+
+
+def test_hand_written_peer_equals_the_derivation():
+    """The peer of `derive bench rhs` (E1.4/E1.7 typed in CasADi, casadi.solve) computes
+    the same right-hand side as the derived one, at the 200 physical states."""
+    from derive.bench.rhs import hand_written_flight_rhs, physical_inputs
+    from derive.emit.numpy_backend import compile_spec
+    from derive.models import flight_rhs
+    hand = hand_written_flight_rhs()
+    ours = compile_spec(flight_rhs("general"))
+    for q, u, p in physical_inputs(200):
+        a = np.array(hand(q, u, p).full()).ravel()
+        b = np.asarray(ours(q, u, p)[0])
+        assert np.max(np.abs(a - b)) <= 1e-12 * np.max(np.abs(b))
+
+
+@pytest.mark.parametrize("solver", ["ldlt", "adjugate", "cholesky"])
+def test_every_closed_form_solve_agrees_with_numpy(solver):
+    from derive.emit.linalg import SOLVERS
+    rng = np.random.default_rng(1)
+    for _ in range(50):
+        B = rng.normal(size=(3, 3))
+        A = B @ B.T + 0.1 * np.eye(3)
+        b = [rng.normal(size=3), rng.normal(size=3)]
+        tri = (A[0, 0], A[1, 0], A[1, 1], A[2, 0], A[2, 1], A[2, 2])
+        for x, rhs in zip(SOLVERS[solver](tri, b), b):
+            np.testing.assert_allclose(x, np.linalg.solve(A, rhs), rtol=1e-9, atol=1e-12)
+
+
+def test_latency_analysis_of_a_known_chain():
+    """x' = (q0 q1 + u0) / (u1 + u2), printed as (q0 q1 + u0) * (1/(u1 + u2)): from q a
+    multiply, an add and the multiply by the reciprocal, which reads the law alone and is
+    off the chain; from every input the reciprocal (an add and a division) is on it."""
+    import sympy as sp
+    from derive.emit.latency import analyse
+    from derive.emit.program import build
+    from derive.models import FunctionSpec, Vector
+    q0, q1, u0, u1, u2 = sp.symbols("q0 q1 u0 u1 u2", real=True)
+    spec = FunctionSpec("toy", "", (Vector("q", (q0, q1), ("a", "b")),
+                                    Vector("u", (u0, u1, u2), ("c", "d", "e"))),
+                        (Vector("x", ((q0 * q1 + u0) / (u1 + u2),), ("x",)),))
+    lat = {"add": 1.0, "mul": 2.0, "div": 10.0, "sqrt": 20.0, "call": 50.0}
+    hot = analyse(build(spec), ("q",), lat)
+    assert hot.path.counts == {"mul": 2, "add": 1} and hot.path.time == 5.0
+    assert hot.totals == {"add": 2, "mul": 2, "div": 1, "sqrt": 0, "call": 0}
+    every = analyse(build(spec), ("q", "u"), lat)
+    assert every.path.counts == {"add": 1, "div": 1, "mul": 1} and every.path.time == 13.0

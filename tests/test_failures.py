@@ -1,7 +1,8 @@
 """Issue 6: the hard scenes of `derive bench failures`, through the runtime's methods.
 
-Pinned outcomes: the runtime's default (DOPRI5), DOP853 and DOP853 keeping A
-orthonormal come out correct on every scene against references computed another way
+Pinned outcomes: the runtime's default (the Lie-group method of the momentum form),
+DOPRI5, DOP853 and DOP853 keeping A orthonormal come out correct on every scene against
+references computed another way
 (closed-form flights with 1-D root finding; SciPy at 1e-13).  Fixed-step RK4 at its
 default step is correct except for the fast spin, where it is wrong (no error control:
 that row is the documented limit of a fixed step, not a default).
@@ -16,8 +17,8 @@ from derive.bench import failures
 
 SCENES = failures.scenes()
 METHODS = dict(failures.methods())
-RUNTIME = ["runtime default (DOPRI5)", "runtime DOP853", "runtime DOP853+orth",
-           "runtime RK4 (T/2000)"]
+RUNTIME = ["runtime default (LIE)", "runtime DOPRI5", "runtime DOP853",
+           "runtime DOP853+orth", "runtime RK4 (T/2000)"]
 EXPECTED = {(name, m): "correct" for name in SCENES for m in RUNTIME}
 EXPECTED[("fast spin", "runtime RK4 (T/2000)")] = "wrong"
 

@@ -252,7 +252,7 @@ def test_compiled_library_is_cached(tmp_path):
     assert float(out[1]) < 0.5          # loading, not compiling (a build takes seconds)
 
 
-@pytest.mark.parametrize("method", ["rk4", "dopri5", "dop853"])
+@pytest.mark.parametrize("method", ["rk4", "dopri5", "dop853", "lie", "lie5", "lie8"])
 def test_every_method_runs_the_default_scene(method):
     res = simulate(scene_dict(run={"method": method}), progress=False)
     assert res.status == "done" and len(res.impacts) == 8

@@ -85,16 +85,29 @@ def _table_scene():
     return doc
 
 
+def _spinning(**run):
+    doc = ball(e=0.3, z0=0.7, law=("0.05*sin(7*t)", "0", "0.3*sin(20*t)"), duration=1.0,
+               rtol=1e-9, atol=1e-11, **run)
+    doc["initial"]["omega"] = [0.3, 0.0, 0.5]
+    return doc
+
+
 SCENES = {
     "bouncing": lambda: scene_dict(run={"duration": 2.0}),
     "contact": lambda: ball(e=0.0, z0=0.5, law=("0", "0", "0.3*sin(20*t)"), duration=0.5,
                             rtol=1e-9, atol=1e-11),
     "table": _table_scene,
     "free": lambda: scene_dict(plane=None, run={"duration": 1.0}),
+    # the general model with impacts, resting contact and lift-off (the Lie methods hand
+    # over to the classical ones in contact), and the vertical and attitude models
+    "general": lambda: _spinning(model="general", outputs=["pose", "impacts"]),
+    "vertical": lambda: _spinning(model="vertical", outputs=["omega", "impacts"]),
+    "attitude": lambda: scene_dict(plane=None, run={"duration": 1.0, "model": "attitude",
+                                                    "outputs": ["omega"]}),
 }
 
 
-@pytest.mark.parametrize("method", ["rk4", "dopri5", "dop853"])
+@pytest.mark.parametrize("method", ["rk4", "dopri5", "dop853", "lie", "lie5"])
 @pytest.mark.parametrize("name", list(SCENES))
 def test_runtime_clean_under_sanitizers(name, method, tmp_path):
     src = tmp_path / "main.c"

@@ -81,7 +81,8 @@ def scenes() -> dict:
 def methods():
     """(label, factory(doc)) at each method's default setting, tolerance 1e-10."""
     return [
-        ("runtime default (DOPRI5)", lambda d: Runtime(d, "dopri5", 1e-10)),
+        ("runtime default (LIE)", lambda d: Runtime(d, "lie", 1e-10)),
+        ("runtime DOPRI5", lambda d: Runtime(d, "dopri5", 1e-10)),
         ("runtime DOP853", lambda d: Runtime(d, "dop853", 1e-10)),
         ("runtime DOP853+orth", lambda d: Runtime(d, "dop853+orth", 1e-10)),
         ("runtime RK4 (T/2000)",

@@ -75,11 +75,17 @@ def reference_scenes() -> dict:
 
 # methods: (label, factory(doc, setting), settings)
 def methods(quick: bool = False):
-    tols = [1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11, 1e-12, 1e-13]
+    # half-decade tolerances: the least time at an error level is read from the runs that
+    # reach it, and a method whose error sits a few times above its tolerance would
+    # otherwise be charged a whole decade (the same grid for every method)
+    tols = [float(f"{10.0 ** (-4 - k / 2):.3g}") for k in range(19)]
     if quick:
         tols = [1e-6, 1e-9, 1e-12]
     steps = [0.02, 0.01, 0.005, 0.002, 0.001, 5e-4, 2e-4] if not quick else [0.01, 0.001]
     return [
+        ("runtime LIE", lambda d, s: Runtime(d, "lie", s), tols),
+        ("runtime LIE5", lambda d, s: Runtime(d, "lie5", s), tols),
+        ("runtime LIE8", lambda d, s: Runtime(d, "lie8", s), tols),
         ("runtime RK4", lambda d, s: Runtime(d, "rk4", s), steps),
         ("runtime DOPRI5", lambda d, s: Runtime(d, "dopri5", s), tols),
         ("runtime DOP853", lambda d, s: Runtime(d, "dop853", s), tols),
@@ -167,7 +173,10 @@ def sweep(name, doc, ref, quick, repeats, progress, time_limit=20.0) -> list[Poi
                                     f"failed: {exc}".splitlines()[0][:80]))
                 break
             err, ierr = errors(result, ref)
-            reps = repeats if once < 0.05 else (2 if once < 1.0 else 0)
+            # runs of a few milliseconds are timed many times: their minimum is then the
+            # run's own cost, not the shared machine's noise
+            reps = (4 * repeats if once < 0.005 else repeats if once < 0.05
+                    else (2 if once < 1.0 else 0))
             seconds = route.timed(reps) if reps and result.status == "done" else once
             points.append(Point(name, label, setting, seconds, err, ierr, result.evaluations,
                                 result.status))
@@ -176,12 +185,55 @@ def sweep(name, doc, ref, quick, repeats, progress, time_limit=20.0) -> list[Poi
     return points
 
 
+RETIME_ROUNDS = 3
+
+
+def retime(doc: dict, points: list[Point], repeats: int, passes: int = 1,
+           progress=lambda m: None) -> None:
+    """Time the runtime's runs again, ``passes`` more times, each pass going through every
+    method before the next: a burst of load on a shared machine during one method's
+    sweep would otherwise charge that method alone.  Each point keeps its least time."""
+    factories = {label: make for label, make, _ in methods()}
+    for k in range(passes):
+        progress(f"timing pass {k + 2} of the runtime's runs")
+        for p in points:
+            if not p.method.startswith("runtime") or p.status != "done" or \
+                    not np.isfinite(p.seconds) or p.seconds > 0.05:
+                continue
+            route = factories[p.method](doc, p.setting)
+            reps = 4 * repeats if p.seconds < 0.005 else repeats
+            p.seconds = min(p.seconds, route.timed(reps))
+
+
 def time_at(points: list[Point], method: str, level: float, bouncing: bool) -> float:
     """The least time among the method's runs whose error is within ``level``."""
     ok = [p.seconds for p in points if p.method == method and p.status == "done"
           and p.error <= level and (not bouncing or p.impact_error <= level)
           and np.isfinite(p.seconds)]
     return min(ok) if ok else math.nan
+
+
+DEFAULT = "runtime LIE"          # the scene default (derive/runtime/scene.py)
+CLASSICAL = ("runtime RK4", "runtime DOPRI5", "runtime DOP853", "runtime DOP853+orth")
+TARGET_SCENES = ("axisymmetric E3.14", "planar E4.2", "stationary C4.2", "stationary C4.3")
+
+
+def default_against_classical(points: list[Point], bouncing: bool) -> list[dict]:
+    """Per error level: the default method's least time and the least time of the
+    classical runtime methods (today's best), and whether the default is at least as
+    fast (issue 13's target on the reference scenes)."""
+    rows = []
+    for level in LEVELS:
+        ours = time_at(points, DEFAULT, level, bouncing)
+        best, which = math.nan, "-"
+        for m in CLASSICAL:
+            t = time_at(points, m, level, bouncing)
+            if np.isfinite(t) and not t >= best:
+                best, which = t, m
+        ok = bool(np.isfinite(ours) and (not np.isfinite(best) or ours <= best))
+        rows.append({"level": level, "default_s": ours, "classical_best_s": best,
+                     "classical_best": which, "ok": ok})
+    return rows
 
 
 def matched_ratios(points: list[Point], bouncing: bool) -> list[dict]:
@@ -215,9 +267,12 @@ def chart(name: str, points: list[Point], bouncing: bool, path: Path) -> None:
     import matplotlib.pyplot as plt
     fig, axes = plt.subplots(1, 2, figsize=(13, 5))
     styles = {}
+    palette = plt.get_cmap("tab20").colors
     for k, method in enumerate(sorted({p.method for p in points})):
-        styles[method] = dict(marker="os^vD<>ph*"[k % 10],
-                              linestyle="-" if method.startswith("runtime") else "--")
+        styles[method] = dict(marker="os^vD<>ph*"[k % 10], color=palette[(2 * k) % 20 + k // 10],
+                              linestyle="-" if method.startswith("runtime") else "--",
+                              linewidth=3.0 if method == DEFAULT else 1.2,
+                              zorder=3 if method == DEFAULT else 2)
         pts = sorted((p for p in points if p.method == method and p.status == "done"
                       and np.isfinite(p.error) and p.error > 0 and np.isfinite(p.seconds)),
                      key=lambda p: p.setting, reverse=True)
@@ -243,11 +298,19 @@ def chart(name: str, points: list[Point], bouncing: bool, path: Path) -> None:
 
 # ---- long runs ----------------------------------------------------------------------------
 def long_run_scene(periods: int = 10_000) -> dict:
+    """The built-in carrier (J = 0.10, 0.12, 0.14: asymmetric) in free flight, the point on
+    a closed curve in 3-D with period 1 s."""
     doc = _base()
     doc.pop("plane")
-    doc["point"]["law"] = ["0.2*sin(2*pi*t)", "0.1", "0.05*cos(2*pi*t)"]
+    doc["point"]["law"] = ["0.2*sin(2*pi*t)", "0.1*cos(2*pi*t)", "0.05*cos(4*pi*t)"]
     doc["run"].update(duration=float(periods), model="general", outputs=["pose"])
     return doc
+
+
+LONG_RTOL = 1e-8
+# the targets of the momentum form (issue 13): relative drift of |K| and of the fixed K,
+# and the orthonormality of A, over the whole run
+LONG_TARGETS = {"K": 1e-12, "K_fixed": 1e-12, "orthonormality": 1e-13}
 
 
 def long_run(periods: int = 10_000, progress=lambda m: None) -> dict:
@@ -256,10 +319,13 @@ def long_run(periods: int = 10_000, progress=lambda m: None) -> dict:
     doc = long_run_scene(periods)
     dt = max(periods / 1000.0, 1.0)
     out = {}
-    for label, method, setting in (("runtime RK4", "rk4", 0.01),
-                                   ("runtime DOPRI5", "dopri5", 1e-9),
-                                   ("runtime DOP853", "dop853", 1e-9),
-                                   ("runtime DOP853+orth", "dop853+orth", 1e-9)):
+    for label, method, setting in (("runtime LIE", "lie", LONG_RTOL),
+                                   ("runtime LIE5", "lie5", LONG_RTOL),
+                                   ("runtime LIE8", "lie8", LONG_RTOL),
+                                   ("runtime RK4", "rk4", 0.01),
+                                   ("runtime DOPRI5", "dopri5", LONG_RTOL),
+                                   ("runtime DOP853", "dop853", LONG_RTOL),
+                                   ("runtime DOP853+orth", "dop853+orth", LONG_RTOL)):
         progress(f"long run: {label}")
         route = Runtime(doc, method, setting, dt=dt)
         start = time.perf_counter()
@@ -310,20 +376,30 @@ def run(out_dir, quick: bool = False, repeats: int = 5, periods: int = 10_000,
     out.mkdir(parents=True, exist_ok=True)
     all_points: list[Point] = []
     summary = {"machine": machine(), "scenes": {}}
+    swept = []
     for name, (doc, exact) in reference_scenes().items():
         if scenes and name not in scenes:
             continue
-        bouncing = "plane" in doc
         ref = _reference(name, doc, exact, progress)
         info = {}
         if exact is None:
             progress(f"{name}: mpmath check of the reference (first flight)")
             info["mpmath_check_first_flight"] = mpmath_check(doc)
         points = sweep(name, doc, ref, quick, repeats, progress)
+        swept.append((name, doc, points, info))
+    # the runtime's runs timed again in rounds over every scene: the rounds are minutes
+    # apart, so a stretch of load on the shared machine charges no method alone
+    for k in range(RETIME_ROUNDS):
+        for name, doc, points, _ in swept:
+            progress(f"{name}: timing round {k + 2}")
+            retime(doc, points, repeats, passes=1)
+    for name, doc, points, info in swept:
+        bouncing = "plane" in doc
         all_points += points
         slug = name.split()[0].lower().replace("(", "").replace(")", "")
         chart(name, points, bouncing, out / f"precision_{slug}.png")
         info["matched"] = matched_ratios(points, bouncing)
+        info["default"] = default_against_classical(points, bouncing)
         summary["scenes"][name] = info
     with open(out / "precision.csv", "w", encoding="utf-8") as fh:
         fh.write("scene,method,setting,seconds,error,impact_error,evaluations,status\n")
@@ -340,14 +416,65 @@ def run(out_dir, quick: bool = False, repeats: int = 5, periods: int = 10_000,
                     fh.write(f"{label},{d['t'][k]!r},{d['K'][k]!r},{d['K_fixed'][k]!r},"
                              f"{d['orthonormality'][k]!r}\n")
         summary["long_run"] = {label: {"seconds": d["seconds"], "steps": d["steps"],
+                                       "K_max": float(np.max(d["K"])),
+                                       "K_fixed_max": float(np.max(d["K_fixed"])),
+                                       "orthonormality_max": float(np.max(d["orthonormality"])),
                                        "K_final": float(d["K"][-1]),
                                        "K_fixed_final": float(d["K_fixed"][-1]),
-                                       "orthonormality_final": float(d["orthonormality"][-1])}
+                                       "orthonormality_final": float(d["orthonormality"][-1]),
+                                       "status": d["status"]}
                                for label, d in data.items()}
     summary["points"] = [asdict(p) for p in all_points]
     (out / "precision.json").write_text(json.dumps(summary, indent=1, default=float) + "\n",
                                         encoding="utf-8")
     return summary
+
+
+def default_report(summary: dict) -> str:
+    """The default (LIE) against today's best classical runtime method at each level."""
+    lines = [f"\n{DEFAULT} (the default) against the fastest classical runtime method at "
+             "each error level (ms; '-': never reached):"]
+    verdicts = []
+    for name, info in summary["scenes"].items():
+        rows = info.get("default")
+        if not rows:
+            continue
+        cells = []
+        for r in rows:
+            ours, best = r["default_s"], r["classical_best_s"]
+            if not np.isfinite(ours) and not np.isfinite(best):
+                continue
+            cells.append(f"{r['level']:.0e}: {1e3 * ours:.3f}/{1e3 * best:.3f}"
+                         f"{'' if r['ok'] else ' (slower)'}")
+        ok = all(r["ok"] for r in rows if np.isfinite(r["classical_best_s"])
+                 or np.isfinite(r["default_s"]))
+        if name in TARGET_SCENES:
+            verdicts.append(ok)
+        lines.append(f"  {name:<24}{'PASS' if ok else 'FAIL'}  " + "; ".join(cells))
+    if verdicts:
+        lines.append(f"  target (E3.14, E4.2, C4.2, C4.3 at every level): "
+                     f"{'PASS' if all(verdicts) else 'FAIL'}")
+    return "\n".join(lines)
+
+
+def long_report(long: dict) -> str:
+    """The long run's largest drifts, and the targets of the default method."""
+    lines = [f"\nlong run, free flight, rtol {LONG_RTOL:g} (largest over the run: relative "
+             "drift of |K|, of the fixed K, and max |A A^T - 1|):"]
+    for label, d in long.items():
+        lines.append(f"  {label:<22}{d['K_max']:>10.1e}{d['K_fixed_max']:>10.1e}"
+                     f"{d['orthonormality_max']:>10.1e}   {d['seconds']:.2f} s, "
+                     f"{d['steps']} steps, {d.get('status', 'done')}")
+    if "runtime LIE" in long:
+        d = long["runtime LIE"]
+        checks = [(f"|K| <= {LONG_TARGETS['K']:g}", d["K_max"] <= LONG_TARGETS["K"]),
+                  (f"fixed K <= {LONG_TARGETS['K_fixed']:g}",
+                   d["K_fixed_max"] <= LONG_TARGETS["K_fixed"]),
+                  (f"orthonormality <= {LONG_TARGETS['orthonormality']:g}",
+                   d["orthonormality_max"] <= LONG_TARGETS["orthonormality"])]
+        lines.append("  targets of LIE: " + "; ".join(
+            f"{what}: {'PASS' if ok else 'FAIL'}" for what, ok in checks))
+    return "\n".join(lines)
 
 
 def report(summary: dict) -> str:
@@ -365,12 +492,9 @@ def report(summary: dict) -> str:
                             for p in peers)
             ms = 1e3 * ours if np.isfinite(ours) else math.nan
             lines.append(f"  {row['level']:>9.0e}{ms:>14.3f}" + cells)
+    lines.append(default_report(summary))
     if "long_run" in summary:
-        lines.append("\nlong run (relative drift at the end: |K|, inertial K, orthonormality):")
-        for label, d in summary["long_run"].items():
-            lines.append(f"  {label:<22}{d['K_final']:>10.1e}{d['K_fixed_final']:>10.1e}"
-                         f"{d['orthonormality_final']:>10.1e}   {d['seconds']:.2f} s, "
-                         f"{d['steps']} steps")
+        lines.append(long_report(summary["long_run"]))
     lines.append("\nratios: peer time / the runtime's best time at the same error (>1: the "
                  "runtime is faster); '-': the peer never reached that error")
     return "\n".join(lines)

@@ -6,9 +6,9 @@ layout on a common output grid, the impact times, the number of RHS evaluations,
 status and the lowest height of S seen on the grid.  ``timed()`` is the minimum over
 repetitions after a warm-up.
 
-* :class:`Runtime` — this project's C runtime (rk4, dopri5, dop853, dop853 keeping A
-  orthonormal), model forced to ``general`` so that every route integrates the same
-  equations;
+* :class:`Runtime` — this project's C runtime (lie and lie5, the momentum form on SO(3);
+  rk4, dopri5, dop853, dop853 keeping A orthonormal), model forced to ``general`` so
+  that every route integrates the same equations;
 * :class:`Scipy` — ``solve_ivp`` (DOP853, RK45, Radau) with the NumPy evaluation of the
   derived RHS or with the generated C RHS through ctypes, a terminal event on the gap
   and the derived impact map with a restart at each impact;
@@ -82,7 +82,8 @@ def _initial(scene: Scene) -> np.ndarray:
 # ---- the runtime -----------------------------------------------------------------------------
 class Runtime:
     label_of = {"rk4": "runtime RK4", "dopri5": "runtime DOPRI5", "dop853": "runtime DOP853",
-                "dop853+orth": "runtime DOP853+orth"}
+                "dop853+orth": "runtime DOP853+orth", "lie": "runtime LIE",
+                "lie5": "runtime LIE5", "lie8": "runtime LIE8"}
 
     def __init__(self, doc: dict, method: str, setting: float, dt: float = GRID_DT,
                  model: str = "general"):

@@ -96,7 +96,8 @@ def scene_rows(doc: dict, progress, repeats: int) -> dict:
     rows = []
     # the runtime: the best of its methods at the loosest setting that meets the target
     best = None
-    for method, settings in (("dop853", [1e-8, 1e-9, 1e-10, 1e-11, 1e-12]),
+    for method, settings in (("lie", [1e-8, 1e-9, 1e-10, 1e-11, 1e-12, 1e-13]),
+                             ("dop853", [1e-8, 1e-9, 1e-10, 1e-11, 1e-12]),
                              ("dopri5", [1e-9, 1e-10, 1e-11, 1e-12])):
         (route, setting, result, err, ierr), ok = _loosest(
             lambda s, m=method: Runtime(doc, m, s), settings, ref, progress)

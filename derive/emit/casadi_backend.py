@@ -1,7 +1,7 @@
 """CasADi functions from :mod:`derive.models` specifications.
 
 The SymPy expressions are translated node by node into CasADi SX (shared subtrees map
-once), the solves with J use the same LDL^T as the C (:mod:`derive.emit.linalg`), and
+once), the solves with J use the same closed-form solve as the C (:mod:`derive.emit.linalg`), and
 the function is built with CasADi's CSE and saved with ``Function.save``.
 """
 from __future__ import annotations
@@ -12,7 +12,7 @@ import casadi as ca
 import sympy as sp
 
 from ..models import FunctionSpec
-from .linalg import ldlt3_solve, lower_triangle
+from .linalg import DEFAULT_SOLVER, SOLVERS, lower_triangle
 
 _FUNCTIONS = {sp.sin: ca.sin, sp.cos: ca.cos, sp.tan: ca.tan, sp.exp: ca.exp,
               sp.log: ca.log, sp.sinh: ca.sinh, sp.cosh: ca.cosh, sp.tanh: ca.tanh,
@@ -81,7 +81,7 @@ def build_function(spec: FunctionSpec) -> ca.Function:
     for solve in spec.solves:
         tri = [tr(v) for v in lower_triangle(solve.matrix)]
         rhs = [[tr(v) for v in vec] for vec in solve.rhs]
-        for unknown, values in zip(solve.unknowns, ldlt3_solve(tri, rhs)):
+        for unknown, values in zip(solve.unknowns, SOLVERS[DEFAULT_SOLVER](tri, rhs)):
             for sym, val in zip(unknown, values):
                 tr.memo[sym] = val
     outputs = [ca.vertcat(*[tr(v) for v in vec.entries]) for vec in spec.outputs]

@@ -1,4 +1,4 @@
-"""Closed-form LDL^T solve of a symmetric positive definite 3x3 system.
+"""Closed-form solves of a symmetric positive definite 3x3 system, on its numeric entries.
 
 One algorithm for every backend: it runs on SymPy symbols (producing the straight-line
 steps of the generated C), on CasADi SX (the CasADi functions) and on floats (tests).
@@ -14,6 +14,18 @@ the factors.  (Computing the pivots from the leading principal minors instead ma
 three reciprocals independent, but costs ten more multiplications; measured on this
 project's benchmark it was slower in both throughput and latency.)  No pivoting: A is
 positive definite (R1 in paper_checks), so every pivot is positive.
+
+Two alternatives, measured by ``derive bench rhs`` in a latency-bound loop (each call's
+state depends on the last output, as in an integrator, while J depends on the point law
+and the parameters only):
+
+* ``adjugate``: the six cofactors of the symmetric matrix, one reciprocal of the
+  determinant, the inverse's six entries; then each right-hand side is a product with
+  that inverse (depth three from the right-hand side, against the seven of the forward
+  and back substitution).  Numeric, not symbolic: the entries are numbers when it runs.
+* ``cholesky``: A = L L^T with three square roots.
+
+:data:`SOLVERS` names them; :data:`DEFAULT_SOLVER` is the one the emitted code uses.
 """
 from __future__ import annotations
 
@@ -70,3 +82,89 @@ def lower_triangle(matrix) -> tuple:
     """``(a00, a10, a11, a20, a21, a22)`` of a 3x3 matrix-like object."""
     return (matrix[0, 0], matrix[1, 0], matrix[1, 1], matrix[2, 0], matrix[2, 1],
             matrix[2, 2])
+
+
+def adjugate3_factor(A: Sequence, assign: Callable[[str, object], object] = _identity) -> tuple:
+    """The inverse of the symmetric ``A`` as its adjugate over the determinant, one
+    reciprocal: ``(i00, i10, i20, i11, i21, i22)``."""
+    a00, a10, a11, a20, a21, a22 = A
+    c00 = assign("c00", a11 * a22 - a21 * a21)
+    c10 = assign("c10", a20 * a21 - a10 * a22)
+    c20 = assign("c20", a10 * a21 - a11 * a20)
+    inv_det = assign("inv_det", 1 / (a00 * c00 + a10 * c10 + a20 * c20))
+    i00 = assign("i00", c00 * inv_det)
+    i10 = assign("i10", c10 * inv_det)
+    i20 = assign("i20", c20 * inv_det)
+    i11 = assign("i11", (a00 * a22 - a20 * a20) * inv_det)
+    i21 = assign("i21", (a10 * a20 - a00 * a21) * inv_det)
+    i22 = assign("i22", (a00 * a11 - a10 * a10) * inv_det)
+    return i00, i10, i20, i11, i21, i22
+
+
+def adjugate3_apply(factors: Sequence, rhs: Sequence[Sequence],
+                    assign: Callable[[str, object], object] = _identity) -> list[list]:
+    i00, i10, i20, i11, i21, i22 = factors
+    return [[assign(f"x0_{k}", i00 * b[0] + i10 * b[1] + i20 * b[2]),
+             assign(f"x1_{k}", i10 * b[0] + i11 * b[1] + i21 * b[2]),
+             assign(f"x2_{k}", i20 * b[0] + i21 * b[1] + i22 * b[2])]
+            for k, b in enumerate(rhs)]
+
+
+def adjugate3_solve(A: Sequence, rhs: Sequence[Sequence],
+                    assign: Callable[[str, object], object] = _identity) -> list[list]:
+    return adjugate3_apply(adjugate3_factor(A, assign), rhs, assign)
+
+
+def _sqrt(x):
+    """sqrt of a SymPy expression, a float or a CasADi SX."""
+    import math
+    import sympy as sp
+    if isinstance(x, sp.Basic):
+        return sp.sqrt(x)
+    try:
+        return math.sqrt(x)
+    except TypeError:
+        import casadi as ca
+        return ca.sqrt(x)
+
+
+def cholesky3_factor(A: Sequence, assign: Callable[[str, object], object] = _identity) -> tuple:
+    """``A = L L^T`` (three square roots, their reciprocals): ``(r0, l10, l20, r1, l21,
+    r2)``."""
+    a00, a10, a11, a20, a21, a22 = A
+    r0 = assign("r0", 1 / _sqrt(a00))
+    l10 = assign("l10", a10 * r0)
+    l20 = assign("l20", a20 * r0)
+    r1 = assign("r1", 1 / _sqrt(a11 - l10 * l10))
+    l21 = assign("l21", (a21 - l20 * l10) * r1)
+    r2 = assign("r2", 1 / _sqrt(a22 - l20 * l20 - l21 * l21))
+    return r0, l10, l20, r1, l21, r2
+
+
+def cholesky3_apply(factors: Sequence, rhs: Sequence[Sequence],
+                    assign: Callable[[str, object], object] = _identity) -> list[list]:
+    r0, l10, l20, r1, l21, r2 = factors
+    solutions = []
+    for k, b in enumerate(rhs):
+        y0 = assign(f"y0_{k}", b[0] * r0)
+        y1 = assign(f"y1_{k}", (b[1] - l10 * y0) * r1)
+        y2 = assign(f"y2_{k}", (b[2] - l20 * y0 - l21 * y1) * r2)
+        x2 = assign(f"x2_{k}", y2 * r2)
+        x1 = assign(f"x1_{k}", (y1 - l21 * x2) * r1)
+        x0 = assign(f"x0_{k}", (y0 - l10 * x1 - l20 * x2) * r0)
+        solutions.append([x0, x1, x2])
+    return solutions
+
+
+def cholesky3_solve(A: Sequence, rhs: Sequence[Sequence],
+                    assign: Callable[[str, object], object] = _identity) -> list[list]:
+    return cholesky3_apply(cholesky3_factor(A, assign), rhs, assign)
+
+
+# each solver as (factor, apply): a solve with the matrix of an earlier one reuses its
+# factors (the derivatives of a solve's unknowns, derive.jacobians)
+FACTORED = {"ldlt": (ldlt3_factor, ldlt3_apply),
+            "adjugate": (adjugate3_factor, adjugate3_apply),
+            "cholesky": (cholesky3_factor, cholesky3_apply)}
+SOLVERS = {"ldlt": ldlt3_solve, "adjugate": adjugate3_solve, "cholesky": cholesky3_solve}
+DEFAULT_SOLVER = "adjugate"

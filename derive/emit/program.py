@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import sympy as sp
 
 from ..models import FunctionSpec
-from .linalg import ldlt3_apply, ldlt3_factor, lower_triangle
+from .linalg import DEFAULT_SOLVER, FACTORED, lower_triangle
 
 
 @dataclass(frozen=True)
@@ -72,8 +72,11 @@ def _prune(steps: list, outputs: list) -> list:
     return kept[::-1]
 
 
-def build(spec: FunctionSpec) -> Program:
-    """CSE over everything the function computes, then scheduling around the solves."""
+def build(spec: FunctionSpec, solver: str | None = None) -> Program:
+    """CSE over everything the function computes, then scheduling around the solves
+    (``solver``: a name of :data:`derive.emit.linalg.SOLVERS`, default the emitted
+    one)."""
+    factor3, apply3 = FACTORED[solver or DEFAULT_SOLVER]
     definitions, constants = _propagate_constants(spec)
 
     def prepared(v):
@@ -144,8 +147,8 @@ def build(spec: FunctionSpec) -> Program:
             rhs = [[assign("b", v) for v in values[6 + 3 * j:9 + 3 * j]]
                    for j in range(len(solve.rhs))]
             if factors is None:
-                factors = factored[key] = ldlt3_factor(tri, assign)
-            solution = ldlt3_apply(factors, rhs, assign)
+                factors = factored[key] = factor3(tri, assign)
+            solution = apply3(factors, rhs, assign)
             for vec, sol in zip(solve.unknowns, solution):
                 for u, val in zip(vec, sol):
                     steps.append((u, val))

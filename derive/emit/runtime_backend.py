@@ -7,6 +7,8 @@ thin wrappers, and ``#include`` of the shared runtime headers:
 * ``crt_abi.h``: enums and names from :mod:`derive.runtime.abi`;
 * ``crt_law.h``: the point-law interpreter and splines;
 * ``crt_integrators.h``: RK4, DOPRI5, DOP853 with dense output;
+* ``crt_lie.h``: the Lie-group methods of the momentum form (K and C's parabola constant
+  in flight, the attitude on SO(3)) and the dispatch between methods;
 * ``crt_core.h``: sessions, events, impacts, contact, output, the public API.
 
 Nothing of a scene reaches this code: it is rendered from the derivation alone, and
@@ -34,14 +36,21 @@ class RuntimeModel:
     normalize: str            # matrix | vector | none
     summary: str
 
+    @property
+    def lie(self) -> bool:
+        """The momentum form applies (crt_lie.h): the model carries omega and the
+        attitude, or only omega in free flight."""
+        return self.kind in ("general", "vertical", "attitude")
+
     def specs(self) -> list:
         contact = ["lowest_point_ellipsoid", "lowest_point_rate_ellipsoid"]
+        momentum = [dm.lie_stage(), dm.lie_point(), dm.fixed_kinetic_moment(), dm.exp_map()]
         if self.kind in ("general", "vertical"):
             return [dm.flight_rhs(self.kind), dm.gap(self.kind), dm.impact(self.kind),
                     dm.runtime_contact(self.kind), dm.lowest_point("ellipsoid"),
-                    dm.lowest_point_rate("ellipsoid")]
+                    dm.lowest_point_rate("ellipsoid"), *momentum, dm.flight_parabola()]
         if self.kind == "attitude":
-            return [dm.flight_rhs("attitude")]
+            return [dm.flight_rhs("attitude"), *momentum]
         if self.kind == "translational":
             return [dm.gap("vertical"), dm.impact("vertical"), dm.runtime_contact("vertical"),
                     dm.lowest_point("ellipsoid"), dm.lowest_point_rate("ellipsoid")]
@@ -96,6 +105,14 @@ def _pairs(values) -> list:
     return [(j, _c(v)) for j, v in enumerate(values) if float(v) != 0.0]
 
 
+# a Lie step is kept below this turn at the rate of its start (radians; below
+# derive.lie.THETA_MAX, beyond which a step is refused)
+LIE_MAX_TURN = 1.0
+# the method lie takes the DOP853 coefficients below this rtol, the DOPRI5 ones above
+# (measured on the work-precision charts of derive bench precision)
+LIE_TIGHT = 1e-6
+
+
 @lru_cache(maxsize=None)
 def tableau_context() -> dict:
     def dense_rows(rows, n):
@@ -126,16 +143,20 @@ def render_model(m: RuntimeModel) -> str:
     ctx = {"template": "templates/runtime/model.c.jinja", "versions": versions(),
            "kind": m.kind, "nq": len(m.labels), "labels": m.labels, "plane": m.plane,
            "z_index": m.z_index, "zd_index": m.zd_index, "normalize": m.normalize,
-           "summary": m.summary, "functions": functions}
+           "summary": m.summary, "functions": functions, "lie": m.lie}
     return env.get_template("runtime/model.c.jinja").render(**ctx)
 
 
 def render_runtime() -> dict[str, str]:
     """Every file of ``generated/runtime`` as text."""
     env = environment()
-    common = {"versions": versions(), **abi.c_context(), **tableau_context()}
+    from .. import lie
+    theta = float(lie.THETA_MAX)
+    common = {"versions": versions(), **abi.c_context(), **tableau_context(),
+              "lie_theta_max": repr(theta), "lie_theta_max2": repr(theta * theta),
+              "lie_max_turn": repr(LIE_MAX_TURN), "lie_tight": repr(LIE_TIGHT)}
     files = {}
-    for name in ("crt_abi.h", "crt_law.h", "crt_integrators.h", "crt_core.h"):
+    for name in ("crt_abi.h", "crt_law.h", "crt_integrators.h", "crt_lie.h", "crt_core.h"):
         files[f"runtime/{name}"] = env.get_template(f"runtime/{name}.jinja").render(
             template=f"templates/runtime/{name}.jinja", **common)
     for m in MODELS:

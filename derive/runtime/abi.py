@@ -69,6 +69,13 @@ METHODS = _names(
     ("rk4", "classical Runge-Kutta, fixed step, cubic Hermite dense output"),
     ("dopri5", "Dormand-Prince 5(4), adaptive, 4th-order dense output"),
     ("dop853", "Dormand-Prince 8(5,3), adaptive, 7th-order dense output"),
+    ("lie", "flight on the integral (the default): K constant in fixed axes (E1.1), C on its "
+            "parabola (E1.2), the attitude on SO(3) by Runge-Kutta-Munthe-Kaas with the "
+            "exponential map; the coefficients of lie8 when rtol < 1e-6, of lie5 otherwise"),
+    ("lie5", "the momentum form with the DOPRI5 coefficients (order 5, 4th-order dense "
+             "output); DOPRI5 in persistent contact and in models without an attitude"),
+    ("lie8", "the momentum form with the DOP853 coefficients (order 8, 7th-order dense "
+             "output); DOP853 in persistent contact and in models without an attitude"),
 )
 
 STATUSES = _names(

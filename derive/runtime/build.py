@@ -33,7 +33,8 @@ def sources(kind: str) -> dict[str, bytes]:
     folder = runtime_dir()
     if kind not in KINDS:
         raise KeyError(kind)
-    names = ["crt_abi.h", "crt_law.h", "crt_integrators.h", "crt_core.h", f"model_{kind}.c"]
+    names = ["crt_abi.h", "crt_law.h", "crt_integrators.h", "crt_lie.h", "crt_core.h",
+             f"model_{kind}.c"]
     missing = [n for n in names if not (folder / n).is_file()]
     if missing:
         raise FileNotFoundError(f"{folder} lacks {', '.join(missing)}: run `derive emit`")

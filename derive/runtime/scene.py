@@ -134,7 +134,9 @@ FIELDS = (
     F("initial", "matrix", "matrix", None, "attitude as the matrix a_ij = cos(fixed axis i, "
       "body axis j), a rotation", -1.0 - 1e-6, 1.0 + 1e-6),
     F("run", "duration", "number", 5.0, "length of the run", 0, MAX_DURATION, True),
-    F("run", "method", "choice", "dopri5", "integrator", choices=("rk4", "dopri5", "dop853")),
+    F("run", "method", "choice", "lie", "integrator: lie (the momentum form: K and C's "
+      "parabola constants of each flight, the attitude on SO(3); see the README), lie5, "
+      "lie8, dopri5, dop853, rk4", choices=("lie", "lie5", "lie8", "dopri5", "dop853", "rk4")),
     F("run", "rtol", "number", 1e-10, "relative tolerance", 1e-15, 1e-2),
     F("run", "atol", "number", 1e-12, "absolute tolerance", 0, 1, True),
     F("run", "g", "number", 9.81, "gravity", 0, 1e4),
@@ -211,7 +213,7 @@ class Scene:
     omega: tuple
     A0: np.ndarray = field(compare=False)   # a_ij = cos(fixed i, body j)
     duration: float = 5.0
-    method: str = "dopri5"
+    method: str = "lie"
     rtol: float = 1e-10
     atol: float = 1e-12
     g: float = 9.81
@@ -810,7 +812,7 @@ def builtin_doc() -> dict:
         "plane": {"restitution": 0.9},
         "initial": {"time": 0.0, "com": [0.0, 0.0, 1.5], "com_velocity": [0.3, 0.0, 0.0],
                     "omega": [0.5, -0.3, 1.0], "quaternion": [1.0, 0.0, 0.0, 0.0]},
-        "run": {"duration": 5.0, "method": "dopri5", "rtol": 1e-10, "atol": 1e-12, "g": 9.81,
+        "run": {"duration": 5.0, "method": "lie", "rtol": 1e-10, "atol": 1e-12, "g": 9.81,
                 "outputs": ["pose", "impacts"]},
     }
 

@@ -98,7 +98,7 @@ def bouncing_scene(e: float = 0.5, a: float = 0.1, W: float = 30.0, spin: float 
             "initial": {"time": t0, "com": [0.0, 0.0, radius + nu * a * math.sin(phi)],
                         "com_velocity": [0.0, 0.0, v], "omega": [0.0, 0.0, spin],
                         "quaternion": [1.0, 0.0, 0.0, 0.0]},
-            "run": {"duration": n * T, "method": "dop853", "rtol": 1e-12, "atol": 1e-14,
+            "run": {"duration": n * T, "method": "lie", "rtol": 1e-12, "atol": 1e-14,
                     "g": g, "outputs": ["omega", "height", "impacts"], "model": "vertical"}}
 
 
@@ -157,7 +157,9 @@ class Bounce:
 
 
 class HybridMap:
-    """Runs of the full hybrid model (vertical layout) through the compiled runtime."""
+    """Runs of the full hybrid model (vertical layout) through the compiled runtime, with
+    the momentum form in flight (method ``lie``: K and the parabola of C constant between
+    impacts, updated by the impact map)."""
 
     def __init__(self, scene):
         prep = prepare(scene)

@@ -99,7 +99,7 @@ class Family:
                 "point": {"mass": values["m"], "law": self.law_text(values)},
                 "initial": {"time": 0.0, "omega": [0.0, 0.0, values["omega"]]},
                 "run": {"duration": duration or self.period(values), "model": "vertical",
-                        "method": "dop853", "rtol": 1e-12, "atol": 1e-14,
+                        "method": "lie", "rtol": 1e-12, "atol": 1e-14,
                         "outputs": ["omega"]}}
 
 

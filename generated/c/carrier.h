@@ -353,6 +353,102 @@ void lowest_point_rate_ellipsoid_release(int mem);
 void lowest_point_rate_ellipsoid_incref(void);
 void lowest_point_rate_ellipsoid_decref(void);
 
+/* momentum_omega(A[9], K[3], u[9], p[6]) -> (omega[3]): omega of the momentum form: E1.4 solved with K constant in fixed axes (E1.1), J omega = A^T K - mu OP x V_r. */
+void carrier_momentum_omega(const double *A, const double *K, const double *u, const double *p, double *CARRIER_RESTRICT omega);
+int momentum_omega(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int momentum_omega_n_in(void);
+casadi_int momentum_omega_n_out(void);
+const char *momentum_omega_name_in(casadi_int i);
+const char *momentum_omega_name_out(casadi_int i);
+const casadi_int *momentum_omega_sparsity_in(casadi_int i);
+const casadi_int *momentum_omega_sparsity_out(casadi_int i);
+int momentum_omega_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real momentum_omega_default_in(casadi_int i);
+int momentum_omega_checkout(void);
+void momentum_omega_release(int mem);
+void momentum_omega_incref(void);
+void momentum_omega_decref(void);
+
+/* fixed_kinetic_moment(A[9], omega[3], u[9], p[6]) -> (K[3]): K about C in fixed axes, A (J omega + mu OP x V_r) (E1.4): constant in flight (E1.1). */
+void carrier_fixed_kinetic_moment(const double *A, const double *omega, const double *u, const double *p, double *CARRIER_RESTRICT K);
+int fixed_kinetic_moment(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int fixed_kinetic_moment_n_in(void);
+casadi_int fixed_kinetic_moment_n_out(void);
+const char *fixed_kinetic_moment_name_in(casadi_int i);
+const char *fixed_kinetic_moment_name_out(casadi_int i);
+const casadi_int *fixed_kinetic_moment_sparsity_in(casadi_int i);
+const casadi_int *fixed_kinetic_moment_sparsity_out(casadi_int i);
+int fixed_kinetic_moment_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real fixed_kinetic_moment_default_in(casadi_int i);
+int fixed_kinetic_moment_checkout(void);
+void fixed_kinetic_moment_release(int mem);
+void fixed_kinetic_moment_incref(void);
+void fixed_kinetic_moment_decref(void);
+
+/* lie_stage(W[3], k[3], u[9], p[6]) -> (dW[3], omega[3]): A stage of the Lie-group flight step: omega from E1.4 with K = exp(-W^) k in body axes, and W' = dexpinv(W, omega) (E1.8 in exponential coordinates). */
+void carrier_lie_stage(const double *W, const double *k, const double *u, const double *p, double *CARRIER_RESTRICT dW, double *CARRIER_RESTRICT omega);
+int lie_stage(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int lie_stage_n_in(void);
+casadi_int lie_stage_n_out(void);
+const char *lie_stage_name_in(casadi_int i);
+const char *lie_stage_name_out(casadi_int i);
+const casadi_int *lie_stage_sparsity_in(casadi_int i);
+const casadi_int *lie_stage_sparsity_out(casadi_int i);
+int lie_stage_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real lie_stage_default_in(casadi_int i);
+int lie_stage_checkout(void);
+void lie_stage_release(int mem);
+void lie_stage_incref(void);
+void lie_stage_decref(void);
+
+/* lie_point(W[3], k[3], u[9], p[6]) -> (E[9], omega[3]): exp(W^) and omega from E1.4 with K = exp(W^)^T k in body axes: a point of the dense output of a Lie-group flight step. */
+void carrier_lie_point(const double *W, const double *k, const double *u, const double *p, double *CARRIER_RESTRICT E, double *CARRIER_RESTRICT omega);
+int lie_point(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int lie_point_n_in(void);
+casadi_int lie_point_n_out(void);
+const char *lie_point_name_in(casadi_int i);
+const char *lie_point_name_out(casadi_int i);
+const casadi_int *lie_point_sparsity_in(casadi_int i);
+const casadi_int *lie_point_sparsity_out(casadi_int i);
+int lie_point_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real lie_point_default_in(casadi_int i);
+int lie_point_checkout(void);
+void lie_point_release(int mem);
+void lie_point_incref(void);
+void lie_point_decref(void);
+
+/* flight_parabola(c[6], tau, p[6]) -> (c_tau[6]): Position and velocity of C a time tau after the start of a flight (E1.2 integrated). */
+void carrier_flight_parabola(const double *c, double tau, const double *p, double *CARRIER_RESTRICT c_tau);
+int flight_parabola(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int flight_parabola_n_in(void);
+casadi_int flight_parabola_n_out(void);
+const char *flight_parabola_name_in(casadi_int i);
+const char *flight_parabola_name_out(casadi_int i);
+const casadi_int *flight_parabola_sparsity_in(casadi_int i);
+const casadi_int *flight_parabola_sparsity_out(casadi_int i);
+int flight_parabola_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real flight_parabola_default_in(casadi_int i);
+int flight_parabola_checkout(void);
+void flight_parabola_release(int mem);
+void flight_parabola_incref(void);
+void flight_parabola_decref(void);
+
+/* exp_map(W[3]) -> (E[9], quat[4]): The exponential map of so(3): exp(W^) row-major and its unit quaternion (w, x, y, z) (derive.lie, |W| <= 1.25). */
+void carrier_exp_map(const double *W, double *CARRIER_RESTRICT E, double *CARRIER_RESTRICT quat);
+int exp_map(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int exp_map_n_in(void);
+casadi_int exp_map_n_out(void);
+const char *exp_map_name_in(casadi_int i);
+const char *exp_map_name_out(casadi_int i);
+const casadi_int *exp_map_sparsity_in(casadi_int i);
+const casadi_int *exp_map_sparsity_out(casadi_int i);
+int exp_map_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real exp_map_default_in(casadi_int i);
+int exp_map_checkout(void);
+void exp_map_release(int mem);
+void exp_map_incref(void);
+void exp_map_decref(void);
+
 /*
  * Derivatives: jac_<name> for every function above, in CasADi's jac_ convention: the
  * inputs, then the nominal outputs (not read); one output per block d output / d input,
@@ -664,6 +760,102 @@ int jac_lowest_point_rate_ellipsoid_checkout(void);
 void jac_lowest_point_rate_ellipsoid_release(int mem);
 void jac_lowest_point_rate_ellipsoid_incref(void);
 void jac_lowest_point_rate_ellipsoid_decref(void);
+
+/* jac_momentum_omega(A[9], K[3], u[9], p[6]) -> (jac_omega_A[27 of 3x9], jac_omega_K[9 of 3x3], jac_omega_u[18 of 3x9], jac_omega_p[15 of 3x6]) */
+void carrier_jac_momentum_omega(const double *A, const double *K, const double *u, const double *p, double *CARRIER_RESTRICT jac_omega_A, double *CARRIER_RESTRICT jac_omega_K, double *CARRIER_RESTRICT jac_omega_u, double *CARRIER_RESTRICT jac_omega_p);
+int jac_momentum_omega(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int jac_momentum_omega_n_in(void);
+casadi_int jac_momentum_omega_n_out(void);
+const char *jac_momentum_omega_name_in(casadi_int i);
+const char *jac_momentum_omega_name_out(casadi_int i);
+const casadi_int *jac_momentum_omega_sparsity_in(casadi_int i);
+const casadi_int *jac_momentum_omega_sparsity_out(casadi_int i);
+int jac_momentum_omega_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real jac_momentum_omega_default_in(casadi_int i);
+int jac_momentum_omega_checkout(void);
+void jac_momentum_omega_release(int mem);
+void jac_momentum_omega_incref(void);
+void jac_momentum_omega_decref(void);
+
+/* jac_fixed_kinetic_moment(A[9], omega[3], u[9], p[6]) -> (jac_K_A[9 of 3x9], jac_K_omega[9 of 3x3], jac_K_u[18 of 3x9], jac_K_p[15 of 3x6]) */
+void carrier_jac_fixed_kinetic_moment(const double *A, const double *omega, const double *u, const double *p, double *CARRIER_RESTRICT jac_K_A, double *CARRIER_RESTRICT jac_K_omega, double *CARRIER_RESTRICT jac_K_u, double *CARRIER_RESTRICT jac_K_p);
+int jac_fixed_kinetic_moment(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int jac_fixed_kinetic_moment_n_in(void);
+casadi_int jac_fixed_kinetic_moment_n_out(void);
+const char *jac_fixed_kinetic_moment_name_in(casadi_int i);
+const char *jac_fixed_kinetic_moment_name_out(casadi_int i);
+const casadi_int *jac_fixed_kinetic_moment_sparsity_in(casadi_int i);
+const casadi_int *jac_fixed_kinetic_moment_sparsity_out(casadi_int i);
+int jac_fixed_kinetic_moment_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real jac_fixed_kinetic_moment_default_in(casadi_int i);
+int jac_fixed_kinetic_moment_checkout(void);
+void jac_fixed_kinetic_moment_release(int mem);
+void jac_fixed_kinetic_moment_incref(void);
+void jac_fixed_kinetic_moment_decref(void);
+
+/* jac_lie_stage(W[3], k[3], u[9], p[6]) -> (jac_dW_W[9 of 3x3], jac_dW_k[9 of 3x3], jac_dW_u[18 of 3x9], jac_dW_p[15 of 3x6], jac_omega_W[9 of 3x3], jac_omega_k[9 of 3x3], jac_omega_u[18 of 3x9], jac_omega_p[15 of 3x6]) */
+void carrier_jac_lie_stage(const double *W, const double *k, const double *u, const double *p, double *CARRIER_RESTRICT jac_dW_W, double *CARRIER_RESTRICT jac_dW_k, double *CARRIER_RESTRICT jac_dW_u, double *CARRIER_RESTRICT jac_dW_p, double *CARRIER_RESTRICT jac_omega_W, double *CARRIER_RESTRICT jac_omega_k, double *CARRIER_RESTRICT jac_omega_u, double *CARRIER_RESTRICT jac_omega_p);
+int jac_lie_stage(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int jac_lie_stage_n_in(void);
+casadi_int jac_lie_stage_n_out(void);
+const char *jac_lie_stage_name_in(casadi_int i);
+const char *jac_lie_stage_name_out(casadi_int i);
+const casadi_int *jac_lie_stage_sparsity_in(casadi_int i);
+const casadi_int *jac_lie_stage_sparsity_out(casadi_int i);
+int jac_lie_stage_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real jac_lie_stage_default_in(casadi_int i);
+int jac_lie_stage_checkout(void);
+void jac_lie_stage_release(int mem);
+void jac_lie_stage_incref(void);
+void jac_lie_stage_decref(void);
+
+/* jac_lie_point(W[3], k[3], u[9], p[6]) -> (jac_E_W[27 of 9x3], jac_omega_W[9 of 3x3], jac_omega_k[9 of 3x3], jac_omega_u[18 of 3x9], jac_omega_p[15 of 3x6]) */
+void carrier_jac_lie_point(const double *W, const double *k, const double *u, const double *p, double *CARRIER_RESTRICT jac_E_W, double *CARRIER_RESTRICT jac_omega_W, double *CARRIER_RESTRICT jac_omega_k, double *CARRIER_RESTRICT jac_omega_u, double *CARRIER_RESTRICT jac_omega_p);
+int jac_lie_point(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int jac_lie_point_n_in(void);
+casadi_int jac_lie_point_n_out(void);
+const char *jac_lie_point_name_in(casadi_int i);
+const char *jac_lie_point_name_out(casadi_int i);
+const casadi_int *jac_lie_point_sparsity_in(casadi_int i);
+const casadi_int *jac_lie_point_sparsity_out(casadi_int i);
+int jac_lie_point_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real jac_lie_point_default_in(casadi_int i);
+int jac_lie_point_checkout(void);
+void jac_lie_point_release(int mem);
+void jac_lie_point_incref(void);
+void jac_lie_point_decref(void);
+
+/* jac_flight_parabola(c[6], tau, p[6]) -> (jac_c_tau_c[9 of 6x6], jac_c_tau_tau[4 of 6x1], jac_c_tau_p[2 of 6x6]) */
+void carrier_jac_flight_parabola(const double *c, double tau, const double *p, double *CARRIER_RESTRICT jac_c_tau_c, double *CARRIER_RESTRICT jac_c_tau_tau, double *CARRIER_RESTRICT jac_c_tau_p);
+int jac_flight_parabola(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int jac_flight_parabola_n_in(void);
+casadi_int jac_flight_parabola_n_out(void);
+const char *jac_flight_parabola_name_in(casadi_int i);
+const char *jac_flight_parabola_name_out(casadi_int i);
+const casadi_int *jac_flight_parabola_sparsity_in(casadi_int i);
+const casadi_int *jac_flight_parabola_sparsity_out(casadi_int i);
+int jac_flight_parabola_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real jac_flight_parabola_default_in(casadi_int i);
+int jac_flight_parabola_checkout(void);
+void jac_flight_parabola_release(int mem);
+void jac_flight_parabola_incref(void);
+void jac_flight_parabola_decref(void);
+
+/* jac_exp_map(W[3]) -> (jac_E_W[27 of 9x3], jac_quat_W[12 of 4x3]) */
+void carrier_jac_exp_map(const double *W, double *CARRIER_RESTRICT jac_E_W, double *CARRIER_RESTRICT jac_quat_W);
+int jac_exp_map(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int jac_exp_map_n_in(void);
+casadi_int jac_exp_map_n_out(void);
+const char *jac_exp_map_name_in(casadi_int i);
+const char *jac_exp_map_name_out(casadi_int i);
+const casadi_int *jac_exp_map_sparsity_in(casadi_int i);
+const casadi_int *jac_exp_map_sparsity_out(casadi_int i);
+int jac_exp_map_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real jac_exp_map_default_in(casadi_int i);
+int jac_exp_map_checkout(void);
+void jac_exp_map_release(int mem);
+void jac_exp_map_incref(void);
+void jac_exp_map_decref(void);
 
 #ifdef __cplusplus
 }

@@ -57,7 +57,10 @@ enum crt_method {
   CRT_RK4 = 0,  /* classical Runge-Kutta, fixed step, cubic Hermite dense output */
   CRT_DOPRI5 = 1,  /* Dormand-Prince 5(4), adaptive, 4th-order dense output */
   CRT_DOP853 = 2,  /* Dormand-Prince 8(5,3), adaptive, 7th-order dense output */
-  CRT_METHOD_COUNT = 3
+  CRT_LIE = 3,  /* flight on the integral (the default): K constant in fixed axes (E1.1), C on its parabola (E1.2), the attitude on SO(3) by Runge-Kutta-Munthe-Kaas with the exponential map; the coefficients of lie8 when rtol < 1e-6, of lie5 otherwise */
+  CRT_LIE5 = 4,  /* the momentum form with the DOPRI5 coefficients (order 5, 4th-order dense output); DOPRI5 in persistent contact and in models without an attitude */
+  CRT_LIE8 = 5,  /* the momentum form with the DOP853 coefficients (order 8, 7th-order dense output); DOP853 in persistent contact and in models without an attitude */
+  CRT_METHOD_COUNT = 6
 };
 
 /* Return values of crt_init and crt_advance (crt_status_name gives the name). */

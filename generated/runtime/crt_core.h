@@ -11,6 +11,9 @@
  *   NQ, MODEL_NAME, MODEL_HAS_PLANE, MODEL_Z (index of Z_C), MODEL_ZD (index of Z_C'),
  *   model_rhs(p, u, q, dq)                   flight right-hand side
  *   model_normalize(q)                       projection keeping the attitude orthonormal
+ *   MODEL_LIE: 1 when the momentum form applies (crt_lie.h), with
+ *   model_lie_read(q, c0, omega, R, n_scale) and model_lie_state(p, c0, tau, omega, R,
+ *   n_scale, q) between the state and (C at the flight start, omega, attitude)
  * and, when MODEL_HAS_PLANE:
  *   model_gap(p, u, q, h, v_n)               height of S and its rate (E1.14)
  *   model_impact(p, e, u, q, q_plus, I)      impact map (E1.10-E1.16), restitution e
@@ -47,7 +50,26 @@ typedef struct {
   int pending;                            /* DOP853: extra stages not yet computed */
   double y0[NQ];
   double F[CRT_MAX_DENSE][NQ];
+  int lie;                                /* a Lie step: F[.][0..2] interpolate W, and */
+  double R0[9], k0[3];                    /* the attitude and K in body axes at t0, */
+  double c0[6], t_f, n_scale;             /* the flight's constants (crt_lie.h) */
 } crt_dense;
+
+#if MODEL_LIE
+/* The constants of a flight and the attitude, for the Lie methods (crt_lie.h). */
+typedef struct {
+  int valid;                              /* they describe the flight through s->t */
+  double t_f;                             /* when they were set (an event, or the start) */
+  double c0[6];                           /* C at t_f: X_C, Y_C, Z_C, X_C', Y_C', Z_C' */
+  double K[3];                            /* K about C in fixed axes (E1.1) */
+  double n_scale;                         /* |n| of the vertical model's state, else 1 */
+  double quat[4];                         /* the attitude at s->t, a unit quaternion */
+  double R[9];                            /* its matrix */
+  double k[3];                            /* R^T K: K in body axes at s->t */
+  double omega[3];                        /* omega at s->t */
+  double quat_end[4], omega_end[3];       /* the same at the end of the last step tried */
+} crt_lie;
+#endif
 
 typedef struct {
   double opt[CRT_OPT_COUNT];
@@ -76,6 +98,9 @@ typedef struct {
   double summary[CRT_SUMMARY_COUNT];
   double k[CRT_MAX_STAGES][NQ];           /* stage workspace */
   crt_dense dense;
+#if MODEL_LIE
+  crt_lie lie;
+#endif
 } crt_session;
 
 /* ---- small helpers ---------------------------------------------------------------------- */
@@ -90,6 +115,16 @@ static int crt_finite(const double *y)
 
 static double crt_max(double a, double b) { return a > b ? a : b; }
 static double crt_min(double a, double b) { return a < b ? a : b; }
+
+/* the state changed other than by a step (an event, a projection): what was computed
+   from it is stale */
+static void crt_changed(crt_session *s)
+{
+  s->f_valid = 0;
+#if MODEL_LIE
+  s->lie.valid = 0;
+#endif
+}
 
 /* the point law at t (the last evaluation is reused) */
 static const double *crt_u(crt_session *s, double t)
@@ -112,6 +147,7 @@ static void crt_rhs(crt_session *s, double t, const double *q, double *dq)
 }
 
 #include "crt_integrators.h"
+#include "crt_lie.h"
 
 /* ---- output buffers ---------------------------------------------------------------------- */
 typedef struct {
@@ -490,6 +526,8 @@ static int crt_handle_event(crt_session *s, crt_out *o, double ta, double ga, do
       const double dt = -gap / v_n;
       if (fabs(dt) <= 4.0 * tol || !(t_ev + dt > s->t) || fabs(dt) > (tb - ta) + tol) break;
       t_ev += dt;
+      /* the last correction: step there too, so that the state is the one at t_ev */
+      if (it == 3) crt_step(s, s->t, s->q, s->f, t_ev - s->t, q_ev, f_ev, 0);
     }
   }
   if (!crt_flush_outputs(s, o, t_ev, 0)) return 2;
@@ -512,7 +550,7 @@ static int crt_handle_event(crt_session *s, crt_out *o, double ta, double ga, do
   }
   crt_emit(o, t_ev, s->q, CRT_ROW_AFTER_EVENT);
   s->t = t_ev;
-  s->f_valid = 0;
+  crt_changed(s);
   s->g_valid = 0;
   return crt_events_exhausted(s);
 }
@@ -602,12 +640,15 @@ const char *crt_parameter_name(int i)
 
 const char *crt_method_name(int i)
 {
-  static const char names[3][7] = {
+  static const char names[6][7] = {
     "rk4",
     "dopri5",
-    "dop853"
+    "dop853",
+    "lie",
+    "lie5",
+    "lie8"
   };
-  return (i >= 0 && i < 3) ? names[i] : "";
+  return (i >= 0 && i < 6) ? names[i] : "";
 }
 
 const char *crt_status_name(int i)
@@ -803,7 +844,7 @@ int crt_init(crt_session *s, const double *opt, const double *prm, double t0, co
   s->status = CRT_PAUSED;
   s->plane = MODEL_HAS_PLANE && s->opt[CRT_OPT_PLANE] != 0.0;
   s->err_old = 1e-4;
-  s->f_valid = 0;
+  crt_changed(s);
   s->g_valid = 0;
   s->last_impact_t = t0;
   s->last_event_t = -HUGE_VAL;
@@ -837,7 +878,11 @@ int crt_init(crt_session *s, const double *opt, const double *prm, double t0, co
   if (!crt_finite(s->f)) { s->status = CRT_NONFINITE; return s->status; }
   s->f_valid = 1;
   if ((int)s->opt[CRT_OPT_METHOD] == CRT_RK4) s->h = s->opt[CRT_OPT_RK4_STEP];
-  else s->h = s->opt[CRT_OPT_H0] > 0.0 ? s->opt[CRT_OPT_H0] : crt_initial_step(s);
+  else if (s->opt[CRT_OPT_H0] > 0.0) s->h = s->opt[CRT_OPT_H0];
+#if MODEL_LIE
+  else if (crt_lie_active(s)) s->h = crt_lie_initial_step(s, crt_order(s));
+#endif
+  else s->h = crt_initial_step(s);
   return s->status;
 }
 
@@ -939,7 +984,7 @@ int crt_advance(crt_session *s, double t_end, double *t_out, double *q_out, int 
         ++s->stat[CRT_STAT_LIFTOFFS];
         s->last_flight = 0.0;
         crt_emit(&o, s->t, s->q, CRT_ROW_AFTER_EVENT);
-        s->f_valid = 0;
+        crt_changed(s);
         s->g_valid = 0;
         if (crt_events_exhausted(s)) break;
         continue;
@@ -959,15 +1004,15 @@ int crt_advance(crt_session *s, double t_end, double *t_out, double *q_out, int 
         for (i = 0; i < NQ; ++i) q_now[i] = s->q[i];
         crt_collide(s, &o, s->t, q_now);
         crt_emit(&o, s->t, s->q, CRT_ROW_AFTER_EVENT);
-        s->f_valid = 0;
+        crt_changed(s);
         s->g_valid = 0;
         if (crt_events_exhausted(s)) break;
         continue;
       }
     }
 #endif
-    if (!s->f_valid) { crt_rhs(s, s->t, s->q, s->f); s->f_valid = 1; }
-    h = crt_min(s->h, s->opt[CRT_OPT_HMAX]);
+    if (!s->f_valid && !crt_lie_active(s)) { crt_rhs(s, s->t, s->q, s->f); s->f_valid = 1; }
+    h = crt_min(crt_min(s->h, s->opt[CRT_OPT_HMAX]), crt_step_limit(s));
     if (s->t + h > t_end) h = t_end - s->t;
     if (h < h_min && s->t + h < t_end) { s->status = CRT_STEP_UNDERFLOW; break; }
     err = crt_step(s, s->t, s->q, s->f, h, y1, f1, 1);
@@ -1012,9 +1057,13 @@ int crt_advance(crt_session *s, double t_end, double *t_out, double *q_out, int 
       for (i = 0; i < NQ; ++i) { s->q[i] = y1[i]; s->f[i] = f1[i]; }
     }
     s->f_valid = 1;
+#if MODEL_LIE
+    if (crt_lie_active(s)) crt_lie_accept(s);   /* on SO(3) already: no projection */
+    else
+#endif
     if (s->opt[CRT_OPT_ORTHONORMAL] != 0.0) {
       model_normalize(s->q);
-      s->f_valid = 0;
+      crt_changed(s);
       s->g_valid = 0;
     }
 #if MODEL_HAS_PLANE
@@ -1023,7 +1072,7 @@ int crt_advance(crt_session *s, double t_end, double *t_out, double *q_out, int 
       crt_project(s, s->t, s->q, 1);
       crt_contact_state(s, s->t, s->q, &N, &a_free);
       if (N < s->summary[CRT_SUMMARY_MIN_NORMAL]) s->summary[CRT_SUMMARY_MIN_NORMAL] = N;
-      s->f_valid = 0;
+      crt_changed(s);
       s->g_valid = 0;
     }
 #endif
@@ -1035,8 +1084,10 @@ int crt_advance(crt_session *s, double t_end, double *t_out, double *q_out, int 
       /* RK4: back to the nominal step after a hop or a retry shortened it */
       s->h = crt_min(2.0 * s->h, s->opt[CRT_OPT_RK4_STEP]);
     } else {
-      /* PI step-size control */
-      const double beta = order == 5 ? 0.04 : 0.0;
+      /* PI step-size control (Hairer's beta = 0.04 for DOPRI5 and for the Lie methods:
+         with the attitude alone integrated, the 8th-order estimate can swing by an order
+         of magnitude from step to step, and the PI term damps the rejections it causes) */
+      const double beta = (order == 5 || crt_lie_active(s)) ? 0.04 : 0.0;
       const double alpha = 1.0 / order - 0.75 * beta;
       double fac = 0.9 * pow(crt_max(err, 1e-10), -alpha) * pow(s->err_old, beta);
       fac = crt_min(crt_max(fac, 0.2), 10.0);

@@ -3,7 +3,7 @@
  * Regenerate with `derive emit`; `derive emit --check` compares with a fresh render.
  * Tools: sympy 1.14.0, casadi 3.8.2 (ABI), jinja2 3.1.6.
  * Runge-Kutta methods of the runtime: RK4, DOPRI5, DOP853 with dense output.
- * Included by crt_core.h; coefficients from derive/runtime/tableaus.py.
+ * Included by crt_core.h; coefficients from derive/runtime/tableaus.py; crt_lie.h dispatches.
  */
 
 #ifndef CRT_INTEGRATORS_H
@@ -26,13 +26,19 @@ static double crt_error_norm(const crt_session *s, const double *y0, const doubl
 /* ---- dense output: y0 + s (F0 + (1 - s) (F1 + s (F2 + (1 - s) (F3 + ...)))) ----------
    = y0 + sum_j w_j F_j with w_0 = s, w_j = w_{j-1} (1 - s) for odd j, s for even j:
    the weights once per call, then one short dot product per component. */
-static void crt_dense_eval(const crt_dense *d, double t, double *y)
+static void crt_dense_weights(const crt_dense *d, double t, double *w)
 {
   const double s = (t - d->t0) / d->h;
-  double w[CRT_MAX_DENSE];
-  int i, j;
+  int j;
   w[0] = s;
   for (j = 1; j < d->m; ++j) w[j] = w[j - 1] * ((j % 2 == 1) ? 1.0 - s : s);
+}
+
+static void crt_dense_eval(const crt_dense *d, double t, double *y)
+{
+  double w[CRT_MAX_DENSE];
+  int i, j;
+  crt_dense_weights(d, t, w);
   if (d->m == 7) {
     for (i = 0; i < NQ; ++i)
       y[i] = d->y0[i] + w[0] * d->F[0][i] + w[1] * d->F[1][i] + w[2] * d->F[2][i]
@@ -64,7 +70,7 @@ static double crt_step_rk4(crt_session *s, double t, const double *y0, const dou
   crt_rhs(s, t + h, y1, f1);
   if (with_dense) {
     crt_dense *d = &s->dense;
-    d->t0 = t; d->h = h; d->m = 3; d->pending = 0;
+    d->t0 = t; d->h = h; d->m = 3; d->pending = 0; d->lie = 0;
     for (i = 0; i < NQ; ++i) {
       const double dy = y1[i] - y0[i];
       d->y0[i] = y0[i];
@@ -116,7 +122,7 @@ static double crt_step_dopri5(crt_session *s, double t, const double *y0, const 
   }
   if (with_dense) {
     crt_dense *d = &s->dense;
-    d->t0 = t; d->h = h; d->m = 4; d->pending = 0;
+    d->t0 = t; d->h = h; d->m = 4; d->pending = 0; d->lie = 0;
     for (i = 0; i < NQ; ++i) {
       const double dy = y1[i] - y0[i];
       d->y0[i] = y0[i];
@@ -188,7 +194,7 @@ static double crt_step_dop853(crt_session *s, double t, const double *y0, const 
        (crt_dense_complete), since a step far from the plane with no output row in it
        never reads them */
     crt_dense *d = &s->dense;
-    d->t0 = t; d->h = h; d->m = 7; d->pending = 1;
+    d->t0 = t; d->h = h; d->m = 7; d->pending = 1; d->lie = 0;
     for (i = 0; i < NQ; ++i) {
       const double dy = y1[i] - y0[i];
       d->y0[i] = y0[i];
@@ -203,7 +209,7 @@ static double crt_step_dop853(crt_session *s, double t, const double *y0, const 
 }
 
 /* the extra stages of DOP853's dense output, from the stages of the step just taken */
-static void crt_dense_complete(crt_session *s)
+static void crt_dense_complete_classical(crt_session *s)
 {
   crt_dense *d = &s->dense;
   double tmp[NQ];
@@ -230,26 +236,20 @@ static void crt_dense_complete(crt_session *s)
   }
 }
 
-/* the dense output at t, completing it first if needed */
-static void crt_dense_at(crt_session *s, double t, double *y)
+static double crt_step_classical(crt_session *s, int method, double t, const double *y0,
+                                 const double *f0, double h, double *y1, double *f1,
+                                 int with_dense)
 {
-  if (s->dense.pending) crt_dense_complete(s);
-  crt_dense_eval(&s->dense, t, y);
-}
-
-static double crt_step(crt_session *s, double t, const double *y0, const double *f0,
-                       double h, double *y1, double *f1, int with_dense)
-{
-  switch ((int)s->opt[CRT_OPT_METHOD]) {
+  switch (method) {
     case CRT_RK4: return crt_step_rk4(s, t, y0, f0, h, y1, f1, with_dense);
     case CRT_DOP853: return crt_step_dop853(s, t, y0, f0, h, y1, f1, with_dense);
     default: return crt_step_dopri5(s, t, y0, f0, h, y1, f1, with_dense);
   }
 }
 
-static int crt_order(const crt_session *s)
+static int crt_order_classical(int method)
 {
-  switch ((int)s->opt[CRT_OPT_METHOD]) {
+  switch (method) {
     case CRT_RK4: return 4;
     case CRT_DOP853: return 8;
     default: return 5;

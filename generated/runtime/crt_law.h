@@ -87,7 +87,8 @@ static void crt_law_prepare(const crt_law *L, crt_law_work *w)
 static void crt_law_program(const crt_law *L, crt_law_work *w, double t, double *u)
 {
   double (*J)[3] = w->jet;
-  int k, c;
+  double trig_s = 0.0, trig_c = 1.0;
+  int k, c, trig_arg = -1;
   for (k = L->n_const; k < L->n_nodes; ++k) {
     const int op = L->code[3 * k], a = L->code[3 * k + 1], b = L->code[3 * k + 2];
     double *r = J[k];
@@ -132,6 +133,17 @@ static void crt_law_program(const crt_law *L, crt_law_work *w, double t, double 
         const double u2 = y[2] * lx + 2.0 * y[1] * x[1] * ix
                           + y[0] * (x[2] * ix - x[1] * x[1] * ix * ix);
         r[0] = e; r[1] = e * u1; r[2] = e * (u2 + u1 * u1);
+        break;
+      }
+      case CRT_OP_SIN: case CRT_OP_COS: {
+        /* sin and cos of one argument together, and kept for the next node of the same
+           argument (a cos(w t) + b sin(w t) evaluates them once) */
+        const double *x = J[a];
+        double f[3];
+        if (a != trig_arg) { trig_s = sin(x[0]); trig_c = cos(x[0]); trig_arg = a; }
+        if (op == CRT_OP_SIN) { f[0] = trig_s; f[1] = trig_c; f[2] = -trig_s; }
+        else { f[0] = trig_c; f[1] = -trig_s; f[2] = -trig_c; }
+        r[0] = f[0]; r[1] = f[1] * x[1]; r[2] = f[2] * x[1] * x[1] + f[1] * x[2];
         break;
       }
       default: {

@@ -15,6 +15,7 @@
 #define MODEL_HAS_PLANE 0
 #define MODEL_Z -1
 #define MODEL_ZD -1
+#define MODEL_LIE 0
 
 /* State: psi, phi */
 

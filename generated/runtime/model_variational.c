@@ -15,12 +15,13 @@
 #define MODEL_HAS_PLANE 0
 #define MODEL_Z -1
 #define MODEL_ZD -1
+#define MODEL_LIE 0
 
 /* State: Z_C, Z_C', omega_x, omega_y, omega_z, a31, a32, a33, Phi[0,0], Phi[0,1], Phi[0,2], Phi[0,3], Phi[0,4], Phi[0,5], Phi[0,6], Phi[0,7], Phi[1,0], Phi[1,1], Phi[1,2], Phi[1,3], Phi[1,4], Phi[1,5], Phi[1,6], Phi[1,7], Phi[2,0], Phi[2,1], Phi[2,2], Phi[2,3], Phi[2,4], Phi[2,5], Phi[2,6], Phi[2,7], Phi[3,0], Phi[3,1], Phi[3,2], Phi[3,3], Phi[3,4], Phi[3,5], Phi[3,6], Phi[3,7], Phi[4,0], Phi[4,1], Phi[4,2], Phi[4,3], Phi[4,4], Phi[4,5], Phi[4,6], Phi[4,7], Phi[5,0], Phi[5,1], Phi[5,2], Phi[5,3], Phi[5,4], Phi[5,5], Phi[5,6], Phi[5,7], Phi[6,0], Phi[6,1], Phi[6,2], Phi[6,3], Phi[6,4], Phi[6,5], Phi[6,6], Phi[6,7], Phi[7,0], Phi[7,1], Phi[7,2], Phi[7,3], Phi[7,4], Phi[7,5], Phi[7,6], Phi[7,7] */
 
 /* ---- the derived functions this model calls (derive/models.py, one CSE each) ---------- */
 
-/* Flight right-hand side of the vertical model: dq/dt (E1.2, E1.7 times m+M, E1.8). (140 ops) */
+/* Flight right-hand side of the vertical model: dq/dt (E1.2, E1.7 times m+M, E1.8). (156 ops) */
 static void vertical_flight_rhs(const double *q, const double *u, const double *p, double *restrict dq)
 {
   const double c0 = u[1]*u[1];
@@ -47,31 +48,30 @@ static void vertical_flight_rhs(const double *q, const double *u, const double *
   const double s0_6 = -c6*q[3] + c8*q[4] - mu*(-c10*u[2] - c4*u[5] + c7*u[4] + c9*u[1]);
   const double s0_7 = -c11*q[4] + c6*q[2] - mu*(c12*u[2] + c5*u[5] - c7*u[3] - c9*u[0]);
   const double s0_8 = c11*q[3] - c8*q[2] - mu*(c10*u[0] - c12*u[1] + c4*u[3] - c5*u[4]);
-  const double s0_9 = 1.0/s0_0;
-  const double s0_10 = s0_1*s0_9;
-  const double s0_11 = s0_3*s0_9;
-  const double s0_12 = -s0_1*s0_10 + s0_2;
-  const double s0_13 = 1.0/s0_12;
-  const double s0_14 = -s0_1*s0_11 + s0_4;
-  const double s0_15 = s0_13*s0_14;
-  const double s0_16 = -s0_11*s0_3 - s0_14*s0_15 + s0_5;
-  const double s0_17 = 1.0/s0_16;
-  const double s0_18 = -s0_10*s0_6 + s0_7;
-  const double s0_19 = -s0_11*s0_6 - s0_15*s0_18 + s0_8;
-  const double s0_20 = s0_17*s0_19;
-  const double s0_21 = s0_13*s0_18 - s0_15*s0_20;
-  const double s0_22 = -s0_10*s0_21 - s0_11*s0_20 + s0_6*s0_9;
+  const double s0_9 = s0_2*s0_5 - s0_4*s0_4;
+  const double s0_10 = -s0_1*s0_5 + s0_3*s0_4;
+  const double s0_11 = s0_1*s0_4 - s0_2*s0_3;
+  const double s0_12 = 1.0/(s0_0*s0_9 + s0_1*s0_10 + s0_11*s0_3);
+  const double s0_13 = s0_12*s0_9;
+  const double s0_14 = s0_10*s0_12;
+  const double s0_15 = s0_11*s0_12;
+  const double s0_16 = s0_12*(s0_0*s0_5 - s0_3*s0_3);
+  const double s0_17 = s0_12*(-s0_0*s0_4 + s0_1*s0_3);
+  const double s0_18 = s0_12*(s0_0*s0_2 - s0_1*s0_1);
+  const double s0_19 = s0_13*s0_6 + s0_14*s0_7 + s0_15*s0_8;
+  const double s0_20 = s0_14*s0_6 + s0_16*s0_7 + s0_17*s0_8;
+  const double s0_21 = s0_15*s0_6 + s0_17*s0_7 + s0_18*s0_8;
   dq[0] = q[1];
   dq[1] = -p[5];
-  dq[2] = s0_22;
-  dq[3] = s0_21;
-  dq[4] = s0_20;
+  dq[2] = s0_19;
+  dq[3] = s0_20;
+  dq[4] = s0_21;
   dq[5] = q[6]*q[4] - q[7]*q[3];
   dq[6] = -q[5]*q[4] + q[7]*q[2];
   dq[7] = q[5]*q[3] - q[6]*q[2];
 }
 
-/* Jacobian of the vertical flight right-hand side with respect to the state, A[i*n + k] = d(dq_i/dt)/dq_k (E1.2, E1.7, E1.8 differentiated). (194 ops) */
+/* Jacobian of the vertical flight right-hand side with respect to the state, A[i*n + k] = d(dq_i/dt)/dq_k (E1.2, E1.7, E1.8 differentiated). (210 ops) */
 static void vertical_flight_jacobian(const double *q, const double *u, const double *p, double *restrict A)
 {
   const double c0 = u[1]*u[1];
@@ -119,30 +119,25 @@ static void vertical_flight_jacobian(const double *q, const double *u, const dou
   const double s0_9 = -c18*mu*u[2] + c21 - c22 + c25 - c7*q[3];
   const double s0_10 = -c28 - c29 - c30 + c7*q[2] + mu*q[4]*u[0]*u[2];
   const double s0_11 = -c11 + c26 - mu*(c12 + c27);
-  const double s0_12 = 1.0/c2;
-  const double s0_13 = s0_0*s0_12;
-  const double s0_14 = s0_1*s0_12;
-  const double s0_15 = c5 - s0_0*s0_13;
-  const double s0_16 = 1.0/s0_15;
-  const double s0_17 = -s0_0*s0_14 + s0_2;
-  const double s0_18 = s0_16*s0_17;
-  const double s0_19 = c7 - s0_1*s0_14 - s0_17*s0_18;
-  const double s0_20 = 1.0/s0_19;
-  const double s0_21 = -s0_13*s0_3 + s0_4;
-  const double s0_22 = -s0_14*s0_3 - s0_18*s0_21 + s0_5;
-  const double s0_23 = s0_20*s0_22;
-  const double s0_24 = s0_16*s0_21 - s0_18*s0_23;
-  const double s0_25 = s0_12*s0_3 - s0_13*s0_24 - s0_14*s0_23;
-  const double s0_26 = -s0_13*s0_6 + s0_7;
-  const double s0_27 = -s0_14*s0_6 - s0_18*s0_26 + s0_8;
-  const double s0_28 = s0_20*s0_27;
-  const double s0_29 = s0_16*s0_26 - s0_18*s0_28;
-  const double s0_30 = s0_12*s0_6 - s0_13*s0_29 - s0_14*s0_28;
-  const double s0_31 = s0_10 - s0_13*s0_9;
-  const double s0_32 = s0_11 - s0_14*s0_9 - s0_18*s0_31;
-  const double s0_33 = s0_20*s0_32;
-  const double s0_34 = s0_16*s0_31 - s0_18*s0_33;
-  const double s0_35 = s0_12*s0_9 - s0_13*s0_34 - s0_14*s0_33;
+  const double s0_12 = c5*c7 - s0_2*s0_2;
+  const double s0_13 = -c7*s0_0 + s0_1*s0_2;
+  const double s0_14 = -c5*s0_1 + s0_0*s0_2;
+  const double s0_15 = 1.0/(c2*s0_12 + s0_0*s0_13 + s0_1*s0_14);
+  const double s0_16 = s0_12*s0_15;
+  const double s0_17 = s0_13*s0_15;
+  const double s0_18 = s0_14*s0_15;
+  const double s0_19 = s0_15*(c2*c7 - s0_1*s0_1);
+  const double s0_20 = s0_15*(-c2*s0_2 + s0_0*s0_1);
+  const double s0_21 = s0_15*(c2*c5 - s0_0*s0_0);
+  const double s0_22 = s0_16*s0_3 + s0_17*s0_4 + s0_18*s0_5;
+  const double s0_23 = s0_17*s0_3 + s0_19*s0_4 + s0_20*s0_5;
+  const double s0_24 = s0_18*s0_3 + s0_20*s0_4 + s0_21*s0_5;
+  const double s0_25 = s0_16*s0_6 + s0_17*s0_7 + s0_18*s0_8;
+  const double s0_26 = s0_17*s0_6 + s0_19*s0_7 + s0_20*s0_8;
+  const double s0_27 = s0_18*s0_6 + s0_20*s0_7 + s0_21*s0_8;
+  const double s0_28 = s0_10*s0_17 + s0_11*s0_18 + s0_16*s0_9;
+  const double s0_29 = s0_10*s0_19 + s0_11*s0_20 + s0_17*s0_9;
+  const double s0_30 = s0_10*s0_20 + s0_11*s0_21 + s0_18*s0_9;
   A[0] = 0.0;
   A[1] = 1.0;
   A[2] = 0.0;
@@ -161,25 +156,25 @@ static void vertical_flight_jacobian(const double *q, const double *u, const dou
   A[15] = 0.0;
   A[16] = 0.0;
   A[17] = 0.0;
-  A[18] = s0_25;
-  A[19] = s0_30;
-  A[20] = s0_35;
+  A[18] = s0_22;
+  A[19] = s0_25;
+  A[20] = s0_28;
   A[21] = 0.0;
   A[22] = 0.0;
   A[23] = 0.0;
   A[24] = 0.0;
   A[25] = 0.0;
-  A[26] = s0_24;
-  A[27] = s0_29;
-  A[28] = s0_34;
+  A[26] = s0_23;
+  A[27] = s0_26;
+  A[28] = s0_29;
   A[29] = 0.0;
   A[30] = 0.0;
   A[31] = 0.0;
   A[32] = 0.0;
   A[33] = 0.0;
-  A[34] = s0_23;
-  A[35] = s0_28;
-  A[36] = s0_33;
+  A[34] = s0_24;
+  A[35] = s0_27;
+  A[36] = s0_30;
   A[37] = 0.0;
   A[38] = 0.0;
   A[39] = 0.0;

@@ -15,12 +15,13 @@
 #define MODEL_HAS_PLANE 1
 #define MODEL_Z 0
 #define MODEL_ZD 1
+#define MODEL_LIE 1
 
 /* State: Z_C, Z_C', omega_x, omega_y, omega_z, a31, a32, a33 */
 
 /* ---- the derived functions this model calls (derive/models.py, one CSE each) ---------- */
 
-/* Flight right-hand side of the vertical model: dq/dt (E1.2, E1.7 times m+M, E1.8). (140 ops) */
+/* Flight right-hand side of the vertical model: dq/dt (E1.2, E1.7 times m+M, E1.8). (156 ops) */
 static void vertical_flight_rhs(const double *q, const double *u, const double *p, double *restrict dq)
 {
   const double c0 = u[1]*u[1];
@@ -47,25 +48,24 @@ static void vertical_flight_rhs(const double *q, const double *u, const double *
   const double s0_6 = -c6*q[3] + c8*q[4] - mu*(-c10*u[2] - c4*u[5] + c7*u[4] + c9*u[1]);
   const double s0_7 = -c11*q[4] + c6*q[2] - mu*(c12*u[2] + c5*u[5] - c7*u[3] - c9*u[0]);
   const double s0_8 = c11*q[3] - c8*q[2] - mu*(c10*u[0] - c12*u[1] + c4*u[3] - c5*u[4]);
-  const double s0_9 = 1.0/s0_0;
-  const double s0_10 = s0_1*s0_9;
-  const double s0_11 = s0_3*s0_9;
-  const double s0_12 = -s0_1*s0_10 + s0_2;
-  const double s0_13 = 1.0/s0_12;
-  const double s0_14 = -s0_1*s0_11 + s0_4;
-  const double s0_15 = s0_13*s0_14;
-  const double s0_16 = -s0_11*s0_3 - s0_14*s0_15 + s0_5;
-  const double s0_17 = 1.0/s0_16;
-  const double s0_18 = -s0_10*s0_6 + s0_7;
-  const double s0_19 = -s0_11*s0_6 - s0_15*s0_18 + s0_8;
-  const double s0_20 = s0_17*s0_19;
-  const double s0_21 = s0_13*s0_18 - s0_15*s0_20;
-  const double s0_22 = -s0_10*s0_21 - s0_11*s0_20 + s0_6*s0_9;
+  const double s0_9 = s0_2*s0_5 - s0_4*s0_4;
+  const double s0_10 = -s0_1*s0_5 + s0_3*s0_4;
+  const double s0_11 = s0_1*s0_4 - s0_2*s0_3;
+  const double s0_12 = 1.0/(s0_0*s0_9 + s0_1*s0_10 + s0_11*s0_3);
+  const double s0_13 = s0_12*s0_9;
+  const double s0_14 = s0_10*s0_12;
+  const double s0_15 = s0_11*s0_12;
+  const double s0_16 = s0_12*(s0_0*s0_5 - s0_3*s0_3);
+  const double s0_17 = s0_12*(-s0_0*s0_4 + s0_1*s0_3);
+  const double s0_18 = s0_12*(s0_0*s0_2 - s0_1*s0_1);
+  const double s0_19 = s0_13*s0_6 + s0_14*s0_7 + s0_15*s0_8;
+  const double s0_20 = s0_14*s0_6 + s0_16*s0_7 + s0_17*s0_8;
+  const double s0_21 = s0_15*s0_6 + s0_17*s0_7 + s0_18*s0_8;
   dq[0] = q[1];
   dq[1] = -p[5];
-  dq[2] = s0_22;
-  dq[3] = s0_21;
-  dq[4] = s0_20;
+  dq[2] = s0_19;
+  dq[3] = s0_20;
+  dq[4] = s0_21;
   dq[5] = q[6]*q[4] - q[7]*q[3];
   dq[6] = -q[5]*q[4] + q[7]*q[2];
   dq[7] = q[5]*q[3] - q[6]*q[2];
@@ -82,7 +82,7 @@ static void vertical_gap(const double *q, const double *u, const double *s, cons
   v_n[0] = q[1] - c0*q[3]*u[2] - c0*u[3] - c1*q[4]*u[0] - c1*u[4] - c2*q[2]*u[1] - c2*u[5] + q[5]*nu*q[4]*u[1] + q[5]*q[3]*s[2] - q[5]*q[4]*s[1] + q[6]*nu*q[2]*u[2] - q[6]*q[2]*s[2] + q[6]*q[4]*s[0] + q[7]*nu*q[3]*u[0] + q[7]*q[2]*s[1] - q[7]*q[3]*s[0];
 }
 
-/* Impact map of the vertical model: state just after the impact and the impulse I (E1.11, E1.12, E1.15, E1.16); apply only when v_n < 0. (158 ops) */
+/* Impact map of the vertical model: state just after the impact and the impulse I (E1.11, E1.12, E1.15, E1.16); apply only when v_n < 0. (174 ops) */
 static void vertical_impact(const double *q, const double *u, const double *s, const double *p, double e, double *restrict q_plus, double *restrict I)
 {
   const double c0 = 1.0/(p[0] + p[1]);
@@ -113,33 +113,32 @@ static void vertical_impact(const double *q, const double *u, const double *s, c
   const double s0_6 = -c6*q[6] + c8*q[7];
   const double s0_7 = -c10*q[7] + c6*q[5];
   const double s0_8 = c10*q[6] - c8*q[5];
-  const double s0_9 = 1.0/s0_0;
-  const double s0_10 = s0_1*s0_9;
-  const double s0_11 = s0_3*s0_9;
-  const double s0_12 = -s0_1*s0_10 + s0_2;
-  const double s0_13 = 1.0/s0_12;
-  const double s0_14 = -s0_1*s0_11 + s0_4;
-  const double s0_15 = s0_13*s0_14;
-  const double s0_16 = -s0_11*s0_3 - s0_14*s0_15 + s0_5;
-  const double s0_17 = 1.0/s0_16;
-  const double s0_18 = -s0_10*s0_6 + s0_7;
-  const double s0_19 = -s0_11*s0_6 - s0_15*s0_18 + s0_8;
-  const double s0_20 = s0_17*s0_19;
-  const double s0_21 = s0_13*s0_18 - s0_15*s0_20;
-  const double s0_22 = -s0_10*s0_21 - s0_11*s0_20 + s0_6*s0_9;
-  const double c17 = (-e - 1.0)*(q[1] - c11*q[4] - c12*q[2] - c13*q[3] - c14*q[3] - c15*q[4] - c16*q[2] + q[5]*nu*q[4]*u[1] - q[5]*nu*u[3] + q[5]*q[3]*s[2] + q[6]*nu*q[2]*u[2] - q[6]*nu*u[4] + q[6]*q[4]*s[0] + q[7]*nu*q[3]*u[0] - q[7]*nu*u[5] + q[7]*q[2]*s[1])/(c0 - c11*s0_20 - c12*s0_22 - c13*s0_21 - c14*s0_21 - c15*s0_20 - c16*s0_22 + c5*s0_22*q[6] + c7*s0_20*q[5] + c9*s0_21*q[7] + s0_20*q[6]*s[0] + s0_21*q[5]*s[2] + s0_22*q[7]*s[1]);
+  const double s0_9 = s0_2*s0_5 - s0_4*s0_4;
+  const double s0_10 = -s0_1*s0_5 + s0_3*s0_4;
+  const double s0_11 = s0_1*s0_4 - s0_2*s0_3;
+  const double s0_12 = 1.0/(s0_0*s0_9 + s0_1*s0_10 + s0_11*s0_3);
+  const double s0_13 = s0_12*s0_9;
+  const double s0_14 = s0_10*s0_12;
+  const double s0_15 = s0_11*s0_12;
+  const double s0_16 = s0_12*(s0_0*s0_5 - s0_3*s0_3);
+  const double s0_17 = s0_12*(-s0_0*s0_4 + s0_1*s0_3);
+  const double s0_18 = s0_12*(s0_0*s0_2 - s0_1*s0_1);
+  const double s0_19 = s0_13*s0_6 + s0_14*s0_7 + s0_15*s0_8;
+  const double s0_20 = s0_14*s0_6 + s0_16*s0_7 + s0_17*s0_8;
+  const double s0_21 = s0_15*s0_6 + s0_17*s0_7 + s0_18*s0_8;
+  const double c17 = (-e - 1.0)*(q[1] - c11*q[4] - c12*q[2] - c13*q[3] - c14*q[3] - c15*q[4] - c16*q[2] + q[5]*nu*q[4]*u[1] - q[5]*nu*u[3] + q[5]*q[3]*s[2] + q[6]*nu*q[2]*u[2] - q[6]*nu*u[4] + q[6]*q[4]*s[0] + q[7]*nu*q[3]*u[0] - q[7]*nu*u[5] + q[7]*q[2]*s[1])/(c0 - c11*s0_21 - c12*s0_19 - c13*s0_20 - c14*s0_20 - c15*s0_21 - c16*s0_19 + c5*s0_19*q[6] + c7*s0_21*q[5] + c9*s0_20*q[7] + s0_19*q[7]*s[1] + s0_20*q[5]*s[2] + s0_21*q[6]*s[0]);
   q_plus[0] = q[0];
   q_plus[1] = q[1] + c0*c17;
-  q_plus[2] = c17*s0_22 + q[2];
-  q_plus[3] = c17*s0_21 + q[3];
-  q_plus[4] = c17*s0_20 + q[4];
+  q_plus[2] = c17*s0_19 + q[2];
+  q_plus[3] = c17*s0_20 + q[3];
+  q_plus[4] = c17*s0_21 + q[4];
   q_plus[5] = q[5];
   q_plus[6] = q[6];
   q_plus[7] = q[7];
   I[0] = c17;
 }
 
-/* Persistent contact of the vertical model: dq/dt with S held on the plane and the normal reaction N (derive.contact); lift-off where N < 0. Also a_free. (389 ops) */
+/* Persistent contact of the vertical model: dq/dt with S held on the plane and the normal reaction N (derive.contact); lift-off where N < 0. Also a_free. (405 ops) */
 static void vertical_contact_rhs_free(const double *q, const double *u, const double *s, const double *sdot, const double *p, double *restrict dq, double *restrict N, double *restrict a_free)
 {
   const double c0 = 1.0/(p[0] + p[1]);
@@ -207,32 +206,29 @@ static void vertical_contact_rhs_free(const double *q, const double *u, const do
   const double s0_9 = -c25*q[6] + c27*q[7];
   const double s0_10 = c25*q[5] - c29*q[7];
   const double s0_11 = -c27*q[5] + c29*q[6];
-  const double s0_12 = 1.0/s0_0;
-  const double s0_13 = s0_1*s0_12;
-  const double s0_14 = s0_12*s0_3;
-  const double s0_15 = -s0_1*s0_13 + s0_2;
-  const double s0_16 = 1.0/s0_15;
-  const double s0_17 = -s0_1*s0_14 + s0_4;
-  const double s0_18 = s0_16*s0_17;
-  const double s0_19 = -s0_14*s0_3 - s0_17*s0_18 + s0_5;
-  const double s0_20 = 1.0/s0_19;
-  const double s0_21 = -s0_13*s0_6 + s0_7;
-  const double s0_22 = -s0_14*s0_6 - s0_18*s0_21 + s0_8;
-  const double s0_23 = s0_20*s0_22;
-  const double s0_24 = s0_16*s0_21 - s0_18*s0_23;
-  const double s0_25 = s0_12*s0_6 - s0_13*s0_24 - s0_14*s0_23;
-  const double s0_26 = s0_10 - s0_13*s0_9;
-  const double s0_27 = s0_11 - s0_14*s0_9 - s0_18*s0_26;
-  const double s0_28 = s0_20*s0_27;
-  const double s0_29 = s0_16*s0_26 - s0_18*s0_28;
-  const double s0_30 = s0_12*s0_9 - s0_13*s0_29 - s0_14*s0_28;
-  const double c51 = -c0*c30 - c1*p[5] - c10*c42*nu - c13*c49*nu - c14*c40*nu - 2.0*c17*c41 - 2.0*c19*c39 - 2.0*c22*c37 - c31*s0_23 - c32*s0_25 - c33*s0_24 - c34*s0_24 - c35*s0_23 - c36*s0_25 - c37*u[6] - c38*c7*nu - c38*sdot[1] - c39*u[7] - c40*sdot[2] - c41*u[8] - c42*sdot[0] - c43*c44 - c43*c48 + c43*q[5]*nu*u[0] + c43*q[7]*nu*u[2] - c44*c45 - c45*c47 + c45*q[5]*nu*u[0] + c45*q[6]*nu*u[1] - c46*c47 - c46*c48 + c46*q[6]*nu*u[1] + c46*q[7]*nu*u[2] - c50*c9*nu - c6*q[7]*nu*q[2] + s0_23*q[5]*nu*u[1] + s0_23*q[6]*s[0] + s0_24*q[5]*s[2] + s0_24*q[7]*nu*u[0] + s0_25*q[6]*nu*u[2] + s0_25*q[7]*s[1] + 2.0*q[5]*nu*q[4]*u[4] + q[5]*q[2]*q[3]*s[1] + q[5]*q[2]*q[4]*s[2] + q[5]*q[3]*sdot[2] + 2.0*q[6]*nu*q[2]*u[5] + q[6]*q[2]*q[3]*s[0] + q[6]*q[3]*q[4]*s[2] + q[6]*q[4]*sdot[0] + 2.0*q[7]*nu*q[3]*u[3] + q[7]*q[2]*q[4]*s[0] + q[7]*q[2]*sdot[1] + q[7]*q[3]*q[4]*s[1];
-  const double c52 = c51/(c0 + c24*s0_30*q[6] + c26*s0_28*q[5] + c28*s0_29*q[7] - c31*s0_28 - c32*s0_30 - c33*s0_29 - c34*s0_29 - c35*s0_28 - c36*s0_30 + s0_28*q[6]*s[0] + s0_29*q[5]*s[2] + s0_30*q[7]*s[1]);
+  const double s0_12 = s0_2*s0_5 - s0_4*s0_4;
+  const double s0_13 = -s0_1*s0_5 + s0_3*s0_4;
+  const double s0_14 = s0_1*s0_4 - s0_2*s0_3;
+  const double s0_15 = 1.0/(s0_0*s0_12 + s0_1*s0_13 + s0_14*s0_3);
+  const double s0_16 = s0_12*s0_15;
+  const double s0_17 = s0_13*s0_15;
+  const double s0_18 = s0_14*s0_15;
+  const double s0_19 = s0_15*(s0_0*s0_5 - s0_3*s0_3);
+  const double s0_20 = s0_15*(-s0_0*s0_4 + s0_1*s0_3);
+  const double s0_21 = s0_15*(s0_0*s0_2 - s0_1*s0_1);
+  const double s0_22 = s0_16*s0_6 + s0_17*s0_7 + s0_18*s0_8;
+  const double s0_23 = s0_17*s0_6 + s0_19*s0_7 + s0_20*s0_8;
+  const double s0_24 = s0_18*s0_6 + s0_20*s0_7 + s0_21*s0_8;
+  const double s0_25 = s0_10*s0_17 + s0_11*s0_18 + s0_16*s0_9;
+  const double s0_26 = s0_10*s0_19 + s0_11*s0_20 + s0_17*s0_9;
+  const double s0_27 = s0_10*s0_20 + s0_11*s0_21 + s0_18*s0_9;
+  const double c51 = -c0*c30 - c1*p[5] - c10*c42*nu - c13*c49*nu - c14*c40*nu - 2.0*c17*c41 - 2.0*c19*c39 - 2.0*c22*c37 - c31*s0_24 - c32*s0_22 - c33*s0_23 - c34*s0_23 - c35*s0_24 - c36*s0_22 - c37*u[6] - c38*c7*nu - c38*sdot[1] - c39*u[7] - c40*sdot[2] - c41*u[8] - c42*sdot[0] - c43*c44 - c43*c48 + c43*q[5]*nu*u[0] + c43*q[7]*nu*u[2] - c44*c45 - c45*c47 + c45*q[5]*nu*u[0] + c45*q[6]*nu*u[1] - c46*c47 - c46*c48 + c46*q[6]*nu*u[1] + c46*q[7]*nu*u[2] - c50*c9*nu - c6*q[7]*nu*q[2] + s0_22*q[6]*nu*u[2] + s0_22*q[7]*s[1] + s0_23*q[5]*s[2] + s0_23*q[7]*nu*u[0] + s0_24*q[5]*nu*u[1] + s0_24*q[6]*s[0] + 2.0*q[5]*nu*q[4]*u[4] + q[5]*q[2]*q[3]*s[1] + q[5]*q[2]*q[4]*s[2] + q[5]*q[3]*sdot[2] + 2.0*q[6]*nu*q[2]*u[5] + q[6]*q[2]*q[3]*s[0] + q[6]*q[3]*q[4]*s[2] + q[6]*q[4]*sdot[0] + 2.0*q[7]*nu*q[3]*u[3] + q[7]*q[2]*q[4]*s[0] + q[7]*q[2]*sdot[1] + q[7]*q[3]*q[4]*s[1];
+  const double c52 = c51/(c0 + c24*s0_25*q[6] + c26*s0_27*q[5] + c28*s0_26*q[7] - c31*s0_27 - c32*s0_25 - c33*s0_26 - c34*s0_26 - c35*s0_27 - c36*s0_25 + s0_25*q[7]*s[1] + s0_26*q[5]*s[2] + s0_27*q[6]*s[0]);
   dq[0] = q[1];
   dq[1] = c0*(-c30 - c52 - p[5]*p[1]);
-  dq[2] = -c52*s0_30 + s0_25;
-  dq[3] = -c52*s0_29 + s0_24;
-  dq[4] = -c52*s0_28 + s0_23;
+  dq[2] = -c52*s0_25 + s0_22;
+  dq[3] = -c52*s0_26 + s0_23;
+  dq[4] = -c52*s0_27 + s0_24;
   dq[5] = -c42 + c50;
   dq[6] = -c38 + q[7]*q[2];
   dq[7] = -c40 + c49;
@@ -279,6 +275,251 @@ static void lowest_point_rate_ellipsoid(const double *n, const double *omega, co
   sdot[2] = c4*c7*(c12*c18 + c13*c17 + c14*(c5*c8 - 1.0));
 }
 
+/* A stage of the Lie-group flight step: omega from E1.4 with K = exp(-W^) k in body axes, and W' = dexpinv(W, omega) (E1.8 in exponential coordinates). (222 ops) */
+static void lie_stage(const double *W, const double *k, const double *u, const double *p, double *restrict dW, double *restrict omega)
+{
+  const double c0 = u[1]*u[1];
+  const double c1 = u[2]*u[2];
+  const double c3 = u[0]*u[0];
+  const double c6 = W[1]*k[2] - W[2]*k[1];
+  const double c7 = W[0]*k[1] - W[1]*k[0];
+  const double c8 = -W[0]*k[2] + W[2]*k[0];
+  const double nu = p[1]/(p[0] + p[1]);
+  const double mu = p[0]*nu;
+  const double s_W = W[0]*W[0] + W[1]*W[1] + W[2]*W[2];
+  const double s_W2 = s_W*s_W;
+  const double s_W4 = s_W2*s_W2;
+  const double s_W8 = s_W4*s_W4;
+  const double a_W_1_0 = -0.16666666666666666*s_W + s_W2*(0.008333333333333333 - 0.0001984126984126984*s_W) + 1.0;
+  const double a_W_1_1 = -2.505210838544172e-08*s_W + s_W2*(1.6059043836821613e-10 - 7.647163731819816e-13*s_W) + 2.7557319223985893e-06;
+  const double a_W_1_2 = -8.22063524662433e-18*s_W + 1.9572941063391263e-20*s_W2 + 2.8114572543455206e-15;
+  const double a_W_2_0 = a_W_1_0 + a_W_1_1*s_W4;
+  const double a_W_2_1 = a_W_1_2;
+  const double a_W = a_W_2_0 + a_W_2_1*s_W8;
+  const double b_W_1_0 = -0.041666666666666664*s_W + s_W2*(0.001388888888888889 - 2.48015873015873e-05*s_W) + 0.5;
+  const double b_W_1_1 = -2.08767569878681e-09*s_W + s_W2*(1.1470745597729725e-11 - 4.779477332387385e-14*s_W) + 2.755731922398589e-07;
+  const double b_W_1_2 = -4.110317623312165e-19*s_W + 8.896791392450574e-22*s_W2 + 1.5619206968586225e-16;
+  const double b_W_2_0 = b_W_1_0 + b_W_1_1*s_W4;
+  const double b_W_2_1 = b_W_1_2;
+  const double b_W = b_W_2_0 + b_W_2_1*s_W8;
+  const double c_W_1_0 = 0.001388888888888889*s_W + s_W2*(8.267195767195768e-07*s_W + 3.306878306878307e-05) + 0.08333333333333333;
+  const double c_W_1_1 = 5.284190138687493e-10*s_W + s_W2*(3.3896802963225827e-13*s_W + 1.3382536530684679e-11) + 2.08767569878681e-08;
+  const double c_W_1_2 = 2.174868698558062e-16*s_W + s_W2*(1.3954464685812522e-19*s_W + 5.5090028283602295e-18) + 8.586062056277845e-15;
+  const double c_W_1_3 = 8.953517427037546e-23*s_W + 3.534707039629467e-21;
+  const double c_W_2_0 = c_W_1_0 + c_W_1_1*s_W4;
+  const double c_W_2_1 = c_W_1_2 + c_W_1_3*s_W4;
+  const double c_W = c_W_2_0 + c_W_2_1*s_W8;
+  const double c2 = mu*u[0];
+  const double c4 = mu*u[2];
+  const double c5 = mu*u[1];
+  const double s0_0 = p[2] + mu*(c0 + c1);
+  const double s0_1 = -c2*u[1];
+  const double s0_2 = p[3] + mu*(c1 + c3);
+  const double s0_3 = -c2*u[2];
+  const double s0_4 = -c4*u[1];
+  const double s0_5 = p[4] + mu*(c0 + c3);
+  const double s0_6 = c4*u[4] - c5*u[5] - c6*a_W + b_W*(W[1]*c7 - W[2]*c8) + k[0];
+  const double s0_7 = c2*u[5] - c4*u[3] - c8*a_W + b_W*(-W[0]*c7 + W[2]*c6) + k[1];
+  const double s0_8 = -c2*u[4] + c5*u[3] - c7*a_W + b_W*(W[0]*c8 - W[1]*c6) + k[2];
+  const double s0_9 = s0_2*s0_5 - s0_4*s0_4;
+  const double s0_10 = -s0_1*s0_5 + s0_3*s0_4;
+  const double s0_11 = s0_1*s0_4 - s0_2*s0_3;
+  const double s0_12 = 1.0/(s0_0*s0_9 + s0_1*s0_10 + s0_11*s0_3);
+  const double s0_13 = s0_12*s0_9;
+  const double s0_14 = s0_10*s0_12;
+  const double s0_15 = s0_11*s0_12;
+  const double s0_16 = s0_12*(s0_0*s0_5 - s0_3*s0_3);
+  const double s0_17 = s0_12*(-s0_0*s0_4 + s0_1*s0_3);
+  const double s0_18 = s0_12*(s0_0*s0_2 - s0_1*s0_1);
+  const double s0_19 = s0_13*s0_6 + s0_14*s0_7 + s0_15*s0_8;
+  const double s0_20 = s0_14*s0_6 + s0_16*s0_7 + s0_17*s0_8;
+  const double s0_21 = s0_15*s0_6 + s0_17*s0_7 + s0_18*s0_8;
+  const double c9 = W[1]*s0_21;
+  const double c10 = W[2]*s0_20;
+  const double c11 = W[0]*s0_20;
+  const double c12 = W[1]*s0_19;
+  const double c13 = c11 - c12;
+  const double c14 = W[0]*s0_21;
+  const double c15 = W[2]*s0_19 - c14;
+  const double c16 = -c10 + c9;
+  dW[0] = -0.5*c10 + 0.5*c9 + s0_19 + c_W*(W[1]*c13 - W[2]*c15);
+  dW[1] = 0.5*W[2]*s0_19 - 0.5*c14 + s0_20 + c_W*(-W[0]*c13 + W[2]*c16);
+  dW[2] = 0.5*c11 - 0.5*c12 + s0_21 + c_W*(W[0]*c15 - W[1]*c16);
+  omega[0] = s0_19;
+  omega[1] = s0_20;
+  omega[2] = s0_21;
+}
+
+/* exp(W^) and omega from E1.4 with K = exp(W^)^T k in body axes: a point of the dense output of a Lie-group flight step. (170 ops) */
+static void lie_point(const double *W, const double *k, const double *u, const double *p, double *restrict E, double *restrict omega)
+{
+  const double c0 = W[0]*W[0];
+  const double c1 = W[1]*W[1];
+  const double c2 = W[2]*W[2];
+  const double c3 = u[1]*u[1];
+  const double c4 = u[2]*u[2];
+  const double c6 = u[0]*u[0];
+  const double nu = p[1]/(p[0] + p[1]);
+  const double mu = p[0]*nu;
+  const double s_W = c0 + c1 + c2;
+  const double s_W2 = s_W*s_W;
+  const double s_W4 = s_W2*s_W2;
+  const double s_W8 = s_W4*s_W4;
+  const double a_W_1_0 = -0.16666666666666666*s_W + s_W2*(0.008333333333333333 - 0.0001984126984126984*s_W) + 1.0;
+  const double a_W_1_1 = -2.505210838544172e-08*s_W + s_W2*(1.6059043836821613e-10 - 7.647163731819816e-13*s_W) + 2.7557319223985893e-06;
+  const double a_W_1_2 = -8.22063524662433e-18*s_W + 1.9572941063391263e-20*s_W2 + 2.8114572543455206e-15;
+  const double a_W_2_0 = a_W_1_0 + a_W_1_1*s_W4;
+  const double a_W_2_1 = a_W_1_2;
+  const double a_W = a_W_2_0 + a_W_2_1*s_W8;
+  const double b_W_1_0 = -0.041666666666666664*s_W + s_W2*(0.001388888888888889 - 2.48015873015873e-05*s_W) + 0.5;
+  const double b_W_1_1 = -2.08767569878681e-09*s_W + s_W2*(1.1470745597729725e-11 - 4.779477332387385e-14*s_W) + 2.755731922398589e-07;
+  const double b_W_1_2 = -4.110317623312165e-19*s_W + 8.896791392450574e-22*s_W2 + 1.5619206968586225e-16;
+  const double b_W_2_0 = b_W_1_0 + b_W_1_1*s_W4;
+  const double b_W_2_1 = b_W_1_2;
+  const double b_W = b_W_2_0 + b_W_2_1*s_W8;
+  const double c5 = mu*u[0];
+  const double c7 = mu*u[2];
+  const double c8 = mu*u[1];
+  const double c9 = W[2]*a_W;
+  const double c10 = W[0]*b_W;
+  const double c11 = W[1]*c10;
+  const double c12 = c11 + c9;
+  const double c13 = W[1]*a_W;
+  const double c14 = W[2]*c10;
+  const double c15 = -c13 + c14;
+  const double c16 = c1*b_W;
+  const double c17 = c2*b_W - 1.0;
+  const double c18 = -c16 - c17;
+  const double c19 = W[0]*a_W;
+  const double c20 = W[1]*W[2]*b_W + c19;
+  const double c21 = c11 - c9;
+  const double c22 = c0*b_W;
+  const double c23 = -c17 - c22;
+  const double c24 = c13 + c14;
+  const double c25 = W[1]*W[2]*b_W - c19;
+  const double c26 = -c16 - c22 + 1.0;
+  const double s0_0 = p[2] + mu*(c3 + c4);
+  const double s0_1 = -c5*u[1];
+  const double s0_2 = p[3] + mu*(c4 + c6);
+  const double s0_3 = -c5*u[2];
+  const double s0_4 = -c7*u[1];
+  const double s0_5 = p[4] + mu*(c3 + c6);
+  const double s0_6 = c12*k[1] + c15*k[2] + c18*k[0] + c7*u[4] - c8*u[5];
+  const double s0_7 = c20*k[2] + c21*k[0] + c23*k[1] + c5*u[5] - c7*u[3];
+  const double s0_8 = c24*k[0] + c25*k[1] + c26*k[2] - c5*u[4] + c8*u[3];
+  const double s0_9 = s0_2*s0_5 - s0_4*s0_4;
+  const double s0_10 = -s0_1*s0_5 + s0_3*s0_4;
+  const double s0_11 = s0_1*s0_4 - s0_2*s0_3;
+  const double s0_12 = 1.0/(s0_0*s0_9 + s0_1*s0_10 + s0_11*s0_3);
+  const double s0_13 = s0_12*s0_9;
+  const double s0_14 = s0_10*s0_12;
+  const double s0_15 = s0_11*s0_12;
+  const double s0_16 = s0_12*(s0_0*s0_5 - s0_3*s0_3);
+  const double s0_17 = s0_12*(-s0_0*s0_4 + s0_1*s0_3);
+  const double s0_18 = s0_12*(s0_0*s0_2 - s0_1*s0_1);
+  const double s0_19 = s0_13*s0_6 + s0_14*s0_7 + s0_15*s0_8;
+  const double s0_20 = s0_14*s0_6 + s0_16*s0_7 + s0_17*s0_8;
+  const double s0_21 = s0_15*s0_6 + s0_17*s0_7 + s0_18*s0_8;
+  E[0] = c18;
+  E[1] = c21;
+  E[2] = c24;
+  E[3] = c12;
+  E[4] = c23;
+  E[5] = c25;
+  E[6] = c15;
+  E[7] = c20;
+  E[8] = c26;
+  omega[0] = s0_19;
+  omega[1] = s0_20;
+  omega[2] = s0_21;
+}
+
+/* K about C in fixed axes, A (J omega + mu OP x V_r) (E1.4): constant in flight (E1.1). (68 ops) */
+static void fixed_kinetic_moment(const double *A, const double *omega, const double *u, const double *p, double *restrict K)
+{
+  const double c3 = u[1]*u[1];
+  const double c4 = u[2]*u[2];
+  const double c6 = u[0]*u[0];
+  const double nu = p[1]/(p[0] + p[1]);
+  const double mu = p[0]*nu;
+  const double c0 = mu*u[2];
+  const double c1 = mu*u[0]*u[1];
+  const double c2 = c0*omega[2];
+  const double c5 = -c0*u[4] - c1*omega[1] - c2*u[0] + mu*u[1]*u[5] + omega[0]*(p[2] + mu*(c3 + c4));
+  const double c7 = -c1*omega[0] - c2*u[1] - mu*u[0]*u[5] + mu*u[3]*u[2] + omega[1]*(p[3] + mu*(c4 + c6));
+  const double c8 = -c0*omega[0]*u[0] - c0*omega[1]*u[1] + mu*u[0]*u[4] - mu*u[3]*u[1] + omega[2]*(p[4] + mu*(c3 + c6));
+  K[0] = c5*A[0] + c7*A[1] + c8*A[2];
+  K[1] = c5*A[3] + c7*A[4] + c8*A[5];
+  K[2] = c5*A[6] + c7*A[7] + c8*A[8];
+}
+
+/* The exponential map of so(3): exp(W^) row-major and its unit quaternion (w, x, y, z) (derive.lie, |W| <= 1.25). (111 ops) */
+static void exp_map(const double *W, double *restrict E, double *restrict quat)
+{
+  const double c0 = W[0]*W[0];
+  const double c1 = W[1]*W[1];
+  const double c2 = W[2]*W[2];
+  const double s_W = c0 + c1 + c2;
+  const double s_W2 = s_W*s_W;
+  const double s_W4 = s_W2*s_W2;
+  const double s_W8 = s_W4*s_W4;
+  const double a_W_1_0 = -0.16666666666666666*s_W + s_W2*(0.008333333333333333 - 0.0001984126984126984*s_W) + 1.0;
+  const double a_W_1_1 = -2.505210838544172e-08*s_W + s_W2*(1.6059043836821613e-10 - 7.647163731819816e-13*s_W) + 2.7557319223985893e-06;
+  const double a_W_1_2 = -8.22063524662433e-18*s_W + 1.9572941063391263e-20*s_W2 + 2.8114572543455206e-15;
+  const double a_W_2_0 = a_W_1_0 + a_W_1_1*s_W4;
+  const double a_W_2_1 = a_W_1_2;
+  const double a_W = a_W_2_0 + a_W_2_1*s_W8;
+  const double b_W_1_0 = -0.041666666666666664*s_W + s_W2*(0.001388888888888889 - 2.48015873015873e-05*s_W) + 0.5;
+  const double b_W_1_1 = -2.08767569878681e-09*s_W + s_W2*(1.1470745597729725e-11 - 4.779477332387385e-14*s_W) + 2.755731922398589e-07;
+  const double b_W_1_2 = -4.110317623312165e-19*s_W + 8.896791392450574e-22*s_W2 + 1.5619206968586225e-16;
+  const double b_W_2_0 = b_W_1_0 + b_W_1_1*s_W4;
+  const double b_W_2_1 = b_W_1_2;
+  const double b_W = b_W_2_0 + b_W_2_1*s_W8;
+  const double quat_w_W_1_0 = -0.125*s_W + s_W2*(0.0026041666666666665 - 2.170138888888889e-05*s_W) + 1.0;
+  const double quat_w_W_1_1 = -2.691144455467372e-10*s_W + s_W2*(5.096864498991235e-13 - 7.001187498614334e-16*s_W) + 9.68812003968254e-08;
+  const double quat_w_W_1_2 = 7.292903644389931e-19 - 5.958254611429682e-22*s_W;
+  const double quat_w_W_2_0 = quat_w_W_1_0 + quat_w_W_1_1*s_W4;
+  const double quat_w_W_2_1 = quat_w_W_1_2;
+  const double quat_w_W = quat_w_W_2_0 + quat_w_W_2_1*s_W8;
+  const double quat_v_W_1_0 = -0.020833333333333332*s_W + s_W2*(0.00026041666666666666 - 1.5500992063492063e-06*s_W) + 0.5;
+  const double quat_v_W_1_1 = -1.2232474797578965e-11*s_W + s_W2*(1.9603324996120133e-14 - 2.333729166204778e-17*s_W) + 5.382288910934745e-09;
+  const double quat_v_W_2_0 = quat_v_W_1_0 + quat_v_W_1_1*s_W4;
+  const double quat_v_W = quat_v_W_2_0 + 2.1449716601146855e-20*s_W8;
+  const double c3 = c1*b_W;
+  const double c4 = c2*b_W - 1.0;
+  const double c5 = W[2]*a_W;
+  const double c6 = W[0]*b_W;
+  const double c7 = W[1]*c6;
+  const double c8 = W[1]*a_W;
+  const double c9 = W[2]*c6;
+  const double c10 = c0*b_W;
+  const double c11 = W[0]*a_W;
+  E[0] = -c3 - c4;
+  E[1] = -c5 + c7;
+  E[2] = c8 + c9;
+  E[3] = c5 + c7;
+  E[4] = -c10 - c4;
+  E[5] = W[1]*W[2]*b_W - c11;
+  E[6] = -c8 + c9;
+  E[7] = W[1]*W[2]*b_W + c11;
+  E[8] = -c10 - c3 + 1.0;
+  quat[0] = quat_w_W;
+  quat[1] = W[0]*quat_v_W;
+  quat[2] = W[1]*quat_v_W;
+  quat[3] = W[2]*quat_v_W;
+}
+
+/* Position and velocity of C a time tau after the start of a flight (E1.2 integrated). (12 ops) */
+static void flight_parabola(const double *c, double tau, const double *p, double *restrict c_tau)
+{
+  c_tau[0] = c[0] + c[3]*tau;
+  c_tau[1] = c[1] + c[4]*tau;
+  c_tau[2] = c[2] + c[5]*tau - (1.0/2.0)*p[5]*tau*tau;
+  c_tau[3] = c[3];
+  c_tau[4] = c[4];
+  c_tau[5] = c[5] - p[5]*tau;
+}
+
 /* ---- the model: what the runtime (crt_core.h) calls ------------------------------------ */
 /* S for the vertical n (a sphere is the ellipsoid with equal semi-axes) */
 static void model_shape(const double *p, const double *n, double *s)
@@ -321,6 +562,39 @@ static void model_contact(const double *p, const double *u, const double *q, dou
   model_shape(p, q + 5, s);
   lowest_point_rate_ellipsoid(q + 5, q + 2, p + CRT_P_axis_a, sdot);
   vertical_contact_rhs_free(q, u, s, sdot, p, dq, N, a_free);
+}
+
+/* ---- the momentum form (crt_lie.h) ------------------------------------------------------ */
+/* From the state: C (position, velocity; zero where the model has none), omega and the
+   attitude R = (a_ij); returns 0 when R is the whole matrix, 1 when only its third row n
+   is known (n_scale = |n|), 2 when there is none. */
+static int model_lie_read(const double *q, double *c0, double *omega, double *R,
+                          double *n_scale)
+{
+  int i;
+  for (i = 0; i < 6; ++i) c0[i] = 0.0;
+  for (i = 0; i < 9; ++i) R[i] = 0.0;
+  *n_scale = 1.0;
+  c0[2] = q[0];
+  c0[5] = q[1];
+  for (i = 0; i < 3; ++i) omega[i] = q[2 + i];
+  for (i = 0; i < 3; ++i) R[6 + i] = q[5 + i];
+  *n_scale = sqrt(q[5] * q[5] + q[6] * q[6] + q[7] * q[7]);
+  return 1;
+}
+
+/* The state from the momentum form: C a time tau after the start of the flight on its
+   parabola (flight_parabola, E1.2 integrated), omega and the attitude R. */
+static void model_lie_state(const double *p, const double *c0, double tau,
+                            const double *omega, const double *R, double n_scale, double *q)
+{
+  int i;
+  double c[6];
+  flight_parabola(c0, tau, p, c);
+  q[0] = c[2];
+  q[1] = c[5];
+  for (i = 0; i < 3; ++i) q[2 + i] = omega[i];
+  for (i = 0; i < 3; ++i) q[5 + i] = n_scale * R[6 + i];
 }
 
 static void model_normalize(double *q)
