@@ -13,4 +13,6 @@ def simulate(scene, progress: bool = True):
     return _simulate(scene, progress=progress)
 
 
-__all__ = ["simulate"]
+from .plan import plan  # noqa: E402  derive.plan(task) -> Plan (CasADi loads on the first call)
+
+__all__ = ["simulate", "plan"]

@@ -334,6 +334,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--repeats", type=int, default=5, help="timing repetitions (min taken)")
     p.set_defaults(func=cmd_bench)
 
+    from .plan.cli import add_parser as _add_plan_parser
+    _add_plan_parser(sub)
     return parser
 
 
@@ -343,6 +345,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         return int(args.func(args) or 0)
     except UsageError as exc:
+        print(f"derive {args.command}: {exc}", file=sys.stderr)
+        return 2
+    except ValueError as exc:            # SceneError from a subcommand that raises it
+        from .runtime.scene import SceneError
+        if not isinstance(exc, SceneError):
+            raise
         print(f"derive {args.command}: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:

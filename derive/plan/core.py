@@ -63,7 +63,7 @@ def tabulate(law: Law, t_end: float | None = None, per_piece: int = 32):
     refined until the runtime's spline reproduces the law's position to 1e-11."""
     T = law.T
     t_end = T if t_end is None else t_end
-    bc = BC[law.ends] if law.ends != "rest" else ((1, 0.0), (1, 0.0))
+    bc = BC[law.ends] if law.ends != "rest" else ((1, np.zeros(3)), (1, np.zeros(3)))
     h = T / law.spline.n
     err = np.inf
     while True:

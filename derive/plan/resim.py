@@ -18,6 +18,7 @@ the only place to change when the runtime alone should be used.
 """
 from __future__ import annotations
 
+import bisect
 import copy
 import csv
 import math
@@ -30,7 +31,7 @@ from scipy.integrate import solve_ivp
 from scipy.interpolate import CubicSpline
 
 from ..runtime.scene import Scene, SceneError, parse_scene
-from .functions import load
+from .functions import Fast, load
 
 BC = {"periodic": "periodic", "rest": "clamped", "free": "not-a-knot"}
 
@@ -73,12 +74,25 @@ class SplineLaw:
         self.t0, self.t1, self.ends = float(t[0]), float(t[-1]), ends
         bc = BC[ends]
         if ends == "rest":
-            bc = ((1, 0.0), (1, 0.0))
+            bc = ((1, np.zeros(3)), (1, np.zeros(3)))
         self.spline = CubicSpline(t, xyz, axis=0, bc_type=bc)
         self.d1, self.d2 = self.spline.derivative(1), self.spline.derivative(2)
+        self.x, self.c = self.spline.x, self.spline.c        # c[k, i]: of (t - x_i)^(3-k)
 
     def __call__(self, t) -> np.ndarray:
-        """(9,) or (9, N): x, y, z, x', y', z', x'', y'', z''."""
+        """(9,) for a number t, (9, N) for an array: x, y, z, x', y', z', x'', y'', z''
+        (outside the table: periodic wrap, or the end pieces extended)."""
+        if np.ndim(t) == 0:
+            tt = float(t)
+            if self.ends == "periodic":
+                tt = self.t0 + (tt - self.t0) % (self.t1 - self.t0)
+            i = min(max(bisect.bisect_right(self.x, tt) - 1, 0), len(self.x) - 2)
+            d = tt - self.x[i]
+            c = self.c[:, i, :]
+            val = ((c[0] * d + c[1]) * d + c[2]) * d + c[3]
+            d1 = (3 * c[0] * d + 2 * c[1]) * d + c[2]
+            d2 = 6 * c[0] * d + 2 * c[1]
+            return np.concatenate([val, d1, d2])
         tt = np.asarray(t, dtype=float)
         if self.ends == "periodic":
             tt = self.t0 + np.mod(tt - self.t0, self.t1 - self.t0)
@@ -109,22 +123,22 @@ def resimulate(scene_path, rtol: float = 1e-12, max_impacts: int = 1000) -> Traj
     """Integrate the planned scene with SciPy DOP853 on the derived functions."""
     scene, law, _ = read_scene(scene_path)
     p = np.array([scene.M, scene.m, *scene.J, scene.g])
-    f = load("general_flight_rhs")
+    f = Fast(load("general_flight_rhs"))
     contact = scene.contact_possible
     if contact:
-        gap, impact = load("general_gap"), load("general_impact")
-        lp = load(f"lowest_point_{scene.shape}")
+        gap, impact = Fast(load("general_gap")), Fast(load("general_impact"))
+        lp = Fast(load(f"lowest_point_{scene.shape}"))
         center, size = np.array(scene.center), np.array(scene.size)
 
         def s_of(q):
-            return np.array(lp(q[15:18], center, size).full()).ravel()
+            return lp(q[15:18], center, size)[0]
 
         def h_vn(t, q):
             h, vn = gap(q, law(t), s_of(q), p)
-            return float(h), float(vn)
+            return float(h[0]), float(vn[0])
 
     def rhs(t, q):
-        return np.array(f(q, law(t), p).full()).ravel()
+        return f(q, law(t), p)[0]
 
     def event(t, q):
         return h_vn(t, q)[0]
@@ -150,8 +164,8 @@ def resimulate(scene_path, rtol: float = 1e-12, max_impacts: int = 1000) -> Traj
             q_minus = sol.y_events[0][0]
             h, vn = h_vn(t, q_minus)
             if vn < 0:
-                qp, I = impact(q_minus, law(t), s_of(q_minus), p, scene.e)
-                q_plus = np.array(qp.full()).ravel()
+                q_plus, I = impact(q_minus, law(t), s_of(q_minus), p, [scene.e])
+                I = I[0]
                 vn_plus = h_vn(t, q_plus)[1]
                 impacts.append({"t": t, "I": float(I), "v_minus": vn, "v_plus": vn_plus,
                                 "q_minus": q_minus, "q_plus": q_plus})

@@ -1,6 +1,6 @@
 """IPOPT over the transcription, defect correction, and the infeasibility report.
 
-``solve(task)`` runs, in order: the initial guess, a cold IPOPT solve with the NLP's
+``solve(task)`` runs, in order: the initial guess, an IPOPT solve with the NLP's
 RK4, then rounds of defect correction (the accurate flow's defects as parameters of the
 same NLP, warm-started) until the defects stop changing by more than the task's
 tolerance.  A progress line per IPOPT iteration goes to stderr when asked.  When IPOPT
@@ -18,6 +18,7 @@ import casadi as ca
 import numpy as np
 from scipy.integrate import solve_ivp
 
+from .functions import Fast
 from .guess import initial_guess
 from .transcribe import NLPResult, Relax, Transcription
 
@@ -76,18 +77,18 @@ def violations(tr: Transcription, g) -> list:
             for grp in tr.groups]
 
 
-def _solver(tr: Transcription, printer: Printer, max_iter: int, warm: bool, tol: float):
+def _solver(tr: Transcription, printer: Printer, max_iter: int, tol: float):
+    """One IPOPT instance serves every round (building one costs seconds): warm-start
+    options throughout, so that the defect-correction rounds, started from the previous
+    primal and dual solution, take a few iterations; the adaptive barrier update picks a
+    small mu there by itself."""
     nlp = {"x": tr.w, "f": tr.J, "g": tr.g, "p": ca.vec(tr.delta)}
     opts = {"ipopt.print_level": 0, "print_time": False, "ipopt.sb": "yes",
-            "ipopt.max_iter": max_iter, "ipopt.tol": tol,
-            "ipopt.constr_viol_tol": 1e-12,
+            "ipopt.max_iter": max_iter, "ipopt.tol": tol, "ipopt.constr_viol_tol": 1e-12,
             "ipopt.mu_strategy": "adaptive", "iteration_callback": printer,
-            "expand": True}
-    if warm:
-        opts.update({"ipopt.warm_start_init_point": "yes", "ipopt.mu_init": 1e-9,
-                     "ipopt.warm_start_bound_push": 1e-12,
-                     "ipopt.warm_start_mult_bound_push": 1e-12,
-                     "ipopt.warm_start_slack_bound_push": 1e-12})
+            "ipopt.warm_start_init_point": "yes", "ipopt.warm_start_bound_push": 1e-9,
+            "ipopt.warm_start_mult_bound_push": 1e-9,
+            "ipopt.warm_start_slack_bound_push": 1e-9, "expand": True}
     return ca.nlpsol("plan", "ipopt", nlp, opts)
 
 
@@ -113,11 +114,12 @@ def accurate_flow(tr: Transcription, w, rtol: float = 1e-13):
     ctrl, Q, T = tr.unpack(w)
     zero = np.zeros(tr.layout.nq)
     exact, rk4 = [], []
+    G = Fast(tr.G)
     for k in range(tr.N):
         cl = tr.local_ctrl(ctrl, k)
 
         def rhs(s, q, cl=cl):
-            return np.array(tr.G(s, q, cl, T).full()).ravel()
+            return G(s, q, cl, T)[0]
         sol = solve_ivp(rhs, (0.0, 1.0), Q[:, k], method="DOP853", rtol=rtol,
                         atol=rtol * 1e-2)
         exact.append(sol.y[:, -1])
@@ -148,8 +150,8 @@ def solve(task, progress: bool = False, max_rounds: int = 6, relax: Relax = Rela
     label += " (stability conditions)" if stabilize else ""
     printer = Printer(label, tr, progress)
     delta = np.zeros((tr.layout.nq, tr.N))
-    cold = _solver(tr, printer, task.max_iterations, warm=False, tol=1e-9)
-    res = _run(cold, tr, w0, delta)
+    solver = _solver(tr, printer, task.max_iterations, tol=min(1e-10, task.tolerance))
+    res = _run(solver, tr, w0, delta)
     rounds = [{"round": 0, "status": res.status, "iterations": res.iterations,
                "seconds": res.seconds}]
     total = res.seconds
@@ -162,7 +164,6 @@ def solve(task, progress: bool = False, max_rounds: int = 6, relax: Relax = Rela
             if report.blocking:
                 report.message += "; " + report.blocking["message"]
         return report
-    warm = cold
     change = np.inf
     for r in range(1, max_rounds + 1):
         t0 = time.perf_counter()
@@ -175,9 +176,7 @@ def solve(task, progress: bool = False, max_rounds: int = 6, relax: Relax = Rela
         if change <= task.tolerance:
             break
         delta = new_delta
-        nxt = _run(warm, tr, res.w, delta, res.lam_g, res.lam_x)
-        if not nxt.success:           # a cold start from the warm point
-            nxt = _run(cold, tr, res.w, delta)
+        nxt = _run(solver, tr, res.w, delta, res.lam_g, res.lam_x)
         rounds.append({"round": r, "status": nxt.status, "iterations": nxt.iterations,
                        "seconds": nxt.seconds, "defect_change": change})
         total += nxt.seconds

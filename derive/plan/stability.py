@@ -20,7 +20,7 @@ from scipy.integrate import solve_ivp
 
 from ..stability.bouncing import saltation
 from ..stability.floquet import UNIT_TOL, complex_pairs
-from .functions import load, lowest_point
+from .functions import Fast, load, lowest_point
 from .law import Law
 
 RTOL = 1e-12
@@ -37,6 +37,8 @@ class HopFlow:
         self.jac = load("vertical_flight_jacobian")
         self.gap = load("vertical_gap")
         self.imp = load("vertical_impact")
+        self.fast = {name: Fast(fn) for name, fn in (("f", self.f), ("jac", self.jac),
+                                                     ("gap", self.gap), ("imp", self.imp))}
         self.sc = sc
 
     def s_of(self, q):
@@ -47,7 +49,7 @@ class HopFlow:
         return self.law.u(t)[:, 0]
 
     def rhs(self, t, q):
-        return np.array(self.f(q, self.u(t), self.p).full()).ravel()
+        return self.fast["f"](q, self.u(t), self.p)[0]
 
     def variational(self, t0, q0, t1):
         """(q(t1), Phi(t1, t0)) by DOP853, piece by piece of the law."""
@@ -56,8 +58,8 @@ class HopFlow:
         def rhs(t, y):
             q = y[:n]
             u = self.u(t)
-            dq = np.array(self.f(q, u, self.p).full()).ravel()
-            A = np.array(self.jac(q, u, self.p).full()).reshape(n, n)
+            dq = self.fast["f"](q, u, self.p)[0]
+            A = self.fast["jac"](q, u, self.p)[0].reshape(n, n)
             return np.r_[dq, (A @ y[n:].reshape(n, n)).ravel()]
         y = np.r_[q0, np.eye(n).ravel()]
         for a, b in self._segments(t0, t1):
@@ -73,7 +75,7 @@ class HopFlow:
     def hybrid(self, t0, q0, t1):
         """The nonlinear flow with its impacts from t0 to t1 (for finite differences)."""
         def h(t, q):
-            return float(self.gap(q, self.u(t), self.s_of(q), self.p)[0])
+            return float(self.fast["gap"](q, self.u(t), self.s_of(q), self.p)[0][0])
         h.terminal, h.direction = True, -1
         t, q = t0, np.array(q0, float)
         while t < t1:
@@ -82,8 +84,7 @@ class HopFlow:
             if sol.status == 1 and len(sol.t_events[0]):
                 t = float(sol.t_events[0][0])
                 qm = sol.y_events[0][0]
-                q = np.array(self.imp(qm, self.u(t), self.s_of(qm), self.p,
-                                      self.sc.e)[0].full()).ravel()
+                q = self.fast["imp"](qm, self.u(t), self.s_of(qm), self.p, [self.sc.e])[0]
                 nxt = min(t + 1e-9, t1)
                 q = solve_ivp(self.rhs, (t, nxt), q, method="DOP853", rtol=RTOL,
                               atol=RTOL * 1e-2).y[:, -1]
