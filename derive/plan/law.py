@@ -105,9 +105,10 @@ class Law:
         i = np.clip(np.floor(t / h).astype(int), 0, n - 1)
         dt = t - i * h
         P = self.polynomials_in_t()[i]           # (N, dim, 4)
-        val = P[..., 0] + dt[:, None] * (P[..., 1] + dt[:, None] * (P[..., 2] + dt[:, None] * P[..., 3]))
-        d1 = P[..., 1] + dt[:, None] * (2 * P[..., 2] + 3 * dt[:, None] * P[..., 3])
-        d2 = 2 * P[..., 2] + 6 * dt[:, None] * P[..., 3]
+        d = dt[:, None]
+        val = P[..., 0] + d * (P[..., 1] + d * (P[..., 2] + d * P[..., 3]))
+        d1 = P[..., 1] + d * (2 * P[..., 2] + 3 * d * P[..., 3])
+        d2 = 2 * P[..., 2] + 6 * d * P[..., 3]
         return np.stack([val.T, d1.T, d2.T])
 
     def u(self, t) -> np.ndarray:

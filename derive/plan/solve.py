@@ -32,8 +32,11 @@ class Printer(ca.Callback):
         ca.Callback.__init__(self)
         self.label, self.tr, self.enabled = label, tr, enabled
         self.nx, self.ng = tr.w.shape[0], tr.g.shape[0]
-        self.iteration = 0
+        self.iteration, self.round = 0, 0
         self.construct("progress", {})
+
+    def start(self, round_: int):
+        self.round, self.iteration = round_, 0
 
     def get_n_in(self):
         return ca.nlpsol_n_out()
@@ -62,7 +65,7 @@ class Printer(ca.Callback):
             g = np.array(arg[2]).ravel()
             viol = violations(self.tr, g)
             worst = max(viol, key=lambda kv: kv[1]) if viol else ("", 0.0)
-            print(f"  plan {self.label}  it {self.iteration:4d}  objective "
+            print(f"  plan {self.label}  round {self.round}  it {self.iteration:4d}  objective "
                   f"{float(arg[1]):.6e}  violation {worst[1]:.2e}"
                   + (f" ({worst[0]})" if worst[1] > 0 else ""), file=sys.stderr, flush=True)
         self.iteration += 1
@@ -151,6 +154,7 @@ def solve(task, progress: bool = False, max_rounds: int = 6, relax: Relax = Rela
     printer = Printer(label, tr, progress)
     delta = np.zeros((tr.layout.nq, tr.N))
     solver = _solver(tr, printer, task.max_iterations, tol=min(1e-10, task.tolerance))
+    printer.start(0)
     res = _run(solver, tr, w0, delta)
     rounds = [{"round": 0, "status": res.status, "iterations": res.iterations,
                "seconds": res.seconds}]
@@ -176,6 +180,7 @@ def solve(task, progress: bool = False, max_rounds: int = 6, relax: Relax = Rela
         if change <= task.tolerance:
             break
         delta = new_delta
+        printer.start(r)
         nxt = _run(solver, tr, res.w, delta, res.lam_g, res.lam_x)
         rounds.append({"round": r, "status": nxt.status, "iterations": nxt.iterations,
                        "seconds": nxt.seconds, "defect_change": change})
