@@ -211,6 +211,13 @@ def test_circle_geometric_phase(center, tmp_path):
     assert abs(turned - closed) < 1e-8
     achieved = w.summary["achieved"]["scipy"]["attitude_error_rad"]
     assert achieved < 1e-8
+    if CC and CXX:      # the circle's C law (the angle's table, then the circle) plays it back
+        ts = np.r_[np.linspace(0, law.T, 25), 1.2 * law.T]
+        rows = play_law(w.folder, tmp_path, ts)
+        assert list(rows[:, 0]) == [0] * 25 + [1]   # outside the table: flagged
+        assert np.max(np.abs(rows[:-1, 1:] - law.u(ts[:-1]).T)) < 1e-12
+        r, v, acc = w.law(ts[:-1])
+        assert np.max(np.abs(rows[:-1, 1:4] - r)) < 1e-10   # and the table's spline
 
 
 def test_reorient_planar_matches_e42_and_newton_euler(reorient):
@@ -357,33 +364,48 @@ def test_law_against_scipy_bspline(reorient):
     assert np.max(np.abs(reorient.spline(mid) - law.u(mid)[0:3].T)) < 1e-10
 
 
-@pytest.mark.skipif(CC is None or CXX is None, reason="no C/C++ compiler")
-def test_law_c_compiles_strict_and_matches(hop, tmp_path):
-    folder = hop.folder
-    main = tmp_path / "main.cpp"
-    main.write_text(
-        '#include "law.h"\n#include <cstdio>\n#include <cstdlib>\n'
-        "int main(int argc, char **argv) {\n"
-        "  for (int i = 1; i < argc; ++i) {\n"
-        "    double u[9];\n    double t = std::atof(argv[i]);\n"
-        "    int out = carrier_law_eval(t, u);\n    std::printf(\"%d\", out);\n"
-        "    for (int k = 0; k < 9; ++k) std::printf(\" %.17g\", u[k]);\n"
-        "    std::printf(\"\\n\");\n  }\n  return 0;\n}\n")
-    obj = tmp_path / "law.o"
+PLAYER = """#include "law.h"
+#include <cstdio>
+#include <cstdlib>
+int main(int argc, char **argv) {
+  for (int i = 1; i < argc; ++i) {
+    double u[9];
+    double t = std::atof(argv[i]);
+    int out = carrier_law_eval(t, u);
+    std::printf("%d", out);
+    for (int k = 0; k < 9; ++k) std::printf(" %.17g", u[k]);
+    std::printf("\\n");
+  }
+  return 0;
+}
+"""
+
+
+def play_law(folder: Path, tmp: Path, ts) -> np.ndarray:
+    """Compile law.c (C99, strict) and a C++ player including law.h (strict); check that
+    the object has no writable data and calls no allocator; return its rows (flag, u)."""
+    (tmp / "main.cpp").write_text(PLAYER)
+    obj = tmp / "law.o"
     subprocess.run([CC, "-std=c99", *STRICT, "-O2", "-c", str(folder / "law.c"), "-o",
                     str(obj)], check=True, capture_output=True, text=True)
-    exe = tmp_path / "play"
-    subprocess.run([CXX, "-std=c++11", *STRICT, "-I", str(folder), str(main), str(obj), "-o",
-                    str(exe), "-lm"], check=True, capture_output=True, text=True)
+    exe = tmp / "play"
+    subprocess.run([CXX, "-std=c++11", *STRICT, "-I", str(folder), str(tmp / "main.cpp"),
+                    str(obj), "-o", str(exe), "-lm"], check=True, capture_output=True,
+                   text=True)
     nm = subprocess.run(["nm", str(obj)], capture_output=True, text=True, check=True).stdout
     kinds = {line.split()[-2] for line in nm.splitlines() if len(line.split()) >= 2}
     assert not kinds & set("BbDdGgSs"), nm          # no writable static data
-    assert "malloc" not in nm
+    assert "malloc" not in nm and "free" not in nm.split()
+    out = subprocess.run([str(exe), *[repr(float(t)) for t in ts]], capture_output=True,
+                         text=True, check=True).stdout.splitlines()
+    return np.array([[float(v) for v in line.split()] for line in out if line.strip()])
+
+
+@pytest.mark.skipif(CC is None or CXX is None, reason="no C/C++ compiler")
+def test_law_c_compiles_strict_and_matches(hop, tmp_path):
     T = hop.result.law.T
     ts = np.r_[np.linspace(0, T, 37), 2.5 * T, -0.3 * T]
-    out = subprocess.run([str(exe), *[repr(float(t)) for t in ts]], capture_output=True,
-                         text=True, check=True).stdout.split("\n")
-    rows = np.array([[float(v) for v in line.split()] for line in out if line.strip()])
+    rows = play_law(hop.folder, tmp_path, ts)
     assert np.all(rows[:, 0] == 0)                 # periodic: always inside
     r, v, a = hop.law(ts)
     peer = np.column_stack([r, v, a])
@@ -391,6 +413,8 @@ def test_law_c_compiles_strict_and_matches(hop, tmp_path):
     assert np.max(np.abs(rows[:, 1:] - peer) / scale) < 1e-9
     ours = hop.result.law.u(ts).T
     assert np.max(np.abs(rows[:, 1:] - ours) / scale) < 1e-12
+    nan = play_law(hop.folder, tmp_path, [float("nan")])
+    assert nan[0, 0] == 1 and np.all(np.isnan(nan[0, 1:]))
 
 
 # ---- errors and the command line ---------------------------------------------------------

@@ -5,8 +5,6 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
-
 from ..emit.render import environment, versions
 from .law import Law
 
@@ -33,7 +31,3 @@ def render(law: Law) -> dict[str, str]:
     env = environment()
     return {name: env.get_template(f"plan/{name}.jinja").render(**ctx)
             for name in ("law.h", "law.c")}
-
-
-def coefficient_table(law: Law) -> np.ndarray:
-    return law.polynomials_in_t()

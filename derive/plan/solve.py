@@ -164,8 +164,11 @@ def solve(task, progress: bool = False, max_rounds: int = 6, relax: Relax = Rela
         report.solver_seconds = total
         report.message = failure_message(tr, res)
         if diagnose and not relax.names:
-            report.blocking = find_blocking(task, res.w, progress)
-            if report.blocking:
+            report.blocking = find_blocking(task, progress)
+            if report.blocking.get("limit"):
+                report.message = ("infeasible: " + report.blocking["message"] + "; "
+                                  + report.message.removeprefix("infeasible: "))
+            else:
                 report.message += "; " + report.blocking["message"]
         return report
     change = np.inf
@@ -206,11 +209,11 @@ def failure_message(tr: Transcription, res: NLPResult) -> str:
     status = res.status.replace("_", " ").lower()
     if worst:
         return f"infeasible: IPOPT stopped with '{status}'; largest violations: " + \
-               "; ".join(worst)
+               ", ".join(worst)
     return f"IPOPT stopped with '{status}' after {res.iterations} iterations"
 
 
-def find_blocking(task, w_last, progress: bool) -> dict:
+def find_blocking(task, progress: bool) -> dict:
     """Lift each task limit in turn; the first whose removal makes the task solvable is
     the one that blocks it, reported with the value the relaxed plan needs."""
     from .law import Law
@@ -232,12 +235,12 @@ def find_blocking(task, w_last, progress: bool) -> dict:
             need = float(np.max(np.linalg.norm(u[6:9], axis=0)))
             limit = task.max_acceleration
             text = (f"max_acceleration blocks it: without it the plan needs |OP''| up to "
-                    f"{need:.4g} (limit {limit:.4g})")
+                    f"{need:.4g} m/s^2 (limit {limit:.4g})")
         elif name == "region":
             need = float(np.max(np.linalg.norm(u[0:3].T - task.region_center, axis=1)))
             limit = task.region_radius
-            text = (f"region blocks it: without it P goes {need:.4g} from the centre "
-                    f"(radius {limit:.4g})")
+            text = (f"region blocks it: without it P goes {need:.4g} m from the centre "
+                    f"(radius {limit:.4g} m)")
         else:
             need, limit = T, task.horizon
             text = f"horizon blocks it: without it the plan takes {T:.4g} s " \

@@ -124,7 +124,8 @@ class Transcription:
             gap = load(f"{lay.model}_gap")
             impact = load(f"{lay.model}_impact")
             self.gap = lambda q, u, s, p: gap(lay.full(q), u, s, p)
-            self.impact = lambda q, u, s, p, e: [impact(lay.full(q), u, s, p, e)[0][list(lay.keep)]]
+            self.impact = lambda q, u, s, p, e: [
+                impact(lay.full(q), u, s, p, e)[0][list(lay.keep)]]
         self._build_law_function()
         self._build_interval()
         self._build_nlp()
