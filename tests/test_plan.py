@@ -348,6 +348,20 @@ def test_hop_effort_optimum_is_unstable_and_reported(hop):
     assert second["effort"] > first["effort"]
 
 
+def test_hop_require_stable_refuses_an_unstable_orbit():
+    """With the region above O, C cannot be below the sphere's centre at the impact (the
+    tilt condition), so no stable orbit is found and require_stable makes the task
+    infeasible, naming that condition."""
+    doc = tomllib.loads((EXAMPLES / "hop.toml").read_text())
+    doc["plan"]["region"] = {"center": [0.0, 0.0, 0.06], "radius": 0.04}
+    doc["plan"]["require_stable"] = True
+    result = make_plan(doc)
+    assert result.status == "infeasible"
+    assert "require_stable" in result.message and "stability (tilt)" in result.message
+    first = result.summary["stability_attempts"][0]
+    assert first["verdict"].startswith("unstable")
+
+
 # ---- the law -----------------------------------------------------------------------------
 def test_law_against_scipy_bspline(reorient):
     law = reorient.result.law

@@ -227,9 +227,10 @@ def plan(task, progress: bool = False, runtime: bool = True) -> Plan:
     if report.success and task.goal == "hop" and task.require_stable \
             and not stability["stable"]:
         report.success = False
-        report.message = ("infeasible: require_stable: no stable orbit found (the "
-                          f"effort-optimal orbit and the one with the stability conditions "
-                          f"are {', '.join(a['verdict'] for a in attempts)})")
+        tried = f"the effort-optimal orbit is {attempts[0]['verdict']}"
+        if len(attempts) > 1:
+            tried += f"; with the stability conditions: {attempts[1]['verdict']}"
+        report.message = f"infeasible: require_stable: no stable orbit ({tried})"
     if not report.success:
         status = "infeasible" if "infeasible" in report.message or report.blocking else "failed"
         summary.update(status=status, message=report.message,
