@@ -44,7 +44,8 @@ def report_lines(result) -> list[str]:
     lines = [f"{s['goal']}: {s['status']}; IPOPT and defect correction "
              f"{sv['ipopt_and_defect_correction_seconds']:.2f} s ({len(sv['solves'])} solves, "
              f"{sv['iterations']} iterations; {sv['variables']} variables, "
-             f"{sv['constraints']} constraints), total {s['total_seconds']:.1f} s"]
+             f"{sv['constraints']} constraints), NLP build {sv['nlp_build_seconds']:.2f} s, "
+             f"total {s['total_seconds']:.1f} s"]
     if not result.ok:
         lines.append(f"  {s['message']}")
         return lines

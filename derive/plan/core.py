@@ -217,6 +217,7 @@ def plan(task, progress: bool = False, runtime: bool = True) -> Plan:
     tr = report.tr
     summary = {"goal": task.goal, "objective": task.objective,
                "solver": {"ipopt_and_defect_correction_seconds": report.solver_seconds,
+                          "nlp_build_seconds": report.build_seconds,
                           "solves": report.rounds,
                           "iterations": int(sum(r["iterations"] for r in report.rounds)),
                           "intervals": tr.N, "rk4_substeps": tr.m,
@@ -331,6 +332,7 @@ def _stable_hop(task: Task, report: SolveReport, progress: bool):
                      "effort": _effort(second.tr, second.result.w)})
     second.rounds = report.rounds + second.rounds
     second.solver_seconds += report.solver_seconds
+    second.build_seconds += report.build_seconds
     if stab2["stable"] or stab2["max_modulus"] < first["max_modulus"]:
         return second, stab2, attempts
     return report, first, attempts

@@ -33,6 +33,8 @@ from .task import Task
 
 GAUSS3 = ((0.5 - math.sqrt(15) / 10, 5 / 18), (0.5, 8 / 18), (0.5 + math.sqrt(15) / 10, 5 / 18))
 HOP_PERIODIC = ("Z_C'", "omega_x", "omega_y", "a31", "a32")     # see Transcription._hop
+CONTINUITY = "continuity of the motion (multiple shooting)"
+GAP_GROUP = "flight: S above the plane before touchdown (h >= 0)"
 
 
 @dataclass
@@ -218,17 +220,19 @@ class Transcription:
         self.h_sub = out[1] if self.plane else None
 
         g, self.groups, lbg, ubg = [], [], [], []
+        self.group_exprs = []
 
         def add(name, expr, lb, ub, limit=""):
             expr = ca.vec(expr)
             n = expr.shape[0]
             start = sum(e.shape[0] for e in g)
             g.append(expr)
+            self.group_exprs.append(expr)
             lbg.extend(np.broadcast_to(lb, n).tolist())
             ubg.extend(np.broadcast_to(ub, n).tolist())
             self.groups.append(Group(name, start, start + n, limit))
 
-        add("continuity of the motion (multiple shooting)", Q[:, 1:] - self.q_end, 0, 0)
+        add(CONTINUITY, Q[:, 1:] - self.q_end, 0, 0)
         self._law_constraints(add)
         self._limits(add)
         getattr(self, f"_{task.goal}")(add)
@@ -236,6 +240,117 @@ class Transcription:
         self.lbg, self.ubg = np.array(lbg), np.array(ubg)
         self.J = self._objective()
         self._bounds()
+
+    def _z_index(self, k: int) -> list:
+        """Where z_k = (q_k, the control points of piece k, T if free) sits in w."""
+        nq, sp, dim = self.layout.nq, self.spline, self.dim
+        idx = list(self.n_c + k * nq + np.arange(nq))
+        idx += [c * sp.n_ctrl + i for c in range(dim) for i in sp.indices(k)]
+        if self.free_T:
+            idx.append(self.w.shape[0] - 1)
+        return idx
+
+    def _interval_symbols(self):
+        nq, dim = self.layout.nq, self.dim
+        q, cl, T, delta = (ca.SX.sym("q", nq), ca.SX.sym("cl", 4 * dim), ca.SX.sym("T"),
+                           ca.SX.sym("delta", nq))
+        z = ca.vertcat(q, cl, T) if self.free_T else ca.vertcat(q, cl)
+        return q, cl, T, delta, z
+
+    def _x_parts(self, x):
+        sp, dim, nq, N = self.spline, self.dim, self.layout.nq, self.N
+        ctrl = ca.reshape(x[:self.n_c], sp.n_ctrl, dim)
+        Qx = ca.reshape(x[self.n_c:self.n_c + self.n_q], nq, N + 1)
+        Tx = x[x.shape[0] - 1] if self.free_T else self.task.horizon
+        CLx = ca.horzcat(*[ca.vec(ctrl[sp.indices(k), :]) for k in range(N)])
+        return Qx, CLx, Tx
+
+    def _rest(self):
+        """The groups other than continuity and the in-flight gap: (groups, SX w, J, g)."""
+        rest = [gr for gr in self.groups if gr.name not in (CONTINUITY, GAP_GROUP)]
+        g_rest = ca.vertcat(*[self.group_exprs[self.groups.index(gr)] for gr in rest])
+        f_rest = ca.Function("rest", [self.w], [self.J, g_rest]).expand()
+        ws = ca.SX.sym("w", self.w.shape[0])
+        J_s, g_s = f_rest(ws)
+        return rest, ws, J_s, g_s
+
+    def jacobian_function(self) -> ca.Function:
+        """``(x, p) -> (g, dg/dx)`` from its structure, like :meth:`hessian_function`:
+        the Jacobian of one RK4 interval in z_k, built once and mapped."""
+        nq, N, m = self.layout.nq, self.N, self.m
+        nw = self.w.shape[0]
+        q, cl, T, delta, z = self._interval_symbols()
+        out = self.F.call([q, cl, T, delta])
+        outs = [ca.jacobian(out[0], z)] + ([ca.jacobian(out[1], z)] if self.plane else [])
+        JF = ca.Function("JF", [q, cl, T, delta], outs).map(N)
+        nz = z.shape[0]
+        x = ca.MX.sym("x", nw)
+        p = ca.MX.sym("p", self.delta.numel())
+        Qx, CLx, Tx = self._x_parts(x)
+        J_int = JF.call([Qx[:, :N], CLx, Tx, ca.reshape(p, nq, N)])
+        E = [ca.DM(ca.Sparsity.triplet(nz, nw, list(range(nz)), self._z_index(k)), 1.0)
+             for k in range(N)]
+        rest, ws, _, g_s = self._rest()
+        Jrest = ca.Function("Jrest", [ws], [ca.jacobian(g_s, ws)])(x)
+        blocks, r = [], 0
+        for gr in self.groups:
+            if gr.name == CONTINUITY:
+                for k in range(N):
+                    nxt = ca.DM(ca.Sparsity.triplet(nq, nw, list(range(nq)), list(
+                        self.n_c + (k + 1) * nq + np.arange(nq))), 1.0)
+                    blocks.append(nxt - ca.mtimes(J_int[0][:, k * nz:(k + 1) * nz], E[k]))
+            elif gr.name == GAP_GROUP:
+                for k in range(N):
+                    Jh = ca.mtimes(J_int[1][:, k * nz:(k + 1) * nz], E[k])
+                    blocks.append(Jh if k < N - 1 else Jh[:m - 1, :])
+            else:
+                n = gr.stop - gr.start
+                blocks.append(Jrest[r:r + n, :])
+                r += n
+        g = ca.Function("g", [self.w, ca.vec(self.delta)], [self.g])(x, p)
+        return ca.Function("jac_g", [x, p], [g, ca.vertcat(*blocks)], ["x", "p"],
+                           ["g", "jac_g_x"])
+
+    def hessian_function(self) -> ca.Function:
+        """The Hessian of the Lagrangian, ``(x, p, lam_f, lam_g) -> triu(H)``, built from
+        its structure: the RK4 intervals contribute one small block each, the Hessian of
+        ``lam^T F`` in (q_k, the piece's control points, T), differentiated once for all
+        intervals and mapped; the rest (objective, end conditions, limits) is small and
+        differentiated directly.  IPOPT gets the same matrix as from differentiating the
+        whole NLP, at a fraction of the cost of building it."""
+        nq, N, m = self.layout.nq, self.N, self.m
+        nw = self.w.shape[0]
+        q, cl, T, delta, z = self._interval_symbols()
+        lq, lh = ca.SX.sym("lq", nq), ca.SX.sym("lh", m if self.plane else 0)
+        out = self.F.call([q, cl, T, delta])
+        phi = -ca.dot(lq, out[0]) + (ca.dot(lh, out[1]) if self.plane else 0)
+        HF = ca.Function("HF", [q, cl, T, delta, lq, lh], [ca.hessian(phi, z)[0]]).map(N)
+        nz = z.shape[0]
+        x = ca.MX.sym("x", nw)
+        p = ca.MX.sym("p", self.delta.numel())
+        lam_f = ca.MX.sym("lam_f")
+        lam_g = ca.MX.sym("lam_g", self.g.shape[0])
+        cont = next(gr for gr in self.groups if gr.name == CONTINUITY)
+        LQ = ca.reshape(lam_g[cont.start:cont.stop], nq, N)
+        if self.plane:
+            gap = next(gr for gr in self.groups if gr.name == GAP_GROUP)
+            LH = ca.reshape(ca.vertcat(lam_g[gap.start:gap.stop], 0), m, N)
+        else:
+            LH = ca.MX(0, N)
+        Qx, CLx, Tx = self._x_parts(x)
+        blocks = HF(Qx[:, :N], CLx, Tx, ca.reshape(p, nq, N), LQ, LH)
+        H = ca.MX(nw, nw)
+        for k in range(N):
+            E = ca.DM(ca.Sparsity.triplet(nz, nw, list(range(nz)), self._z_index(k)), 1.0)
+            H += ca.mtimes([E.T, blocks[:, k * nz:(k + 1) * nz], E])
+        rest, ws, J_s, g_s = self._rest()
+        lam_rest = ca.vertcat(*[lam_g[gr.start:gr.stop] for gr in rest])
+        ls, lf = ca.SX.sym("l", g_s.shape[0]), ca.SX.sym("lf")
+        H_rest = ca.Function("Hrest", [ws, lf, ls], [ca.hessian(lf * J_s + ca.dot(ls, g_s),
+                                                                 ws)[0]])
+        H += H_rest(x, lam_f, lam_rest)
+        return ca.Function("hess_lag", [x, p, lam_f, lam_g], [ca.triu(H)],
+                           ["x", "p", "lam_f", "lam_g"], ["hess_gamma_x_x"])
 
     def u_at(self, k: int, s: float):
         return self.U(self.CL[:, k], s, self.T)
@@ -304,7 +419,7 @@ class Transcription:
         add("touchdown: S reaches the plane at t = T (h = 0)", h, 0, 0)
         add("touchdown: S approaches the plane (v_n < 0)", vn / self.v_ref, -np.inf, -0.05)
         hs = ca.vec(self.h_sub)         # after every RK4 step; the last one is t = T
-        add("flight: S above the plane before touchdown (h >= 0)", hs[:-1], 0, np.inf,
+        add(GAP_GROUP, hs[:-1], 0, np.inf,
             "plane")
         return qN, uN
 
