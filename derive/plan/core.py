@@ -215,7 +215,7 @@ def plan(task, progress: bool = False, runtime: bool = True) -> Plan:
     if task.goal == "hop" and report.success:
         report, stability, attempts = _stable_hop(task, report, progress)
     tr = report.tr
-    summary = {"goal": task.goal, "objective": task.objective,
+    summary = {"goal": task.goal, "objective": {"kind": task.objective},
                "solver": {"ipopt_and_defect_correction_seconds": report.solver_seconds,
                           "nlp_build_seconds": report.build_seconds,
                           "solves": report.rounds,
@@ -276,6 +276,10 @@ def plan(task, progress: bool = False, runtime: bool = True) -> Plan:
                       "max_distance_from_region_center": float(np.max(np.linalg.norm(
                           u[0:3].T - task.region_center, axis=1))),
                       "effort": float(np.array(_effort(tr, report.result.w)))}
+    summary["objective"] = ({"kind": "effort", "value": summary["law"]["effort"],
+                             "unit": "m^2/s^3 (integral of |OP''|^2)"}
+                            if task.objective == "effort" else
+                            {"kind": "time", "value": T, "unit": "s"})
     summary["nlp_estimate"] = nlp_est
     # re-simulate the written files
     trajectories = {}
