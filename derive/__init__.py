@@ -4,7 +4,8 @@
 ``derive.simulate(scene)`` runs a scene (a TOML path, a dict of the scene schema or a
 parsed :class:`~derive.runtime.scene.Scene`) and returns a
 :class:`~derive.runtime.driver.Result`; ``derive.simulate_many(scene, variants)`` runs
-many variants of one scene for parameter studies.  Importing ``derive`` loads neither
+many variants of one scene for parameter studies; ``derive.plan(task)`` plans the
+point's motion (:mod:`derive.planner`).  Importing ``derive`` loads neither
 SymPy nor CasADi: the runtime is precompiled C.
 """
 from __future__ import annotations
@@ -22,4 +23,11 @@ def simulate_many(scene, variants, **kwargs):
     return _many(scene, variants, **kwargs)
 
 
-__all__ = ["simulate", "simulate_many"]
+def plan(task, **kwargs):
+    """Plan the point's motion for a task; see :func:`derive.planner.core.plan` (CasADi
+    loads on the first call)."""
+    from .planner.core import plan as _plan
+    return _plan(task, **kwargs)
+
+
+__all__ = ["simulate", "simulate_many", "plan"]

@@ -538,6 +538,8 @@ def build_parser() -> argparse.ArgumentParser:
                         "both) or both")
     b.set_defaults(func=cmd_bench_fuzz)
 
+    from .planner.cli import add_parser as _add_plan_parser
+    _add_plan_parser(sub)
     return parser
 
 
@@ -547,6 +549,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         return int(args.func(args) or 0)
     except UsageError as exc:
+        print(f"derive {args.command}: {exc}", file=sys.stderr)
+        return 2
+    except ValueError as exc:            # SceneError from a subcommand that raises it
+        from .runtime.scene import SceneError
+        if not isinstance(exc, SceneError):
+            raise
         print(f"derive {args.command}: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:

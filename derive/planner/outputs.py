@@ -1,0 +1,72 @@
+"""Writing a plan: law.csv, scene.toml, plan.json, law.c, law.h and PNG plots."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from .core import Plan, _write_table, summary_json
+
+
+def write_plan(plan: Plan, out: Path) -> list[Path]:
+    out.mkdir(parents=True, exist_ok=True)
+    written = []
+    if plan.ok:
+        _write_table(out / "law.csv", plan.table)
+        (out / "scene.toml").write_text(plan.scene_toml, encoding="utf-8")
+        for name, text in plan.sources.items():
+            (out / name).write_text(text, encoding="utf-8")
+        written += [out / "law.csv", out / "scene.toml", out / "law.c", out / "law.h"]
+    (out / "plan.json").write_text(summary_json(plan.summary), encoding="utf-8")
+    written.append(out / "plan.json")
+    if plan.ok:
+        written += plots(plan, out)
+    return written
+
+
+def plots(plan: Plan, out: Path) -> list[Path]:
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    task, law = plan.task, plan.law
+    paths = []
+    t = plan.table[:, 0]
+    u = plan.table[:, 1:].T
+    fig, ax = plt.subplots(2, 1, figsize=(7, 6), sharex=True)
+    for k, name in enumerate("xyz"):
+        ax[0].plot(t, u[k], label=name)
+    ax[0].set_ylabel("OP, body axes (m)")
+    ax[0].legend(loc="best")
+    ax[1].plot(t, np.linalg.norm(u[6:9], axis=0), label="|OP''|")
+    ax[1].axhline(task.max_acceleration, color="k", ls="--", lw=0.8, label="max_acceleration")
+    ax[1].set_ylabel("m/s^2")
+    ax[1].set_xlabel("t (s)")
+    ax[1].legend(loc="best")
+    fig.suptitle(f"planned law ({task.goal})")
+    fig.subplots_adjust(left=0.12, right=0.97, top=0.92, bottom=0.09, hspace=0.12)
+    fig.savefig(out / "law.png", dpi=110)
+    plt.close(fig)
+    paths.append(out / "law.png")
+
+    traj = plan.trajectories.get("scipy")
+    if traj is not None:
+        fig, ax = plt.subplots(2, 1, figsize=(7, 6), sharex=True)
+        for k, name in enumerate(("omega_x", "omega_y", "omega_z")):
+            ax[0].plot(traj.t, traj.q[:, 6 + k], label=name)
+        ax[0].set_ylabel("rad/s")
+        ax[0].legend(loc="best")
+        if task.target is not None:
+            from .resim import rotation_angle
+            ang = [rotation_angle(task.target, q[9:18].reshape(3, 3)) for q in traj.q]
+            ax[1].semilogy(traj.t, np.maximum(ang, 1e-16))
+            ax[1].set_ylabel("angle to target_matrix (rad)")
+        else:
+            ax[1].plot(traj.t, traj.q[:, 2], label="Z_C")
+            ax[1].set_ylabel("Z_C (m)")
+        ax[1].set_xlabel("t (s)")
+        fig.suptitle("re-simulated scene.toml (SciPy DOP853)")
+        fig.subplots_adjust(left=0.12, right=0.97, top=0.92, bottom=0.09, hspace=0.12)
+        fig.savefig(out / "motion.png", dpi=110)
+        plt.close(fig)
+        paths.append(out / "motion.png")
+    return paths

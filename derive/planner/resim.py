@@ -1,0 +1,221 @@
+"""Re-simulation of a planned scene: the *achieved* result, not the NLP's estimate.
+
+A planned ``scene.toml`` carries its law as a table (``[point].table``, ``ends``), which
+the runtime interpolates with a C^2 cubic spline (SciPy ``CubicSpline`` semantics).
+Until the runtime on this branch reads tables, this adapter integrates the scene itself:
+
+* :func:`resimulate` — the same spline (``CubicSpline`` with bc ``periodic``,
+  ``clamped`` for ``rest``, ``not-a-knot`` for ``free``), the derived ``general`` flight
+  right-hand side, gap, lowest point and impact map (CasADi functions from
+  ``generated/casadi``), SciPy DOP853 at rtol 1e-12, impacts located as events of the
+  gap (terminal, then the impact map applied when v_n < 0);
+* :func:`runtime_resimulate` — ``derive.simulate`` itself, tried on the scene: when the
+  runtime accepts ``[point].table`` its result is used too; otherwise the reason is
+  recorded.
+
+Both return a :class:`Trajectory`, which :func:`derive.planner.measure` reads.  This module is
+the only place to change when the runtime alone should be used.
+"""
+from __future__ import annotations
+
+import bisect
+import copy
+import csv
+import math
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+from scipy.integrate import solve_ivp
+from scipy.interpolate import CubicSpline
+
+from ..runtime.scene import Scene, SceneError, parse_scene
+from .functions import Fast, load
+
+BC = {"periodic": "periodic", "rest": "clamped", "free": "not-a-knot"}
+
+
+@dataclass
+class Trajectory:
+    t: np.ndarray                 # (N,)
+    q: np.ndarray                 # (N, 18), general layout
+    impacts: list = field(default_factory=list)   # dicts: t, I, v_minus, v_plus, q_minus, q_plus
+    status: str = "done"
+    source: str = ""
+
+
+def read_table(path: Path):
+    """(t, xyz) from a law table: header row, columns t, x, y, z used."""
+    try:
+        with open(path, newline="", encoding="utf-8") as fh:
+            rows = list(csv.reader(fh))
+    except OSError as exc:
+        raise SceneError("[point].table", f"cannot be read ({exc})") from None
+    if len(rows) < 3:
+        raise SceneError("[point].table", "needs a header and at least two rows")
+    head = [h.strip() for h in rows[0]]
+    try:
+        cols = [head.index(c) for c in ("t", "x", "y", "z")]
+    except ValueError:
+        raise SceneError("[point].table", "needs columns t, x, y, z") from None
+    data = np.array([[float(r[c]) for c in cols] for r in rows[1:]])
+    if not np.all(np.isfinite(data)) or np.any(np.diff(data[:, 0]) <= 0):
+        raise SceneError("[point].table", "t must increase and every value be finite")
+    return data[:, 0], data[:, 1:]
+
+
+class SplineLaw:
+    """The runtime's reading of a table: a C^2 cubic spline of (x, y, z)."""
+
+    def __init__(self, t, xyz, ends: str):
+        if ends not in BC:
+            raise SceneError("[point].ends", f"must be one of {', '.join(BC)}")
+        self.t0, self.t1, self.ends = float(t[0]), float(t[-1]), ends
+        bc = BC[ends]
+        if ends == "rest":
+            bc = ((1, np.zeros(3)), (1, np.zeros(3)))
+        self.spline = CubicSpline(t, xyz, axis=0, bc_type=bc)
+        self.d1, self.d2 = self.spline.derivative(1), self.spline.derivative(2)
+        self.x, self.c = self.spline.x, self.spline.c        # c[k, i]: of (t - x_i)^(3-k)
+
+    def __call__(self, t) -> np.ndarray:
+        """(9,) for a number t, (9, N) for an array: x, y, z, x', y', z', x'', y'', z''
+        (outside the table: periodic wrap, or the end pieces extended)."""
+        if np.ndim(t) == 0:
+            tt = float(t)
+            if self.ends == "periodic":
+                tt = self.t0 + (tt - self.t0) % (self.t1 - self.t0)
+            i = min(max(bisect.bisect_right(self.x, tt) - 1, 0), len(self.x) - 2)
+            d = tt - self.x[i]
+            c = self.c[:, i, :]
+            val = ((c[0] * d + c[1]) * d + c[2]) * d + c[3]
+            d1 = (3 * c[0] * d + 2 * c[1]) * d + c[2]
+            d2 = 6 * c[0] * d + 2 * c[1]
+            return np.concatenate([val, d1, d2])
+        tt = np.asarray(t, dtype=float)
+        if self.ends == "periodic":
+            tt = self.t0 + np.mod(tt - self.t0, self.t1 - self.t0)
+        return np.concatenate([np.asarray(self.spline(tt)).T, np.asarray(self.d1(tt)).T,
+                               np.asarray(self.d2(tt)).T])
+
+
+def read_scene(scene_path) -> tuple[Scene, SplineLaw, dict]:
+    """The planned scene: the runtime's parser for everything but the law (P held at the
+    table's first row), the table as a spline."""
+    path = Path(scene_path)
+    doc = tomllib.loads(path.read_text(encoding="utf-8"))
+    point = doc.get("point", {})
+    table = path.parent / point["table"]
+    ends = point.get("ends", "free")
+    t, xyz = read_table(table)
+    probe = copy.deepcopy(doc)
+    probe["point"] = {"mass": point["mass"], "law": [repr(float(c)) for c in xyz[0]]}
+    scene = parse_scene(probe, str(path))
+    return scene, SplineLaw(t, xyz, ends), doc
+
+
+def _state0(scene: Scene) -> np.ndarray:
+    return np.r_[scene.com, scene.com_velocity, scene.omega, np.asarray(scene.A0).ravel()]
+
+
+def resimulate(scene_path, rtol: float = 1e-12, max_impacts: int = 1000) -> Trajectory:
+    """Integrate the planned scene with SciPy DOP853 on the derived functions."""
+    scene, law, _ = read_scene(scene_path)
+    p = np.array([scene.M, scene.m, *scene.J, scene.g])
+    f = Fast(load("general_flight_rhs"))
+    contact = scene.contact_possible
+    if contact:
+        gap, impact = Fast(load("general_gap")), Fast(load("general_impact"))
+        lp = Fast(load(f"lowest_point_{scene.shape}"))
+        center, size = np.array(scene.center), np.array(scene.size)
+
+        def s_of(q):
+            return lp(q[15:18], center, size)[0]
+
+        def h_vn(t, q):
+            h, vn = gap(q, law(t), s_of(q), p)
+            return float(h[0]), float(vn[0])
+
+    def rhs(t, q):
+        return f(q, law(t), p)[0]
+
+    def event(t, q):
+        return h_vn(t, q)[0]
+    event.terminal, event.direction = True, -1
+
+    t0, t_end = scene.t0, scene.t0 + scene.duration
+    q = _state0(scene)
+    ts, qs, impacts = [np.array([t0])], [q[None, :]], []
+    status = "done"
+    t = t0
+    # after an impact, the event is armed again once S has left the plane
+    while t < t_end:
+        events = [event] if contact else None
+        sol = solve_ivp(rhs, (t, t_end), q, method="DOP853", rtol=rtol, atol=rtol * 1e-2,
+                        events=events, dense_output=False)
+        if sol.status < 0:
+            status = "failed: " + sol.message
+            break
+        ts.append(sol.t[1:])
+        qs.append(sol.y[:, 1:].T)
+        if sol.status == 1 and len(sol.t_events[0]):
+            t = float(sol.t_events[0][0])
+            q_minus = sol.y_events[0][0]
+            h, vn = h_vn(t, q_minus)
+            if vn < 0:
+                q_plus, I = impact(q_minus, law(t), s_of(q_minus), p, [scene.e])
+                I = I[0]
+                vn_plus = h_vn(t, q_plus)[1]
+                impacts.append({"t": t, "I": float(I), "v_minus": vn, "v_plus": vn_plus,
+                                "q_minus": q_minus, "q_plus": q_plus})
+                ts.append(np.array([t]))
+                qs.append(q_plus[None, :])
+                q = q_plus
+            else:
+                q = q_minus
+            if len(impacts) >= max_impacts:
+                status = "max_events"
+                break
+            # step off the event: integrate a hair without the event
+            t_next = min(t + 1e-9 * max(1.0, scene.duration), t_end)
+            sol2 = solve_ivp(rhs, (t, t_next), q, method="DOP853", rtol=rtol,
+                             atol=rtol * 1e-2)
+            t, q = t_next, sol2.y[:, -1]
+            continue
+        t, q = t_end, sol.y[:, -1]
+    return Trajectory(np.concatenate(ts), np.vstack(qs), impacts, status, "scipy-dop853")
+
+
+def runtime_resimulate(scene_path) -> Trajectory | str:
+    """``derive.simulate`` on the planned scene, or the reason it cannot run it."""
+    try:
+        from ..runtime.driver import simulate
+        result = simulate(str(scene_path), progress=False)
+    except SceneError as exc:
+        return f"the runtime does not read this scene yet ({exc})"
+    except Exception as exc:       # noqa: BLE001 - recorded, not raised: the adapter decides
+        return f"the runtime failed ({type(exc).__name__}: {exc})"
+    if "X_C" not in result.state_names:
+        return "the runtime did not return the pose"
+    impacts = []
+    kinds = np.asarray(result.row_kind)
+    before = np.flatnonzero(kinds == 1)
+    for i in before:
+        if i + 1 < len(kinds) and kinds[i + 1] == 2:
+            ev = [e for e in result.events if e["kind"] == "impact"
+                  and abs(e["t"] - result.t[i]) <= 1e-9 * max(1.0, abs(result.t[i]))]
+            if ev:
+                impacts.append({"t": float(result.t[i]), "I": ev[0]["value"],
+                                "v_minus": ev[0]["v_minus"], "v_plus": ev[0]["v_plus"],
+                                "q_minus": result.q[i], "q_plus": result.q[i + 1]})
+    return Trajectory(np.asarray(result.t), np.asarray(result.q), impacts, result.status,
+                      "runtime")
+
+
+def rotation_angle(A_target, A) -> float:
+    """The angle of A_target^T A, robust near 0 and pi."""
+    R = np.asarray(A_target).T @ np.asarray(A)
+    s = 0.5 * np.linalg.norm([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])
+    c = 0.5 * (np.trace(R) - 1.0)
+    return float(math.atan2(s, c))

@@ -1,0 +1,584 @@
+"""Direct multiple shooting over the derived CasADi functions.
+
+Scaled time ``tau = t / T`` on ``[0, 1]`` is cut into ``N`` intervals, one per piece of
+the law's B-spline (:mod:`derive.planner.law`), so the law is a single cubic on each
+interval.  Each interval is integrated by ``substeps`` RK4 steps of the derived flight
+right-hand side (``general_flight_rhs`` for reorient and land, ``vertical_flight_rhs``
+for hop, loaded from ``generated/casadi``), built once as an SX function and mapped over
+the intervals.  Decision variables: the law's control points, the state at every node,
+and ``T`` when it is free (land, hop, objective = time).
+
+The RK4 of the NLP is coarse on purpose (a small, fast NLP); the plan is then made
+exact by *defect correction*: the continuity constraints read
+``q_{k+1} = RK4(q_k) + delta_k`` with ``delta_k = flow(q_k) - RK4(q_k)`` measured by an
+accurate integration (SciPy DOP853, rtol 1e-13) at the previous solution, and the NLP is
+re-solved, warm-started, until ``delta`` stops changing.  The fixed point satisfies the
+constraints with the exact flow.
+
+Constraints come in named groups (``Group``), which the progress line and the
+infeasibility report use.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import casadi as ca
+import numpy as np
+
+from .. import models as dm
+from .functions import load, lowest_point
+from .law import BASIS, Spline, circle_u
+from .task import Task
+
+GAUSS3 = ((0.5 - math.sqrt(15) / 10, 5 / 18), (0.5, 8 / 18), (0.5 + math.sqrt(15) / 10, 5 / 18))
+HOP_PERIODIC = ("Z_C'", "omega_x", "omega_y", "a31", "a32")     # see Transcription._hop
+CONTINUITY = "continuity of the motion (multiple shooting)"
+GAP_GROUP = "flight: S above the plane before touchdown (h >= 0)"
+
+
+@dataclass
+class Group:
+    name: str          # what the constraint is, in the task's words
+    start: int         # rows [start, stop) of g
+    stop: int
+    limit: str = ""    # the task key it comes from, for the infeasibility report
+
+
+@dataclass
+class Layout:
+    """The NLP's state: the entries ``keep`` of a derived model's state (the others do
+    not influence them and are held at ``fill``)."""
+    model: str                  # general | vertical
+    keep: tuple                 # indices into the model's state
+    fill: np.ndarray            # the model's state for the entries not kept
+
+    @property
+    def nq(self) -> int:
+        return len(self.keep)
+
+    @property
+    def labels(self) -> tuple:
+        return tuple(dm.STATE_LABELS[self.model][i] for i in self.keep)
+
+    def index(self, label: str) -> int:
+        return self.labels.index(label)
+
+    def full(self, q):
+        """The model's state from the NLP's (CasADi or NumPy)."""
+        where = {i: k for k, i in enumerate(self.keep)}
+        if isinstance(q, np.ndarray):
+            out = np.array(self.fill, dtype=float)
+            out[list(self.keep)] = q
+            return out
+        return ca.vertcat(*[q[where[i]] if i in where else float(self.fill[i])
+                            for i in range(len(self.fill))])
+
+    def n_of(self, q):
+        return q[[self.index(lb) for lb in ("a31", "a32", "a33")]]
+
+    def A_of(self, q):
+        """Row-major a_ij as a 3x3 matrix (general layout only)."""
+        idx = [self.index(f"a{i}{j}") for i in (1, 2, 3) for j in (1, 2, 3)]
+        if isinstance(q, np.ndarray):
+            return q[idx].reshape(3, 3)
+        return ca.reshape(q[idx], 3, 3).T
+
+
+def layout_for(task) -> Layout:
+    """reorient: omega and A; land: also Z_C, Z_C' (the gap); hop: the vertical model."""
+    if task.goal == "hop":
+        return Layout("vertical", tuple(range(8)), np.zeros(8))
+    fill = initial_state(task)
+    keep = tuple(range(6, 18)) if task.goal == "reorient" else (2, 5) + tuple(range(6, 18))
+    return Layout("general", keep, fill)
+
+
+@dataclass
+class Relax:
+    """Task limits removed, to find which one blocks an infeasible task."""
+    names: frozenset = frozenset()
+
+
+def vee_skew(R):
+    """(R - R^T)/2 as a vector: sin(angle) * axis for a rotation R."""
+    return 0.5 * ca.vertcat(R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1])
+
+
+class Transcription:
+    """The NLP of one task: variables, constraints by group, objective, bounds."""
+
+    def __init__(self, task: Task, relax: Relax = Relax(), stabilize: bool = False):
+        self.task, self.relax, self.stabilize = task, relax, stabilize
+        sc = task.scene
+        self.p = [sc.M, sc.m, *sc.J, sc.g]
+        self.layout = layout_for(task)
+        self.kind = "circle" if task.circle is not None else "cartesian"
+        self.dim = 1 if self.kind == "circle" else 3
+        self.N = task.intervals
+        self.m = task.substeps
+        self.spline = Spline(self.N, periodic=task.goal == "hop")
+        lay = self.layout
+        f = load(f"{lay.model}_flight_rhs")
+        self.f = lambda q, u, p: f(lay.full(q), u, p)[list(lay.keep)]
+        self.plane = task.goal in ("land", "hop")
+        if self.plane:
+            gap = load(f"{lay.model}_gap")
+            impact = load(f"{lay.model}_impact")
+            self.gap = lambda q, u, s, p: gap(lay.full(q), u, s, p)
+            self.impact = lambda q, u, s, p, e: [
+                impact(lay.full(q), u, s, p, e)[0][list(lay.keep)]]
+        self._build_law_function()
+        self._build_interval()
+        self._build_nlp()
+
+    # ---- the law on one piece ----------------------------------------------------------
+    def _build_law_function(self):
+        """``U(cl, s, T) -> u`` (9): the law on a piece with local control points ``cl``
+        (4 x dim, column-major) at local parameter ``s``."""
+        cl = ca.SX.sym("cl", 4 * self.dim)
+        s = ca.SX.sym("s")
+        T = ca.SX.sym("T")
+        C = ca.reshape(cl, 4, self.dim)
+        N = self.N
+        rows = []
+        for d in range(3):
+            powers = [ca.SX(0)] * 4
+            for j in range(d, 4):
+                fact = math.factorial(j) / math.factorial(j - d)
+                powers[j] = fact * s ** (j - d)
+            b = [sum(BASIS[k, j] * powers[j] for j in range(4)) for k in range(4)]
+            val = ca.vertcat(*[sum(b[k] * C[k, c] for k in range(4)) for c in range(self.dim)])
+            rows.append(val * (N / T) ** d)
+        if self.kind == "cartesian":
+            u = ca.vertcat(*rows)
+        else:
+            cx, cy, R, _ = self.task.circle
+            u = circle_u(rows[0], rows[1], rows[2], cx, cy, R, ca)
+        self.U = ca.Function("U", [cl, s, T], [u], ["cl", "s", "T"], ["u"])
+
+    def _s_of(self, q):
+        sc = self.task.scene
+        return lowest_point(sc.shape, self.layout.n_of(q), sc.center, sc.size)
+
+    # ---- one interval ----------------------------------------------------------------
+    def _build_interval(self):
+        nq, m, N = self.layout.nq, self.m, self.N
+        q0 = ca.SX.sym("q", nq)
+        cl = ca.SX.sym("cl", 4 * self.dim)
+        T = ca.SX.sym("T")
+        delta = ca.SX.sym("delta", nq)
+        p = ca.DM(self.p)
+        h = (T / N) / m              # the RK4 step in t
+        q = q0
+        gaps = []
+        for j in range(m):
+            s0, s1 = j / m, (j + 1) / m
+            sm = 0.5 * (s0 + s1)
+            u0, um, u1 = (self.U(cl, s, T) for s in (s0, sm, s1))
+            k1 = self.f(q, u0, p)
+            k2 = self.f(q + 0.5 * h * k1, um, p)
+            k3 = self.f(q + 0.5 * h * k2, um, p)
+            k4 = self.f(q + h * k3, u1, p)
+            q = q + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+            if self.plane:
+                gaps.append(self.gap(q, u1, self._s_of(q), p)[0])
+        outs = [q + delta]
+        names = ["q_end"]
+        if self.plane:
+            outs.append(ca.vertcat(*gaps))
+            names.append("h")
+        self.F = ca.Function("interval", [q0, cl, T, delta], outs,
+                             ["q", "cl", "T", "delta"], names)
+        self.FN = self.F.map(N)
+        # the accurate flow's right-hand side on a piece, in s: dq/ds = (T/N) f
+        s = ca.SX.sym("s")
+        self.G = ca.Function("G", [s, q0, cl, T], [(T / N) * self.f(q0, self.U(cl, s, T), p)])
+
+    # ---- the NLP ---------------------------------------------------------------------
+    def _build_nlp(self):
+        task, N, nq, dim = self.task, self.N, self.layout.nq, self.dim
+        sp = self.spline
+        C = ca.MX.sym("C", sp.n_ctrl, dim)
+        Q = ca.MX.sym("Q", nq, N + 1)
+        parts = [ca.vec(C), ca.vec(Q)]
+        self.free_T = task.free_time
+        if self.free_T:
+            Tv = ca.MX.sym("T")
+            parts.append(Tv)
+            T = Tv
+        else:
+            T = task.horizon
+        self.w = ca.vertcat(*parts)
+        self.n_c, self.n_q = sp.n_ctrl * dim, nq * (N + 1)
+        self.C, self.Q, self.T = C, Q, T
+        self.delta = ca.MX.sym("delta", nq, N)      # a parameter: the defect correction
+        cls = [ca.vec(C[sp.indices(k), :]) for k in range(N)]
+        self.CL = ca.horzcat(*cls)
+        out = self.FN.call([Q[:, :N], self.CL, T, self.delta])
+        self.q_end = out[0]
+        self.h_sub = out[1] if self.plane else None
+
+        g, self.groups, lbg, ubg = [], [], [], []
+        self.group_exprs = []
+
+        def add(name, expr, lb, ub, limit=""):
+            expr = ca.vec(expr)
+            n = expr.shape[0]
+            start = sum(e.shape[0] for e in g)
+            g.append(expr)
+            self.group_exprs.append(expr)
+            lbg.extend(np.broadcast_to(lb, n).tolist())
+            ubg.extend(np.broadcast_to(ub, n).tolist())
+            self.groups.append(Group(name, start, start + n, limit))
+
+        add(CONTINUITY, Q[:, 1:] - self.q_end, 0, 0)
+        self._law_constraints(add)
+        self._limits(add)
+        getattr(self, f"_{task.goal}")(add)
+        self.g = ca.vertcat(*g)
+        self.lbg, self.ubg = np.array(lbg), np.array(ubg)
+        self.J = self._objective()
+        self._bounds()
+
+    def _z_index(self, k: int) -> list:
+        """Where z_k = (q_k, the control points of piece k, T if free) sits in w."""
+        nq, sp, dim = self.layout.nq, self.spline, self.dim
+        idx = list(self.n_c + k * nq + np.arange(nq))
+        idx += [c * sp.n_ctrl + i for c in range(dim) for i in sp.indices(k)]
+        if self.free_T:
+            idx.append(self.w.shape[0] - 1)
+        return idx
+
+    def _interval_symbols(self):
+        nq, dim = self.layout.nq, self.dim
+        q, cl, T, delta = (ca.SX.sym("q", nq), ca.SX.sym("cl", 4 * dim), ca.SX.sym("T"),
+                           ca.SX.sym("delta", nq))
+        z = ca.vertcat(q, cl, T) if self.free_T else ca.vertcat(q, cl)
+        return q, cl, T, delta, z
+
+    def _x_parts(self, x):
+        sp, dim, nq, N = self.spline, self.dim, self.layout.nq, self.N
+        ctrl = ca.reshape(x[:self.n_c], sp.n_ctrl, dim)
+        Qx = ca.reshape(x[self.n_c:self.n_c + self.n_q], nq, N + 1)
+        Tx = x[x.shape[0] - 1] if self.free_T else self.task.horizon
+        CLx = ca.horzcat(*[ca.vec(ctrl[sp.indices(k), :]) for k in range(N)])
+        return Qx, CLx, Tx
+
+    def _rest(self):
+        """The groups other than continuity and the in-flight gap: (groups, SX w, J, g)."""
+        rest = [gr for gr in self.groups if gr.name not in (CONTINUITY, GAP_GROUP)]
+        g_rest = ca.vertcat(*[self.group_exprs[self.groups.index(gr)] for gr in rest])
+        f_rest = ca.Function("rest", [self.w], [self.J, g_rest]).expand()
+        ws = ca.SX.sym("w", self.w.shape[0])
+        J_s, g_s = f_rest(ws)
+        return rest, ws, J_s, g_s
+
+    def jacobian_function(self) -> ca.Function:
+        """``(x, p) -> (g, dg/dx)`` from its structure, like :meth:`hessian_function`:
+        the Jacobian of one RK4 interval in z_k, built once and mapped."""
+        nq, N, m = self.layout.nq, self.N, self.m
+        nw = self.w.shape[0]
+        q, cl, T, delta, z = self._interval_symbols()
+        out = self.F.call([q, cl, T, delta])
+        outs = [ca.jacobian(out[0], z)] + ([ca.jacobian(out[1], z)] if self.plane else [])
+        JF = ca.Function("JF", [q, cl, T, delta], outs).map(N)
+        nz = z.shape[0]
+        x = ca.MX.sym("x", nw)
+        p = ca.MX.sym("p", self.delta.numel())
+        Qx, CLx, Tx = self._x_parts(x)
+        J_int = JF.call([Qx[:, :N], CLx, Tx, ca.reshape(p, nq, N)])
+        E = [ca.DM(ca.Sparsity.triplet(nz, nw, list(range(nz)), self._z_index(k)), 1.0)
+             for k in range(N)]
+        rest, ws, _, g_s = self._rest()
+        Jrest = ca.Function("Jrest", [ws], [ca.jacobian(g_s, ws)])(x)
+        blocks, r = [], 0
+        for gr in self.groups:
+            if gr.name == CONTINUITY:
+                for k in range(N):
+                    nxt = ca.DM(ca.Sparsity.triplet(nq, nw, list(range(nq)), list(
+                        self.n_c + (k + 1) * nq + np.arange(nq))), 1.0)
+                    blocks.append(nxt - ca.mtimes(J_int[0][:, k * nz:(k + 1) * nz], E[k]))
+            elif gr.name == GAP_GROUP:
+                for k in range(N):
+                    Jh = ca.mtimes(J_int[1][:, k * nz:(k + 1) * nz], E[k])
+                    blocks.append(Jh if k < N - 1 else Jh[:m - 1, :])
+            else:
+                n = gr.stop - gr.start
+                blocks.append(Jrest[r:r + n, :])
+                r += n
+        g = ca.Function("g", [self.w, ca.vec(self.delta)], [self.g])(x, p)
+        return ca.Function("jac_g", [x, p], [g, ca.vertcat(*blocks)], ["x", "p"],
+                           ["g", "jac_g_x"])
+
+    def hessian_function(self) -> ca.Function:
+        """The Hessian of the Lagrangian, ``(x, p, lam_f, lam_g) -> triu(H)``, built from
+        its structure: the RK4 intervals contribute one small block each, the Hessian of
+        ``lam^T F`` in (q_k, the piece's control points, T), differentiated once for all
+        intervals and mapped; the rest (objective, end conditions, limits) is small and
+        differentiated directly.  IPOPT gets the same matrix as from differentiating the
+        whole NLP, at a fraction of the cost of building it."""
+        nq, N, m = self.layout.nq, self.N, self.m
+        nw = self.w.shape[0]
+        q, cl, T, delta, z = self._interval_symbols()
+        lq, lh = ca.SX.sym("lq", nq), ca.SX.sym("lh", m if self.plane else 0)
+        out = self.F.call([q, cl, T, delta])
+        phi = -ca.dot(lq, out[0]) + (ca.dot(lh, out[1]) if self.plane else 0)
+        HF = ca.Function("HF", [q, cl, T, delta, lq, lh], [ca.hessian(phi, z)[0]]).map(N)
+        nz = z.shape[0]
+        x = ca.MX.sym("x", nw)
+        p = ca.MX.sym("p", self.delta.numel())
+        lam_f = ca.MX.sym("lam_f")
+        lam_g = ca.MX.sym("lam_g", self.g.shape[0])
+        cont = next(gr for gr in self.groups if gr.name == CONTINUITY)
+        LQ = ca.reshape(lam_g[cont.start:cont.stop], nq, N)
+        if self.plane:
+            gap = next(gr for gr in self.groups if gr.name == GAP_GROUP)
+            LH = ca.reshape(ca.vertcat(lam_g[gap.start:gap.stop], 0), m, N)
+        else:
+            LH = ca.MX(0, N)
+        Qx, CLx, Tx = self._x_parts(x)
+        blocks = HF(Qx[:, :N], CLx, Tx, ca.reshape(p, nq, N), LQ, LH)
+        H = ca.MX(nw, nw)
+        for k in range(N):
+            E = ca.DM(ca.Sparsity.triplet(nz, nw, list(range(nz)), self._z_index(k)), 1.0)
+            H += ca.mtimes([E.T, blocks[:, k * nz:(k + 1) * nz], E])
+        rest, ws, J_s, g_s = self._rest()
+        lam_rest = ca.vertcat(*[lam_g[gr.start:gr.stop] for gr in rest])
+        ls, lf = ca.SX.sym("l", g_s.shape[0]), ca.SX.sym("lf")
+        H_rest = ca.Function("Hrest", [ws, lf, ls], [ca.hessian(lf * J_s + ca.dot(ls, g_s),
+                                                                 ws)[0]])
+        H += H_rest(x, lam_f, lam_rest)
+        return ca.Function("hess_lag", [x, p, lam_f, lam_g], [ca.triu(H)],
+                           ["x", "p", "lam_f", "lam_g"], ["hess_gamma_x_x"])
+
+    def u_at(self, k: int, s: float):
+        return self.U(self.CL[:, k], s, self.T)
+
+    def _law_constraints(self, add):
+        task, sp, C = self.task, self.spline, self.C
+        N = self.N
+        if self.kind == "cartesian":
+            if task.goal == "hop":
+                if task.rest_at_ends:
+                    add("P at rest at the impact (rest_at_ends)",
+                        ca.vertcat(ca.mtimes(ca.DM(sp.weights(0.0, 1)).T, C),
+                                   ca.mtimes(ca.DM(sp.weights(0.0, 2)).T, C)), 0, 0,
+                        "rest_at_ends")
+            elif not task.rest_at_ends:
+                add("P starts at start", ca.mtimes(ca.DM(sp.weights(0.0, 0)).T, C).T
+                    - task.start, 0, 0)
+            # rest_at_ends (reorient, land): fixed control points (bounds)
+        else:
+            if task.rest_at_ends:
+                add("P at rest at the end (rest_at_ends)",
+                    ca.vertcat(C[N + 1] - C[N], C[N + 2] - C[N]), 0, 0, "rest_at_ends")
+            else:
+                add("P starts at start_angle", ca.mtimes(ca.DM(sp.weights(0.0, 0)).T, C)
+                    - task.circle[3], 0, 0)
+
+    def _limits(self, add):
+        task, sp, C, T = self.task, self.spline, self.C, self.T
+        if self.kind == "cartesian":
+            if "region" not in self.relax.names:
+                d = C - ca.repmat(ca.DM(task.region_center).T, sp.n_ctrl, 1)
+                add("region: P in the ball (control points)", ca.sum2(d * d),
+                    -np.inf, task.region_radius ** 2, "region")
+            if "max_acceleration" not in self.relax.names:
+                W2 = np.array([sp.weights(k / self.N, 2) for k in range(self.N + 1)])
+                A = ca.mtimes(ca.DM(W2), C)          # tau-accelerations at the knots
+                amax = task.max_acceleration
+                # |A|^2 <= amax^2 T^4, without the A-T coupling of |A|^2 / T^4 (whose
+                # curvature slows IPOPT down when T is free); scaled by T_ref^4
+                T_ref = task.horizon or self.T_guess_value()
+                add("max_acceleration: |OP''| at the knots", (ca.sum2(A * A) / amax ** 2
+                    - T ** 4) / T_ref ** 4, -np.inf, 0.0, "max_acceleration")
+        elif "max_acceleration" not in self.relax.names:
+            vals = []
+            for k in range(self.N):
+                for j in range(self.m + 1):
+                    u = self.u_at(k, j / self.m)
+                    vals.append(ca.sumsqr(u[6:9]))
+            add("max_acceleration: |OP''| at the RK4 points", ca.vertcat(*vals)
+                / task.max_acceleration ** 2, -np.inf, 1.0, "max_acceleration")
+
+    def _attitude_error(self, q):
+        A = self.layout.A_of(q)
+        return vee_skew(ca.mtimes(ca.DM(self.task.target).T, A))
+
+    def _reorient(self, add):
+        add("target_matrix at the end of the horizon",
+            self._attitude_error(self.Q[:, self.N]), 0, 0, "target_matrix")
+
+    def _touchdown(self, add):
+        """The gap closes at t = T, S approaching, and stays open before."""
+        p = ca.DM(self.p)
+        qN = self.Q[:, self.N]
+        uN = self.u_at(self.N - 1, 1.0)
+        h, vn = self.gap(qN, uN, self._s_of(qN), p)
+        add("touchdown: S reaches the plane at t = T (h = 0)", h, 0, 0)
+        add("touchdown: S approaches the plane (v_n < 0)", vn / self.v_ref, -np.inf, -0.05)
+        hs = ca.vec(self.h_sub)         # after every RK4 step; the last one is t = T
+        add(GAP_GROUP, hs[:-1], 0, np.inf,
+            "plane")
+        return qN, uN
+
+    @property
+    def v_ref(self) -> float:
+        sc, task = self.task.scene, self.task
+        if task.goal == "hop":
+            return math.sqrt(2 * sc.g * max(task.apex_height, 1e-3))
+        return math.sqrt(2 * sc.g * max(sc.com[2], 1e-3))
+
+    def _land(self, add):
+        qN, uN = self._touchdown(add)
+        if self.task.at_touchdown == "attitude":
+            add("target_matrix at touchdown", self._attitude_error(qN), 0, 0,
+                "target_matrix")
+        else:
+            CS, _ = load("lever")(self.layout.full(qN), uN, self._s_of(qN), ca.DM(self.p))
+            A = self.layout.A_of(qN)
+            add("d = CS x n = 0 at touchdown (CS vertical)", ca.mtimes(A[0:2, :], CS)
+                / self.task.scene.size[0], 0, 0, "at_touchdown")
+
+    def _hop(self, add):
+        """One impact per period, at t = 0 = T: post-impact state Q_0 on the plane;
+        Q_N is the state just before the next impact, mapped by E1.10-E1.16 back to Q_0.
+        Z_C(T) and n_z follow from h = 0 and |n| = 1, omega_z from K.n (conserved in
+        flight and at impacts, since d is normal to n): those are not repeated."""
+        p = ca.DM(self.p)
+        q0, u0 = self.Q[:, 0], self.u_at(0, 0.0)
+        n0 = self.layout.n_of(q0)
+        add("hop: S on the plane just after the impact (h = 0)",
+            self.gap(q0, u0, self._s_of(q0), p)[0], 0, 0)
+        add("hop: |n| = 1", ca.sumsqr(n0) - 1, 0, 0)
+        qN, uN = self._touchdown(add)
+        e = ca.DM([self.task.scene.e])
+        q_plus = self.impact(qN, uN, self._s_of(qN), p, e)[0]
+        sel = [self.layout.index(name) for name in HOP_PERIODIC]
+        add("hop: periodic orbit (impact map E1.10-E1.16 back to the start)",
+            q_plus[sel] - q0[sel], 0, 0)
+        g = self.task.scene.g
+        add("apex_height: highest Z_C of the hop", q0[0] + q0[1] ** 2 / (2 * g)
+            - self.task.apex_height, 0, 0, "apex_height")
+        if self.stabilize:
+            self._hop_stability(add, q0, u0)
+
+    def _hop_stability(self, add, q0, u0):
+        """Two conditions that favour a stable orbit (then checked by the multipliers):
+
+        * tilt: C below the centre of the shape at the impact (for a sphere, below the
+          centre of curvature of the contact: the impulse then rights the body);
+        * vertical: the "table" of reference [5] (the height nu n.OP that the point's
+          motion gives S) accelerates at the impact within the stable window of the ball
+          on a vibrating table, tr DP = 1 + e^2 + (1 + e)^2 s''/g in
+          [-(1 + e^2), 1 + e^2], kept 30 % inside it."""
+        sc = self.task.scene
+        nu = sc.m / (sc.m + sc.M)
+        n0 = self.layout.n_of(q0)
+        depth = ca.dot(n0, nu * u0[0:3] - ca.DM(list(sc.center)))
+        add("stability (tilt): C below the shape's centre at the impact", depth, -np.inf,
+            -0.1 * nu * self.task.region_radius, "require_stable")
+        e, g = sc.e, sc.g
+        tr = 1 + e * e + (1 + e) ** 2 * nu * ca.dot(n0, u0[6:9]) / g
+        bound = 0.7 * (1 + e * e)
+        add("stability (vertical): impact in the stable window of reference [5]", tr,
+            -bound, bound, "require_stable")
+
+    def _objective(self):
+        task, T = self.task, self.T
+        terms = []
+        for k in range(self.N):
+            for s, wq in GAUSS3:
+                u = self.u_at(k, s)
+                terms.append(wq * ca.sumsqr(u[6:9]))
+        effort = (T / self.N) * sum(terms)
+        self.effort = effort
+        T_ref = task.horizon or self.T_guess_value()
+        self.effort_scale = task.max_acceleration ** 2 * T_ref
+        if task.objective == "time":
+            return T / T_ref + 1e-6 * effort / self.effort_scale
+        return effort / self.effort_scale
+
+    def T_guess_value(self) -> float:
+        return getattr(self, "_T_guess", None) or (self.task.horizon or 1.0)
+
+    def _bounds(self):
+        task, sp, dim, N, nq = self.task, self.spline, self.dim, self.N, self.layout.nq
+        n = self.w.shape[0]
+        lbx, ubx = np.full(n, -np.inf), np.full(n, np.inf)
+        Cl = np.full((sp.n_ctrl, dim), -np.inf)
+        Cu = np.full((sp.n_ctrl, dim), np.inf)
+        if task.goal != "hop" and task.rest_at_ends:
+            fixed = [0, 1, 2] + ([N, N + 1, N + 2] if self.kind == "cartesian" else [])
+            value = task.start if self.kind == "cartesian" else np.array([task.circle[3]])
+            for i in fixed:
+                Cl[i], Cu[i] = value, value
+        lbx[:self.n_c] = Cl.ravel(order="F")
+        ubx[:self.n_c] = Cu.ravel(order="F")
+        if task.goal != "hop":
+            q0 = initial_state(task)[list(self.layout.keep)]
+            lbx[self.n_c:self.n_c + nq] = q0
+            ubx[self.n_c:self.n_c + nq] = q0
+        else:
+            k = self.n_c + self.layout.index("omega_z")
+            lbx[k] = ubx[k] = task.scene.omega[2]
+        if self.free_T:
+            lbx[-1] = 1e-3 if task.goal != "reorient" else 0.05 * task.horizon
+            if task.horizon is not None:
+                ubx[-1] = task.horizon
+            if "horizon" in self.relax.names:
+                ubx[-1] = np.inf
+        self.lbx, self.ubx = lbx, ubx
+
+    # ---- packing ---------------------------------------------------------------------
+    def pack(self, ctrl, Q, T=None) -> np.ndarray:
+        parts = [np.asarray(ctrl, float).reshape(self.spline.n_ctrl, self.dim).ravel(order="F"),
+                 np.asarray(Q, float).reshape(self.layout.nq, self.N + 1).ravel(order="F")]
+        if self.free_T:
+            parts.append([T])
+        return np.concatenate(parts)
+
+    def unpack(self, w):
+        w = np.asarray(w, float).ravel()
+        ctrl = w[:self.n_c].reshape(self.spline.n_ctrl, self.dim, order="F")
+        Q = w[self.n_c:self.n_c + self.n_q].reshape(self.layout.nq, self.N + 1, order="F")
+        T = float(w[-1]) if self.free_T else float(self.task.horizon)
+        return ctrl, Q, T
+
+    def local_ctrl(self, ctrl, k):
+        return np.asarray(ctrl)[self.spline.indices(k)].ravel(order="F")
+
+    def gap_value(self, q, cl, s, T):
+        """(h, v_n) at state q with the law piece cl at local s (numbers)."""
+        u = self.U(cl, s, T)
+        h, vn = self.gap(ca.DM(q), u, self._s_of(ca.DM(q)), ca.DM(self.p))
+        return float(h), float(vn)
+
+    def rk4_nodes(self, ctrl, q0, T):
+        """March the NLP's own integrator from q0 (a consistent initial guess)."""
+        Q = [np.asarray(q0, float)]
+        zero = np.zeros(self.layout.nq)
+        for k in range(self.N):
+            out = self.F.call([Q[-1], self.local_ctrl(ctrl, k), T, zero])
+            Q.append(np.array(out[0].full()).ravel())
+        return np.array(Q).T
+
+
+def initial_state(task: Task) -> np.ndarray:
+    """The general-layout state at t = 0 from the scene's initial conditions."""
+    sc = task.scene
+    return np.r_[sc.com, sc.com_velocity, sc.omega, np.asarray(sc.A0).ravel()]
+
+
+@dataclass
+class NLPResult:
+    w: np.ndarray
+    lam_g: np.ndarray
+    lam_x: np.ndarray
+    status: str
+    success: bool
+    iterations: int
+    seconds: float
+    objective: float
+    extra: dict = field(default_factory=dict)
