@@ -119,7 +119,8 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         raise UsageError(str(exc)) from None
     from .runtime.outputs import write_all
     t_written = time.perf_counter()
-    written = write_all(result, args.output, plot=not args.no_plots)
+    written = write_all(result, args.output, plot=not args.no_plots,
+                        animation=not (args.no_animation or args.no_plots), fmt=args.format)
     t_done = time.perf_counter()
     info = result.stats
     print(f"{scene.name}: {result.status}; model {result.model} ({result.why})")
@@ -133,8 +134,10 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     t = result.timings
     build = f", library built in {t['library_build_s']:.2f} s (once per machine)" \
         if t.get("load_s", 0.0) > 0.05 else ""
+    out_t = t.get("outputs", {})
+    parts = ", ".join(f"{name[:-2]} {sec:.2f} s" for name, sec in out_t.items())
     print(f"  validate {1e3 * t['prepare_s']:.2f} ms, run {1e3 * t['run_s']:.2f} ms{build}, "
-          f"outputs {t_done - t_written:.2f} s; {t_done - start:.2f} s in all")
+          f"outputs {t_done - t_written:.2f} s ({parts}); {t_done - start:.2f} s in all")
     print(f"  wrote {', '.join(p.name for p in written)} to {args.output}")
     return 0 if result.status == "done" else 1
 
@@ -290,7 +293,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-o", "--output", default="out", help="output folder (default: out)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     p.add_argument("--no-plots", action="store_true", help="write the tables and the "
-                   "summary only")
+                   "summary only (no overview.png, no motion.gif)")
+    p.add_argument("--no-animation", action="store_true", help="skip motion.gif (the "
+                   "animation takes about as long as everything else together)")
+    p.add_argument("--format", choices=["csv", "npz"], default="csv", help="tables as CSV "
+                   "files (default) or one run.npz of named arrays (numpy.load), for long "
+                   "runs")
     p.set_defaults(func=cmd_simulate)
 
     p = sub.add_parser("stability", help="multipliers and verdict of a scene's periodic "
