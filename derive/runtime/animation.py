@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from . import drawing
-from .motion import Motion
+from .motion import Motion, impact_rows
 
 FPS = 20
 MAX_FRAMES = 121
@@ -104,10 +104,7 @@ def write_gif(result, mo: Motion, path: Path) -> Path:
     ax.set_aspect("equal")
 
     # impacts: where S was at each impact
-    rows = np.flatnonzero(result.row_kind == 1)
-    kinds = [ev["kind"] for ev in result.events]
-    rows = np.array([i for k, i in enumerate(rows) if k < len(kinds) and kinds[k] == "impact"],
-                    dtype=int)
+    rows = impact_rows(result)
     S_imp = view(drawing.lowest_points(s, mo.r_O[rows], mo.A[rows])) if len(rows) \
         else np.zeros((0, 2))
     t_imp = mo.t[rows] if len(rows) else np.zeros(0)

@@ -28,8 +28,10 @@ with ``omega'`` from E1.7 solved here with NumPy (``J omega' = -omega x K - mu (
 ``I (v_n- + v_n+)/2`` (the impulse at S, whose normal velocity is v_n) plus the drive's
 impulsive work ``m (V_P+ - V_P-, A V_r)``; with the point at rest in the body the latter
 vanishes and ``e = 1`` conserves the energy.  In persistent contact the reaction does no
-work (S does not move normally); the energy change over a contact phase is reported as it
-is, not split.
+work (S does not move normally) and the drive's power gains the term ``m N/(m+M) (n,
+V_r)``, with ``omega'`` and N from the runtime's contact equations; for the models
+without omega in their state (translational, planar) the change over a contact phase is
+reported as it is, not split.
 """
 from __future__ import annotations
 
@@ -81,6 +83,25 @@ def _centre(result):
     Y = s.com[1] + s.com_velocity[1] * dt
     V = np.column_stack([np.full(n, s.com_velocity[0]), np.full(n, s.com_velocity[1]), VZ])
     return np.column_stack([X, Y, Z]), V
+
+
+PICTURE_SAMPLES = 1500
+
+
+def for_pictures(result):
+    """The run to draw: the same run sampled on a uniform grid of about
+    ``PICTURE_SAMPLES`` rows from the dense output when its own rows are coarser (the
+    ends of adaptive steps can be a tenth of a second apart: a parabola would be drawn
+    as a polygon).  The steps, events and numbers are the run's own: only where they
+    are read differs; it costs one more run of the C (milliseconds)."""
+    s = result.scene
+    fine = s.duration / PICTURE_SAMPLES
+    if (0 < s.output_dt <= fine) or len(result.t) >= PICTURE_SAMPLES \
+            or result.status != "done":
+        return result
+    from dataclasses import replace
+    from .driver import simulate
+    return simulate(replace(s, output_dt=fine))
 
 
 def motion(result) -> Motion:
@@ -143,6 +164,30 @@ def drive_power_in_flight(scene, mo: Motion) -> np.ndarray:
     return scene.mu * np.einsum("ij,ij->i", rel, v)
 
 
+_OMEGA_RATE = {"general": (slice(6, 9), slice(15, 18)), "vertical": (slice(2, 5), slice(5, 8))}
+
+
+def drive_power_in_contact(result, mo: Motion, a: int, b: int) -> np.ndarray | None:
+    """The drive's power on rows [a, b) of a contact phase: as in flight, with omega' and
+    the reaction N from the runtime's contact equations (``Session.contact``); the force
+    of the carrier on P gains ``m N/(m+M) n``.  None for models without omega in the
+    state."""
+    if result.model not in _OMEGA_RATE or result.session is None:
+        return None
+    s = result.scene
+    w_at, n_at = _OMEGA_RATE[result.model]
+    out = np.zeros(b - a)
+    for k, i in enumerate(range(a, b)):
+        q = result.model_q[i]
+        dq, N, _ = result.session.contact(float(result.t[i]), q)
+        r, v, w = mo.r[i], mo.v_r[i], mo.omega[i]
+        rel = mo.a_r[i] + 2.0 * np.cross(w, v) + np.cross(dq[w_at], r) \
+            + np.cross(w, np.cross(w, r))
+        F = s.mu * rel + s.m * N / (s.m + s.M) * q[n_at]
+        out[k] = float(np.dot(F, v))
+    return out
+
+
 def integrate(t: np.ndarray, f: np.ndarray, points: int = 6) -> float:
     """The integral of samples ``f(t)`` (increasing ``t``, any spacing): each interval by
     the polynomial through the ``points`` nearest samples (order ``points``; the rows of
@@ -162,22 +207,62 @@ def integrate(t: np.ndarray, f: np.ndarray, points: int = 6) -> float:
     return float(np.sum(h * np.einsum("ij,ij->i", weights, f[nodes])))
 
 
+def event_rows(result) -> list[tuple[int, dict]]:
+    """Each pair of rows around an event (the index of its ``before`` row; ``after`` is
+    the next) with its event.  Matched by time: a contact that begins at an impact has no
+    rows of its own (the impact's pair is the impact's)."""
+    befores = np.flatnonzero(result.row_kind == 1)
+    events = result.events
+    scale = max(abs(result.scene.duration), 1.0)
+    used = [False] * len(events)
+    out, start = [], 0
+    for i in befores:
+        ti = result.t[i]
+        while start < len(events) and events[start]["t"] < ti - 1e-9 * scale:
+            start += 1
+        near = [k for k in range(start, len(events))
+                if not used[k] and abs(events[k]["t"] - ti) <= 1e-9 * scale]
+        if not near:
+            out.append((int(i), {"t": float(ti), "kind": "event"}))
+            continue
+        k = next((k for k in near if events[k]["kind"] != "contact"), near[0])
+        used[k] = True
+        out.append((int(i), events[k]))
+    return out
+
+
+def impact_rows(result) -> np.ndarray:
+    """Indices of the ``before`` rows of the impacts."""
+    return np.array([i for i, ev in event_rows(result) if ev["kind"] == "impact"], dtype=int)
+
+
+def contact_intervals(result) -> list[tuple[float, float]]:
+    """Times of persistent contact: from each ``contact`` event to the next lift-off."""
+    out, since = [], None
+    for ev in result.events:
+        if ev["kind"] == "contact" and since is None:
+            since = ev["t"]
+        elif ev["kind"] == "liftoff" and since is not None:
+            out.append((since, ev["t"]))
+            since = None
+    if since is not None:
+        out.append((since, float("inf")))
+    return out
+
+
 def phases(result) -> list[tuple[int, int, str]]:
     """Row ranges [a, b) between events, each with its kind: ``flight`` or ``contact``."""
     kinds = result.row_kind
-    befores = np.flatnonzero(kinds == 1)
-    events = [ev["kind"] for ev in result.events]
-    out, start, state = [], 0, "flight"
-    for k, i in enumerate(befores):
-        out.append((start, i + 1, state))
-        kind = events[k] if k < len(events) else ""
-        if kind == "contact":
-            state = "contact"
-        elif kind == "liftoff":
-            state = "flight"
-        start = i + 1
-    out.append((start, len(kinds), state))
-    return [(a, b, s) for a, b, s in out if b > a]
+    bounds = [0] + [int(i) + 1 for i in np.flatnonzero(kinds == 1)] + [len(kinds)]
+    contact = contact_intervals(result)
+    out = []
+    for a, b in zip(bounds[:-1], bounds[1:]):
+        if b <= a:
+            continue
+        mid = 0.5 * (result.t[a] + result.t[b - 1])
+        state = "contact" if any(c0 <= mid <= c1 for c0, c1 in contact) else "flight"
+        out.append((a, b, state))
+    return out
 
 
 def energy_balance(result, mo: Motion) -> dict | None:
@@ -187,26 +272,29 @@ def energy_balance(result, mo: Motion) -> dict | None:
         return None
     s = result.scene
     E = mo.T + mo.U
-    befores = np.flatnonzero(result.row_kind == 1)
     V_P = point_velocity_body(s, mo)
-    jumps = {"impact": 0.0, "contact": 0.0, "liftoff": 0.0, "graze": 0.0}
+    jumps = {"impact": 0.0, "contact": 0.0, "liftoff": 0.0, "graze": 0.0, "event": 0.0}
     restitution = drive_impacts = 0.0
-    impacts = iter(result.impacts)
-    for k, i in enumerate(befores):
-        kind = result.events[k]["kind"] if k < len(result.events) else "impact"
+    for i, ev in event_rows(result):
+        kind = ev["kind"]
         jumps[kind] = jumps.get(kind, 0.0) + float(E[i + 1] - E[i])
         if kind == "impact":
-            _, I, vm, vp = next(impacts)
-            restitution += 0.5 * float(I * (vm + vp))
+            restitution += 0.5 * ev["value"] * (ev["v_minus"] + ev["v_plus"])
             if V_P is not None:
                 drive_impacts += s.m * float(np.dot(V_P[i + 1] - V_P[i], mo.v_r[i]))
     power = drive_power_in_flight(s, mo)
-    drive_flight = contact = 0.0
+    drive_flight = drive_contact = contact = 0.0
+    unchecked = False
     for a, b, state in phases(result):
         if state == "flight":
             drive_flight += integrate(mo.t[a:b], power[a:b])
-        else:
+            continue
+        p = drive_power_in_contact(result, mo, a, b)
+        if p is None:
             contact += float(E[b - 1] - E[a])
+            unchecked = True
+        else:
+            drive_contact += integrate(mo.t[a:b], p)
     E0, E1 = float(E[0]), float(E[-1])
     out = {
         "start": E0, "end": E1, "change": E1 - E0,
@@ -216,9 +304,10 @@ def energy_balance(result, mo: Motion) -> dict | None:
         "restitution_at_impacts": restitution,
         "drive_work_at_impacts": drive_impacts if V_P is not None else None,
         "drive_work_in_flight": drive_flight,
-        "change_in_contact": contact,
-        "at_other_events": jumps["contact"] + jumps["liftoff"] + jumps["graze"],
+        "drive_work_in_contact": drive_contact,
+        "change_in_contact_not_split": contact if unchecked else None,
+        "at_other_events": sum(v for k, v in jumps.items() if k != "impact"),
     }
-    out["residual"] = (E1 - E0 - out["at_impacts"] - drive_flight - contact
+    out["residual"] = (E1 - E0 - out["at_impacts"] - drive_flight - drive_contact - contact
                        - out["at_other_events"])
     return out

@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from .driver import Result
-from .motion import Motion, energy_balance, motion, phases
+from .motion import Motion, energy_balance, event_rows, for_pictures, motion, phases
 
 
 def invariant_drift(result: Result) -> dict:
@@ -46,7 +46,8 @@ def _finite(x: float):
 def summary(result: Result, mo: Motion | None = None) -> dict:
     """What a run did, in numbers; ``energy`` is the balance of
     :func:`derive.runtime.motion.energy_balance` (in joules): ``end - start = at_impacts +
-    drive_work_in_flight + change_in_contact + at_other_events + residual``, and each
+    drive_work_in_flight + drive_work_in_contact (+ change_in_contact_not_split) +
+    at_other_events + residual``, and each
     impact's jump is ``restitution_at_impacts`` (the sum of I (v_n- + v_n+)/2, zero for
     e = 1) plus ``drive_work_at_impacts`` (the impulsive work of the point's drive, zero for
     a point at rest in the body)."""
@@ -136,11 +137,11 @@ def split_rows(result: Result) -> tuple[np.ndarray, np.ndarray]:
 
 
 def event_labels(result: Result, rows: np.ndarray) -> dict:
-    kinds = [ev["kind"] for ev in result.events]
-    befores = np.flatnonzero(result.row_kind == 1)
-    which = np.searchsorted(befores, rows, side="right") - 1   # after rows: the same event
-    which = np.where(result.row_kind[rows] == 1, np.searchsorted(befores, rows), which)
-    return {"event": [kinds[k] if 0 <= k < len(kinds) else "event" for k in which],
+    """The ``event`` (impact, liftoff, ...) and ``side`` (before, after) of event rows."""
+    kind = {}
+    for i, ev in event_rows(result):
+        kind[i] = kind[i + 1] = ev["kind"]
+    return {"event": [kind.get(int(i), "event") for i in rows],
             "side": ["before" if result.row_kind[i] == 1 else "after" for i in rows]}
 
 
@@ -182,15 +183,20 @@ def write_all(result: Result, out_dir, plot: bool = True, animation: bool = Fals
     written = write_tables(result, mo, out, fmt)
     timings["tables_s"] = time.perf_counter() - start
     info = summary(result, mo)
+    if plot or animation:
+        start = time.perf_counter()
+        fine = for_pictures(result)
+        mo_fine = mo if fine is result else motion(fine)
+        timings["resample_s"] = time.perf_counter() - start
     if plot:
         start = time.perf_counter()
         from .plots import overview
-        written.append(overview(result, mo, out / "overview.png"))
+        written.append(overview(fine, mo_fine, out / "overview.png", steps=result))
         timings["overview_s"] = time.perf_counter() - start
-    if animation and mo.r_O is not None:
+    if animation and mo_fine.r_O is not None:
         start = time.perf_counter()
         from .animation import write_gif
-        written.append(write_gif(result, mo, out / "motion.gif"))
+        written.append(write_gif(fine, mo_fine, out / "motion.gif"))
         timings["animation_s"] = time.perf_counter() - start
     info["timings_s"]["outputs"] = timings
     result.timings["outputs"] = timings

@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from . import drawing
-from .motion import Motion, phases
+from .motion import Motion, contact_intervals, impact_rows, phases
 
 
 # a title at a fixed height: matplotlib's automatic placement measures every tick label
@@ -40,24 +40,32 @@ def _labels_below(ax, entries, per_row: int = 3) -> None:
 
 
 def _impact_lines(ax, impacts):
-    if len(impacts):
+    if 0 < len(impacts) <= 40:           # more would grey the panel out
         ax.vlines(impacts[:, 0], 0, 1, transform=ax.get_xaxis_transform(), color="0.85",
                   lw=0.6, zorder=0)
 
 
 def snapshot_rows(view, mo: Motion, size: float, most: int = 6, candidates: int = 60):
     """Rows at which to draw the body: the first and the last, then in time order every
-    instant whose picture overlaps none of those chosen (at most ``most``)."""
+    instant whose picture (with its time written beside it) overlaps none of those
+    chosen (at most ``most``)."""
     idx = np.unique(np.searchsorted(mo.t, np.linspace(mo.t[0], mo.t[-1], candidates)
                                     ).clip(0, len(mo.t) - 1))
     centres = view(mo.r_O[idx])
+    W = float(np.ptp(view(np.vstack([mo.r_O, mo.r_P]))[:, 0])) + 2.0 * size
+    # apart: the bodies do not touch, nor do the times written left of them
+    gap = np.array([max(2.05 * size, 0.22 * W), max(2.05 * size, 0.09 * W)])
+
+    def clear(k, chosen):
+        return bool(np.all(np.any(np.abs(centres[chosen] - centres[k]) >= gap, axis=1)))
+
     chosen = [0]
-    if np.linalg.norm(centres[-1] - centres[0]) >= 2.05 * size:
+    if clear(len(idx) - 1, chosen):
         chosen.append(len(idx) - 1)
     for k in range(1, len(idx) - 1):
         if len(chosen) == most:
             break
-        if np.min(np.linalg.norm(centres[chosen] - centres[k], axis=1)) >= 2.05 * size:
+        if clear(k, chosen):
             chosen.append(k)
     return idx[sorted(chosen)]
 
@@ -74,15 +82,23 @@ def side_panel(ax, result, mo: Motion) -> None:
     if result.scene.plane:
         ax.axhline(0.0, color="0.4", lw=1.0)
         if len(result.impacts):
-            rows = np.flatnonzero(result.row_kind == 1)
-            kinds = [ev["kind"] for ev in result.events]
-            rows = [i for j, i in enumerate(rows) if j < len(kinds) and kinds[j] == "impact"]
+            rows = impact_rows(result)
             S = drawing.lowest_points(result.scene, mo.r_O[rows], mo.A[rows])
             ax.plot(S[:, k], S[:, 2], "x", color="#d62728", ms=6, mew=1.5)
-    ax.set_aspect("equal", adjustable="datalim")
+    # to scale unless that would leave most of the panel empty
+    box = ax.get_position()
+    fw, fh = ax.figure.get_size_inches()
+    allz = np.concatenate([mo.r_P[:, 2], mo.r_C[:, 2], [0.0] if result.scene.plane else []])
+    dz = max(float(np.ptp(allz)), 1e-12)
+    dx = max(float(np.ptp(np.concatenate([mo.r_P[:, k], mo.r_O[:, k]]))), 1e-12)
+    panel = (box.width * fw) / (box.height * fh)
+    to_scale = 1 / 3 <= (dx / dz) / panel <= 3
+    if to_scale:
+        ax.set_aspect("equal", adjustable="datalim")
     ax.set_xlabel(f"{name} [m]", fontsize=9)
     ax.set_ylabel("Z [m]", fontsize=9)
-    ax.set_title(f"traces in the vertical plane {name}-Z, to scale", **_TITLE)
+    ax.set_title(f"traces in the vertical plane {name}-Z"
+                 + (", to scale" if to_scale else " (not to scale)"), **_TITLE)
     _labels(ax, [("C", "k"), ("O, carrier's centre", "#3182bd"), ("P", "#e6550d")]
             + ([("x  impact points S", "#d62728")] if len(result.impacts) else []))
 
@@ -105,9 +121,7 @@ def motion_panel(ax, result, mo: Motion) -> None:
     ax.plot(C[:, 0], C[:, 1], color="k", lw=1.0, zorder=1.6)
     labels += [("trace of C", "k"), ("trace of P", "#e6550d")]
     if len(result.impacts):
-        rows = np.flatnonzero(result.row_kind == 1)
-        kinds = [ev["kind"] for ev in result.events]
-        rows = [i for k, i in enumerate(rows) if k < len(kinds) and kinds[k] == "impact"]
+        rows = impact_rows(result)
         Sv = view(drawing.lowest_points(s, mo.r_O[rows], mo.A[rows]))
         ax.plot(Sv[:, 0], Sv[:, 1], "x", color="#d62728", ms=6, mew=1.5, zorder=1.7)
         labels.append((f"x  impacts at S ({len(rows)})", "#d62728"))
@@ -153,13 +167,16 @@ def motion_panel(ax, result, mo: Motion) -> None:
     ax.set_ylim(mid[1] - half[1], mid[1] + half[1])
     ax.set_aspect("equal")
     ax.set_axis_off()
-    note = "" if real else "; no surface: the body drawn as its ellipsoid of inertia"
+    note = "" if real else "\n(no surface: the body drawn as its equivalent ellipsoid of inertia)"
     ax.set_title(f"the motion, from azimuth {view.az:.0f}°, elevation {view.el:.0f}°"
                  f"{note}", **_TITLE)
     _labels_below(ax, labels)
 
 
-def overview(result, mo: Motion, path: Path, dpi: int = 80) -> Path:
+def overview(result, mo: Motion, path: Path, dpi: int = 80, steps=None) -> Path:
+    """``result`` and ``mo``: the rows to draw; ``steps``: the run at its own rows (the
+    ends of steps), for the drift of |K|, which the dense output's interpolation error
+    would hide (default: ``result``)."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
@@ -176,8 +193,9 @@ def overview(result, mo: Motion, path: Path, dpi: int = 80) -> Path:
     gs = fig.add_gridspec(rows, 2, height_ratios=([4.6 / 2.7] if has_motion else [])
                           + [1, 1, 1], left=0.06, right=0.87, top=1 - 0.8 / height,
                           bottom=0.45 / height, wspace=0.45, hspace=0.42)
+    n_contact = len(contact_intervals(result))
     fig.suptitle(f"{s.name}: {result.model} model, {s.method}, {result.status}; "
-                 f"{len(imp)} impacts", fontsize=12, y=1 - 0.15 / height, va="top")
+                 f"{len(imp)} impacts" + (f", {n_contact} contact phase{'s' if n_contact > 1 else ''}" if n_contact else ""), fontsize=12, y=1 - 0.15 / height, va="top")
     if has_motion:
         motion_panel(fig.add_subplot(gs[0, 0]), result, mo)
         side_panel(fig.add_subplot(gs[0, 1]), result, mo)
@@ -194,10 +212,22 @@ def overview(result, mo: Motion, path: Path, dpi: int = 80) -> Path:
         ax.plot(t, mo.h, lw=1, color="C0")
         ax.axhline(0.0, color="k", lw=0.8)
         _impact_lines(ax, imp)
+        spans = contact_intervals(result)
+        for c0, c1 in spans:
+            ax.axvspan(c0, min(c1, t[-1]), color="#c7e9c0", lw=0, zorder=0)
+        if spans:
+            _labels(ax, [("in contact", "#41ab5d")])
         ax.set_ylabel("height of S [m]", fontsize=9)
         mh = result.summary.get("t_min_height", np.nan)
         ax.set_title(f"height of the lowest point S (min {result.min_height:.3g} m"
                      + (f" at t = {mh:.3g} s)" if np.isfinite(mh) else ")"), **_TITLE)
+    elif mo.r_O is not None:
+        for pts, colour, name in ((mo.r_P, "#ff7f0e", "Z_P"), (mo.r_O, "#3182bd", "Z_O"),
+                                  (mo.r_C, "k", "Z_C")):
+            ax.plot(t, pts[:, 2], lw=1, color=colour)
+        ax.set_ylabel("[m]", fontsize=9)
+        ax.set_title("heights of C, O and P (no surface: no lowest point)", **_TITLE)
+        _labels(ax, [("Z_C", "k"), ("Z_O", "#3182bd"), ("Z_P", "#e6550d")])
     else:
         ax.text(0.5, 0.5, "no surface: no lowest point", ha="center", va="center",
                 transform=ax.transAxes)
@@ -260,20 +290,28 @@ def overview(result, mo: Motion, path: Path, dpi: int = 80) -> Path:
     ax.set_title(f"impulses ({len(imp)} impacts)", **_TITLE)
 
     ax = panels[5]
-    K = result.momentum["K_norm"]
-    worst = 0.0
-    for a, b, state in phases(result):
-        if state == "flight" and b - a > 1 and K[a] > 0:
+    steps = steps if steps is not None else result
+    K, tK = steps.momentum["K_norm"], steps.t
+    worst, drawn = 0.0, False
+    for a, b, state in phases(steps):
+        if state == "flight" and b - a > 2 and K[a] > 0:
             drift = np.abs(K[a + 1:b] - K[a]) / K[a]
             worst = max(worst, float(drift.max()))
-            ax.semilogy(t[a + 1:b], np.maximum(drift, 1e-17), lw=1, color="C0")
-    from matplotlib.ticker import FuncFormatter, LogLocator, NullLocator
-    # a log axis' minor ticks and mathtext labels cost 0.4 s: plain labels, major only
-    ax.yaxis.set_minor_locator(NullLocator())
-    ax.yaxis.set_major_locator(LogLocator(numticks=6))
-    ax.yaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:.0e}"))
+            ax.plot(tK[a + 1:b], np.maximum(drift, 1e-17), lw=1, color="C0")
+            drawn = True
+    if drawn:
+        from matplotlib.ticker import FuncFormatter, LogLocator, NullLocator
+        # a log axis' minor ticks and mathtext labels cost 0.4 s: plain labels, major only
+        ax.set_yscale("log")
+        ax.yaxis.set_minor_locator(NullLocator())
+        ax.yaxis.set_major_locator(LogLocator(numticks=6))
+        ax.yaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:.0e}"))
+    else:
+        ax.text(0.5, 0.5, "K = 0 in every flight", ha="center", va="center",
+                transform=ax.transAxes)
     ax.set_ylabel("relative drift", fontsize=9)
-    ax.set_title(f"| |K| - |K| at phase start | / |K| (E1.9), max {worst:.1e}", **_TITLE)
+    ax.set_title(f"| |K| - |K| at phase start | / |K| (E1.9), max {worst:.1e}"
+                 + (" (at the steps' ends)" if steps is not result else ""), **_TITLE)
     ax.set_xlim(t[0], t[-1])
 
     for ax in panels[:4]:
