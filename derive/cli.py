@@ -16,7 +16,7 @@ class UsageError(Exception):
 
 # ---- equations --------------------------------------------------------------------
 def cmd_equations(args: argparse.Namespace) -> int:
-    from .equations import BUILDERS, derived, render_latex, render_text
+    from .equations import BUILDERS, compact, derived, render_latex, render_text
     ids = [args.id] if args.id else list(BUILDERS)
     for eid in ids:
         if eid not in BUILDERS:
@@ -26,7 +26,8 @@ def cmd_equations(args: argparse.Namespace) -> int:
     for k, eid in enumerate(ids):
         if k:
             print()
-        print(render(derived(eid)))
+        entry = derived(eid)
+        print(render(compact(entry) if args.compact else entry))
     return 0
 
 
@@ -271,6 +272,9 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("equations", help="print the derived equations with their IDs")
     p.add_argument("--latex", action="store_true", help="LaTeX instead of plain text")
     p.add_argument("--id", help="only this ID (e.g. E1.7)")
+    p.add_argument("--compact", action="store_true", help="the compact (factored) form: "
+                   "J_ij, K, d, CS, |n| kept by name and defined below each equation (each "
+                   "checked equal to the expanded form before it is printed)")
     p.set_defaults(func=cmd_equations)
 
     p = sub.add_parser("prove", help="run paper_checks/: every ID of CLAIMS.md")
