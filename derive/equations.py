@@ -203,6 +203,7 @@ GLOSSARY = {
     "X_C''": "acceleration of C",
     "X_O": "(X_O, Y_O, Z_O): the carrier's centre of mass O, fixed axes",
     "Q_X": "Q = (Q_X, Q_Y, Q_Z): momentum of the system, fixed axes",
+    "Q_X'": "rate of Q_X",
     "K_x": "K = (K_x, K_y, K_z): angular momentum about C, body axes",
     "K_x'": "rate of the body component K_x (the relative derivative)",
     "J_11": "J_ij: entries of J = dK/d omega (E1.5), the inertia at O of the carrier plus "
@@ -218,6 +219,7 @@ GLOSSARY = {
            "v_n+ after the impact",
     "k": "the coefficient of E1.16: v_n+ - v_n- = I k",
     "w_x": "w = J^-1 d, found by solving J w = d (never by inversion)",
+    "J w": "the product of J (E1.5) and w", "d": "the vector d of E1.10",
     "omega_x+": "omega just after the impact (omega on the right: just before)",
     "R": "sphere radius", "s_a": "(s_a, s_b, s_c): ellipsoid semi-axes along the body axes",
     "c_x": "(c_x, c_y, c_z): centre of the surface in body axes",
@@ -229,6 +231,7 @@ _ALIASES = {}
 for _group in (("x", "y", "z"), ("x'", "y'", "z'"), ("x''", "y''", "z''"),
                ("omega_x", "omega_y", "omega_z"), ("omega_x'", "omega_y'", "omega_z'"),
                ("X_C", "Y_C", "Z_C"), ("X_O", "Y_O", "Z_O"), ("Q_X", "Q_Y", "Q_Z"),
+               ("Q_X'", "Q_Y'", "Q_Z'"),
                ("K_x", "K_y", "K_z"), ("K_x'", "K_y'", "K_z'"), ("d_x", "d_y", "d_z"),
                ("CS_x", "CS_y", "CS_z"), ("x_*", "y_*", "z_*"), ("x_*'", "y_*'", "z_*'"),
                ("w_x", "w_y", "w_z"), ("omega_x+", "omega_y+", "omega_z+"),
