@@ -87,8 +87,8 @@ def plain(label: str) -> str:
 
 
 def write_csv(path: Path, header: list, rows: np.ndarray, text: dict | None = None) -> None:
-    """Numbers as Python's shortest repr (they read back bit for bit); ``text`` columns (name -> list
-    of strings) go first."""
+    """Numbers as Python's shortest repr (they read back bit for bit); ``text`` columns
+    (name -> list of strings) go first."""
     text = text or {}
     with open(path, "w", encoding="utf-8") as fh:
         fh.write(",".join([*text, *header]) + "\n")

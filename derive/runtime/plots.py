@@ -194,8 +194,11 @@ def overview(result, mo: Motion, path: Path, dpi: int = 80, steps=None) -> Path:
                           + [1, 1, 1], left=0.06, right=0.87, top=1 - 0.8 / height,
                           bottom=0.45 / height, wspace=0.45, hspace=0.42)
     n_contact = len(contact_intervals(result))
+    phases_text = (f", {n_contact} contact phase" + ("s" if n_contact > 1 else "")
+                   if n_contact else "")
     fig.suptitle(f"{s.name}: {result.model} model, {s.method}, {result.status}; "
-                 f"{len(imp)} impacts" + (f", {n_contact} contact phase{'s' if n_contact > 1 else ''}" if n_contact else ""), fontsize=12, y=1 - 0.15 / height, va="top")
+                 f"{len(imp)} impacts{phases_text}", fontsize=12, y=1 - 0.15 / height,
+                 va="top")
     if has_motion:
         motion_panel(fig.add_subplot(gs[0, 0]), result, mo)
         side_panel(fig.add_subplot(gs[0, 1]), result, mo)
