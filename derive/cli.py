@@ -16,7 +16,7 @@ class UsageError(Exception):
 
 # ---- equations --------------------------------------------------------------------
 def cmd_equations(args: argparse.Namespace) -> int:
-    from .equations import BUILDERS, derived, render_latex, render_text
+    from .equations import BUILDERS, compact, derived, render_latex, render_text
     ids = [args.id] if args.id else list(BUILDERS)
     for eid in ids:
         if eid not in BUILDERS:
@@ -26,7 +26,8 @@ def cmd_equations(args: argparse.Namespace) -> int:
     for k, eid in enumerate(ids):
         if k:
             print()
-        print(render(derived(eid)))
+        entry = derived(eid)
+        print(render(compact(entry) if args.compact else entry))
     return 0
 
 
@@ -146,7 +147,8 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         raise UsageError(str(exc)) from None
     from .runtime.outputs import write_all
     t_written = time.perf_counter()
-    written = write_all(result, args.output, plot=not args.no_plots)
+    written = write_all(result, args.output, plot=not args.no_plots,
+                        animation=not (args.no_animation or args.no_plots), fmt=args.format)
     t_done = time.perf_counter()
     info = result.stats
     print(f"{scene.name}: {result.status}; model {result.model} ({result.why})")
@@ -160,8 +162,10 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     t = result.timings
     build = f", library built in {t['library_build_s']:.2f} s (once per machine)" \
         if t.get("load_s", 0.0) > 0.05 else ""
+    out_t = t.get("outputs", {})
+    parts = ", ".join(f"{name[:-2]} {sec:.2f} s" for name, sec in out_t.items())
     print(f"  validate {1e3 * t['prepare_s']:.2f} ms, run {1e3 * t['run_s']:.2f} ms{build}, "
-          f"outputs {t_done - t_written:.2f} s; {t_done - start:.2f} s in all")
+          f"outputs {t_done - t_written:.2f} s ({parts}); {t_done - start:.2f} s in all")
     print(f"  wrote {', '.join(p.name for p in written)} to {args.output}")
     return 0 if result.status == "done" else 1
 
@@ -408,6 +412,9 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("equations", help="print the derived equations with their IDs")
     p.add_argument("--latex", action="store_true", help="LaTeX instead of plain text")
     p.add_argument("--id", help="only this ID (e.g. E1.7)")
+    p.add_argument("--compact", action="store_true", help="the compact (factored) form: "
+                   "J_ij, K, d, CS, |n| kept by name and defined below each equation (each "
+                   "checked equal to the expanded form before it is printed)")
     p.set_defaults(func=cmd_equations)
 
     p = sub.add_parser("prove", help="run paper_checks/: every ID of CLAIMS.md")
@@ -433,7 +440,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-o", "--output", default="out", help="output folder (default: out)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     p.add_argument("--no-plots", action="store_true", help="write the tables and the "
-                   "summary only")
+                   "summary only (no overview.png, no motion.gif)")
+    p.add_argument("--no-animation", action="store_true", help="skip motion.gif (the "
+                   "animation takes about as long as everything else together)")
+    p.add_argument("--format", choices=["csv", "npz"], default="csv", help="tables as CSV "
+                   "files (default) or one run.npz of named arrays (numpy.load), for long "
+                   "runs")
     p.add_argument("--set", action="append", metavar="TABLE.KEY=VALUE",
                    help="override a field of the scene, e.g. --set body.mass=1.3 or --set "
                         "initial.com[2]=2.0 (repeatable)")

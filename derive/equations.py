@@ -182,14 +182,281 @@ def derived(eq_id: str) -> Derived:
                        + ", ".join(BUILDERS)) from None
 
 
-def render_text(entry: Derived) -> str:
+# ---- what every printed symbol means ------------------------------------------------
+GLOSSARY = {
+    "t": "time", "const": "a constant of the motion",
+    "M": "mass of the carrier", "m": "mass of the point P",
+    "mu": "reduced mass m M/(m+M)", "nu": "mass fraction m/(m+M): OC = nu OP",
+    "J_x": "principal central moment of inertia of the carrier about Ox (J_y, J_z alike)",
+    "g": "acceleration of gravity", "e": "restitution coefficient",
+    "x": "OP = (x, y, z): position of P in body axes (a prescribed law of t)",
+    "x'": "V_r = (x', y', z'): velocity of P relative to the body",
+    "x''": "(x'', y'', z''): acceleration of P relative to the body",
+    "omega_x": "omega = (omega_x, omega_y, omega_z): angular velocity, body axes",
+    "omega_x'": "(omega_x', omega_y', omega_z'): its rate",
+    "a11": "a_ij = cos(fixed axis i, body axis j); (a31, a32, a33) = n, the upward "
+           "vertical in body axes",
+    "a11'": "a_ij': rate of a_ij",
+    "X_C": "(X_C, Y_C, Z_C): centre of mass C of the system, fixed axes (Z up)",
+    "X_C'": "(X_C', Y_C', Z_C'): velocity of C; a trailing + or - marks after or before "
+            "an impact",
+    "X_C''": "acceleration of C",
+    "X_O": "(X_O, Y_O, Z_O): the carrier's centre of mass O, fixed axes",
+    "Q_X": "Q = (Q_X, Q_Y, Q_Z): momentum of the system, fixed axes",
+    "Q_X'": "rate of Q_X",
+    "K_x": "K = (K_x, K_y, K_z): angular momentum about C, body axes",
+    "K_x'": "rate of the body component K_x (the relative derivative)",
+    "J_11": "J_ij: entries of J = dK/d omega (E1.5), the inertia at O of the carrier plus "
+            "a mass mu at P",
+    "J_11'": "J_ij': rate of J_ij along the law",
+    "(K - J omega)_x": "components of K - J omega, the part carried by the motion of P",
+    "d_x": "d = CS x n (E1.10): the lever of the impulse",
+    "CS_x": "CS = OS - nu OP: from C to the lowest point S, body axes",
+    "x_*": "OS = (x_*, y_*, z_*): the lowest point S of the surface, body axes",
+    "x_*'": "rate of OS",
+    "I": "the impulse of the plane's reaction, along n",
+    "v_n": "normal velocity of the body point S (the rate of its height); v_n- before, "
+           "v_n+ after the impact",
+    "k": "the coefficient of E1.16: v_n+ - v_n- = I k",
+    "w_x": "w = J^-1 d, found by solving J w = d (never by inversion)",
+    "J w": "the product of J (E1.5) and w", "d": "the vector d of E1.10",
+    "omega_x+": "omega just after the impact (omega on the right: just before)",
+    "R": "sphere radius", "s_a": "(s_a, s_b, s_c): ellipsoid semi-axes along the body axes",
+    "c_x": "(c_x, c_y, c_z): centre of the surface in body axes",
+    "|n|": "sqrt(a31^2 + a32^2 + a33^2) (= 1; kept so that S tolerates round-off)",
+    "D": "sqrt(s_a^2 a31^2 + s_b^2 a32^2 + s_c^2 a33^2)",
+}
+
+_ALIASES = {}
+for _group in (("x", "y", "z"), ("x'", "y'", "z'"), ("x''", "y''", "z''"),
+               ("omega_x", "omega_y", "omega_z"), ("omega_x'", "omega_y'", "omega_z'"),
+               ("X_C", "Y_C", "Z_C"), ("X_O", "Y_O", "Z_O"), ("Q_X", "Q_Y", "Q_Z"),
+               ("Q_X'", "Q_Y'", "Q_Z'"),
+               ("K_x", "K_y", "K_z"), ("K_x'", "K_y'", "K_z'"), ("d_x", "d_y", "d_z"),
+               ("CS_x", "CS_y", "CS_z"), ("x_*", "y_*", "z_*"), ("x_*'", "y_*'", "z_*'"),
+               ("w_x", "w_y", "w_z"), ("omega_x+", "omega_y+", "omega_z+"),
+               ("s_a", "s_b", "s_c"), ("c_x", "c_y", "c_z"), ("J_x", "J_y", "J_z"),
+               ("(K - J omega)_x", "(K - J omega)_y", "(K - J omega)_z")):
+    for _name in _group:
+        _ALIASES[_name] = _group[0]
+for _c in "XYZ":
+    for _sfx in ("'", "''", "'+", "'-"):
+        _ALIASES[f"{_c}_C{_sfx}"] = "X_C''" if _sfx == "''" else "X_C'"
+for _i in range(1, 4):
+    for _j in range(1, 4):
+        _ALIASES[f"a{_i}{_j}"], _ALIASES[f"a{_i}{_j}'"] = "a11", "a11'"
+        _ALIASES[f"J_{_i}{_j}"], _ALIASES[f"J_{_i}{_j}'"] = "J_11", "J_11'"
+for _name in ("v_n", "v_n-", "v_n+"):
+    _ALIASES[_name] = "v_n"
+
+
+def _printed_names(entry: Derived) -> list[str]:
+    """The names of the symbols and functions an entry prints, in order of appearance."""
+    names = []
+    for lhs, rhs in (*entry.relations, *entry.where):
+        for expr in (lhs, rhs):
+            expr = sp.sympify(expr)
+            found = [str(a) for a in expr.atoms(sp.Symbol)]
+            found += [f.func.__name__ for f in expr.atoms(sp.core.function.AppliedUndef)]
+            found += [f"{d.expr.func.__name__}'" for d in expr.atoms(sp.Derivative)
+                      if isinstance(d.expr, sp.core.function.AppliedUndef)]
+            for name in sorted(found, key=lambda n: (len(n), n)):
+                if name not in names:
+                    names.append(name)
+    return names
+
+
+def undefined_symbols(entry: Derived) -> list[str]:
+    """Printed names with no entry in :data:`GLOSSARY` (the tests want none)."""
+    out = []
+    for name in _printed_names(entry):
+        key = _ALIASES.get(name, name)
+        if key not in GLOSSARY and not name.startswith(("K_x^2", "dK_")):
+            out.append(name)
+    return out
+
+
+def symbols_block(entry: Derived) -> list[str]:
+    """``symbols:`` lines for an entry, each meaning once."""
+    seen, lines = set(), []
+    for name in _printed_names(entry):
+        key = _ALIASES.get(name, name)
+        if key in GLOSSARY and key not in seen:
+            seen.add(key)
+            lines.append(f"      {key:<16} {GLOSSARY[key]}")
+    return lines
+
+
+class _Printer(sp.printing.str.StrPrinter):
+    """SymPy's str printer with ``f(t)`` printed as ``f`` and ``df/dt`` as ``f'``."""
+
+    def _print_Derivative(self, expr):
+        if isinstance(expr.expr, sp.core.function.AppliedUndef) and \
+                len(expr.variables) == 1:
+            return f"{expr.expr.func.__name__}'"
+        return super()._print_Derivative(expr)
+
+    def _print_Function(self, expr):
+        if isinstance(expr, sp.core.function.AppliedUndef) and expr.args == (nt.t,):
+            return expr.func.__name__
+        return super()._print_Function(expr)
+
+
+def _str(expr) -> str:
+    return _Printer().doprint(expr)
+
+
+# ---- the compact (factored) form -------------------------------------------------------
+def _named() -> dict:
+    """Named quantities (symbol -> its definition in the derivation's terms)."""
+    from .impact import lever
+    from .momentum import angular_momentum
+    from .surfaces import radius, semi_axes
+    J = angular_momentum().J
+    CS, d = lever()
+    names = {}
+    for i in range(3):
+        for j in range(3):
+            names[sp.Symbol(f"J_{i + 1}{j + 1}")] = J[i, j]
+    for k, c in enumerate("xyz"):
+        names[sp.Symbol(f"d_{c}")] = d[k]
+        names[sp.Symbol(f"CS_{c}")] = CS[k]
+    n = nt.n
+    names[sp.Symbol("|n|")] = sp.sqrt(n[0] ** 2 + n[1] ** 2 + n[2] ** 2)
+    names[sp.Symbol("D")] = sp.sqrt(sum(semi_axes[k] ** 2 * n[k] ** 2 for k in range(3)))
+    del radius
+    return names
+
+
+def _same(a, b) -> bool:
+    a, b = nt.from_paper_notation(sp.sympify(a)), nt.from_paper_notation(sp.sympify(b))
+    return sp.simplify(sp.expand(a - b)) == 0
+
+
+def compact_expression(expr, names: dict, variables: list):
+    """``expr`` with the radicals of ``names`` and, after collecting by ``variables``,
+    every coefficient equal (or opposite) to a named quantity replaced by its name; the
+    rest grouped (``factor_terms``)."""
+    expr = sp.sympify(expr)
+    for name, value in names.items():
+        if isinstance(value, sp.Pow):
+            expr = expr.xreplace({value: name, 1 / value: 1 / name,
+                                  value ** 3: name ** 3, 1 / value ** 3: 1 / name ** 3})
+            expr = expr.xreplace({value.base: name ** 2, 1 / value.base: name ** -2})
+    if variables:
+        expanded = sp.expand(expr)
+        coeffs = sp.collect(expanded, variables, evaluate=False)
+        out = sp.Integer(0)
+        for key, c in coeffs.items():
+            c = sp.factor_terms(c)
+            for name, value in names.items():
+                if isinstance(value, sp.Pow):
+                    continue
+                if sp.expand(c - value) == 0:
+                    c = name
+                    break
+                if sp.expand(c + value) == 0:
+                    c = -name
+                    break
+            out += c * key
+        expr = out
+    return sp.factor_terms(expr)
+
+
+def compact(entry: Derived) -> Derived:
+    """The entry with named quantities (J_ij, d, CS, |n|, D) in place of their expansions,
+    each relation checked equal to the expanded one before it is returned."""
+    names = _named()
+    variables = [*nt.omega_dot, *nt.omega, *nt.W, nt.a[2, 0], nt.a[2, 1], nt.a[2, 2]]
+    if entry.id == "E1.7":
+        relations = _e1_7_compact()
+    elif entry.id == "E1.9":
+        relations = ((entry.relations[0][0], sp.Symbol("const")),)
+    elif entry.id in ("E1.4", "E1.5", "E1.8", "E1.8a"):
+        return entry
+    else:
+        relations = tuple((lhs, compact_expression(rhs, names, variables))
+                          for lhs, rhs in entry.relations)
+    used = set().union(*(sp.sympify(side).free_symbols for rel in relations for side in rel))
+    lhs_names = {lhs for lhs, _ in relations}
+    no_d = {k: v for k, v in names.items() if not k.name.startswith("d_")}
+    n_vars = [nt.a[2, 0], nt.a[2, 1], nt.a[2, 2]]
+    where = [(k, compact_expression(v, no_d, n_vars) if k.name.startswith("d_")
+              else sp.factor_terms(v)) for k, v in names.items()
+             if k in used and k not in lhs_names and not isinstance(v, sp.Pow)]
+    where += [(k, v) for k, v in names.items() if k in used and isinstance(v, sp.Pow)]
+    if entry.id == "E1.7":
+        where += [(k, v) for k, v in _e1_7_where() if k in used]
+        where += list(_vec_rel(sp.symbols("K_x K_y K_z"), _k_compact()))
+    if entry.id == "E1.9":
+        where = list(_vec_rel(sp.symbols("K_x K_y K_z"), _k_compact()))
+    # each name used by a where-line's right-hand side, defined too
+    more = set().union(*(sp.sympify(v).free_symbols for _, v in where)) if where else set()
+    where += [(k, sp.factor_terms(v)) for k, v in names.items()
+              if k in more and k not in used and not isinstance(v, sp.Pow)]
+    known = {lhs for lhs, _ in entry.where}
+    where = [(k, v) for k, v in where if k not in known]
+    if entry.id not in ("E1.9",):
+        full = dict(names)
+        if entry.id == "E1.7":
+            full.update(dict(_e1_7_where()))
+            full[sp.Symbol("K_x")], full[sp.Symbol("K_y")], full[sp.Symbol("K_z")] = \
+                _k_compact().xreplace(names)
+        for (lhs, r_full), (_, r_comp) in zip(entry.relations, relations):
+            back = sp.sympify(r_comp)
+            for _ in range(3):
+                back = back.xreplace(full)
+            if not _same(back, r_full):
+                raise AssertionError(f"{entry.id}: the compact form of {lhs} differs")
+    return Derived(entry.id, entry.title + " (compact)", relations,
+                   where=tuple((*entry.where, *where)), note=entry.note)
+
+
+def _k_compact() -> sp.Matrix:
+    from .momentum import angular_momentum
+    am = angular_momentum()
+    Js = sp.Matrix(3, 3, lambda i, j: sp.Symbol(f"J_{i + 1}{j + 1}"))
+    return Js * nt.omega + am.own.applyfunc(sp.factor)
+
+
+def _e1_7_where() -> list:
+    """J_ij' (the rates of J along the law) in terms of the law."""
+    from .momentum import angular_momentum
+    J = angular_momentum().J
+    out = []
+    for i in range(3):
+        for j in range(3):
+            rate = nt.freeze(sp.diff(nt.thaw(J[i, j]), nt.t))
+            out.append((sp.Symbol(f"J_{i + 1}{j + 1}'"), sp.factor(rate)))
+    return out
+
+
+def _e1_7_compact() -> tuple:
+    """E1.3 applied to K = J omega + (K - J omega) with J and K kept by name:
+    ``J omega' + J' omega + d/dt (K - J omega) + omega x K = 0``."""
+    from .momentum import angular_momentum
+    am = angular_momentum()
+    Js = sp.Matrix(3, 3, lambda i, j: sp.Symbol(f"J_{i + 1}{j + 1}"))
+    Jd = sp.Matrix(3, 3, lambda i, j: sp.Symbol(f"J_{i + 1}{j + 1}'"))
+    own_rate = nt.freeze(sp.diff(nt.thaw(am.own), nt.t)).applyfunc(sp.factor)
+    Ks = sp.Matrix(sp.symbols("K_x K_y K_z"))
+    residual = Js * nt.omega_dot + Jd * nt.omega + own_rate + nt.cross(nt.omega, Ks)
+    return tuple((r, 0) for r in residual)
+
+
+def render_text(entry: Derived, symbols: bool = True) -> str:
     lines = [f"{entry.id}  {entry.title}"]
     for lhs, rhs in entry.relations:
-        lines.append(f"    {sp.sstr(lhs)} = {sp.sstr(rhs)}")
+        lines.append(f"    {_str(lhs)} = {_str(rhs)}")
     for lhs, rhs in entry.where:
-        lines.append(f"  where {sp.sstr(lhs)} = {sp.sstr(rhs)}")
+        lines.append(f"  where {_str(lhs)} = {_str(rhs)}")
     if entry.note:
         lines.append(f"  ({entry.note})")
+    if symbols:
+        block = symbols_block(entry)
+        if block:
+            lines.append("  symbols:")
+            lines += block
     return "\n".join(lines)
 
 
@@ -202,4 +469,6 @@ def render_latex(entry: Derived) -> str:
     lines.append(r"\end{align}")
     for lhs, rhs in entry.where:
         lines.append(f"% where ${tex(lhs)} = {tex(rhs)}$")
+    for line in symbols_block(entry):
+        lines.append("% " + line.strip())
     return "\n".join(lines)

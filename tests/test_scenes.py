@@ -110,11 +110,11 @@ def test_cli_default_scene_writes_everything(tmp_path):
     proc = subprocess.run([sys.executable, "-m", "derive", "simulate", "-o", str(out), "-q"],
                           capture_output=True, text=True, timeout=600)
     assert proc.returncode == 0, proc.stderr
-    for name in ("trajectory.csv", "impacts.csv", "summary.json", "height.png", "omega.png",
-                 "K_drift.png", "impulses.png"):
+    for name in ("trajectory.csv", "events.csv", "impacts.csv", "summary.json",
+                 "overview.png", "motion.gif"):
         assert (out / name).is_file(), name
     header = (out / "trajectory.csv").read_text().splitlines()[0].split(",")
-    assert header[:4] == ["t", "X_C", "Y_C", "Z_C"] and header[-1] == "a33"
+    assert header[:4] == ["t", "X_C", "Y_C", "Z_C"] and header[-1] == "h"
     import json
     summary = json.loads((out / "summary.json").read_text())
     assert summary["status"] == "done" and summary["model"] == "general"

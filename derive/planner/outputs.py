@@ -28,7 +28,7 @@ def plots(plan: Plan, out: Path) -> list[Path]:
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    task, law = plan.task, plan.law
+    task, _law = plan.task, plan.law
     paths = []
     t = plan.table[:, 0]
     u = plan.table[:, 1:].T

@@ -1,27 +1,26 @@
-"""``derive simulate SCENE -o DIR``: trajectory.csv, impacts.csv, summary.json, plots."""
+"""``derive simulate SCENE -o DIR``: trajectory.csv, events.csv, impacts.csv,
+summary.json, overview.png and motion.gif.
+
+Rows.  ``trajectory.csv`` holds the runtime's ordinary rows: the ends of the solver's
+steps, or with ``[run].output_dt`` the uniform grid ``t0, t0 + dt, ...`` read from the
+dense output, so its ``t`` column is uniform.  The states just before and just after each
+event (impact, contact, lift-off, graze) are in ``events.csv``, with the same columns
+after two text columns ``event`` and ``side`` (before, after); ``impacts.csv`` has one row
+per impact (t, I, v_n_minus, v_n_plus).  Column names are plain identifiers (``dX_C`` for
+X_C'), so ``numpy.genfromtxt(..., names=True)`` and pandas keep them.
+"""
 from __future__ import annotations
 
 import json
 import os
 import platform
+import time
 from pathlib import Path
 
 import numpy as np
 
 from .driver import Result
-
-
-def _segments(result: Result):
-    """Index ranges between events (rows 'before_event' end one, 'after_event' start
-    the next)."""
-    kinds = result.row_kind
-    start = 0
-    for i, k in enumerate(kinds):
-        if k == 1:
-            yield start, i + 1
-        elif k == 2:
-            start = i
-    yield start, len(kinds)
+from .motion import Motion, energy_balance, event_rows, for_pictures, motion, phases
 
 
 def invariant_drift(result: Result) -> dict:
@@ -29,8 +28,8 @@ def invariant_drift(result: Result) -> dict:
     out = {}
     K = result.momentum["K_norm"]
     worst = 0.0
-    for a, b in _segments(result):
-        if b - a > 1 and K[a] > 0:
+    for a, b, state in phases(result):
+        if state == "flight" and b - a > 1 and K[a] > 0:
             worst = max(worst, float(np.max(np.abs(K[a:b] - K[a])) / K[a]))
     out["K_norm_relative_drift_between_events"] = worst
     if result.general is not None:
@@ -44,8 +43,19 @@ def _finite(x: float):
     return float(x) if np.isfinite(x) else None
 
 
-def summary(result: Result) -> dict:
+def summary(result: Result, mo: Motion | None = None) -> dict:
+    """What a run did, in numbers; ``energy`` is the balance of
+    :func:`derive.runtime.motion.energy_balance` (in joules): ``end - start = at_impacts +
+    drive_work_in_flight + drive_work_in_contact (+ change_in_contact_not_split) +
+    at_other_events + residual``, and each
+    impact's jump is ``restitution_at_impacts`` (the sum of I (v_n- + v_n+)/2, zero for
+    e = 1) plus ``drive_work_at_impacts`` (the impulsive work of the point's drive, zero for
+    a point at rest in the body)."""
     s = result.scene
+    mo = mo if mo is not None else motion(result)
+    steps, events = (np.flatnonzero(result.row_kind == 0),
+                     np.flatnonzero(result.row_kind != 0))
+    energy = energy_balance(result, mo)
     return {
         "scene": s.name,
         "status": result.status,
@@ -55,107 +65,141 @@ def summary(result: Result) -> dict:
         "t0": s.t0, "t_end": float(result.t[-1]) if len(result.t) else s.t0,
         "duration": s.duration,
         "counts": {**result.stats, "rows": int(len(result.t)),
+                   "trajectory_rows": int(len(steps)), "event_rows": int(len(events)),
                    "events": len(result.events)},
+        "trajectory": {"grid": "uniform" if s.output_dt > 0 else "solver steps",
+                       "output_dt": s.output_dt if s.output_dt > 0 else None},
         "contact": {"min_height_of_S": _finite(result.min_height),
                     "t_min_height": _finite(result.summary["t_min_height"]),
                     "min_normal_force_in_contact": _finite(result.min_normal)},
+        "energy": energy,
         "invariants": invariant_drift(result),
-        "timings_s": result.timings,
+        "timings_s": dict(result.timings),
         "machine": {"processor": platform.processor() or platform.machine(),
                     "cpus": os.cpu_count()},
     }
 
 
-def write_csv(path: Path, header: list, rows: np.ndarray) -> None:
+def plain(label: str) -> str:
+    """A column name NumPy, pandas and spreadsheets keep as it is: ``X_C'`` -> ``dX_C``."""
+    stripped = label.rstrip("'")
+    return "d" * (len(label) - len(stripped)) + stripped
+
+
+def write_csv(path: Path, header: list, rows: np.ndarray, text: dict | None = None) -> None:
+    """Numbers as Python's shortest repr (they read back bit for bit); ``text`` columns
+    (name -> list of strings) go first."""
+    text = text or {}
     with open(path, "w", encoding="utf-8") as fh:
-        fh.write(",".join(header) + "\n")
-        for row in rows:
-            fh.write(",".join(repr(float(v)) for v in row) + "\n")
+        fh.write(",".join([*text, *header]) + "\n")
+        lead = [",".join(vals) + "," for vals in zip(*text.values())] if text else None
+        for k, row in enumerate(np.asarray(rows, dtype=float).tolist()):
+            fh.write((lead[k] if lead else "") + ",".join(map(repr, row)) + "\n")
 
 
-def trajectory_table(result: Result) -> tuple[list, np.ndarray]:
-    header = ["t", *result.state_names]
+def trajectory_table(result: Result, mo: Motion | None = None) -> tuple[list, np.ndarray]:
+    """Every row's columns: ``t``, the states (plain names), the extras asked in
+    ``[run].outputs``, then what the pictures use: positions of O and P, the energies and
+    the height ``h`` of S, where the model gives them."""
+    mo = mo if mo is not None else motion(result)
+    header = ["t", *(plain(n) for n in result.state_names)]
     cols = [result.t[:, None], result.q]
     for name, value in result.extras.items():
         if name == "omega" and "omega_x" not in result.state_names:
             header += ["omega_x", "omega_y", "omega_z"]
             cols.append(value)
-        elif name == "height":
-            header.append("h")
-            cols.append(value[:, None])
         elif name == "momentum":
             header += ["K_x", "K_y", "K_z", "K_norm"]
             cols += [value["K_body"], value["K_norm"][:, None]]
+    if mo.r_O is not None:
+        header += ["X_O", "Y_O", "Z_O", "X_P", "Y_P", "Z_P"]
+        cols += [mo.r_O, mo.r_P]
+    if mo.T_carrier is not None:
+        header += ["E_carrier", "E_point"]
+        cols += [mo.T_carrier[:, None], mo.T_point[:, None]]
+    elif mo.T is not None:
+        header.append("E_kinetic")
+        cols.append(mo.T[:, None])
+    if mo.T is not None:
+        header += ["E_potential", "E"]
+        cols += [mo.U[:, None], mo.E[:, None]]
+    if mo.h is not None:
+        header.append("h")
+        cols.append(mo.h[:, None])
     return header, np.hstack(cols)
 
 
-def plots(result: Result, out: Path) -> list[Path]:
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    written = []
-    title = f"{result.scene.name}: {result.model} model, {result.scene.method}"
-    t = result.t
-
-    def save(fig, name):
-        path = out / name
-        fig.tight_layout()
-        fig.savefig(path, dpi=110)
-        plt.close(fig)
-        written.append(path)
-
-    height = result.height
-    if height is not None:
-        fig, ax = plt.subplots(figsize=(8, 3.5))
-        ax.plot(t, height, lw=1)
-        for imp in result.impacts:
-            ax.axvline(imp[0], color="0.8", lw=0.6, zorder=0)
-        ax.axhline(0, color="k", lw=0.8)
-        ax.set_xlabel("t [s]")
-        ax.set_ylabel("height of S [m]")
-        ax.set_title(f"{title}: height of the lowest point")
-        save(fig, "height.png")
-    omega = result.omega
-    if omega is not None:
-        fig, ax = plt.subplots(figsize=(8, 3.5))
-        for k, c in enumerate("xyz"):
-            ax.plot(t, omega[:, k], lw=1, label=f"omega_{c}")
-        ax.set_xlabel("t [s]")
-        ax.set_ylabel("angular velocity [rad/s]")
-        ax.legend(loc="best")
-        ax.set_title(f"{title}: angular velocity (body axes)")
-        save(fig, "omega.png")
-        K = result.momentum["K_norm"]
-        fig, ax = plt.subplots(figsize=(8, 3.5))
-        for a, b in _segments(result):
-            if b - a > 1 and K[a] > 0:
-                ax.semilogy(t[a:b], np.abs(K[a:b] - K[a]) / K[a] + 1e-17, lw=1, color="C0")
-        ax.set_xlabel("t [s]")
-        ax.set_ylabel("| |K| - |K|(phase start) | / |K|")
-        ax.set_title(f"{title}: drift of |K| between impacts (E1.9)")
-        save(fig, "K_drift.png")
-    if len(result.impacts):
-        fig, ax = plt.subplots(figsize=(8, 3.5))
-        ax.stem(result.impacts[:, 0], result.impacts[:, 1])
-        ax.set_xlabel("t [s]")
-        ax.set_ylabel("impulse I [N s]")
-        ax.set_title(f"{title}: impulses ({len(result.impacts)} impacts)")
-        save(fig, "impulses.png")
-    return written
+def split_rows(result: Result) -> tuple[np.ndarray, np.ndarray]:
+    """Indices of the trajectory rows (steps, or the output_dt grid) and of the event rows
+    (the state just before and just after each event)."""
+    kinds = result.row_kind
+    return np.flatnonzero(kinds == 0), np.flatnonzero(kinds != 0)
 
 
-def write_all(result: Result, out_dir, plot: bool = True) -> list[Path]:
+def event_labels(result: Result, rows: np.ndarray) -> dict:
+    """The ``event`` (impact, liftoff, ...) and ``side`` (before, after) of event rows."""
+    kind = {}
+    for i, ev in event_rows(result):
+        kind[i] = kind[i + 1] = ev["kind"]
+    return {"event": [kind.get(int(i), "event") for i in rows],
+            "side": ["before" if result.row_kind[i] == 1 else "after" for i in rows]}
+
+
+FORMATS = ("csv", "npz")
+
+
+def write_tables(result: Result, mo: Motion, out: Path, fmt: str = "csv") -> list[Path]:
+    """trajectory, events and impacts as CSV (default) or one ``.npz`` of named arrays."""
+    header, table = trajectory_table(result, mo)
+    steps, events = split_rows(result)
+    labels = event_labels(result, events)
+    imp_header = ["t", "I", "v_n_minus", "v_n_plus"]
+    if fmt == "csv":
+        paths = [out / "trajectory.csv", out / "events.csv", out / "impacts.csv"]
+        write_csv(paths[0], header, table[steps])
+        write_csv(paths[1], header, table[events], labels)
+        write_csv(paths[2], imp_header, result.impacts)
+        return paths
+    if fmt == "npz":
+        arrays = {f"trajectory/{h}": table[steps, k] for k, h in enumerate(header)}
+        arrays.update({f"events/{h}": table[events, k] for k, h in enumerate(header)})
+        arrays.update({f"events/{k}": np.array(v, dtype=str) for k, v in labels.items()})
+        arrays.update({f"impacts/{h}": result.impacts[:, k] for k, h in enumerate(imp_header)})
+        path = out / "run.npz"
+        np.savez_compressed(path, **arrays)
+        return [path]
+    raise ValueError(f"unknown format {fmt!r}; choose one of {', '.join(FORMATS)}")
+
+
+def write_all(result: Result, out_dir, plot: bool = True, animation: bool = False,
+              fmt: str = "csv") -> list[Path]:
+    """Tables, ``overview.png`` (``plot``), ``motion.gif`` (``animation``) and
+    ``summary.json`` (last, with the time each part took)."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    written = []
-    header, rows = trajectory_table(result)
-    write_csv(out / "trajectory.csv", header, rows)
-    written.append(out / "trajectory.csv")
-    write_csv(out / "impacts.csv", ["t", "I", "v_n_minus", "v_n_plus"], result.impacts)
-    written.append(out / "impacts.csv")
-    info = summary(result)
+    timings = {}
+    start = time.perf_counter()
+    mo = motion(result)
+    written = write_tables(result, mo, out, fmt)
+    timings["tables_s"] = time.perf_counter() - start
+    info = summary(result, mo)
+    if plot or animation:
+        start = time.perf_counter()
+        fine = for_pictures(result)
+        mo_fine = mo if fine is result else motion(fine)
+        timings["resample_s"] = time.perf_counter() - start
     if plot:
-        written += plots(result, out)
+        start = time.perf_counter()
+        from .plots import overview
+        written.append(overview(fine, mo_fine, out / "overview.png", steps=result))
+        timings["overview_s"] = time.perf_counter() - start
+    if animation and mo_fine.r_O is not None:
+        start = time.perf_counter()
+        from .animation import write_gif
+        written.append(write_gif(fine, mo_fine, out / "motion.gif"))
+        timings["animation_s"] = time.perf_counter() - start
+    info["timings_s"]["outputs"] = timings
+    result.timings["outputs"] = timings
     (out / "summary.json").write_text(json.dumps(info, indent=2) + "\n", encoding="utf-8")
     written.append(out / "summary.json")
     return written

@@ -1,0 +1,157 @@
+"""The geometry of the pictures of a run: an orthographic view, the body's outline and
+principal sections as seen in it, its shadow on the plane, and the plane itself.
+
+Everything is projected here with NumPy into screen coordinates, so matplotlib draws
+plain 2-D lines and polygons (fast, and the body keeps its true shape: the outline of an
+ellipsoid is computed, not sampled from a mesh).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+AXIS_COLOURS = ("#d62728", "#2ca02c", "#1f77b4")      # body x, y, z
+PLANE_COLOUR = "#dfe7ef"
+
+
+def body_semi_axes(scene) -> tuple[np.ndarray, bool]:
+    """Semi-axes of the surface along the body axes, and whether the shape is real; a body
+    without a shape is drawn as its equivalent ellipsoid of inertia (the uniform solid
+    ellipsoid of mass M with the moments J: a_x^2 = 5 (J_y + J_z - J_x) / (2 M), ...)."""
+    if scene.shape == "sphere":
+        return np.full(3, scene.size[0]), True
+    if scene.shape == "ellipsoid":
+        return np.asarray(scene.size, dtype=float), True
+    Jx, Jy, Jz = scene.J
+    sq = 2.5 / scene.M * np.array([Jy + Jz - Jx, Jx + Jz - Jy, Jx + Jy - Jz])
+    axes = np.sqrt(np.maximum(sq, 0.0))
+    return np.maximum(axes, 0.02 * axes.max()), False
+
+
+@dataclass
+class View:
+    """An orthographic view from azimuth ``az`` and elevation ``el`` (degrees)."""
+    az: float = -60.0
+    el: float = 22.0
+
+    @property
+    def P(self) -> np.ndarray:
+        """(2, 3): fixed axes to the screen (right, up)."""
+        a, e = np.radians(self.az), np.radians(self.el)
+        right = np.array([-np.sin(a), np.cos(a), 0.0])
+        up = np.array([-np.sin(e) * np.cos(a), -np.sin(e) * np.sin(a), np.cos(e)])
+        return np.vstack([right, up])
+
+    @property
+    def towards(self) -> np.ndarray:
+        """Unit vector from the scene towards the viewer."""
+        a, e = np.radians(self.az), np.radians(self.el)
+        return np.array([np.cos(e) * np.cos(a), np.cos(e) * np.sin(a), np.sin(e)])
+
+    def __call__(self, pts: np.ndarray) -> np.ndarray:
+        return np.asarray(pts) @ self.P.T
+
+
+def view_for(points: np.ndarray) -> View:
+    """A view in which the main horizontal travel of ``points`` (rows in time order) runs
+    to the right, 30 degrees off the screen plane, seen from 22 degrees above (travel
+    along +X gives matplotlib's default view, azimuth -60)."""
+    flat = points[:, :2] - points[:, :2].mean(axis=0)
+    if len(flat) < 2 or np.max(np.abs(flat)) < 1e-9:
+        return View()
+    _, _, vt = np.linalg.svd(flat, full_matrices=False)
+    d = vt[0] if np.dot(vt[0], flat[-1] - flat[0]) >= 0 else -vt[0]
+    az = np.degrees(np.arctan2(d[1], d[0])) - 60.0
+    return View(az=float((az + 180.0) % 360.0 - 180.0), el=22.0)
+
+
+_CIRCLE = np.linspace(0.0, 2.0 * np.pi, 73)
+_UNIT = np.column_stack([np.cos(_CIRCLE), np.sin(_CIRCLE)])
+
+
+def ellipse_outline(view: View, centre: np.ndarray, shape: np.ndarray) -> np.ndarray:
+    """Screen outline of the ellipsoid {centre + L u : |u| <= 1}, ``shape = L L^T``."""
+    P = view.P
+    S2 = P @ shape @ P.T
+    L = np.linalg.cholesky(S2 + 1e-300 * np.eye(2))
+    return view(centre)[None, :] + _UNIT @ L.T
+
+
+def body_pictures(view: View, scene, r_O: np.ndarray, A: np.ndarray) -> dict:
+    """Screen coordinates of the body at one pose: ``outline`` (closed), ``shadow`` on the
+    plane Z = 0 (closed), the three principal sections split into their ``front`` and
+    ``back`` halves (NaN-separated), the ``axes`` (3 segments O -> beyond the surface),
+    and the ``centre`` of the shape."""
+    D, _ = body_semi_axes(scene)
+    c = r_O + A @ np.asarray(scene.center, dtype=float)
+    shape = A @ np.diag(D ** 2) @ A.T
+    out = {"centre": view(c), "outline": ellipse_outline(view, c, shape)}
+    # shadow: the vertical projection of the ellipsoid onto Z = 0 (a flat ellipse)
+    L2 = np.linalg.cholesky(shape[:2, :2] + 1e-300 * np.eye(2))
+    ring = np.column_stack([c[0] + _UNIT @ L2[0], c[1] + _UNIT @ L2[1], np.zeros(len(_UNIT))])
+    out["shadow"] = view(ring)
+    # principal sections: c + A D (cos e_i + sin e_j); visible where the outward normal
+    # D^-2 (body point) faces the viewer
+    towards_body = A.T @ view.towards
+    front, back = [], []
+    for i, j in ((1, 2), (2, 0), (0, 1)):
+        u = np.zeros((len(_CIRCLE), 3))
+        u[:, i], u[:, j] = _UNIT[:, 0], _UNIT[:, 1]
+        body = u * D
+        normal = u / D
+        screen = view(c + body @ A.T)
+        seen = normal @ towards_body >= 0.0
+        f, b = screen.copy(), screen.copy()
+        f[~seen], b[seen] = np.nan, np.nan
+        front.append(np.vstack([f, [np.nan, np.nan]]))
+        back.append(np.vstack([b, [np.nan, np.nan]]))
+    out["front"], out["back"] = np.vstack(front), np.vstack(back)
+    tips = r_O + (1.3 * D.max() * A).T          # rows: the three axis ends
+    out["axes"] = np.stack([np.vstack([view(r_O), view(tip)]) for tip in tips])
+    out["axis_depth"] = (tips - r_O) @ view.towards
+    return out
+
+
+def nice_step(span: float, target: int = 6) -> float:
+    raw = max(span, 1e-12) / target
+    mag = 10.0 ** np.floor(np.log10(raw))
+    for k in (1, 2, 2.5, 5, 10):
+        if k * mag >= raw:
+            return k * mag
+    return 10 * mag
+
+
+def plane_pictures(view: View, xlim: tuple, ylim: tuple) -> tuple[np.ndarray, list]:
+    """The plane Z = 0 over a rectangle: its screen polygon and grid lines."""
+    (x0, x1), (y0, y1) = xlim, ylim
+    corners = np.array([[x0, y0, 0], [x1, y0, 0], [x1, y1, 0], [x0, y1, 0]], dtype=float)
+    step = nice_step(max(x1 - x0, y1 - y0))
+    lines = []
+    for x in np.arange(np.ceil(x0 / step) * step, x1 + 1e-12, step):
+        lines.append(view(np.array([[x, y0, 0.0], [x, y1, 0.0]])))
+    for y in np.arange(np.ceil(y0 / step) * step, y1 + 1e-12, step):
+        lines.append(view(np.array([[x0, y, 0.0], [x1, y, 0.0]])))
+    return view(corners), lines
+
+
+def lowest_points(scene, r_O: np.ndarray, A: np.ndarray) -> np.ndarray:
+    """Positions (fixed axes) of the lowest point S for poses along rows."""
+    D, _ = body_semi_axes(scene)
+    n = A[:, 2, :]                                   # the vertical in body axes
+    D2n = D ** 2 * n
+    s = np.asarray(scene.center) - D2n / np.sqrt(np.einsum("ij,ij->i", n, D2n))[:, None]
+    return r_O + np.einsum("nij,nj->ni", A, s)
+
+
+def scene_extent(scene, mo) -> tuple[tuple, tuple, float]:
+    """The plane's rectangle (x, y limits) around the motion, and the body's reach."""
+    D, _ = body_semi_axes(scene)
+    reach = float(np.linalg.norm(scene.center)) + float(D.max()) * 1.3
+    pts = np.vstack([mo.r_O, mo.r_P])
+    lo, hi = pts[:, :2].min(axis=0) - reach, pts[:, :2].max(axis=0) + reach
+    span = max(hi - lo)
+    mid = 0.5 * (lo + hi)
+    # a square-ish patch: the shorter side at least half the longer one
+    half = np.maximum(0.5 * (hi - lo), 0.25 * span)
+    return (mid[0] - half[0], mid[0] + half[0]), (mid[1] - half[1], mid[1] + half[1]), reach

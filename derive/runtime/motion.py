@@ -1,0 +1,313 @@
+"""What the outputs show besides the states: the positions of O, P and S, the kinetic
+energy of the carrier and of the point, and the energy balance of a run.
+
+Positions (fixed axes).  ``O_aO = O_aC - A m/(m+M) OP`` (E1.8a), ``O_aP = O_aO + A OP``.
+
+Kinetic energy.  From its definition for the two bodies, with ``V = A^T V_C`` (body axes),
+``u = V_r + omega x OP`` (the absolute rate of OP, body axes) and ``nu = m/(m+M)``:
+``V_O = V - nu u`` and ``V_P = V + (1 - nu) u``, so
+
+    T_carrier = 1/2 M |V_O|^2 + 1/2 (omega, J_O omega)      (J_O = diag(J_x, J_y, J_z))
+    T_point   = 1/2 m |V_P|^2
+    T = T_carrier + T_point = 1/2 (m+M) |V_C|^2 + 1/2 (omega, J_O omega) + 1/2 mu |u|^2
+
+(the cross terms cancel: ``-M nu + m (1 - nu) = 0``; ``M nu^2 + m (1 - nu)^2 = mu``).  The
+potential energy is ``(m+M) g Z_C``.  Without the attitude (model ``vertical``) only the
+total ``T`` is known: ``A^T V_C`` needs the heading.
+
+Energy balance.  The point is driven along its law by internal forces, which do work:
+the force of the carrier on P is ``F = m (a_P + g e_Z)`` and the pair does the work
+``F . (A V_r)`` per unit time (P moves relative to the body point under it).  In flight
+``a_C = -g e_Z`` and ``a_P = a_C + (1 - nu) A (V_r' + 2 omega x V_r + omega' x OP +
+omega x (omega x OP))``, so the drive's power is
+
+    P_drive = mu (V_r' + 2 omega x V_r + omega' x OP + omega x (omega x OP), V_r)
+
+with ``omega'`` from E1.7 solved here with NumPy (``J omega' = -omega x K - mu (V_r x
+(omega x OP) + OP x (omega x V_r)) - mu OP x V_r'``).  At an impact the energy jumps by
+``I (v_n- + v_n+)/2`` (the impulse at S, whose normal velocity is v_n) plus the drive's
+impulsive work ``m (V_P+ - V_P-, A V_r)``; with the point at rest in the body the latter
+vanishes and ``e = 1`` conserves the energy.  In persistent contact the reaction does no
+work (S does not move normally) and the drive's power gains the term ``m N/(m+M) (n,
+V_r)``, with ``omega'`` and N from the runtime's contact equations; for the models
+without omega in their state (translational, planar) the change over a contact phase is
+reported as it is, not split.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass
+class Motion:
+    """Arrays along the rows of a :class:`~derive.runtime.driver.Result`."""
+    t: np.ndarray
+    omega: np.ndarray                 # (N, 3) body axes
+    r: np.ndarray                     # OP, body axes
+    v_r: np.ndarray                   # V_r, body axes
+    a_r: np.ndarray                   # V_r', body axes
+    A: np.ndarray | None              # (N, 3, 3) a_ij, or None without the attitude
+    r_C: np.ndarray | None            # (N, 3) fixed axes (None: not known)
+    v_C: np.ndarray | None
+    r_O: np.ndarray | None
+    r_P: np.ndarray | None
+    T_carrier: np.ndarray | None      # None without the attitude
+    T_point: np.ndarray | None
+    T: np.ndarray | None              # total kinetic energy (None: V_C not known)
+    U: np.ndarray | None              # potential energy (m+M) g Z_C
+    h: np.ndarray | None              # height of S
+
+    @property
+    def E(self) -> np.ndarray | None:
+        return None if self.T is None or self.U is None else self.T + self.U
+
+
+def _centre(result):
+    """(r_C, v_C) in fixed axes along the rows, or (None, None)."""
+    s = result.scene
+    if result.general is not None:
+        return result.general[:, 0:3], result.general[:, 3:6]
+    dt = result.t - s.t0
+    if result.model == "vertical":
+        n = len(dt)
+        Z, VZ = result.model_q[:, 0], result.model_q[:, 1]
+    elif not s.contact_possible:            # free flight: C moves on its parabola (E1.2)
+        n = len(dt)
+        Z = s.com[2] + s.com_velocity[2] * dt - 0.5 * s.g * dt ** 2
+        VZ = s.com_velocity[2] - s.g * dt
+    else:
+        return None, None
+    X = s.com[0] + s.com_velocity[0] * dt
+    Y = s.com[1] + s.com_velocity[1] * dt
+    V = np.column_stack([np.full(n, s.com_velocity[0]), np.full(n, s.com_velocity[1]), VZ])
+    return np.column_stack([X, Y, Z]), V
+
+
+PICTURE_SAMPLES = 1500
+
+
+def for_pictures(result):
+    """The run to draw: the same run sampled on a uniform grid of about
+    ``PICTURE_SAMPLES`` rows from the dense output when its own rows are coarser (the
+    ends of adaptive steps can be a tenth of a second apart: a parabola would be drawn
+    as a polygon).  The steps, events and numbers are the run's own: only where they
+    are read differs; it costs one more run of the C (milliseconds)."""
+    s = result.scene
+    fine = s.duration / PICTURE_SAMPLES
+    if (0 < s.output_dt <= fine) or len(result.t) >= PICTURE_SAMPLES \
+            or result.status != "done":
+        return result
+    from dataclasses import replace
+    from .driver import simulate
+    return simulate(replace(s, output_dt=fine))
+
+
+def motion(result) -> Motion:
+    s = result.scene
+    t = result.t
+    jets = s.law.jets(t)
+    r, v_r, a_r = jets[[0, 3, 6]].T, jets[[1, 4, 7]].T, jets[[2, 5, 8]].T
+    omega = np.asarray(result.omega, dtype=float)
+    A = result.general[:, 9:18].reshape(-1, 3, 3) if result.general is not None else None
+    r_C, v_C = _centre(result)
+    nu, J0 = s.nu, np.asarray(s.J, dtype=float)
+    u = v_r + np.cross(omega, r)
+    rot = 0.5 * np.einsum("ij,j,ij->i", omega, J0, omega)
+    r_O = r_P = T_c = T_p = T = U = None
+    if v_C is not None:
+        T = 0.5 * (s.m + s.M) * np.einsum("ij,ij->i", v_C, v_C) + rot \
+            + 0.5 * s.mu * np.einsum("ij,ij->i", u, u)
+        U = (s.m + s.M) * s.g * r_C[:, 2]
+    if A is not None and r_C is not None:
+        Ar = np.einsum("nij,nj->ni", A, r)
+        r_O = r_C - nu * Ar
+        r_P = r_O + Ar
+        V = np.einsum("nji,nj->ni", A, v_C)          # A^T V_C
+        V_O, V_P = V - nu * u, V + (1.0 - nu) * u
+        T_c = 0.5 * s.M * np.einsum("ij,ij->i", V_O, V_O) + rot
+        T_p = 0.5 * s.m * np.einsum("ij,ij->i", V_P, V_P)
+    h = result.height if s.size else None
+    return Motion(t=t, omega=omega, r=r, v_r=v_r, a_r=a_r, A=A, r_C=r_C, v_C=v_C, r_O=r_O,
+                  r_P=r_P, T_carrier=T_c, T_point=T_p, T=T, U=U, h=h)
+
+
+def point_velocity_body(scene, mo: Motion) -> np.ndarray | None:
+    """V_P in body axes (needs the attitude)."""
+    if mo.A is None:
+        return None
+    V = np.einsum("nji,nj->ni", mo.A, mo.v_C)
+    return V + (1.0 - scene.nu) * (mo.v_r + np.cross(mo.omega, mo.r))
+
+
+def omega_rate_in_flight(scene, mo: Motion) -> np.ndarray:
+    """omega' along the rows from E1.7 (flight), solved with NumPy: independent of the C."""
+    r, v, acc, w = mo.r, mo.v_r, mo.a_r, mo.omega
+    mu = scene.mu
+    J0 = np.asarray(scene.J, dtype=float)
+    rr = np.einsum("ij,ij->i", r, r)
+    J = np.zeros((len(r), 3, 3))
+    J[:, [0, 1, 2], [0, 1, 2]] = J0
+    J += mu * (rr[:, None, None] * np.eye(3) - r[:, :, None] * r[:, None, :])
+    K = np.einsum("nij,nj->ni", J, w) + mu * np.cross(r, v)
+    rhs = -np.cross(w, K) - mu * (np.cross(v, np.cross(w, r)) + np.cross(r, np.cross(w, v))) \
+        - mu * np.cross(r, acc)
+    return np.linalg.solve(J, rhs[:, :, None])[:, :, 0]
+
+
+def drive_power_in_flight(scene, mo: Motion) -> np.ndarray:
+    """The power of the internal forces that drive P along its law (valid in flight)."""
+    r, v, acc, w = mo.r, mo.v_r, mo.a_r, mo.omega
+    wd = omega_rate_in_flight(scene, mo)
+    rel = acc + 2.0 * np.cross(w, v) + np.cross(wd, r) + np.cross(w, np.cross(w, r))
+    return scene.mu * np.einsum("ij,ij->i", rel, v)
+
+
+_OMEGA_RATE = {"general": (slice(6, 9), slice(15, 18)), "vertical": (slice(2, 5), slice(5, 8))}
+
+
+def drive_power_in_contact(result, mo: Motion, a: int, b: int) -> np.ndarray | None:
+    """The drive's power on rows [a, b) of a contact phase: as in flight, with omega' and
+    the reaction N from the runtime's contact equations (``Session.contact``); the force
+    of the carrier on P gains ``m N/(m+M) n``.  None for models without omega in the
+    state."""
+    if result.model not in _OMEGA_RATE or result.session is None:
+        return None
+    s = result.scene
+    w_at, n_at = _OMEGA_RATE[result.model]
+    out = np.zeros(b - a)
+    for k, i in enumerate(range(a, b)):
+        q = result.model_q[i]
+        dq, N, _ = result.session.contact(float(result.t[i]), q)
+        r, v, w = mo.r[i], mo.v_r[i], mo.omega[i]
+        rel = mo.a_r[i] + 2.0 * np.cross(w, v) + np.cross(dq[w_at], r) \
+            + np.cross(w, np.cross(w, r))
+        F = s.mu * rel + s.m * N / (s.m + s.M) * q[n_at]
+        out[k] = float(np.dot(F, v))
+    return out
+
+
+def integrate(t: np.ndarray, f: np.ndarray, points: int = 6) -> float:
+    """The integral of samples ``f(t)`` (increasing ``t``, any spacing): each interval by
+    the polynomial through the ``points`` nearest samples (order ``points``; the rows of
+    an adaptive run are far apart, so the order matters); two samples: the trapezoid."""
+    n = len(t)
+    if n < 2:
+        return 0.0
+    k = min(points, n)
+    i = np.arange(n - 1)
+    first = np.clip(i - (k // 2 - 1), 0, n - k)
+    nodes = first[:, None] + np.arange(k)[None, :]
+    h = t[i + 1] - t[i]
+    tau = (t[nodes] - t[i][:, None]) / h[:, None]          # (n-1, k), the interval is [0, 1]
+    V = tau[:, :, None] ** np.arange(k)[None, None, :]       # rows: samples, cols: powers
+    moments = np.broadcast_to(1.0 / np.arange(1, k + 1), (n - 1, k))
+    weights = np.linalg.solve(np.transpose(V, (0, 2, 1)), moments[:, :, None])[:, :, 0]
+    return float(np.sum(h * np.einsum("ij,ij->i", weights, f[nodes])))
+
+
+def event_rows(result) -> list[tuple[int, dict]]:
+    """Each pair of rows around an event (the index of its ``before`` row; ``after`` is
+    the next) with its event.  Matched by time: a contact that begins at an impact has no
+    rows of its own (the impact's pair is the impact's)."""
+    befores = np.flatnonzero(result.row_kind == 1)
+    events = result.events
+    scale = max(abs(result.scene.duration), 1.0)
+    used = [False] * len(events)
+    out, start = [], 0
+    for i in befores:
+        ti = result.t[i]
+        while start < len(events) and events[start]["t"] < ti - 1e-9 * scale:
+            start += 1
+        near = [k for k in range(start, len(events))
+                if not used[k] and abs(events[k]["t"] - ti) <= 1e-9 * scale]
+        if not near:
+            out.append((int(i), {"t": float(ti), "kind": "event"}))
+            continue
+        k = next((k for k in near if events[k]["kind"] != "contact"), near[0])
+        used[k] = True
+        out.append((int(i), events[k]))
+    return out
+
+
+def impact_rows(result) -> np.ndarray:
+    """Indices of the ``before`` rows of the impacts."""
+    return np.array([i for i, ev in event_rows(result) if ev["kind"] == "impact"], dtype=int)
+
+
+def contact_intervals(result) -> list[tuple[float, float]]:
+    """Times of persistent contact: from each ``contact`` event to the next lift-off."""
+    out, since = [], None
+    for ev in result.events:
+        if ev["kind"] == "contact" and since is None:
+            since = ev["t"]
+        elif ev["kind"] == "liftoff" and since is not None:
+            out.append((since, ev["t"]))
+            since = None
+    if since is not None:
+        out.append((since, float("inf")))
+    return out
+
+
+def phases(result) -> list[tuple[int, int, str]]:
+    """Row ranges [a, b) between events, each with its kind: ``flight`` or ``contact``."""
+    kinds = result.row_kind
+    bounds = [0] + [int(i) + 1 for i in np.flatnonzero(kinds == 1)] + [len(kinds)]
+    contact = contact_intervals(result)
+    out = []
+    for a, b in zip(bounds[:-1], bounds[1:]):
+        if b <= a:
+            continue
+        mid = 0.5 * (result.t[a] + result.t[b - 1])
+        state = "contact" if any(c0 <= mid <= c1 for c0, c1 in contact) else "flight"
+        out.append((a, b, state))
+    return out
+
+
+def energy_balance(result, mo: Motion) -> dict | None:
+    """Start and end energy and where the difference went (see the module's docstring);
+    ``residual`` closes the balance up to the integration error and the quadrature."""
+    if mo.T is None:
+        return None
+    s = result.scene
+    E = mo.T + mo.U
+    V_P = point_velocity_body(s, mo)
+    jumps = {"impact": 0.0, "contact": 0.0, "liftoff": 0.0, "graze": 0.0, "event": 0.0}
+    restitution = drive_impacts = 0.0
+    for i, ev in event_rows(result):
+        kind = ev["kind"]
+        jumps[kind] = jumps.get(kind, 0.0) + float(E[i + 1] - E[i])
+        if kind == "impact":
+            restitution += 0.5 * ev["value"] * (ev["v_minus"] + ev["v_plus"])
+            if V_P is not None:
+                drive_impacts += s.m * float(np.dot(V_P[i + 1] - V_P[i], mo.v_r[i]))
+    power = drive_power_in_flight(s, mo)
+    drive_flight = drive_contact = contact = 0.0
+    unchecked = False
+    for a, b, state in phases(result):
+        if state == "flight":
+            drive_flight += integrate(mo.t[a:b], power[a:b])
+            continue
+        p = drive_power_in_contact(result, mo, a, b)
+        if p is None:
+            contact += float(E[b - 1] - E[a])
+            unchecked = True
+        else:
+            drive_contact += integrate(mo.t[a:b], p)
+    E0, E1 = float(E[0]), float(E[-1])
+    out = {
+        "start": E0, "end": E1, "change": E1 - E0,
+        "kinetic_start": float(mo.T[0]), "kinetic_end": float(mo.T[-1]),
+        "at_impacts": jumps["impact"],
+        "lost_at_impacts": -jumps["impact"],
+        "restitution_at_impacts": restitution,
+        "drive_work_at_impacts": drive_impacts if V_P is not None else None,
+        "drive_work_in_flight": drive_flight,
+        "drive_work_in_contact": drive_contact,
+        "change_in_contact_not_split": contact if unchecked else None,
+        "at_other_events": sum(v for k, v in jumps.items() if k != "impact"),
+    }
+    out["residual"] = (E1 - E0 - out["at_impacts"] - drive_flight - drive_contact - contact
+                       - out["at_other_events"])
+    return out

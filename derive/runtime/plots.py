@@ -1,0 +1,323 @@
+"""``overview.png``: one figure of a run — the motion in space (the body drawn at a few
+instants, the traces of C and P, the impacts), and against time the height of S, the
+attitude, omega, the energy of the carrier and of the point, the impulses and the drift
+of |K| between impacts (E1.9).
+
+Drawn on a bare :class:`matplotlib.figure.Figure` with the Agg canvas (no pyplot, no
+backend selection); legends sit outside the axes so they never hide a curve.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from . import drawing
+from .motion import Motion, contact_intervals, impact_rows, phases
+
+
+# a title at a fixed height: matplotlib's automatic placement measures every tick label
+# of the axes (a second for this figure)
+_TITLE = {"fontsize": 10, "y": 1.0, "pad": 4}
+
+
+def _labels(ax, entries) -> None:
+    """A legend without its cost: coloured names stacked in the right margin, outside the
+    axes (never over a curve)."""
+    n = len(entries)
+    for k, (text, colour) in enumerate(entries):
+        ax.annotate(text, (1.02, 0.5), xycoords="axes fraction", textcoords="offset points",
+                    xytext=(0, 11 * ((n - 1) / 2 - k)), color=colour, fontsize=8,
+                    ha="left", va="center")
+
+
+def _labels_below(ax, entries, per_row: int = 3) -> None:
+    """Coloured names in rows under an axes without ticks."""
+    for k, (text, colour) in enumerate(entries):
+        ax.annotate(text, ((k % per_row) / per_row, 0.0), xycoords="axes fraction",
+                    textcoords="offset points", xytext=(0, -4 - 11 * (k // per_row)),
+                    color=colour, fontsize=8, ha="left", va="top")
+
+
+def _impact_lines(ax, impacts):
+    if 0 < len(impacts) <= 40:           # more would grey the panel out
+        ax.vlines(impacts[:, 0], 0, 1, transform=ax.get_xaxis_transform(), color="0.85",
+                  lw=0.6, zorder=0)
+
+
+def snapshot_rows(view, mo: Motion, size: float, most: int = 6, candidates: int = 60):
+    """Rows at which to draw the body: the first and the last, then in time order every
+    instant whose picture (with its time written beside it) overlaps none of those
+    chosen (at most ``most``)."""
+    idx = np.unique(np.searchsorted(mo.t, np.linspace(mo.t[0], mo.t[-1], candidates)
+                                    ).clip(0, len(mo.t) - 1))
+    centres = view(mo.r_O[idx])
+    W = float(np.ptp(view(np.vstack([mo.r_O, mo.r_P]))[:, 0])) + 2.0 * size
+    # apart: the bodies do not touch, nor do the times written left of them
+    gap = np.array([max(2.05 * size, 0.22 * W), max(2.05 * size, 0.09 * W)])
+
+    def clear(k, chosen):
+        return bool(np.all(np.any(np.abs(centres[chosen] - centres[k]) >= gap, axis=1)))
+
+    chosen = [0]
+    if clear(len(idx) - 1, chosen):
+        chosen.append(len(idx) - 1)
+    for k in range(1, len(idx) - 1):
+        if len(chosen) == most:
+            break
+        if clear(k, chosen):
+            chosen.append(k)
+    return idx[sorted(chosen)]
+
+
+def side_panel(ax, result, mo: Motion) -> None:
+    """The traces of C, O and P in the vertical plane of the main travel (X-Z or Y-Z),
+    to scale."""
+    span = np.ptp(mo.r_C[:, :2], axis=0)
+    k = 0 if span[0] >= span[1] else 1
+    name = "XY"[k]
+    for pts, colour, lw, label in ((mo.r_P, "#ff7f0e", 0.7, "P"), (mo.r_O, "#3182bd", 0.9,
+                                   "O (carrier's centre)"), (mo.r_C, "k", 1.2, "C")):
+        ax.plot(pts[:, k], pts[:, 2], color=colour, lw=lw)
+    if result.scene.plane:
+        ax.axhline(0.0, color="0.4", lw=1.0)
+        if len(result.impacts):
+            rows = impact_rows(result)
+            S = drawing.lowest_points(result.scene, mo.r_O[rows], mo.A[rows])
+            ax.plot(S[:, k], S[:, 2], "x", color="#d62728", ms=6, mew=1.5)
+    # to scale unless that would leave most of the panel empty
+    box = ax.get_position()
+    fw, fh = ax.figure.get_size_inches()
+    allz = np.concatenate([mo.r_P[:, 2], mo.r_C[:, 2], [0.0] if result.scene.plane else []])
+    dz = max(float(np.ptp(allz)), 1e-12)
+    dx = max(float(np.ptp(np.concatenate([mo.r_P[:, k], mo.r_O[:, k]]))), 1e-12)
+    panel = (box.width * fw) / (box.height * fh)
+    to_scale = 1 / 3 <= (dx / dz) / panel <= 3
+    if to_scale:
+        ax.set_aspect("equal", adjustable="datalim")
+    ax.set_xlabel(f"{name} [m]", fontsize=9)
+    ax.set_ylabel("Z [m]", fontsize=9)
+    ax.set_title(f"traces in the vertical plane {name}-Z"
+                 + (", to scale" if to_scale else " (not to scale)"), **_TITLE)
+    _labels(ax, [("C", "k"), ("O, carrier's centre", "#3182bd"), ("P", "#e6550d")]
+            + ([("x  impact points S", "#d62728")] if len(result.impacts) else []))
+
+
+def motion_panel(ax, result, mo: Motion) -> None:
+    """The run in space: plane, traces of C and P, the impact points, the body at
+    instants where its pictures do not overlap."""
+    from matplotlib.collections import LineCollection, PolyCollection
+    s = result.scene
+    view = drawing.view_for(mo.r_C)
+    xlim, ylim, reach = drawing.scene_extent(s, mo)
+    D, real = drawing.body_semi_axes(s)
+    labels = []
+    if s.plane:
+        poly, grid = drawing.plane_pictures(view, xlim, ylim)
+        ax.fill(poly[:, 0], poly[:, 1], color=drawing.PLANE_COLOUR, zorder=0, lw=0)
+        ax.add_collection(LineCollection(grid, colors="white", linewidths=0.7, zorder=0.5))
+    C, P = view(mo.r_C), view(mo.r_P)
+    ax.plot(P[:, 0], P[:, 1], color="#ff7f0e", lw=0.6, alpha=0.7, zorder=1.5)
+    ax.plot(C[:, 0], C[:, 1], color="k", lw=1.0, zorder=1.6)
+    labels += [("trace of C", "k"), ("trace of P", "#e6550d")]
+    if len(result.impacts):
+        rows = impact_rows(result)
+        Sv = view(drawing.lowest_points(s, mo.r_O[rows], mo.A[rows]))
+        ax.plot(Sv[:, 0], Sv[:, 1], "x", color="#d62728", ms=6, mew=1.5, zorder=1.7)
+        labels.append((f"x  impacts at S ({len(rows)})", "#d62728"))
+    rows = snapshot_rows(view, mo, float(D.max()))
+    pics = [drawing.body_pictures(view, s, mo.r_O[i], mo.A[i]) for i in rows]
+    if s.plane:
+        ax.add_collection(PolyCollection([p["shadow"] for p in pics], facecolors="0.35",
+                                         alpha=0.15, linewidths=0, zorder=1))
+    ax.add_collection(PolyCollection([p["outline"] for p in pics], facecolors="#9ecae1",
+                                     edgecolors="#3182bd", alpha=0.45, linewidths=1.0,
+                                     linestyles="-" if real else "--", zorder=2))
+    back = np.vstack([p["back"] for p in pics])
+    front = np.vstack([p["front"] for p in pics])
+    ax.plot(back[:, 0], back[:, 1], color="#3182bd", lw=0.4, alpha=0.35, zorder=2.5)
+    ax.plot(front[:, 0], front[:, 1], color="#3182bd", lw=0.6, alpha=0.8, zorder=3.5)
+    ax.add_collection(LineCollection([p["axes"][k] for p in pics for k in range(3)],
+                                     colors=list(drawing.AXIS_COLOURS) * len(pics),
+                                     linewidths=1.5, zorder=4))
+    Pv = view(mo.r_P[rows])
+    ax.plot(Pv[:, 0], Pv[:, 1], "o", color="#ff7f0e", mec="k", mew=0.6, ms=5, zorder=5)
+    labels += [("body x axis", drawing.AXIS_COLOURS[0]), ("body y axis",
+               drawing.AXIS_COLOURS[1]), ("body z axis", drawing.AXIS_COLOURS[2]),
+               ("o  the point P", "#e6550d")]
+    for i, p in zip(rows, pics):
+        ax.annotate(f"t = {mo.t[i]:.2f} s", (p["outline"][:, 0].min(), p["centre"][1]),
+                    textcoords="offset points", xytext=(-3, 0), ha="right", va="center",
+                    fontsize=8)
+    pts = np.vstack([C, P, *(p["outline"] for p in pics)] +
+                    ([poly] if s.plane else []))
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    pad = 0.04 * (hi - lo).max()
+    lo, hi = lo - np.array([5 * pad, pad]), hi + pad      # room for the times on the left
+    # widen the narrower side to the panel's own proportions: equal scales, no shrinking
+    box = ax.get_position()
+    fw, fh = ax.figure.get_size_inches()
+    ratio = (box.height * fh) / (box.width * fw)
+    mid, half = 0.5 * (lo + hi), 0.5 * (hi - lo)
+    if half[1] / half[0] < ratio:
+        half[1] = half[0] * ratio
+    else:
+        half[0] = half[1] / ratio
+    ax.set_xlim(mid[0] - half[0], mid[0] + half[0])
+    ax.set_ylim(mid[1] - half[1], mid[1] + half[1])
+    ax.set_aspect("equal")
+    ax.set_axis_off()
+    note = "" if real else "\n(no surface: the body drawn as its equivalent ellipsoid of inertia)"
+    ax.set_title(f"the motion, from azimuth {view.az:.0f}°, elevation {view.el:.0f}°"
+                 f"{note}", **_TITLE)
+    _labels_below(ax, labels)
+
+
+def overview(result, mo: Motion, path: Path, dpi: int = 80, steps=None) -> Path:
+    """``result`` and ``mo``: the rows to draw; ``steps``: the run at its own rows (the
+    ends of steps), for the drift of |K|, which the dense output's interpolation error
+    would hide (default: ``result``)."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    s = result.scene
+    t = result.t
+    imp = result.impacts
+    has_motion = mo.r_O is not None
+    rows = 4 if has_motion else 3
+    height = 2.7 * 3 + (4.6 if has_motion else 0.0) + 1.0
+    fig = Figure(figsize=(12.0, height))
+    FigureCanvasAgg(fig)
+    # fixed margins (a layout engine measures every label: seconds on a busy machine);
+    # the gap between the columns holds the left column's legends
+    gs = fig.add_gridspec(rows, 2, height_ratios=([4.6 / 2.7] if has_motion else [])
+                          + [1, 1, 1], left=0.06, right=0.87, top=1 - 0.8 / height,
+                          bottom=0.45 / height, wspace=0.45, hspace=0.42)
+    n_contact = len(contact_intervals(result))
+    phases_text = (f", {n_contact} contact phase" + ("s" if n_contact > 1 else "")
+                   if n_contact else "")
+    fig.suptitle(f"{s.name}: {result.model} model, {s.method}, {result.status}; "
+                 f"{len(imp)} impacts{phases_text}", fontsize=12, y=1 - 0.15 / height,
+                 va="top")
+    if has_motion:
+        motion_panel(fig.add_subplot(gs[0, 0]), result, mo)
+        side_panel(fig.add_subplot(gs[0, 1]), result, mo)
+    r0 = 1 if has_motion else 0
+    panels = [fig.add_subplot(gs[r0 + i // 2, i % 2]) for i in range(6)]
+    for ax in panels:
+        ax.tick_params(labelsize=8)
+        ax.grid(True, lw=0.4, color="0.9")
+    for ax in panels[4:]:
+        ax.set_xlabel("t [s]", fontsize=9)
+
+    ax = panels[0]
+    if mo.h is not None:
+        ax.plot(t, mo.h, lw=1, color="C0")
+        ax.axhline(0.0, color="k", lw=0.8)
+        _impact_lines(ax, imp)
+        spans = contact_intervals(result)
+        for c0, c1 in spans:
+            ax.axvspan(c0, min(c1, t[-1]), color="#c7e9c0", lw=0, zorder=0)
+        if spans:
+            _labels(ax, [("in contact", "#41ab5d")])
+        ax.set_ylabel("height of S [m]", fontsize=9)
+        mh = result.summary.get("t_min_height", np.nan)
+        ax.set_title(f"height of the lowest point S (min {result.min_height:.3g} m"
+                     + (f" at t = {mh:.3g} s)" if np.isfinite(mh) else ")"), **_TITLE)
+    elif mo.r_O is not None:
+        for pts, colour, name in ((mo.r_P, "#ff7f0e", "Z_P"), (mo.r_O, "#3182bd", "Z_O"),
+                                  (mo.r_C, "k", "Z_C")):
+            ax.plot(t, pts[:, 2], lw=1, color=colour)
+        ax.set_ylabel("[m]", fontsize=9)
+        ax.set_title("heights of C, O and P (no surface: no lowest point)", **_TITLE)
+        _labels(ax, [("Z_C", "k"), ("Z_O", "#3182bd"), ("Z_P", "#e6550d")])
+    else:
+        ax.text(0.5, 0.5, "no surface: no lowest point", ha="center", va="center",
+                transform=ax.transAxes)
+        ax.set_title("height of S", **_TITLE)
+
+    ax = panels[1]
+    n = mo.A[:, 2, :] if mo.A is not None else \
+        (result.model_q[:, 5:8] if result.model == "vertical" else None)
+    if n is not None:
+        elev = np.degrees(np.arcsin(np.clip(n, -1.0, 1.0)))
+        for k in range(3):
+            ax.plot(t, elev[:, k], lw=1, color=drawing.AXIS_COLOURS[k])
+        ax.set_ylim(-95, 95)
+        ax.set_yticks([-90, -45, 0, 45, 90])
+        _impact_lines(ax, imp)
+        ax.set_ylabel("above the horizontal [deg]", fontsize=9)
+        ax.set_title("attitude: elevation of the body axes, asin(a_3j)", **_TITLE)
+        _labels(ax, [(f"body {c} axis", col) for c, col in zip("xyz", drawing.AXIS_COLOURS)])
+    else:
+        ax.text(0.5, 0.5, "attitude not computed by this model", ha="center",
+                va="center", transform=ax.transAxes)
+
+    ax = panels[2]
+    for k in range(3):
+        ax.plot(t, mo.omega[:, k], lw=1, color=drawing.AXIS_COLOURS[k])
+    _impact_lines(ax, imp)
+    ax.set_ylabel("[rad/s]", fontsize=9)
+    ax.set_title("angular velocity in body axes", **_TITLE)
+    _labels(ax, [(f"omega_{c}", col) for c, col in zip("xyz", drawing.AXIS_COLOURS)])
+
+    ax = panels[3]
+    if mo.T is not None:
+        if mo.T_carrier is not None:
+            ax.plot(t, mo.T_carrier, lw=1, color="#3182bd")
+            ax.plot(t, mo.T_point, lw=1, color="#ff7f0e")
+            entries = [("carrier, kinetic", "#3182bd"), ("point, kinetic", "#e6550d")]
+        else:
+            ax.plot(t, mo.T, lw=1, color="#3182bd")
+            entries = [("kinetic", "#3182bd")]
+        ax.plot(t, mo.U, lw=1, color="0.55")
+        ax.plot(t, mo.E, lw=1.4, color="k")
+        entries += [("potential", "0.45"), ("total", "k")]
+        _impact_lines(ax, imp)
+        ax.set_ylabel("[J]", fontsize=9)
+        ax.set_title("energy (potential: (m+M) g Z_C)", **_TITLE)
+        _labels(ax, entries)
+    else:
+        ax.text(0.5, 0.5, "energy needs the motion of C", ha="center", va="center",
+                transform=ax.transAxes)
+
+    ax = panels[4]
+    if len(imp):
+        ax.vlines(imp[:, 0], 0.0, imp[:, 1], color="C0", lw=1.2)
+        ax.plot(imp[:, 0], imp[:, 1], "o", color="C0", ms=4)
+        ax.set_ylim(0.0, 1.1 * max(imp[:, 1].max(), 1e-300))
+    else:
+        ax.text(0.5, 0.5, "no impacts", ha="center", va="center", transform=ax.transAxes)
+    ax.set_xlim(t[0], t[-1])
+    ax.set_ylabel("impulse I [N s]", fontsize=9)
+    ax.set_title(f"impulses ({len(imp)} impacts)", **_TITLE)
+
+    ax = panels[5]
+    steps = steps if steps is not None else result
+    K, tK = steps.momentum["K_norm"], steps.t
+    worst, drawn = 0.0, False
+    for a, b, state in phases(steps):
+        if state == "flight" and b - a > 2 and K[a] > 0:
+            drift = np.abs(K[a + 1:b] - K[a]) / K[a]
+            worst = max(worst, float(drift.max()))
+            ax.plot(tK[a + 1:b], np.maximum(drift, 1e-17), lw=1, color="C0")
+            drawn = True
+    if drawn:
+        from matplotlib.ticker import FuncFormatter, LogLocator, NullLocator
+        # a log axis' minor ticks and mathtext labels cost 0.4 s: plain labels, major only
+        ax.set_yscale("log")
+        ax.yaxis.set_minor_locator(NullLocator())
+        ax.yaxis.set_major_locator(LogLocator(numticks=6))
+        ax.yaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:.0e}"))
+    else:
+        ax.text(0.5, 0.5, "K = 0 in every flight", ha="center", va="center",
+                transform=ax.transAxes)
+    ax.set_ylabel("relative drift", fontsize=9)
+    ax.set_title(f"| |K| - |K| at phase start | / |K| (E1.9), max {worst:.1e}"
+                 + (" (at the steps' ends)" if steps is not result else ""), **_TITLE)
+    ax.set_xlim(t[0], t[-1])
+
+    for ax in panels[:4]:
+        ax.set_xlim(t[0], t[-1])
+    fig.savefig(path, dpi=dpi)
+    return path

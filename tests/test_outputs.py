@@ -1,0 +1,107 @@
+"""Outputs of `derive simulate`: plain column names, the uniform grid, positions and the
+energy (against the definition through finite differences of the positions), the energy
+balance, and the symbols of `derive equations`."""
+from __future__ import annotations
+
+import copy
+
+import numpy as np
+import pytest
+
+import derive
+from derive.runtime.motion import energy_balance, motion
+from derive.runtime.outputs import write_all
+from derive.runtime.scene import builtin_doc
+
+
+def scene(**changes):
+    doc = copy.deepcopy(builtin_doc())
+    for key, value in changes.items():
+        table, field = key.split("__")
+        doc.setdefault(table, {})[field] = value
+    return doc
+
+
+def test_tables_have_plain_names_and_a_uniform_grid(tmp_path):
+    result = derive.simulate(scene(run__output_dt=0.01))
+    write_all(result, tmp_path, plot=False)
+    data = np.genfromtxt(tmp_path / "trajectory.csv", delimiter=",", names=True)
+    header = (tmp_path / "trajectory.csv").read_text().splitlines()[0].split(",")
+    assert list(data.dtype.names) == header                      # NumPy keeps them
+    for name in ("dX_C", "X_O", "Z_P", "E_carrier", "E_point", "E_potential", "E", "h"):
+        assert name in header
+    assert not any("'" in h for h in header)
+    assert np.allclose(np.diff(data["t"]), 0.01, rtol=0, atol=1e-12)
+    events = (tmp_path / "events.csv").read_text().splitlines()
+    assert len(events) - 1 == 2 * len(result.impacts)
+    assert events[1].startswith("impact,before,") and events[2].startswith("impact,after,")
+    assert (tmp_path / "impacts.csv").read_text().splitlines()[0] == "t,I,v_n_minus,v_n_plus"
+
+
+def test_energy_against_the_definition_by_finite_differences():
+    """1/2 M |V_O|^2 + 1/2 (omega, J_O omega) and 1/2 m |V_P|^2 with V_O, V_P from central
+    differences of O and P, computed here from X_C, A and the law (E1.8a)."""
+    dt = 1e-4
+    doc = scene(run__output_dt=dt, run__duration=0.5, initial__com_velocity=[0.3, 0.2, 2.0])
+    doc.pop("plane")                                     # free flight
+    result = derive.simulate(doc)
+    s = result.scene
+    mo = motion(result)
+    q = result.general
+    A = q[:, 9:18].reshape(-1, 3, 3)
+    r = s.law.jets(result.t)[[0, 3, 6]].T
+    Ar = np.einsum("nij,nj->ni", A, r)
+    r_O = q[:, 0:3] - s.m / (s.m + s.M) * Ar
+    r_P = r_O + Ar
+    V_O = (r_O[2:] - r_O[:-2]) / (2 * dt)
+    V_P = (r_P[2:] - r_P[:-2]) / (2 * dt)
+    w = q[1:-1, 6:9]
+    T_carrier = 0.5 * s.M * np.sum(V_O ** 2, axis=1) + 0.5 * np.sum(w * np.array(s.J) * w,
+                                                                    axis=1)
+    T_point = 0.5 * s.m * np.sum(V_P ** 2, axis=1)
+    assert np.allclose(mo.T_carrier[1:-1], T_carrier, rtol=1e-6, atol=1e-9)
+    assert np.allclose(mo.T_point[1:-1], T_point, rtol=1e-6, atol=1e-9)
+    assert np.allclose(mo.r_O, r_O) and np.allclose(mo.r_P, r_P)
+    assert np.allclose(mo.U, (s.m + s.M) * s.g * q[:, 2])
+
+
+@pytest.mark.parametrize("plane", [False, True])
+def test_energy_is_conserved_with_the_point_at_rest(plane):
+    """A point at rest in the body: a rigid body; free flight and e = 1 conserve E."""
+    doc = scene(point__law=["0.1", "0.05", "-0.02"], plane__restitution=1.0)
+    if not plane:
+        doc.pop("plane")
+    result = derive.simulate(doc)
+    mo = motion(result)
+    E = mo.E
+    assert np.max(np.abs(E - E[0])) < 1e-8 * E[0]
+    bal = energy_balance(result, mo)
+    assert abs(bal["at_impacts"]) < 1e-10 and bal["drive_work_in_flight"] == 0.0
+    assert abs(bal["residual"]) < 1e-8 * E[0]
+    assert (len(result.impacts) > 0) == plane
+
+
+def test_energy_balance_closes_with_a_moving_point():
+    """With the point driven, E changes by the drive's work (its power from E1.7 solved
+    with NumPy) and at impacts by I (v_n- + v_n+)/2 plus the drive's impulsive work;
+    e = 1 does not conserve E then."""
+    for e in (0.9, 1.0):
+        result = derive.simulate(scene(plane__restitution=e, run__output_dt=0.002))
+        bal = energy_balance(result, motion(result))
+        assert abs(bal["at_impacts"] - bal["restitution_at_impacts"]
+                   - bal["drive_work_at_impacts"]) < 1e-9
+        assert abs(bal["residual"]) < 1e-8 * abs(bal["start"])
+        if e == 1.0:
+            assert abs(bal["restitution_at_impacts"]) < 1e-10
+            assert abs(bal["drive_work_at_impacts"]) > 1e-3
+
+
+def test_every_printed_symbol_of_the_equations_is_defined():
+    from derive.equations import BUILDERS, compact, derived, render_text, undefined_symbols
+    for eid in BUILDERS:
+        entry = derived(eid)
+        assert undefined_symbols(entry) == [], eid
+        short = compact(entry)                       # raises if it differs from entry
+        assert undefined_symbols(short) == [], eid
+        text = render_text(entry)
+        assert "Derivative(" not in text and "(t)" not in text, eid
