@@ -40,7 +40,7 @@ from derive.planner.task import load_task, parse_task
 from derive.reduced import planar
 from derive.runtime.scene import SceneError
 
-EXAMPLES = Path(derive.__file__).parent / "plan" / "examples"
+EXAMPLES = Path(derive.__file__).parent / "planner" / "examples"
 CC, CXX = shutil.which("cc"), shutil.which("g++")
 STRICT = ["-Wall", "-Wextra", "-Wpedantic", "-Werror"]
 

@@ -101,7 +101,7 @@ def test_simulate_from_the_wheel(installed, tmp_path):
     bin_dir, env, _, work = installed
     _run([bin_dir / "derive", "simulate", "-o", "out", "-q"], env=env, cwd=work)
     out = work / "out"
-    for name in ("trajectory.csv", "impacts.csv", "summary.json", "height.png"):
+    for name in ("trajectory.csv", "impacts.csv", "summary.json", "overview.png", "motion.gif"):
         assert (out / name).is_file(), name
     # the library was compiled from the installed sources, not the checkout's
     site = _run([bin_dir / "python", "-c", "import derive.paths as p; print(p.GENERATED)"],

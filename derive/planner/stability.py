@@ -12,13 +12,12 @@ be left eigenvectors with multiplier 1.
 """
 from __future__ import annotations
 
-from types import SimpleNamespace
 
 import casadi as ca
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from ..stability.bouncing import saltation
+from ..stability.bouncing import saltation_of_functions
 from ..stability.floquet import UNIT_TOL, complex_pairs
 from .functions import Fast, load, lowest_point
 from .law import Law
@@ -133,9 +132,9 @@ def analyse(tr, law: Law, Q, fd_eps: float = 1e-6) -> dict:
     t_mid = k * T / tr.N
     q_mid = np.asarray(Q[:, k], float)
     q_minus, Phi1 = flow.variational(t_mid, q_mid, T)
-    proxy = SimpleNamespace(casadi=flow.casadi_near(tr.N - 1))
-    S = saltation(proxy, T, q_minus)
-    q_plus = np.array(proxy.casadi["impact"](T, q_minus)[0].full()).ravel()
+    fns = flow.casadi_near(tr.N - 1)
+    S = saltation_of_functions(fns, T, q_minus)
+    q_plus = np.array(fns["impact"](T, q_minus)[0].full()).ravel()
     q_end, Phi2 = flow.variational(T, q_plus, T + t_mid)
     M = Phi2 @ S @ Phi1
     rho = np.linalg.eigvals(M)

@@ -266,6 +266,24 @@ def saltation(hybrid: HybridMap, t: float, q_minus) -> np.ndarray:
     return Dg + np.outer(f_plus - Dg @ at["f"] - at["g_t"], grad_h) / denom
 
 
+def saltation_of_functions(fns: dict, t: float, q_minus) -> np.ndarray:
+    """The same saltation matrix from CasADi functions of (t, q): ``fns["gap"]`` (h, v_n),
+    ``fns["impact"]`` (q+, I) and ``fns["rhs"]`` (for a law given as such functions,
+    e.g. the planner's B-spline)."""
+    tt = ca.SX.sym("t")
+    x = ca.SX.sym("x", len(q_minus))
+    h = fns["gap"](tt, x)[0]
+    g_plus = fns["impact"](tt, x)[0]
+    d = ca.Function("d", [tt, x], [ca.jacobian(g_plus, x), ca.jacobian(g_plus, tt),
+                                    ca.jacobian(h, x), ca.jacobian(h, tt), g_plus])
+    Dg, g_t, grad_h, h_t, gp = (np.array(v.full()) for v in d(t, q_minus))
+    f_minus = np.array(fns["rhs"](t, q_minus).full()).ravel()
+    f_plus = np.array(fns["rhs"](t, gp.ravel()).full()).ravel()
+    grad_h = grad_h.ravel()
+    denom = float(grad_h @ f_minus + h_t.ravel()[0])
+    return Dg + np.outer(f_plus - Dg @ f_minus - g_t.ravel(), grad_h) / denom
+
+
 def reference5(scene: Scene) -> dict:
     """The amplitude a, frequency W and spin of a scene of reference [5], checked: J_x =
     J_y, x = y = 0, z = a sin(W t) (a, W > 0), a shape symmetric about Oz and centred on
