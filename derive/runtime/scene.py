@@ -301,6 +301,10 @@ def _num(f: Field, value, where: str | None = None) -> float:
 def _vector(f: Field, value, size: int) -> tuple:
     if not isinstance(value, list) or len(value) != size:
         raise SceneError(f.where, f"must be a list of {size} numbers")
+    if all(type(v) is float for v in value) and f.lo is not None and f.hi is not None:
+        lo, hi = min(value), max(value)                  # the common case, at once
+        if (lo > f.lo if f.lo_open else lo >= f.lo) and hi <= f.hi:
+            return tuple(value)
     return tuple(_num(f, v, f"{f.where}[{k}]") for k, v in enumerate(value))
 
 
