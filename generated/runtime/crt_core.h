@@ -332,6 +332,9 @@ static int crt_search(crt_session *s, double t1, const double *y1, double rate,
   const double t0 = s->t, L = t1 - t0;
   const int flight = s->phase == CRT_FLIGHT;
   const double h_pen = flight ? crt_penetration_tolerance(s, y1) : 0.0;
+  /* interior samples come from the dense output, whose error is of the tolerance's
+     order: only the step's end (the method's own solution) is held to h_pen */
+  const double h_dense = flight ? crt_max(h_pen, crt_height_resolution(s, y1)) : 0.0;
   int top = 0, k, sub, armed;
   double g0 = s->g_start, d0 = s->d_start;
   if (!s->g_valid) g0 = crt_event_value(s, t0, s->q, &d0);
@@ -362,7 +365,8 @@ static int crt_search(crt_session *s, double t1, const double *y1, double rate,
       /* leaving the plane: arm once S is seen above it; a sample far below it means
          S came back within the sub-interval */
       if (gs[k + 1] > 0.0) { armed = 1; continue; }
-      if (gs[k + 1] < -h_pen) return CRT_STEP_RETRY;
+      if (k + 1 < sub && gs[k + 1] < -h_dense) return CRT_STEP_RETRY;
+      if (k + 1 == sub && gs[k + 1] < -h_pen) return CRT_STEP_RETRY;
       continue;
     }
     sa[top] = ts[k]; sga[top] = gs[k]; sda[top] = ds[k];

@@ -155,6 +155,22 @@ static void crt_lie_restart(crt_session *s)
   }
   crt_matrix_quat(R, L->quat);
   crt_quat_matrix(L->quat, L->R);
+#if MODEL_HAS_PLANE
+  if (s->plane) {
+    /* the state's attitude becomes the rotation the quaternion holds (a classical
+       method, in contact, lets A drift off the rotations by its tolerance): the session
+       takes that state, with Z_C moved so that the height of S does not change (S
+       stays on the plane at a lift-off) */
+    double qn[NQ], hb, ha, vb, va;
+    model_lie_state(s->prm, L->c0, 0.0, omega, L->R, L->n_scale, qn);
+    model_gap(s->prm, u, s->q, &hb, &vb);
+    model_gap(s->prm, u, qn, &ha, &va);
+    qn[MODEL_Z] += hb - ha;
+    L->c0[2] += hb - ha;
+    for (i = 0; i < NQ; ++i) s->q[i] = qn[i];
+    s->g_valid = 0;
+  }
+#endif
   fixed_kinetic_moment(L->R, omega, u, s->prm, L->K);
   crt_transpose_times(L->R, L->K, L->k);
   for (i = 0; i < 3; ++i) L->omega[i] = omega[i];
