@@ -153,9 +153,10 @@ def build_shared(sources: dict[str, str | bytes], *, flags: tuple = OPTIMISE,
         try:
             os.replace(tmp_path, target_dir)
         except OSError:
-            # another process finished the same build first: use it
+            # another process finished the same build first: use it; or the folder holds
+            # the same sources built under another name: add this library beside it
             if not lib.is_file():
-                raise
+                os.replace(tmp_path / f"{name}.so", lib)
         else:
             # os.replace moved the folder; recreate tmp so TemporaryDirectory can remove it
             Path(tmp).mkdir(exist_ok=True)

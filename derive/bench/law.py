@@ -142,8 +142,7 @@ def run(n: int = 200_000, repeats: int = 7, progress=lambda m: None) -> dict:
         interp = _per_eval(lambda: lib.crt_law_rows(session.handle, n, tp, up), n, repeats)
         source = straight_line_c(prep.scene.law)
         start = time.perf_counter()
-        path = build_shared({"law.c": source}, flags=runtime_flags(),
-                            name=f"law_{abs(hash(source)) % 10**8}")
+        path = build_shared({"law.c": source}, flags=runtime_flags(), name="law")
         compile_s = time.perf_counter() - start
         cl = ctypes.CDLL(str(path))
         cl.law_rows.argtypes = [ctypes.c_int, DP, DP]
