@@ -85,8 +85,7 @@ def _reference_general(scene, rtol=1e-13):
     gap_f = compile_spec(gap("general"))
     imp_f = compile_spec(impact("general"))
     lp = compile_spec(lowest_point("sphere"))
-    from derive.runtime.scene import law_functions
-    law = law_functions(s)
+    law = s.law.jets
     p = np.array(s.p)
 
     def u_at(t):

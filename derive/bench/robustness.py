@@ -21,6 +21,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..runtime.motion import contact_intervals, phases
+
 METHODS = ("lie", "lie5", "lie8", "dopri5", "dop853", "rk4")
 LIE = ("lie", "lie5", "lie8")
 ROUNDING = 1e-12          # the Lie methods: orthonormality and |K| in flight at round-off
@@ -120,7 +122,9 @@ def judge(result, size: float) -> tuple[str, str]:
         return "fell", f"a row has S at {h[k]:.3g} (t = {result.t[k]:.6g})"
     g = result.general
     lie = scene.method in LIE
-    contact_rows = _contact_rows(result)
+    contact_rows = np.zeros(len(result.t), dtype=bool)
+    for a, b in contact_intervals(result):
+        contact_rows |= (result.t >= a) & (result.t <= b)
     if g is not None:
         A = g[:, 9:18].reshape(-1, 3, 3)
         dev = np.abs(np.einsum("nij,nkj->nik", A, A) - np.eye(3)).max(axis=(1, 2))
@@ -138,38 +142,13 @@ def judge(result, size: float) -> tuple[str, str]:
             return "orthonormality", f"A A^T - 1 reaches {dev.max():.2e} (bound {bound:.1e})"
     # E1.9 within each flight: |K| constant between events (tolerance-dependent)
     K = result.momentum["K_norm"]
-    kinds = result.row_kind
-    start, worst = 0, 0.0
-    bounds = []
-    for i, kd in enumerate(kinds):
-        if kd == 1:
-            bounds.append((start, i + 1))
-        elif kd == 2:
-            start = i
-    bounds.append((start, len(kinds)))
-    for a, b in bounds:
+    worst = 0.0
+    for a, b, _ in phases(result):
         if b - a > 2 and K[a] > 1e-9 and not contact_rows[a:b].any():
             worst = max(worst, float(np.max(np.abs(K[a:b] - K[a])) / K[a]))
     if worst > (ROUNDING if lie else 1e-4):
         return "integral", f"|K| drifts by {worst:.2e} within a flight"
     return "ok", ""
-
-
-def _contact_rows(result) -> np.ndarray:
-    """Rows inside persistent contact (between a contact event and the next lift-off)."""
-    out = np.zeros(len(result.t), dtype=bool)
-    spans, start = [], None
-    for ev in result.events:
-        if ev["kind"] == "contact":
-            start = ev["t"]
-        elif ev["kind"] == "liftoff" and start is not None:
-            spans.append((start, ev["t"]))
-            start = None
-    if start is not None:
-        spans.append((start, np.inf))
-    for a, b in spans:
-        out |= (result.t >= a) & (result.t <= b)
-    return out
 
 
 def run_one(args) -> Outcome:

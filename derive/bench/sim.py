@@ -31,7 +31,7 @@ import time
 import numpy as np
 
 from ..runtime.scene import builtin_doc
-from .routes import Casadi, Runtime, Scipy, errors
+from .routes import Casadi, Runtime, Scipy, _timed, errors
 
 TARGET = 1e-9
 GOALS = {"seen": 1000.0, "unseen": 10.0, "cli_s": 2.0, "batch": 1.5}
@@ -50,16 +50,6 @@ def ellipsoid_doc() -> dict:
             "initial": {"com": [0.0, 0.0, 1.2], "com_velocity": [0.2, -0.1, 0.0],
                         "omega": [0.3, -0.2, 0.5], "quaternion": [0.9, 0.1, -0.2, 0.3]},
             "run": {"duration": 2.0, "outputs": ["pose", "impacts"]}}
-
-
-def _best(fn, repeats: int) -> float:
-    fn()
-    best = np.inf
-    for _ in range(repeats):
-        start = time.perf_counter()
-        fn()
-        best = min(best, time.perf_counter() - start)
-    return best
 
 
 def _loosest(make, settings, ref, progress):
@@ -102,7 +92,7 @@ def scene_rows(doc: dict, progress, repeats: int) -> dict:
         (route, setting, result, err, ierr), ok = _loosest(
             lambda s, m=method: Runtime(doc, m, s), settings, ref, progress)
         if ok:
-            sec = _best(route.run_raw, repeats)
+            sec = _timed(route.run_raw, repeats)
             if best is None or sec < best[0]:
                 best = (sec, route, setting, err, ierr, result)
     rows.append({"route": f"runtime C ({best[1].label.split()[-1]})", "setting": best[2],
@@ -112,7 +102,7 @@ def scene_rows(doc: dict, progress, repeats: int) -> dict:
     user_doc = copy.deepcopy(doc)
     user_doc.setdefault("run", {}).update(best[1].prep.scene.doc["run"])
     derive.simulate(user_doc)
-    seen = _best(lambda: derive.simulate(user_doc), repeats)
+    seen = _timed(lambda: derive.simulate(user_doc), repeats)
     rows.append({"route": "derive.simulate (law seen)", "setting": best[2], "seconds": seen,
                  "error": best[3], "impact_error": best[4], "evaluations": np.nan})
     counter = [0]
@@ -120,14 +110,14 @@ def scene_rows(doc: dict, progress, repeats: int) -> dict:
     def unseen():
         counter[0] += 1
         derive.simulate(_perturbed(user_doc, counter[0]))
-    new = _best(unseen, repeats)
+    new = _timed(unseen, repeats)
     rows.append({"route": "derive.simulate (new law)", "setting": best[2], "seconds": new,
                  "error": best[3], "impact_error": best[4], "evaluations": np.nan})
     for make, settings in ((lambda s: Scipy(doc, "DOP853", s), [1e-9, 1e-10, 1e-11, 1e-12,
                                                                  1e-13]),
                            (lambda s: Casadi(doc, s), [1e-11, 1e-12, 1e-13, 1e-14])):
         (route, setting, result, err, ierr), ok = _loosest(make, settings, ref, progress)
-        sec = _best(route.result, max(1, repeats // 2)) if ok else np.nan
+        sec = _timed(route.result, max(1, repeats // 2)) if ok else np.nan
         rows.append({"route": route.label, "setting": setting if ok else None,
                      "seconds": sec, "error": err, "impact_error": ierr,
                      "evaluations": result.evaluations})
@@ -164,7 +154,7 @@ def batch_throughput(n: int = 1000) -> dict:
     prep = prepare(doc)
     session = session_for(prep.kind)
     session.set_law(prep.scene.law)
-    c_run = _best(lambda: session.run(prep.scene.t0, prep.scene.duration, prep.start.q0,
+    c_run = _timed(lambda: session.run(prep.scene.t0, prep.scene.duration, prep.start.q0,
                                       prep.options, prep.parameters), 20)
     grid = {"initial.com[2]": list(1.2 + 0.6 * np.arange(n) / n)}
     derive.simulate_many(doc, {"initial.com[2]": [1.3, 1.4]}, workers=1)

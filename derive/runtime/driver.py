@@ -232,14 +232,10 @@ class Result:
     rates: np.ndarray | None = field(repr=False, default=None)   # dq/dt rows (planar, axisym.)
     timings: dict = field(default_factory=dict)
 
-    @property
-    def _rates(self):
-        return self.rates
-
     @cached_property
     def omega(self) -> np.ndarray:
         return choice.omega_of(self.scene, self.model, self.start, self.t, self.model_q,
-                               self._rates)
+                               self.rates)
 
     @cached_property
     def general(self) -> np.ndarray | None:

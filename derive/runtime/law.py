@@ -79,10 +79,6 @@ class Program:
     text: tuple = ()                       # the three source strings
     _sympy: tuple | None = field(default=None, repr=False, compare=False)
 
-    @property
-    def key(self) -> tuple:
-        return (self.ops, self.a, self.b, self.consts, self.outputs)
-
     def is_zero(self, k: int) -> bool:
         node = self.outputs[k]
         return self.ops[node] == "const" and self.consts[self.a[node]] == 0.0

@@ -259,11 +259,6 @@ class Scene:
         return self.law.jets(ts)
 
 
-def law_functions(scene: Scene):
-    """``ts -> (9, N)`` jets of the law (compatibility with the older API)."""
-    return scene.law.jets
-
-
 # ---- values -------------------------------------------------------------------------------
 def _type_name(value) -> str:
     return {bool: "a boolean", int: "an integer", float: "a number", str: "a string",
@@ -733,16 +728,6 @@ def load_scene(scene) -> Scene:
     except (OSError, UnicodeDecodeError) as exc:
         raise SceneError(str(scene)[:200], f"cannot be read ({type(exc).__name__})") from None
     return parse_scene(text, str(path), base=path.parent)
-
-
-def replace_values(scene: Scene, **changes) -> Scene:
-    """A copy of ``scene`` with some attributes changed, re-checked where they matter."""
-    from dataclasses import replace
-    new = replace(scene, **changes)
-    if {"t0", "duration", "law"} & set(changes):
-        summary = _check_law(new.law, new.t0, new.t0 + new.duration)
-        new = replace(new, law_summary=summary)
-    return new
 
 
 # ---- what the schema gives besides validation --------------------------------------------------

@@ -39,10 +39,6 @@ class TableLaw:
     kind = "table"
 
     @property
-    def key(self) -> tuple:
-        return ("table", self.knots.tobytes(), self.coef.tobytes(), self.ends)
-
-    @property
     def t_first(self) -> float:
         return float(self.knots[0])
 
