@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import hashlib
 import os
+import threading
 import shutil
 import subprocess
 import tempfile
@@ -91,7 +92,7 @@ def _compiler_facts(cc: str) -> tuple:
         known[key] = list(facts)
         try:
             memo.parent.mkdir(parents=True, exist_ok=True)
-            tmp = memo.with_suffix(f".{os.getpid()}.tmp")
+            tmp = memo.with_suffix(f".{os.getpid()}.{threading.get_ident()}.tmp")
             tmp.write_text(json.dumps(known), encoding="utf-8")
             os.replace(tmp, memo)
         except OSError:

@@ -452,7 +452,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--sweep", action="append", metavar="TABLE.KEY=LO:HI:N",
                    help="run every combination of the swept values (lo:hi:n or a,b,c; "
                         "repeatable): sweep.csv, sweep.json and a plot")
-    p.add_argument("--workers", type=int, help="--sweep: local processes (default: every "
+    p.add_argument("--workers", type=int, help="--sweep: local threads (default: every "
                    "core; 1: serial)")
     p.set_defaults(func=cmd_simulate)
 

@@ -1,6 +1,11 @@
-"""Run independent tasks on this process, on local worker processes, or on a Dask
-cluster — one executor for parameter studies (``derive.simulate_many``) and stability
-sweeps (``derive chart stability``).
+"""Run independent tasks on this process, on local threads or worker processes, or on a
+Dask cluster — one executor for parameter studies (``derive.simulate_many``) and
+stability sweeps (``derive chart stability``).
+
+Threads suit tasks whose time is spent in the C runtime: ctypes releases the GIL for the
+length of a call, so a thread per core runs the C in parallel with no process to start
+and nothing to pickle (``simulate_many`` measured: ``derive bench sim``).  Processes suit
+tasks that spend their time in Python (the stability sweeps' CasADi and NumPy).
 
 Tasks are plain picklable tuples and a module-level function; results come back with
 the index of their task, so the caller's arrays do not depend on completion order:
@@ -10,7 +15,8 @@ from __future__ import annotations
 
 import multiprocessing
 import os
-from concurrent.futures import ProcessPoolExecutor, as_completed
+import threading
+from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor, as_completed
 from typing import Callable, Iterable
 
 
@@ -32,12 +38,17 @@ def _chunk(args):
     return [(index, fn(task)) for index, task in items]
 
 
+EXECUTORS = ("processes", "threads")
+
+
 def run(fn: Callable, tasks: list, workers: int | None = None, scheduler: str | None = None,
-        collect: Callable | None = None, chunk: int = 1) -> tuple[list, str, int]:
+        collect: Callable | None = None, chunk: int = 1,
+        local: str = "processes") -> tuple[list, str, int]:
     """Apply ``fn`` to every task; returns (results in task order, executor name, number
     of workers).  ``collect(index, result)`` is called as results arrive (progress).
-    ``workers``: local processes (default every core; 1: this process); ``scheduler``: a
-    Dask scheduler address instead.  ``chunk``: tasks per process call (cheap tasks)."""
+    ``workers``: local workers (default every core; 1: this thread), ``local`` says
+    whether they are processes or threads; ``scheduler``: a Dask scheduler address
+    instead.  ``chunk``: tasks per process call (cheap tasks)."""
     results: list = [None] * len(tasks)
 
     def got(index, value):
@@ -54,7 +65,15 @@ def run(fn: Callable, tasks: list, workers: int | None = None, scheduler: str | 
         for index, task in enumerate(tasks):
             got(index, fn(task))
         return results, "serial", 1
+    if local not in EXECUTORS:
+        raise ExecutorError("executor", f"must be one of {', '.join(EXECUTORS)} (got {local!r})")
     n = min(workers or os.cpu_count() or 1, len(tasks))
+    if local == "threads":
+        pool = _threads(n)
+        futures = {pool.submit(fn, task): index for index, task in enumerate(tasks)}
+        for fut in as_completed(futures):
+            got(futures[fut], fut.result())
+        return results, "threads", n
     # fork: the workers inherit loaded libraries and caches (and need no main guard)
     methods = multiprocessing.get_all_start_methods()
     context = multiprocessing.get_context("fork" if "fork" in methods else "spawn")
@@ -65,6 +84,20 @@ def run(fn: Callable, tasks: list, workers: int | None = None, scheduler: str | 
             for index, value in fut.result():
                 got(index, value)
     return results, "processes", n
+
+
+_POOLS: dict = {}
+_POOLS_LOCK = threading.Lock()
+
+
+def _threads(n: int) -> ThreadPoolExecutor:
+    """A pool of n threads kept for the process's life: idle threads cost nothing, and
+    what each thread made (its runtime sessions, derive.runtime.driver.session_for)
+    serves the next study too."""
+    with _POOLS_LOCK:
+        if n not in _POOLS:
+            _POOLS[n] = ThreadPoolExecutor(max_workers=n, thread_name_prefix="derive")
+        return _POOLS[n]
 
 
 def _dask(fn: Callable, tasks: Iterable, scheduler: str, got: Callable) -> int:

@@ -13,7 +13,7 @@ import pytest
 
 import derive
 from derive.runtime.batch import BatchError, expand
-from derive.runtime.scene import builtin_doc
+from derive.runtime.scene import SceneError, builtin_doc
 
 
 def _variant(doc: dict, **changes) -> dict:
@@ -35,17 +35,73 @@ def test_each_variant_equals_its_own_simulate():
         assert np.array_equal(res.q, alone.q) and np.array_equal(res.impacts, alone.impacts)
 
 
-def test_serial_and_processes_agree_bit_for_bit():
+def _same(x, y) -> bool:
+    return x == y or (isinstance(x, float) and np.isnan(x) and np.isnan(y))
+
+
+def test_serial_threads_processes_and_whole_results_agree_bit_for_bit():
+    """The summary rows a batch fills in C (serial, threads, processes) equal the rows read
+    from each variant's whole Result, column by column (run_ms aside)."""
     doc = builtin_doc()
     variants = [{"initial.com[2]": 1.0 + 0.05 * k, "initial.omega[2]": 0.5 * k}
-                for k in range(12)]
+                for k in range(12)] + [{"plane.restitution": 0.0}]
     a = derive.simulate_many(doc, variants, workers=1)
     b = derive.simulate_many(doc, variants, workers=2)
-    assert b.executor == "processes"
-    def same(x, y):
-        return x == y or (isinstance(x, float) and np.isnan(x) and np.isnan(y))
-    for ra, rb in zip(a.rows, b.rows):
-        assert all(same(ra[k], rb[k]) for k in ra if k != "run_ms"), (ra, rb)
+    c = derive.simulate_many(doc, variants, workers=2, executor="processes")
+    r = derive.simulate_many(doc, variants, workers=1, keep="result")
+    assert (a.executor, b.executor, c.executor) == ("serial", "threads", "processes")
+    assert a.rows[-1]["contacts"] == 1 and np.isfinite(a.rows[-1]["first_contact_t"])
+    for other in (b, c, r):
+        for ra, rb in zip(a.rows, other.rows):
+            assert all(_same(ra[k], rb[k]) for k in ra if k != "run_ms"), (ra, rb)
+
+
+def test_the_quick_path_of_a_variant_equals_the_full_one():
+    """A variant changing only the initial position and velocity, e or g reuses the base
+    scene's validation; on random variants (and models) it equals the full path."""
+    from derive.runtime.batch import _quick_variant
+    from derive.runtime.driver import prepare
+    from derive.runtime.scene import _read, build_scene, override_fields
+    rng = np.random.default_rng(7)
+    docs = [builtin_doc()]
+    flat = builtin_doc()
+    flat["initial"]["omega"] = [0.0, 0.0, 0.0]
+    flat["point"]["law"] = ["0.0", "0.0", "0.1*sin(2*t)"]
+    flat["run"]["outputs"] = ["impacts"]
+    docs.append(flat)                               # translational
+    names = ["initial.com[0]", "initial.com[2]", "initial.com_velocity[1]",
+             "initial.com_velocity[2]", "plane.restitution", "run.g"]
+    checked = refused = 0
+    for doc in docs:
+        base_v, base_given = _read(doc)
+        base = prepare(build_scene(dict(base_v), set(base_given), {}, "base scene"))
+        for _ in range(150):
+            picked = rng.choice(names, size=rng.integers(1, 4), replace=False)
+            over = {n: float(rng.uniform(0.2, 2.0) if n.startswith("initial.com[")
+                             else rng.uniform(0.0, 1.0) if n == "plane.restitution"
+                             else rng.uniform(-1.0, 1.0) if "velocity" in n
+                             else rng.uniform(1.0, 20.0)) for n in picked}
+            v, given = dict(base_v), set(base_given)
+            for n, value in over.items():
+                override_fields(v, given, n, value)
+            touched = {f"[{n.split('.')[0]}].{n.split('.')[1].split('[')[0]}" for n in over}
+            try:
+                full = prepare(build_scene(v, given, {}, "variant"))
+            except SceneError as exc:
+                with pytest.raises(SceneError, match=exc.where.replace("[", r"\[")):
+                    _quick_variant(base, v, touched, "variant")
+                refused += 1
+                continue
+            quick = _quick_variant(base, v, touched, "variant")
+            assert quick.kind == full.kind and quick.scene == full.scene
+            assert np.array_equal(quick.start.q0, full.start.q0)
+            assert np.array_equal(quick.options, full.options)
+            assert np.array_equal(quick.parameters, full.parameters)
+            checked += 1
+    assert checked > 200 and refused > 10      # S started below the plane
+    v, given = dict(base_v), set(base_given)
+    override_fields(v, given, "body.mass", 2.0)
+    assert _quick_variant(base, v, {"[body].mass"}, "variant") is None
 
 
 def test_a_bad_variant_is_named():

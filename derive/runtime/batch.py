@@ -5,10 +5,15 @@ Variants are overrides of the scene's fields by dotted name (``"body.mass"``,
 ``"plane.restitution"``, ``"initial.com"``, ``"point.law"``, ...): a list of dicts, one
 per variant, or a grid, a dict of lists whose Cartesian product is taken.  Each variant
 is validated like any scene (so a bad value is refused naming the variant and the
-field), its model chosen, and run on this process's session of that model; workers are
-local processes (``workers``, default every core) or a Dask cluster (``scheduler``),
-through :mod:`derive.parallel`.  What comes back per variant is a summary row (``keep =
-"summary"``) or the whole :class:`~derive.runtime.driver.Result` (``keep = "result"``).
+field) and its model chosen.  What comes back per variant is a summary row (``keep =
+"summary"``: the variants of one model and law run in one call into C, which keeps per
+run only what the row reads) or the whole :class:`~derive.runtime.driver.Result`
+(``keep = "result"``).
+
+Workers are local threads (``workers``, default every core: the C releases the GIL, so
+threads run it in parallel with nothing to start or pickle), local processes
+(``executor = "processes"``) or a Dask cluster (``scheduler``), through
+:mod:`derive.parallel`.
 """
 from __future__ import annotations
 
@@ -21,6 +26,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .. import parallel
+from . import abi, choice
 from .scene import FIELDS, Scene, SceneError, load_scene
 
 SUMMARY_COLUMNS = ("status", "model", "t_end", "impacts", "contacts", "liftoffs", "steps",
@@ -69,6 +75,12 @@ def parse_sweep(text: str) -> tuple[str, list]:
     if not values or not all(math.isfinite(v) for v in values):
         raise BatchError("--sweep", f"{name}: values must be finite numbers")
     return name, values
+
+
+def _where(name: str) -> str:
+    """``initial.com[2]`` -> ``[initial].com``"""
+    table, _, key = name.partition("[")[0].rpartition(".")
+    return f"[{table}].{key}" if table else key
 
 
 def check_name(name: str, where: str) -> None:
@@ -140,51 +152,131 @@ def _csv(x) -> str:
 
 
 def summary_row(result) -> dict:
-    from . import abi
+    """The summary of one :class:`~derive.runtime.driver.Result` (the columns of
+    :func:`_summary_rows`, which a batch fills in C)."""
     ev = result.event_rows
-    contact = abi.index(abi.EVENT_KINDS, "contact")
-    first_contact = next((float(r[0]) for r in ev if int(r[1]) == contact), math.nan)
-    g = result.general
-    z_end = float(g[-1, 2]) if g is not None else (
-        float(result.model_q[-1, 0]) if result.model in ("vertical", "translational",
-                                                         "planar") else math.nan)
+    contact = ev[ev[:, 1] == abi.index(abi.EVENT_KINDS, "contact")] if len(ev) else ev
     s = result.stats
-    return {"status": result.status, "model": result.model, "t_end": float(result.t[-1]),
+    t_end = float(result.t[-1])
+    return {"status": result.status, "model": result.model, "t_end": t_end,
             "impacts": s["impacts"], "contacts": s["contacts"], "liftoffs": s["liftoffs"],
             "steps": s["steps"], "rhs_evaluations": s["rhs_evaluations"],
-            "min_height": result.min_height, "first_contact_t": first_contact,
-            "Z_C_end": z_end, "run_ms": 1e3 * result.timings.get("run_s", math.nan)}
+            "min_height": result.min_height,
+            "first_contact_t": float(contact[0, 0]) if len(contact) else math.nan,
+            "Z_C_end": choice.height_of_c(result.scene, result.model, t_end,
+                                          result.model_q[-1]),
+            "run_ms": 1e3 * result.timings.get("run_s", math.nan)}
+
+
+_STAT = {name: k for k, name in enumerate(abi.names(abi.STATS))}
+_SUMMARY = {name: k for k, name in enumerate(abi.names(abi.SUMMARY))}
+
+
+def _summary_rows(preps: list, session) -> list:
+    """The summary rows of prepared variants of one model and one law: all of them in
+    one call into C (no Python per run), the C time shared equally in ``run_ms``."""
+    from .driver import STATUSES
+    out = session.run_many([p.scene.t0 for p in preps],
+                           [p.scene.t0 + p.scene.duration for p in preps],
+                           np.array([p.start.q0 for p in preps]),
+                           np.array([p.options for p in preps]),
+                           np.array([p.parameters for p in preps]))
+    ms = 1e3 * out["seconds"] / len(preps)
+    stats, summ, last = out["stats"].tolist(), out["summary"], out["last"]
+    rows = []
+    for i, p in enumerate(preps):
+        if out["init_status"][i] != 0:
+            rows.append({"error": str(session._refused(int(out["init_status"][i])))})
+            continue
+        st, t_end = stats[i], float(last[i, 0])
+        rows.append({"status": STATUSES[out["status"][i]], "model": p.kind, "t_end": t_end,
+                     "impacts": st[_STAT["impacts"]], "contacts": st[_STAT["contacts"]],
+                     "liftoffs": st[_STAT["liftoffs"]], "steps": st[_STAT["steps"]],
+                     "rhs_evaluations": st[_STAT["rhs_evaluations"]],
+                     "min_height": float(summ[i, _SUMMARY["min_height"]]),
+                     "first_contact_t": float(out["first_contact"][i]),
+                     "Z_C_end": choice.height_of_c(p.scene, p.kind, t_end, last[i, 1:]),
+                     "run_ms": ms})
+    return rows
+
+
+# Fields whose change reaches only the initial state (and the rule that S starts on or
+# above the plane) or only the parameter vector: a variant that changes nothing else
+# reuses the base scene's validation, model choice and options instead of redoing them
+# (tests/test_batch.py checks that it equals the full path on random variants).
+_STATE_FIELDS = {"[initial].com": "com", "[initial].com_velocity": "com_velocity"}
+_PARAMETER_FIELDS = {"[plane].restitution": "e", "[run].g": "g"}
+
+
+def _quick_variant(base, v: dict, touched: set, label: str):
+    """The prepared variant by the fast path, or None when its fields need the full one."""
+    from .driver import Prepared
+    from .scene import Scene, _start_above_plane
+    changes = {}
+    for where in touched:
+        attr = _STATE_FIELDS.get(where) or _PARAMETER_FIELDS.get(where)
+        if attr is None or (attr == "e" and not base.scene.plane):
+            return None
+        changes[attr] = v[where]
+    scene = Scene.of_fields(**{**base.scene.__dict__, **changes, "source": label})
+    if "com" in changes:
+        _start_above_plane(scene)
+    st = choice.start(scene, base.kind)
+    return Prepared(scene, base.kind, base.why, st, base.options,
+                    choice.parameters(scene, st.constants))
 
 
 def _run_chunk(task: tuple) -> list:
     """Runs in a worker: (base doc, origin, [(index, overrides)], keep) -> rows.  The base
     scene's fields are read once; a variant re-validates only what it overrides, then
-    every cross-field rule (the law's analysis is cached by its text)."""
-    from .driver import prepare, run_prepared
+    every cross-field rule (the law's analysis is cached by its text).  Summaries: the
+    valid variants are grouped by model and law and each group runs in one call into C;
+    whole results: one run per variant."""
+    from .driver import prepare, run_prepared, session_for
     from .scene import _read, build_scene, override_fields
     base, origin, items, keep = task
     try:
         base_v, base_given = _read(base)
     except SceneError as exc:
         return [(index, {"error": f"base scene: {exc}"}, None) for index, _ in items]
-    out = []
+    try:
+        base_prep = prepare(build_scene(dict(base_v), set(base_given), {}, "base scene",
+                                        base=origin))
+    except SceneError:
+        base_prep = None                   # a variant may still make it valid
+    out, groups = [], {}
     for index, overrides in items:
         v, given = dict(base_v), set(base_given)
         try:
             for name, value in overrides.items():
                 override_fields(v, given, name, value)
-            scene = build_scene(v, given, {}, f"variant {index}", base=origin)
-            result = run_prepared(prepare(scene))
+            label = f"variant {index}"
+            touched = {_where(name) for name in overrides}
+            prep = _quick_variant(base_prep, v, touched, label) if base_prep else None
+            if prep is None:
+                prep = prepare(build_scene(v, given, {}, label, base=origin))
+            if keep == "result":
+                result = run_prepared(prep)
+                out.append((index, summary_row(result), result))
+                continue
         except SceneError as exc:
             out.append((index, {"error": f"variant {index}: {exc}"}, None))
             continue
-        out.append((index, summary_row(result), result if keep == "result" else None))
+        groups.setdefault((prep.kind, id(prep.scene.law)), []).append((index, prep))
+    for (kind, _), members in groups.items():
+        session = session_for(kind)
+        session.set_law(members[0][1].scene.law)
+        rows = _summary_rows([p for _, p in members], session)
+        for (index, _), row in zip(members, rows):
+            if "error" in row:
+                row = {"error": f"variant {index}: {row['error']}"}
+            out.append((index, row, None))
     return out
 
 
 def simulate_many(scene, variants, workers: int | None = None, scheduler: str | None = None,
                   keep: str = "summary", progress: bool = False, chunk: int | None = None,
-                  strict: bool = True) -> Batch:
+                  strict: bool = True, executor: str = "threads") -> Batch:
     """Run ``variants`` (a list of override dicts, or a grid dict of lists) of ``scene``
     (a path, a dict or a Scene).  ``strict``: raise on the first invalid variant (else
     its row holds the error).  See the module's docstring."""
@@ -230,7 +322,7 @@ def simulate_many(scene, variants, workers: int | None = None, scheduler: str | 
         pass
     try:
         chunks, executor, n_workers = parallel.run(_run_chunk, tasks, workers, scheduler,
-                                                   collect)
+                                                   collect, local=executor)
     except parallel.ExecutorError as exc:
         raise BatchError(exc.where, exc.rule) from None
     if bar:

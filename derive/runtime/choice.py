@@ -220,6 +220,18 @@ def to_general(scene: Scene, kind: str, st: Start, t, Q, omega) -> np.ndarray | 
     raise KeyError(kind)
 
 
+def height_of_c(scene: Scene, kind: str, t: float, q) -> float:
+    """Z_C at time t from one state of a model (NaN for the attitude model)."""
+    if kind == "general":
+        return float(q[2])
+    if kind in ("vertical", "translational", "planar"):
+        return float(q[0])
+    if kind == "axisymmetric":                # free flight: C on its parabola
+        dt = t - scene.t0
+        return scene.com[2] + scene.com_velocity[2] * dt - 0.5 * scene.g * dt * dt
+    return math.nan
+
+
 def vertical_of(kind: str, general, Q) -> tuple | None:
     """(Z_C, n) along the rows, for the height of S."""
     if general is not None:

@@ -31,13 +31,14 @@ METHODS = {name: k for k, name in enumerate(abi.names(abi.METHODS))}
 
 def options(scene: Scene, kind: str) -> np.ndarray:
     """The option vector of a run (indices from abi.OPTIONS)."""
-    opt = np.zeros(len(abi.OPTIONS))
     o = abi.OPT
+    opt = [0.0] * len(abi.OPTIONS)
     opt[o["method"]] = METHODS[scene.method]
-    opt[o["plane"]] = 1.0 if scene.contact_possible else 0.0
+    contact = scene.contact_possible
+    opt[o["plane"]] = 1.0 if contact else 0.0
     opt[o["rtol"]], opt[o["atol"]] = scene.rtol, scene.atol
     h_max = scene.duration / 4.0
-    if scene.contact_possible:
+    if contact:
         # the gap depends on the law directly, which the step control does not see:
         # at least about six steps per period of the point's motion
         h_max = min(h_max, scene.law_summary.time_scale)
@@ -49,9 +50,9 @@ def options(scene: Scene, kind: str) -> np.ndarray:
     opt[o["orthonormal"]] = 1.0 if scene.keep_orthonormal else 0.0
     opt[o["time_scale"]] = scene.duration
     opt[o["event_tol"]] = 1e-15
-    opt[o["length_scale"]] = choice.length_scale(scene) if scene.contact_possible else 0.0
+    opt[o["length_scale"]] = choice.length_scale(scene) if contact else 0.0
     opt[o["zeno_dt"]] = scene.zeno_dt
-    return opt
+    return np.array(opt, dtype=float)
 
 
 @dataclass
@@ -83,7 +84,8 @@ class Session:
         self.ev_buf = np.zeros((chunk, len(abi.EVENT_COLUMNS)))
         self._out = (self.t_buf.ctypes.data_as(DP), self.q_buf.ctypes.data_as(DP),
                      self.k_buf.ctypes.data_as(IP), self.ev_buf.ctypes.data_as(DP))
-        self._n, self._ne = ctypes.c_int(0), ctypes.c_int(0)
+        self._n, self._ne, self._init = ctypes.c_int(0), ctypes.c_int(0), ctypes.c_int(0)
+        self._refs = (ctypes.byref(self._n), ctypes.byref(self._ne), ctypes.byref(self._init))
         self._law = None
         self._law_key = None
         # the inputs of crt_init and the counters, with their pointers made once
@@ -131,6 +133,12 @@ class Session:
                                       u.ctypes.data_as(DP))
         return u
 
+    def _refused(self, status: int):
+        # validation should have refused the scene: say which rule the C applied
+        from .scene import SceneError
+        return SceneError("[run]", f"the runtime refused the run's options or initial "
+                                   f"state ({STATUSES[status]}); please report this scene")
+
     def init(self, opt, prm, t0: float, q0) -> None:
         self._opt[:] = opt
         self._prm[:] = prm
@@ -138,36 +146,72 @@ class Session:
         op, pp, qp, _ = self._in
         status = self.library.lib.crt_init(self.handle, op, pp, float(t0), qp)
         if status != 0:
-            # validation should have refused the scene: say which rule the C applied
-            from .scene import SceneError
-            raise SceneError("[run]", f"the runtime refused the run's options or initial "
-                                      f"state ({STATUSES[status]}); please report this scene")
+            raise self._refused(status)
 
     def run(self, t0: float, duration: float, q0, opt, prm, progress=None) -> Raw:
+        """One run: a single crossing into C (crt_run) unless the buffers fill."""
         lib = self.library.lib
-        self.init(opt, prm, t0, q0)
-        t_end = t0 + duration
-        ts, qs, kinds, evs = [], [], [], []
+        self._opt[:] = opt
+        self._prm[:] = prm
+        self._q0[:] = q0
+        op, pp, q0p, summ = self._in
         tp, qp, kp, ep = self._out
-        status = 0
-        while status == 0:
-            status = lib.crt_advance(self.handle, t_end, tp, qp, kp, self.chunk,
-                                     ctypes.byref(self._n), ep, self.chunk,
-                                     ctypes.byref(self._ne))
-            n, ne = self._n.value, self._ne.value
-            ts.append(self.t_buf[:n].copy())
-            qs.append(self.q_buf[:n].copy())
-            kinds.append(self.k_buf[:n].copy())
-            evs.append(self.ev_buf[:ne].copy())
-            if progress is not None:
-                progress((lib.crt_time(self.handle) - t0) / duration)
-        lib.crt_stats(self.handle, self._stats)
-        lib.crt_summary(self.handle, self._in[3])
-        join = (lambda parts: parts[0]) if len(ts) == 1 else np.concatenate
-        return Raw(join(ts), join(qs), join(kinds), join(evs),
-                   dict(zip(STAT_NAMES, self._stats)),
+        n_ref, ne_ref, init_ref = self._refs
+        t_end = t0 + duration
+        status = lib.crt_run(self.handle, op, pp, float(t0), q0p, t_end, tp, qp, kp,
+                             self.chunk, n_ref, ep, self.chunk, ne_ref, self._stats, summ,
+                             init_ref)
+        if self._init.value != 0:
+            raise self._refused(self._init.value)
+        n, ne = self._n.value, self._ne.value
+        t, q, kinds, ev = (self.t_buf[:n].copy(), self.q_buf[:n].copy(),
+                           self.k_buf[:n].copy(), self.ev_buf[:ne].copy())
+        if status == 0:                       # a buffer filled: the rest chunk by chunk
+            ts, qs, ks, evs = [t], [q], [kinds], [ev]
+            while status == 0:
+                if progress is not None:
+                    progress((lib.crt_time(self.handle) - t0) / duration)
+                status = lib.crt_advance(self.handle, t_end, tp, qp, kp, self.chunk,
+                                         n_ref, ep, self.chunk, ne_ref)
+                n, ne = self._n.value, self._ne.value
+                ts.append(self.t_buf[:n].copy())
+                qs.append(self.q_buf[:n].copy())
+                ks.append(self.k_buf[:n].copy())
+                evs.append(self.ev_buf[:ne].copy())
+            lib.crt_stats(self.handle, self._stats)
+            lib.crt_summary(self.handle, summ)
+            t, q, kinds, ev = (np.concatenate(ts), np.concatenate(qs), np.concatenate(ks),
+                               np.concatenate(evs))
+        if progress is not None:
+            progress(1.0)
+        return Raw(t, q, kinds, ev, dict(zip(STAT_NAMES, self._stats[:])),
                    dict(zip(SUMMARY_NAMES, self._summ.tolist())),
                    STATUSES[status] if 0 <= status < len(STATUSES) else str(status))
+
+    def run_many(self, t0, t_end, q0, opt, prm) -> dict:
+        """Many runs of the session's law in one call into C (crt_run_many), keeping per
+        run what a parameter study reads.  ``t0``, ``t_end``: (n,); ``q0``, ``opt``,
+        ``prm``: (n, ...) rows.  Returns arrays: ``init_status``, ``status``, ``stats``
+        (n, len(abi.STATS)), ``summary``, ``last`` (n, 1 + nq: t then q),
+        ``first_contact`` (NaN where none) and the C's ``seconds`` for all of them."""
+        n = len(t0)
+        lib = self.library.lib
+        arr = [np.ascontiguousarray(a, dtype=float) for a in (opt, prm, t0, q0, t_end)]
+        out = {"init_status": np.zeros(n, dtype=np.intc), "status": np.zeros(n, dtype=np.intc),
+               "stats": np.zeros((n, len(abi.STATS)), dtype=np.dtype(ctypes.c_long)),
+               "summary": np.zeros((n, len(abi.SUMMARY))),
+               "last": np.zeros((n, 1 + self.library.nq)), "first_contact": np.zeros(n)}
+        tp, qp, kp, ep = self._out
+        start = time.perf_counter()
+        lib.crt_run_many(self.handle, n, *(a.ctypes.data_as(DP) for a in arr[:4]),
+                         arr[4].ctypes.data_as(DP), tp, qp, kp, self.chunk, ep, self.chunk,
+                         out["init_status"].ctypes.data_as(IP),
+                         out["status"].ctypes.data_as(IP),
+                         out["stats"].ctypes.data_as(ctypes.POINTER(ctypes.c_long)),
+                         out["summary"].ctypes.data_as(DP), out["last"].ctypes.data_as(DP),
+                         out["first_contact"].ctypes.data_as(DP))
+        out["seconds"] = time.perf_counter() - start
+        return out
 
     def contact(self, t: float, q) -> tuple[np.ndarray, float, float]:
         """(dq/dt, N, a_free) of persistent contact at (t, q) (after ``init``)."""

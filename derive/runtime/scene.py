@@ -10,6 +10,7 @@ in range, and every failure raises :class:`SceneError` naming the field and the 
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 import re
 import tomllib
@@ -166,6 +167,12 @@ FIELDS = (
 )
 TABLES = ("", "body", "point", "plane", "initial", "run", "stability")
 _BY_TABLE = {t: {f.key: f for f in FIELDS if f.table == t} for t in TABLES}
+# the number fields with both bounds, by table: (lo, hi, lo_open) for _read's fast path
+_SCALARS = {t: {f.key: (f.lo, f.hi, f.lo_open) for f in FIELDS
+                if f.table == t and f.kind == "number" and f.hi is not None}
+            for t in TABLES}
+_REQUIRED = tuple(f for f in FIELDS if f.default is REQUIRED)
+_TOP_KEYS = frozenset(TABLES[1:]) | frozenset(_BY_TABLE[""])
 
 # cross-field rules, in the order they are checked (their text goes into the README)
 RULES = (
@@ -231,6 +238,17 @@ class Scene:
     max_distance: float = 0.0
     doc: dict = field(default_factory=dict, compare=False, repr=False)
 
+    @classmethod
+    def of_fields(cls, **values) -> "Scene":
+        """The constructor of :func:`build_scene`: every field given, set at once (the
+        frozen dataclass's ``__init__`` sets them one by one through
+        ``object.__setattr__``, a tenth of a validation's time)."""
+        if values.keys() != _SCENE_FIELDS:
+            raise TypeError(f"Scene.of_fields needs every field: {sorted(_SCENE_FIELDS)}")
+        obj = object.__new__(cls)
+        obj.__dict__.update(values)
+        return obj
+
     @property
     def contact_possible(self) -> bool:
         return self.plane and self.shape != "none"
@@ -257,6 +275,9 @@ class Scene:
     def jets(self, ts) -> np.ndarray:
         """The point law at ``ts``: (9, N) x, x', x'', y, y', y'', z, z', z''."""
         return self.law.jets(ts)
+
+
+_SCENE_FIELDS = frozenset(f.name for f in dataclasses.fields(Scene))
 
 
 # ---- values -------------------------------------------------------------------------------
@@ -293,12 +314,18 @@ def _num(f: Field, value, where: str | None = None) -> float:
     return x
 
 
+_FLOAT = {float}
+
+
 def _vector(f: Field, value, size: int) -> tuple:
-    if not isinstance(value, list) or len(value) != size:
-        raise SceneError(f.where, f"must be a list of {size} numbers")
-    if all(type(v) is float for v in value) and f.lo is not None and f.hi is not None:
-        lo, hi = min(value), max(value)                  # the common case, at once
-        if (lo > f.lo if f.lo_open else lo >= f.lo) and hi <= f.hi:
+    if type(value) is not list or len(value) != size:
+        if not isinstance(value, list) or len(value) != size:
+            raise SceneError(f.where, f"must be a list of {size} numbers")
+    elif set(map(type, value)) == _FLOAT and f.hi is not None:
+        # the common case at once: the sum is finite only if every entry is (a NaN
+        # would pass min and max unseen)
+        total, lo, hi = sum(value), min(value), max(value)
+        if total - total == 0.0 and (lo > f.lo if f.lo_open else lo >= f.lo) and hi <= f.hi:
             return tuple(value)
     return tuple(_num(f, v, f"{f.where}[{k}]") for k, v in enumerate(value))
 
@@ -401,8 +428,8 @@ def _defaults() -> dict:
 def _read(doc: dict) -> tuple[dict, set]:
     """Every field of the schema (its value, its default, or REQUIRED when absent) and
     the set of fields the scene gives."""
-    unknown = sorted(str(k) for k in doc if k not in TABLES[1:] and k not in _BY_TABLE[""])
-    if unknown:
+    if not doc.keys() <= _TOP_KEYS:
+        unknown = sorted(str(k) for k in doc if k not in _TOP_KEYS)
         known = ", ".join(sorted(list(TABLES[1:]) + list(_BY_TABLE[""])))
         raise SceneError(unknown[0][:40], f"is not a known key (known: {known})")
     out = dict(_defaults())
@@ -412,6 +439,7 @@ def _read(doc: dict) -> tuple[dict, set]:
         if not tab:
             continue
         fields = _BY_TABLE[table]
+        scalars = _SCALARS[table]
         for key, value in tab.items():
             f = fields.get(key)
             if f is None:
@@ -419,8 +447,16 @@ def _read(doc: dict) -> tuple[dict, set]:
                     continue                   # the tables themselves
                 raise SceneError(f"[{table}].{str(key)[:40]}",
                                  f"is not a known key (known: {', '.join(fields)})")
-            out[f.where] = _value(f, value)
-            given.add(f.where)
+            where = f.where
+            bounds = scalars.get(key)
+            if bounds is not None and type(value) is float and value <= bounds[1] and \
+                    (value > bounds[0] if bounds[2] else value >= bounds[0]):
+                out[where] = value              # a number in range (NaN fails <=)
+            elif f.kind == "vector":
+                out[where] = _vector(f, value, f.size)
+            else:
+                out[where] = _value(f, value)
+            given.add(where)
     out["__plane__"] = "plane" in doc
     return out, given
 
@@ -454,10 +490,18 @@ def _orientation(v: dict, given: set) -> np.ndarray:
         u, _, vt = np.linalg.svd(A)
         return u @ vt
     qv = v["[initial].quaternion"]
-    norm = math.sqrt(sum(c * c for c in qv))
-    if norm < 1e-12:
+    w, x, y, z = qv
+    if math.sqrt(w * w + x * x + y * y + z * z) < 1e-12:
         raise SceneError("[initial].quaternion", "must not have zero norm")
-    return rotation_from_quaternion(qv)
+    return _rotation(qv)
+
+
+@lru_cache(maxsize=256)
+def _rotation(qv: tuple) -> np.ndarray:
+    """(a pure function of the quaternion, cached; the matrix is read-only)"""
+    A = rotation_from_quaternion(qv)
+    A.flags.writeable = False
+    return A
 
 
 # ---- the law over the run ---------------------------------------------------------------------
@@ -564,16 +608,27 @@ def _singular_J(scene: Scene, summary: LawSummary) -> None:
                                            "(smallest/largest below 1e-12); R1 needs det J != 0")
 
 
+@lru_cache(maxsize=256)
+def _law_position(law, t: float) -> tuple:
+    """OP at one time (a pure function of the program, itself cached by its text)."""
+    return tuple(float(c) for c in law.point(t)[:3])
+
+
 def _start_above_plane(scene: Scene) -> None:
     if not scene.contact_possible:
         return
-    n = [float(v) for v in scene.A0[2]]
-    axes = (scene.size[0],) * 3 if scene.shape == "sphere" else scene.size
-    D2n = [a * a * nk for a, nk in zip(axes, n)]
-    root = math.sqrt(sum(nk * d for nk, d in zip(n, D2n)))
-    s = [c - d / root for c, d in zip(scene.center, D2n)]       # the support point S
-    r0 = scene.law.point(scene.t0)[:3]
-    h = scene.com[2] + sum(nk * (sk - scene.nu * rk) for nk, sk, rk in zip(n, s, r0))
+    n0, n1, n2 = scene.A0[2].tolist()
+    a, b, c = (scene.size[0],) * 3 if scene.shape == "sphere" else scene.size
+    d0, d1, d2 = a * a * n0, b * b * n1, c * c * n2          # D^2 n
+    root = math.sqrt(n0 * d0 + n1 * d1 + n2 * d2)
+    c0, c1, c2 = scene.center
+    law = scene.law
+    r0, r1, r2 = _law_position(law, scene.t0) if law.kind == "program" else \
+        law.point(scene.t0)[:3].tolist()      # (tables are not cached: they are large)
+    nu = scene.nu
+    # the height of the support point S = center - D^2 n / |D n| above the plane
+    h = scene.com[2] + n0 * (c0 - d0 / root - nu * r0) + n1 * (c1 - d1 / root - nu * r1) \
+        + n2 * (c2 - d2 / root - nu * r2)
     if h < -1e-12 * scene.body_size:
         raise SceneError("[initial].com", f"the lowest point S starts below the plane "
                                           f"(height {h:.6g}); raise Z_C")
@@ -628,7 +683,7 @@ def override_fields(v: dict, given: set, name: str, value) -> None:
 def build_scene(v: dict, given: set, doc: dict, origin: str = "scene",
                 base: Path | None = None) -> Scene:
     """The cross-field rules over validated field values (from :func:`_read`)."""
-    for f in FIELDS:
+    for f in _REQUIRED:
         if v[f.where] is REQUIRED and (f.table != "plane" or v["__plane__"]):
             if f.table in ("body", "point") and not any(g.startswith(f"[{f.table}]")
                                                          for g in given):
@@ -697,16 +752,18 @@ def build_scene(v: dict, given: set, doc: dict, origin: str = "scene",
         raise SceneError("[run].step", f"gives {duration / step:.3g} RK4 steps (at most 1e8)")
     st = Stability(v["[stability].period"], v["[stability].impacts_every"],
                    v["[stability].long_periods"], v["[stability].perturbations"])
-    scene = Scene(name=v["name"], M=M, J=J, shape=shape, size=size, center=center, m=m,
-                  law=law, law_text=law_text, plane=plane, e=e, t0=t0, com=v["[initial].com"],
-                  com_velocity=v["[initial].com_velocity"], omega=v["[initial].omega"],
-                  A0=A0, duration=duration, method=v["[run].method"], rtol=v["[run].rtol"],
-                  atol=v["[run].atol"], g=v["[run].g"], outputs=v["[run].outputs"],
-                  step=step, max_events=v["[run].max_events"],
-                  max_steps=v["[run].max_steps"], output_dt=out_dt,
-                  keep_orthonormal=v["[run].keep_orthonormal"], model=v["[run].model"],
-                  zeno_dt=v["[run].zeno_dt"], source=origin, stability=st,
-                  law_summary=summary, max_distance=max_distance, doc=doc)
+    scene = Scene.of_fields(name=v["name"], M=M, J=J, shape=shape, size=size, center=center, m=m,
+                            law=law, law_text=law_text, plane=plane, e=e, t0=t0,
+                            com=v["[initial].com"], com_velocity=v["[initial].com_velocity"],
+                            omega=v["[initial].omega"], A0=A0, duration=duration,
+                            method=v["[run].method"], rtol=v["[run].rtol"],
+                            atol=v["[run].atol"], g=v["[run].g"], outputs=v["[run].outputs"],
+                            step=step, max_events=v["[run].max_events"],
+                            max_steps=v["[run].max_steps"], output_dt=out_dt,
+                            keep_orthonormal=v["[run].keep_orthonormal"],
+                            model=v["[run].model"], zeno_dt=v["[run].zeno_dt"],
+                            source=origin, stability=st, law_summary=summary,
+                            max_distance=max_distance, doc=doc)
     _singular_J(scene, summary)
     _start_above_plane(scene)
     return scene

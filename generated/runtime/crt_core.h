@@ -1111,4 +1111,67 @@ int crt_advance(crt_session *s, double t_end, double *t_out, double *q_out, int 
   return s->status;
 }
 
+/* crt_init, then crt_advance to t_end, then crt_stats and crt_summary: a whole run in one
+   call (what a binding pays per call is per crossing).  *init_status is crt_init's result;
+   when it is not CRT_PAUSED nothing ran and that status is returned.  Otherwise returns
+   crt_advance's: CRT_PAUSED when a buffer filled (call crt_advance again, then crt_stats
+   and crt_summary). */
+int crt_run(crt_session *s, const double *opt, const double *prm, double t0, const double *q0,
+            double t_end, double *t_out, double *q_out, int *kind_out, int cap, int *n_out,
+            double *ev_out, int ev_cap, int *n_ev, long *stats, double *summary,
+            int *init_status)
+{
+  int status = crt_init(s, opt, prm, t0, q0);
+  *init_status = status;
+  *n_out = 0; *n_ev = 0;
+  if (status != CRT_PAUSED) return status;
+  status = crt_advance(s, t_end, t_out, q_out, kind_out, cap, n_out, ev_out, ev_cap, n_ev);
+  crt_stats(s, stats);
+  crt_summary(s, summary);
+  return status;
+}
+
+/* n runs of the session's law, one after another, each keeping only what a parameter
+   study reads: its status, counters, summary, final time and state, and the time of its
+   first contact (NaN if none) -- one crossing into C for many runs.  Row i of opt
+   (CRT_OPT_COUNT), prm (CRT_P_COUNT) and q0 (NQ), and t0[i], t_end[i], are run i's; the
+   row and event buffers are scratch (cap >= 8 rows, ev_cap >= 4 events).  init_status[i]
+   is crt_init's result (when not CRT_PAUSED, run i did not start and its status is that
+   result).  Outputs: status[n], stats[n * CRT_STAT_COUNT], summary[n * CRT_SUMMARY_COUNT],
+   last[n * (1 + NQ)] (t, then q), first_contact[n]. */
+void crt_run_many(crt_session *s, int n, const double *opt, const double *prm,
+                  const double *t0, const double *q0, const double *t_end, double *t_buf,
+                  double *q_buf, int *kind_buf, int cap, double *ev_buf, int ev_cap,
+                  int *init_status, int *status, long *stats, double *summary, double *last,
+                  double *first_contact)
+{
+  int i, j, e, n_rows, n_ev, st;
+  for (i = 0; i < n; ++i) {
+    double *row = last + (long)i * (1 + NQ);
+    first_contact[i] = NAN;
+    row[0] = t0[i];
+    for (j = 0; j < NQ; ++j) row[1 + j] = q0[(long)i * NQ + j];
+    st = crt_init(s, opt + (long)i * CRT_OPT_COUNT, prm + (long)i * CRT_P_COUNT, t0[i],
+                  q0 + (long)i * NQ);
+    init_status[i] = st;
+    if (st == CRT_PAUSED) {
+      do {
+        st = crt_advance(s, t_end[i], t_buf, q_buf, kind_buf, cap, &n_rows, ev_buf, ev_cap,
+                         &n_ev);
+        for (e = 0; e < n_ev; ++e)
+          if (first_contact[i] != first_contact[i]
+              && (int)ev_buf[(long)e * CRT_EVENT_COLUMNS + 1] == CRT_EV_CONTACT)
+            first_contact[i] = ev_buf[(long)e * CRT_EVENT_COLUMNS];
+        if (n_rows > 0) {
+          row[0] = t_buf[n_rows - 1];
+          for (j = 0; j < NQ; ++j) row[1 + j] = q_buf[(long)(n_rows - 1) * NQ + j];
+        }
+      } while (st == CRT_PAUSED);
+    }
+    status[i] = st;
+    crt_stats(s, stats + (long)i * CRT_STAT_COUNT);
+    crt_summary(s, summary + (long)i * CRT_SUMMARY_COUNT);
+  }
+}
+
 #endif /* CRT_CORE_H */
