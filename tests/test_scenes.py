@@ -50,6 +50,10 @@ BAD = [
     ({"point__law": ["sqrt(t)", "0", "0"]}, "[point].law[0]", "not twice differentiable"),
     ({"point__law": ["log(t - 1)", "0", "0"]}, "[point].law[0]", "not twice differentiable"),
     ({"initial__com": [0.0, 0.0, 0.2]}, "[initial].com", "below the plane"),
+    # a NaN or infinity inside a vector of floats (min and max do not see a NaN there)
+    ({"initial__com": [0.0, float("nan"), 1.5]}, "[initial].com[1]", "finite"),
+    ({"initial__omega": [0.5, float("inf"), -float("inf")]}, "[initial].omega[1]", "finite"),
+    ({"body__center": [0.0, 0.0, float("nan")]}, "[body].center[2]", "finite"),
     ({"initial__quaternion": [0.0, 0.0, 0.0, 0.0]}, "[initial].quaternion", "zero norm"),
     ({"initial__matrix": [[1, 0, 0], [0, 1, 0], [0, 0, -1]]}, "[initial].quaternion",
      "either quaternion or matrix"),

@@ -173,16 +173,23 @@ def sweep(name, doc, ref, quick, repeats, progress, time_limit=20.0) -> list[Poi
                                     f"failed: {exc}".splitlines()[0][:80]))
                 break
             err, ierr = errors(result, ref)
-            # runs of a few milliseconds are timed many times: their minimum is then the
-            # run's own cost, not the shared machine's noise
-            reps = (4 * repeats if once < 0.005 else repeats if once < 0.05
-                    else (2 if once < 1.0 else 0))
+            # short runs are timed many times (about 20 ms of them, at most 1000): their
+            # minimum is then the run's own cost, not the shared machine's noise
+            reps = _reps(once, repeats)
             seconds = route.timed(reps) if reps and result.status == "done" else once
             points.append(Point(name, label, setting, seconds, err, ierr, result.evaluations,
                                 result.status))
             if once > time_limit or result.status != "done":
                 break                          # tighter settings only cost more
     return points
+
+
+def _reps(seconds: float, repeats: int) -> int:
+    """Repetitions for a run of ``seconds``: about 20 ms of timing for short runs (at most
+    1000, at least 4 * repeats), ``repeats`` up to 50 ms, 2 up to a second, else none."""
+    if seconds < 0.005:
+        return int(min(1000, max(4 * repeats, 0.02 / max(seconds, 1e-6))))
+    return repeats if seconds < 0.05 else (2 if seconds < 1.0 else 0)
 
 
 RETIME_ROUNDS = 3
@@ -201,7 +208,7 @@ def retime(doc: dict, points: list[Point], repeats: int, passes: int = 1,
                     not np.isfinite(p.seconds) or p.seconds > 0.05:
                 continue
             route = factories[p.method](doc, p.setting)
-            reps = 4 * repeats if p.seconds < 0.005 else repeats
+            reps = _reps(p.seconds, repeats)
             p.seconds = min(p.seconds, route.timed(reps))
 
 

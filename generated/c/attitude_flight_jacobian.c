@@ -3,7 +3,7 @@
  * Regenerate with `derive emit`; `derive emit --check` compares with a fresh render.
  * Tools: sympy 1.14.0, casadi 3.8.2 (ABI), jinja2 3.1.6.
  * attitude_flight_jacobian(q[3], u[9], p[6]) -> (A[9])
- * Total ops: 204 (SymPy count_ops of the program after CSE), 64 intermediate terms.
+ * Total ops: 204 (SymPy count_ops of the program after CSE), 67 intermediate terms.
  */
 
 #include <math.h>
@@ -68,31 +68,34 @@ void carrier_attitude_flight_jacobian(const double *q, const double *u, const do
   const double s0_12 = c5*c7 - s0_2*s0_2;
   const double s0_13 = -c7*s0_0 + s0_1*s0_2;
   const double s0_14 = -c5*s0_1 + s0_0*s0_2;
-  const double s0_15 = 1.0/(c2*s0_12 + s0_0*s0_13 + s0_1*s0_14);
-  const double s0_16 = s0_12*s0_15;
-  const double s0_17 = s0_13*s0_15;
-  const double s0_18 = s0_14*s0_15;
-  const double s0_19 = s0_15*(c2*c7 - s0_1*s0_1);
-  const double s0_20 = s0_15*(-c2*s0_2 + s0_0*s0_1);
-  const double s0_21 = s0_15*(c2*c5 - s0_0*s0_0);
-  const double s0_22 = s0_16*s0_3 + s0_17*s0_4 + s0_18*s0_5;
-  const double s0_23 = s0_17*s0_3 + s0_19*s0_4 + s0_20*s0_5;
-  const double s0_24 = s0_18*s0_3 + s0_20*s0_4 + s0_21*s0_5;
-  const double s0_25 = s0_16*s0_6 + s0_17*s0_7 + s0_18*s0_8;
-  const double s0_26 = s0_17*s0_6 + s0_19*s0_7 + s0_20*s0_8;
-  const double s0_27 = s0_18*s0_6 + s0_20*s0_7 + s0_21*s0_8;
-  const double s0_28 = s0_10*s0_17 + s0_11*s0_18 + s0_16*s0_9;
-  const double s0_29 = s0_10*s0_19 + s0_11*s0_20 + s0_17*s0_9;
-  const double s0_30 = s0_10*s0_20 + s0_11*s0_21 + s0_18*s0_9;
-  A[0] = s0_22;
-  A[1] = s0_25;
-  A[2] = s0_28;
-  A[3] = s0_23;
-  A[4] = s0_26;
-  A[5] = s0_29;
-  A[6] = s0_24;
-  A[7] = s0_27;
-  A[8] = s0_30;
+  const double s0_15 = c2*c7 - s0_1*s0_1;
+  const double s0_16 = -c2*s0_2 + s0_0*s0_1;
+  const double s0_17 = c2*c5 - s0_0*s0_0;
+  const double s0_18 = 1.0/(c2*s0_12 + s0_0*s0_13 + s0_1*s0_14);
+  const double s0_19 = s0_12*s0_18;
+  const double s0_20 = s0_13*s0_18;
+  const double s0_21 = s0_14*s0_18;
+  const double s0_22 = s0_15*s0_18;
+  const double s0_23 = s0_16*s0_18;
+  const double s0_24 = s0_17*s0_18;
+  const double s0_25 = s0_19*s0_3 + s0_20*s0_4 + s0_21*s0_5;
+  const double s0_26 = s0_20*s0_3 + s0_22*s0_4 + s0_23*s0_5;
+  const double s0_27 = s0_21*s0_3 + s0_23*s0_4 + s0_24*s0_5;
+  const double s0_28 = s0_19*s0_6 + s0_20*s0_7 + s0_21*s0_8;
+  const double s0_29 = s0_20*s0_6 + s0_22*s0_7 + s0_23*s0_8;
+  const double s0_30 = s0_21*s0_6 + s0_23*s0_7 + s0_24*s0_8;
+  const double s0_31 = s0_10*s0_20 + s0_11*s0_21 + s0_19*s0_9;
+  const double s0_32 = s0_10*s0_22 + s0_11*s0_23 + s0_20*s0_9;
+  const double s0_33 = s0_10*s0_23 + s0_11*s0_24 + s0_21*s0_9;
+  A[0] = s0_25;
+  A[1] = s0_28;
+  A[2] = s0_31;
+  A[3] = s0_26;
+  A[4] = s0_29;
+  A[5] = s0_32;
+  A[6] = s0_27;
+  A[7] = s0_30;
+  A[8] = s0_33;
 }
 
 /* ---- CasADi external-function ABI ------------------------------------------------ */

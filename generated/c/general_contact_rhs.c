@@ -3,7 +3,7 @@
  * Regenerate with `derive emit`; `derive emit --check` compares with a fresh render.
  * Tools: sympy 1.14.0, casadi 3.8.2 (ABI), jinja2 3.1.6.
  * general_contact_rhs(q[18], u[9], s[3], sdot[3], p[6]) -> (dq[18], N[1])
- * Total ops: 423 (SymPy count_ops of the program after CSE), 82 intermediate terms.
+ * Total ops: 423 (SymPy count_ops of the program after CSE), 79 intermediate terms.
  */
 
 #include <math.h>
@@ -91,29 +91,26 @@ void carrier_general_contact_rhs(const double *q, const double *u, const double 
   const double s0_12 = s0_2*s0_5 - s0_4*s0_4;
   const double s0_13 = -s0_1*s0_5 + s0_3*s0_4;
   const double s0_14 = s0_1*s0_4 - s0_2*s0_3;
-  const double s0_15 = 1.0/(s0_0*s0_12 + s0_1*s0_13 + s0_14*s0_3);
-  const double s0_16 = s0_12*s0_15;
-  const double s0_17 = s0_13*s0_15;
-  const double s0_18 = s0_14*s0_15;
-  const double s0_19 = s0_15*(s0_0*s0_5 - s0_3*s0_3);
-  const double s0_20 = s0_15*(-s0_0*s0_4 + s0_1*s0_3);
-  const double s0_21 = s0_15*(s0_0*s0_2 - s0_1*s0_1);
-  const double s0_22 = s0_16*s0_6 + s0_17*s0_7 + s0_18*s0_8;
-  const double s0_23 = s0_17*s0_6 + s0_19*s0_7 + s0_20*s0_8;
-  const double s0_24 = s0_18*s0_6 + s0_20*s0_7 + s0_21*s0_8;
-  const double s0_25 = s0_10*s0_17 + s0_11*s0_18 + s0_16*s0_9;
-  const double s0_26 = s0_10*s0_19 + s0_11*s0_20 + s0_17*s0_9;
-  const double s0_27 = s0_10*s0_20 + s0_11*s0_21 + s0_18*s0_9;
-  const double c51 = (-c0*c30 - c1*p[5] - c10*c42*nu - c13*c49*nu - c14*c40*nu - 2.0*c17*c41 - 2.0*c19*c39 - 2.0*c22*c37 - c31*s0_24 - c32*s0_22 - c33*s0_23 - c34*s0_23 - c35*s0_24 - c36*s0_22 - c37*u[6] - c38*c7*nu - c38*sdot[1] - c39*u[7] - c40*sdot[2] - c41*u[8] - c42*sdot[0] - c43*c44 - c43*c48 + c43*q[15]*nu*u[0] + c43*q[17]*nu*u[2] - c44*c45 - c45*c47 + c45*q[15]*nu*u[0] + c45*q[16]*nu*u[1] - c46*c47 - c46*c48 + c46*q[16]*nu*u[1] + c46*q[17]*nu*u[2] - c50*c9*nu - c6*q[17]*nu*q[6] + s0_22*q[16]*nu*u[2] + s0_22*q[17]*s[1] + s0_23*q[15]*s[2] + s0_23*q[17]*nu*u[0] + s0_24*q[15]*nu*u[1] + s0_24*q[16]*s[0] + 2.0*q[15]*nu*q[8]*u[4] + q[15]*q[6]*q[7]*s[1] + q[15]*q[6]*q[8]*s[2] + q[15]*q[7]*sdot[2] + 2.0*q[16]*nu*q[6]*u[5] + q[16]*q[6]*q[7]*s[0] + q[16]*q[7]*q[8]*s[2] + q[16]*q[8]*sdot[0] + 2.0*q[17]*nu*q[7]*u[3] + q[17]*q[6]*q[8]*s[0] + q[17]*q[6]*sdot[1] + q[17]*q[7]*q[8]*s[1])/(c0 + c24*s0_25*q[16] + c26*s0_27*q[15] + c28*s0_26*q[17] - c31*s0_27 - c32*s0_25 - c33*s0_26 - c34*s0_26 - c35*s0_27 - c36*s0_25 + s0_25*q[17]*s[1] + s0_26*q[15]*s[2] + s0_27*q[16]*s[0]);
+  const double s0_15 = s0_0*s0_5 - s0_3*s0_3;
+  const double s0_16 = -s0_0*s0_4 + s0_1*s0_3;
+  const double s0_17 = s0_0*s0_2 - s0_1*s0_1;
+  const double s0_18 = 1.0/(s0_0*s0_12 + s0_1*s0_13 + s0_14*s0_3);
+  const double s0_19 = s0_18*(s0_12*s0_6 + s0_13*s0_7 + s0_14*s0_8);
+  const double s0_20 = s0_18*(s0_13*s0_6 + s0_15*s0_7 + s0_16*s0_8);
+  const double s0_21 = s0_18*(s0_14*s0_6 + s0_16*s0_7 + s0_17*s0_8);
+  const double s0_22 = s0_18*(s0_10*s0_13 + s0_11*s0_14 + s0_12*s0_9);
+  const double s0_23 = s0_18*(s0_10*s0_15 + s0_11*s0_16 + s0_13*s0_9);
+  const double s0_24 = s0_18*(s0_10*s0_16 + s0_11*s0_17 + s0_14*s0_9);
+  const double c51 = (-c0*c30 - c1*p[5] - c10*c42*nu - c13*c49*nu - c14*c40*nu - 2.0*c17*c41 - 2.0*c19*c39 - 2.0*c22*c37 - c31*s0_21 - c32*s0_19 - c33*s0_20 - c34*s0_20 - c35*s0_21 - c36*s0_19 - c37*u[6] - c38*c7*nu - c38*sdot[1] - c39*u[7] - c40*sdot[2] - c41*u[8] - c42*sdot[0] - c43*c44 - c43*c48 + c43*q[15]*nu*u[0] + c43*q[17]*nu*u[2] - c44*c45 - c45*c47 + c45*q[15]*nu*u[0] + c45*q[16]*nu*u[1] - c46*c47 - c46*c48 + c46*q[16]*nu*u[1] + c46*q[17]*nu*u[2] - c50*c9*nu - c6*q[17]*nu*q[6] + s0_19*q[16]*nu*u[2] + s0_19*q[17]*s[1] + s0_20*q[15]*s[2] + s0_20*q[17]*nu*u[0] + s0_21*q[15]*nu*u[1] + s0_21*q[16]*s[0] + 2.0*q[15]*nu*q[8]*u[4] + q[15]*q[6]*q[7]*s[1] + q[15]*q[6]*q[8]*s[2] + q[15]*q[7]*sdot[2] + 2.0*q[16]*nu*q[6]*u[5] + q[16]*q[6]*q[7]*s[0] + q[16]*q[7]*q[8]*s[2] + q[16]*q[8]*sdot[0] + 2.0*q[17]*nu*q[7]*u[3] + q[17]*q[6]*q[8]*s[0] + q[17]*q[6]*sdot[1] + q[17]*q[7]*q[8]*s[1])/(c0 + c24*s0_22*q[16] + c26*s0_24*q[15] + c28*s0_23*q[17] - c31*s0_24 - c32*s0_22 - c33*s0_23 - c34*s0_23 - c35*s0_24 - c36*s0_22 + s0_22*q[17]*s[1] + s0_23*q[15]*s[2] + s0_24*q[16]*s[0]);
   dq[0] = q[3];
   dq[1] = q[4];
   dq[2] = q[5];
   dq[3] = 0.0;
   dq[4] = 0.0;
   dq[5] = c0*(-c30 - c51 - p[5]*p[1]);
-  dq[6] = -c51*s0_25 + s0_22;
-  dq[7] = -c51*s0_26 + s0_23;
-  dq[8] = -c51*s0_27 + s0_24;
+  dq[6] = -c51*s0_22 + s0_19;
+  dq[7] = -c51*s0_23 + s0_20;
+  dq[8] = -c51*s0_24 + s0_21;
   dq[9] = q[10]*q[8] - q[11]*q[7];
   dq[10] = -q[9]*q[8] + q[11]*q[6];
   dq[11] = q[9]*q[7] - q[10]*q[6];

@@ -3,7 +3,7 @@
  * Regenerate with `derive emit`; `derive emit --check` compares with a fresh render.
  * Tools: sympy 1.14.0, casadi 3.8.2 (ABI), jinja2 3.1.6.
  * general_flight_rhs(q[18], u[9], p[6]) -> (dq[18])
- * Total ops: 174 (SymPy count_ops of the program after CSE), 37 intermediate terms.
+ * Total ops: 171 (SymPy count_ops of the program after CSE), 34 intermediate terms.
  */
 
 #include <math.h>
@@ -47,25 +47,22 @@ void carrier_general_flight_rhs(const double *q, const double *u, const double *
   const double s0_9 = s0_2*s0_5 - s0_4*s0_4;
   const double s0_10 = -s0_1*s0_5 + s0_3*s0_4;
   const double s0_11 = s0_1*s0_4 - s0_2*s0_3;
-  const double s0_12 = 1.0/(s0_0*s0_9 + s0_1*s0_10 + s0_11*s0_3);
-  const double s0_13 = s0_12*s0_9;
-  const double s0_14 = s0_10*s0_12;
-  const double s0_15 = s0_11*s0_12;
-  const double s0_16 = s0_12*(s0_0*s0_5 - s0_3*s0_3);
-  const double s0_17 = s0_12*(-s0_0*s0_4 + s0_1*s0_3);
-  const double s0_18 = s0_12*(s0_0*s0_2 - s0_1*s0_1);
-  const double s0_19 = s0_13*s0_6 + s0_14*s0_7 + s0_15*s0_8;
-  const double s0_20 = s0_14*s0_6 + s0_16*s0_7 + s0_17*s0_8;
-  const double s0_21 = s0_15*s0_6 + s0_17*s0_7 + s0_18*s0_8;
+  const double s0_12 = s0_0*s0_5 - s0_3*s0_3;
+  const double s0_13 = -s0_0*s0_4 + s0_1*s0_3;
+  const double s0_14 = s0_0*s0_2 - s0_1*s0_1;
+  const double s0_15 = 1.0/(s0_0*s0_9 + s0_1*s0_10 + s0_11*s0_3);
+  const double s0_16 = s0_15*(s0_10*s0_7 + s0_11*s0_8 + s0_6*s0_9);
+  const double s0_17 = s0_15*(s0_10*s0_6 + s0_12*s0_7 + s0_13*s0_8);
+  const double s0_18 = s0_15*(s0_11*s0_6 + s0_13*s0_7 + s0_14*s0_8);
   dq[0] = q[3];
   dq[1] = q[4];
   dq[2] = q[5];
   dq[3] = 0.0;
   dq[4] = 0.0;
   dq[5] = -p[5];
-  dq[6] = s0_19;
-  dq[7] = s0_20;
-  dq[8] = s0_21;
+  dq[6] = s0_16;
+  dq[7] = s0_17;
+  dq[8] = s0_18;
   dq[9] = q[10]*q[8] - q[11]*q[7];
   dq[10] = -q[9]*q[8] + q[11]*q[6];
   dq[11] = q[9]*q[7] - q[10]*q[6];

@@ -3,7 +3,7 @@
  * Regenerate with `derive emit`; `derive emit --check` compares with a fresh render.
  * Tools: sympy 1.14.0, casadi 3.8.2 (ABI), jinja2 3.1.6.
  * general_impact(q[18], u[9], s[3], p[6], e) -> (q_plus[18], I[1])
- * Total ops: 174 (SymPy count_ops of the program after CSE), 42 intermediate terms.
+ * Total ops: 171 (SymPy count_ops of the program after CSE), 39 intermediate terms.
  */
 
 #include <math.h>
@@ -54,26 +54,23 @@ void carrier_general_impact(const double *q, const double *u, const double *s, c
   const double s0_9 = s0_2*s0_5 - s0_4*s0_4;
   const double s0_10 = -s0_1*s0_5 + s0_3*s0_4;
   const double s0_11 = s0_1*s0_4 - s0_2*s0_3;
-  const double s0_12 = 1.0/(s0_0*s0_9 + s0_1*s0_10 + s0_11*s0_3);
-  const double s0_13 = s0_12*s0_9;
-  const double s0_14 = s0_10*s0_12;
-  const double s0_15 = s0_11*s0_12;
-  const double s0_16 = s0_12*(s0_0*s0_5 - s0_3*s0_3);
-  const double s0_17 = s0_12*(-s0_0*s0_4 + s0_1*s0_3);
-  const double s0_18 = s0_12*(s0_0*s0_2 - s0_1*s0_1);
-  const double s0_19 = s0_13*s0_6 + s0_14*s0_7 + s0_15*s0_8;
-  const double s0_20 = s0_14*s0_6 + s0_16*s0_7 + s0_17*s0_8;
-  const double s0_21 = s0_15*s0_6 + s0_17*s0_7 + s0_18*s0_8;
-  const double c17 = (-e - 1.0)*(q[5] - c11*q[8] - c12*q[6] - c13*q[7] - c14*q[7] - c15*q[8] - c16*q[6] + q[15]*nu*q[8]*u[1] - q[15]*nu*u[3] + q[15]*q[7]*s[2] + q[16]*nu*q[6]*u[2] - q[16]*nu*u[4] + q[16]*q[8]*s[0] + q[17]*nu*q[7]*u[0] - q[17]*nu*u[5] + q[17]*q[6]*s[1])/(c0 - c11*s0_21 - c12*s0_19 - c13*s0_20 - c14*s0_20 - c15*s0_21 - c16*s0_19 + c5*s0_19*q[16] + c7*s0_21*q[15] + c9*s0_20*q[17] + s0_19*q[17]*s[1] + s0_20*q[15]*s[2] + s0_21*q[16]*s[0]);
+  const double s0_12 = s0_0*s0_5 - s0_3*s0_3;
+  const double s0_13 = -s0_0*s0_4 + s0_1*s0_3;
+  const double s0_14 = s0_0*s0_2 - s0_1*s0_1;
+  const double s0_15 = 1.0/(s0_0*s0_9 + s0_1*s0_10 + s0_11*s0_3);
+  const double s0_16 = s0_15*(s0_10*s0_7 + s0_11*s0_8 + s0_6*s0_9);
+  const double s0_17 = s0_15*(s0_10*s0_6 + s0_12*s0_7 + s0_13*s0_8);
+  const double s0_18 = s0_15*(s0_11*s0_6 + s0_13*s0_7 + s0_14*s0_8);
+  const double c17 = (-e - 1.0)*(q[5] - c11*q[8] - c12*q[6] - c13*q[7] - c14*q[7] - c15*q[8] - c16*q[6] + q[15]*nu*q[8]*u[1] - q[15]*nu*u[3] + q[15]*q[7]*s[2] + q[16]*nu*q[6]*u[2] - q[16]*nu*u[4] + q[16]*q[8]*s[0] + q[17]*nu*q[7]*u[0] - q[17]*nu*u[5] + q[17]*q[6]*s[1])/(c0 - c11*s0_18 - c12*s0_16 - c13*s0_17 - c14*s0_17 - c15*s0_18 - c16*s0_16 + c5*s0_16*q[16] + c7*s0_18*q[15] + c9*s0_17*q[17] + s0_16*q[17]*s[1] + s0_17*q[15]*s[2] + s0_18*q[16]*s[0]);
   q_plus[0] = q[0];
   q_plus[1] = q[1];
   q_plus[2] = q[2];
   q_plus[3] = q[3];
   q_plus[4] = q[4];
   q_plus[5] = q[5] + c0*c17;
-  q_plus[6] = c17*s0_19 + q[6];
-  q_plus[7] = c17*s0_20 + q[7];
-  q_plus[8] = c17*s0_21 + q[8];
+  q_plus[6] = c17*s0_16 + q[6];
+  q_plus[7] = c17*s0_17 + q[7];
+  q_plus[8] = c17*s0_18 + q[8];
   q_plus[9] = q[9];
   q_plus[10] = q[10];
   q_plus[11] = q[11];

@@ -3,7 +3,7 @@
  * Regenerate with `derive emit`; `derive emit --check` compares with a fresh render.
  * Tools: sympy 1.14.0, casadi 3.8.2 (ABI), jinja2 3.1.6.
  * lie_point(W[3], k[3], u[9], p[6]) -> (E[9], omega[3])
- * Total ops: 170 (SymPy count_ops of the program after CSE), 67 intermediate terms.
+ * Total ops: 167 (SymPy count_ops of the program after CSE), 64 intermediate terms.
  */
 
 #include <math.h>
@@ -79,16 +79,13 @@ void carrier_lie_point(const double *W, const double *k, const double *u, const 
   const double s0_9 = s0_2*s0_5 - s0_4*s0_4;
   const double s0_10 = -s0_1*s0_5 + s0_3*s0_4;
   const double s0_11 = s0_1*s0_4 - s0_2*s0_3;
-  const double s0_12 = 1.0/(s0_0*s0_9 + s0_1*s0_10 + s0_11*s0_3);
-  const double s0_13 = s0_12*s0_9;
-  const double s0_14 = s0_10*s0_12;
-  const double s0_15 = s0_11*s0_12;
-  const double s0_16 = s0_12*(s0_0*s0_5 - s0_3*s0_3);
-  const double s0_17 = s0_12*(-s0_0*s0_4 + s0_1*s0_3);
-  const double s0_18 = s0_12*(s0_0*s0_2 - s0_1*s0_1);
-  const double s0_19 = s0_13*s0_6 + s0_14*s0_7 + s0_15*s0_8;
-  const double s0_20 = s0_14*s0_6 + s0_16*s0_7 + s0_17*s0_8;
-  const double s0_21 = s0_15*s0_6 + s0_17*s0_7 + s0_18*s0_8;
+  const double s0_12 = s0_0*s0_5 - s0_3*s0_3;
+  const double s0_13 = -s0_0*s0_4 + s0_1*s0_3;
+  const double s0_14 = s0_0*s0_2 - s0_1*s0_1;
+  const double s0_15 = 1.0/(s0_0*s0_9 + s0_1*s0_10 + s0_11*s0_3);
+  const double s0_16 = s0_15*(s0_10*s0_7 + s0_11*s0_8 + s0_6*s0_9);
+  const double s0_17 = s0_15*(s0_10*s0_6 + s0_12*s0_7 + s0_13*s0_8);
+  const double s0_18 = s0_15*(s0_11*s0_6 + s0_13*s0_7 + s0_14*s0_8);
   E[0] = c18;
   E[1] = c21;
   E[2] = c24;
@@ -98,9 +95,9 @@ void carrier_lie_point(const double *W, const double *k, const double *u, const 
   E[6] = c15;
   E[7] = c20;
   E[8] = c26;
-  omega[0] = s0_19;
-  omega[1] = s0_20;
-  omega[2] = s0_21;
+  omega[0] = s0_16;
+  omega[1] = s0_17;
+  omega[2] = s0_18;
 }
 
 /* ---- CasADi external-function ABI ------------------------------------------------ */

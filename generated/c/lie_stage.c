@@ -3,7 +3,7 @@
  * Regenerate with `derive emit`; `derive emit --check` compares with a fresh render.
  * Tools: sympy 1.14.0, casadi 3.8.2 (ABI), jinja2 3.1.6.
  * lie_stage(W[3], k[3], u[9], p[6]) -> (dW[3], omega[3])
- * Total ops: 222 (SymPy count_ops of the program after CSE), 64 intermediate terms.
+ * Total ops: 219 (SymPy count_ops of the program after CSE), 61 intermediate terms.
  */
 
 #include <math.h>
@@ -68,30 +68,27 @@ void carrier_lie_stage(const double *W, const double *k, const double *u, const 
   const double s0_9 = s0_2*s0_5 - s0_4*s0_4;
   const double s0_10 = -s0_1*s0_5 + s0_3*s0_4;
   const double s0_11 = s0_1*s0_4 - s0_2*s0_3;
-  const double s0_12 = 1.0/(s0_0*s0_9 + s0_1*s0_10 + s0_11*s0_3);
-  const double s0_13 = s0_12*s0_9;
-  const double s0_14 = s0_10*s0_12;
-  const double s0_15 = s0_11*s0_12;
-  const double s0_16 = s0_12*(s0_0*s0_5 - s0_3*s0_3);
-  const double s0_17 = s0_12*(-s0_0*s0_4 + s0_1*s0_3);
-  const double s0_18 = s0_12*(s0_0*s0_2 - s0_1*s0_1);
-  const double s0_19 = s0_13*s0_6 + s0_14*s0_7 + s0_15*s0_8;
-  const double s0_20 = s0_14*s0_6 + s0_16*s0_7 + s0_17*s0_8;
-  const double s0_21 = s0_15*s0_6 + s0_17*s0_7 + s0_18*s0_8;
-  const double c9 = W[1]*s0_21;
-  const double c10 = W[2]*s0_20;
-  const double c11 = W[0]*s0_20;
-  const double c12 = W[1]*s0_19;
+  const double s0_12 = s0_0*s0_5 - s0_3*s0_3;
+  const double s0_13 = -s0_0*s0_4 + s0_1*s0_3;
+  const double s0_14 = s0_0*s0_2 - s0_1*s0_1;
+  const double s0_15 = 1.0/(s0_0*s0_9 + s0_1*s0_10 + s0_11*s0_3);
+  const double s0_16 = s0_15*(s0_10*s0_7 + s0_11*s0_8 + s0_6*s0_9);
+  const double s0_17 = s0_15*(s0_10*s0_6 + s0_12*s0_7 + s0_13*s0_8);
+  const double s0_18 = s0_15*(s0_11*s0_6 + s0_13*s0_7 + s0_14*s0_8);
+  const double c9 = W[1]*s0_18;
+  const double c10 = W[2]*s0_17;
+  const double c11 = W[0]*s0_17;
+  const double c12 = W[1]*s0_16;
   const double c13 = c11 - c12;
-  const double c14 = W[0]*s0_21;
-  const double c15 = W[2]*s0_19 - c14;
+  const double c14 = W[0]*s0_18;
+  const double c15 = W[2]*s0_16 - c14;
   const double c16 = -c10 + c9;
-  dW[0] = -0.5*c10 + 0.5*c9 + s0_19 + c_W*(W[1]*c13 - W[2]*c15);
-  dW[1] = 0.5*W[2]*s0_19 - 0.5*c14 + s0_20 + c_W*(-W[0]*c13 + W[2]*c16);
-  dW[2] = 0.5*c11 - 0.5*c12 + s0_21 + c_W*(W[0]*c15 - W[1]*c16);
-  omega[0] = s0_19;
-  omega[1] = s0_20;
-  omega[2] = s0_21;
+  dW[0] = -0.5*c10 + 0.5*c9 + s0_16 + c_W*(W[1]*c13 - W[2]*c15);
+  dW[1] = 0.5*W[2]*s0_16 - 0.5*c14 + s0_17 + c_W*(-W[0]*c13 + W[2]*c16);
+  dW[2] = 0.5*c11 - 0.5*c12 + s0_18 + c_W*(W[0]*c15 - W[1]*c16);
+  omega[0] = s0_16;
+  omega[1] = s0_17;
+  omega[2] = s0_18;
 }
 
 /* ---- CasADi external-function ABI ------------------------------------------------ */

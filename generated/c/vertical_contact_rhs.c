@@ -3,7 +3,7 @@
  * Regenerate with `derive emit`; `derive emit --check` compares with a fresh render.
  * Tools: sympy 1.14.0, casadi 3.8.2 (ABI), jinja2 3.1.6.
  * vertical_contact_rhs(q[8], u[9], s[3], sdot[3], p[6]) -> (dq[8], N[1])
- * Total ops: 405 (SymPy count_ops of the program after CSE), 82 intermediate terms.
+ * Total ops: 405 (SymPy count_ops of the program after CSE), 79 intermediate terms.
  */
 
 #include <math.h>
@@ -91,25 +91,22 @@ void carrier_vertical_contact_rhs(const double *q, const double *u, const double
   const double s0_12 = s0_2*s0_5 - s0_4*s0_4;
   const double s0_13 = -s0_1*s0_5 + s0_3*s0_4;
   const double s0_14 = s0_1*s0_4 - s0_2*s0_3;
-  const double s0_15 = 1.0/(s0_0*s0_12 + s0_1*s0_13 + s0_14*s0_3);
-  const double s0_16 = s0_12*s0_15;
-  const double s0_17 = s0_13*s0_15;
-  const double s0_18 = s0_14*s0_15;
-  const double s0_19 = s0_15*(s0_0*s0_5 - s0_3*s0_3);
-  const double s0_20 = s0_15*(-s0_0*s0_4 + s0_1*s0_3);
-  const double s0_21 = s0_15*(s0_0*s0_2 - s0_1*s0_1);
-  const double s0_22 = s0_16*s0_6 + s0_17*s0_7 + s0_18*s0_8;
-  const double s0_23 = s0_17*s0_6 + s0_19*s0_7 + s0_20*s0_8;
-  const double s0_24 = s0_18*s0_6 + s0_20*s0_7 + s0_21*s0_8;
-  const double s0_25 = s0_10*s0_17 + s0_11*s0_18 + s0_16*s0_9;
-  const double s0_26 = s0_10*s0_19 + s0_11*s0_20 + s0_17*s0_9;
-  const double s0_27 = s0_10*s0_20 + s0_11*s0_21 + s0_18*s0_9;
-  const double c51 = (-c0*c30 - c1*p[5] - c10*c42*nu - c13*c49*nu - c14*c40*nu - 2.0*c17*c41 - 2.0*c19*c39 - 2.0*c22*c37 - c31*s0_24 - c32*s0_22 - c33*s0_23 - c34*s0_23 - c35*s0_24 - c36*s0_22 - c37*u[6] - c38*c7*nu - c38*sdot[1] - c39*u[7] - c40*sdot[2] - c41*u[8] - c42*sdot[0] - c43*c44 - c43*c48 + c43*q[5]*nu*u[0] + c43*q[7]*nu*u[2] - c44*c45 - c45*c47 + c45*q[5]*nu*u[0] + c45*q[6]*nu*u[1] - c46*c47 - c46*c48 + c46*q[6]*nu*u[1] + c46*q[7]*nu*u[2] - c50*c9*nu - c6*q[7]*nu*q[2] + s0_22*q[6]*nu*u[2] + s0_22*q[7]*s[1] + s0_23*q[5]*s[2] + s0_23*q[7]*nu*u[0] + s0_24*q[5]*nu*u[1] + s0_24*q[6]*s[0] + 2.0*q[5]*nu*q[4]*u[4] + q[5]*q[2]*q[3]*s[1] + q[5]*q[2]*q[4]*s[2] + q[5]*q[3]*sdot[2] + 2.0*q[6]*nu*q[2]*u[5] + q[6]*q[2]*q[3]*s[0] + q[6]*q[3]*q[4]*s[2] + q[6]*q[4]*sdot[0] + 2.0*q[7]*nu*q[3]*u[3] + q[7]*q[2]*q[4]*s[0] + q[7]*q[2]*sdot[1] + q[7]*q[3]*q[4]*s[1])/(c0 + c24*s0_25*q[6] + c26*s0_27*q[5] + c28*s0_26*q[7] - c31*s0_27 - c32*s0_25 - c33*s0_26 - c34*s0_26 - c35*s0_27 - c36*s0_25 + s0_25*q[7]*s[1] + s0_26*q[5]*s[2] + s0_27*q[6]*s[0]);
+  const double s0_15 = s0_0*s0_5 - s0_3*s0_3;
+  const double s0_16 = -s0_0*s0_4 + s0_1*s0_3;
+  const double s0_17 = s0_0*s0_2 - s0_1*s0_1;
+  const double s0_18 = 1.0/(s0_0*s0_12 + s0_1*s0_13 + s0_14*s0_3);
+  const double s0_19 = s0_18*(s0_12*s0_6 + s0_13*s0_7 + s0_14*s0_8);
+  const double s0_20 = s0_18*(s0_13*s0_6 + s0_15*s0_7 + s0_16*s0_8);
+  const double s0_21 = s0_18*(s0_14*s0_6 + s0_16*s0_7 + s0_17*s0_8);
+  const double s0_22 = s0_18*(s0_10*s0_13 + s0_11*s0_14 + s0_12*s0_9);
+  const double s0_23 = s0_18*(s0_10*s0_15 + s0_11*s0_16 + s0_13*s0_9);
+  const double s0_24 = s0_18*(s0_10*s0_16 + s0_11*s0_17 + s0_14*s0_9);
+  const double c51 = (-c0*c30 - c1*p[5] - c10*c42*nu - c13*c49*nu - c14*c40*nu - 2.0*c17*c41 - 2.0*c19*c39 - 2.0*c22*c37 - c31*s0_21 - c32*s0_19 - c33*s0_20 - c34*s0_20 - c35*s0_21 - c36*s0_19 - c37*u[6] - c38*c7*nu - c38*sdot[1] - c39*u[7] - c40*sdot[2] - c41*u[8] - c42*sdot[0] - c43*c44 - c43*c48 + c43*q[5]*nu*u[0] + c43*q[7]*nu*u[2] - c44*c45 - c45*c47 + c45*q[5]*nu*u[0] + c45*q[6]*nu*u[1] - c46*c47 - c46*c48 + c46*q[6]*nu*u[1] + c46*q[7]*nu*u[2] - c50*c9*nu - c6*q[7]*nu*q[2] + s0_19*q[6]*nu*u[2] + s0_19*q[7]*s[1] + s0_20*q[5]*s[2] + s0_20*q[7]*nu*u[0] + s0_21*q[5]*nu*u[1] + s0_21*q[6]*s[0] + 2.0*q[5]*nu*q[4]*u[4] + q[5]*q[2]*q[3]*s[1] + q[5]*q[2]*q[4]*s[2] + q[5]*q[3]*sdot[2] + 2.0*q[6]*nu*q[2]*u[5] + q[6]*q[2]*q[3]*s[0] + q[6]*q[3]*q[4]*s[2] + q[6]*q[4]*sdot[0] + 2.0*q[7]*nu*q[3]*u[3] + q[7]*q[2]*q[4]*s[0] + q[7]*q[2]*sdot[1] + q[7]*q[3]*q[4]*s[1])/(c0 + c24*s0_22*q[6] + c26*s0_24*q[5] + c28*s0_23*q[7] - c31*s0_24 - c32*s0_22 - c33*s0_23 - c34*s0_23 - c35*s0_24 - c36*s0_22 + s0_22*q[7]*s[1] + s0_23*q[5]*s[2] + s0_24*q[6]*s[0]);
   dq[0] = q[1];
   dq[1] = c0*(-c30 - c51 - p[5]*p[1]);
-  dq[2] = -c51*s0_25 + s0_22;
-  dq[3] = -c51*s0_26 + s0_23;
-  dq[4] = -c51*s0_27 + s0_24;
+  dq[2] = -c51*s0_22 + s0_19;
+  dq[3] = -c51*s0_23 + s0_20;
+  dq[4] = -c51*s0_24 + s0_21;
   dq[5] = -c42 + c50;
   dq[6] = -c38 + q[7]*q[2];
   dq[7] = -c40 + c49;

@@ -3,7 +3,7 @@
  * Regenerate with `derive emit`; `derive emit --check` compares with a fresh render.
  * Tools: sympy 1.14.0, casadi 3.8.2 (ABI), jinja2 3.1.6.
  * vertical_flight_rhs(q[8], u[9], p[6]) -> (dq[8])
- * Total ops: 156 (SymPy count_ops of the program after CSE), 37 intermediate terms.
+ * Total ops: 153 (SymPy count_ops of the program after CSE), 34 intermediate terms.
  */
 
 #include <math.h>
@@ -47,21 +47,18 @@ void carrier_vertical_flight_rhs(const double *q, const double *u, const double 
   const double s0_9 = s0_2*s0_5 - s0_4*s0_4;
   const double s0_10 = -s0_1*s0_5 + s0_3*s0_4;
   const double s0_11 = s0_1*s0_4 - s0_2*s0_3;
-  const double s0_12 = 1.0/(s0_0*s0_9 + s0_1*s0_10 + s0_11*s0_3);
-  const double s0_13 = s0_12*s0_9;
-  const double s0_14 = s0_10*s0_12;
-  const double s0_15 = s0_11*s0_12;
-  const double s0_16 = s0_12*(s0_0*s0_5 - s0_3*s0_3);
-  const double s0_17 = s0_12*(-s0_0*s0_4 + s0_1*s0_3);
-  const double s0_18 = s0_12*(s0_0*s0_2 - s0_1*s0_1);
-  const double s0_19 = s0_13*s0_6 + s0_14*s0_7 + s0_15*s0_8;
-  const double s0_20 = s0_14*s0_6 + s0_16*s0_7 + s0_17*s0_8;
-  const double s0_21 = s0_15*s0_6 + s0_17*s0_7 + s0_18*s0_8;
+  const double s0_12 = s0_0*s0_5 - s0_3*s0_3;
+  const double s0_13 = -s0_0*s0_4 + s0_1*s0_3;
+  const double s0_14 = s0_0*s0_2 - s0_1*s0_1;
+  const double s0_15 = 1.0/(s0_0*s0_9 + s0_1*s0_10 + s0_11*s0_3);
+  const double s0_16 = s0_15*(s0_10*s0_7 + s0_11*s0_8 + s0_6*s0_9);
+  const double s0_17 = s0_15*(s0_10*s0_6 + s0_12*s0_7 + s0_13*s0_8);
+  const double s0_18 = s0_15*(s0_11*s0_6 + s0_13*s0_7 + s0_14*s0_8);
   dq[0] = q[1];
   dq[1] = -p[5];
-  dq[2] = s0_19;
-  dq[3] = s0_20;
-  dq[4] = s0_21;
+  dq[2] = s0_16;
+  dq[3] = s0_17;
+  dq[4] = s0_18;
   dq[5] = q[6]*q[4] - q[7]*q[3];
   dq[6] = -q[5]*q[4] + q[7]*q[2];
   dq[7] = q[5]*q[3] - q[6]*q[2];

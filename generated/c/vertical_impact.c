@@ -3,7 +3,7 @@
  * Regenerate with `derive emit`; `derive emit --check` compares with a fresh render.
  * Tools: sympy 1.14.0, casadi 3.8.2 (ABI), jinja2 3.1.6.
  * vertical_impact(q[8], u[9], s[3], p[6], e) -> (q_plus[8], I[1])
- * Total ops: 174 (SymPy count_ops of the program after CSE), 42 intermediate terms.
+ * Total ops: 171 (SymPy count_ops of the program after CSE), 39 intermediate terms.
  */
 
 #include <math.h>
@@ -54,22 +54,19 @@ void carrier_vertical_impact(const double *q, const double *u, const double *s, 
   const double s0_9 = s0_2*s0_5 - s0_4*s0_4;
   const double s0_10 = -s0_1*s0_5 + s0_3*s0_4;
   const double s0_11 = s0_1*s0_4 - s0_2*s0_3;
-  const double s0_12 = 1.0/(s0_0*s0_9 + s0_1*s0_10 + s0_11*s0_3);
-  const double s0_13 = s0_12*s0_9;
-  const double s0_14 = s0_10*s0_12;
-  const double s0_15 = s0_11*s0_12;
-  const double s0_16 = s0_12*(s0_0*s0_5 - s0_3*s0_3);
-  const double s0_17 = s0_12*(-s0_0*s0_4 + s0_1*s0_3);
-  const double s0_18 = s0_12*(s0_0*s0_2 - s0_1*s0_1);
-  const double s0_19 = s0_13*s0_6 + s0_14*s0_7 + s0_15*s0_8;
-  const double s0_20 = s0_14*s0_6 + s0_16*s0_7 + s0_17*s0_8;
-  const double s0_21 = s0_15*s0_6 + s0_17*s0_7 + s0_18*s0_8;
-  const double c17 = (-e - 1.0)*(q[1] - c11*q[4] - c12*q[2] - c13*q[3] - c14*q[3] - c15*q[4] - c16*q[2] + q[5]*nu*q[4]*u[1] - q[5]*nu*u[3] + q[5]*q[3]*s[2] + q[6]*nu*q[2]*u[2] - q[6]*nu*u[4] + q[6]*q[4]*s[0] + q[7]*nu*q[3]*u[0] - q[7]*nu*u[5] + q[7]*q[2]*s[1])/(c0 - c11*s0_21 - c12*s0_19 - c13*s0_20 - c14*s0_20 - c15*s0_21 - c16*s0_19 + c5*s0_19*q[6] + c7*s0_21*q[5] + c9*s0_20*q[7] + s0_19*q[7]*s[1] + s0_20*q[5]*s[2] + s0_21*q[6]*s[0]);
+  const double s0_12 = s0_0*s0_5 - s0_3*s0_3;
+  const double s0_13 = -s0_0*s0_4 + s0_1*s0_3;
+  const double s0_14 = s0_0*s0_2 - s0_1*s0_1;
+  const double s0_15 = 1.0/(s0_0*s0_9 + s0_1*s0_10 + s0_11*s0_3);
+  const double s0_16 = s0_15*(s0_10*s0_7 + s0_11*s0_8 + s0_6*s0_9);
+  const double s0_17 = s0_15*(s0_10*s0_6 + s0_12*s0_7 + s0_13*s0_8);
+  const double s0_18 = s0_15*(s0_11*s0_6 + s0_13*s0_7 + s0_14*s0_8);
+  const double c17 = (-e - 1.0)*(q[1] - c11*q[4] - c12*q[2] - c13*q[3] - c14*q[3] - c15*q[4] - c16*q[2] + q[5]*nu*q[4]*u[1] - q[5]*nu*u[3] + q[5]*q[3]*s[2] + q[6]*nu*q[2]*u[2] - q[6]*nu*u[4] + q[6]*q[4]*s[0] + q[7]*nu*q[3]*u[0] - q[7]*nu*u[5] + q[7]*q[2]*s[1])/(c0 - c11*s0_18 - c12*s0_16 - c13*s0_17 - c14*s0_17 - c15*s0_18 - c16*s0_16 + c5*s0_16*q[6] + c7*s0_18*q[5] + c9*s0_17*q[7] + s0_16*q[7]*s[1] + s0_17*q[5]*s[2] + s0_18*q[6]*s[0]);
   q_plus[0] = q[0];
   q_plus[1] = q[1] + c0*c17;
-  q_plus[2] = c17*s0_19 + q[2];
-  q_plus[3] = c17*s0_20 + q[3];
-  q_plus[4] = c17*s0_21 + q[4];
+  q_plus[2] = c17*s0_16 + q[2];
+  q_plus[3] = c17*s0_17 + q[3];
+  q_plus[4] = c17*s0_18 + q[4];
   q_plus[5] = q[5];
   q_plus[6] = q[6];
   q_plus[7] = q[7];

@@ -21,7 +21,7 @@
 
 /* ---- the derived functions this model calls (derive/models.py, one CSE each) ---------- */
 
-/* Flight right-hand side of the attitude model: dq/dt (E1.2, E1.7 times m+M, E1.8). (146 ops) */
+/* Flight right-hand side of the attitude model: dq/dt (E1.2, E1.7 times m+M, E1.8). (143 ops) */
 static void attitude_flight_rhs(const double *q, const double *u, const double *p, double *restrict dq)
 {
   const double c0 = u[1]*u[1];
@@ -51,22 +51,19 @@ static void attitude_flight_rhs(const double *q, const double *u, const double *
   const double s0_9 = s0_2*s0_5 - s0_4*s0_4;
   const double s0_10 = -s0_1*s0_5 + s0_3*s0_4;
   const double s0_11 = s0_1*s0_4 - s0_2*s0_3;
-  const double s0_12 = 1.0/(s0_0*s0_9 + s0_1*s0_10 + s0_11*s0_3);
-  const double s0_13 = s0_12*s0_9;
-  const double s0_14 = s0_10*s0_12;
-  const double s0_15 = s0_11*s0_12;
-  const double s0_16 = s0_12*(s0_0*s0_5 - s0_3*s0_3);
-  const double s0_17 = s0_12*(-s0_0*s0_4 + s0_1*s0_3);
-  const double s0_18 = s0_12*(s0_0*s0_2 - s0_1*s0_1);
-  const double s0_19 = s0_13*s0_6 + s0_14*s0_7 + s0_15*s0_8;
-  const double s0_20 = s0_14*s0_6 + s0_16*s0_7 + s0_17*s0_8;
-  const double s0_21 = s0_15*s0_6 + s0_17*s0_7 + s0_18*s0_8;
-  dq[0] = s0_19;
-  dq[1] = s0_20;
-  dq[2] = s0_21;
+  const double s0_12 = s0_0*s0_5 - s0_3*s0_3;
+  const double s0_13 = -s0_0*s0_4 + s0_1*s0_3;
+  const double s0_14 = s0_0*s0_2 - s0_1*s0_1;
+  const double s0_15 = 1.0/(s0_0*s0_9 + s0_1*s0_10 + s0_11*s0_3);
+  const double s0_16 = s0_15*(s0_10*s0_7 + s0_11*s0_8 + s0_6*s0_9);
+  const double s0_17 = s0_15*(s0_10*s0_6 + s0_12*s0_7 + s0_13*s0_8);
+  const double s0_18 = s0_15*(s0_11*s0_6 + s0_13*s0_7 + s0_14*s0_8);
+  dq[0] = s0_16;
+  dq[1] = s0_17;
+  dq[2] = s0_18;
 }
 
-/* A stage of the Lie-group flight step: omega from E1.4 with K = exp(-W^) k in body axes, and W' = dexpinv(W, omega) (E1.8 in exponential coordinates). (222 ops) */
+/* A stage of the Lie-group flight step: omega from E1.4 with K = exp(-W^) k in body axes, and W' = dexpinv(W, omega) (E1.8 in exponential coordinates). (219 ops) */
 static void lie_stage(const double *W, const double *k, const double *u, const double *p, double *restrict dW, double *restrict omega)
 {
   const double c0 = u[1]*u[1];
@@ -115,33 +112,30 @@ static void lie_stage(const double *W, const double *k, const double *u, const d
   const double s0_9 = s0_2*s0_5 - s0_4*s0_4;
   const double s0_10 = -s0_1*s0_5 + s0_3*s0_4;
   const double s0_11 = s0_1*s0_4 - s0_2*s0_3;
-  const double s0_12 = 1.0/(s0_0*s0_9 + s0_1*s0_10 + s0_11*s0_3);
-  const double s0_13 = s0_12*s0_9;
-  const double s0_14 = s0_10*s0_12;
-  const double s0_15 = s0_11*s0_12;
-  const double s0_16 = s0_12*(s0_0*s0_5 - s0_3*s0_3);
-  const double s0_17 = s0_12*(-s0_0*s0_4 + s0_1*s0_3);
-  const double s0_18 = s0_12*(s0_0*s0_2 - s0_1*s0_1);
-  const double s0_19 = s0_13*s0_6 + s0_14*s0_7 + s0_15*s0_8;
-  const double s0_20 = s0_14*s0_6 + s0_16*s0_7 + s0_17*s0_8;
-  const double s0_21 = s0_15*s0_6 + s0_17*s0_7 + s0_18*s0_8;
-  const double c9 = W[1]*s0_21;
-  const double c10 = W[2]*s0_20;
-  const double c11 = W[0]*s0_20;
-  const double c12 = W[1]*s0_19;
+  const double s0_12 = s0_0*s0_5 - s0_3*s0_3;
+  const double s0_13 = -s0_0*s0_4 + s0_1*s0_3;
+  const double s0_14 = s0_0*s0_2 - s0_1*s0_1;
+  const double s0_15 = 1.0/(s0_0*s0_9 + s0_1*s0_10 + s0_11*s0_3);
+  const double s0_16 = s0_15*(s0_10*s0_7 + s0_11*s0_8 + s0_6*s0_9);
+  const double s0_17 = s0_15*(s0_10*s0_6 + s0_12*s0_7 + s0_13*s0_8);
+  const double s0_18 = s0_15*(s0_11*s0_6 + s0_13*s0_7 + s0_14*s0_8);
+  const double c9 = W[1]*s0_18;
+  const double c10 = W[2]*s0_17;
+  const double c11 = W[0]*s0_17;
+  const double c12 = W[1]*s0_16;
   const double c13 = c11 - c12;
-  const double c14 = W[0]*s0_21;
-  const double c15 = W[2]*s0_19 - c14;
+  const double c14 = W[0]*s0_18;
+  const double c15 = W[2]*s0_16 - c14;
   const double c16 = -c10 + c9;
-  dW[0] = -0.5*c10 + 0.5*c9 + s0_19 + c_W*(W[1]*c13 - W[2]*c15);
-  dW[1] = 0.5*W[2]*s0_19 - 0.5*c14 + s0_20 + c_W*(-W[0]*c13 + W[2]*c16);
-  dW[2] = 0.5*c11 - 0.5*c12 + s0_21 + c_W*(W[0]*c15 - W[1]*c16);
-  omega[0] = s0_19;
-  omega[1] = s0_20;
-  omega[2] = s0_21;
+  dW[0] = -0.5*c10 + 0.5*c9 + s0_16 + c_W*(W[1]*c13 - W[2]*c15);
+  dW[1] = 0.5*W[2]*s0_16 - 0.5*c14 + s0_17 + c_W*(-W[0]*c13 + W[2]*c16);
+  dW[2] = 0.5*c11 - 0.5*c12 + s0_18 + c_W*(W[0]*c15 - W[1]*c16);
+  omega[0] = s0_16;
+  omega[1] = s0_17;
+  omega[2] = s0_18;
 }
 
-/* exp(W^) and omega from E1.4 with K = exp(W^)^T k in body axes: a point of the dense output of a Lie-group flight step. (170 ops) */
+/* exp(W^) and omega from E1.4 with K = exp(W^)^T k in body axes: a point of the dense output of a Lie-group flight step. (167 ops) */
 static void lie_point(const double *W, const double *k, const double *u, const double *p, double *restrict E, double *restrict omega)
 {
   const double c0 = W[0]*W[0];
@@ -201,16 +195,13 @@ static void lie_point(const double *W, const double *k, const double *u, const d
   const double s0_9 = s0_2*s0_5 - s0_4*s0_4;
   const double s0_10 = -s0_1*s0_5 + s0_3*s0_4;
   const double s0_11 = s0_1*s0_4 - s0_2*s0_3;
-  const double s0_12 = 1.0/(s0_0*s0_9 + s0_1*s0_10 + s0_11*s0_3);
-  const double s0_13 = s0_12*s0_9;
-  const double s0_14 = s0_10*s0_12;
-  const double s0_15 = s0_11*s0_12;
-  const double s0_16 = s0_12*(s0_0*s0_5 - s0_3*s0_3);
-  const double s0_17 = s0_12*(-s0_0*s0_4 + s0_1*s0_3);
-  const double s0_18 = s0_12*(s0_0*s0_2 - s0_1*s0_1);
-  const double s0_19 = s0_13*s0_6 + s0_14*s0_7 + s0_15*s0_8;
-  const double s0_20 = s0_14*s0_6 + s0_16*s0_7 + s0_17*s0_8;
-  const double s0_21 = s0_15*s0_6 + s0_17*s0_7 + s0_18*s0_8;
+  const double s0_12 = s0_0*s0_5 - s0_3*s0_3;
+  const double s0_13 = -s0_0*s0_4 + s0_1*s0_3;
+  const double s0_14 = s0_0*s0_2 - s0_1*s0_1;
+  const double s0_15 = 1.0/(s0_0*s0_9 + s0_1*s0_10 + s0_11*s0_3);
+  const double s0_16 = s0_15*(s0_10*s0_7 + s0_11*s0_8 + s0_6*s0_9);
+  const double s0_17 = s0_15*(s0_10*s0_6 + s0_12*s0_7 + s0_13*s0_8);
+  const double s0_18 = s0_15*(s0_11*s0_6 + s0_13*s0_7 + s0_14*s0_8);
   E[0] = c18;
   E[1] = c21;
   E[2] = c24;
@@ -220,9 +211,9 @@ static void lie_point(const double *W, const double *k, const double *u, const d
   E[6] = c15;
   E[7] = c20;
   E[8] = c26;
-  omega[0] = s0_19;
-  omega[1] = s0_20;
-  omega[2] = s0_21;
+  omega[0] = s0_16;
+  omega[1] = s0_17;
+  omega[2] = s0_18;
 }
 
 /* K about C in fixed axes, A (J omega + mu OP x V_r) (E1.4): constant in flight (E1.1). (68 ops) */

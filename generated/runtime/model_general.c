@@ -21,7 +21,7 @@
 
 /* ---- the derived functions this model calls (derive/models.py, one CSE each) ---------- */
 
-/* Flight right-hand side of the general model: dq/dt (E1.2, E1.7 times m+M, E1.8). (174 ops) */
+/* Flight right-hand side of the general model: dq/dt (E1.2, E1.7 times m+M, E1.8). (171 ops) */
 static void general_flight_rhs(const double *q, const double *u, const double *p, double *restrict dq)
 {
   const double c0 = u[1]*u[1];
@@ -51,25 +51,22 @@ static void general_flight_rhs(const double *q, const double *u, const double *p
   const double s0_9 = s0_2*s0_5 - s0_4*s0_4;
   const double s0_10 = -s0_1*s0_5 + s0_3*s0_4;
   const double s0_11 = s0_1*s0_4 - s0_2*s0_3;
-  const double s0_12 = 1.0/(s0_0*s0_9 + s0_1*s0_10 + s0_11*s0_3);
-  const double s0_13 = s0_12*s0_9;
-  const double s0_14 = s0_10*s0_12;
-  const double s0_15 = s0_11*s0_12;
-  const double s0_16 = s0_12*(s0_0*s0_5 - s0_3*s0_3);
-  const double s0_17 = s0_12*(-s0_0*s0_4 + s0_1*s0_3);
-  const double s0_18 = s0_12*(s0_0*s0_2 - s0_1*s0_1);
-  const double s0_19 = s0_13*s0_6 + s0_14*s0_7 + s0_15*s0_8;
-  const double s0_20 = s0_14*s0_6 + s0_16*s0_7 + s0_17*s0_8;
-  const double s0_21 = s0_15*s0_6 + s0_17*s0_7 + s0_18*s0_8;
+  const double s0_12 = s0_0*s0_5 - s0_3*s0_3;
+  const double s0_13 = -s0_0*s0_4 + s0_1*s0_3;
+  const double s0_14 = s0_0*s0_2 - s0_1*s0_1;
+  const double s0_15 = 1.0/(s0_0*s0_9 + s0_1*s0_10 + s0_11*s0_3);
+  const double s0_16 = s0_15*(s0_10*s0_7 + s0_11*s0_8 + s0_6*s0_9);
+  const double s0_17 = s0_15*(s0_10*s0_6 + s0_12*s0_7 + s0_13*s0_8);
+  const double s0_18 = s0_15*(s0_11*s0_6 + s0_13*s0_7 + s0_14*s0_8);
   dq[0] = q[3];
   dq[1] = q[4];
   dq[2] = q[5];
   dq[3] = 0.0;
   dq[4] = 0.0;
   dq[5] = -p[5];
-  dq[6] = s0_19;
-  dq[7] = s0_20;
-  dq[8] = s0_21;
+  dq[6] = s0_16;
+  dq[7] = s0_17;
+  dq[8] = s0_18;
   dq[9] = q[10]*q[8] - q[11]*q[7];
   dq[10] = -q[9]*q[8] + q[11]*q[6];
   dq[11] = q[9]*q[7] - q[10]*q[6];
@@ -92,7 +89,7 @@ static void general_gap(const double *q, const double *u, const double *s, const
   v_n[0] = q[5] - c0*q[7]*u[2] - c0*u[3] - c1*q[8]*u[0] - c1*u[4] - c2*q[6]*u[1] - c2*u[5] + q[15]*nu*q[8]*u[1] + q[15]*q[7]*s[2] - q[15]*q[8]*s[1] + q[16]*nu*q[6]*u[2] - q[16]*q[6]*s[2] + q[16]*q[8]*s[0] + q[17]*nu*q[7]*u[0] + q[17]*q[6]*s[1] - q[17]*q[7]*s[0];
 }
 
-/* Impact map of the general model: state just after the impact and the impulse I (E1.11, E1.12, E1.15, E1.16); apply only when v_n < 0. (174 ops) */
+/* Impact map of the general model: state just after the impact and the impulse I (E1.11, E1.12, E1.15, E1.16); apply only when v_n < 0. (171 ops) */
 static void general_impact(const double *q, const double *u, const double *s, const double *p, double e, double *restrict q_plus, double *restrict I)
 {
   const double c0 = 1.0/(p[0] + p[1]);
@@ -126,26 +123,23 @@ static void general_impact(const double *q, const double *u, const double *s, co
   const double s0_9 = s0_2*s0_5 - s0_4*s0_4;
   const double s0_10 = -s0_1*s0_5 + s0_3*s0_4;
   const double s0_11 = s0_1*s0_4 - s0_2*s0_3;
-  const double s0_12 = 1.0/(s0_0*s0_9 + s0_1*s0_10 + s0_11*s0_3);
-  const double s0_13 = s0_12*s0_9;
-  const double s0_14 = s0_10*s0_12;
-  const double s0_15 = s0_11*s0_12;
-  const double s0_16 = s0_12*(s0_0*s0_5 - s0_3*s0_3);
-  const double s0_17 = s0_12*(-s0_0*s0_4 + s0_1*s0_3);
-  const double s0_18 = s0_12*(s0_0*s0_2 - s0_1*s0_1);
-  const double s0_19 = s0_13*s0_6 + s0_14*s0_7 + s0_15*s0_8;
-  const double s0_20 = s0_14*s0_6 + s0_16*s0_7 + s0_17*s0_8;
-  const double s0_21 = s0_15*s0_6 + s0_17*s0_7 + s0_18*s0_8;
-  const double c17 = (-e - 1.0)*(q[5] - c11*q[8] - c12*q[6] - c13*q[7] - c14*q[7] - c15*q[8] - c16*q[6] + q[15]*nu*q[8]*u[1] - q[15]*nu*u[3] + q[15]*q[7]*s[2] + q[16]*nu*q[6]*u[2] - q[16]*nu*u[4] + q[16]*q[8]*s[0] + q[17]*nu*q[7]*u[0] - q[17]*nu*u[5] + q[17]*q[6]*s[1])/(c0 - c11*s0_21 - c12*s0_19 - c13*s0_20 - c14*s0_20 - c15*s0_21 - c16*s0_19 + c5*s0_19*q[16] + c7*s0_21*q[15] + c9*s0_20*q[17] + s0_19*q[17]*s[1] + s0_20*q[15]*s[2] + s0_21*q[16]*s[0]);
+  const double s0_12 = s0_0*s0_5 - s0_3*s0_3;
+  const double s0_13 = -s0_0*s0_4 + s0_1*s0_3;
+  const double s0_14 = s0_0*s0_2 - s0_1*s0_1;
+  const double s0_15 = 1.0/(s0_0*s0_9 + s0_1*s0_10 + s0_11*s0_3);
+  const double s0_16 = s0_15*(s0_10*s0_7 + s0_11*s0_8 + s0_6*s0_9);
+  const double s0_17 = s0_15*(s0_10*s0_6 + s0_12*s0_7 + s0_13*s0_8);
+  const double s0_18 = s0_15*(s0_11*s0_6 + s0_13*s0_7 + s0_14*s0_8);
+  const double c17 = (-e - 1.0)*(q[5] - c11*q[8] - c12*q[6] - c13*q[7] - c14*q[7] - c15*q[8] - c16*q[6] + q[15]*nu*q[8]*u[1] - q[15]*nu*u[3] + q[15]*q[7]*s[2] + q[16]*nu*q[6]*u[2] - q[16]*nu*u[4] + q[16]*q[8]*s[0] + q[17]*nu*q[7]*u[0] - q[17]*nu*u[5] + q[17]*q[6]*s[1])/(c0 - c11*s0_18 - c12*s0_16 - c13*s0_17 - c14*s0_17 - c15*s0_18 - c16*s0_16 + c5*s0_16*q[16] + c7*s0_18*q[15] + c9*s0_17*q[17] + s0_16*q[17]*s[1] + s0_17*q[15]*s[2] + s0_18*q[16]*s[0]);
   q_plus[0] = q[0];
   q_plus[1] = q[1];
   q_plus[2] = q[2];
   q_plus[3] = q[3];
   q_plus[4] = q[4];
   q_plus[5] = q[5] + c0*c17;
-  q_plus[6] = c17*s0_19 + q[6];
-  q_plus[7] = c17*s0_20 + q[7];
-  q_plus[8] = c17*s0_21 + q[8];
+  q_plus[6] = c17*s0_16 + q[6];
+  q_plus[7] = c17*s0_17 + q[7];
+  q_plus[8] = c17*s0_18 + q[8];
   q_plus[9] = q[9];
   q_plus[10] = q[10];
   q_plus[11] = q[11];
@@ -229,30 +223,27 @@ static void general_contact_rhs_free(const double *q, const double *u, const dou
   const double s0_12 = s0_2*s0_5 - s0_4*s0_4;
   const double s0_13 = -s0_1*s0_5 + s0_3*s0_4;
   const double s0_14 = s0_1*s0_4 - s0_2*s0_3;
-  const double s0_15 = 1.0/(s0_0*s0_12 + s0_1*s0_13 + s0_14*s0_3);
-  const double s0_16 = s0_12*s0_15;
-  const double s0_17 = s0_13*s0_15;
-  const double s0_18 = s0_14*s0_15;
-  const double s0_19 = s0_15*(s0_0*s0_5 - s0_3*s0_3);
-  const double s0_20 = s0_15*(-s0_0*s0_4 + s0_1*s0_3);
-  const double s0_21 = s0_15*(s0_0*s0_2 - s0_1*s0_1);
-  const double s0_22 = s0_16*s0_6 + s0_17*s0_7 + s0_18*s0_8;
-  const double s0_23 = s0_17*s0_6 + s0_19*s0_7 + s0_20*s0_8;
-  const double s0_24 = s0_18*s0_6 + s0_20*s0_7 + s0_21*s0_8;
-  const double s0_25 = s0_10*s0_17 + s0_11*s0_18 + s0_16*s0_9;
-  const double s0_26 = s0_10*s0_19 + s0_11*s0_20 + s0_17*s0_9;
-  const double s0_27 = s0_10*s0_20 + s0_11*s0_21 + s0_18*s0_9;
-  const double c51 = -c0*c30 - c1*p[5] - c10*c42*nu - c13*c49*nu - c14*c40*nu - 2.0*c17*c41 - 2.0*c19*c39 - 2.0*c22*c37 - c31*s0_24 - c32*s0_22 - c33*s0_23 - c34*s0_23 - c35*s0_24 - c36*s0_22 - c37*u[6] - c38*c7*nu - c38*sdot[1] - c39*u[7] - c40*sdot[2] - c41*u[8] - c42*sdot[0] - c43*c44 - c43*c48 + c43*q[15]*nu*u[0] + c43*q[17]*nu*u[2] - c44*c45 - c45*c47 + c45*q[15]*nu*u[0] + c45*q[16]*nu*u[1] - c46*c47 - c46*c48 + c46*q[16]*nu*u[1] + c46*q[17]*nu*u[2] - c50*c9*nu - c6*q[17]*nu*q[6] + s0_22*q[16]*nu*u[2] + s0_22*q[17]*s[1] + s0_23*q[15]*s[2] + s0_23*q[17]*nu*u[0] + s0_24*q[15]*nu*u[1] + s0_24*q[16]*s[0] + 2.0*q[15]*nu*q[8]*u[4] + q[15]*q[6]*q[7]*s[1] + q[15]*q[6]*q[8]*s[2] + q[15]*q[7]*sdot[2] + 2.0*q[16]*nu*q[6]*u[5] + q[16]*q[6]*q[7]*s[0] + q[16]*q[7]*q[8]*s[2] + q[16]*q[8]*sdot[0] + 2.0*q[17]*nu*q[7]*u[3] + q[17]*q[6]*q[8]*s[0] + q[17]*q[6]*sdot[1] + q[17]*q[7]*q[8]*s[1];
-  const double c52 = c51/(c0 + c24*s0_25*q[16] + c26*s0_27*q[15] + c28*s0_26*q[17] - c31*s0_27 - c32*s0_25 - c33*s0_26 - c34*s0_26 - c35*s0_27 - c36*s0_25 + s0_25*q[17]*s[1] + s0_26*q[15]*s[2] + s0_27*q[16]*s[0]);
+  const double s0_15 = s0_0*s0_5 - s0_3*s0_3;
+  const double s0_16 = -s0_0*s0_4 + s0_1*s0_3;
+  const double s0_17 = s0_0*s0_2 - s0_1*s0_1;
+  const double s0_18 = 1.0/(s0_0*s0_12 + s0_1*s0_13 + s0_14*s0_3);
+  const double s0_19 = s0_18*(s0_12*s0_6 + s0_13*s0_7 + s0_14*s0_8);
+  const double s0_20 = s0_18*(s0_13*s0_6 + s0_15*s0_7 + s0_16*s0_8);
+  const double s0_21 = s0_18*(s0_14*s0_6 + s0_16*s0_7 + s0_17*s0_8);
+  const double s0_22 = s0_18*(s0_10*s0_13 + s0_11*s0_14 + s0_12*s0_9);
+  const double s0_23 = s0_18*(s0_10*s0_15 + s0_11*s0_16 + s0_13*s0_9);
+  const double s0_24 = s0_18*(s0_10*s0_16 + s0_11*s0_17 + s0_14*s0_9);
+  const double c51 = -c0*c30 - c1*p[5] - c10*c42*nu - c13*c49*nu - c14*c40*nu - 2.0*c17*c41 - 2.0*c19*c39 - 2.0*c22*c37 - c31*s0_21 - c32*s0_19 - c33*s0_20 - c34*s0_20 - c35*s0_21 - c36*s0_19 - c37*u[6] - c38*c7*nu - c38*sdot[1] - c39*u[7] - c40*sdot[2] - c41*u[8] - c42*sdot[0] - c43*c44 - c43*c48 + c43*q[15]*nu*u[0] + c43*q[17]*nu*u[2] - c44*c45 - c45*c47 + c45*q[15]*nu*u[0] + c45*q[16]*nu*u[1] - c46*c47 - c46*c48 + c46*q[16]*nu*u[1] + c46*q[17]*nu*u[2] - c50*c9*nu - c6*q[17]*nu*q[6] + s0_19*q[16]*nu*u[2] + s0_19*q[17]*s[1] + s0_20*q[15]*s[2] + s0_20*q[17]*nu*u[0] + s0_21*q[15]*nu*u[1] + s0_21*q[16]*s[0] + 2.0*q[15]*nu*q[8]*u[4] + q[15]*q[6]*q[7]*s[1] + q[15]*q[6]*q[8]*s[2] + q[15]*q[7]*sdot[2] + 2.0*q[16]*nu*q[6]*u[5] + q[16]*q[6]*q[7]*s[0] + q[16]*q[7]*q[8]*s[2] + q[16]*q[8]*sdot[0] + 2.0*q[17]*nu*q[7]*u[3] + q[17]*q[6]*q[8]*s[0] + q[17]*q[6]*sdot[1] + q[17]*q[7]*q[8]*s[1];
+  const double c52 = c51/(c0 + c24*s0_22*q[16] + c26*s0_24*q[15] + c28*s0_23*q[17] - c31*s0_24 - c32*s0_22 - c33*s0_23 - c34*s0_23 - c35*s0_24 - c36*s0_22 + s0_22*q[17]*s[1] + s0_23*q[15]*s[2] + s0_24*q[16]*s[0]);
   dq[0] = q[3];
   dq[1] = q[4];
   dq[2] = q[5];
   dq[3] = 0.0;
   dq[4] = 0.0;
   dq[5] = c0*(-c30 - c52 - p[5]*p[1]);
-  dq[6] = -c52*s0_25 + s0_22;
-  dq[7] = -c52*s0_26 + s0_23;
-  dq[8] = -c52*s0_27 + s0_24;
+  dq[6] = -c52*s0_22 + s0_19;
+  dq[7] = -c52*s0_23 + s0_20;
+  dq[8] = -c52*s0_24 + s0_21;
   dq[9] = q[10]*q[8] - q[11]*q[7];
   dq[10] = -q[9]*q[8] + q[11]*q[6];
   dq[11] = q[9]*q[7] - q[10]*q[6];
@@ -305,7 +296,7 @@ static void lowest_point_rate_ellipsoid(const double *n, const double *omega, co
   sdot[2] = c4*c7*(c12*c18 + c13*c17 + c14*(c5*c8 - 1.0));
 }
 
-/* A stage of the Lie-group flight step: omega from E1.4 with K = exp(-W^) k in body axes, and W' = dexpinv(W, omega) (E1.8 in exponential coordinates). (222 ops) */
+/* A stage of the Lie-group flight step: omega from E1.4 with K = exp(-W^) k in body axes, and W' = dexpinv(W, omega) (E1.8 in exponential coordinates). (219 ops) */
 static void lie_stage(const double *W, const double *k, const double *u, const double *p, double *restrict dW, double *restrict omega)
 {
   const double c0 = u[1]*u[1];
@@ -354,33 +345,30 @@ static void lie_stage(const double *W, const double *k, const double *u, const d
   const double s0_9 = s0_2*s0_5 - s0_4*s0_4;
   const double s0_10 = -s0_1*s0_5 + s0_3*s0_4;
   const double s0_11 = s0_1*s0_4 - s0_2*s0_3;
-  const double s0_12 = 1.0/(s0_0*s0_9 + s0_1*s0_10 + s0_11*s0_3);
-  const double s0_13 = s0_12*s0_9;
-  const double s0_14 = s0_10*s0_12;
-  const double s0_15 = s0_11*s0_12;
-  const double s0_16 = s0_12*(s0_0*s0_5 - s0_3*s0_3);
-  const double s0_17 = s0_12*(-s0_0*s0_4 + s0_1*s0_3);
-  const double s0_18 = s0_12*(s0_0*s0_2 - s0_1*s0_1);
-  const double s0_19 = s0_13*s0_6 + s0_14*s0_7 + s0_15*s0_8;
-  const double s0_20 = s0_14*s0_6 + s0_16*s0_7 + s0_17*s0_8;
-  const double s0_21 = s0_15*s0_6 + s0_17*s0_7 + s0_18*s0_8;
-  const double c9 = W[1]*s0_21;
-  const double c10 = W[2]*s0_20;
-  const double c11 = W[0]*s0_20;
-  const double c12 = W[1]*s0_19;
+  const double s0_12 = s0_0*s0_5 - s0_3*s0_3;
+  const double s0_13 = -s0_0*s0_4 + s0_1*s0_3;
+  const double s0_14 = s0_0*s0_2 - s0_1*s0_1;
+  const double s0_15 = 1.0/(s0_0*s0_9 + s0_1*s0_10 + s0_11*s0_3);
+  const double s0_16 = s0_15*(s0_10*s0_7 + s0_11*s0_8 + s0_6*s0_9);
+  const double s0_17 = s0_15*(s0_10*s0_6 + s0_12*s0_7 + s0_13*s0_8);
+  const double s0_18 = s0_15*(s0_11*s0_6 + s0_13*s0_7 + s0_14*s0_8);
+  const double c9 = W[1]*s0_18;
+  const double c10 = W[2]*s0_17;
+  const double c11 = W[0]*s0_17;
+  const double c12 = W[1]*s0_16;
   const double c13 = c11 - c12;
-  const double c14 = W[0]*s0_21;
-  const double c15 = W[2]*s0_19 - c14;
+  const double c14 = W[0]*s0_18;
+  const double c15 = W[2]*s0_16 - c14;
   const double c16 = -c10 + c9;
-  dW[0] = -0.5*c10 + 0.5*c9 + s0_19 + c_W*(W[1]*c13 - W[2]*c15);
-  dW[1] = 0.5*W[2]*s0_19 - 0.5*c14 + s0_20 + c_W*(-W[0]*c13 + W[2]*c16);
-  dW[2] = 0.5*c11 - 0.5*c12 + s0_21 + c_W*(W[0]*c15 - W[1]*c16);
-  omega[0] = s0_19;
-  omega[1] = s0_20;
-  omega[2] = s0_21;
+  dW[0] = -0.5*c10 + 0.5*c9 + s0_16 + c_W*(W[1]*c13 - W[2]*c15);
+  dW[1] = 0.5*W[2]*s0_16 - 0.5*c14 + s0_17 + c_W*(-W[0]*c13 + W[2]*c16);
+  dW[2] = 0.5*c11 - 0.5*c12 + s0_18 + c_W*(W[0]*c15 - W[1]*c16);
+  omega[0] = s0_16;
+  omega[1] = s0_17;
+  omega[2] = s0_18;
 }
 
-/* exp(W^) and omega from E1.4 with K = exp(W^)^T k in body axes: a point of the dense output of a Lie-group flight step. (170 ops) */
+/* exp(W^) and omega from E1.4 with K = exp(W^)^T k in body axes: a point of the dense output of a Lie-group flight step. (167 ops) */
 static void lie_point(const double *W, const double *k, const double *u, const double *p, double *restrict E, double *restrict omega)
 {
   const double c0 = W[0]*W[0];
@@ -440,16 +428,13 @@ static void lie_point(const double *W, const double *k, const double *u, const d
   const double s0_9 = s0_2*s0_5 - s0_4*s0_4;
   const double s0_10 = -s0_1*s0_5 + s0_3*s0_4;
   const double s0_11 = s0_1*s0_4 - s0_2*s0_3;
-  const double s0_12 = 1.0/(s0_0*s0_9 + s0_1*s0_10 + s0_11*s0_3);
-  const double s0_13 = s0_12*s0_9;
-  const double s0_14 = s0_10*s0_12;
-  const double s0_15 = s0_11*s0_12;
-  const double s0_16 = s0_12*(s0_0*s0_5 - s0_3*s0_3);
-  const double s0_17 = s0_12*(-s0_0*s0_4 + s0_1*s0_3);
-  const double s0_18 = s0_12*(s0_0*s0_2 - s0_1*s0_1);
-  const double s0_19 = s0_13*s0_6 + s0_14*s0_7 + s0_15*s0_8;
-  const double s0_20 = s0_14*s0_6 + s0_16*s0_7 + s0_17*s0_8;
-  const double s0_21 = s0_15*s0_6 + s0_17*s0_7 + s0_18*s0_8;
+  const double s0_12 = s0_0*s0_5 - s0_3*s0_3;
+  const double s0_13 = -s0_0*s0_4 + s0_1*s0_3;
+  const double s0_14 = s0_0*s0_2 - s0_1*s0_1;
+  const double s0_15 = 1.0/(s0_0*s0_9 + s0_1*s0_10 + s0_11*s0_3);
+  const double s0_16 = s0_15*(s0_10*s0_7 + s0_11*s0_8 + s0_6*s0_9);
+  const double s0_17 = s0_15*(s0_10*s0_6 + s0_12*s0_7 + s0_13*s0_8);
+  const double s0_18 = s0_15*(s0_11*s0_6 + s0_13*s0_7 + s0_14*s0_8);
   E[0] = c18;
   E[1] = c21;
   E[2] = c24;
@@ -459,9 +444,9 @@ static void lie_point(const double *W, const double *k, const double *u, const d
   E[6] = c15;
   E[7] = c20;
   E[8] = c26;
-  omega[0] = s0_19;
-  omega[1] = s0_20;
-  omega[2] = s0_21;
+  omega[0] = s0_16;
+  omega[1] = s0_17;
+  omega[2] = s0_18;
 }
 
 /* K about C in fixed axes, A (J omega + mu OP x V_r) (E1.4): constant in flight (E1.1). (68 ops) */

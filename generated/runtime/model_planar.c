@@ -32,7 +32,7 @@ static void vertical_gap(const double *q, const double *u, const double *s, cons
   v_n[0] = q[1] - c0*q[3]*u[2] - c0*u[3] - c1*q[4]*u[0] - c1*u[4] - c2*q[2]*u[1] - c2*u[5] + q[5]*nu*q[4]*u[1] + q[5]*q[3]*s[2] - q[5]*q[4]*s[1] + q[6]*nu*q[2]*u[2] - q[6]*q[2]*s[2] + q[6]*q[4]*s[0] + q[7]*nu*q[3]*u[0] + q[7]*q[2]*s[1] - q[7]*q[3]*s[0];
 }
 
-/* Impact map of the vertical model: state just after the impact and the impulse I (E1.11, E1.12, E1.15, E1.16); apply only when v_n < 0. (174 ops) */
+/* Impact map of the vertical model: state just after the impact and the impulse I (E1.11, E1.12, E1.15, E1.16); apply only when v_n < 0. (171 ops) */
 static void vertical_impact(const double *q, const double *u, const double *s, const double *p, double e, double *restrict q_plus, double *restrict I)
 {
   const double c0 = 1.0/(p[0] + p[1]);
@@ -66,22 +66,19 @@ static void vertical_impact(const double *q, const double *u, const double *s, c
   const double s0_9 = s0_2*s0_5 - s0_4*s0_4;
   const double s0_10 = -s0_1*s0_5 + s0_3*s0_4;
   const double s0_11 = s0_1*s0_4 - s0_2*s0_3;
-  const double s0_12 = 1.0/(s0_0*s0_9 + s0_1*s0_10 + s0_11*s0_3);
-  const double s0_13 = s0_12*s0_9;
-  const double s0_14 = s0_10*s0_12;
-  const double s0_15 = s0_11*s0_12;
-  const double s0_16 = s0_12*(s0_0*s0_5 - s0_3*s0_3);
-  const double s0_17 = s0_12*(-s0_0*s0_4 + s0_1*s0_3);
-  const double s0_18 = s0_12*(s0_0*s0_2 - s0_1*s0_1);
-  const double s0_19 = s0_13*s0_6 + s0_14*s0_7 + s0_15*s0_8;
-  const double s0_20 = s0_14*s0_6 + s0_16*s0_7 + s0_17*s0_8;
-  const double s0_21 = s0_15*s0_6 + s0_17*s0_7 + s0_18*s0_8;
-  const double c17 = (-e - 1.0)*(q[1] - c11*q[4] - c12*q[2] - c13*q[3] - c14*q[3] - c15*q[4] - c16*q[2] + q[5]*nu*q[4]*u[1] - q[5]*nu*u[3] + q[5]*q[3]*s[2] + q[6]*nu*q[2]*u[2] - q[6]*nu*u[4] + q[6]*q[4]*s[0] + q[7]*nu*q[3]*u[0] - q[7]*nu*u[5] + q[7]*q[2]*s[1])/(c0 - c11*s0_21 - c12*s0_19 - c13*s0_20 - c14*s0_20 - c15*s0_21 - c16*s0_19 + c5*s0_19*q[6] + c7*s0_21*q[5] + c9*s0_20*q[7] + s0_19*q[7]*s[1] + s0_20*q[5]*s[2] + s0_21*q[6]*s[0]);
+  const double s0_12 = s0_0*s0_5 - s0_3*s0_3;
+  const double s0_13 = -s0_0*s0_4 + s0_1*s0_3;
+  const double s0_14 = s0_0*s0_2 - s0_1*s0_1;
+  const double s0_15 = 1.0/(s0_0*s0_9 + s0_1*s0_10 + s0_11*s0_3);
+  const double s0_16 = s0_15*(s0_10*s0_7 + s0_11*s0_8 + s0_6*s0_9);
+  const double s0_17 = s0_15*(s0_10*s0_6 + s0_12*s0_7 + s0_13*s0_8);
+  const double s0_18 = s0_15*(s0_11*s0_6 + s0_13*s0_7 + s0_14*s0_8);
+  const double c17 = (-e - 1.0)*(q[1] - c11*q[4] - c12*q[2] - c13*q[3] - c14*q[3] - c15*q[4] - c16*q[2] + q[5]*nu*q[4]*u[1] - q[5]*nu*u[3] + q[5]*q[3]*s[2] + q[6]*nu*q[2]*u[2] - q[6]*nu*u[4] + q[6]*q[4]*s[0] + q[7]*nu*q[3]*u[0] - q[7]*nu*u[5] + q[7]*q[2]*s[1])/(c0 - c11*s0_18 - c12*s0_16 - c13*s0_17 - c14*s0_17 - c15*s0_18 - c16*s0_16 + c5*s0_16*q[6] + c7*s0_18*q[5] + c9*s0_17*q[7] + s0_16*q[7]*s[1] + s0_17*q[5]*s[2] + s0_18*q[6]*s[0]);
   q_plus[0] = q[0];
   q_plus[1] = q[1] + c0*c17;
-  q_plus[2] = c17*s0_19 + q[2];
-  q_plus[3] = c17*s0_20 + q[3];
-  q_plus[4] = c17*s0_21 + q[4];
+  q_plus[2] = c17*s0_16 + q[2];
+  q_plus[3] = c17*s0_17 + q[3];
+  q_plus[4] = c17*s0_18 + q[4];
   q_plus[5] = q[5];
   q_plus[6] = q[6];
   q_plus[7] = q[7];
@@ -159,26 +156,23 @@ static void vertical_contact_rhs_free(const double *q, const double *u, const do
   const double s0_12 = s0_2*s0_5 - s0_4*s0_4;
   const double s0_13 = -s0_1*s0_5 + s0_3*s0_4;
   const double s0_14 = s0_1*s0_4 - s0_2*s0_3;
-  const double s0_15 = 1.0/(s0_0*s0_12 + s0_1*s0_13 + s0_14*s0_3);
-  const double s0_16 = s0_12*s0_15;
-  const double s0_17 = s0_13*s0_15;
-  const double s0_18 = s0_14*s0_15;
-  const double s0_19 = s0_15*(s0_0*s0_5 - s0_3*s0_3);
-  const double s0_20 = s0_15*(-s0_0*s0_4 + s0_1*s0_3);
-  const double s0_21 = s0_15*(s0_0*s0_2 - s0_1*s0_1);
-  const double s0_22 = s0_16*s0_6 + s0_17*s0_7 + s0_18*s0_8;
-  const double s0_23 = s0_17*s0_6 + s0_19*s0_7 + s0_20*s0_8;
-  const double s0_24 = s0_18*s0_6 + s0_20*s0_7 + s0_21*s0_8;
-  const double s0_25 = s0_10*s0_17 + s0_11*s0_18 + s0_16*s0_9;
-  const double s0_26 = s0_10*s0_19 + s0_11*s0_20 + s0_17*s0_9;
-  const double s0_27 = s0_10*s0_20 + s0_11*s0_21 + s0_18*s0_9;
-  const double c51 = -c0*c30 - c1*p[5] - c10*c42*nu - c13*c49*nu - c14*c40*nu - 2.0*c17*c41 - 2.0*c19*c39 - 2.0*c22*c37 - c31*s0_24 - c32*s0_22 - c33*s0_23 - c34*s0_23 - c35*s0_24 - c36*s0_22 - c37*u[6] - c38*c7*nu - c38*sdot[1] - c39*u[7] - c40*sdot[2] - c41*u[8] - c42*sdot[0] - c43*c44 - c43*c48 + c43*q[5]*nu*u[0] + c43*q[7]*nu*u[2] - c44*c45 - c45*c47 + c45*q[5]*nu*u[0] + c45*q[6]*nu*u[1] - c46*c47 - c46*c48 + c46*q[6]*nu*u[1] + c46*q[7]*nu*u[2] - c50*c9*nu - c6*q[7]*nu*q[2] + s0_22*q[6]*nu*u[2] + s0_22*q[7]*s[1] + s0_23*q[5]*s[2] + s0_23*q[7]*nu*u[0] + s0_24*q[5]*nu*u[1] + s0_24*q[6]*s[0] + 2.0*q[5]*nu*q[4]*u[4] + q[5]*q[2]*q[3]*s[1] + q[5]*q[2]*q[4]*s[2] + q[5]*q[3]*sdot[2] + 2.0*q[6]*nu*q[2]*u[5] + q[6]*q[2]*q[3]*s[0] + q[6]*q[3]*q[4]*s[2] + q[6]*q[4]*sdot[0] + 2.0*q[7]*nu*q[3]*u[3] + q[7]*q[2]*q[4]*s[0] + q[7]*q[2]*sdot[1] + q[7]*q[3]*q[4]*s[1];
-  const double c52 = c51/(c0 + c24*s0_25*q[6] + c26*s0_27*q[5] + c28*s0_26*q[7] - c31*s0_27 - c32*s0_25 - c33*s0_26 - c34*s0_26 - c35*s0_27 - c36*s0_25 + s0_25*q[7]*s[1] + s0_26*q[5]*s[2] + s0_27*q[6]*s[0]);
+  const double s0_15 = s0_0*s0_5 - s0_3*s0_3;
+  const double s0_16 = -s0_0*s0_4 + s0_1*s0_3;
+  const double s0_17 = s0_0*s0_2 - s0_1*s0_1;
+  const double s0_18 = 1.0/(s0_0*s0_12 + s0_1*s0_13 + s0_14*s0_3);
+  const double s0_19 = s0_18*(s0_12*s0_6 + s0_13*s0_7 + s0_14*s0_8);
+  const double s0_20 = s0_18*(s0_13*s0_6 + s0_15*s0_7 + s0_16*s0_8);
+  const double s0_21 = s0_18*(s0_14*s0_6 + s0_16*s0_7 + s0_17*s0_8);
+  const double s0_22 = s0_18*(s0_10*s0_13 + s0_11*s0_14 + s0_12*s0_9);
+  const double s0_23 = s0_18*(s0_10*s0_15 + s0_11*s0_16 + s0_13*s0_9);
+  const double s0_24 = s0_18*(s0_10*s0_16 + s0_11*s0_17 + s0_14*s0_9);
+  const double c51 = -c0*c30 - c1*p[5] - c10*c42*nu - c13*c49*nu - c14*c40*nu - 2.0*c17*c41 - 2.0*c19*c39 - 2.0*c22*c37 - c31*s0_21 - c32*s0_19 - c33*s0_20 - c34*s0_20 - c35*s0_21 - c36*s0_19 - c37*u[6] - c38*c7*nu - c38*sdot[1] - c39*u[7] - c40*sdot[2] - c41*u[8] - c42*sdot[0] - c43*c44 - c43*c48 + c43*q[5]*nu*u[0] + c43*q[7]*nu*u[2] - c44*c45 - c45*c47 + c45*q[5]*nu*u[0] + c45*q[6]*nu*u[1] - c46*c47 - c46*c48 + c46*q[6]*nu*u[1] + c46*q[7]*nu*u[2] - c50*c9*nu - c6*q[7]*nu*q[2] + s0_19*q[6]*nu*u[2] + s0_19*q[7]*s[1] + s0_20*q[5]*s[2] + s0_20*q[7]*nu*u[0] + s0_21*q[5]*nu*u[1] + s0_21*q[6]*s[0] + 2.0*q[5]*nu*q[4]*u[4] + q[5]*q[2]*q[3]*s[1] + q[5]*q[2]*q[4]*s[2] + q[5]*q[3]*sdot[2] + 2.0*q[6]*nu*q[2]*u[5] + q[6]*q[2]*q[3]*s[0] + q[6]*q[3]*q[4]*s[2] + q[6]*q[4]*sdot[0] + 2.0*q[7]*nu*q[3]*u[3] + q[7]*q[2]*q[4]*s[0] + q[7]*q[2]*sdot[1] + q[7]*q[3]*q[4]*s[1];
+  const double c52 = c51/(c0 + c24*s0_22*q[6] + c26*s0_24*q[5] + c28*s0_23*q[7] - c31*s0_24 - c32*s0_22 - c33*s0_23 - c34*s0_23 - c35*s0_24 - c36*s0_22 + s0_22*q[7]*s[1] + s0_23*q[5]*s[2] + s0_24*q[6]*s[0]);
   dq[0] = q[1];
   dq[1] = c0*(-c30 - c52 - p[5]*p[1]);
-  dq[2] = -c52*s0_25 + s0_22;
-  dq[3] = -c52*s0_26 + s0_23;
-  dq[4] = -c52*s0_27 + s0_24;
+  dq[2] = -c52*s0_22 + s0_19;
+  dq[3] = -c52*s0_23 + s0_20;
+  dq[4] = -c52*s0_24 + s0_21;
   dq[5] = -c42 + c50;
   dq[6] = -c38 + q[7]*q[2];
   dq[7] = -c40 + c49;

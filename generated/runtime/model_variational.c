@@ -21,7 +21,7 @@
 
 /* ---- the derived functions this model calls (derive/models.py, one CSE each) ---------- */
 
-/* Flight right-hand side of the vertical model: dq/dt (E1.2, E1.7 times m+M, E1.8). (156 ops) */
+/* Flight right-hand side of the vertical model: dq/dt (E1.2, E1.7 times m+M, E1.8). (153 ops) */
 static void vertical_flight_rhs(const double *q, const double *u, const double *p, double *restrict dq)
 {
   const double c0 = u[1]*u[1];
@@ -51,21 +51,18 @@ static void vertical_flight_rhs(const double *q, const double *u, const double *
   const double s0_9 = s0_2*s0_5 - s0_4*s0_4;
   const double s0_10 = -s0_1*s0_5 + s0_3*s0_4;
   const double s0_11 = s0_1*s0_4 - s0_2*s0_3;
-  const double s0_12 = 1.0/(s0_0*s0_9 + s0_1*s0_10 + s0_11*s0_3);
-  const double s0_13 = s0_12*s0_9;
-  const double s0_14 = s0_10*s0_12;
-  const double s0_15 = s0_11*s0_12;
-  const double s0_16 = s0_12*(s0_0*s0_5 - s0_3*s0_3);
-  const double s0_17 = s0_12*(-s0_0*s0_4 + s0_1*s0_3);
-  const double s0_18 = s0_12*(s0_0*s0_2 - s0_1*s0_1);
-  const double s0_19 = s0_13*s0_6 + s0_14*s0_7 + s0_15*s0_8;
-  const double s0_20 = s0_14*s0_6 + s0_16*s0_7 + s0_17*s0_8;
-  const double s0_21 = s0_15*s0_6 + s0_17*s0_7 + s0_18*s0_8;
+  const double s0_12 = s0_0*s0_5 - s0_3*s0_3;
+  const double s0_13 = -s0_0*s0_4 + s0_1*s0_3;
+  const double s0_14 = s0_0*s0_2 - s0_1*s0_1;
+  const double s0_15 = 1.0/(s0_0*s0_9 + s0_1*s0_10 + s0_11*s0_3);
+  const double s0_16 = s0_15*(s0_10*s0_7 + s0_11*s0_8 + s0_6*s0_9);
+  const double s0_17 = s0_15*(s0_10*s0_6 + s0_12*s0_7 + s0_13*s0_8);
+  const double s0_18 = s0_15*(s0_11*s0_6 + s0_13*s0_7 + s0_14*s0_8);
   dq[0] = q[1];
   dq[1] = -p[5];
-  dq[2] = s0_19;
-  dq[3] = s0_20;
-  dq[4] = s0_21;
+  dq[2] = s0_16;
+  dq[3] = s0_17;
+  dq[4] = s0_18;
   dq[5] = q[6]*q[4] - q[7]*q[3];
   dq[6] = -q[5]*q[4] + q[7]*q[2];
   dq[7] = q[5]*q[3] - q[6]*q[2];
@@ -122,22 +119,25 @@ static void vertical_flight_jacobian(const double *q, const double *u, const dou
   const double s0_12 = c5*c7 - s0_2*s0_2;
   const double s0_13 = -c7*s0_0 + s0_1*s0_2;
   const double s0_14 = -c5*s0_1 + s0_0*s0_2;
-  const double s0_15 = 1.0/(c2*s0_12 + s0_0*s0_13 + s0_1*s0_14);
-  const double s0_16 = s0_12*s0_15;
-  const double s0_17 = s0_13*s0_15;
-  const double s0_18 = s0_14*s0_15;
-  const double s0_19 = s0_15*(c2*c7 - s0_1*s0_1);
-  const double s0_20 = s0_15*(-c2*s0_2 + s0_0*s0_1);
-  const double s0_21 = s0_15*(c2*c5 - s0_0*s0_0);
-  const double s0_22 = s0_16*s0_3 + s0_17*s0_4 + s0_18*s0_5;
-  const double s0_23 = s0_17*s0_3 + s0_19*s0_4 + s0_20*s0_5;
-  const double s0_24 = s0_18*s0_3 + s0_20*s0_4 + s0_21*s0_5;
-  const double s0_25 = s0_16*s0_6 + s0_17*s0_7 + s0_18*s0_8;
-  const double s0_26 = s0_17*s0_6 + s0_19*s0_7 + s0_20*s0_8;
-  const double s0_27 = s0_18*s0_6 + s0_20*s0_7 + s0_21*s0_8;
-  const double s0_28 = s0_10*s0_17 + s0_11*s0_18 + s0_16*s0_9;
-  const double s0_29 = s0_10*s0_19 + s0_11*s0_20 + s0_17*s0_9;
-  const double s0_30 = s0_10*s0_20 + s0_11*s0_21 + s0_18*s0_9;
+  const double s0_15 = c2*c7 - s0_1*s0_1;
+  const double s0_16 = -c2*s0_2 + s0_0*s0_1;
+  const double s0_17 = c2*c5 - s0_0*s0_0;
+  const double s0_18 = 1.0/(c2*s0_12 + s0_0*s0_13 + s0_1*s0_14);
+  const double s0_19 = s0_12*s0_18;
+  const double s0_20 = s0_13*s0_18;
+  const double s0_21 = s0_14*s0_18;
+  const double s0_22 = s0_15*s0_18;
+  const double s0_23 = s0_16*s0_18;
+  const double s0_24 = s0_17*s0_18;
+  const double s0_25 = s0_19*s0_3 + s0_20*s0_4 + s0_21*s0_5;
+  const double s0_26 = s0_20*s0_3 + s0_22*s0_4 + s0_23*s0_5;
+  const double s0_27 = s0_21*s0_3 + s0_23*s0_4 + s0_24*s0_5;
+  const double s0_28 = s0_19*s0_6 + s0_20*s0_7 + s0_21*s0_8;
+  const double s0_29 = s0_20*s0_6 + s0_22*s0_7 + s0_23*s0_8;
+  const double s0_30 = s0_21*s0_6 + s0_23*s0_7 + s0_24*s0_8;
+  const double s0_31 = s0_10*s0_20 + s0_11*s0_21 + s0_19*s0_9;
+  const double s0_32 = s0_10*s0_22 + s0_11*s0_23 + s0_20*s0_9;
+  const double s0_33 = s0_10*s0_23 + s0_11*s0_24 + s0_21*s0_9;
   A[0] = 0.0;
   A[1] = 1.0;
   A[2] = 0.0;
@@ -156,25 +156,25 @@ static void vertical_flight_jacobian(const double *q, const double *u, const dou
   A[15] = 0.0;
   A[16] = 0.0;
   A[17] = 0.0;
-  A[18] = s0_22;
-  A[19] = s0_25;
-  A[20] = s0_28;
+  A[18] = s0_25;
+  A[19] = s0_28;
+  A[20] = s0_31;
   A[21] = 0.0;
   A[22] = 0.0;
   A[23] = 0.0;
   A[24] = 0.0;
   A[25] = 0.0;
-  A[26] = s0_23;
-  A[27] = s0_26;
-  A[28] = s0_29;
+  A[26] = s0_26;
+  A[27] = s0_29;
+  A[28] = s0_32;
   A[29] = 0.0;
   A[30] = 0.0;
   A[31] = 0.0;
   A[32] = 0.0;
   A[33] = 0.0;
-  A[34] = s0_24;
-  A[35] = s0_27;
-  A[36] = s0_30;
+  A[34] = s0_27;
+  A[35] = s0_30;
+  A[36] = s0_33;
   A[37] = 0.0;
   A[38] = 0.0;
   A[39] = 0.0;
