@@ -558,6 +558,13 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
+    if args.command == "bench":
+        # the benchmarks time single-threaded code on a shared machine: BLAS worker
+        # threads spinning after a NumPy call (the SciPy routes) would take a core from
+        # the code timed next.  Only before NumPy loads; a caller's setting wins.
+        import os
+        for var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+            os.environ.setdefault(var, "1")
     try:
         return int(args.func(args) or 0)
     except UsageError as exc:
