@@ -243,7 +243,7 @@ class Scene:
         """The constructor of :func:`build_scene`: every field given, set at once (the
         frozen dataclass's ``__init__`` sets them one by one through
         ``object.__setattr__``, a tenth of a validation's time)."""
-        if values.keys() != _SCENE_FIELDS:
+        if len(values) != len(_SCENE_FIELDS):          # (names: build_scene's tests)
             raise TypeError(f"Scene.of_fields needs every field: {sorted(_SCENE_FIELDS)}")
         obj = object.__new__(cls)
         obj.__dict__.update(values)
@@ -469,12 +469,13 @@ def _require(v: dict, where: str, what: str = "is required"):
 
 # ---- orientation ----------------------------------------------------------------------------
 def rotation_from_quaternion(qv) -> np.ndarray:
-    norm = math.sqrt(sum(c * c for c in qv))
-    w, x, y, z = (c / norm for c in qv)
-    return np.array([
-        [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-        [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-        [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
+    w, x, y, z = qv
+    r = 1.0 / math.sqrt(w * w + x * x + y * y + z * z)
+    w, x, y, z = w * r, x * r, y * r, z * r
+    return np.array((
+        1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y),
+        2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x),
+        2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y))).reshape(3, 3)
 
 
 def _orientation(v: dict, given: set) -> np.ndarray:
@@ -493,15 +494,7 @@ def _orientation(v: dict, given: set) -> np.ndarray:
     w, x, y, z = qv
     if math.sqrt(w * w + x * x + y * y + z * z) < 1e-12:
         raise SceneError("[initial].quaternion", "must not have zero norm")
-    return _rotation(qv)
-
-
-@lru_cache(maxsize=256)
-def _rotation(qv: tuple) -> np.ndarray:
-    """(a pure function of the quaternion, cached; the matrix is read-only)"""
-    A = rotation_from_quaternion(qv)
-    A.flags.writeable = False
-    return A
+    return rotation_from_quaternion(qv)
 
 
 # ---- the law over the run ---------------------------------------------------------------------
