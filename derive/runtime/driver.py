@@ -197,6 +197,10 @@ class Session:
         n = len(t0)
         lib = self.library.lib
         arr = [np.ascontiguousarray(a, dtype=float) for a in (opt, prm, t0, q0, t_end)]
+        shapes = [(n, len(abi.OPTIONS)), (n, len(abi.PARAMETERS)), (n,),
+                  (n, self.library.nq), (n,)]
+        if [a.shape for a in arr] != shapes:         # the C reads exactly these
+            raise ValueError(f"run_many: shapes {[a.shape for a in arr]}, need {shapes}")
         out = {"init_status": np.zeros(n, dtype=np.intc), "status": np.zeros(n, dtype=np.intc),
                "stats": np.zeros((n, len(abi.STATS)), dtype=np.dtype(ctypes.c_long)),
                "summary": np.zeros((n, len(abi.SUMMARY))),
