@@ -27,7 +27,9 @@ import numpy as np
 
 from .. import parallel
 from . import abi, choice
-from .scene import FIELDS, Scene, SceneError, load_scene
+from .driver import STATUSES, Prepared, prepare, run_prepared, session_for
+from .scene import (FIELDS, Scene, SceneError, _read, _start_above_plane, build_scene, load_scene,
+                    override_fields)
 
 SUMMARY_COLUMNS = ("status", "model", "t_end", "impacts", "contacts", "liftoffs", "steps",
                    "rhs_evaluations", "min_height", "first_contact_t", "Z_C_end", "run_ms")
@@ -75,12 +77,6 @@ def parse_sweep(text: str) -> tuple[str, list]:
     if not values or not all(math.isfinite(v) for v in values):
         raise BatchError("--sweep", f"{name}: values must be finite numbers")
     return name, values
-
-
-def _where(name: str) -> str:
-    """``initial.com[2]`` -> ``[initial].com``"""
-    table, _, key = name.partition("[")[0].rpartition(".")
-    return f"[{table}].{key}" if table else key
 
 
 def check_name(name: str, where: str) -> None:
@@ -175,7 +171,6 @@ _SUMMARY = {name: k for k, name in enumerate(abi.names(abi.SUMMARY))}
 def _summary_rows(preps: list, session) -> list:
     """The summary rows of prepared variants of one model and one law: all of them in
     one call into C (no Python per run), the C time shared equally in ``run_ms``."""
-    from .driver import STATUSES
     out = session.run_many([p.scene.t0 for p in preps],
                            [p.scene.t0 + p.scene.duration for p in preps],
                            np.array([p.start.q0 for p in preps]),
@@ -210,8 +205,6 @@ _PARAMETER_FIELDS = {"[plane].restitution": "e", "[run].g": "g"}
 
 def _quick_variant(base, v: dict, touched: set, label: str):
     """The prepared variant by the fast path, or None when its fields need the full one."""
-    from .driver import Prepared
-    from .scene import Scene, _start_above_plane
     changes = {}
     for where in touched:
         attr = _STATE_FIELDS.get(where) or _PARAMETER_FIELDS.get(where)
@@ -232,8 +225,6 @@ def _run_chunk(task: tuple) -> list:
     every cross-field rule (the law's analysis is cached by its text).  Summaries: the
     valid variants are grouped by model and law and each group runs in one call into C;
     whole results: one run per variant."""
-    from .driver import prepare, run_prepared, session_for
-    from .scene import _read, build_scene, override_fields
     base, origin, items, keep = task
     try:
         base_v, base_given = _read(base)
@@ -248,10 +239,9 @@ def _run_chunk(task: tuple) -> list:
     for index, overrides in items:
         v, given = dict(base_v), set(base_given)
         try:
-            for name, value in overrides.items():
-                override_fields(v, given, name, value)
+            touched = {override_fields(v, given, name, value)
+                       for name, value in overrides.items()}
             label = f"variant {index}"
-            touched = {_where(name) for name in overrides}
             prep = _quick_variant(base_prep, v, touched, label) if base_prep else None
             if prep is None:
                 prep = prepare(build_scene(v, given, {}, label, base=origin))
@@ -315,7 +305,6 @@ def simulate_many(scene, variants, workers: int | None = None, scheduler: str | 
         done[0] += len(rows)
         if bar:
             bar.update(done[0] / n_items, f"{done[0]}/{n_items}")
-    from .driver import prepare
     try:                                     # the base scene's model, loaded before the
         prepare(base if origin is None else scene).library     # workers fork
     except SceneError:

@@ -650,9 +650,10 @@ def parse_scene(source: str | dict, origin: str = "scene", base: Path | None = N
     return build_scene(v, given, doc, origin, base)
 
 
-def override_fields(v: dict, given: set, name: str, value) -> None:
+def override_fields(v: dict, given: set, name: str, value) -> str:
     """Validate one override of a variant (``table.key`` or ``table.key[k]``) into the
-    field values ``v`` of an already-read scene (see :func:`derive.runtime.batch`)."""
+    field values ``v`` of an already-read scene (see :func:`derive.runtime.batch`);
+    returns the field it set (``[table].key``)."""
     path, _, index = name.partition("[")
     table, _, key = path.rpartition(".")
     f = _BY_TABLE.get(table, {}).get(key)
@@ -671,6 +672,7 @@ def override_fields(v: dict, given: set, name: str, value) -> None:
     given.add(f.where)
     if table == "plane":
         v["__plane__"] = True
+    return f.where
 
 
 def build_scene(v: dict, given: set, doc: dict, origin: str = "scene",
