@@ -163,7 +163,7 @@ class HarmonicLaw:
         return (self.a * s + self.b, self.a * self.w * co, -self.a * self.w ** 2 * s)
 
 
-def random_scene(rng):
+def random_scene(rng, shape="sphere"):
     law = HarmonicLaw(rng)
     M, m = float(rng.uniform(0.5, 3.0)), float(rng.uniform(0.05, 0.6))
     second = rng.uniform(0.05, 0.4, 3)
@@ -172,9 +172,12 @@ def random_scene(rng):
     center = rng.uniform(-0.08, 0.08, 3)
     quat = rng.normal(size=4)
     quat /= np.linalg.norm(quat)
-    doc = {"name": "pinocchio-peer",
-           "body": {"mass": M, "inertia": J.tolist(), "shape": "sphere", "radius": radius,
-                    "center": center.tolist()},
+    body = {"mass": M, "inertia": J.tolist(), "shape": shape, "center": center.tolist()}
+    if shape == "sphere":
+        body["radius"] = radius
+    else:
+        body["semi_axes"] = rng.uniform(0.25, 0.6, 3).tolist()
+    doc = {"name": "pinocchio-peer", "body": body,
            "point": {"mass": m, "law": law.texts()},
            "plane": {"restitution": float(rng.uniform(0.6, 0.95))},
            "initial": {"com": [0.0, 0.0, float(rng.uniform(0.9, 1.3))],
@@ -185,13 +188,23 @@ def random_scene(rng):
     return doc, law
 
 
+def lowest_point(body, n):
+    """S in body axes for the upward vertical ``n`` (body axes): the sphere's centre
+    less its radius along n; the ellipsoid's by its support function,
+    ``c - D^2 n / sqrt(n^T D^2 n)``, D the semi-axes (geometry, not the derived form)."""
+    center = np.asarray(body["center"], float)
+    if body["shape"] == "sphere":
+        return center - body["radius"] * n
+    d2 = np.asarray(body["semi_axes"], float) ** 2
+    return center - d2 * n / np.sqrt(n @ (d2 * n))
+
+
 def pinocchio_run(doc, law, times, t_end=None):
     """SciPy DOP853 on Pinocchio's dynamics: state (O, quaternion x y z w, O' and omega
-    in body axes); a terminal event at the sphere's lowest point, the impulse there."""
+    in body axes); a terminal event at the shape's lowest point, the impulse there."""
     body, point = doc["body"], doc["point"]
     M, m, J = body["mass"], point["mass"], np.array(body["inertia"])
     g, e = doc["run"]["g"], doc["plane"]["restitution"]
-    radius, center = body["radius"], np.array(body["center"])
     nu = m / (M + m)
     model, _ = carrier_model(M, m, J, g)
     data = model.createData()
@@ -219,7 +232,7 @@ def pinocchio_run(doc, law, times, t_end=None):
         if t <= t0 + 1e-12:         # the restart at an impact: S leaves the plane there
             return 1.0
         A, _ = rotation(s)
-        return s[2] + (A @ center)[2] - radius
+        return s[2] + (A @ lowest_point(body, A[2]))[2]
     gap.terminal, gap.direction = True, -1
 
     t0, impacts, pieces = 0.0, [], []
@@ -235,7 +248,7 @@ def pinocchio_run(doc, law, times, t_end=None):
         t0, state = sol.t[-1], sol.y[:, -1].copy()
         A, quat = rotation(state)
         r, _, _ = law(t0)
-        s_body = center - radius * A[2]               # S, the lowest point, body axes
+        s_body = lowest_point(body, A[2])              # S, body axes
         after, I = impulse(M, m, J, g, A, np.r_[state[:3], quat], state[7:], r, s_body, e)
         state[7:] = after
         impacts.append((t0, I))
@@ -253,15 +266,16 @@ def pinocchio_run(doc, law, times, t_end=None):
 
 
 @pytest.mark.parametrize("method", ["lie", "dop853"])
+@pytest.mark.parametrize("shape", ["sphere", "ellipsoid"])
 @pytest.mark.parametrize("seed", range(10))
-def test_bouncing_runs_match_pinocchio(seed, method):
+def test_bouncing_runs_match_pinocchio(seed, shape, method):
     """derive.simulate on a random bouncing scene (offset sphere, 3-D law, spinning
     carrier) against SciPy with Pinocchio's dynamics and impulses: the state on the
     output grid and every impact time and impulse.  Seed 6 accumulates its impacts (33
     of them, then resting contact; 3 of the first 40 seeds do): compared up to its first
     impact slower than 1 cm/s; the accumulation (flights of microseconds) and the
     contact that follows are not the flight-only peer's to model."""
-    doc, law = random_scene(np.random.default_rng(1000 + seed))
+    doc, law = random_scene(np.random.default_rng(1000 + seed), shape)
     doc["run"]["method"] = method
     res = derive.simulate(doc)
     assert res.status == "done"
@@ -278,8 +292,8 @@ def test_bouncing_runs_match_pinocchio(seed, method):
     dt = np.max(np.abs(mine[:, 0] - impacts[:, 0]))
     dI = rel_err(mine[:, 1], impacts[:, 1])
     err = np.max(np.abs(ours - peer))
-    print(f"seed {seed} {method}: {len(impacts)} impacts, times {dt:.1e}, impulses {dI:.1e}, "
-          f"state {err:.1e}")
+    print(f"seed {seed} {shape} {method}: {len(impacts)} impacts, times {dt:.1e}, "
+          f"impulses {dI:.1e}, state {err:.1e}")
     assert dt < 1e-10 and dI < 1e-9 and err < 1e-9
 
 
