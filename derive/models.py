@@ -125,19 +125,6 @@ def _rates(model: str) -> dict:
     return rates
 
 
-def scaled_by_total_mass(expr):
-    """``(m + M) expr`` for an expression affine in mu, with ``(m + M) mu = m M``.
-
-    E1.7 times the total mass has the same solution and no division in its
-    coefficients: the emitted code then starts the solve without waiting for one.
-    """
-    expr = sp.sympify(expr)
-    slope = sp.diff(expr, nt.mu)
-    if sp.diff(slope, nt.mu) != 0:
-        raise ValueError("expression is not affine in mu")
-    return (nt.M + nt.m) * expr.xreplace({nt.mu: 0}) + nt.M * nt.m * slope
-
-
 @lru_cache(maxsize=None)
 def flight_rhs(model: str) -> FunctionSpec:
     """``<model>_flight_rhs(q, u, p) -> dq``: E1.2, E1.7 (solved numerically), E1.8."""
@@ -149,8 +136,8 @@ def flight_rhs(model: str) -> FunctionSpec:
                         unknowns=(nt.omega_dot,))
     return FunctionSpec(
         name=f"{model}_flight_rhs",
-        doc=f"Flight right-hand side of the {model} model: dq/dt (E1.2, E1.7 times m+M, "
-            "E1.8).",
+        doc=f"Flight right-hand side of the {model} model: dq/dt (E1.2, E1.7 solved for "
+            "omega', E1.8).",
         inputs=(_q(model), _u(), _p()),
         outputs=(Vector("dq", dq, tuple(f"d({lb})/dt" for lb in STATE_LABELS[model])),),
         solves=(solve,), definitions=MASS_DEFINITIONS)

@@ -96,3 +96,22 @@ def test_latency_analysis_of_a_known_chain():
     assert hot.totals == {"add": 2, "mul": 2, "div": 1, "sqrt": 0, "call": 0}
     every = analyse(build(spec), ("q", "u"), lat)
     assert every.path.counts == {"add": 1, "div": 1, "mul": 1} and every.path.time == 13.0
+
+
+def test_rhs_latency_floor_function_computes_its_products():
+    """The floor of `derive bench rhs`'s latency loop compiles with the strict warnings
+    (build_shared) and computes dq[k] = q[k] u[k mod 9], as its report says."""
+    import ctypes
+
+    from derive.bench.rhs import FLOOR, _floor_source
+    from derive.cbuild import build_shared
+    from derive.models import flight_rhs
+    text, _ = _floor_source(flight_rhs("general"))
+    lib = ctypes.CDLL(str(build_shared({f"{FLOOR}.c": text}, name="floor")))
+    dp = ctypes.POINTER(ctypes.c_double)
+    fn = getattr(lib, FLOOR)
+    fn.argtypes, fn.restype = [dp] * 4, None
+    rng = np.random.default_rng(5)
+    q, u, p, dq = rng.normal(size=18), rng.normal(size=9), rng.normal(size=6), np.empty(18)
+    fn(*(a.ctypes.data_as(dp) for a in (q, u, p, dq)))
+    assert np.array_equal(dq, q * u[np.arange(18) % 9])

@@ -9,6 +9,9 @@ Measured in one run, on the same machine, with the same compiler flags:
   SX, ``casadi.solve`` for J), the peer of the issue's target;
 * the emitted flight RHS with each closed-form 3x3 solve of :mod:`derive.emit.linalg`
   (LDL^T, adjugate, Cholesky), with their accuracy against a 30-digit evaluation;
+* the floor of the latency loop: a function of the general flight RHS's signature with
+  one multiplication per output entry (what the loop's loads, stores and feedback cost
+  whatever the function computes);
 * the CasADi Function called from Python, and the SymPy expressions lambdified to NumPy.
 
 Two loops per C function: **throughput** (1024 independent random inputs) and
@@ -177,6 +180,38 @@ def _variant_source(spec: FunctionSpec, solver: str) -> tuple[str, str, dict]:
     return symbol, text, {"prototype": proto, "program": program}
 
 
+FLOOR = "floor_general_flight_rhs"
+
+
+def _floor_source(spec: FunctionSpec) -> tuple[str, dict]:
+    """A function with ``spec``'s signature and one product per output entry: output k
+    is state entry k times an entry of the next input (so the fed-back state stays on
+    the loop's chain)."""
+    state, other = spec.inputs[0], spec.inputs[1]
+    (out,) = spec.outputs
+    n_other = len(other.entries)
+    products = [(f"{out.name}[{k}]", f"{state.name}[{k}]*{other.name}[{k % n_other}]")
+                for k in range(len(out.entries))]
+    args = dict(inputs=[_FloorArg(v.name, len(v.entries)) for v in spec.inputs],
+                outputs=[_FloorArg(out.name, len(out.entries))])
+    text = environment().get_template("bench/floor.c.jinja").render(
+        template="templates/bench/floor.c.jinja", versions=versions(), name=spec.name,
+        symbol=FLOOR, products=products, unused=[v.name for v in spec.inputs[2:]], **args)
+    proto = ", ".join([f"const double *{v.name}" for v in spec.inputs]
+                      + [f"double *restrict {out.name}"])
+    return text, {"prototype": proto}
+
+
+@dataclass(frozen=True)
+class _FloorArg:
+    name: str
+    size: int
+
+    @property
+    def scalar(self) -> bool:
+        return self.size == 1
+
+
 def _c_timings(contexts, sources: dict, cflags: tuple, trials: int, reps: int,
                progress) -> dict:
     env = environment()
@@ -192,7 +227,8 @@ def _c_timings(contexts, sources: dict, cflags: tuple, trials: int, reps: int,
         objects = []
         # the functions it times; their jac_<name> derivatives are not timed here
         ours = sorted(p for p in (GENERATED / "c").glob("*.c") if not p.name.startswith("jac_"))
-        strict_names = {"bench.c", *[n for n in sources if n.startswith("variant_")]}
+        strict_names = {"bench.c", f"{FLOOR}.c",
+                        *[n for n in sources if n.startswith("variant_")]}
         for k, src in enumerate([*ours, *[tmp / n for n in sorted(sources)], tmp / "bench.c"]):
             obj = tmp / f"o{k}.o"
             strict = list(WARNINGS) if src in ours or src.name in strict_names else ["-std=c99"]
@@ -329,6 +365,11 @@ def run(cflags: tuple = ("-O2",), trials: int = 60, reps: int = 40,
             variants[(spec.name, solver)] = (symbol, info["program"])
             if spec.name == "general_flight_rhs":
                 symbols[solver] = symbol
+    text, info = _floor_source(flight_rhs("general"))
+    sources[f"{FLOOR}.c"] = text
+    ctx = _plain_context(flight_rhs("general"), FLOOR, FLOOR)
+    ctx.update(abi="variant", prototype=info["prototype"])
+    contexts.append(ctx)
     progress("compiling standalone C, CasADi's C and the variants")
     c_times = _c_timings(contexts, sources, cflags, trials, reps, progress)
     machine = {k[1]: v for k, v in c_times.items() if k[0] == "machine"}
@@ -362,7 +403,8 @@ def run(cflags: tuple = ("-O2",), trials: int = 60, reps: int = 40,
                                     c_times[(symbol, "latency")], *ulp))
     peers = {"hand_general_flight_rhs": (c_times[("hand_general_flight_rhs", "throughput")],
                                          c_times[("hand_general_flight_rhs", "latency")],
-                                         hand.n_instructions())}
+                                         hand.n_instructions()),
+             FLOOR: (c_times[(FLOOR, "throughput")], c_times[(FLOOR, "latency")], 18)}
     return Report(rows, out_variants, peers, machine, tuple(cflags))
 
 
@@ -408,6 +450,11 @@ def report(rep: Report) -> str:
     lines.append(f"general flight RHS, latency-bound, standalone / hand-written CasADi C: "
                  f"{ratio:.2f}  (target <= {TARGET_LATENCY}): "
                  f"{'PASS' if ratio <= TARGET_LATENCY else 'FAIL'}")
+    floor_thr, floor_lat, _ = rep.peers[FLOOR]
+    net = (g.standalone_latency_ns - floor_lat) / max(hand_lat - floor_lat, 1e-9)
+    lines.append(f"  the loop's floor (the same signature, one multiplication per output): "
+                 f"{floor_lat:.1f} ns latency, {floor_thr:.1f} ns throughput; net of it, "
+                 f"standalone / hand-written: {net:.2f}")
     lines.append(f"general flight RHS, throughput, standalone / hand-written CasADi C: "
                  f"{g.standalone_ns / hand_thr:.2f}; / CasADi C of the same graph: "
                  f"{g.standalone_ns / g.casadi_c_ns:.2f}")

@@ -11,7 +11,7 @@
 #include "carrier.h"
 
 /*
- * Flight right-hand side of the attitude model: dq/dt (E1.2, E1.7 times m+M, E1.8).
+ * Flight right-hand side of the attitude model: dq/dt (E1.2, E1.7 solved for omega', E1.8).
  * in  q         [3]: omega_x, omega_y, omega_z
  * in  u         [9]: x, y, z, x', y', z', x'', y'', z''
  * in  p         [6]: M, m, J_x, J_y, J_z, g

@@ -49,7 +49,7 @@
 extern "C" {
 #endif
 
-/* general_flight_rhs(q[18], u[9], p[6]) -> (dq[18]): Flight right-hand side of the general model: dq/dt (E1.2, E1.7 times m+M, E1.8). */
+/* general_flight_rhs(q[18], u[9], p[6]) -> (dq[18]): Flight right-hand side of the general model: dq/dt (E1.2, E1.7 solved for omega', E1.8). */
 void carrier_general_flight_rhs(const double *q, const double *u, const double *p, double *CARRIER_RESTRICT dq);
 int general_flight_rhs(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
 casadi_int general_flight_rhs_n_in(void);
@@ -65,7 +65,7 @@ void general_flight_rhs_release(int mem);
 void general_flight_rhs_incref(void);
 void general_flight_rhs_decref(void);
 
-/* vertical_flight_rhs(q[8], u[9], p[6]) -> (dq[8]): Flight right-hand side of the vertical model: dq/dt (E1.2, E1.7 times m+M, E1.8). */
+/* vertical_flight_rhs(q[8], u[9], p[6]) -> (dq[8]): Flight right-hand side of the vertical model: dq/dt (E1.2, E1.7 solved for omega', E1.8). */
 void carrier_vertical_flight_rhs(const double *q, const double *u, const double *p, double *CARRIER_RESTRICT dq);
 int vertical_flight_rhs(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
 casadi_int vertical_flight_rhs_n_in(void);
@@ -81,7 +81,7 @@ void vertical_flight_rhs_release(int mem);
 void vertical_flight_rhs_incref(void);
 void vertical_flight_rhs_decref(void);
 
-/* attitude_flight_rhs(q[3], u[9], p[6]) -> (dq[3]): Flight right-hand side of the attitude model: dq/dt (E1.2, E1.7 times m+M, E1.8). */
+/* attitude_flight_rhs(q[3], u[9], p[6]) -> (dq[3]): Flight right-hand side of the attitude model: dq/dt (E1.2, E1.7 solved for omega', E1.8). */
 void carrier_attitude_flight_rhs(const double *q, const double *u, const double *p, double *CARRIER_RESTRICT dq);
 int attitude_flight_rhs(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
 casadi_int attitude_flight_rhs_n_in(void);

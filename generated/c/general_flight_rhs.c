@@ -11,7 +11,7 @@
 #include "carrier.h"
 
 /*
- * Flight right-hand side of the general model: dq/dt (E1.2, E1.7 times m+M, E1.8).
+ * Flight right-hand side of the general model: dq/dt (E1.2, E1.7 solved for omega', E1.8).
  * in  q         [18]: X_C, Y_C, Z_C, X_C', Y_C', Z_C', omega_x, omega_y, omega_z, a11, a12, a13, a21, a22, a23, a31, a32, a33
  * in  u         [9]: x, y, z, x', y', z', x'', y'', z''
  * in  p         [6]: M, m, J_x, J_y, J_z, g

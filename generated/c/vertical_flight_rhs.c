@@ -11,7 +11,7 @@
 #include "carrier.h"
 
 /*
- * Flight right-hand side of the vertical model: dq/dt (E1.2, E1.7 times m+M, E1.8).
+ * Flight right-hand side of the vertical model: dq/dt (E1.2, E1.7 solved for omega', E1.8).
  * in  q         [8]: Z_C, Z_C', omega_x, omega_y, omega_z, a31, a32, a33
  * in  u         [9]: x, y, z, x', y', z', x'', y'', z''
  * in  p         [6]: M, m, J_x, J_y, J_z, g

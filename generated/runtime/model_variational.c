@@ -21,7 +21,7 @@
 
 /* ---- the derived functions this model calls (derive/models.py, one CSE each) ---------- */
 
-/* Flight right-hand side of the vertical model: dq/dt (E1.2, E1.7 times m+M, E1.8). (153 ops) */
+/* Flight right-hand side of the vertical model: dq/dt (E1.2, E1.7 solved for omega', E1.8). (153 ops) */
 static void vertical_flight_rhs(const double *q, const double *u, const double *p, double *restrict dq)
 {
   const double c0 = u[1]*u[1];
