@@ -204,7 +204,7 @@ def pinocchio_run(doc, law, times, t_end=None):
     in body axes); a terminal event at the shape's lowest point, the impulse there."""
     body, point = doc["body"], doc["point"]
     M, m, J = body["mass"], point["mass"], np.array(body["inertia"])
-    g, e = doc["run"]["g"], doc["plane"]["restitution"]
+    g, e = doc["run"]["g"], doc.get("plane", {}).get("restitution")
     nu = m / (M + m)
     model, _ = carrier_model(M, m, J, g)
     data = model.createData()
@@ -234,12 +234,13 @@ def pinocchio_run(doc, law, times, t_end=None):
         A, _ = rotation(s)
         return s[2] + (A @ lowest_point(body, A[2]))[2]
     gap.terminal, gap.direction = True, -1
+    events = gap if "plane" in doc else None
 
     t0, impacts, pieces = 0.0, [], []
     t_end = doc["run"]["duration"] if t_end is None else t_end
     while t0 < t_end:
         sol = solve_ivp(rhs, (t0, t_end), state, method="DOP853", rtol=1e-12, atol=1e-14,
-                        events=gap, dense_output=True)
+                        events=events, dense_output=True)
         pieces.append((t0, sol.t[-1], sol.sol))
         if sol.status != 1:
             break
@@ -430,3 +431,49 @@ def test_contact_and_liftoff_match_pinocchio(seed):
     err = np.max(np.abs(ours - peer))
     print(f"seed {seed}: events {dt:.1e}, state {err:.1e}")
     assert dt < 1e-10 and err < 1e-9
+
+
+# ---- the reduced models: the runtime's choice against the full 3-D peer ------------------
+def reduced_scene(kind, rng):
+    """A scene the runtime answers with the model ``kind`` (derive.runtime.choice)."""
+    doc, law = random_scene(rng)
+    ini, body = doc["initial"], doc["body"]
+    if kind == "translational":              # P on the vertical body axis through O
+        law.a[:2] = law.b[:2] = 0.0
+        body["center"] = [0.0, 0.0, 0.0]
+        ini.update(omega=[0.0, 0.0, 0.0], quaternion=[1.0, 0.0, 0.0, 0.0])
+    elif kind == "planar":                   # z = 0, omega along z, body z horizontal
+        law.a[2] = law.b[2] = 0.0
+        body["center"] = [*body["center"][:2], 0.0]
+        ini.update(omega=[0.0, 0.0, float(rng.normal(0.0, 2.0))],
+                   quaternion=[float(np.sqrt(0.5)), float(np.sqrt(0.5)), 0.0, 0.0])
+    elif kind == "axisymmetric":             # free flight, J_x = J_y, P on the axis
+        law.a[:2] = law.b[:2] = 0.0
+        J = body["inertia"]
+        body["inertia"] = [J[0], J[0], J[2]]
+        del doc["plane"]
+    elif kind == "vertical":                 # the pose not asked
+        doc["run"]["outputs"] = ["impacts"]
+    doc["point"]["law"] = law.texts()
+    return doc, law
+
+
+@pytest.mark.parametrize("kind", ["translational", "planar", "axisymmetric", "vertical"])
+@pytest.mark.parametrize("seed", range(3))
+def test_reduced_models_match_pinocchio(kind, seed):
+    """Each reduced model the runtime picks (its own state and equations) against
+    Pinocchio's full 3-D dynamics of the same scene: the pose on the output grid (the
+    general state rebuilt from the reduced one), and every impact."""
+    doc, law = reduced_scene(kind, np.random.default_rng(3000 + seed))
+    res = derive.simulate(doc)
+    assert res.model == kind and res.status == "done", (res.model, res.why)
+    t = res.t[res.row_kind == 0]
+    peer, impacts = pinocchio_run(doc, law, t)
+    if "plane" in doc:
+        assert len(impacts) >= 1 and len(res.impacts) == len(impacts)
+        assert np.max(np.abs(res.impacts[:, 0] - impacts[:, 0])) < 1e-10
+        assert rel_err(res.impacts[:, 1], impacts[:, 1]) < 1e-9
+    if kind != "vertical":
+        err = np.max(np.abs(res.general[res.row_kind == 0] - peer))
+        print(f"{kind}: {len(impacts)} impacts, state {err:.1e}")
+        assert err < 1e-9
