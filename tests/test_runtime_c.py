@@ -1,11 +1,12 @@
 """The runtime's C: strict flags, sanitizers, no heap, no writable statics.
 
 Each model's generated runtime (``generated/runtime/model_<kind>.c``) is compiled with a
-small C main that drives crt_set_law_*/crt_init/crt_advance with tiny buffers (so the
-pause/resume path runs), then crt_run_many (twice the same run: equal counters and final
-rows) and crt_run (the same as the loop), under AddressSanitizer and
-UndefinedBehaviorSanitizer, for a scene with impacts and resting contact, one with a
-tabulated law, and one without a plane, with every method.
+small C main (once per scene, the method chosen on its command line) that drives
+crt_set_law_*/crt_init/crt_advance with tiny buffers (so the pause/resume path runs),
+then crt_run_many (twice the same run: equal counters and final rows) and crt_run (the
+same as the loop), under AddressSanitizer and UndefinedBehaviorSanitizer, for a scene
+with impacts and resting contact, one with a tabulated law, and one without a plane,
+with every method.
 """
 from __future__ import annotations
 
@@ -28,15 +29,20 @@ STRICT = ["-std=c99", "-Wall", "-Wextra", "-Wpedantic", "-Werror"]
 MAIN = """
 #include "model_%(kind)s.c"
 #include <stdio.h>
+#include <stdlib.h>
 %(law_data)s
-int main(void)
+static const double opts[%(n_methods)s][CRT_OPT_COUNT] = {%(opts)s};
+
+int main(int argc, char **argv)
 {
-  static const double opt[CRT_OPT_COUNT] = {%(opt)s};
+  const int which = argc > 1 ? atoi(argv[1]) : -1;
+  const double *opt = which >= 0 && which < %(n_methods)s ? opts[which] : NULL;
   static const double prm[CRT_P_COUNT] = {%(prm)s};
   static const double q0[NQ] = {%(q0)s};
   crt_session s;
   double t[16], q[16 * NQ], ev[8 * CRT_EVENT_COLUMNS];
   int kind[16], n, n_ev, status, rows = 0, events = 0;
+  if (opt == NULL) return 2;
   status = %(set_law)s;
   if (status != 0) return 3;
   status = crt_init(&s, opt, prm, %(t0)s, q0);
@@ -91,9 +97,19 @@ def _c_list(values, fmt=repr) -> str:
     return ", ".join(fmt(float(v)) if fmt is repr else fmt(v) for v in values)
 
 
-def _source(doc, method):
-    doc["run"]["method"] = method
-    prep = prepare(doc)
+def _source(make_doc, methods) -> str:
+    """One program for a scene and every method (the method's options chosen by
+    ``argv[1]``, its index in ``methods``): the scene compiles once."""
+    preps = []
+    for method in methods:
+        doc = make_doc()
+        doc["run"]["method"] = method
+        preps.append(prepare(doc))
+    prep = preps[0]
+    for other in preps[1:]:                  # only the options differ with the method
+        assert other.kind == prep.kind
+        assert np.array_equal(other.parameters, prep.parameters)
+        assert np.array_equal(other.start.q0, prep.start.q0)
     law = prep.scene.law
     arrays = law.arrays()
     if getattr(law, "kind", "") == "table":
@@ -107,8 +123,10 @@ def _source(doc, method):
                 f"static const int out[3] = {{{_c_list(arrays['outputs'], str)}}};\n")
         set_law = (f"crt_set_law_program(&s, {len(arrays['code'])}, {arrays['n_const']}, "
                    f"code, consts, {len(arrays['consts'])}, out)")
+    opts = ", ".join("{" + _c_list(p.options) + "}" for p in preps)
     return MAIN % {"kind": prep.kind, "law_data": data, "set_law": set_law,
-                   "opt": _c_list(prep.options), "prm": _c_list(prep.parameters),
+                   "n_methods": len(methods), "opts": opts,
+                   "prm": _c_list(prep.parameters),
                    "q0": _c_list(prep.start.q0), "t0": repr(prep.scene.t0),
                    "t1": repr(prep.scene.t0 + prep.scene.duration)}
 
@@ -144,17 +162,37 @@ SCENES = {
 }
 
 
-@pytest.mark.parametrize("method", ["rk4", "dopri5", "dop853", "lie", "lie5"])
+METHODS = ("rk4", "dopri5", "dop853", "lie", "lie5")
+
+
+@pytest.fixture(scope="module")
+def sanitized(tmp_path_factory):
+    """scene name -> its program under ASan and UBSan, compiled on first use (once for
+    all methods: the compile is most of the cost)."""
+    built: dict = {}
+
+    def get(name):
+        if name not in built:
+            folder = tmp_path_factory.mktemp(f"asan_{name}")
+            src = folder / "main.c"
+            src.write_text(_source(SCENES[name], METHODS))
+            exe = folder / "main"
+            cmd = [CC, *STRICT, "-O1", "-g", "-fsanitize=address,undefined",
+                   "-fno-sanitize-recover=all", "-I", str(GENERATED / "runtime"), str(src),
+                   "-o", str(exe), "-lm"]
+            proc = subprocess.run(cmd, capture_output=True, text=True)
+            assert proc.returncode == 0, proc.stderr[-3000:]
+            built[name] = exe
+        return built[name]
+    return get
+
+
+@pytest.mark.parametrize("method", METHODS)
 @pytest.mark.parametrize("name", list(SCENES))
-def test_runtime_clean_under_sanitizers(name, method, tmp_path):
-    src = tmp_path / "main.c"
-    src.write_text(_source(SCENES[name](), method))
-    exe = tmp_path / "main"
-    cmd = [CC, *STRICT, "-O1", "-g", "-fsanitize=address,undefined", "-fno-sanitize-recover=all",
-           "-I", str(GENERATED / "runtime"), str(src), "-o", str(exe), "-lm"]
-    proc = subprocess.run(cmd, capture_output=True, text=True)
-    assert proc.returncode == 0, proc.stderr[-3000:]
-    run = subprocess.run([str(exe)], capture_output=True, text=True, timeout=300)
+def test_runtime_clean_under_sanitizers(name, method, sanitized):
+    exe = sanitized(name)
+    run = subprocess.run([str(exe), str(METHODS.index(method))], capture_output=True,
+                         text=True, timeout=300)
     assert run.returncode == 0, run.stdout + run.stderr[-3000:]
     assert "runtime error" not in run.stderr
 
