@@ -132,6 +132,10 @@ def _scene_doc(args) -> tuple[dict, object, str]:
     return doc, base, origin
 
 
+def _workers(n: int) -> str:
+    return f"{n} worker" if n == 1 else f"{n} workers"
+
+
 def cmd_simulate(args: argparse.Namespace) -> int:
     import time
     start = time.perf_counter()
@@ -207,7 +211,7 @@ def _simulate_sweep(args, start: float) -> int:
         from .runtime.sweep_plot import sweep_plot
         written.append(sweep_plot(out, grid, folder).name)
     print(f"{len(out.rows)} variants of {origin} in {out.seconds:.2f} s on {out.executor} "
-          f"({out.workers} workers): " + ", ".join(f"{v} {k}" for k, v in statuses.items()))
+          f"({_workers(out.workers)}): " + ", ".join(f"{v} {k}" for k, v in statuses.items()))
     if bad:
         first = next(r["error"] for r in out.rows if "error" in r)
         print(f"  {bad} refused, e.g. {first}")
@@ -292,7 +296,7 @@ def cmd_chart(args: argparse.Namespace) -> int:
           f"{c['stable_linear']} linearly stable, {c['critical_jordan']} critical with a "
           f"Jordan block at rho = 1" +
           (f", {c['no_body']} with no body" if c["no_body"] else "") +
-          f"; {result.seconds:.1f} s on {result.executor} ({result.workers} workers)")
+          f"; {result.seconds:.1f} s on {result.executor} ({_workers(result.workers)})")
     print("wrote " + ", ".join(str(p) for p in paths))
     return 0
 
