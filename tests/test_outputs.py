@@ -105,3 +105,31 @@ def test_every_printed_symbol_of_the_equations_is_defined():
         assert undefined_symbols(short) == [], eid
         text = render_text(entry)
         assert "Derivative(" not in text and "(t)" not in text, eid
+
+
+def test_outputs_of_a_run_with_resting_contact(tmp_path):
+    """A spinning ball that lands, rests and lifts off: the outputs are written (the
+    energy balance evaluates the contact equations on a session of the run's own), and
+    the drive's work in contact is the same by the general and the vertical model.
+    (Regression: every such run of `derive simulate` ended in an AttributeError.)"""
+    doc = {"name": "contact-spin",
+           "body": {"mass": 1.0, "inertia": [0.1, 0.12, 0.14], "shape": "sphere",
+                    "radius": 0.5},
+           "point": {"mass": 0.2, "law": ["0.05*sin(7*t)", "0", "0.3*sin(20*t)"]},
+           "plane": {"restitution": 0.3},
+           "initial": {"com": [0.0, 0.0, 0.7], "omega": [0.3, 0.0, 0.5]},
+           "run": {"duration": 1.0, "output_dt": 0.002}}
+    work = {}
+    for model, outputs in (("general", ["pose", "impacts"]), ("vertical", ["omega", "impacts"])):
+        d = copy.deepcopy(doc)
+        d["run"].update(model=model, outputs=outputs)
+        result = derive.simulate(d)
+        assert any(e["kind"] == "contact" for e in result.events)
+        assert any(e["kind"] == "liftoff" for e in result.events)
+        write_all(result, tmp_path / model, plot=False)
+        bal = energy_balance(result, motion(result))
+        work[model] = bal["drive_work_in_contact"]
+        assert work[model] is not None and abs(work[model]) > 0.1
+        assert abs(bal["residual"]) < 1e-4 * abs(bal["start"])
+        assert (tmp_path / model / "summary.json").is_file()
+    assert abs(work["general"] - work["vertical"]) < 1e-9

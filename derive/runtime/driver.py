@@ -281,6 +281,18 @@ class Result:
     timings: dict = field(default_factory=dict)
 
     @cached_property
+    def session(self) -> Session:
+        """A session of this run's model set up with its law, numbers and initial state,
+        for evaluations after the run (the contact equations of the energy balance).  Its
+        own: later runs of the thread's session do not change it."""
+        s = Session(library(self.model), chunk=16)
+        s.set_law(self.scene.law)
+        s.init(options(self.scene, self.model),
+               choice.parameters(self.scene, self.start.constants), self.scene.t0,
+               self.start.q0)
+        return s
+
+    @cached_property
     def omega(self) -> np.ndarray:
         return choice.omega_of(self.scene, self.model, self.start, self.t, self.model_q,
                                self.rates)

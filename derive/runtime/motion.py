@@ -172,7 +172,7 @@ def drive_power_in_contact(result, mo: Motion, a: int, b: int) -> np.ndarray | N
     the reaction N from the runtime's contact equations (``Session.contact``); the force
     of the carrier on P gains ``m N/(m+M) n``.  None for models without omega in the
     state."""
-    if result.model not in _OMEGA_RATE or result.session is None:
+    if result.model not in _OMEGA_RATE:
         return None
     s = result.scene
     w_at, n_at = _OMEGA_RATE[result.model]
