@@ -188,6 +188,8 @@ def test_contact_matches_newton_euler_on_random_states(sim, shape):
         h, vn = gap(body, q, u)
         assert abs(h) < 1e-14 and abs(vn) < 1e-13
         dq, N, a_free = sim.contact(t, q)
+        rows = sim.session.contact_rows(np.array([t, t + 0.1]), np.array([q, q]))
+        assert np.array_equal(rows[0][0], dq) and rows[1][0] == N and rows[2][0] == a_free
         ref = solve(body, q, u)
         _, _, a_ref = solve(body, q, u, with_reaction=False)
         errs = group_errors(dq, N, a_free, (ref[0], ref[1], a_ref), body)

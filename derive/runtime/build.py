@@ -75,7 +75,8 @@ class Library:
                 ("crt_state", None, [c.c_void_p, DP]),
                 ("crt_eval_rhs", None, [c.c_void_p, c.c_double, DP, DP]),
                 ("crt_eval_rhs_rows", None, [c.c_void_p, c.c_int, DP, DP, DP]),
-                ("crt_eval_contact", None, [c.c_void_p, c.c_double, DP, DP, DP, DP])):
+                ("crt_eval_contact", None, [c.c_void_p, c.c_double, DP, DP, DP, DP]),
+                ("crt_eval_contact_rows", None, [c.c_void_p, c.c_int, DP, DP, DP, DP, DP])):
             fn = getattr(lib, name)
             fn.restype, fn.argtypes = res, args
         for name in ("option", "parameter", "method", "status", "event", "stat", "summary",

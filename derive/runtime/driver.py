@@ -227,6 +227,17 @@ class Session:
                                           ctypes.byref(a))
         return dq, N.value, a.value
 
+    def contact_rows(self, t, Q) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(dq/dt, N, a_free) of persistent contact along rows, in one call into C (after
+        ``init``)."""
+        t = np.ascontiguousarray(t, dtype=float)
+        Q = np.ascontiguousarray(Q, dtype=float)
+        dq, N, a = np.zeros_like(Q), np.zeros(len(t)), np.zeros(len(t))
+        self.library.lib.crt_eval_contact_rows(self.handle, len(t), t.ctypes.data_as(DP),
+                                               Q.ctypes.data_as(DP), dq.ctypes.data_as(DP),
+                                               N.ctypes.data_as(DP), a.ctypes.data_as(DP))
+        return dq, N, a
+
     def rhs_rows(self, t, Q) -> np.ndarray:
         """The flight right-hand side along rows (after ``init``)."""
         t = np.ascontiguousarray(t, dtype=float)

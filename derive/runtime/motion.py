@@ -179,10 +179,8 @@ def drive_power_in_contact(result, mo: Motion, a: int, b: int) -> np.ndarray | N
     s = result.scene
     w_at, n_at = _OMEGA_RATE[result.model]
     q = result.model_q[a:b]
-    wd, N = np.zeros((b - a, 3)), np.zeros(b - a)
-    for k in range(b - a):                     # the contact equations, row by row in C
-        dq, N[k], _ = result.session.contact(float(result.t[a + k]), q[k])
-        wd[k] = dq[w_at]
+    dq, N, _ = result.session.contact_rows(result.t[a:b], q)
+    wd = dq[:, w_at]
     r, v, w = mo.r[a:b], mo.v_r[a:b], mo.omega[a:b]
     rel = mo.a_r[a:b] + 2.0 * np.cross(w, v) + np.cross(wd, r) + np.cross(w, np.cross(w, r))
     F = s.mu * rel + (s.m / (s.m + s.M)) * N[:, None] * q[:, n_at]

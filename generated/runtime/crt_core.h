@@ -935,6 +935,15 @@ void crt_eval_contact(crt_session *s, double t, const double *q, double *dq, dou
 #endif
 }
 
+/* persistent contact along n rows (t[k], q[k*NQ..]): dq/dt into dq[k*NQ..], N[k], a_free[k] */
+void crt_eval_contact_rows(crt_session *s, int n, const double *t, const double *q, double *dq,
+                           double *N, double *a_free)
+{
+  int k;
+  for (k = 0; k < n; ++k)
+    crt_eval_contact(s, t[k], q + (long)k * NQ, dq + (long)k * NQ, N + k, a_free + k);
+}
+
 /* the flight right-hand side along n rows (t[k], q[k*NQ..]) into dq[k*NQ..] */
 void crt_eval_rhs_rows(crt_session *s, int n, const double *t, const double *q, double *dq)
 {
