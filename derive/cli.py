@@ -559,6 +559,27 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _terminate_cleanly() -> None:
+    """SIGTERM (a killed job, a timeout) unwinds like Ctrl-C: ``finally`` blocks run, so
+    the outputs' staging folder is removed and no half-written file is left; exit 143."""
+    import signal
+    import threading
+    if threading.current_thread() is not threading.main_thread():
+        return
+
+    import os
+    owner = os.getpid()
+
+    def terminated(signum, frame):
+        if os.getpid() != owner:               # a forked worker: die as it would have
+            signal.signal(signum, signal.SIG_DFL)
+            os.kill(os.getpid(), signum)
+            return
+        print("terminated", file=sys.stderr)
+        raise SystemExit(128 + signum)
+    signal.signal(signal.SIGTERM, terminated)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
@@ -569,6 +590,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         import os
         for var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
             os.environ.setdefault(var, "1")
+    _terminate_cleanly()
     try:
         return int(args.func(args) or 0)
     except UsageError as exc:

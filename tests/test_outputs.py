@@ -11,7 +11,7 @@ import pytest
 import derive
 from derive.runtime.motion import energy_balance, motion
 from derive.runtime.outputs import write_all
-from derive.runtime.scene import builtin_doc
+from derive.runtime.scene import DEFAULT_SCENE, builtin_doc
 
 
 def scene(**changes):
@@ -134,6 +134,53 @@ def test_energy_balance_closes_on_random_bouncing_scenes():
         worst = max(worst, rel / (doc["run"]["rtol"] + 1e-10))
         assert rel < 3 * doc["run"]["rtol"] + 1e-10, (k, doc, bal)
     assert worst > 1e-3        # the bound is not vacuous: residuals scale with the tolerance
+
+
+def test_an_interrupted_write_leaves_whole_files(tmp_path, monkeypatch):
+    """Ctrl-C while the outputs are written (here: after the tables, before the summary)
+    leaves the files of the earlier run whole and no half-written table or staging
+    folder; a finished write replaces them."""
+    import derive.runtime.outputs as outputs
+    write_all(derive.simulate(scene()), tmp_path, plot=False)
+    before = {p.name: p.read_bytes() for p in tmp_path.iterdir()}
+    longer = derive.simulate(scene(run__duration=6.0))
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+    with monkeypatch.context() as m:
+        m.setattr(outputs, "summary", interrupted)
+        with pytest.raises(KeyboardInterrupt):
+            write_all(longer, tmp_path, plot=False)
+    assert {p.name: p.read_bytes() for p in tmp_path.iterdir()} == before
+    written = write_all(longer, tmp_path, plot=False)
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(before)
+    assert all(p.parent == tmp_path for p in written)
+    assert (tmp_path / "trajectory.csv").read_bytes() != before["trajectory.csv"]
+
+
+def test_a_terminated_command_leaves_whole_files(tmp_path):
+    """`derive simulate` killed by SIGTERM (a job scheduler, `timeout`) while it works:
+    exit 143, "terminated", the earlier run's files whole, no staging folder left."""
+    import signal
+    import subprocess
+    import sys
+    import time
+    out = tmp_path / "out"
+    write_all(derive.simulate(scene()), out, plot=False)
+    before = {p.name: p.read_bytes() for p in out.iterdir()}
+    long = tmp_path / "long.toml"
+    text = DEFAULT_SCENE.replace("duration = 5.0", "duration = 30000.0")
+    assert text != DEFAULT_SCENE
+    long.write_text(text)
+    proc = subprocess.Popen([sys.executable, "-m", "derive", "simulate", str(long), "-o",
+                             str(out), "--no-plots"], stderr=subprocess.PIPE, text=True)
+    assert "simulating" in proc.stderr.readline()               # the run has begun
+    time.sleep(0.5)
+    proc.send_signal(signal.SIGTERM)
+    err = proc.stderr.read()
+    assert proc.wait(timeout=60) == 143, err
+    assert "terminated" in err and "Traceback" not in err
+    assert {p.name: p.read_bytes() for p in out.iterdir()} == before
 
 
 def test_every_printed_symbol_of_the_equations_is_defined():

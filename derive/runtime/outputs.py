@@ -14,6 +14,8 @@ from __future__ import annotations
 import json
 import os
 import platform
+import shutil
+import tempfile
 import time
 from pathlib import Path
 
@@ -174,9 +176,26 @@ def write_tables(result: Result, mo: Motion, out: Path, fmt: str = "csv") -> lis
 def write_all(result: Result, out_dir, plot: bool = True, animation: bool = False,
               fmt: str = "csv") -> list[Path]:
     """Tables, ``overview.png`` (``plot``), ``motion.gif`` (``animation``) and
-    ``summary.json`` (last, with the time each part took)."""
+    ``summary.json`` (last, with the time each part took).  Each file is complete or
+    absent: all are written into a hidden folder inside ``out_dir`` and moved into place
+    when the last is done, so an interrupted write (Ctrl-C, a full disk, a killed job)
+    leaves no half-written table and keeps the files of an earlier run whole."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
+    stage = Path(tempfile.mkdtemp(prefix=".writing-", dir=out))
+    try:
+        staged = _write_all(result, stage, plot, animation, fmt)
+        final = []
+        for path in staged:
+            os.replace(path, out / path.name)
+            final.append(out / path.name)
+        return final
+    finally:
+        shutil.rmtree(stage, ignore_errors=True)
+
+
+def _write_all(result: Result, out: Path, plot: bool, animation: bool,
+               fmt: str) -> list[Path]:
     timings = {}
     start = time.perf_counter()
     mo = motion(result)
