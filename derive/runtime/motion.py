@@ -188,9 +188,12 @@ def drive_power_in_contact(result, mo: Motion, a: int, b: int) -> np.ndarray | N
 
 
 def integrate(t: np.ndarray, f: np.ndarray, points: int = 6) -> float:
-    """The integral of samples ``f(t)`` (increasing ``t``, any spacing): each interval by
+    """The integral of samples ``f(t)`` (non-decreasing ``t``, any spacing): each interval by
     the polynomial through the ``points`` nearest samples (order ``points``; the rows of
     an adaptive run are far apart, so the order matters); two samples: the trapezoid."""
+    if len(t) > 1 and not np.all(t[1:] > t[:-1]):     # rows of one instant (an event at
+        keep = np.concatenate([[True], t[1:] > t[:-1]])  # the start): no interval
+        t, f = t[keep], f[keep]
     n = len(t)
     if n < 2:
         return 0.0
