@@ -980,7 +980,7 @@ int crt_advance(crt_session *s, double t_end, double *t_out, double *q_out, int 
     return CRT_PAUSED;
   }
   while (s->t < t_end) {
-    double h, err, t1;
+    double h, h_wanted, knot, err, t1;
     if (o.n + 8 > o.cap || o.ev_n + 4 > o.ev_cap) break;
     if ((double)s->stat[CRT_STAT_STEPS] >= s->opt[CRT_OPT_MAX_STEPS]) { s->status = CRT_MAX_STEPS; break; }
 #if MODEL_HAS_PLANE
@@ -1026,6 +1026,9 @@ int crt_advance(crt_session *s, double t_end, double *t_out, double *q_out, int 
 #endif
     if (!s->f_valid && !crt_lie_active(s)) { crt_rhs(s, s->t, s->q, s->f); s->f_valid = 1; }
     h = crt_min(crt_min(s->h, s->opt[CRT_OPT_HMAX]), crt_step_limit(s));
+    h_wanted = h;
+    knot = crt_law_next_knot(&s->law, s->t);     /* steps end on a table's knots */
+    if (s->t + h > knot) h = knot - s->t;
     if (s->t + h > t_end) h = t_end - s->t;
     if (h < h_min && s->t + h < t_end) { s->status = CRT_STEP_UNDERFLOW; break; }
     err = crt_step(s, s->t, s->q, s->f, h, y1, f1, 1);
@@ -1106,6 +1109,8 @@ int crt_advance(crt_session *s, double t_end, double *t_out, double *q_out, int 
       fac = crt_min(crt_max(fac, 0.2), 10.0);
       s->err_old = crt_max(err, 1e-4);
       s->h = h * fac;
+      /* a step cut short by a knot says nothing against the step wanted */
+      if (h < h_wanted && fac >= 1.0) s->h = crt_max(s->h, h_wanted);
     }
     if (s->out_pending) break;
   }

@@ -195,6 +195,37 @@ static void crt_law_table(const crt_law *L, crt_law_work *w, double t, double *u
   }
 }
 
+/* The first knot of a table law after t (beyond a margin of rounding), in run time; +inf
+   for a program law or past the end of a table that does not repeat.  Steps end on the
+   knots: there the spline's third derivative jumps, and a step across one is rejected
+   by the error control (about four times per knot). */
+static double crt_law_next_knot(const crt_law *L, double t)
+{
+  const int n = L->n_knots;
+  double t0, t1, base = 0.0, tt = t, margin;
+  int lo, hi;
+  if (L->kind != CRT_LAW_TABLE) return HUGE_VAL;
+  t0 = L->knots[0];
+  t1 = L->knots[n - 1];
+  if (L->periodic) {
+    base = (t1 - t0) * floor((t - t0) / (t1 - t0));
+    tt = t - base;
+  } else if (t >= t1) {
+    return HUGE_VAL;
+  }
+  margin = 1e-12 * (fabs(t) + (t1 - t0));
+  if (tt + margin < t0) return base + t0;
+  if (tt + margin >= t1)
+    return L->periodic ? base + (t1 - t0) + L->knots[1] : HUGE_VAL;
+  lo = 0;
+  hi = n - 1;                  /* knots[lo] <= tt + margin < knots[hi] */
+  while (hi - lo > 1) {
+    const int mid = lo + (hi - lo) / 2;
+    if (L->knots[mid] <= tt + margin) lo = mid; else hi = mid;
+  }
+  return base + L->knots[hi];
+}
+
 /* u = (x, y, z, x', y', z', x'', y'', z'') at t; the last value is reused */
 static const double *crt_law_eval(const crt_law *L, crt_law_work *w, double t, long *count)
 {
