@@ -132,6 +132,25 @@ def _scene_doc(args) -> tuple[dict, object, str]:
     return doc, base, origin
 
 
+def _check_output_folder(folder) -> None:
+    """Refuse, before any work, an output folder that cannot be written: a file of that
+    name, a parent that is not a folder, no permission."""
+    import os
+    from pathlib import Path
+    path = Path(folder)
+    if path.exists() and not path.is_dir():
+        raise UsageError(f"-o {folder}: is a file, not a folder")
+    probe = path
+    while not probe.exists():
+        if probe.parent == probe:
+            break
+        probe = probe.parent
+    if not probe.is_dir():
+        raise UsageError(f"-o {folder}: {probe} is not a folder")
+    if not os.access(probe, os.W_OK | os.X_OK):
+        raise UsageError(f"-o {folder}: {probe} is not writable")
+
+
 def _workers(n: int) -> str:
     return f"{n} worker" if n == 1 else f"{n} workers"
 
@@ -140,6 +159,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     import time
     start = time.perf_counter()
     from .runtime.scene import SceneError, parse_scene
+    _check_output_folder(args.output)
     if args.sweep:
         return _simulate_sweep(args, start)
     try:
@@ -605,6 +625,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
         return 130
+    except BrokenPipeError:
+        # the reader of our output went away (``| head``): stop quietly, as cat does
+        import os
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        return 141
 
 
 if __name__ == "__main__":

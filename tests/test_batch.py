@@ -148,3 +148,31 @@ def test_cli_sweep_writes_one_row_per_variant(tmp_path):
                          capture_output=True, text=True)
     assert bad.returncode == 2 and "--sweep" in bad.stderr and "Traceback" not in bad.stderr
     assert not (tmp_path / "b").exists()
+
+
+@pytest.mark.parametrize("args, field", [
+    (["--set", "initial.com[x]=1"], "initial.com[x]"),
+    (["--set", "initial.com[]=1"], "initial.com[]"),
+    (["--set", "initial.com[1.5]=1"], "initial.com[1.5]"),
+    (["--set", "initial.com[0][0]=1"], "initial.com[0][0]"),
+    (["--set", "plane.restitution=1.0000001"], "1.0000001"),
+    (["-o", "{file}"], "is a file"),
+    (["-o", "{file}/sub"], "is not a folder"),
+])
+def test_cli_refuses_bad_overrides_and_output_folders_cleanly(tmp_path, args, field):
+    """Each refused with exit 2, one message naming the field (the value as given, not
+    rounded to the bound it breaks), no traceback, nothing written; the output folder
+    is checked before the run.  (Found by a new-user trial: tracebacks, exit 1, and
+    'must be in [0, 1] (got 1)'.)"""
+    afile = tmp_path / "afile"
+    afile.write_text("mine\n")
+    args = [a.format(file=afile) for a in args]
+    if "-o" not in args:
+        args += ["-o", str(tmp_path / "out")]
+    proc = subprocess.run([sys.executable, "-m", "derive", "simulate", "-q", "--no-plots",
+                           *args], capture_output=True, text=True)
+    assert proc.returncode == 2, proc.stderr
+    assert field in proc.stderr and "Traceback" not in proc.stderr
+    assert len(proc.stderr.strip().splitlines()) == 1
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["afile"]
+    assert afile.read_text() == "mine\n"

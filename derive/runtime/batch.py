@@ -94,7 +94,11 @@ def _set(doc: dict, name: str, value) -> None:
     if not isinstance(target, dict):
         raise BatchError(name, f"[{table}] is not a table in the base scene")
     if index:
-        k = int(index.rstrip("]"))
+        text = index[:-1] if index.endswith("]") else "?"
+        if not text.isdigit() or not text.isascii():
+            raise BatchError(name, f"the index of {path} must be a whole number in "
+                                   f"brackets, like {path}[0]")
+        k = int(text)
         vec = target.get(key)
         if not isinstance(vec, list) or not 0 <= k < len(vec):
             raise BatchError(name, f"the base scene has no entry {k} in {path}")

@@ -283,6 +283,43 @@ def _same_run(a, b) -> bool:
     return bool(np.max(np.abs(a.event_rows[:, 0] - b.event_rows[:, 0])) <= 1e-12 * scale)
 
 
+def _knots(scene):
+    """A table law's knots (run time for the first period), or None."""
+    knots = getattr(scene.law, "knots", None)
+    return None if knots is None or len(knots) < 3 else np.asarray(knots, dtype=float)
+
+
+def _on_grid(scene, knots) -> bool:
+    """Equally spaced knots, one of them at t0 (mod the period): a grid from t0 with a
+    whole number of rows per interval has rows on every knot."""
+    gaps = np.diff(knots)
+    h = float(gaps.min())
+    offset = (scene.t0 - knots[0]) / h
+    return bool(gaps.max() - h <= 1e-9 * h and abs(offset - round(offset)) <= 1e-9)
+
+
+def _integrate_pieces(scene, t: np.ndarray, f: np.ndarray) -> float:
+    """:func:`integrate`, stopped at every row on a knot of a table law (the power has
+    a kink there, which a polynomial across it would smooth)."""
+    knots = _knots(scene)
+    if knots is None or len(t) < 3:
+        return integrate(t, f)
+    if getattr(scene.law, "periodic", False):
+        period = knots[-1] - knots[0]
+        first = int(np.floor((t[0] - knots[0]) / period))
+        last = int(np.ceil((t[-1] - knots[0]) / period))
+        times = (knots[:-1][None, :] + period * np.arange(first, last + 1)[:, None]).ravel()
+    else:
+        times = knots
+    tol = 1e-9 * max(float(np.min(np.diff(knots))), 1e-300)
+    idx = np.clip(np.searchsorted(t, times), 0, len(t) - 1)
+    near = np.unique(np.concatenate([idx[np.abs(t[idx] - times) <= tol],
+                                     np.clip(idx - 1, 0, None)[
+                                         np.abs(t[np.clip(idx - 1, 0, None)] - times) <= tol]]))
+    cuts = [0] + [int(i) for i in near if 0 < i < len(t) - 1] + [len(t) - 1]
+    return sum(integrate(t[a:b + 1], f[a:b + 1]) for a, b in zip(cuts[:-1], cuts[1:]))
+
+
 def for_balance(result, mo: Motion):
     """The run and its motion on rows dense enough for the balance's quadrature: about
     ``ROWS_PER_SCALE`` rows per time scale of the point's law or of the spin, whichever is
@@ -296,7 +333,17 @@ def for_balance(result, mo: Motion):
     s = result.scene
     spin = float(np.max(np.linalg.norm(mo.omega, axis=1))) if len(mo.omega) else 0.0
     scale = min(s.law_summary.time_scale, 1.0 / spin if spin > 0 else np.inf, s.duration)
+    knots = _knots(s)
     dt = max(scale / ROWS_PER_SCALE, s.duration / MAX_BALANCE_ROWS)
+    if knots is not None:
+        # a table's acceleration has a kink at every knot, and so has the drive's power:
+        # rows on the knots (equal spacing: a whole number of rows per interval, the
+        # grid from t0 on a knot) let the quadrature stop there (_integrate_pieces);
+        # otherwise rows much closer than the knots bound the error of a rule across one
+        gaps = np.diff(knots)
+        per = max(int(np.ceil(gaps.min() / dt)), 1)
+        dt = float(gaps.min()) / (per if _on_grid(s, knots) else 4 * per)
+        dt = max(dt, s.duration / MAX_BALANCE_ROWS)
     steps = np.diff(result.t)
     if len(steps) == 0 or float(np.max(steps)) <= dt * (1 + 1e-9):
         return result, mo
@@ -345,15 +392,15 @@ def _phase_work(result, mo: Motion, a: int, b: int, state: str, p: np.ndarray,
     accumulating impacts is often shorter than a row's spacing: two rows) is resampled
     first, while ``budget`` lasts."""
     if b - a >= QUADRATURE_POINTS or result.model not in _OMEGA_RATE or budget[0] <= 0:
-        return integrate(mo.t[a:b], p)
+        return _integrate_pieces(result.scene, mo.t[a:b], p)
     budget[0] -= 1
     fine = _resampled(result, a, b)
     if fine is None:
-        return integrate(mo.t[a:b], p)
+        return _integrate_pieces(result.scene, mo.t[a:b], p)
     fm = motion(fine)
     fp = drive_power_in_flight(result.scene, fm) if state == "flight" else \
         drive_power_in_contact(fine, fm, 0, len(fine.t))
-    return integrate(fm.t, fp)
+    return _integrate_pieces(result.scene, fm.t, fp)
 
 
 def energy_balance(result, mo: Motion) -> dict | None:

@@ -173,13 +173,19 @@ def write_tables(result: Result, mo: Motion, out: Path, fmt: str = "csv") -> lis
     raise ValueError(f"unknown format {fmt!r}; choose one of {', '.join(FORMATS)}")
 
 
+OUTPUT_NAMES = frozenset({"trajectory.csv", "events.csv", "impacts.csv", "run.npz",
+                          "overview.png", "motion.gif", "summary.json"})
+
+
 def write_all(result: Result, out_dir, plot: bool = True, animation: bool = False,
               fmt: str = "csv") -> list[Path]:
     """Tables, ``overview.png`` (``plot``), ``motion.gif`` (``animation``) and
     ``summary.json`` (last, with the time each part took).  Each file is complete or
     absent: all are written into a hidden folder inside ``out_dir`` and moved into place
     when the last is done, so an interrupted write (Ctrl-C, a full disk, a killed job)
-    leaves no half-written table and keeps the files of an earlier run whole."""
+    leaves no half-written table and keeps the files of an earlier run whole.  A finished
+    write removes the outputs of an earlier run it did not replace (``OUTPUT_NAMES``:
+    another format, plots not asked this time), so the folder holds one run."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     stage = Path(tempfile.mkdtemp(prefix=".writing-", dir=out))
@@ -189,6 +195,9 @@ def write_all(result: Result, out_dir, plot: bool = True, animation: bool = Fals
         for path in staged:
             os.replace(path, out / path.name)
             final.append(out / path.name)
+        # what an earlier run of another scene or format left would pass for this run's
+        for name in OUTPUT_NAMES - {p.name for p in final}:
+            (out / name).unlink(missing_ok=True)
         return final
     finally:
         shutil.rmtree(stage, ignore_errors=True)

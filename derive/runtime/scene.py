@@ -304,12 +304,12 @@ def _num(f: Field, value, where: str | None = None) -> float:
         low_bad = x <= f.lo if f.lo_open else x < f.lo
         high_bad = f.hi is not None and x > f.hi
         if (low_bad or high_bad) and f.hi is not None and f.hi <= 1.0:
-            raise SceneError(where, f"must be {f.rule} (got {x:g})")     # a fraction
+            raise SceneError(where, f"must be {f.rule} (got {x!r})")     # a fraction
         if low_bad:
             raise SceneError(where, f"must be {'>' if f.lo_open else '>='} {f.lo:g} "
-                                    f"(got {x:g})")
+                                    f"(got {x!r})")
         if high_bad:
-            raise SceneError(where, f"must be at most {f.hi:g} (got {x:g}): beyond any "
+            raise SceneError(where, f"must be at most {f.hi:g} (got {x!r}): beyond any "
                                     "physical scene this runtime is meant for")
     return x
 
@@ -340,7 +340,7 @@ def _value(f: Field, value):
     if k == "integer":
         x = _num(f, value)
         if x != int(x):
-            raise SceneError(f.where, f"must be an integer (got {x:g})")
+            raise SceneError(f.where, f"must be an integer (got {x!r})")
         return int(x)
     if k == "vector":
         return _vector(f, value, f.size)
