@@ -214,10 +214,15 @@ def _simulate_sweep(args, start: float) -> int:
                                   strict=False)
     except SceneError as exc:
         raise UsageError(str(exc)) from None
+    bad = sum(1 for r in out.rows if "error" in r)
+    if out.rows and bad == len(out.rows):
+        # no variant could run (an override that is never valid): a usage error, as an
+        # unknown field is, and nothing written
+        first = next(r["error"] for r in out.rows if "error" in r)
+        raise UsageError(f"--sweep: every variant was refused, e.g. {first}")
     folder = Path(args.output)
     folder.mkdir(parents=True, exist_ok=True)
     out.to_csv(folder / "sweep.csv")
-    bad = sum(1 for r in out.rows if "error" in r)
     statuses = {}
     for r in out.rows:
         key = r.get("status", "refused")

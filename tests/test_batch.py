@@ -176,3 +176,16 @@ def test_cli_refuses_bad_overrides_and_output_folders_cleanly(tmp_path, args, fi
     assert len(proc.stderr.strip().splitlines()) == 1
     assert sorted(p.name for p in tmp_path.iterdir()) == ["afile"]
     assert afile.read_text() == "mine\n"
+
+
+@pytest.mark.parametrize("sweep", ["initial.com[7]=1,2", "name=1,2"])
+def test_a_sweep_no_variant_of_which_can_run_is_a_usage_error(tmp_path, sweep):
+    """An override that is never valid refuses the sweep like an unknown field: exit 2,
+    one line naming it, nothing written (it had written a table of refusals, exit 1)."""
+    out = tmp_path / "s"
+    proc = subprocess.run([sys.executable, "-m", "derive", "simulate", "-q", "--sweep", sweep,
+                           "-o", str(out)], capture_output=True, text=True)
+    assert proc.returncode == 2, proc.stderr
+    assert sweep.split("=")[0] in proc.stderr and "Traceback" not in proc.stderr
+    assert len(proc.stderr.strip().splitlines()) == 1
+    assert not out.exists()
