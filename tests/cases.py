@@ -111,3 +111,16 @@ def inputs_for(spec, c, rng):
         else:
             raise KeyError(vec.name)
     return values
+
+
+def table_flight(ts: np.ndarray, duration: float, **run) -> dict:
+    """A tumbling carrier in free flight (g = 0, no shape) whose point follows a periodic
+    table sampled at the knots ``ts`` (one period of 2 pi / 3) from a smooth 3-D curve."""
+    rows = np.column_stack([ts, 0.2 * np.sin(3 * ts), 0.1 * np.cos(3 * ts) ** 2,
+                            0.05 * np.sin(6 * ts)])
+    rows[-1, 1:] = rows[0, 1:]
+    return {"name": "table-flight", "body": {"mass": 1.0, "inertia": [0.1, 0.12, 0.14],
+                                             "shape": "none"},
+            "point": {"mass": 0.5, "samples": rows.tolist(), "ends": "periodic"},
+            "initial": {"omega": [0.3, -0.2, 0.5]},
+            "run": {"duration": duration, "g": 0.0, **run}}

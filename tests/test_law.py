@@ -159,16 +159,9 @@ def test_a_tabulated_law_keeps_the_tolerance(knots, method):
     DOPRI5 with 13 to 513 knots), and DOP853 took 11 to 27 times as many evaluations of
     the right-hand side, most of its steps rejected."""
     from derive.runtime.driver import simulate
+    from cases import table_flight
     period = 2 * math.pi / 3
-    ts = np.linspace(0.0, period, knots)
-    rows = np.column_stack([ts, 0.2 * np.sin(3 * ts), 0.1 * np.cos(3 * ts) ** 2,
-                            0.05 * np.sin(6 * ts)])
-    rows[-1, 1:] = rows[0, 1:]
-    doc = {"name": "table-flight", "body": {"mass": 1.0, "inertia": [0.1, 0.12, 0.14],
-                                            "shape": "none"},
-           "point": {"mass": 0.5, "samples": rows.tolist(), "ends": "periodic"},
-           "initial": {"omega": [0.3, -0.2, 0.5]},
-           "run": {"duration": 3 * period, "method": method, "g": 0.0}}
+    doc = table_flight(np.linspace(0.0, period, knots), 3 * period, method=method)
     run = simulate(doc)
     # the reference by another method (the same one at 1e-14 can take the same steps)
     doc["run"].update(method="lie8" if method == "dop853" else "dop853", rtol=1e-14,

@@ -262,18 +262,11 @@ def test_energy_balance_of_a_tabulated_law(uniform):
     there (1e-12 of the energy); on uneven knots rows four times closer bound the
     rule across a kink (3e-7 measured: the balance is coarser there).  It was 1.1e-7
     and 1.7e-6 relative on a new-user trial's table and planned scenes."""
+    from cases import table_flight
     period = 2 * np.pi / 3
     u = np.linspace(0.0, 1.0, 41)
     ts = period * (u if uniform else u + 0.3 * u * (1 - u) * np.sin(7 * u))
-    rows = np.column_stack([ts, 0.2 * np.sin(3 * ts), 0.1 * np.cos(3 * ts) ** 2,
-                            0.05 * np.sin(6 * ts)])
-    rows[-1, 1:] = rows[0, 1:]
-    doc = {"name": "table-flight", "body": {"mass": 1.0, "inertia": [0.1, 0.12, 0.14],
-                                            "shape": "none"},
-           "point": {"mass": 0.5, "samples": rows.tolist(), "ends": "periodic"},
-           "initial": {"omega": [0.3, -0.2, 0.5]},
-           "run": {"duration": 2.5 * period, "g": 0.0}}
-    result = derive.simulate(doc)
+    result = derive.simulate(table_flight(ts, 2.5 * period))
     bal = energy_balance(result, motion(result))
     assert abs(bal["drive_work_in_flight"]) > 1e-4
     assert abs(bal["residual"]) < (1e-12 if uniform else 1e-6) * abs(bal["start"]), bal

@@ -311,12 +311,10 @@ def _integrate_pieces(scene, t: np.ndarray, f: np.ndarray) -> float:
         times = (knots[:-1][None, :] + period * np.arange(first, last + 1)[:, None]).ravel()
     else:
         times = knots
-    tol = 1e-9 * max(float(np.min(np.diff(knots))), 1e-300)
-    idx = np.clip(np.searchsorted(t, times), 0, len(t) - 1)
-    near = np.unique(np.concatenate([idx[np.abs(t[idx] - times) <= tol],
-                                     np.clip(idx - 1, 0, None)[
-                                         np.abs(t[np.clip(idx - 1, 0, None)] - times) <= tol]]))
-    cuts = [0] + [int(i) for i in near if 0 < i < len(t) - 1] + [len(t) - 1]
+    k = np.clip(np.searchsorted(times, t), 1, len(times) - 1)
+    gap = np.minimum(np.abs(t - times[k - 1]), np.abs(t - times[k]))  # to the nearest knot
+    on = np.flatnonzero(gap <= 1e-9 * float(np.min(np.diff(knots))))
+    cuts = [0] + [int(i) for i in on if 0 < i < len(t) - 1] + [len(t) - 1]
     return sum(integrate(t[a:b + 1], f[a:b + 1]) for a, b in zip(cuts[:-1], cuts[1:]))
 
 

@@ -147,7 +147,11 @@ def event_labels(result: Result, rows: np.ndarray) -> dict:
             "side": ["before" if result.row_kind[i] == 1 else "after" for i in rows]}
 
 
-FORMATS = ("csv", "npz")
+TABLE_FILES = {"csv": ("trajectory.csv", "events.csv", "impacts.csv"), "npz": ("run.npz",)}
+FORMATS = tuple(TABLE_FILES)
+PICTURE_FILES = ("overview.png", "motion.gif")
+SUMMARY_FILE = "summary.json"
+OUTPUT_NAMES = frozenset(sum(TABLE_FILES.values(), PICTURE_FILES + (SUMMARY_FILE,)))
 
 
 def write_tables(result: Result, mo: Motion, out: Path, fmt: str = "csv") -> list[Path]:
@@ -157,7 +161,7 @@ def write_tables(result: Result, mo: Motion, out: Path, fmt: str = "csv") -> lis
     labels = event_labels(result, events)
     imp_header = ["t", "I", "v_n_minus", "v_n_plus"]
     if fmt == "csv":
-        paths = [out / "trajectory.csv", out / "events.csv", out / "impacts.csv"]
+        paths = [out / name for name in TABLE_FILES["csv"]]
         write_csv(paths[0], header, table[steps])
         write_csv(paths[1], header, table[events], labels)
         write_csv(paths[2], imp_header, result.impacts)
@@ -167,14 +171,10 @@ def write_tables(result: Result, mo: Motion, out: Path, fmt: str = "csv") -> lis
         arrays.update({f"events/{h}": table[events, k] for k, h in enumerate(header)})
         arrays.update({f"events/{k}": np.array(v, dtype=str) for k, v in labels.items()})
         arrays.update({f"impacts/{h}": result.impacts[:, k] for k, h in enumerate(imp_header)})
-        path = out / "run.npz"
+        path = out / TABLE_FILES["npz"][0]
         np.savez_compressed(path, **arrays)
         return [path]
     raise ValueError(f"unknown format {fmt!r}; choose one of {', '.join(FORMATS)}")
-
-
-OUTPUT_NAMES = frozenset({"trajectory.csv", "events.csv", "impacts.csv", "run.npz",
-                          "overview.png", "motion.gif", "summary.json"})
 
 
 def write_all(result: Result, out_dir, plot: bool = True, animation: bool = False,
@@ -219,15 +219,15 @@ def _write_all(result: Result, out: Path, plot: bool, animation: bool,
     if plot:
         start = time.perf_counter()
         from .plots import overview
-        written.append(overview(fine, mo_fine, out / "overview.png", steps=result))
+        written.append(overview(fine, mo_fine, out / PICTURE_FILES[0], steps=result))
         timings["overview_s"] = time.perf_counter() - start
     if animation and mo_fine.r_O is not None:
         start = time.perf_counter()
         from .animation import write_gif
-        written.append(write_gif(fine, mo_fine, out / "motion.gif"))
+        written.append(write_gif(fine, mo_fine, out / PICTURE_FILES[1]))
         timings["animation_s"] = time.perf_counter() - start
     info["timings_s"]["outputs"] = timings
     result.timings["outputs"] = timings
-    (out / "summary.json").write_text(json.dumps(info, indent=2) + "\n", encoding="utf-8")
-    written.append(out / "summary.json")
+    (out / SUMMARY_FILE).write_text(json.dumps(info, indent=2) + "\n", encoding="utf-8")
+    written.append(out / SUMMARY_FILE)
     return written
