@@ -169,10 +169,16 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         result = simulate(scene, progress=not args.quiet)
     except SceneError as exc:
         raise UsageError(str(exc)) from None
+    from .progress import Bar
     from .runtime.outputs import write_all
     t_written = time.perf_counter()
-    written = write_all(result, args.output, plot=not args.no_plots,
-                        animation=not (args.no_animation or args.no_plots), fmt=args.format)
+    bar = Bar("writing the trajectory", enabled=not args.quiet)
+    try:
+        written = write_all(result, args.output, plot=not args.no_plots,
+                            animation=not (args.no_animation or args.no_plots),
+                            fmt=args.format, progress=bar.update)
+    finally:
+        bar.close()
     t_done = time.perf_counter()
     info = result.stats
     print(f"{scene.name}: {result.status}; model {result.model} ({result.why})")

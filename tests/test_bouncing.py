@@ -104,6 +104,21 @@ def test_below_existence_and_wrong_structure_are_refused():
         bouncing.analyse(parse_scene(doc))
 
 
+def test_a_scene_as_users_write_it_runs_the_vertical_model():
+    """A scene that leaves [run].model and outputs to their defaults (the pose asked, so a
+    plain run takes the general model) gets the same multipliers as the vertical scene;
+    a scene that forces another model is refused with what to change."""
+    doc = bouncing.bouncing_scene(e=0.5, a=0.07, W=W)
+    ref = bouncing.analyse(parse_scene(doc))
+    del doc["run"]["model"], doc["run"]["outputs"]
+    plain = bouncing.analyse(parse_scene(doc))
+    assert np.max(np.abs(np.sort_complex(plain.multipliers)
+                         - np.sort_complex(ref.multipliers))) < 1e-12
+    doc["run"]["model"] = "general"
+    with pytest.raises(SceneError, match=r'\[run\].model.*set it to "vertical".*general'):
+        bouncing.analyse(parse_scene(doc))
+
+
 def test_carrier_doubles_period_at_the_table_threshold():
     """The runtime's orbit of the carrier loses stability through -1 where the closed
     form puts Gamma_pd (1.527 for e = 0.5), within 1 % on each side."""

@@ -270,3 +270,84 @@ def test_energy_balance_of_a_tabulated_law(uniform):
     bal = energy_balance(result, motion(result))
     assert abs(bal["drive_work_in_flight"]) > 1e-4
     assert abs(bal["residual"]) < (1e-12 if uniform else 1e-6) * abs(bal["start"]), bal
+
+
+def test_csv_reads_back_bit_for_bit_across_chunks(tmp_path, monkeypatch):
+    """Rows written in chunks (memory bounded on long runs), text columns first, read back
+    by the csv module to the same doubles; progress reaches 1."""
+    import csv
+
+    from derive.runtime import outputs
+    monkeypatch.setattr(outputs, "CSV_CHUNK", 7)
+    rng = np.random.default_rng(5)
+    rows = rng.standard_normal((50, 4)) * 10.0 ** rng.integers(-300, 300, (50, 4))
+    rows[3, 1], rows[4, 2] = 0.0, -0.0
+    text = {"event": [f"e{k}" for k in range(50)], "side": ["before", "after"] * 25}
+    told = []
+    path = tmp_path / "t.csv"
+    outputs.write_csv(path, ["a", "b", "c", "d"], rows, text, progress=told.append)
+    with open(path, newline="") as fh:
+        back = list(csv.reader(fh))
+    assert back[0] == ["event", "side", "a", "b", "c", "d"]
+    assert [tuple(r[:2]) for r in back[1:]] == list(zip(*text.values()))
+    got = np.array([[float(x) for x in r[2:]] for r in back[1:]])
+    assert np.array_equal(got.view(np.uint64), rows.view(np.uint64))   # signs of zero too
+    assert told[-1] == 1.0 and len(told) == 8 and told == sorted(told)
+
+
+def test_drawn_rows_keep_every_extreme_of_every_time_column():
+    """Over random series (spikes, NaN, constants) the rows chosen for a picture hold, in
+    each time column, the series' lowest and highest value and the column's first and
+    last row; a short run keeps all its rows."""
+    from derive.runtime.drawing import drawn_rows
+    rng = np.random.default_rng(11)
+    for trial in range(40):
+        n = int(rng.integers(50, 60_000))
+        t = np.sort(rng.uniform(0.0, rng.uniform(1e-3, 1e3), n))
+        t[: int(rng.integers(0, 5))] = t[0]                    # rows of one instant
+        ys = [rng.standard_normal(n).cumsum(), np.full(n, 2.0),
+              np.sin(rng.uniform(1, 1e4) * t)]
+        ys[0][rng.integers(0, n, 3)] += rng.standard_normal(3) * 1e3       # spikes
+        ys[2][rng.integers(0, n, 2)] = np.nan
+        bins = int(rng.integers(5, 400))
+        idx = drawn_rows(t, *ys, bins=bins)
+        assert np.all(np.diff(idx) > 0) and idx[0] == 0 and idx[-1] == n - 1
+        if n <= 4 * bins:
+            assert len(idx) == n
+            continue
+        assert len(idx) <= bins * (2 + 2 * len(ys))
+        edges = np.searchsorted(t, np.linspace(t[0], t[-1], bins + 1)[1:-1])
+        for lo, hi in zip(np.r_[0, edges], np.r_[edges, n]):
+            if hi <= lo:
+                continue
+            chosen = idx[(idx >= lo) & (idx < hi)]
+            assert lo in chosen and hi - 1 in chosen
+            for y in ys:
+                seg = y[lo:hi]
+                if np.all(np.isnan(seg)):
+                    continue
+                assert np.nanmin(seg) == np.nanmin(y[chosen])
+                assert np.nanmax(seg) == np.nanmax(y[chosen])
+
+
+def test_pictures_of_a_run_with_many_rows(tmp_path, monkeypatch):
+    """A fast law on a fine grid (3 10^5 rows): every curve of the pictures is drawn from
+    a few thousand rows (matplotlib's renderer overflowed on millions, after minutes of
+    drawing); the pictures are written."""
+    from matplotlib.axes import Axes
+    doc = builtin_doc()
+    doc["point"]["law"] = ["0.1*sin(2000*t)", "0.1", "0.05*cos(2*t)"]
+    doc["run"].update(duration=1.0, output_dt=3e-6)
+    result = derive.simulate(doc)
+    assert result.status == "done" and len(result.t) > 300_000
+    longest = [0]
+    plot = Axes.plot
+
+    def counted(self, *args, **kw):
+        lines = plot(self, *args, **kw)
+        longest[0] = max([longest[0], *(len(ln.get_xdata()) for ln in lines)])
+        return lines
+    monkeypatch.setattr(Axes, "plot", counted)
+    written = write_all(result, tmp_path, plot=True, animation=True, fmt="npz")
+    assert {p.name for p in written} >= {"overview.png", "motion.gif"}
+    assert 0 < longest[0] <= 2000 * (2 + 2 * 6)       # six series in one column of time at most

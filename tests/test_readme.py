@@ -41,3 +41,15 @@ def test_readme_schema_table_is_the_schema():
     block = text.split("<!-- schema:begin -->\n", 1)[1].split("<!-- schema:end -->", 1)[0]
     assert block.strip() == schema_table().strip(), \
         "README schema table differs: paste derive.runtime.scene.schema_table()"
+
+
+def test_readme_python_examples_run(tmp_path, monkeypatch, capsys):
+    """Every ```python block of the README runs as written (in a scratch folder)."""
+    import re
+    text = (ROOT / "README.md").read_text(encoding="utf-8")
+    blocks = re.findall(r"```python\n(.*?)```", text, re.S)
+    assert blocks
+    monkeypatch.chdir(tmp_path)
+    for code in blocks:
+        exec(compile(code, "README.md", "exec"), {"__name__": "readme"})
+    assert "done" in capsys.readouterr().out

@@ -66,6 +66,10 @@ BAD = [
     ({"plane": {}}, "[plane].restitution", "required"),
     ({"body__inertia": [1e-13, 0.5, 0.5], "point__law": ["0", "0", "0"]}, "[body].inertia",
      "singular"),
+    # with the plane a step is at most the law's time scale: a run that can only end at
+    # max_steps, after minutes, is refused before it starts
+    ({"point__law": ["0.1*sin(1e8*t)", "0.1", "0"]}, "[point].law", "beyond [run].max_steps"),
+    ({"run__duration": 100.0, "run__max_steps": 50}, "[point].law", "shorten [run].duration"),
 ]
 
 

@@ -419,12 +419,13 @@ RELATED = {
     "[initial].com": ["[body].radius", "[body].center", "[body].shape"],
     "[initial].time": ["[run].duration"],
     "[run].duration": ["[initial].time", "[run].step", "[run].max_steps", "[run].output_dt",
-                       "[run].zeno_dt"],
+                       "[run].zeno_dt", "[point].law", "[point].samples", "[point].table"],
     "[run].step": ["[run].duration", "[run].max_steps"],
     "[run].output_dt": ["[run].duration"],
     "[run].zeno_dt": ["[run].duration"],
     "[run].rtol": ["[run].atol"], "[run].atol": ["[run].rtol"],
-    "[run].max_steps": ["[run].duration", "[run].step"],
+    "[run].max_steps": ["[run].duration", "[run].step", "[point].law", "[point].samples",
+                        "[point].table"],
     "[initial].quaternion": ["[initial].matrix"],
 }
 

@@ -88,6 +88,8 @@ def write_gif(result, mo: Motion, path: Path) -> Path:
         ax.add_collection(LineCollection(grid, colors="white", linewidths=0.8))
         pts.append(poly)
     C = view(mo.r_C)
+    drawn = drawing.drawn_rows(mo.t, C[:, 0], C[:, 1])
+    C, t_drawn = C[drawn], mo.t[drawn]
     ax.plot(C[:, 0], C[:, 1], color="0.75", lw=0.6)
     pts = np.vstack(pts)
     lo, hi = pts.min(axis=0), pts.max(axis=0)
@@ -146,7 +148,7 @@ def write_gif(result, mo: Motion, path: Path) -> Path:
         pic = drawing.body_pictures(view, s, st["r_O"][k], st["A"][k])
         shadow.set_xy(pic["shadow"])
         shadow.set_visible(bool(s.plane))
-        upto = np.searchsorted(mo.t, tk, side="right")
+        upto = np.searchsorted(t_drawn, tk, side="right")
         trace.set_data(C[:upto, 0], C[:upto, 1])
         seen = t_imp <= tk
         marks.set_data(S_imp[seen, 0], S_imp[seen, 1])

@@ -13,6 +13,33 @@ import numpy as np
 
 AXIS_COLOURS = ("#d62728", "#2ca02c", "#1f77b4")      # body x, y, z
 PLANE_COLOUR = "#dfe7ef"
+DRAWN_BINS = 2000          # columns of time a curve is reduced to (a panel is ~500 pixels)
+
+
+def drawn_rows(t: np.ndarray, *series: np.ndarray, bins: int = DRAWN_BINS) -> np.ndarray:
+    """Indices of the rows that draw every series as all rows would at the resolution of
+    a picture: in each of ``bins`` equal intervals of time, the first and last row and
+    each series' lowest and highest (M4 aggregation), in time order.  All rows when there
+    are no more than four per interval.  Millions of rows (a long or fast run) would take
+    minutes to draw, or overflow matplotlib's renderer."""
+    n = len(t)
+    if n <= 4 * bins:
+        return np.arange(n)
+    t = np.asarray(t, dtype=float)
+    edges = np.searchsorted(t, np.linspace(t[0], t[-1], bins + 1)[1:-1], side="left")
+    starts = np.unique(np.r_[0, edges])
+    starts = starts[starts < n]
+    ends = np.r_[starts[1:], n] - 1
+    of_row = np.repeat(np.arange(len(starts)), np.diff(np.r_[starts, n]))
+    keep = [starts, ends]
+    for y in series:
+        y = np.asarray(y, dtype=float)
+        for reduce in (np.fmin, np.fmax):
+            extreme = reduce.reduceat(y, starts)
+            hits = np.flatnonzero(y == extreme[of_row])
+            _, first = np.unique(of_row[hits], return_index=True)
+            keep.append(hits[first])
+    return np.unique(np.concatenate(keep))
 
 
 def body_semi_axes(scene) -> tuple[np.ndarray, bool]:

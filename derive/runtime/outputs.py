@@ -88,15 +88,29 @@ def plain(label: str) -> str:
     return "d" * (len(label) - len(stripped)) + stripped
 
 
-def write_csv(path: Path, header: list, rows: np.ndarray, text: dict | None = None) -> None:
+CSV_CHUNK = 8192           # rows formatted at a time (memory stays bounded on long runs)
+
+
+def write_csv(path: Path, header: list, rows: np.ndarray, text: dict | None = None,
+              progress=None) -> None:
     """Numbers as Python's shortest repr (they read back bit for bit); ``text`` columns
-    (name -> list of strings) go first."""
+    (name -> list of strings) go first.  About a microsecond a number: ``progress`` (a
+    fraction done) is told after each chunk of rows."""
     text = text or {}
+    rows = np.asarray(rows, dtype=float)
+    n = len(rows)
+    line = ",".join(["%s"] * len(text) + ["%r"] * (rows.shape[1] if rows.ndim == 2 else 0)) \
+        + "\n"
+    lead = list(zip(*text.values())) if text else None
     with open(path, "w", encoding="utf-8") as fh:
         fh.write(",".join([*text, *header]) + "\n")
-        lead = [",".join(vals) + "," for vals in zip(*text.values())] if text else None
-        for k, row in enumerate(np.asarray(rows, dtype=float).tolist()):
-            fh.write((lead[k] if lead else "") + ",".join(map(repr, row)) + "\n")
+        for a in range(0, n, CSV_CHUNK):
+            chunk = rows[a:a + CSV_CHUNK].tolist()
+            if lead:
+                chunk = [(*lead[a + k], *row) for k, row in enumerate(chunk)]
+            fh.write("".join([line % tuple(row) for row in chunk]))
+            if progress is not None:
+                progress(min(a + CSV_CHUNK, n) / n)
 
 
 def trajectory_table(result: Result, mo: Motion | None = None) -> tuple[list, np.ndarray]:
@@ -154,15 +168,17 @@ SUMMARY_FILE = "summary.json"
 OUTPUT_NAMES = frozenset(sum(TABLE_FILES.values(), PICTURE_FILES + (SUMMARY_FILE,)))
 
 
-def write_tables(result: Result, mo: Motion, out: Path, fmt: str = "csv") -> list[Path]:
-    """trajectory, events and impacts as CSV (default) or one ``.npz`` of named arrays."""
+def write_tables(result: Result, mo: Motion, out: Path, fmt: str = "csv",
+                 progress=None) -> list[Path]:
+    """trajectory, events and impacts as CSV (default) or one ``.npz`` of named arrays;
+    ``progress`` (a fraction done) follows the trajectory's CSV."""
     header, table = trajectory_table(result, mo)
     steps, events = split_rows(result)
     labels = event_labels(result, events)
     imp_header = ["t", "I", "v_n_minus", "v_n_plus"]
     if fmt == "csv":
         paths = [out / name for name in TABLE_FILES["csv"]]
-        write_csv(paths[0], header, table[steps])
+        write_csv(paths[0], header, table[steps], progress=progress)
         write_csv(paths[1], header, table[events], labels)
         write_csv(paths[2], imp_header, result.impacts)
         return paths
@@ -178,19 +194,21 @@ def write_tables(result: Result, mo: Motion, out: Path, fmt: str = "csv") -> lis
 
 
 def write_all(result: Result, out_dir, plot: bool = True, animation: bool = False,
-              fmt: str = "csv") -> list[Path]:
+              fmt: str = "csv", progress=None) -> list[Path]:
     """Tables, ``overview.png`` (``plot``), ``motion.gif`` (``animation``) and
     ``summary.json`` (last, with the time each part took).  Each file is complete or
     absent: all are written into a hidden folder inside ``out_dir`` and moved into place
     when the last is done, so an interrupted write (Ctrl-C, a full disk, a killed job)
     leaves no half-written table and keeps the files of an earlier run whole.  A finished
     write removes the outputs of an earlier run it did not replace (``OUTPUT_NAMES``:
-    another format, plots not asked this time), so the folder holds one run."""
+    another format, plots not asked this time), so the folder holds one run.
+    ``progress``: told the fraction of the trajectory's table written (the long part of a
+    run with millions of rows)."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     stage = Path(tempfile.mkdtemp(prefix=".writing-", dir=out))
     try:
-        staged = _write_all(result, stage, plot, animation, fmt)
+        staged = _write_all(result, stage, plot, animation, fmt, progress)
         final = []
         for path in staged:
             os.replace(path, out / path.name)
@@ -204,11 +222,11 @@ def write_all(result: Result, out_dir, plot: bool = True, animation: bool = Fals
 
 
 def _write_all(result: Result, out: Path, plot: bool, animation: bool,
-               fmt: str) -> list[Path]:
+               fmt: str, progress=None) -> list[Path]:
     timings = {}
     start = time.perf_counter()
     mo = motion(result)
-    written = write_tables(result, mo, out, fmt)
+    written = write_tables(result, mo, out, fmt, progress)
     timings["tables_s"] = time.perf_counter() - start
     info = summary(result, mo)
     if plot or animation:

@@ -76,9 +76,10 @@ def side_panel(ax, result, mo: Motion) -> None:
     span = np.ptp(mo.r_C[:, :2], axis=0)
     k = 0 if span[0] >= span[1] else 1
     name = "XY"[k]
+    i = drawing.drawn_rows(mo.t, *(p[:, j] for p in (mo.r_P, mo.r_O, mo.r_C) for j in (k, 2)))
     for pts, colour, lw, label in ((mo.r_P, "#ff7f0e", 0.7, "P"), (mo.r_O, "#3182bd", 0.9,
                                    "O (carrier's centre)"), (mo.r_C, "k", 1.2, "C")):
-        ax.plot(pts[:, k], pts[:, 2], color=colour, lw=lw)
+        ax.plot(pts[i, k], pts[i, 2], color=colour, lw=lw)
     if result.scene.plane:
         ax.axhline(0.0, color="0.4", lw=1.0)
         if len(result.impacts):
@@ -117,8 +118,9 @@ def motion_panel(ax, result, mo: Motion) -> None:
         ax.fill(poly[:, 0], poly[:, 1], color=drawing.PLANE_COLOUR, zorder=0, lw=0)
         ax.add_collection(LineCollection(grid, colors="white", linewidths=0.7, zorder=0.5))
     C, P = view(mo.r_C), view(mo.r_P)
-    ax.plot(P[:, 0], P[:, 1], color="#ff7f0e", lw=0.6, alpha=0.7, zorder=1.5)
-    ax.plot(C[:, 0], C[:, 1], color="k", lw=1.0, zorder=1.6)
+    i = drawing.drawn_rows(mo.t, C[:, 0], C[:, 1], P[:, 0], P[:, 1])
+    ax.plot(P[i, 0], P[i, 1], color="#ff7f0e", lw=0.6, alpha=0.7, zorder=1.5)
+    ax.plot(C[i, 0], C[i, 1], color="k", lw=1.0, zorder=1.6)
     labels += [("trace of C", "k"), ("trace of P", "#e6550d")]
     if len(result.impacts):
         rows = impact_rows(result)
@@ -212,7 +214,8 @@ def overview(result, mo: Motion, path: Path, dpi: int = 80, steps=None) -> Path:
 
     ax = panels[0]
     if mo.h is not None:
-        ax.plot(t, mo.h, lw=1, color="C0")
+        i = drawing.drawn_rows(t, mo.h)
+        ax.plot(t[i], mo.h[i], lw=1, color="C0")
         ax.axhline(0.0, color="k", lw=0.8)
         _impact_lines(ax, imp)
         spans = contact_intervals(result)
@@ -225,9 +228,10 @@ def overview(result, mo: Motion, path: Path, dpi: int = 80, steps=None) -> Path:
         ax.set_title(f"height of the lowest point S (min {result.min_height:.3g} m"
                      + (f" at t = {mh:.3g} s)" if np.isfinite(mh) else ")"), **_TITLE)
     elif mo.r_O is not None:
+        i = drawing.drawn_rows(t, mo.r_P[:, 2], mo.r_O[:, 2], mo.r_C[:, 2])
         for pts, colour, name in ((mo.r_P, "#ff7f0e", "Z_P"), (mo.r_O, "#3182bd", "Z_O"),
                                   (mo.r_C, "k", "Z_C")):
-            ax.plot(t, pts[:, 2], lw=1, color=colour)
+            ax.plot(t[i], pts[i, 2], lw=1, color=colour)
         ax.set_ylabel("[m]", fontsize=9)
         ax.set_title("heights of C, O and P (no surface: no lowest point)", **_TITLE)
         _labels(ax, [("Z_C", "k"), ("Z_O", "#3182bd"), ("Z_P", "#e6550d")])
@@ -241,8 +245,9 @@ def overview(result, mo: Motion, path: Path, dpi: int = 80, steps=None) -> Path:
         (result.model_q[:, 5:8] if result.model == "vertical" else None)
     if n is not None:
         elev = np.degrees(np.arcsin(np.clip(n, -1.0, 1.0)))
+        i = drawing.drawn_rows(t, *elev.T)
         for k in range(3):
-            ax.plot(t, elev[:, k], lw=1, color=drawing.AXIS_COLOURS[k])
+            ax.plot(t[i], elev[i, k], lw=1, color=drawing.AXIS_COLOURS[k])
         ax.set_ylim(-95, 95)
         ax.set_yticks([-90, -45, 0, 45, 90])
         _impact_lines(ax, imp)
@@ -254,8 +259,9 @@ def overview(result, mo: Motion, path: Path, dpi: int = 80, steps=None) -> Path:
                 va="center", transform=ax.transAxes)
 
     ax = panels[2]
+    i = drawing.drawn_rows(t, *mo.omega.T)
     for k in range(3):
-        ax.plot(t, mo.omega[:, k], lw=1, color=drawing.AXIS_COLOURS[k])
+        ax.plot(t[i], mo.omega[i, k], lw=1, color=drawing.AXIS_COLOURS[k])
     _impact_lines(ax, imp)
     ax.set_ylabel("[rad/s]", fontsize=9)
     ax.set_title("angular velocity in body axes", **_TITLE)
@@ -263,15 +269,14 @@ def overview(result, mo: Motion, path: Path, dpi: int = 80, steps=None) -> Path:
 
     ax = panels[3]
     if mo.T is not None:
-        if mo.T_carrier is not None:
-            ax.plot(t, mo.T_carrier, lw=1, color="#3182bd")
-            ax.plot(t, mo.T_point, lw=1, color="#ff7f0e")
-            entries = [("carrier, kinetic", "#3182bd"), ("point, kinetic", "#e6550d")]
-        else:
-            ax.plot(t, mo.T, lw=1, color="#3182bd")
-            entries = [("kinetic", "#3182bd")]
-        ax.plot(t, mo.U, lw=1, color="0.55")
-        ax.plot(t, mo.E, lw=1.4, color="k")
+        curves = ([(mo.T_carrier, 1, "#3182bd"), (mo.T_point, 1, "#ff7f0e")]
+                  if mo.T_carrier is not None else [(mo.T, 1, "#3182bd")]) \
+            + [(mo.U, 1, "0.55"), (mo.E, 1.4, "k")]
+        entries = [("carrier, kinetic", "#3182bd"), ("point, kinetic", "#e6550d")] \
+            if mo.T_carrier is not None else [("kinetic", "#3182bd")]
+        i = drawing.drawn_rows(t, *(y for y, _, _ in curves))
+        for y, lw, colour in curves:
+            ax.plot(t[i], y[i], lw=lw, color=colour)
         entries += [("potential", "0.45"), ("total", "k")]
         _impact_lines(ax, imp)
         ax.set_ylabel("[J]", fontsize=9)
@@ -300,7 +305,9 @@ def overview(result, mo: Motion, path: Path, dpi: int = 80, steps=None) -> Path:
         if state == "flight" and b - a > 2 and K[a] > 0:
             drift = np.abs(K[a + 1:b] - K[a]) / K[a]
             worst = max(worst, float(drift.max()))
-            ax.plot(tK[a + 1:b], np.maximum(drift, 1e-17), lw=1, color="C0")
+            drift = np.maximum(drift, 1e-17)
+            i = drawing.drawn_rows(tK[a + 1:b], drift)
+            ax.plot(tK[a + 1:b][i], drift[i], lw=1, color="C0")
             drawn = True
     if drawn:
         from matplotlib.ticker import FuncFormatter, LogLocator, NullLocator

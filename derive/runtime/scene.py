@@ -188,6 +188,8 @@ RULES = (
     "[point].table: a periodic table repeats; otherwise the run stays inside its times",
     "[initial]: quaternion or matrix, not both; S starts on or above the plane",
     "[run]: at most 1e7 output rows (duration/output_dt) and 1e8 RK4 steps",
+    "[point] with the plane: duration / the law's time scale (sqrt(amplitude / max |OP''|),"
+    " the longest step then) at most [run].max_steps",
 )
 
 
@@ -738,6 +740,18 @@ def build_scene(v: dict, given: set, doc: dict, origin: str = "scene",
         raise SceneError(where, f"takes P {summary.max_radius:.3g} from O, beyond "
                                 f"max_distance = {max_distance:.3g} (10 body sizes unless "
                                 "[point].max_distance says otherwise)")
+    if plane and shape != "none" and v["[run].method"] != "rk4" \
+            and duration / summary.time_scale > v["[run].max_steps"]:
+        # with the plane a step is at most the law's time scale (driver.options): the run
+        # could only end at max_steps, after minutes of work
+        where = "[point].law" if law_text else (
+            "[point].samples" if v["[point].samples"] is not None else "[point].table")
+        raise SceneError(where, f"moves P on a time scale of {summary.time_scale:.3g} s "
+                                f"(sqrt(amplitude / max |OP''|)); with the plane a step is "
+                                f"at most that, so {duration:g} s need at least "
+                                f"{duration / summary.time_scale:.3g} steps, beyond [run]."
+                                f"max_steps = {v['[run].max_steps']}: shorten "
+                                "[run].duration or slow the law")
     step = v["[run].step"]
     if step is None:
         # RK4 has no error control: a step that resolves the spin and the point's motion

@@ -50,7 +50,7 @@ import sympy as sp
 
 from .. import notation as nt
 from ..runtime.driver import Session, prepare
-from ..runtime.scene import Scene, SceneError
+from ..runtime.scene import Scene, SceneError, load_scene
 from .floquet import complex_pairs
 from .variational import Monodromy
 
@@ -162,9 +162,14 @@ class HybridMap:
     impacts, updated by the impact map)."""
 
     def __init__(self, scene):
-        prep = prepare(scene)
-        if prep.kind != "vertical":
-            raise SceneError("[run].model", "periodic bouncing runs the vertical model")
+        scene = load_scene(scene)
+        if scene.model not in ("auto", "vertical"):
+            raise SceneError("[run].model", "periodic bouncing runs the vertical model: "
+                                            f"remove it or set it to \"vertical\" (got "
+                                            f"{scene.model!r})")
+        # the analysis reads impacts and states, never the pose: the vertical model
+        # answers whatever outputs the scene asks of a run
+        prep = prepare(replace(scene, model="vertical", outputs=("impacts",)))
         self.prep = prep
         self.scene = prep.scene
         self.session = Session(prep.library, chunk=4096)
