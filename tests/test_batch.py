@@ -189,3 +189,34 @@ def test_a_sweep_no_variant_of_which_can_run_is_a_usage_error(tmp_path, sweep):
     assert sweep.split("=")[0] in proc.stderr and "Traceback" not in proc.stderr
     assert len(proc.stderr.strip().splitlines()) == 1
     assert not out.exists()
+
+
+@pytest.mark.parametrize("spec, rule", [
+    ("0.1:0.9:0", "n of lo:hi:n"), ("0.1:0.9:1.5", "n of lo:hi:n"),
+    ("0.1:0.9:100001", "n of lo:hi:n"), ("0.1:0.9:" + "9" * 5000, "n of lo:hi:n"),
+    ("0.1:0.9", "three parts"), ("0.1:0.9:3:4", "three parts"),
+    ("a:0.9:3", "lo and hi"), ("0.1:nan:3", "finite"), ("", "separated by commas"),
+    ("0.1,x", "separated by commas")])
+def test_a_bad_sweep_range_says_which_part_is_wrong(spec, rule):
+    """Each part of lo:hi:n is named (a bad n had been reported as 'values must be
+    numbers', and 5000 digits ended in a traceback)."""
+    from derive.runtime.batch import parse_sweep
+    with pytest.raises(BatchError) as info:
+        parse_sweep(f"plane.restitution={spec}")
+    assert info.value.where == "--sweep" and rule in info.value.rule, str(info.value)
+    assert parse_sweep("plane.restitution=0.1:0.9:3")[1] == pytest.approx([0.1, 0.5, 0.9])
+
+
+@pytest.mark.parametrize("override", ["initial.com[" + "9" * 5000 + "]=1",
+                                      "body.mass=" + "9" * 5000])
+def test_overrides_with_5000_digits_are_one_line_errors(override):
+    """Python refuses to read integers of more than 4300 digits with a ValueError of its
+    own: an --set index or value that long had ended in a traceback."""
+    from derive.runtime.batch import _set, parse_override
+    from derive.runtime.scene import parse_scene
+    doc = builtin_doc()
+    with pytest.raises(SceneError) as info:
+        name, value = parse_override(override)
+        _set(doc, name, value)
+        parse_scene(doc)
+    assert len(str(info.value)) < 300, str(info.value)

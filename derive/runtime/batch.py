@@ -50,7 +50,7 @@ def parse_override(text: str) -> tuple[str, object]:
     check_name(name, "--set")
     try:
         parsed = tomllib.loads(f"v = {value.strip()}")["v"]
-    except tomllib.TOMLDecodeError:
+    except ValueError:                    # TOMLDecodeError, or an integer of 5000 digits
         parsed = value.strip()            # a bare string such as dop853
     return name, parsed
 
@@ -63,17 +63,27 @@ def parse_sweep(text: str) -> tuple[str, list]:
         raise BatchError("--sweep", f"must be table.key=lo:hi:n or table.key=a,b,c "
                                     f"(got {text!r})")
     check_name(name, "--sweep")
-    try:
-        if ":" in spec:
-            lo, hi, n = spec.split(":")
-            n = int(n)
-            if not 1 <= n <= 100_000:
-                raise BatchError("--sweep", f"{name}: n must be in [1, 100000] (got {n})")
-            values = [float(v) for v in np.linspace(float(lo), float(hi), n)]
-        else:
+    if ":" in spec:
+        parts = spec.split(":")
+        if len(parts) != 3:
+            raise BatchError("--sweep", f"{name}: a range is lo:hi:n, three parts (got "
+                                        f"{spec!r})")
+        try:
+            lo, hi = float(parts[0]), float(parts[1])
+        except ValueError:
+            raise BatchError("--sweep", f"{name}: lo and hi of lo:hi:n must be numbers (got "
+                                        f"{spec!r})") from None
+        n = parts[2].strip()
+        if not (n.isascii() and n.isdigit() and len(n) <= 6) or not 1 <= int(n) <= 100_000:
+            raise BatchError("--sweep", f"{name}: n of lo:hi:n, the number of values, must "
+                                        f"be a whole number in [1, 100000] (got {n!r})")
+        values = [float(v) for v in np.linspace(lo, hi, int(n))]
+    else:
+        try:
             values = [float(v) for v in spec.split(",")]
-    except ValueError:
-        raise BatchError("--sweep", f"{name}: values must be numbers (got {spec!r})") from None
+        except ValueError:
+            raise BatchError("--sweep", f"{name}: values must be numbers separated by commas "
+                                        f"(got {spec!r})") from None
     if not values or not all(math.isfinite(v) for v in values):
         raise BatchError("--sweep", f"{name}: values must be finite numbers")
     return name, values
@@ -95,7 +105,7 @@ def _set(doc: dict, name: str, value) -> None:
         raise BatchError(name, f"[{table}] is not a table in the base scene")
     if index:
         text = index[:-1] if index.endswith("]") else "?"
-        if not text.isdigit() or not text.isascii():
+        if not text.isdigit() or not text.isascii() or len(text) > 9:
             raise BatchError(name, f"the index of {path} must be a whole number in "
                                    f"brackets, like {path}[0]")
         k = int(text)

@@ -47,6 +47,8 @@ class SceneError(ValueError):
 
     def __init__(self, where: str, rule: str):
         where, rule = _printable(where), _printable(rule)
+        if len(where) > 120:                  # a stranger's 5000-character key or index
+            where = where[:117] + "..."
         super().__init__(f"{where}: {rule}")
         self.where, self.rule = where, rule
 
