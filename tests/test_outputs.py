@@ -293,6 +293,10 @@ def test_csv_reads_back_bit_for_bit_across_chunks(tmp_path, monkeypatch):
     got = np.array([[float(x) for x in r[2:]] for r in back[1:]])
     assert np.array_equal(got.view(np.uint64), rows.view(np.uint64))   # signs of zero too
     assert told[-1] == 1.0 and len(told) == 8 and told == sorted(told)
+    pick = np.flatnonzero(rng.random(50) < 0.6)                # rows chosen without a copy
+    outputs.write_csv(tmp_path / "a.csv", ["a", "b", "c", "d"], rows, select=pick)
+    outputs.write_csv(tmp_path / "b.csv", ["a", "b", "c", "d"], rows[pick])
+    assert (tmp_path / "a.csv").read_bytes() == (tmp_path / "b.csv").read_bytes()
 
 
 def test_drawn_rows_keep_every_extreme_of_every_time_column():

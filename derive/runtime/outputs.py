@@ -92,20 +92,22 @@ CSV_CHUNK = 8192           # rows formatted at a time (memory stays bounded on l
 
 
 def write_csv(path: Path, header: list, rows: np.ndarray, text: dict | None = None,
-              progress=None) -> None:
+              progress=None, select: np.ndarray | None = None) -> None:
     """Numbers as Python's shortest repr (they read back bit for bit); ``text`` columns
-    (name -> list of strings) go first.  About a microsecond a number: ``progress`` (a
-    fraction done) is told after each chunk of rows."""
+    (name -> list of strings) go first; ``select``: the indices of the rows to write (no
+    copy of a big table).  About a microsecond a number: ``progress`` (a fraction done)
+    is told after each chunk of rows."""
     text = text or {}
     rows = np.asarray(rows, dtype=float)
-    n = len(rows)
+    n = len(rows) if select is None else len(select)
     line = ",".join(["%s"] * len(text) + ["%r"] * (rows.shape[1] if rows.ndim == 2 else 0)) \
         + "\n"
     lead = list(zip(*text.values())) if text else None
     with open(path, "w", encoding="utf-8") as fh:
         fh.write(",".join([*text, *header]) + "\n")
         for a in range(0, n, CSV_CHUNK):
-            chunk = rows[a:a + CSV_CHUNK].tolist()
+            chunk = (rows[a:a + CSV_CHUNK] if select is None
+                     else rows[select[a:a + CSV_CHUNK]]).tolist()
             if lead:
                 chunk = [(*lead[a + k], *row) for k, row in enumerate(chunk)]
             fh.write("".join([line % tuple(row) for row in chunk]))
@@ -178,7 +180,7 @@ def write_tables(result: Result, mo: Motion, out: Path, fmt: str = "csv",
     imp_header = ["t", "I", "v_n_minus", "v_n_plus"]
     if fmt == "csv":
         paths = [out / name for name in TABLE_FILES["csv"]]
-        write_csv(paths[0], header, table[steps], progress=progress)
+        write_csv(paths[0], header, table, progress=progress, select=steps)
         write_csv(paths[1], header, table[events], labels)
         write_csv(paths[2], imp_header, result.impacts)
         return paths
