@@ -67,6 +67,36 @@ def test_interpreter_numpy_and_sympy_agree_on_random_laws():
     assert checked >= 40
 
 
+def _ulps(got: np.ndarray, exact: list) -> np.ndarray:
+    """|got - exact| in units of the spacing of doubles at the exact value."""
+    return np.array([abs(float(g) - e) / math.ulp(abs(float(e))) if e != 0 else abs(g)
+                     for g, e in zip(got, exact)])
+
+
+def test_runtime_sine_and_cosine_within_one_ulp():
+    """crt_sincos (derive/emit/sincos.py) against 40-digit mpmath: harmonics (the op of
+    A sin|cos(w t + p)) and sin of a computed argument, over small and large arguments,
+    arguments next to multiples of pi/2 (where the reduction cancels) and beyond the
+    kernel's range (the C library's sin and cos)."""
+    import mpmath as mp
+    rng = np.random.default_rng(11)
+    near = [float(mp.mpf(int(k)) * mp.pi / 2) for k in rng.integers(1, 10 ** 6, 300)]
+    near += [np.nextafter(x, np.inf) for x in near] + [np.nextafter(x, -np.inf) for x in near]
+    ts = np.r_[rng.uniform(-4, 4, 400), rng.uniform(-1e3, 1e3, 400),
+               rng.uniform(-1.5e6, 1.5e6, 400), near, rng.uniform(1.6e6, 1e12, 100),
+               0.0, -0.0, 1e-300, math.pi / 4, 3 * math.pi / 4]
+    _, s = _session(["sin(t)", "cos(t)", "sin(t*t)"])
+    u = s.law_rows(ts)
+    with mp.workdps(40):
+        sin_t = [mp.sin(mp.mpf(float(t))) for t in ts]
+        cos_t = [mp.cos(mp.mpf(float(t))) for t in ts]
+        sin_tt = [mp.sin(mp.mpf(float(t) * float(t))) for t in ts]
+    for column, exact, what in ((0, sin_t, "A sin(w t + p)"), (1, cos_t, "A cos(w t + p)"),
+                                (3, cos_t, "d/dt A sin(w t + p)"), (2, sin_tt, "sin(x)")):
+        err = _ulps(u[:, column], exact)
+        assert np.max(err) <= 1.0, (what, ts[int(np.argmax(err))], np.max(err))
+
+
 @pytest.mark.parametrize("text,t_sing", [
     ("0.001/(t - 1)", 1.0), ("0.001*tan(t)", math.pi / 2), ("sqrt((t - 0.3)^2)", 0.3),
     ("log(1.5 - t)", 1.5), ("0.01*asin(0.5*t)", 2.0), ("(t - 2.5)^-2", 2.5),

@@ -22,6 +22,7 @@ from functools import lru_cache
 from .. import models as dm
 from ..runtime import abi
 from ..runtime import tableaus as T
+from . import sincos
 from .c_backend import body
 from .render import environment, versions
 
@@ -153,6 +154,7 @@ def render_runtime() -> dict[str, str]:
     from .. import lie
     theta = float(lie.THETA_MAX)
     common = {"versions": versions(), **abi.c_context(), **tableau_context(),
+              **sincos.template_context(),
               "lie_theta_max": repr(theta), "lie_theta_max2": repr(theta * theta),
               "lie_max_turn": repr(LIE_MAX_TURN), "lie_tight": repr(LIE_TIGHT)}
     files = {}

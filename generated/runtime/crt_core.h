@@ -345,11 +345,12 @@ static int crt_search(crt_session *s, double t1, const double *y1, double rate,
     g1 = crt_event_value(s, t1, y1, &d1);
     s->g_start = g1; s->d_start = d1; s->g_valid = 1;
     if (flight) {
-      /* far from the plane: Z_C moves by at most max|Z_C'| L + g L^2 and n.CS stays
-         within [-L_S, L_S], so h cannot reach zero inside the step */
-      const double reach = (fabs(s->q[MODEL_ZD]) + fabs(y1[MODEL_ZD])) * L
-                           + s->prm[CRT_P_g] * L * L + 2.0 * s->opt[CRT_OPT_LENGTH_SCALE];
-      if (g0 > reach && g1 > reach) return CRT_STEP_CLEAR;
+      /* far from the plane: in flight Z_C'' = -g (E1.2), so Z_C is concave and above
+         the lower of its ends over the whole step, and h = Z_C + n.CS with |n.CS| at
+         most L_S (a margin of 1e-3 L_S for the sampled reach of the law): h cannot
+         reach zero inside the step */
+      const double low = crt_min(s->q[MODEL_Z], y1[MODEL_Z]);
+      if (low > 1.001 * s->opt[CRT_OPT_LENGTH_SCALE]) return CRT_STEP_CLEAR;
     }
     sub = 4;
     if (flight && rate * L > 1.6) sub = (int)crt_min(CRT_MAX_SUB, ceil(rate * L / 0.4));
