@@ -171,3 +171,135 @@ def test_model_selection_and_reasons():
     d = doc(run__model="vertical")          # forced, but the pose is asked
     with pytest.raises(SceneError, match=r"\[run\].model"):
         choose(parse_scene(d))
+
+
+# ---- scenes seen before: the static part kept, [initial] re-validated ----------------------
+def _outcome(source) -> tuple:
+    """What parse_scene makes of a scene: the refusal's text, or every field of the Scene
+    (its objects by value: the attitude as a list, the law by its text)."""
+    import dataclasses
+    try:
+        sc = parse_scene(source)
+    except SceneError as exc:
+        return ("refused", str(exc))
+    out = []
+    for f in dataclasses.fields(sc):
+        value = getattr(sc, f.name)
+        if f.name in ("law", "law_summary", "doc"):
+            continue
+        out.append((f.name, value.tolist() if f.name == "A0" else repr(value)))
+    return ("scene", tuple(out))
+
+
+def _static_variants(rng, n: int) -> list:
+    """Valid scenes but their [initial] tables: masses, inertia, shapes, laws, runs."""
+    out = []
+    for k in range(n):
+        d = doc(initial=None)
+        d["body"]["mass"] = float(rng.uniform(0.5, 3.0))
+        j = sorted(rng.uniform(0.1, 0.2, 3))          # each at most the sum of the others
+        d["body"]["inertia"] = [float(x) for x in j]
+        if k % 3 == 1:
+            d["body"].pop("radius")
+            d["body"].update(shape="ellipsoid", semi_axes=[0.5, 0.4, 0.3],
+                             center=[0.05, -0.02, 0.01])
+        if k % 4 == 2:
+            d.pop("plane")
+        d["point"]["law"] = [f"{rng.uniform(0.05, 0.2):.3f}*sin({rng.integers(1, 4)}*t)",
+                             "0.1", f"0.05*cos({rng.integers(1, 4)}*t)"]
+        d["run"]["method"] = str(rng.choice(["lie", "dop853", "rk4"]))
+        out.append(d)
+    return out
+
+
+def _initial_table(rng):
+    """A random [initial] table: valid, or hostile in one of many ways."""
+    init = {"time": 0.0, "com": [0.0, 0.0, float(rng.uniform(0.6, 3.0))],
+            "com_velocity": [float(x) for x in rng.normal(0, 1, 3)],
+            "omega": [float(x) for x in rng.normal(0, 2, 3)],
+            "quaternion": [float(x) for x in rng.normal(0, 1, 4)]}
+    kind = int(rng.integers(0, 16))
+    key = str(rng.choice(["time", "com", "com_velocity", "omega", "quaternion"]))
+    bad_values = [math.nan, math.inf, -math.inf, "1.0", True, None, [1.0], {"a": 1.0},
+                  10 ** 400, 2 ** 60, 1e300, -1e300]
+    if kind == 1:                                    # one entry of a vector, or the time
+        v = bad_values[int(rng.integers(len(bad_values)))]
+        if key == "time":
+            init["time"] = v
+        else:
+            init[key][int(rng.integers(len(init[key])))] = v
+    elif kind == 2:                                  # a vector's length or type
+        init[key] = [[], [0.0], init[key] * 2, "abc", 1.0, (1.0, 2.0, 3.0)][int(rng.integers(6))]
+    elif kind == 3:
+        init["colour"] = 1.0                         # an unknown key
+    elif kind == 4:
+        init.pop(key)                                # a missing key: its default
+    elif kind == 5:
+        init["com"][2] = -5.0                        # S below the plane
+    elif kind == 6:
+        init["quaternion"] = [0.0, 0.0, 0.0, 0.0]
+    elif kind == 7:
+        init["matrix"] = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]   # and quaternion
+    elif kind == 8:
+        init.pop("quaternion")
+        init["matrix"] = [[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]]
+    elif kind == 9:
+        init["time"] = float(rng.uniform(-10, 10))   # another start time: another law check
+    elif kind == 10:
+        init["com"] = [1, 2, 3]                      # integers are numbers
+    elif kind == 11:
+        init["omega"] = [0.0, 0.0, 0.0]              # the model choice changes
+    elif kind == 12:
+        return [1.0, 2.0]                            # not a table
+    elif kind == 13:
+        return {}
+    return init
+
+
+def test_a_scene_seen_before_is_validated_as_a_new_one():
+    """3000 random scenes, valid and hostile in [initial]: parse_scene gives the same Scene
+    or the same refusal whether its static part was kept from an earlier scene (only
+    [initial] re-validated) or not; and what it keeps is only plain data."""
+    import numpy as np
+
+    from derive.runtime import scene as scene_mod
+    rng = np.random.default_rng(2026)
+    statics = _static_variants(rng, 24)
+    hits = 0
+    for _ in range(3000):
+        static = statics[int(rng.integers(len(statics)))]
+        case = {**static, "initial": _initial_table(rng)}
+        scene_mod._SEEN.clear()
+        cold = _outcome(case)
+        scene_mod._SEEN.clear()
+        primer = {**static, "initial": {"com": [0.0, 0.0, 2.5]}}
+        if isinstance(case["initial"], dict) and "time" in case["initial"]:
+            primer["initial"]["time"] = case["initial"]["time"]   # the time is static
+        if _outcome(primer)[0] != "scene":
+            continue                                # a start time no law check admits
+        before = len(scene_mod._SEEN)
+        warm = _outcome(case)
+        hits += len(scene_mod._SEEN) == before and before == 1
+        assert warm == cold, (case["initial"], cold[1] if cold[0] == "refused" else "",
+                              warm[1] if warm[0] == "refused" else "")
+    assert hits > 2000, hits                        # the kept part served most of them
+
+
+def test_only_plain_scenes_are_kept_and_types_are_told_apart():
+    import numpy as np
+
+    from derive.runtime import scene as scene_mod
+    scene_mod._SEEN.clear()
+    d = doc()
+    d["body"]["mass"] = np.float64(1.0)           # accepted, but marshalled as bytes
+    parse_scene(d)
+    assert len(scene_mod._SEEN) == 0
+    d = doc()
+    parse_scene(d)
+    assert len(scene_mod._SEEN) == 1
+    d["body"]["mass"] = True                       # equal to 1.0, not a number here
+    with pytest.raises(SceneError, match=r"\[body\].mass: must be a number"):
+        parse_scene(d)
+    d["body"]["mass"] = 1                          # an integer: another key, accepted
+    parse_scene(d)
+    assert len(scene_mod._SEEN) == 2

@@ -10,7 +10,8 @@ runtime's own kernel is the textbook one, written here:
   ``|k| < 2^20`` (the kernel hands larger arguments to the C library), ``r`` kept as a
   sum ``hi + lo`` of two doubles;
 * Taylor polynomials of sin and cos on ``|r| <= pi/4``, to the degree whose first
-  omitted term is below 1e-19 of the result (sin to r^17, cos to r^18);
+  omitted term is below 1e-19 of the result (sin to r^17, cos to r^18), evaluated by
+  Estrin's scheme;
 * the quadrant ``k mod 4`` picks the signs and which polynomial gives which.
 
 Everything is exact rational arithmetic (SymPy) until the final rounding of each
@@ -59,12 +60,20 @@ def constants() -> dict:
     }
 
 
-def horner(coefficients: tuple, var: str) -> str:
-    """``c0 + var * (c1 + var * (...))`` with hexadecimal literals (C99)."""
-    text = coefficients[-1].hex()
-    for c in reversed(coefficients[:-1]):
-        text = f"{c.hex()} + {var} * ({text})"
-    return text
+def estrin(coefficients: tuple, powers: tuple) -> str:
+    """``c0 + c1 z + ... + c7 z^7`` by Estrin's scheme, as C99 with hexadecimal literals:
+    pairs ``c_2k + c_2k+1 z``, then pairs of those with ``z^2``, then with ``z^4``: a
+    chain of three multiply-adds after the powers, where Horner's is seven (the kernel's
+    latency is on the path of every evaluation of the law).  ``powers``: the names of
+    z, z^2, z^4, ..."""
+    terms = [c.hex() for c in coefficients]
+    for power in powers:
+        terms = [f"({a} + {power} * {b})" if b is not None else a
+                 for a, b in zip(terms[0::2], terms[1::2] + [None] * (len(terms) % 2))]
+        if len(terms) == 1:
+            break
+    assert len(terms) == 1, "more coefficients than the powers reach"
+    return terms[0]
 
 
 def template_context() -> dict:
@@ -73,4 +82,5 @@ def template_context() -> dict:
     return {"sincos_two_over_pi": c["two_over_pi"].hex(), "sincos_p1": p1.hex(),
             "sincos_p2": p2.hex(), "sincos_p3": p3.hex(),
             "sincos_max": repr(c["max_argument"]),
-            "sincos_sin_poly": horner(c["sin"], "z"), "sincos_cos_poly": horner(c["cos"], "z")}
+            "sincos_sin_poly": estrin(c["sin"], ("z", "z2", "z4")),
+            "sincos_cos_poly": estrin(c["cos"], ("z", "z2", "z4"))}

@@ -225,7 +225,7 @@ def _quick_variant(base, v: dict, touched: set, label: str):
         if attr is None or (attr == "e" and not base.scene.plane):
             return None
         changes[attr] = v[where]
-    scene = Scene.of_fields(**{**base.scene.__dict__, **changes, "source": label})
+    scene = Scene.of_fields(base.scene.__dict__, **changes, source=label)
     if "com" in changes:
         _start_above_plane(scene)
     st = choice.start(scene, base.kind)

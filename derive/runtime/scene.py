@@ -11,8 +11,10 @@ in range, and every failure raises :class:`SceneError` naming the field and the 
 from __future__ import annotations
 
 import dataclasses
+import marshal
 import math
 import re
+import threading
 import tomllib
 from dataclasses import dataclass, field
 from functools import cached_property, lru_cache
@@ -243,14 +245,17 @@ class Scene:
     doc: dict = field(default_factory=dict, compare=False, repr=False)
 
     @classmethod
-    def of_fields(cls, **values) -> "Scene":
-        """The constructor of :func:`build_scene`: every field given, set at once (the
-        frozen dataclass's ``__init__`` sets them one by one through
-        ``object.__setattr__``, a tenth of a validation's time)."""
-        if len(values) != len(_SCENE_FIELDS):          # (names: build_scene's tests)
-            raise TypeError(f"Scene.of_fields needs every field: {sorted(_SCENE_FIELDS)}")
+    def of_fields(cls, base: dict | None = None, **values) -> "Scene":
+        """The constructor of :func:`build_scene`: every field given (in ``base`` and
+        ``values``), set at once (the frozen dataclass's ``__init__`` sets them one by
+        one through ``object.__setattr__``, a tenth of a validation's time)."""
         obj = object.__new__(cls)
-        obj.__dict__.update(values)
+        d = obj.__dict__
+        if base:
+            d.update(base)
+        d.update(values)
+        if len(d) != len(_SCENE_FIELDS) or not d.keys() <= _SCENE_FIELDS:
+            raise TypeError(f"Scene.of_fields needs every field: {sorted(_SCENE_FIELDS)}")
         return obj
 
     @property
@@ -318,19 +323,17 @@ def _num(f: Field, value, where: str | None = None) -> float:
     return x
 
 
-_FLOAT = {float}
-
-
 def _vector(f: Field, value, size: int) -> tuple:
-    if type(value) is not list or len(value) != size:
-        if not isinstance(value, list) or len(value) != size:
-            raise SceneError(f.where, f"must be a list of {size} numbers")
-    elif set(map(type, value)) == _FLOAT and f.hi is not None:
-        # the common case at once: the sum is finite only if every entry is (a NaN
-        # would pass min and max unseen)
-        total, lo, hi = sum(value), min(value), max(value)
-        if total - total == 0.0 and (lo > f.lo if f.lo_open else lo >= f.lo) and hi <= f.hi:
+    if type(value) is list and len(value) == size and f.hi is not None:
+        # the common case at once: floats in range (a NaN fails x <= hi)
+        lo, hi, lo_open = f.lo, f.hi, f.lo_open
+        for x in value:
+            if type(x) is not float or not (x <= hi and (x > lo if lo_open else x >= lo)):
+                break
+        else:
             return tuple(value)
+    if not isinstance(value, list) or len(value) != size:
+        raise SceneError(f.where, f"must be a list of {size} numbers")
     return tuple(_num(f, v, f"{f.where}[{k}]") for k, v in enumerate(value))
 
 
@@ -439,30 +442,36 @@ def _read(doc: dict) -> tuple[dict, set]:
     out = dict(_defaults())
     given = set()
     for table in TABLES:
-        tab = doc if table == "" else _table(doc, table)
-        if not tab:
-            continue
-        fields = _BY_TABLE[table]
-        scalars = _SCALARS[table]
-        for key, value in tab.items():
-            f = fields.get(key)
-            if f is None:
-                if table == "":
-                    continue                   # the tables themselves
-                raise SceneError(f"[{table}].{str(key)[:40]}",
-                                 f"is not a known key (known: {', '.join(fields)})")
-            where = f.where
-            bounds = scalars.get(key)
-            if bounds is not None and type(value) is float and value <= bounds[1] and \
-                    (value > bounds[0] if bounds[2] else value >= bounds[0]):
-                out[where] = value              # a number in range (NaN fails <=)
-            elif f.kind == "vector":
-                out[where] = _vector(f, value, f.size)
-            else:
-                out[where] = _value(f, value)
-            given.add(where)
+        _read_table(doc, table, out, given)
     out["__plane__"] = "plane" in doc
     return out, given
+
+
+def _read_table(doc: dict, table: str, out: dict, given: set) -> None:
+    """The fields of one table of ``doc`` (``""``: the top level) into ``out`` and
+    ``given``."""
+    tab = doc if table == "" else _table(doc, table)
+    if not tab:
+        return
+    fields = _BY_TABLE[table]
+    scalars = _SCALARS[table]
+    for key, value in tab.items():
+        f = fields.get(key)
+        if f is None:
+            if table == "":
+                continue                   # the tables themselves
+            raise SceneError(f"[{table}].{str(key)[:40]}",
+                             f"is not a known key (known: {', '.join(fields)})")
+        where = f.where
+        bounds = scalars.get(key)
+        if bounds is not None and type(value) is float and value <= bounds[1] and \
+                (value > bounds[0] if bounds[2] else value >= bounds[0]):
+            out[where] = value              # a number in range (NaN fails <=)
+        elif f.kind == "vector":
+            out[where] = _vector(f, value, f.size)
+        else:
+            out[where] = _value(f, value)
+        given.add(where)
 
 
 def _require(v: dict, where: str, what: str = "is required"):
@@ -595,12 +604,12 @@ def _inertia_ok(J: tuple) -> None:
                                            "1e-9 of the largest (R1 needs det J != 0)")
 
 
-def _singular_J(scene: Scene, summary: LawSummary) -> None:
+def _singular_J(J: tuple, mu: float, summary: LawSummary) -> None:
     """R1: J = diag(J) + mu (|r|^2 1 - r r^T) non-singular along the law; its eigenvalues
     are at least min(J) (the added term is positive semi-definite), so only the ratio
     to the largest can degrade: bounded through max |OP|."""
-    largest = max(scene.J) + scene.mu * summary.max_radius ** 2
-    if not min(scene.J) > 1e-12 * largest:
+    largest = max(J) + mu * summary.max_radius ** 2
+    if not min(J) > 1e-12 * largest:
         raise SceneError("[body].inertia", "J of E1.5 is near-singular along the law "
                                            "(smallest/largest below 1e-12); R1 needs det J != 0")
 
@@ -650,8 +659,68 @@ def parse_scene(source: str | dict, origin: str = "scene", base: Path | None = N
         doc = source
     else:
         raise SceneError(origin, "must be TOML text, a path or a dict")
+    key = _static_key(doc, origin, base)
+    seen = _SEEN.get(key) if key is not None else None
+    if seen is not None:
+        v, given = dict(seen[0]), set(seen[1])
+        _read_table(doc, _STATE_TABLE, v, given)
+        return _state_part(seen[2], v, given, doc)
     v, given = _read(doc)
-    return build_scene(v, given, doc, origin, base)
+    static = _static_part(v, given, origin, base)
+    if key is not None:
+        _remember(key, doc, v, given, static)
+    return _state_part(static, v, given, doc)
+
+
+# ---- scenes seen before -------------------------------------------------------------------
+# A parameter study calls simulate with scenes that differ only in their initial state:
+# the static part of a scene (every field but those of [initial], and [initial].time) is
+# kept by its exact content, and such a scene re-validates only its [initial] table.  The
+# key is marshal's serialisation of that content (with the origin and the table folder):
+# byte for byte the same only for the same types and values, so a hit validates exactly
+# what the first scene validated (a scene holding anything but plain dicts, lists,
+# strings, numbers and booleans, or a [point].table whose file could change, is not kept).
+_SEEN: dict = {}
+_SEEN_MAX, _SEEN_MAX_KEY = 64, 1 << 18
+_MARSHAL_VERSION = 2        # from 3 on, marshal marks objects by their reference counts
+_SEEN_LOCK = threading.Lock()
+
+
+def _static_key(doc: dict, origin: str, base: Path | None) -> bytes | None:
+    init, point = doc.get(_STATE_TABLE), doc.get("point")
+    if (init is not None and type(init) is not dict) or \
+            (type(point) is dict and "table" in point):
+        return None
+    rest = [item for item in doc.items() if item[0] != _STATE_TABLE]
+    try:
+        key = marshal.dumps((origin, None if base is None else str(base), rest,
+                             None if init is None else init.get("time")), _MARSHAL_VERSION)
+    except ValueError:                      # not plain data
+        return None
+    return key if len(key) <= _SEEN_MAX_KEY else None
+
+
+def _remember(key: bytes, doc: dict, v: dict, given: set, static: _Static) -> None:
+    if not _plain(doc):
+        return                              # e.g. a NumPy float (marshalled as bytes)
+    defaults = _defaults()
+    state = {f.where for f in _BY_TABLE[_STATE_TABLE].values()}
+    v = {k: (defaults[k] if k in state else x) for k, x in v.items()}
+    given = {g for g in given if g not in state}
+    with _SEEN_LOCK:
+        if len(_SEEN) >= _SEEN_MAX:
+            _SEEN.pop(next(iter(_SEEN)))
+        _SEEN[key] = (v, given, static)
+
+
+def _plain(x) -> bool:
+    """Only dicts, lists, strings, floats, ints, booleans and None, exactly."""
+    t = type(x)
+    if t is dict:
+        return all(type(k) is str and _plain(y) for k, y in x.items())
+    if t is list:
+        return all(_plain(y) for y in x)
+    return t in (str, float, int, bool) or x is None
 
 
 def override_fields(v: dict, given: set, name: str, value) -> str:
@@ -682,6 +751,25 @@ def override_fields(v: dict, given: set, name: str, value) -> str:
 def build_scene(v: dict, given: set, doc: dict, origin: str = "scene",
                 base: Path | None = None) -> Scene:
     """The cross-field rules over validated field values (from :func:`_read`)."""
+    return _state_part(_static_part(v, given, origin, base), v, given, doc)
+
+
+@dataclass(frozen=True)
+class _Static:
+    """What a scene's fields give apart from its initial state (``[initial]`` but its
+    time): the Scene's fields but those of the state, validated, and what the state's
+    rules read."""
+    fields: dict
+    summary: LawSummary
+    step: float | None         # [run].step as given
+
+
+# the fields the state part reads; a scene seen before re-validates only these
+_STATE_TABLE = "initial"
+
+
+def _static_part(v: dict, given: set, origin: str, base: Path | None) -> _Static:
+    """Every cross-field rule that does not read the initial state."""
     for f in _REQUIRED:
         if v[f.where] is REQUIRED and (f.table != "plane" or v["__plane__"]):
             if f.table in ("body", "point") and not any(g.startswith(f"[{f.table}]")
@@ -727,7 +815,6 @@ def build_scene(v: dict, given: set, doc: dict, origin: str = "scene",
         raise SceneError("[run].output_dt", f"gives {duration / out_dt:.3g} rows (at most "
                                             f"{MAX_ROWS:.0e}); use a larger output_dt")
     law, law_text = _point_law(v, base)
-    A0 = _orientation(v, given)
     body_size = float(max(size)) if size else math.sqrt(max(J) / M)
     max_distance = v["[point].max_distance"] or 10.0 * body_size
     summary = _check_law(law, t0, t1)
@@ -754,28 +841,33 @@ def build_scene(v: dict, given: set, doc: dict, origin: str = "scene",
                                 f"{duration / summary.time_scale:.3g} steps, beyond [run]."
                                 f"max_steps = {v['[run].max_steps']}: shorten "
                                 "[run].duration or slow the law")
-    step = v["[run].step"]
-    if step is None:
-        # RK4 has no error control: a step that resolves the spin and the point's motion
-        spin = max(math.sqrt(sum(w * w for w in v["[initial].omega"])), 1e-300)
-        step = min(duration / 2000.0, 0.04 / spin, summary.time_scale / 10.0)
-    if v["[run].method"] == "rk4" and duration / step > 1e8:
-        raise SceneError("[run].step", f"gives {duration / step:.3g} RK4 steps (at most 1e8)")
     st = Stability(v["[stability].period"], v["[stability].impacts_every"],
                    v["[stability].long_periods"], v["[stability].perturbations"])
-    scene = Scene.of_fields(name=v["name"], M=M, J=J, shape=shape, size=size, center=center, m=m,
-                            law=law, law_text=law_text, plane=plane, e=e, t0=t0,
-                            com=v["[initial].com"], com_velocity=v["[initial].com_velocity"],
-                            omega=v["[initial].omega"], A0=A0, duration=duration,
-                            method=v["[run].method"], rtol=v["[run].rtol"],
-                            atol=v["[run].atol"], g=v["[run].g"], outputs=v["[run].outputs"],
-                            step=step, max_events=v["[run].max_events"],
-                            max_steps=v["[run].max_steps"], output_dt=out_dt,
-                            keep_orthonormal=v["[run].keep_orthonormal"],
-                            model=v["[run].model"], zeno_dt=v["[run].zeno_dt"],
-                            source=origin, stability=st, law_summary=summary,
-                            max_distance=max_distance, doc=doc)
-    _singular_J(scene, summary)
+    _singular_J(J, M * m / (M + m), summary)
+    fields = dict(name=v["name"], M=M, J=J, shape=shape, size=size, center=center, m=m,
+                  law=law, law_text=law_text, plane=plane, e=e, t0=t0, duration=duration,
+                  method=v["[run].method"], rtol=v["[run].rtol"], atol=v["[run].atol"],
+                  g=v["[run].g"], outputs=v["[run].outputs"], max_events=v["[run].max_events"],
+                  max_steps=v["[run].max_steps"], output_dt=out_dt,
+                  keep_orthonormal=v["[run].keep_orthonormal"], model=v["[run].model"],
+                  zeno_dt=v["[run].zeno_dt"], source=origin, stability=st,
+                  law_summary=summary, max_distance=max_distance)
+    return _Static(fields, summary, v["[run].step"])
+
+
+def _state_part(static: _Static, v: dict, given: set, doc: dict) -> Scene:
+    """The rules that read the initial state, and the Scene."""
+    A0 = _orientation(v, given)
+    f = static.fields
+    duration, step = f["duration"], static.step
+    if step is None:
+        # RK4 has no error control: a step that resolves the spin and the point's motion
+        spin = max(math.hypot(*v["[initial].omega"]), 1e-300)
+        step = min(duration / 2000.0, 0.04 / spin, static.summary.time_scale / 10.0)
+    if f["method"] == "rk4" and duration / step > 1e8:
+        raise SceneError("[run].step", f"gives {duration / step:.3g} RK4 steps (at most 1e8)")
+    scene = Scene.of_fields(f, com=v["[initial].com"], com_velocity=v["[initial].com_velocity"],
+                            omega=v["[initial].omega"], A0=A0, step=step, doc=doc)
     _start_above_plane(scene)
     return scene
 

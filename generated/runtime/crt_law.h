@@ -46,7 +46,7 @@ typedef struct {
    C library. */
 static inline void crt_sincos(double x, double *s, double *c)
 {
-  double kd, a, nb, hi, bv, av, lo, z, sr, cr, h, w;
+  double kd, a, nb, hi, bv, av, lo, z, z2, z4, sr, cr, h, w;
   int quadrant;
   if (!(fabs(x) < 1572864.0)) {
     *s = sin(x);
@@ -64,10 +64,12 @@ static inline void crt_sincos(double x, double *s, double *c)
   /* lo reaches about 20 ulp of hi for |k| near 2^20 (k pi/2 - k (p1 + p2)): the terms
      of first order in lo take cos hi and sin hi to 1e-3, not 1 and hi */
   z = hi * hi;
-  sr = hi + (hi * z * (-0x1.5555555555555p-3 + z * (0x1.1111111111111p-7 + z * (-0x1.a01a01a01a01ap-13 + z * (0x1.71de3a556c734p-19 + z * (-0x1.ae64567f544e4p-26 + z * (0x1.6124613a86d09p-33 + z * (-0x1.ae7f3e733b81fp-41 + z * (0x1.952c77030ad4ap-49)))))))) + lo * (1.0 - z * (0.5 - z * (1.0 / 24.0))));
+  z2 = z * z;
+  z4 = z2 * z2;
+  sr = hi + (hi * z * (((-0x1.5555555555555p-3 + z * 0x1.1111111111111p-7) + z2 * (-0x1.a01a01a01a01ap-13 + z * 0x1.71de3a556c734p-19)) + z4 * ((-0x1.ae64567f544e4p-26 + z * 0x1.6124613a86d09p-33) + z2 * (-0x1.ae7f3e733b81fp-41 + z * 0x1.952c77030ad4ap-49))) + lo * (1.0 - z * (0.5 - z * (1.0 / 24.0))));
   h = 0.5 * z;
   w = 1.0 - h;
-  cr = w + (((1.0 - w) - h) + (z * z * (0x1.5555555555555p-5 + z * (-0x1.6c16c16c16c17p-10 + z * (0x1.a01a01a01a01ap-16 + z * (-0x1.27e4fb7789f5cp-22 + z * (0x1.1eed8eff8d898p-29 + z * (-0x1.93974a8c07c9dp-37 + z * (0x1.ae7f3e733b81fp-45 + z * (-0x1.6827863b97d97p-53)))))))) - hi * lo * (1.0 - z * (1.0 / 6.0))));
+  cr = w + (((1.0 - w) - h) + (z2 * (((0x1.5555555555555p-5 + z * -0x1.6c16c16c16c17p-10) + z2 * (0x1.a01a01a01a01ap-16 + z * -0x1.27e4fb7789f5cp-22)) + z4 * ((0x1.1eed8eff8d898p-29 + z * -0x1.93974a8c07c9dp-37) + z2 * (0x1.ae7f3e733b81fp-45 + z * -0x1.6827863b97d97p-53))) - hi * lo * (1.0 - z * (1.0 / 6.0))));
   switch (quadrant) {
     case 0: *s = sr; *c = cr; break;
     case 1: *s = cr; *c = -sr; break;
