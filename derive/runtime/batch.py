@@ -215,6 +215,7 @@ def _summary_rows(preps: list, session) -> list:
 # (tests/test_batch.py checks that it equals the full path on random variants).
 _STATE_FIELDS = {"[initial].com": "com", "[initial].com_velocity": "com_velocity"}
 _PARAMETER_FIELDS = {"[plane].restitution": "e", "[run].g": "g"}
+_PARAMETER_VALUES = frozenset(_PARAMETER_FIELDS.values())
 
 
 def _quick_variant(base, v: dict, touched: set, label: str):
@@ -229,8 +230,9 @@ def _quick_variant(base, v: dict, touched: set, label: str):
     if "com" in changes:
         _start_above_plane(scene)
     st = choice.start(scene, base.kind)
+    same = not (changes.keys() & _PARAMETER_VALUES or st.constants or base.start.constants)
     return Prepared(scene, base.kind, base.why, st, base.options,
-                    choice.parameters(scene, st.constants))
+                    base.parameters if same else choice.parameters(scene, st.constants))
 
 
 def _run_chunk(task: tuple) -> list:
