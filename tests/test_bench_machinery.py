@@ -115,3 +115,30 @@ def test_rhs_latency_floor_function_computes_its_products():
     q, u, p, dq = rng.normal(size=18), rng.normal(size=9), rng.normal(size=6), np.empty(18)
     fn(*(a.ctypes.data_as(dp) for a in (q, u, p, dq)))
     assert np.array_equal(dq, q * u[np.arange(18) % 9])
+
+
+def test_work_precision_curves_are_read_between_runs():
+    """time_on_curve interpolates a method's time in log-log between the two tolerances
+    whose errors straddle the level; time_at takes the least time among runs within it."""
+    P = precision.Point
+
+    def pts(method, rows):
+        return [P("s", method, tol, sec, err, 0.0, 0, "done") for tol, sec, err in rows]
+    a = pts("a", [(1e-9, 1.0, 2e-10), (1e-10, 2.0, 5e-11), (1e-11, 4.0, 1e-12)])
+    assert precision.time_at(a, "a", 1e-10, False) == 2.0
+    assert abs(precision.time_on_curve(a, "a", 1e-10, False) - 2 ** 0.5) < 1e-12
+    # at or below a run's own error the run itself; beyond the tightest, never reached
+    assert precision.time_on_curve(a, "a", 5e-11, False) == 2.0
+    assert np.isnan(precision.time_on_curve(a, "a", 1e-13, False))
+    # a level the errors cross twice (an erratic method): the cheaper crossing
+    b = pts("b", [(1e-9, 1.0, 2e-10), (1e-10, 2.0, 5e-11), (1e-11, 3.0, 4e-10),
+                  (1e-12, 8.0, 1e-11)])
+    assert abs(precision.time_on_curve(b, "b", 1e-10, False) - 2 ** 0.5) < 1e-12
+    # the verdict: LIE read on its curve against the classical methods on theirs
+    rows = precision.default_against_classical(
+        pts("runtime LIE", [(3e-13, 0.071, 1.19e-12), (1e-13, 0.082, 1.9e-13)])
+        + pts("runtime DOP853", [(1e-12, 0.0725, 2.2e-12), (3e-13, 0.0805, 7.8e-13)]),
+        False)
+    row = next(r for r in rows if r["level"] == 1e-12)
+    assert row["ok"] and not row["grid_ok"]
+    assert row["default_s"] < 0.0725 and row["grid_default_s"] == 0.082
