@@ -117,6 +117,34 @@ def test_rhs_latency_floor_function_computes_its_products():
     assert np.array_equal(dq, q * u[np.arange(18) % 9])
 
 
+def test_rhs_bound_is_the_emitted_rhs_at_its_fixed_law():
+    """The bound of `derive bench rhs` (the emitted flight RHS with the law and parameters
+    compile-time constants) compiles with the strict warnings and computes what the
+    emitted RHS computes at those law values, whatever the state and the u and p passed."""
+    import ctypes
+
+    from derive.bench.rhs import BOUND, _bound_source, physical_inputs
+    from derive.cbuild import build_shared
+    from derive.emit.render import GENERATED
+    from derive.models import flight_rhs
+    text, _ = _bound_source(flight_rhs("general"))
+    assert "u[" not in text.split("{", 1)[1] and "p[" not in text.split("{", 1)[1]
+    bound = getattr(ctypes.CDLL(str(build_shared({f"{BOUND}.c": text}, name="bound"))), BOUND)
+    src = {p.name: p.read_text() for p in (GENERATED / "c").glob("*.h")}
+    src["general_flight_rhs.c"] = (GENERATED / "c" / "general_flight_rhs.c").read_text()
+    emitted = ctypes.CDLL(str(build_shared(src, name="emitted"))).carrier_general_flight_rhs
+    dp = ctypes.POINTER(ctypes.c_double)
+    for fn in (bound, emitted):
+        fn.argtypes, fn.restype = [dp] * 4, None
+    _, u, p = physical_inputs(1)[0]
+    for q, _, _ in physical_inputs(20, seed=3):
+        got, want = np.empty(18), np.empty(18)
+        junk_u, junk_p = np.full(9, np.nan), np.full(6, np.nan)
+        bound(*(a.ctypes.data_as(dp) for a in (q, junk_u, junk_p, got)))
+        emitted(*(np.ascontiguousarray(a).ctypes.data_as(dp) for a in (q, u, p, want)))
+        assert np.allclose(got, want, rtol=1e-13, atol=1e-13)
+
+
 def test_work_precision_curves_are_read_between_runs():
     """time_on_curve interpolates a method's time in log-log between the two tolerances
     whose errors straddle the level; time_at takes the least time among runs within it."""
