@@ -149,6 +149,20 @@ def _check_output_folder(folder) -> None:
         raise UsageError(f"-o {folder}: {probe} is not a folder")
     if not os.access(probe, os.W_OK | os.X_OK):
         raise UsageError(f"-o {folder}: {probe} is not writable")
+    if not path.exists():
+        # the permission bits do not say everything (root, /proc, a read-only mount):
+        # make the folder and its missing parents, then remove what was made
+        made = [p for p in [path, *path.parents] if not p.exists()]
+        try:
+            path.mkdir(parents=True)
+        except OSError as exc:
+            raise UsageError(f"-o {folder}: cannot be created ({exc.strerror or exc})") \
+                from None
+        for p in made:
+            try:
+                p.rmdir()
+            except OSError:
+                break
 
 
 def _workers(n: int) -> str:

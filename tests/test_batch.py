@@ -59,9 +59,9 @@ def test_serial_threads_processes_and_whole_results_agree_bit_for_bit():
 def test_the_quick_path_of_a_variant_equals_the_full_one():
     """A variant changing only the initial position and velocity, e or g reuses the base
     scene's validation; on random variants (and models) it equals the full path."""
-    from derive.runtime.batch import _quick_variant
+    from derive.runtime.batch import _quick_variant, _VariantDoc
     from derive.runtime.driver import prepare
-    from derive.runtime.scene import _read, build_scene, override_fields
+    from derive.runtime.scene import _read, build_scene, override_fields, parse_scene
     rng = np.random.default_rng(7)
     docs = [builtin_doc()]
     flat = builtin_doc()
@@ -89,11 +89,13 @@ def test_the_quick_path_of_a_variant_equals_the_full_one():
                 full = prepare(build_scene(v, given, {}, "variant"))
             except SceneError as exc:
                 with pytest.raises(SceneError, match=exc.where.replace("[", r"\[")):
-                    _quick_variant(base, v, touched, "variant")
+                    _quick_variant(base, v, touched, "variant", _VariantDoc(doc, over))
                 refused += 1
                 continue
-            quick = _quick_variant(base, v, touched, "variant")
+            quick = _quick_variant(base, v, touched, "variant", _VariantDoc(doc, over))
             assert quick.kind == full.kind and quick.scene == full.scene
+            # its dict is the base's with the overrides: it gives the same scene again
+            assert parse_scene(quick.scene.doc, "variant") == full.scene
             assert np.array_equal(quick.start.q0, full.start.q0)
             assert np.array_equal(quick.options, full.options)
             assert np.array_equal(quick.parameters, full.parameters)
@@ -101,7 +103,7 @@ def test_the_quick_path_of_a_variant_equals_the_full_one():
     assert checked > 200 and refused > 10      # S started below the plane
     v, given = dict(base_v), set(base_given)
     override_fields(v, given, "body.mass", 2.0)
-    assert _quick_variant(base, v, {"[body].mass"}, "variant") is None
+    assert _quick_variant(base, v, {"[body].mass"}, "variant", _VariantDoc(doc, {})) is None
 
 
 def test_a_bad_variant_is_named():
@@ -158,6 +160,7 @@ def test_cli_sweep_writes_one_row_per_variant(tmp_path):
     (["--set", "plane.restitution=1.0000001"], "1.0000001"),
     (["-o", "{file}"], "is a file"),
     (["-o", "{file}/sub"], "is not a folder"),
+    (["-o", "/proc/derive-out"], "/proc"),   # writable to root by its bits, yet not
 ])
 def test_cli_refuses_bad_overrides_and_output_folders_cleanly(tmp_path, args, field):
     """Each refused with exit 2, one message naming the field (the value as given, not
@@ -220,3 +223,62 @@ def test_overrides_with_5000_digits_are_one_line_errors(override):
         _set(doc, name, value)
         parse_scene(doc)
     assert len(str(info.value)) < 300, str(info.value)
+
+
+def test_a_scene_seeds_a_study_as_it_was_parsed():
+    """simulate_many(scene) studies the Scene it is given: not the caller's dict as edited
+    since, and not a Scene changed after parsing (refused, naming the field); a Scene from
+    a study's results seeds another study."""
+    import dataclasses
+    doc = builtin_doc()
+    doc["run"]["duration"] = 1.0
+    res = derive.simulate(doc)
+    doc["initial"]["com"][2] = 3.0                 # edited after the call
+    doc["plane"]["restitution"] = 0.2
+    rows = derive.simulate_many(res.scene, [{"run.g": 9.81}], workers=1).rows
+    again = derive.simulate_many(copy.deepcopy(res.scene.doc), [{"run.g": 9.81}],
+                                 workers=1).rows
+    keys = [k for k in rows[0] if k != "run_ms"]
+    assert all(_same(rows[0][k], again[0][k]) for k in keys) and res.scene.com[2] == 1.5
+    assert rows[0]["Z_C_end"] < 1.5                # from 1.5, not the 3.0 edited since
+    with pytest.raises(BatchError, match=r"scene: is a Scene whose e is not"):
+        derive.simulate_many(dataclasses.replace(res.scene, e=0.5), [{"run.g": 9.81}])
+    study = derive.simulate_many(res.scene, [{"initial.com[2]": 2.0}, {"body.mass": 2.0}],
+                                 workers=1, keep="result")
+    for r in study.results:
+        assert r.scene.doc["initial"]["com"][2] in (1.5, 2.0)
+        derive.simulate_many(r.scene, [{"run.g": 9.0}], workers=1)
+    assert study.results[1].scene.doc["body"]["mass"] == 2.0
+
+
+def test_one_string_of_a_list_is_overridden_like_a_vector_entry():
+    """point.law[0] and run.outputs[1] set one string of the list (the CLI's --set did);
+    the list is then checked whole."""
+    doc = builtin_doc()
+    doc["run"]["duration"] = 0.5
+    b = derive.simulate_many(doc, [{"point.law[0]": "0.1*sin(t)"},
+                                   {"run.outputs[1]": "omega"}], workers=1, keep="result")
+    assert b.results[0].scene.law_text == ("0.1*sin(t)", "0.1", "0.05*cos(2*t)")
+    assert b.results[1].scene.outputs == ("pose", "omega")
+    with pytest.raises(BatchError, match=r"\[point\].law\[0\]"):
+        derive.simulate_many(doc, [{"point.law[0]": "import os"}], workers=1)
+    with pytest.raises(BatchError, match=r"\[point\].law has no entry 3"):
+        derive.simulate_many(doc, [{"point.law[3]": "t"}], workers=1)
+
+
+def test_an_attitude_override_replaces_the_base_scenes_other_attitude(tmp_path):
+    """The built-in scene gives a quaternion; --set initial.matrix=... (or a variant's
+    matrix) replaces it instead of being refused as 'either quaternion or matrix'."""
+    rot = [[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]]
+    proc = subprocess.run([sys.executable, "-m", "derive", "simulate", "-q", "--no-plots",
+                           "--set", f"initial.matrix={json.dumps(rot)}", "-o",
+                           str(tmp_path / "o")], capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr
+    doc = builtin_doc()
+    doc["run"]["duration"] = 0.5
+    b = derive.simulate_many(doc, [{"initial.matrix": rot}, {"initial.quaternion":
+                                                              [0.0, 0.0, 0.0, 1.0]}],
+                             workers=1, keep="result")
+    assert np.array_equal(b.results[0].scene.A0, np.array(rot))
+    assert "quaternion" not in b.results[0].scene.doc["initial"]
+    assert np.allclose(b.results[1].scene.A0, np.diag([-1.0, -1.0, 1.0]))

@@ -185,7 +185,7 @@ def _outcome(source) -> tuple:
     out = []
     for f in dataclasses.fields(sc):
         value = getattr(sc, f.name)
-        if f.name in ("law", "law_summary", "doc"):
+        if f.name in ("law", "law_summary", "doc_source"):
             continue
         out.append((f.name, value.tolist() if f.name == "A0" else repr(value)))
     return ("scene", tuple(out))
@@ -303,3 +303,57 @@ def test_only_plain_scenes_are_kept_and_types_are_told_apart():
     d["body"]["mass"] = 1                          # an integer: another key, accepted
     parse_scene(d)
     assert len(scene_mod._SEEN) == 2
+
+
+def test_a_scenes_dict_is_the_one_it_was_parsed_from():
+    """Scene.doc is a copy of the dict as parsed, whichever path kept it (a scene seen
+    before, a first one, a NumPy number in it, TOML text): editing the dict given, or the
+    copy read, changes no Scene, and the copy parses back to the same Scene."""
+    import copy
+
+    import numpy as np
+
+    from derive.runtime import scene as scene_mod
+    scene_mod._SEEN.clear()
+    for kind in ("first", "seen", "numpy", "toml"):
+        d = doc()
+        if kind == "numpy":
+            d["body"]["mass"] = np.float64(1.0)
+        source = DEFAULT_SCENE if kind == "toml" else d
+        sc = parse_scene(source)
+        assert parse_scene(sc.doc) == sc, kind
+        before = copy.deepcopy(sc.doc)
+        d["initial"]["com"][2] = 9.0               # the caller edits its dict in place
+        d["plane"]["restitution"] = 0.1
+        d["initial"]["omega"] = [1.0, 2.0, 3.0]
+        got = sc.doc
+        assert got == before, kind
+        got["body"]["mass"] = 7.0                  # and the copy it read
+        assert sc.doc == before and parse_scene(sc.doc) == sc, kind
+
+
+def test_numpy_numbers_tuples_and_arrays_are_taken_as_their_values():
+    """From Python a scene may hold NumPy numbers (np.int64 from np.arange, np.float32),
+    tuples and 1-D arrays where the schema has numbers and lists: taken by value (they
+    had been refused as 'not int64', 'not a list'); booleans, NumPy's too, are not
+    numbers; a scene that is no path, dict or Scene is refused naming the rule."""
+    import numpy as np
+    d = doc()
+    d["body"]["mass"] = np.int64(2)
+    d["point"]["mass"] = np.float32(0.25)
+    d["initial"]["com"] = (0.0, 0.0, 1.5)
+    d["initial"]["omega"] = np.array([0.1, 0.2, 0.3])
+    d["point"]["law"] = ("0.1*sin(t)", "0", "0")
+    d["run"]["outputs"] = ("pose", "impacts")
+    sc = parse_scene(d)
+    assert (sc.M, sc.m, sc.com, sc.omega) == (2.0, 0.25, (0.0, 0.0, 1.5), (0.1, 0.2, 0.3))
+    assert sc.outputs == ("pose", "impacts") and sc.law_text[0] == "0.1*sin(t)"
+    assert parse_scene(sc.doc) == sc
+    for bad in (np.bool_(True), True, np.array([1.0])):
+        d["body"]["mass"] = bad
+        with pytest.raises(SceneError, match=r"\[body\]\.mass: must be a number"):
+            parse_scene(d)
+    from derive.runtime.scene import load_scene
+    for bad in (None, 42, [1.0]):
+        with pytest.raises(SceneError, match="scene: must be a path, a dict"):
+            load_scene(bad)

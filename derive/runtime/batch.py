@@ -28,8 +28,8 @@ import numpy as np
 from .. import parallel
 from . import abi, choice
 from .driver import STATUSES, Prepared, prepare, run_prepared, session_for
-from .scene import (FIELDS, Scene, SceneError, _read, _start_above_plane, build_scene, load_scene,
-                    override_fields)
+from .scene import (EITHER, FIELDS, Scene, SceneError, _read, _start_above_plane, build_scene,
+                    load_scene, override_fields, parse_scene)
 
 SUMMARY_COLUMNS = ("status", "model", "t_end", "impacts", "contacts", "liftoffs", "steps",
                    "rhs_evaluations", "min_height", "first_contact_t", "Z_C_end", "run_ms")
@@ -115,6 +115,9 @@ def _set(doc: dict, name: str, value) -> None:
         vec[k] = value
     else:
         target[key] = value
+    other = EITHER.get(f"[{table}].{key}")
+    if other is not None:                   # one of two fields a scene gives one of
+        target.pop(other.rpartition(".")[2], None)
 
 
 def expand(variants) -> list[dict]:
@@ -218,7 +221,7 @@ _PARAMETER_FIELDS = {"[plane].restitution": "e", "[run].g": "g"}
 _PARAMETER_VALUES = frozenset(_PARAMETER_FIELDS.values())
 
 
-def _quick_variant(base, v: dict, touched: set, label: str):
+def _quick_variant(base, v: dict, touched: set, label: str, doc: _VariantDoc):
     """The prepared variant by the fast path, or None when its fields need the full one."""
     changes = {}
     for where in touched:
@@ -226,13 +229,48 @@ def _quick_variant(base, v: dict, touched: set, label: str):
         if attr is None or (attr == "e" and not base.scene.plane):
             return None
         changes[attr] = v[where]
-    scene = Scene.of_fields(base.scene.__dict__, **changes, source=label)
+    scene = Scene.of_fields(base.scene.__dict__, **changes, source=label, doc_source=doc)
     if "com" in changes:
         _start_above_plane(scene)
     st = choice.start(scene, base.kind)
     same = not (changes.keys() & _PARAMETER_VALUES or st.constants or base.start.constants)
     return Prepared(scene, base.kind, base.why, st, base.options,
                     base.parameters if same else choice.parameters(scene, st.constants))
+
+
+class _VariantDoc:
+    """A variant's scene dict (:attr:`Scene.doc`): the base's with the variant's
+    overrides, made only when read."""
+    __slots__ = ("_base", "_overrides")
+
+    def __init__(self, base: dict, overrides: dict):
+        self._base, self._overrides = base, overrides
+
+    def get(self) -> dict:
+        doc = copy.deepcopy(self._base)
+        for name, value in self._overrides.items():
+            _set(doc, name, copy.deepcopy(value))
+        return doc
+
+
+def _differing_field(a: Scene, b: Scene) -> str | None:
+    """The first field in which two Scenes differ (the law by its text or samples, the
+    attitude by its matrix), or None."""
+    import dataclasses
+    for f in dataclasses.fields(Scene):
+        if f.name in ("doc_source", "law_summary", "source"):
+            continue
+        x, y = getattr(a, f.name), getattr(b, f.name)
+        if f.name == "A0":
+            same = np.array_equal(x, y)
+        elif f.name == "law":
+            same = a.law_text == b.law_text and (bool(a.law_text) or (
+                np.array_equal(x.knots, y.knots) and np.array_equal(x.coef, y.coef)))
+        else:
+            same = x == y
+        if not same:
+            return f.name
+    return None
 
 
 def _run_chunk(task: tuple) -> list:
@@ -247,8 +285,8 @@ def _run_chunk(task: tuple) -> list:
     except SceneError as exc:
         return [(index, {"error": f"base scene: {exc}"}, None) for index, _ in items]
     try:
-        base_prep = prepare(build_scene(dict(base_v), set(base_given), {}, "base scene",
-                                        base=origin))
+        base_prep = prepare(build_scene(dict(base_v), set(base_given), _VariantDoc(base, {}),
+                                        "base scene", base=origin))
     except SceneError:
         base_prep = None                   # a variant may still make it valid
     out, groups = [], {}
@@ -258,9 +296,10 @@ def _run_chunk(task: tuple) -> list:
             touched = {override_fields(v, given, name, value)
                        for name, value in overrides.items()}
             label = f"variant {index}"
-            prep = _quick_variant(base_prep, v, touched, label) if base_prep else None
+            doc = _VariantDoc(base, overrides)
+            prep = _quick_variant(base_prep, v, touched, label, doc) if base_prep else None
             if prep is None:
-                prep = prepare(build_scene(v, given, {}, label, base=origin))
+                prep = prepare(build_scene(v, given, doc, label, base=origin))
             if keep == "result":
                 result = run_prepared(prep)
                 out.append((index, summary_row(result), result))
@@ -291,12 +330,23 @@ def simulate_many(scene, variants, workers: int | None = None, scheduler: str | 
         raise BatchError("keep", f"must be 'summary' or 'result' (got {keep!r})")
     origin = None
     if isinstance(scene, Scene):
-        base = copy.deepcopy(scene.doc)
+        # the Scene's own dict, which must still give that Scene (one changed with
+        # dataclasses.replace, or made by hand, does not: its variants would be of another)
+        base = scene.doc
+        try:
+            again = parse_scene(base, scene.source) if base else None
+        except SceneError:
+            again = None
+        differs = _differing_field(again, scene) if again is not None else "doc"
+        if differs:
+            raise BatchError("scene", f"is a Scene whose {differs} is not what its scene dict "
+                                      "gives (changed after parsing?): pass the dict or the "
+                                      "file, with the change in it")
     elif isinstance(scene, dict):
         base = copy.deepcopy(scene)
     else:
         sc = load_scene(scene)
-        base, origin = copy.deepcopy(sc.doc), Path(scene).parent
+        base, origin = sc.doc, Path(scene).parent
     items = list(enumerate(expand(variants)))
     for _, v in items:
         for name in v:

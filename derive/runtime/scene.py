@@ -13,6 +13,8 @@ from __future__ import annotations
 import dataclasses
 import marshal
 import math
+import numbers
+import os
 import re
 import threading
 import tomllib
@@ -242,7 +244,7 @@ class Scene:
     stability: Stability = Stability()
     law_summary: LawSummary | None = field(default=None, compare=False)
     max_distance: float = 0.0
-    doc: dict = field(default_factory=dict, compare=False, repr=False)
+    doc_source: Any = field(default=None, compare=False, repr=False)   # see Scene.doc
 
     @classmethod
     def of_fields(cls, base: dict | None = None, **values) -> "Scene":
@@ -257,6 +259,14 @@ class Scene:
         if len(d) != len(_SCENE_FIELDS) or not d.keys() <= _SCENE_FIELDS:
             raise TypeError(f"Scene.of_fields needs every field: {sorted(_SCENE_FIELDS)}")
         return obj
+
+    @property
+    def doc(self) -> dict:
+        """The scene as a dict of the schema, as it was when parsed (a fresh copy on
+        every read, so that a caller who edits the dict it gave changes no Scene; {} for a
+        Scene made otherwise).  A Scene changed with ``dataclasses.replace`` keeps the
+        dict it was parsed from."""
+        return self.doc_source.get() if self.doc_source is not None else {}
 
     @property
     def contact_possible(self) -> bool:
@@ -300,8 +310,10 @@ def _num(f: Field, value, where: str | None = None) -> float:
     if type(value) is float and f.lo is not None and (f.hi is None or value <= f.hi) and \
             (value > f.lo if f.lo_open else value >= f.lo):
         return value                        # the common case, checked in one line
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
         raise SceneError(where, f"must be a number, not {_type_name(value)}")
+    if isinstance(value, numbers.Integral):              # int, NumPy integers
+        value = int(value)
     if isinstance(value, int) and abs(value) > 2 ** 53:
         shown = f"{value:.3e}" if abs(value).bit_length() <= 1000 else \
             f"about 2^{abs(value).bit_length() - 1}"
@@ -332,7 +344,9 @@ def _vector(f: Field, value, size: int) -> tuple:
                 break
         else:
             return tuple(value)
-    if not isinstance(value, list) or len(value) != size:
+    if isinstance(value, np.ndarray) and value.ndim == 1:
+        value = value.tolist()
+    if not isinstance(value, (list, tuple)) or len(value) != size:
         raise SceneError(f.where, f"must be a list of {size} numbers")
     return tuple(_num(f, v, f"{f.where}[{k}]") for k, v in enumerate(value))
 
@@ -372,7 +386,7 @@ def _value(f: Field, value):
             raise SceneError(f.where, f"must be {f.rule}; got {shown!r}")
         return value
     if k == "choices":
-        if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
+        if not isinstance(value, (list, tuple)) or not all(isinstance(v, str) for v in value):
             raise SceneError(f.where, f"must be a list of strings, each {f.rule}")
         for v in value:
             if v not in f.choices:
@@ -393,7 +407,7 @@ def _value(f: Field, value):
             rows.append([_num(f, v, f"{f.where}[{i}][{j}]") for j, v in enumerate(row)])
         return np.array(rows)
     if k == "laws":
-        if not isinstance(value, list) or len(value) != 3:
+        if not isinstance(value, (list, tuple)) or len(value) != 3:
             raise SceneError(f.where, "must be a list of three strings: x(t), y(t), z(t)")
         for i, text in enumerate(value):
             if not isinstance(text, str):
@@ -582,12 +596,14 @@ def _point_law(v: dict, base: Path | None):
         raise SceneError(f"[point].{kind}", str(exc)) from None
 
 
-def _check_law(scene_law, t0: float, t1: float) -> LawSummary:
+def _check_law(scene_law, t0: float, t1: float, where: str = "[point].table") -> LawSummary:
+    """The law's summary over the run; a table's errors name ``where`` (table or
+    samples, the field the scene gave)."""
     if getattr(scene_law, "kind", None) == "table":
         try:
             scene_law.check_run(t0, t1)
         except LawError as exc:
-            raise SceneError("[point].table", str(exc)) from None
+            raise SceneError(where, str(exc)) from None
         return scene_law.summary(t0, t1)
     return _analyse_program(scene_law, t0, t1)
 
@@ -664,12 +680,51 @@ def parse_scene(source: str | dict, origin: str = "scene", base: Path | None = N
     if seen is not None:
         v, given = dict(seen[0]), set(seen[1])
         _read_table(doc, _STATE_TABLE, v, given)
-        return _state_part(seen[2], v, given, doc)
+        return _state_part(seen[2], v, given, _Snapshot(key, doc, v, given))
     v, given = _read(doc)
     static = _static_part(v, given, origin, base)
-    if key is not None:
-        _remember(key, doc, v, given, static)
-    return _state_part(static, v, given, doc)
+    if key is not None and _remember(key, doc, v, given, static):
+        kept = _Snapshot(key, doc, v, given)
+    else:
+        kept = _Copy(doc, owned=isinstance(source, str))
+    return _state_part(static, v, given, kept)
+
+
+class _Copy:
+    """A scene's dict kept as a deep copy (taken now unless the dict is the parser's own:
+    a TOML text's); every read gets a copy of it."""
+    __slots__ = ("_doc",)
+
+    def __init__(self, doc: dict, owned: bool = False):
+        import copy
+        self._doc = doc if owned else copy.deepcopy(doc)
+
+    def get(self) -> dict:
+        import copy
+        return copy.deepcopy(self._doc)
+
+
+class _Snapshot:
+    """A scene's dict kept as the serialised static part that keys it (see _SEEN) and its
+    validated field values (the parser's own: nothing copied on the path of a call);
+    read back on demand, [initial] from the values."""
+    __slots__ = ("_key", "_where", "_v", "_given")
+
+    def __init__(self, key: bytes, doc: dict, v: dict, given: set):
+        self._key, self._v, self._given = key, v, given
+        self._where = list(doc).index(_STATE_TABLE) if _STATE_TABLE in doc else None
+
+    def get(self) -> dict:
+        items = list(marshal.loads(self._key)[2])
+        if self._where is not None:
+            table = {}
+            for f in _STATE_FIELDS:
+                if f.where in self._given:
+                    x = self._v[f.where]
+                    table[f.key] = x.tolist() if isinstance(x, np.ndarray) else \
+                        list(x) if isinstance(x, tuple) else x
+            items.insert(self._where, (_STATE_TABLE, table))
+        return dict(items)
 
 
 # ---- scenes seen before -------------------------------------------------------------------
@@ -700,9 +755,10 @@ def _static_key(doc: dict, origin: str, base: Path | None) -> bytes | None:
     return key if len(key) <= _SEEN_MAX_KEY else None
 
 
-def _remember(key: bytes, doc: dict, v: dict, given: set, static: _Static) -> None:
+def _remember(key: bytes, doc: dict, v: dict, given: set, static: _Static) -> bool:
+    """Keep the static part of a plain scene; False for a scene that is not plain."""
     if not _plain(doc):
-        return                              # e.g. a NumPy float (marshalled as bytes)
+        return False                        # e.g. a NumPy float (marshalled as bytes)
     defaults = _defaults()
     state = {f.where for f in _BY_TABLE[_STATE_TABLE].values()}
     v = {k: (defaults[k] if k in state else x) for k, x in v.items()}
@@ -711,6 +767,7 @@ def _remember(key: bytes, doc: dict, v: dict, given: set, static: _Static) -> No
         if len(_SEEN) >= _SEEN_MAX:
             _SEEN.pop(next(iter(_SEEN)))
         _SEEN[key] = (v, given, static)
+    return True
 
 
 def _plain(x) -> bool:
@@ -721,6 +778,11 @@ def _plain(x) -> bool:
     if t is list:
         return all(_plain(y) for y in x)
     return t in (str, float, int, bool) or x is None
+
+
+# fields of which a scene gives one: an override of one drops the other from its base
+# (the built-in scene's quaternion would otherwise refuse every matrix given on top of it)
+EITHER = {"[initial].quaternion": "[initial].matrix", "[initial].matrix": "[initial].quaternion"}
 
 
 def override_fields(v: dict, given: set, name: str, value) -> str:
@@ -735,23 +797,34 @@ def override_fields(v: dict, given: set, name: str, value) -> str:
     if index:
         current = v[f.where]
         k = index.rstrip("]")
-        if f.kind != "vector" or not k.isdigit() or not isinstance(current, tuple) \
-                or not 0 <= int(k) < len(current):
+        if f.kind not in ("vector", "laws", "choices") or not k.isdigit() \
+                or not isinstance(current, tuple) or not 0 <= int(k) < len(current):
             raise SceneError(name, f"{f.where} has no entry {k}")
-        entry = _num(f, value, f"{f.where}[{k}]")
-        v[f.where] = current[:int(k)] + (entry,) + current[int(k) + 1:]
+        if f.kind == "vector":
+            entry = _num(f, value, f"{f.where}[{k}]")
+            v[f.where] = current[:int(k)] + (entry,) + current[int(k) + 1:]
+        else:                               # one string of a list: the list checked whole
+            whole = list(current)
+            whole[int(k)] = value
+            v[f.where] = _value(f, whole)
     else:
         v[f.where] = _value(f, value)
     given.add(f.where)
+    other = EITHER.get(f.where)
+    if other is not None and other in given:
+        given.discard(other)
+        v[other] = _defaults()[other]
     if table == "plane":
         v["__plane__"] = True
     return f.where
 
 
-def build_scene(v: dict, given: set, doc: dict, origin: str = "scene",
+def build_scene(v: dict, given: set, doc, origin: str = "scene",
                 base: Path | None = None) -> Scene:
-    """The cross-field rules over validated field values (from :func:`_read`)."""
-    return _state_part(_static_part(v, given, origin, base), v, given, doc)
+    """The cross-field rules over validated field values (from :func:`_read`); ``doc``:
+    the scene's dict (copied) or an object whose ``get()`` gives it (:attr:`Scene.doc`)."""
+    source = _Copy(doc) if isinstance(doc, dict) else doc
+    return _state_part(_static_part(v, given, origin, base), v, given, source)
 
 
 @dataclass(frozen=True)
@@ -766,6 +839,7 @@ class _Static:
 
 # the fields the state part reads; a scene seen before re-validates only these
 _STATE_TABLE = "initial"
+_STATE_FIELDS = tuple(f for f in FIELDS if f.table == _STATE_TABLE)
 
 
 def _static_part(v: dict, given: set, origin: str, base: Path | None) -> _Static:
@@ -817,7 +891,8 @@ def _static_part(v: dict, given: set, origin: str, base: Path | None) -> _Static
     law, law_text = _point_law(v, base)
     body_size = float(max(size)) if size else math.sqrt(max(J) / M)
     max_distance = v["[point].max_distance"] or 10.0 * body_size
-    summary = _check_law(law, t0, t1)
+    summary = _check_law(law, t0, t1, "[point].samples" if v["[point].samples"] is not None
+                         else "[point].table")
     if summary.max_radius > max_distance:
         if law_text:
             with np.errstate(all="ignore"):
@@ -855,7 +930,7 @@ def _static_part(v: dict, given: set, origin: str, base: Path | None) -> _Static
     return _Static(fields, summary, v["[run].step"])
 
 
-def _state_part(static: _Static, v: dict, given: set, doc: dict) -> Scene:
+def _state_part(static: _Static, v: dict, given: set, source) -> Scene:
     """The rules that read the initial state, and the Scene."""
     A0 = _orientation(v, given)
     f = static.fields
@@ -867,7 +942,7 @@ def _state_part(static: _Static, v: dict, given: set, doc: dict) -> Scene:
     if f["method"] == "rk4" and duration / step > 1e8:
         raise SceneError("[run].step", f"gives {duration / step:.3g} RK4 steps (at most 1e8)")
     scene = Scene.of_fields(f, com=v["[initial].com"], com_velocity=v["[initial].com_velocity"],
-                            omega=v["[initial].omega"], A0=A0, step=step, doc=doc)
+                            omega=v["[initial].omega"], A0=A0, step=step, doc_source=source)
     _start_above_plane(scene)
     return scene
 
@@ -878,6 +953,9 @@ def load_scene(scene) -> Scene:
         return scene
     if isinstance(scene, dict):
         return parse_scene(scene, "scene")
+    if not isinstance(scene, (str, os.PathLike)):
+        raise SceneError("scene", f"must be a path, a dict of the schema or a Scene, not "
+                                  f"{_type_name(scene)}")
     path = Path(scene)
     if not path.is_file():
         raise SceneError(str(scene)[:200], "no such scene file")
