@@ -357,3 +357,31 @@ def test_numpy_numbers_tuples_and_arrays_are_taken_as_their_values():
     for bad in (None, 42, [1.0]):
         with pytest.raises(SceneError, match="scene: must be a path, a dict"):
             load_scene(bad)
+
+
+def test_prepare_keeps_only_what_reads_the_static_part():
+    """driver.prepare keeps a scene's options and parameters with its static part: over
+    random scenes and initial states (RK4's default step follows omega; the planar model
+    adds constants of the initial state) they equal those computed afresh, and they are
+    read-only."""
+    import numpy as np
+
+    from derive.runtime import choice, driver
+    rng = np.random.default_rng(4)
+    statics = _static_variants(rng, 12)
+    planar = doc(point__law=["0.2*cos(t)", "0.1", "0"])
+    planar["initial"]["quaternion"] = [math.sqrt(0.5), math.sqrt(0.5), 0.0, 0.0]
+    checked = 0
+    for k in range(600):
+        base = planar if k % 5 == 0 else statics[int(rng.integers(len(statics)))]
+        init = dict(base.get("initial", {}))
+        init["com"] = [0.0, 0.0, float(rng.uniform(1.0, 3.0))]
+        init["omega"] = [0.0, 0.0, float(rng.uniform(0.5, 3.0))] if k % 5 == 0 else \
+            [float(x) for x in rng.normal(0, 2, 3)]
+        prep = driver.prepare({**base, "initial": init})
+        assert np.array_equal(prep.options, driver.options(prep.scene, prep.kind))
+        assert np.array_equal(prep.parameters,
+                              choice.parameters(prep.scene, prep.start.constants))
+        assert not prep.options.flags.writeable and not prep.parameters.flags.writeable
+        checked += prep.kind == "planar"
+    assert checked > 50

@@ -111,7 +111,7 @@ def length_scale(scene: Scene) -> float:
     """The largest |CS| = |OS - nu OP|: the surface's reach from O plus the point's."""
     if not scene.size:
         return 0.0
-    reach = math.sqrt(sum(c * c for c in scene.center)) + max(scene.size)
+    reach = math.hypot(*scene.center) + max(scene.size)
     return reach + scene.nu * scene.law_summary.max_radius
 
 
@@ -148,20 +148,26 @@ def start(scene: Scene, kind: str) -> Start:
     raise KeyError(kind)
 
 
+_P = abi.PRM
+_P_BODY = (_P["M"], _P["m"], _P["J_x"], _P["J_y"], _P["J_z"], _P["g"], _P["e"])
+_P_SHAPE = (_P["axis_a"], _P["axis_b"], _P["axis_c"], _P["center_x"], _P["center_y"],
+            _P["center_z"])
+
+
 def parameters(scene: Scene, constants: dict) -> np.ndarray:
-    prm = np.zeros(len(abi.PARAMETERS))
-    P = abi.PRM
-    prm[P["M"]], prm[P["m"]] = scene.M, scene.m
-    prm[P["J_x"]], prm[P["J_y"]], prm[P["J_z"]] = scene.J
-    prm[P["g"]], prm[P["e"]] = scene.g, scene.e
+    """The parameter vector of a run (indices from abi.PARAMETERS), built as a list and
+    made an array once (an item set on an array costs ten times a list's)."""
+    prm = [0.0] * len(abi.PARAMETERS)
+    for k, x in zip(_P_BODY, (scene.M, scene.m, *scene.J, scene.g, scene.e)):
+        prm[k] = x
     if scene.size:
         axes = (scene.size[0],) * 3 if scene.shape == "sphere" else scene.size
-        prm[P["axis_a"]], prm[P["axis_b"]], prm[P["axis_c"]] = axes
-        prm[P["center_x"]], prm[P["center_y"]], prm[P["center_z"]] = scene.center
+        for k, x in zip(_P_SHAPE, (*axes, *scene.center)):
+            prm[k] = x
     for name, value in constants.items():
         if not name.startswith("_"):
-            prm[P[name]] = value
-    return prm
+            prm[_P[name]] = float(value)
+    return np.array(prm, dtype=float)
 
 
 # ---- results in the general layout -------------------------------------------------------------

@@ -19,7 +19,7 @@ import numpy as np
 from . import abi, choice
 from .build import DP, IP, Library, library
 from .geometry import heights, kinetic_moment
-from .scene import Scene, load_scene
+from .scene import Scene, _load
 
 STATUSES = abi.names(abi.STATUSES)
 EVENT_KINDS = abi.names(abi.EVENT_KINDS)
@@ -29,29 +29,31 @@ ROW_KINDS = abi.names(abi.ROW_KINDS)
 METHODS = {name: k for k, name in enumerate(abi.names(abi.METHODS))}
 
 
+_O = abi.OPT
+
+
 def options(scene: Scene, kind: str) -> np.ndarray:
     """The option vector of a run (indices from abi.OPTIONS)."""
-    o = abi.OPT
     opt = [0.0] * len(abi.OPTIONS)
-    opt[o["method"]] = METHODS[scene.method]
-    contact = scene.contact_possible
-    opt[o["plane"]] = 1.0 if contact else 0.0
-    opt[o["rtol"]], opt[o["atol"]] = scene.rtol, scene.atol
+    opt[_O["method"]] = METHODS[scene.method]
+    contact = scene.plane and scene.shape != "none"          # scene.contact_possible
+    opt[_O["plane"]] = 1.0 if contact else 0.0
+    opt[_O["rtol"]], opt[_O["atol"]] = scene.rtol, scene.atol
     h_max = scene.duration / 4.0
     if contact:
         # the gap depends on the law directly, which the step control does not see:
         # at least about six steps per period of the point's motion
         h_max = min(h_max, scene.law_summary.time_scale)
-    opt[o["hmax"]] = h_max if scene.method != "rk4" else scene.step
-    opt[o["rk4_step"]] = scene.step
-    opt[o["max_steps"]] = scene.max_steps
-    opt[o["max_events"]] = scene.max_events
-    opt[o["output_dt"]] = scene.output_dt
-    opt[o["orthonormal"]] = 1.0 if scene.keep_orthonormal else 0.0
-    opt[o["time_scale"]] = scene.duration
-    opt[o["event_tol"]] = 1e-15
-    opt[o["length_scale"]] = choice.length_scale(scene) if contact else 0.0
-    opt[o["zeno_dt"]] = scene.zeno_dt
+    opt[_O["hmax"]] = h_max if scene.method != "rk4" else scene.step
+    opt[_O["rk4_step"]] = scene.step
+    opt[_O["max_steps"]] = scene.max_steps
+    opt[_O["max_events"]] = scene.max_events
+    opt[_O["output_dt"]] = scene.output_dt
+    opt[_O["orthonormal"]] = 1.0 if scene.keep_orthonormal else 0.0
+    opt[_O["time_scale"]] = scene.duration
+    opt[_O["event_tol"]] = 1e-15
+    opt[_O["length_scale"]] = choice.length_scale(scene) if contact else 0.0
+    opt[_O["zeno_dt"]] = scene.zeno_dt
     return np.array(opt, dtype=float)
 
 
@@ -264,11 +266,32 @@ class Prepared:
 
 
 def prepare(scene) -> Prepared:
-    scene = load_scene(scene)
+    scene, static = _load(scene)
     kind, why = choice.choose(scene)
     st = choice.start(scene, kind)
-    return Prepared(scene, kind, why, st, options(scene, kind),
-                    choice.parameters(scene, st.constants))
+    if static is None:
+        return Prepared(scene, kind, why, st, options(scene, kind),
+                        choice.parameters(scene, st.constants))
+    # a Scene just made from a static part: what reads only its fields is kept there
+    # (options: those fields and the RK4 step; parameters: those fields, when the model
+    # adds no constants of the initial state); read-only, shared by the scenes
+    memo = static.memo
+    opt = memo.get(("options", scene.step))
+    if opt is None:
+        opt = _frozen(options(scene, kind))
+        if len(memo) < 16:                   # (RK4's default step follows omega)
+            memo[("options", scene.step)] = opt
+    prm = memo.get("parameters") if not st.constants else None
+    if prm is None:
+        prm = _frozen(choice.parameters(scene, st.constants))
+        if not st.constants:
+            memo["parameters"] = prm
+    return Prepared(scene, kind, why, st, opt, prm)
+
+
+def _frozen(a: np.ndarray) -> np.ndarray:
+    a.flags.writeable = False
+    return a
 
 
 @dataclass

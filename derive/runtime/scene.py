@@ -660,6 +660,11 @@ def _start_above_plane(scene: Scene) -> None:
 def parse_scene(source: str | dict, origin: str = "scene", base: Path | None = None) -> Scene:
     """Validate a scene given as TOML text or as an already-parsed dict; ``base`` is the
     folder a ``[point].table`` path is relative to."""
+    return _parse(source, origin, base)[0]
+
+
+def _parse(source: str | dict, origin: str, base: Path | None) -> tuple[Scene, _Static]:
+    """parse_scene, and the static part the Scene was made from."""
     if isinstance(source, str):
         if len(source) > 16 * 1024 * 1024:
             raise SceneError(origin, "is larger than 16 MB")
@@ -680,14 +685,14 @@ def parse_scene(source: str | dict, origin: str = "scene", base: Path | None = N
     if seen is not None:
         v, given = dict(seen[0]), set(seen[1])
         _read_table(doc, _STATE_TABLE, v, given)
-        return _state_part(seen[2], v, given, _Snapshot(key, doc, v, given))
+        return _state_part(seen[2], v, given, _Snapshot(key, doc, v, given)), seen[2]
     v, given = _read(doc)
     static = _static_part(v, given, origin, base)
     if key is not None and _remember(key, doc, v, given, static):
         kept = _Snapshot(key, doc, v, given)
     else:
         kept = _Copy(doc, owned=isinstance(source, str))
-    return _state_part(static, v, given, kept)
+    return _state_part(static, v, given, kept), static
 
 
 class _Copy:
@@ -835,6 +840,9 @@ class _Static:
     fields: dict
     summary: LawSummary
     step: float | None         # [run].step as given
+    # what the driver derives from these fields alone (the run's options, parameters),
+    # kept for the scenes made from them by parse_scene (driver.prepare)
+    memo: dict = field(default_factory=dict, compare=False)
 
 
 # the fields the state part reads; a scene seen before re-validates only these
@@ -949,10 +957,15 @@ def _state_part(static: _Static, v: dict, given: set, source) -> Scene:
 
 def load_scene(scene) -> Scene:
     """A :class:`Scene` from a path, a dict or a Scene."""
+    return _load(scene)[0]
+
+
+def _load(scene) -> tuple[Scene, _Static | None]:
+    """load_scene, and the static part the Scene was made from (None for a Scene given)."""
     if isinstance(scene, Scene):
-        return scene
+        return scene, None
     if isinstance(scene, dict):
-        return parse_scene(scene, "scene")
+        return _parse(scene, "scene", None)
     if not isinstance(scene, (str, os.PathLike)):
         raise SceneError("scene", f"must be a path, a dict of the schema or a Scene, not "
                                   f"{_type_name(scene)}")
@@ -965,7 +978,7 @@ def load_scene(scene) -> Scene:
         text = path.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as exc:
         raise SceneError(str(scene)[:200], f"cannot be read ({type(exc).__name__})") from None
-    return parse_scene(text, str(path), base=path.parent)
+    return _parse(text, str(path), path.parent)
 
 
 # ---- what the schema gives besides validation --------------------------------------------------

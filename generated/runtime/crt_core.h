@@ -508,6 +508,10 @@ static void crt_collide(crt_session *s, crt_out *o, double t, const double *q)
     s->h = 0.5 * v_n / -a_free;              /* a quarter of the hop that follows */
 }
 
+/* the last Newton correction of an event's time is a Taylor step when below this times
+   sqrt(rtol) of the re-step (crt_handle_event) */
+#define CRT_TAYLOR_DT 1e-3
+
 /* Locate the event in [ta, tb], move the session there and apply it.  Returns 1 when the
    run must stop, 2 when the output buffer filled before the event (nothing changed: the
    step is redone on the next call), 0 otherwise. */
@@ -530,6 +534,18 @@ static int crt_handle_event(crt_session *s, crt_out *o, double ta, double ga, do
     {
       const double dt = -gap / v_n;
       if (fabs(dt) <= 4.0 * tol || !(t_ev + dt > s->t) || fabs(dt) > (tb - ta) + tol) break;
+      if (fabs(dt) <= CRT_TAYLOR_DT * sqrt(s->opt[CRT_OPT_RTOL]) * (t_ev - s->t)) {
+        /* a correction this small (the interpolant's root against the method's own: a
+           few 1e-11 s) by a Taylor step of first order from the re-step's end, whose
+           remainder dt^2 q''/2 is below 1e-6 rtol of the step's own change, instead of
+           a second whole step of the method */
+        double dq[NQ];
+        int i;
+        crt_rhs(s, t_ev, q_ev, dq);
+        for (i = 0; i < NQ; ++i) q_ev[i] += dt * dq[i];
+        t_ev += dt;
+        break;
+      }
       t_ev += dt;
       /* the last correction: step there too, so that the state is the one at t_ev */
       if (it == 3) crt_step(s, s->t, s->q, s->f, t_ev - s->t, q_ev, f_ev, 0);
