@@ -302,8 +302,11 @@ def cmd_stability(args: argparse.Namespace) -> int:
     if args.set and not args.family:
         raise UsageError("--set: only with --family")
     try:
+        values = None
         if args.family:
+            from .stability.families import family
             settings = dict(sweep.parse_setting(text) for text in args.set or [])
+            values = family(args.family).values(settings)
             scene = parse_scene(scenes.example(args.family, settings), f"--family {args.family}")
         else:
             scene = load_scene(args.scene)
@@ -314,6 +317,8 @@ def cmd_stability(args: argparse.Namespace) -> int:
         result = scenes.analyse(scene, progress=not args.quiet)
     except (SceneError, FamilyError) as exc:
         raise UsageError(str(exc)) from None
+    if values is not None:
+        result["family"] = {"name": args.family, "parameters": dict(values)}
     if args.json:
         print(json.dumps(result, indent=2))
     else:

@@ -171,6 +171,34 @@ def test_pure_c_control_loop(built, tmp_path):
 
 
 @pytest.mark.skipif(CXX is None, reason="no C++ compiler")
+def test_without_the_casadi_abi_every_symbol_is_prefixed(tmp_path):
+    """make with CFLAGS=-DCARRIER_NO_CASADI_ABI: the library's defined symbols are all
+    carrier_ (a controller with its own exp_map links against it and includes carrier.h,
+    which a new-user trial found clashing), and such a program builds strictly."""
+    build = tmp_path / "b"
+    proc = subprocess.run(["make", "-C", str(GENERATED), f"BUILD={build}",
+                           "CFLAGS=-O2 -DCARRIER_NO_CASADI_ABI"], capture_output=True,
+                          text=True)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    out = subprocess.run(["nm", "-g", "--defined-only", str(build / "libcarrier.a")],
+                         capture_output=True, text=True, check=True).stdout
+    names = [line.split()[2] for line in out.splitlines() if len(line.split()) == 3]
+    assert len(names) == len(list((GENERATED / "c").glob("*.c")))
+    assert all(n.startswith("carrier_") for n in names), [n for n in names
+                                                         if not n.startswith("carrier_")]
+    app = tmp_path / "app.c"
+    app.write_text('#include "carrier.h"\n'
+                   "static double exp_map(double x) { return x; }\n"
+                   "int lie_stage(void) { return 0; }\n"
+                   "int main(void) { double W[3] = {0.1, 0.2, 0.3}, E[9], q[4];\n"
+                   "  carrier_exp_map(W, E, q); return exp_map(E[0]) > 1.0 + lie_stage(); }\n")
+    proc = subprocess.run([CC, *STRICT, "-DCARRIER_NO_CASADI_ABI", "-I", str(GENERATED / "c"),
+                           str(app), str(build / "libcarrier.a"), "-lm", "-o",
+                           str(tmp_path / "app")], capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr
+    assert subprocess.run([str(tmp_path / "app")]).returncode == 0
+
+
 def test_header_and_sources_compile_as_cpp17(tmp_path):
     """carrier.h (restrict behind CARRIER_RESTRICT) and all sources, one C++ unit."""
     unit = tmp_path / "all.cpp"

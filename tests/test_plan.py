@@ -284,6 +284,12 @@ def test_land(name, tmp_path):
     assert impacts, "no touchdown in the Newton-Euler run"
     first = impacts[0]
     assert abs(first["t"] - T) < 1e-9
+    # past touchdown the table holds P where the law ends (it is at rest there), not the
+    # last piece's cubic carried on (a new-user trial found |x''| up to 17.8 m/s^2 there)
+    later = w.t[w.t > T]
+    r, v, a = w.law(later)
+    assert len(later) > 5 and np.max(np.abs(r - w.law(np.array([T]))[0])) < 1e-12
+    assert np.max(np.abs(v)) < 1e-9 and np.max(np.abs(a)) < 1e-6
     A = first["before"][9:18].reshape(3, 3)
     if task.at_touchdown == "attitude":
         err = rotation_angle(task.target, A)
@@ -435,6 +441,21 @@ def test_law_c_compiles_strict_and_matches(hop, tmp_path):
     assert np.max(np.abs(rows[:, 1:] - ours) / scale) < 1e-12
     nan = play_law(hop.folder, tmp_path, [float("nan")])
     assert nan[0, 0] == 1 and np.all(np.isnan(nan[0, 1:]))
+
+
+@pytest.mark.skipif(CC is None or CXX is None, reason="no C/C++ compiler")
+def test_a_repeating_law_repeats_in_law_c(reorient, tmp_path):
+    """reorient's law is at rest at both ends and back at its start, so scene.toml says
+    ends = "periodic": law.h says so too and law.c wraps t into the period (it had said
+    'does not repeat' and extended the end pieces)."""
+    assert reorient.scene["point"]["ends"] == "periodic"
+    assert "#define CARRIER_LAW_PERIODIC 1" in (reorient.folder / "law.h").read_text()
+    T = reorient.result.law.T
+    ts = np.array([0.1, 0.5, 0.9]) * T
+    rows = play_law(reorient.folder, tmp_path, np.r_[ts, ts + T, ts - 3 * T])
+    assert np.all(rows[:, 0] == 0)
+    assert np.max(np.abs(rows[3:6] - rows[0:3])) < 1e-12
+    assert np.max(np.abs(rows[6:9] - rows[0:3])) < 1e-12
 
 
 @pytest.mark.parametrize("name", ["reorient.toml", "hop.toml", "land.toml"])

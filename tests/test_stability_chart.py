@@ -83,6 +83,18 @@ def test_bad_axes(text, message):
         sweep.parse_axis(text, "C4.1", "--x")
 
 
+@pytest.mark.parametrize("text,message", [
+    ("e=0:1:5", r"e must be in \(0, 1\) over the whole axis"),
+    ("e=0.5:1:5", r"e must be in \(0, 1\)"), ("Gamma=0:2:5", "Gamma must be > 0"),
+    ("n=1:3:3", "n is an integer")])
+def test_a_bounce_axis_stays_in_its_parameters_domain(text, message):
+    """e = 0 or 1 are not members of the bounce family (it refuses them as --set): an axis
+    reaching them is refused, not charted as 'no body' (found by a new-user trial)."""
+    with pytest.raises(FamilyError, match=message):
+        sweep.parse_axis(text, "bounce", "--x")
+    assert sweep.parse_axis("e=0.1:0.9:5", "bounce", "--x").n == 5
+
+
 def _cli(*args):
     return subprocess.run([sys.executable, "-m", "derive", *args], capture_output=True,
                           text=True, timeout=600)
@@ -117,6 +129,10 @@ def test_cli_stability_scene_file_and_errors(tmp_path):
     result = json.loads(proc.stdout)
     assert result["blocks"]["omega, n"]["verdict"].startswith("linearly stable")
     assert len(result["long_runs"]) == 3 and all(c["ok"] for c in result["checks"].values())
+    assert "family" not in result
+    proc = _cli("stability", "--family", "C4.2", "--set", "J_y=0.14", "--set", "J_z=0.12",
+                "-q")
+    assert "parameters: J_x=0.1, J_y=0.14, J_z=0.12" in proc.stdout     # what it ran
     scene.write_text(scene.read_text().replace("long_periods = 20", "long_periods = -1"))
     proc = _cli("stability", str(scene))
     assert proc.returncode == 2

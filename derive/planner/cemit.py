@@ -22,7 +22,8 @@ def render(law: Law) -> dict[str, str]:
     knots = law.knots
     P = law.polynomials_in_t()                   # (n, dim, 4) in powers of t - t_i
     ctx = {"versions": versions(), "pieces": int(law.spline.n),
-           "periodic": bool(law.spline.periodic), "circle": law.kind == "circle",
+           "periodic": law.repeats, "rest": law.rest and not law.repeats,
+           "circle": law.kind == "circle",
            "dim": int(P.shape[1]), "knots": [_num(k) for k in knots],
            "coeffs": [[[_num(c) for c in row] for row in piece] for piece in P]}
     if law.kind == "circle":

@@ -241,7 +241,7 @@ def plan(task, progress: bool = False, runtime: bool = True) -> Plan:
 
     ctrl, Q, T = tr.unpack(report.result.w)
     law = Law(tr.spline, ctrl, T, tr.kind, task.circle[:3] if task.circle else (),
-              table_ends(task))
+              table_ends(task), rest=task.rest_at_ends and task.goal != "hop")
     extra = {}
     if task.goal == "reorient":
         initial, duration, t_table = _initial_from_task(task), T, T

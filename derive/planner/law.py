@@ -84,7 +84,14 @@ class Law:
     kind: str = "cartesian"          # cartesian | circle
     circle: tuple = ()               # (c_x, c_y, R) for kind == circle
     ends: str = "free"               # periodic | rest | free (the tabulated law's ends)
+    rest: bool = False               # at rest at both ends (x' = x'' = 0): held there
     extra: dict = field(default_factory=dict)
+
+    @property
+    def repeats(self) -> bool:
+        """The law repeats with period T (the spline is periodic, or the table's ends say
+        so: a law at rest at both ends and back at its start)."""
+        return self.spline.periodic or self.ends == "periodic"
 
     @property
     def knots(self) -> np.ndarray:
@@ -99,8 +106,12 @@ class Law:
     def spline_values(self, t) -> np.ndarray:
         """(3, dim, N): the spline and its first two t-derivatives at times t."""
         t = np.atleast_1d(np.asarray(t, dtype=float))
-        if self.spline.periodic:
+        if self.repeats:
             t = np.mod(t, self.T)
+        elif self.rest:
+            # at rest at both ends (zero rate and acceleration there): P stays where it
+            # ends, C^2, instead of following the last piece's cubic
+            t = np.clip(t, 0.0, self.T)
         n, h = self.spline.n, self.T / self.spline.n
         i = np.clip(np.floor(t / h).astype(int), 0, n - 1)
         dt = t - i * h

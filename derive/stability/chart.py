@@ -122,7 +122,9 @@ def draw(sw: Sweep, path: Path) -> Path:
     c = counts(sw)
     others = ", ".join(f"{k}={v:g}" for k, v in fixed_values(sw).items())
     what = "" if fam.name == "bounce" else " stationary rotation"
-    ax.set_title(f"{fam.name}{what}: {fam.title}\n{others}", fontsize=9)
+    import textwrap
+    head = textwrap.fill(f"{fam.name}{what}: {fam.title}", 90)       # the figure's width
+    ax.set_title(head + "\n" + textwrap.fill(others, 90), fontsize=9)
     ax.set_xlabel(sw.x.name)
     ax.set_ylabel(sw.y.name)
     ax.text(0.01, 0.01, f"unstable (outlined, max |rho| > 1 + {sw.tol:g}): {c['unstable']}"

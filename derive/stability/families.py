@@ -133,6 +133,19 @@ class BounceFamily:
     def parameters(self) -> tuple:
         return tuple(BOUNCE_DEFAULTS) + ("Gamma",)
 
+    def axis_rule(self, name: str, lo: float, hi: float) -> str | None:
+        """Why a chart axis from lo to hi leaves the parameter's own domain (the rules of
+        :meth:`values` on one parameter), or None: such a range is refused, where points
+        outside a rule on several parameters are charted as having no body."""
+        if name == "e" and not (lo > 0 and hi < 1):
+            return f"e must be in (0, 1) over the whole axis (got {lo:g} to {hi:g})"
+        if name in ("a", "W", "J_x", "J_z", "M", "m", "radius", "g", "Gamma") \
+                and not lo > 0:
+            return f"{name} must be > 0 over the whole axis (got {lo:g} to {hi:g})"
+        if name == "n":
+            return "n is an integer: chart one orbit at a time (set n with --set)"
+        return None
+
     def values(self, given: dict | None = None) -> dict:
         given = dict(given or {})
         unknown = sorted(set(given) - set(self.parameters))

@@ -42,6 +42,10 @@ def analyse(scene, progress: bool = False) -> dict:
 def text(result: dict) -> str:
     """The human-readable report of :func:`analyse`'s result."""
     lines = [f"{result['scene']}: {result['kind']}, period {result['period']:.12g}"]
+    if "family" in result:
+        lines.append("  parameters: " + ", ".join(
+            f"{k}={v:g}" for k, v in result["family"]["parameters"].items()
+            if isinstance(v, (int, float))))
     if result["kind"] == "periodic bouncing":
         lines.append(f"  one impact per {result['n']} period(s) of the point, at "
                      f"t = {result['t_impact']:.12g}")

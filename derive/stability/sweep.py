@@ -59,6 +59,9 @@ def parse_axis(text: str, family_name: str, where: str) -> Axis:
         raise FamilyError(where, f"needs finite lo < hi (got {lo:g}, {hi:g})")
     if not 2 <= n <= 2000:
         raise FamilyError(where, f"n must be in [2, 2000] (got {n})")
+    rule = fam.axis_rule(name, lo, hi) if hasattr(fam, "axis_rule") else None
+    if rule:
+        raise FamilyError(where, rule)
     return Axis(name, lo, hi, n)
 
 

@@ -98,7 +98,8 @@ void carrier_attitude_flight_jacobian(const double *q, const double *u, const do
   A[8] = s0_33;
 }
 
-/* ---- CasADi external-function ABI ------------------------------------------------ */
+/* ---- CasADi external-function ABI (left out with CARRIER_NO_CASADI_ABI) ---------- */
+#ifndef CARRIER_NO_CASADI_ABI
 
 int attitude_flight_jacobian(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w,
                              int mem)
@@ -181,3 +182,4 @@ void attitude_flight_jacobian_release(int mem) { (void)mem; }
 void attitude_flight_jacobian_incref(void) {}
 
 void attitude_flight_jacobian_decref(void) {}
+#endif /* CARRIER_NO_CASADI_ABI */

@@ -59,7 +59,8 @@ void carrier_attitude_flight_rhs(const double *q, const double *u, const double 
   dq[2] = s0_18;
 }
 
-/* ---- CasADi external-function ABI ------------------------------------------------ */
+/* ---- CasADi external-function ABI (left out with CARRIER_NO_CASADI_ABI) ---------- */
+#ifndef CARRIER_NO_CASADI_ABI
 
 int attitude_flight_rhs(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w,
                         int mem)
@@ -142,3 +143,4 @@ void attitude_flight_rhs_release(int mem) { (void)mem; }
 void attitude_flight_rhs_incref(void) {}
 
 void attitude_flight_rhs_decref(void) {}
+#endif /* CARRIER_NO_CASADI_ABI */

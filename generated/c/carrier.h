@@ -48,9 +48,17 @@
 #ifdef __cplusplus
 extern "C" {
 #endif
+/*
+ * Every function comes twice: carrier_<name> with a plain signature, and <name> (with
+ * <name>_n_in, ..., <name>_decref) in CasADi's external-function ABI, whose names are
+ * not prefixed (casadi.external looks them up by the function's name).  Define
+ * CARRIER_NO_CASADI_ABI when compiling the library and including this header to leave the
+ * ABI out: every symbol is then carrier_-prefixed.
+ */
 
 /* general_flight_rhs(q[18], u[9], p[6]) -> (dq[18]): Flight right-hand side of the general model: dq/dt (E1.2, E1.7 solved for omega', E1.8). */
 void carrier_general_flight_rhs(const double *q, const double *u, const double *p, double *CARRIER_RESTRICT dq);
+#ifndef CARRIER_NO_CASADI_ABI
 int general_flight_rhs(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
 casadi_int general_flight_rhs_n_in(void);
 casadi_int general_flight_rhs_n_out(void);
@@ -64,9 +72,11 @@ int general_flight_rhs_checkout(void);
 void general_flight_rhs_release(int mem);
 void general_flight_rhs_incref(void);
 void general_flight_rhs_decref(void);
+#endif
 
 /* vertical_flight_rhs(q[8], u[9], p[6]) -> (dq[8]): Flight right-hand side of the vertical model: dq/dt (E1.2, E1.7 solved for omega', E1.8). */
 void carrier_vertical_flight_rhs(const double *q, const double *u, const double *p, double *CARRIER_RESTRICT dq);
+#ifndef CARRIER_NO_CASADI_ABI
 int vertical_flight_rhs(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
 casadi_int vertical_flight_rhs_n_in(void);
 casadi_int vertical_flight_rhs_n_out(void);
@@ -80,9 +90,11 @@ int vertical_flight_rhs_checkout(void);
 void vertical_flight_rhs_release(int mem);
 void vertical_flight_rhs_incref(void);
 void vertical_flight_rhs_decref(void);
+#endif
 
 /* attitude_flight_rhs(q[3], u[9], p[6]) -> (dq[3]): Flight right-hand side of the attitude model: dq/dt (E1.2, E1.7 solved for omega', E1.8). */
 void carrier_attitude_flight_rhs(const double *q, const double *u, const double *p, double *CARRIER_RESTRICT dq);
+#ifndef CARRIER_NO_CASADI_ABI
 int attitude_flight_rhs(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
 casadi_int attitude_flight_rhs_n_in(void);
 casadi_int attitude_flight_rhs_n_out(void);
@@ -96,9 +108,11 @@ int attitude_flight_rhs_checkout(void);
 void attitude_flight_rhs_release(int mem);
 void attitude_flight_rhs_incref(void);
 void attitude_flight_rhs_decref(void);
+#endif
 
 /* general_flight_jacobian(q[18], u[9], p[6]) -> (A[324]): Jacobian of the general flight right-hand side with respect to the state, A[i*n + k] = d(dq_i/dt)/dq_k (E1.2, E1.7, E1.8 differentiated). */
 void carrier_general_flight_jacobian(const double *q, const double *u, const double *p, double *CARRIER_RESTRICT A);
+#ifndef CARRIER_NO_CASADI_ABI
 int general_flight_jacobian(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
 casadi_int general_flight_jacobian_n_in(void);
 casadi_int general_flight_jacobian_n_out(void);
@@ -112,9 +126,11 @@ int general_flight_jacobian_checkout(void);
 void general_flight_jacobian_release(int mem);
 void general_flight_jacobian_incref(void);
 void general_flight_jacobian_decref(void);
+#endif
 
 /* vertical_flight_jacobian(q[8], u[9], p[6]) -> (A[64]): Jacobian of the vertical flight right-hand side with respect to the state, A[i*n + k] = d(dq_i/dt)/dq_k (E1.2, E1.7, E1.8 differentiated). */
 void carrier_vertical_flight_jacobian(const double *q, const double *u, const double *p, double *CARRIER_RESTRICT A);
+#ifndef CARRIER_NO_CASADI_ABI
 int vertical_flight_jacobian(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
 casadi_int vertical_flight_jacobian_n_in(void);
 casadi_int vertical_flight_jacobian_n_out(void);
@@ -128,9 +144,11 @@ int vertical_flight_jacobian_checkout(void);
 void vertical_flight_jacobian_release(int mem);
 void vertical_flight_jacobian_incref(void);
 void vertical_flight_jacobian_decref(void);
+#endif
 
 /* attitude_flight_jacobian(q[3], u[9], p[6]) -> (A[9]): Jacobian of the attitude flight right-hand side with respect to the state, A[i*n + k] = d(dq_i/dt)/dq_k (E1.2, E1.7, E1.8 differentiated). */
 void carrier_attitude_flight_jacobian(const double *q, const double *u, const double *p, double *CARRIER_RESTRICT A);
+#ifndef CARRIER_NO_CASADI_ABI
 int attitude_flight_jacobian(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
 casadi_int attitude_flight_jacobian_n_in(void);
 casadi_int attitude_flight_jacobian_n_out(void);
@@ -144,9 +162,11 @@ int attitude_flight_jacobian_checkout(void);
 void attitude_flight_jacobian_release(int mem);
 void attitude_flight_jacobian_incref(void);
 void attitude_flight_jacobian_decref(void);
+#endif
 
 /* general_kinetic_moment(q[18], u[9], p[6]) -> (K[3]): Angular momentum K about C in body axes (E1.6), general model. */
 void carrier_general_kinetic_moment(const double *q, const double *u, const double *p, double *CARRIER_RESTRICT K);
+#ifndef CARRIER_NO_CASADI_ABI
 int general_kinetic_moment(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
 casadi_int general_kinetic_moment_n_in(void);
 casadi_int general_kinetic_moment_n_out(void);
@@ -160,9 +180,11 @@ int general_kinetic_moment_checkout(void);
 void general_kinetic_moment_release(int mem);
 void general_kinetic_moment_incref(void);
 void general_kinetic_moment_decref(void);
+#endif
 
 /* vertical_kinetic_moment(q[8], u[9], p[6]) -> (K[3]): Angular momentum K about C in body axes (E1.6), vertical model. */
 void carrier_vertical_kinetic_moment(const double *q, const double *u, const double *p, double *CARRIER_RESTRICT K);
+#ifndef CARRIER_NO_CASADI_ABI
 int vertical_kinetic_moment(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
 casadi_int vertical_kinetic_moment_n_in(void);
 casadi_int vertical_kinetic_moment_n_out(void);
@@ -176,9 +198,11 @@ int vertical_kinetic_moment_checkout(void);
 void vertical_kinetic_moment_release(int mem);
 void vertical_kinetic_moment_incref(void);
 void vertical_kinetic_moment_decref(void);
+#endif
 
 /* attitude_kinetic_moment(q[3], u[9], p[6]) -> (K[3]): Angular momentum K about C in body axes (E1.6), attitude model. */
 void carrier_attitude_kinetic_moment(const double *q, const double *u, const double *p, double *CARRIER_RESTRICT K);
+#ifndef CARRIER_NO_CASADI_ABI
 int attitude_kinetic_moment(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
 casadi_int attitude_kinetic_moment_n_in(void);
 casadi_int attitude_kinetic_moment_n_out(void);
@@ -192,9 +216,11 @@ int attitude_kinetic_moment_checkout(void);
 void attitude_kinetic_moment_release(int mem);
 void attitude_kinetic_moment_incref(void);
 void attitude_kinetic_moment_decref(void);
+#endif
 
 /* general_impact(q[18], u[9], s[3], p[6], e) -> (q_plus[18], I[1]): Impact map of the general model: state just after the impact and the impulse I (E1.11, E1.12, E1.15, E1.16); apply only when v_n < 0. */
 void carrier_general_impact(const double *q, const double *u, const double *s, const double *p, double e, double *CARRIER_RESTRICT q_plus, double *CARRIER_RESTRICT I);
+#ifndef CARRIER_NO_CASADI_ABI
 int general_impact(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
 casadi_int general_impact_n_in(void);
 casadi_int general_impact_n_out(void);
@@ -208,9 +234,11 @@ int general_impact_checkout(void);
 void general_impact_release(int mem);
 void general_impact_incref(void);
 void general_impact_decref(void);
+#endif
 
 /* vertical_impact(q[8], u[9], s[3], p[6], e) -> (q_plus[8], I[1]): Impact map of the vertical model: state just after the impact and the impulse I (E1.11, E1.12, E1.15, E1.16); apply only when v_n < 0. */
 void carrier_vertical_impact(const double *q, const double *u, const double *s, const double *p, double e, double *CARRIER_RESTRICT q_plus, double *CARRIER_RESTRICT I);
+#ifndef CARRIER_NO_CASADI_ABI
 int vertical_impact(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
 casadi_int vertical_impact_n_in(void);
 casadi_int vertical_impact_n_out(void);
@@ -224,9 +252,11 @@ int vertical_impact_checkout(void);
 void vertical_impact_release(int mem);
 void vertical_impact_incref(void);
 void vertical_impact_decref(void);
+#endif
 
 /* general_gap(q[18], u[9], s[3], p[6]) -> (h[1], v_n[1]): Height h of the lowest point S above the plane and its rate v_n (E1.14), general model. */
 void carrier_general_gap(const double *q, const double *u, const double *s, const double *p, double *CARRIER_RESTRICT h, double *CARRIER_RESTRICT v_n);
+#ifndef CARRIER_NO_CASADI_ABI
 int general_gap(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
 casadi_int general_gap_n_in(void);
 casadi_int general_gap_n_out(void);
@@ -240,9 +270,11 @@ int general_gap_checkout(void);
 void general_gap_release(int mem);
 void general_gap_incref(void);
 void general_gap_decref(void);
+#endif
 
 /* vertical_gap(q[8], u[9], s[3], p[6]) -> (h[1], v_n[1]): Height h of the lowest point S above the plane and its rate v_n (E1.14), vertical model. */
 void carrier_vertical_gap(const double *q, const double *u, const double *s, const double *p, double *CARRIER_RESTRICT h, double *CARRIER_RESTRICT v_n);
+#ifndef CARRIER_NO_CASADI_ABI
 int vertical_gap(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
 casadi_int vertical_gap_n_in(void);
 casadi_int vertical_gap_n_out(void);
@@ -256,9 +288,11 @@ int vertical_gap_checkout(void);
 void vertical_gap_release(int mem);
 void vertical_gap_incref(void);
 void vertical_gap_decref(void);
+#endif
 
 /* general_contact_rhs(q[18], u[9], s[3], sdot[3], p[6]) -> (dq[18], N[1]): Persistent contact of the general model: dq/dt with S held on the plane and the normal reaction N (derive.contact); lift-off where N < 0. */
 void carrier_general_contact_rhs(const double *q, const double *u, const double *s, const double *sdot, const double *p, double *CARRIER_RESTRICT dq, double *CARRIER_RESTRICT N);
+#ifndef CARRIER_NO_CASADI_ABI
 int general_contact_rhs(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
 casadi_int general_contact_rhs_n_in(void);
 casadi_int general_contact_rhs_n_out(void);
@@ -272,9 +306,11 @@ int general_contact_rhs_checkout(void);
 void general_contact_rhs_release(int mem);
 void general_contact_rhs_incref(void);
 void general_contact_rhs_decref(void);
+#endif
 
 /* vertical_contact_rhs(q[8], u[9], s[3], sdot[3], p[6]) -> (dq[8], N[1]): Persistent contact of the vertical model: dq/dt with S held on the plane and the normal reaction N (derive.contact); lift-off where N < 0. */
 void carrier_vertical_contact_rhs(const double *q, const double *u, const double *s, const double *sdot, const double *p, double *CARRIER_RESTRICT dq, double *CARRIER_RESTRICT N);
+#ifndef CARRIER_NO_CASADI_ABI
 int vertical_contact_rhs(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
 casadi_int vertical_contact_rhs_n_in(void);
 casadi_int vertical_contact_rhs_n_out(void);
@@ -288,9 +324,11 @@ int vertical_contact_rhs_checkout(void);
 void vertical_contact_rhs_release(int mem);
 void vertical_contact_rhs_incref(void);
 void vertical_contact_rhs_decref(void);
+#endif
 
 /* lowest_point_sphere(n[3], center[3], radius) -> (s[3]): Lowest point S of a sphere (centre anywhere in the body) for the vertical n, body axes. */
 void carrier_lowest_point_sphere(const double *n, const double *center, double radius, double *CARRIER_RESTRICT s);
+#ifndef CARRIER_NO_CASADI_ABI
 int lowest_point_sphere(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
 casadi_int lowest_point_sphere_n_in(void);
 casadi_int lowest_point_sphere_n_out(void);
@@ -304,9 +342,11 @@ int lowest_point_sphere_checkout(void);
 void lowest_point_sphere_release(int mem);
 void lowest_point_sphere_incref(void);
 void lowest_point_sphere_decref(void);
+#endif
 
 /* lowest_point_ellipsoid(n[3], center[3], semi_axes[3]) -> (s[3]): Lowest point S of a ellipsoid (centre anywhere in the body) for the vertical n, body axes. */
 void carrier_lowest_point_ellipsoid(const double *n, const double *center, const double *semi_axes, double *CARRIER_RESTRICT s);
+#ifndef CARRIER_NO_CASADI_ABI
 int lowest_point_ellipsoid(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
 casadi_int lowest_point_ellipsoid_n_in(void);
 casadi_int lowest_point_ellipsoid_n_out(void);
@@ -320,9 +360,11 @@ int lowest_point_ellipsoid_checkout(void);
 void lowest_point_ellipsoid_release(int mem);
 void lowest_point_ellipsoid_incref(void);
 void lowest_point_ellipsoid_decref(void);
+#endif
 
 /* lowest_point_rate_sphere(n[3], omega[3], radius) -> (sdot[3]): Rate of the lowest point S of a sphere in body axes as the body turns (Poisson's equations for n). */
 void carrier_lowest_point_rate_sphere(const double *n, const double *omega, double radius, double *CARRIER_RESTRICT sdot);
+#ifndef CARRIER_NO_CASADI_ABI
 int lowest_point_rate_sphere(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
 casadi_int lowest_point_rate_sphere_n_in(void);
 casadi_int lowest_point_rate_sphere_n_out(void);
@@ -336,9 +378,11 @@ int lowest_point_rate_sphere_checkout(void);
 void lowest_point_rate_sphere_release(int mem);
 void lowest_point_rate_sphere_incref(void);
 void lowest_point_rate_sphere_decref(void);
+#endif
 
 /* lowest_point_rate_ellipsoid(n[3], omega[3], semi_axes[3]) -> (sdot[3]): Rate of the lowest point S of a ellipsoid in body axes as the body turns (Poisson's equations for n). */
 void carrier_lowest_point_rate_ellipsoid(const double *n, const double *omega, const double *semi_axes, double *CARRIER_RESTRICT sdot);
+#ifndef CARRIER_NO_CASADI_ABI
 int lowest_point_rate_ellipsoid(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
 casadi_int lowest_point_rate_ellipsoid_n_in(void);
 casadi_int lowest_point_rate_ellipsoid_n_out(void);
@@ -352,9 +396,11 @@ int lowest_point_rate_ellipsoid_checkout(void);
 void lowest_point_rate_ellipsoid_release(int mem);
 void lowest_point_rate_ellipsoid_incref(void);
 void lowest_point_rate_ellipsoid_decref(void);
+#endif
 
 /* momentum_omega(A[9], K[3], u[9], p[6]) -> (omega[3]): omega of the momentum form: E1.4 solved with K constant in fixed axes (E1.1), J omega = A^T K - mu OP x V_r. */
 void carrier_momentum_omega(const double *A, const double *K, const double *u, const double *p, double *CARRIER_RESTRICT omega);
+#ifndef CARRIER_NO_CASADI_ABI
 int momentum_omega(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
 casadi_int momentum_omega_n_in(void);
 casadi_int momentum_omega_n_out(void);
@@ -368,9 +414,11 @@ int momentum_omega_checkout(void);
 void momentum_omega_release(int mem);
 void momentum_omega_incref(void);
 void momentum_omega_decref(void);
+#endif
 
 /* fixed_kinetic_moment(A[9], omega[3], u[9], p[6]) -> (K[3]): K about C in fixed axes, A (J omega + mu OP x V_r) (E1.4): constant in flight (E1.1). */
 void carrier_fixed_kinetic_moment(const double *A, const double *omega, const double *u, const double *p, double *CARRIER_RESTRICT K);
+#ifndef CARRIER_NO_CASADI_ABI
 int fixed_kinetic_moment(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
 casadi_int fixed_kinetic_moment_n_in(void);
 casadi_int fixed_kinetic_moment_n_out(void);
@@ -384,9 +432,11 @@ int fixed_kinetic_moment_checkout(void);
 void fixed_kinetic_moment_release(int mem);
 void fixed_kinetic_moment_incref(void);
 void fixed_kinetic_moment_decref(void);
+#endif
 
 /* lie_stage(W[3], k[3], u[9], p[6]) -> (dW[3], omega[3]): A stage of the Lie-group flight step: omega from E1.4 with K = exp(-W^) k in body axes, and W' = dexpinv(W, omega) (E1.8 in exponential coordinates). */
 void carrier_lie_stage(const double *W, const double *k, const double *u, const double *p, double *CARRIER_RESTRICT dW, double *CARRIER_RESTRICT omega);
+#ifndef CARRIER_NO_CASADI_ABI
 int lie_stage(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
 casadi_int lie_stage_n_in(void);
 casadi_int lie_stage_n_out(void);
@@ -400,9 +450,11 @@ int lie_stage_checkout(void);
 void lie_stage_release(int mem);
 void lie_stage_incref(void);
 void lie_stage_decref(void);
+#endif
 
 /* lie_point(W[3], k[3], u[9], p[6]) -> (E[9], omega[3]): exp(W^) and omega from E1.4 with K = exp(W^)^T k in body axes: a point of the dense output of a Lie-group flight step. */
 void carrier_lie_point(const double *W, const double *k, const double *u, const double *p, double *CARRIER_RESTRICT E, double *CARRIER_RESTRICT omega);
+#ifndef CARRIER_NO_CASADI_ABI
 int lie_point(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
 casadi_int lie_point_n_in(void);
 casadi_int lie_point_n_out(void);
@@ -416,9 +468,11 @@ int lie_point_checkout(void);
 void lie_point_release(int mem);
 void lie_point_incref(void);
 void lie_point_decref(void);
+#endif
 
 /* flight_parabola(c[6], tau, p[6]) -> (c_tau[6]): Position and velocity of C a time tau after the start of a flight (E1.2 integrated). */
 void carrier_flight_parabola(const double *c, double tau, const double *p, double *CARRIER_RESTRICT c_tau);
+#ifndef CARRIER_NO_CASADI_ABI
 int flight_parabola(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
 casadi_int flight_parabola_n_in(void);
 casadi_int flight_parabola_n_out(void);
@@ -432,9 +486,11 @@ int flight_parabola_checkout(void);
 void flight_parabola_release(int mem);
 void flight_parabola_incref(void);
 void flight_parabola_decref(void);
+#endif
 
 /* exp_map(W[3]) -> (E[9], quat[4]): The exponential map of so(3): exp(W^) row-major and its unit quaternion (w, x, y, z) (derive.lie, |W| <= 1.25). */
 void carrier_exp_map(const double *W, double *CARRIER_RESTRICT E, double *CARRIER_RESTRICT quat);
+#ifndef CARRIER_NO_CASADI_ABI
 int exp_map(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
 casadi_int exp_map_n_in(void);
 casadi_int exp_map_n_out(void);
@@ -448,6 +504,7 @@ int exp_map_checkout(void);
 void exp_map_release(int mem);
 void exp_map_incref(void);
 void exp_map_decref(void);
+#endif
 
 /*
  * Derivatives: jac_<name> for every function above, in CasADi's jac_ convention: the
@@ -459,6 +516,7 @@ void exp_map_decref(void);
 
 /* jac_general_flight_rhs(q[18], u[9], p[6]) -> (jac_dq_q[48 of 18x18], jac_dq_u[27 of 18x9], jac_dq_p[16 of 18x6]) */
 void carrier_jac_general_flight_rhs(const double *q, const double *u, const double *p, double *CARRIER_RESTRICT jac_dq_q, double *CARRIER_RESTRICT jac_dq_u, double *CARRIER_RESTRICT jac_dq_p);
+#ifndef CARRIER_NO_CASADI_ABI
 int jac_general_flight_rhs(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
 casadi_int jac_general_flight_rhs_n_in(void);
 casadi_int jac_general_flight_rhs_n_out(void);
@@ -472,9 +530,11 @@ int jac_general_flight_rhs_checkout(void);
 void jac_general_flight_rhs_release(int mem);
 void jac_general_flight_rhs_incref(void);
 void jac_general_flight_rhs_decref(void);
+#endif
 
 /* jac_vertical_flight_rhs(q[8], u[9], p[6]) -> (jac_dq_q[22 of 8x8], jac_dq_u[27 of 8x9], jac_dq_p[16 of 8x6]) */
 void carrier_jac_vertical_flight_rhs(const double *q, const double *u, const double *p, double *CARRIER_RESTRICT jac_dq_q, double *CARRIER_RESTRICT jac_dq_u, double *CARRIER_RESTRICT jac_dq_p);
+#ifndef CARRIER_NO_CASADI_ABI
 int jac_vertical_flight_rhs(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
 casadi_int jac_vertical_flight_rhs_n_in(void);
 casadi_int jac_vertical_flight_rhs_n_out(void);
@@ -488,9 +548,11 @@ int jac_vertical_flight_rhs_checkout(void);
 void jac_vertical_flight_rhs_release(int mem);
 void jac_vertical_flight_rhs_incref(void);
 void jac_vertical_flight_rhs_decref(void);
+#endif
 
 /* jac_attitude_flight_rhs(q[3], u[9], p[6]) -> (jac_dq_q[9 of 3x3], jac_dq_u[27 of 3x9], jac_dq_p[15 of 3x6]) */
 void carrier_jac_attitude_flight_rhs(const double *q, const double *u, const double *p, double *CARRIER_RESTRICT jac_dq_q, double *CARRIER_RESTRICT jac_dq_u, double *CARRIER_RESTRICT jac_dq_p);
+#ifndef CARRIER_NO_CASADI_ABI
 int jac_attitude_flight_rhs(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
 casadi_int jac_attitude_flight_rhs_n_in(void);
 casadi_int jac_attitude_flight_rhs_n_out(void);
@@ -504,9 +566,11 @@ int jac_attitude_flight_rhs_checkout(void);
 void jac_attitude_flight_rhs_release(int mem);
 void jac_attitude_flight_rhs_incref(void);
 void jac_attitude_flight_rhs_decref(void);
+#endif
 
 /* jac_general_flight_jacobian(q[18], u[9], p[6]) -> (jac_A_q[63 of 324x18], jac_A_u[45 of 324x9], jac_A_p[45 of 324x6]) */
 void carrier_jac_general_flight_jacobian(const double *q, const double *u, const double *p, double *CARRIER_RESTRICT jac_A_q, double *CARRIER_RESTRICT jac_A_u, double *CARRIER_RESTRICT jac_A_p);
+#ifndef CARRIER_NO_CASADI_ABI
 int jac_general_flight_jacobian(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
 casadi_int jac_general_flight_jacobian_n_in(void);
 casadi_int jac_general_flight_jacobian_n_out(void);
@@ -520,9 +584,11 @@ int jac_general_flight_jacobian_checkout(void);
 void jac_general_flight_jacobian_release(int mem);
 void jac_general_flight_jacobian_incref(void);
 void jac_general_flight_jacobian_decref(void);
+#endif
 
 /* jac_vertical_flight_jacobian(q[8], u[9], p[6]) -> (jac_A_q[39 of 64x8], jac_A_u[45 of 64x9], jac_A_p[45 of 64x6]) */
 void carrier_jac_vertical_flight_jacobian(const double *q, const double *u, const double *p, double *CARRIER_RESTRICT jac_A_q, double *CARRIER_RESTRICT jac_A_u, double *CARRIER_RESTRICT jac_A_p);
+#ifndef CARRIER_NO_CASADI_ABI
 int jac_vertical_flight_jacobian(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
 casadi_int jac_vertical_flight_jacobian_n_in(void);
 casadi_int jac_vertical_flight_jacobian_n_out(void);
@@ -536,9 +602,11 @@ int jac_vertical_flight_jacobian_checkout(void);
 void jac_vertical_flight_jacobian_release(int mem);
 void jac_vertical_flight_jacobian_incref(void);
 void jac_vertical_flight_jacobian_decref(void);
+#endif
 
 /* jac_attitude_flight_jacobian(q[3], u[9], p[6]) -> (jac_A_q[27 of 9x3], jac_A_u[45 of 9x9], jac_A_p[45 of 9x6]) */
 void carrier_jac_attitude_flight_jacobian(const double *q, const double *u, const double *p, double *CARRIER_RESTRICT jac_A_q, double *CARRIER_RESTRICT jac_A_u, double *CARRIER_RESTRICT jac_A_p);
+#ifndef CARRIER_NO_CASADI_ABI
 int jac_attitude_flight_jacobian(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
 casadi_int jac_attitude_flight_jacobian_n_in(void);
 casadi_int jac_attitude_flight_jacobian_n_out(void);
@@ -552,9 +620,11 @@ int jac_attitude_flight_jacobian_checkout(void);
 void jac_attitude_flight_jacobian_release(int mem);
 void jac_attitude_flight_jacobian_incref(void);
 void jac_attitude_flight_jacobian_decref(void);
+#endif
 
 /* jac_general_kinetic_moment(q[18], u[9], p[6]) -> (jac_K_q[9 of 3x18], jac_K_u[15 of 3x9], jac_K_p[9 of 3x6]) */
 void carrier_jac_general_kinetic_moment(const double *q, const double *u, const double *p, double *CARRIER_RESTRICT jac_K_q, double *CARRIER_RESTRICT jac_K_u, double *CARRIER_RESTRICT jac_K_p);
+#ifndef CARRIER_NO_CASADI_ABI
 int jac_general_kinetic_moment(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
 casadi_int jac_general_kinetic_moment_n_in(void);
 casadi_int jac_general_kinetic_moment_n_out(void);
@@ -568,9 +638,11 @@ int jac_general_kinetic_moment_checkout(void);
 void jac_general_kinetic_moment_release(int mem);
 void jac_general_kinetic_moment_incref(void);
 void jac_general_kinetic_moment_decref(void);
+#endif
 
 /* jac_vertical_kinetic_moment(q[8], u[9], p[6]) -> (jac_K_q[9 of 3x8], jac_K_u[15 of 3x9], jac_K_p[9 of 3x6]) */
 void carrier_jac_vertical_kinetic_moment(const double *q, const double *u, const double *p, double *CARRIER_RESTRICT jac_K_q, double *CARRIER_RESTRICT jac_K_u, double *CARRIER_RESTRICT jac_K_p);
+#ifndef CARRIER_NO_CASADI_ABI
 int jac_vertical_kinetic_moment(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
 casadi_int jac_vertical_kinetic_moment_n_in(void);
 casadi_int jac_vertical_kinetic_moment_n_out(void);
@@ -584,9 +656,11 @@ int jac_vertical_kinetic_moment_checkout(void);
 void jac_vertical_kinetic_moment_release(int mem);
 void jac_vertical_kinetic_moment_incref(void);
 void jac_vertical_kinetic_moment_decref(void);
+#endif
 
 /* jac_attitude_kinetic_moment(q[3], u[9], p[6]) -> (jac_K_q[9 of 3x3], jac_K_u[15 of 3x9], jac_K_p[9 of 3x6]) */
 void carrier_jac_attitude_kinetic_moment(const double *q, const double *u, const double *p, double *CARRIER_RESTRICT jac_K_q, double *CARRIER_RESTRICT jac_K_u, double *CARRIER_RESTRICT jac_K_p);
+#ifndef CARRIER_NO_CASADI_ABI
 int jac_attitude_kinetic_moment(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
 casadi_int jac_attitude_kinetic_moment_n_in(void);
 casadi_int jac_attitude_kinetic_moment_n_out(void);
@@ -600,9 +674,11 @@ int jac_attitude_kinetic_moment_checkout(void);
 void jac_attitude_kinetic_moment_release(int mem);
 void jac_attitude_kinetic_moment_incref(void);
 void jac_attitude_kinetic_moment_decref(void);
+#endif
 
 /* jac_general_impact(q[18], u[9], s[3], p[6], e) -> (jac_q_plus_q[42 of 18x18], jac_q_plus_u[24 of 18x9], jac_q_plus_s[12 of 18x3], jac_q_plus_p[20 of 18x6], jac_q_plus_e[4 of 18x1], jac_I_q[7 of 1x18], jac_I_u[6 of 1x9], jac_I_s[3 of 1x3], jac_I_p[5 of 1x6], jac_I_e[1 of 1x1]) */
 void carrier_jac_general_impact(const double *q, const double *u, const double *s, const double *p, double e, double *CARRIER_RESTRICT jac_q_plus_q, double *CARRIER_RESTRICT jac_q_plus_u, double *CARRIER_RESTRICT jac_q_plus_s, double *CARRIER_RESTRICT jac_q_plus_p, double *CARRIER_RESTRICT jac_q_plus_e, double *CARRIER_RESTRICT jac_I_q, double *CARRIER_RESTRICT jac_I_u, double *CARRIER_RESTRICT jac_I_s, double *CARRIER_RESTRICT jac_I_p, double *CARRIER_RESTRICT jac_I_e);
+#ifndef CARRIER_NO_CASADI_ABI
 int jac_general_impact(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
 casadi_int jac_general_impact_n_in(void);
 casadi_int jac_general_impact_n_out(void);
@@ -616,9 +692,11 @@ int jac_general_impact_checkout(void);
 void jac_general_impact_release(int mem);
 void jac_general_impact_incref(void);
 void jac_general_impact_decref(void);
+#endif
 
 /* jac_vertical_impact(q[8], u[9], s[3], p[6], e) -> (jac_q_plus_q[32 of 8x8], jac_q_plus_u[24 of 8x9], jac_q_plus_s[12 of 8x3], jac_q_plus_p[20 of 8x6], jac_q_plus_e[4 of 8x1], jac_I_q[7 of 1x8], jac_I_u[6 of 1x9], jac_I_s[3 of 1x3], jac_I_p[5 of 1x6], jac_I_e[1 of 1x1]) */
 void carrier_jac_vertical_impact(const double *q, const double *u, const double *s, const double *p, double e, double *CARRIER_RESTRICT jac_q_plus_q, double *CARRIER_RESTRICT jac_q_plus_u, double *CARRIER_RESTRICT jac_q_plus_s, double *CARRIER_RESTRICT jac_q_plus_p, double *CARRIER_RESTRICT jac_q_plus_e, double *CARRIER_RESTRICT jac_I_q, double *CARRIER_RESTRICT jac_I_u, double *CARRIER_RESTRICT jac_I_s, double *CARRIER_RESTRICT jac_I_p, double *CARRIER_RESTRICT jac_I_e);
+#ifndef CARRIER_NO_CASADI_ABI
 int jac_vertical_impact(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
 casadi_int jac_vertical_impact_n_in(void);
 casadi_int jac_vertical_impact_n_out(void);
@@ -632,9 +710,11 @@ int jac_vertical_impact_checkout(void);
 void jac_vertical_impact_release(int mem);
 void jac_vertical_impact_incref(void);
 void jac_vertical_impact_decref(void);
+#endif
 
 /* jac_general_gap(q[18], u[9], s[3], p[6]) -> (jac_h_q[4 of 1x18], jac_h_u[3 of 1x9], jac_h_s[3 of 1x3], jac_h_p[2 of 1x6], jac_v_n_q[7 of 1x18], jac_v_n_u[6 of 1x9], jac_v_n_s[3 of 1x3], jac_v_n_p[2 of 1x6]) */
 void carrier_jac_general_gap(const double *q, const double *u, const double *s, const double *p, double *CARRIER_RESTRICT jac_h_q, double *CARRIER_RESTRICT jac_h_u, double *CARRIER_RESTRICT jac_h_s, double *CARRIER_RESTRICT jac_h_p, double *CARRIER_RESTRICT jac_v_n_q, double *CARRIER_RESTRICT jac_v_n_u, double *CARRIER_RESTRICT jac_v_n_s, double *CARRIER_RESTRICT jac_v_n_p);
+#ifndef CARRIER_NO_CASADI_ABI
 int jac_general_gap(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
 casadi_int jac_general_gap_n_in(void);
 casadi_int jac_general_gap_n_out(void);
@@ -648,9 +728,11 @@ int jac_general_gap_checkout(void);
 void jac_general_gap_release(int mem);
 void jac_general_gap_incref(void);
 void jac_general_gap_decref(void);
+#endif
 
 /* jac_vertical_gap(q[8], u[9], s[3], p[6]) -> (jac_h_q[4 of 1x8], jac_h_u[3 of 1x9], jac_h_s[3 of 1x3], jac_h_p[2 of 1x6], jac_v_n_q[7 of 1x8], jac_v_n_u[6 of 1x9], jac_v_n_s[3 of 1x3], jac_v_n_p[2 of 1x6]) */
 void carrier_jac_vertical_gap(const double *q, const double *u, const double *s, const double *p, double *CARRIER_RESTRICT jac_h_q, double *CARRIER_RESTRICT jac_h_u, double *CARRIER_RESTRICT jac_h_s, double *CARRIER_RESTRICT jac_h_p, double *CARRIER_RESTRICT jac_v_n_q, double *CARRIER_RESTRICT jac_v_n_u, double *CARRIER_RESTRICT jac_v_n_s, double *CARRIER_RESTRICT jac_v_n_p);
+#ifndef CARRIER_NO_CASADI_ABI
 int jac_vertical_gap(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
 casadi_int jac_vertical_gap_n_in(void);
 casadi_int jac_vertical_gap_n_out(void);
@@ -664,9 +746,11 @@ int jac_vertical_gap_checkout(void);
 void jac_vertical_gap_release(int mem);
 void jac_vertical_gap_incref(void);
 void jac_vertical_gap_decref(void);
+#endif
 
 /* jac_general_contact_rhs(q[18], u[9], s[3], sdot[3], p[6]) -> (jac_dq_q[63 of 18x18], jac_dq_u[36 of 18x9], jac_dq_s[12 of 18x3], jac_dq_sdot[12 of 18x3], jac_dq_p[24 of 18x6], jac_N_q[6 of 1x18], jac_N_u[9 of 1x9], jac_N_s[3 of 1x3], jac_N_sdot[3 of 1x3], jac_N_p[6 of 1x6]) */
 void carrier_jac_general_contact_rhs(const double *q, const double *u, const double *s, const double *sdot, const double *p, double *CARRIER_RESTRICT jac_dq_q, double *CARRIER_RESTRICT jac_dq_u, double *CARRIER_RESTRICT jac_dq_s, double *CARRIER_RESTRICT jac_dq_sdot, double *CARRIER_RESTRICT jac_dq_p, double *CARRIER_RESTRICT jac_N_q, double *CARRIER_RESTRICT jac_N_u, double *CARRIER_RESTRICT jac_N_s, double *CARRIER_RESTRICT jac_N_sdot, double *CARRIER_RESTRICT jac_N_p);
+#ifndef CARRIER_NO_CASADI_ABI
 int jac_general_contact_rhs(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
 casadi_int jac_general_contact_rhs_n_in(void);
 casadi_int jac_general_contact_rhs_n_out(void);
@@ -680,9 +764,11 @@ int jac_general_contact_rhs_checkout(void);
 void jac_general_contact_rhs_release(int mem);
 void jac_general_contact_rhs_incref(void);
 void jac_general_contact_rhs_decref(void);
+#endif
 
 /* jac_vertical_contact_rhs(q[8], u[9], s[3], sdot[3], p[6]) -> (jac_dq_q[37 of 8x8], jac_dq_u[36 of 8x9], jac_dq_s[12 of 8x3], jac_dq_sdot[12 of 8x3], jac_dq_p[24 of 8x6], jac_N_q[6 of 1x8], jac_N_u[9 of 1x9], jac_N_s[3 of 1x3], jac_N_sdot[3 of 1x3], jac_N_p[6 of 1x6]) */
 void carrier_jac_vertical_contact_rhs(const double *q, const double *u, const double *s, const double *sdot, const double *p, double *CARRIER_RESTRICT jac_dq_q, double *CARRIER_RESTRICT jac_dq_u, double *CARRIER_RESTRICT jac_dq_s, double *CARRIER_RESTRICT jac_dq_sdot, double *CARRIER_RESTRICT jac_dq_p, double *CARRIER_RESTRICT jac_N_q, double *CARRIER_RESTRICT jac_N_u, double *CARRIER_RESTRICT jac_N_s, double *CARRIER_RESTRICT jac_N_sdot, double *CARRIER_RESTRICT jac_N_p);
+#ifndef CARRIER_NO_CASADI_ABI
 int jac_vertical_contact_rhs(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
 casadi_int jac_vertical_contact_rhs_n_in(void);
 casadi_int jac_vertical_contact_rhs_n_out(void);
@@ -696,9 +782,11 @@ int jac_vertical_contact_rhs_checkout(void);
 void jac_vertical_contact_rhs_release(int mem);
 void jac_vertical_contact_rhs_incref(void);
 void jac_vertical_contact_rhs_decref(void);
+#endif
 
 /* jac_lowest_point_sphere(n[3], center[3], radius) -> (jac_s_n[9 of 3x3], jac_s_center[3 of 3x3], jac_s_radius[3 of 3x1]) */
 void carrier_jac_lowest_point_sphere(const double *n, const double *center, double radius, double *CARRIER_RESTRICT jac_s_n, double *CARRIER_RESTRICT jac_s_center, double *CARRIER_RESTRICT jac_s_radius);
+#ifndef CARRIER_NO_CASADI_ABI
 int jac_lowest_point_sphere(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
 casadi_int jac_lowest_point_sphere_n_in(void);
 casadi_int jac_lowest_point_sphere_n_out(void);
@@ -712,9 +800,11 @@ int jac_lowest_point_sphere_checkout(void);
 void jac_lowest_point_sphere_release(int mem);
 void jac_lowest_point_sphere_incref(void);
 void jac_lowest_point_sphere_decref(void);
+#endif
 
 /* jac_lowest_point_ellipsoid(n[3], center[3], semi_axes[3]) -> (jac_s_n[9 of 3x3], jac_s_center[3 of 3x3], jac_s_semi_axes[9 of 3x3]) */
 void carrier_jac_lowest_point_ellipsoid(const double *n, const double *center, const double *semi_axes, double *CARRIER_RESTRICT jac_s_n, double *CARRIER_RESTRICT jac_s_center, double *CARRIER_RESTRICT jac_s_semi_axes);
+#ifndef CARRIER_NO_CASADI_ABI
 int jac_lowest_point_ellipsoid(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
 casadi_int jac_lowest_point_ellipsoid_n_in(void);
 casadi_int jac_lowest_point_ellipsoid_n_out(void);
@@ -728,9 +818,11 @@ int jac_lowest_point_ellipsoid_checkout(void);
 void jac_lowest_point_ellipsoid_release(int mem);
 void jac_lowest_point_ellipsoid_incref(void);
 void jac_lowest_point_ellipsoid_decref(void);
+#endif
 
 /* jac_lowest_point_rate_sphere(n[3], omega[3], radius) -> (jac_sdot_n[9 of 3x3], jac_sdot_omega[6 of 3x3], jac_sdot_radius[3 of 3x1]) */
 void carrier_jac_lowest_point_rate_sphere(const double *n, const double *omega, double radius, double *CARRIER_RESTRICT jac_sdot_n, double *CARRIER_RESTRICT jac_sdot_omega, double *CARRIER_RESTRICT jac_sdot_radius);
+#ifndef CARRIER_NO_CASADI_ABI
 int jac_lowest_point_rate_sphere(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
 casadi_int jac_lowest_point_rate_sphere_n_in(void);
 casadi_int jac_lowest_point_rate_sphere_n_out(void);
@@ -744,9 +836,11 @@ int jac_lowest_point_rate_sphere_checkout(void);
 void jac_lowest_point_rate_sphere_release(int mem);
 void jac_lowest_point_rate_sphere_incref(void);
 void jac_lowest_point_rate_sphere_decref(void);
+#endif
 
 /* jac_lowest_point_rate_ellipsoid(n[3], omega[3], semi_axes[3]) -> (jac_sdot_n[9 of 3x3], jac_sdot_omega[9 of 3x3], jac_sdot_semi_axes[9 of 3x3]) */
 void carrier_jac_lowest_point_rate_ellipsoid(const double *n, const double *omega, const double *semi_axes, double *CARRIER_RESTRICT jac_sdot_n, double *CARRIER_RESTRICT jac_sdot_omega, double *CARRIER_RESTRICT jac_sdot_semi_axes);
+#ifndef CARRIER_NO_CASADI_ABI
 int jac_lowest_point_rate_ellipsoid(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
 casadi_int jac_lowest_point_rate_ellipsoid_n_in(void);
 casadi_int jac_lowest_point_rate_ellipsoid_n_out(void);
@@ -760,9 +854,11 @@ int jac_lowest_point_rate_ellipsoid_checkout(void);
 void jac_lowest_point_rate_ellipsoid_release(int mem);
 void jac_lowest_point_rate_ellipsoid_incref(void);
 void jac_lowest_point_rate_ellipsoid_decref(void);
+#endif
 
 /* jac_momentum_omega(A[9], K[3], u[9], p[6]) -> (jac_omega_A[27 of 3x9], jac_omega_K[9 of 3x3], jac_omega_u[18 of 3x9], jac_omega_p[15 of 3x6]) */
 void carrier_jac_momentum_omega(const double *A, const double *K, const double *u, const double *p, double *CARRIER_RESTRICT jac_omega_A, double *CARRIER_RESTRICT jac_omega_K, double *CARRIER_RESTRICT jac_omega_u, double *CARRIER_RESTRICT jac_omega_p);
+#ifndef CARRIER_NO_CASADI_ABI
 int jac_momentum_omega(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
 casadi_int jac_momentum_omega_n_in(void);
 casadi_int jac_momentum_omega_n_out(void);
@@ -776,9 +872,11 @@ int jac_momentum_omega_checkout(void);
 void jac_momentum_omega_release(int mem);
 void jac_momentum_omega_incref(void);
 void jac_momentum_omega_decref(void);
+#endif
 
 /* jac_fixed_kinetic_moment(A[9], omega[3], u[9], p[6]) -> (jac_K_A[9 of 3x9], jac_K_omega[9 of 3x3], jac_K_u[18 of 3x9], jac_K_p[15 of 3x6]) */
 void carrier_jac_fixed_kinetic_moment(const double *A, const double *omega, const double *u, const double *p, double *CARRIER_RESTRICT jac_K_A, double *CARRIER_RESTRICT jac_K_omega, double *CARRIER_RESTRICT jac_K_u, double *CARRIER_RESTRICT jac_K_p);
+#ifndef CARRIER_NO_CASADI_ABI
 int jac_fixed_kinetic_moment(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
 casadi_int jac_fixed_kinetic_moment_n_in(void);
 casadi_int jac_fixed_kinetic_moment_n_out(void);
@@ -792,9 +890,11 @@ int jac_fixed_kinetic_moment_checkout(void);
 void jac_fixed_kinetic_moment_release(int mem);
 void jac_fixed_kinetic_moment_incref(void);
 void jac_fixed_kinetic_moment_decref(void);
+#endif
 
 /* jac_lie_stage(W[3], k[3], u[9], p[6]) -> (jac_dW_W[9 of 3x3], jac_dW_k[9 of 3x3], jac_dW_u[18 of 3x9], jac_dW_p[15 of 3x6], jac_omega_W[9 of 3x3], jac_omega_k[9 of 3x3], jac_omega_u[18 of 3x9], jac_omega_p[15 of 3x6]) */
 void carrier_jac_lie_stage(const double *W, const double *k, const double *u, const double *p, double *CARRIER_RESTRICT jac_dW_W, double *CARRIER_RESTRICT jac_dW_k, double *CARRIER_RESTRICT jac_dW_u, double *CARRIER_RESTRICT jac_dW_p, double *CARRIER_RESTRICT jac_omega_W, double *CARRIER_RESTRICT jac_omega_k, double *CARRIER_RESTRICT jac_omega_u, double *CARRIER_RESTRICT jac_omega_p);
+#ifndef CARRIER_NO_CASADI_ABI
 int jac_lie_stage(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
 casadi_int jac_lie_stage_n_in(void);
 casadi_int jac_lie_stage_n_out(void);
@@ -808,9 +908,11 @@ int jac_lie_stage_checkout(void);
 void jac_lie_stage_release(int mem);
 void jac_lie_stage_incref(void);
 void jac_lie_stage_decref(void);
+#endif
 
 /* jac_lie_point(W[3], k[3], u[9], p[6]) -> (jac_E_W[27 of 9x3], jac_omega_W[9 of 3x3], jac_omega_k[9 of 3x3], jac_omega_u[18 of 3x9], jac_omega_p[15 of 3x6]) */
 void carrier_jac_lie_point(const double *W, const double *k, const double *u, const double *p, double *CARRIER_RESTRICT jac_E_W, double *CARRIER_RESTRICT jac_omega_W, double *CARRIER_RESTRICT jac_omega_k, double *CARRIER_RESTRICT jac_omega_u, double *CARRIER_RESTRICT jac_omega_p);
+#ifndef CARRIER_NO_CASADI_ABI
 int jac_lie_point(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
 casadi_int jac_lie_point_n_in(void);
 casadi_int jac_lie_point_n_out(void);
@@ -824,9 +926,11 @@ int jac_lie_point_checkout(void);
 void jac_lie_point_release(int mem);
 void jac_lie_point_incref(void);
 void jac_lie_point_decref(void);
+#endif
 
 /* jac_flight_parabola(c[6], tau, p[6]) -> (jac_c_tau_c[9 of 6x6], jac_c_tau_tau[4 of 6x1], jac_c_tau_p[2 of 6x6]) */
 void carrier_jac_flight_parabola(const double *c, double tau, const double *p, double *CARRIER_RESTRICT jac_c_tau_c, double *CARRIER_RESTRICT jac_c_tau_tau, double *CARRIER_RESTRICT jac_c_tau_p);
+#ifndef CARRIER_NO_CASADI_ABI
 int jac_flight_parabola(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
 casadi_int jac_flight_parabola_n_in(void);
 casadi_int jac_flight_parabola_n_out(void);
@@ -840,9 +944,11 @@ int jac_flight_parabola_checkout(void);
 void jac_flight_parabola_release(int mem);
 void jac_flight_parabola_incref(void);
 void jac_flight_parabola_decref(void);
+#endif
 
 /* jac_exp_map(W[3]) -> (jac_E_W[27 of 9x3], jac_quat_W[12 of 4x3]) */
 void carrier_jac_exp_map(const double *W, double *CARRIER_RESTRICT jac_E_W, double *CARRIER_RESTRICT jac_quat_W);
+#ifndef CARRIER_NO_CASADI_ABI
 int jac_exp_map(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
 casadi_int jac_exp_map_n_in(void);
 casadi_int jac_exp_map_n_out(void);
@@ -856,6 +962,7 @@ int jac_exp_map_checkout(void);
 void jac_exp_map_release(int mem);
 void jac_exp_map_incref(void);
 void jac_exp_map_decref(void);
+#endif
 
 #ifdef __cplusplus
 }

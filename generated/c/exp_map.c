@@ -72,7 +72,8 @@ void carrier_exp_map(const double *W, double *CARRIER_RESTRICT E, double *CARRIE
   quat[3] = W[2]*quat_v_W;
 }
 
-/* ---- CasADi external-function ABI ------------------------------------------------ */
+/* ---- CasADi external-function ABI (left out with CARRIER_NO_CASADI_ABI) ---------- */
+#ifndef CARRIER_NO_CASADI_ABI
 
 int exp_map(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w,
             int mem)
@@ -152,3 +153,4 @@ void exp_map_release(int mem) { (void)mem; }
 void exp_map_incref(void) {}
 
 void exp_map_decref(void) {}
+#endif /* CARRIER_NO_CASADI_ABI */

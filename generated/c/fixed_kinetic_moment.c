@@ -37,7 +37,8 @@ void carrier_fixed_kinetic_moment(const double *A, const double *omega, const do
   K[2] = c5*A[6] + c7*A[7] + c8*A[8];
 }
 
-/* ---- CasADi external-function ABI ------------------------------------------------ */
+/* ---- CasADi external-function ABI (left out with CARRIER_NO_CASADI_ABI) ---------- */
+#ifndef CARRIER_NO_CASADI_ABI
 
 int fixed_kinetic_moment(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w,
                          int mem)
@@ -124,3 +125,4 @@ void fixed_kinetic_moment_release(int mem) { (void)mem; }
 void fixed_kinetic_moment_incref(void) {}
 
 void fixed_kinetic_moment_decref(void) {}
+#endif /* CARRIER_NO_CASADI_ABI */

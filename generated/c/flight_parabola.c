@@ -28,7 +28,8 @@ void carrier_flight_parabola(const double *c, double tau, const double *p, doubl
   c_tau[5] = c[5] - p[5]*tau;
 }
 
-/* ---- CasADi external-function ABI ------------------------------------------------ */
+/* ---- CasADi external-function ABI (left out with CARRIER_NO_CASADI_ABI) ---------- */
+#ifndef CARRIER_NO_CASADI_ABI
 
 int flight_parabola(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w,
                     int mem)
@@ -111,3 +112,4 @@ void flight_parabola_release(int mem) { (void)mem; }
 void flight_parabola_incref(void) {}
 
 void flight_parabola_decref(void) {}
+#endif /* CARRIER_NO_CASADI_ABI */

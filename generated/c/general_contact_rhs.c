@@ -123,7 +123,8 @@ void carrier_general_contact_rhs(const double *q, const double *u, const double 
   N[0] = -c51;
 }
 
-/* ---- CasADi external-function ABI ------------------------------------------------ */
+/* ---- CasADi external-function ABI (left out with CARRIER_NO_CASADI_ABI) ---------- */
+#ifndef CARRIER_NO_CASADI_ABI
 
 int general_contact_rhs(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w,
                         int mem)
@@ -219,3 +220,4 @@ void general_contact_rhs_release(int mem) { (void)mem; }
 void general_contact_rhs_incref(void) {}
 
 void general_contact_rhs_decref(void) {}
+#endif /* CARRIER_NO_CASADI_ABI */

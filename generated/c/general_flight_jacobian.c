@@ -416,7 +416,8 @@ void carrier_general_flight_jacobian(const double *q, const double *u, const dou
   A[323] = 0.0;
 }
 
-/* ---- CasADi external-function ABI ------------------------------------------------ */
+/* ---- CasADi external-function ABI (left out with CARRIER_NO_CASADI_ABI) ---------- */
+#ifndef CARRIER_NO_CASADI_ABI
 
 int general_flight_jacobian(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w,
                             int mem)
@@ -499,3 +500,4 @@ void general_flight_jacobian_release(int mem) { (void)mem; }
 void general_flight_jacobian_incref(void) {}
 
 void general_flight_jacobian_decref(void) {}
+#endif /* CARRIER_NO_CASADI_ABI */

@@ -74,7 +74,8 @@ void carrier_general_flight_rhs(const double *q, const double *u, const double *
   dq[17] = q[15]*q[7] - q[16]*q[6];
 }
 
-/* ---- CasADi external-function ABI ------------------------------------------------ */
+/* ---- CasADi external-function ABI (left out with CARRIER_NO_CASADI_ABI) ---------- */
+#ifndef CARRIER_NO_CASADI_ABI
 
 int general_flight_rhs(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w,
                        int mem)
@@ -157,3 +158,4 @@ void general_flight_rhs_release(int mem) { (void)mem; }
 void general_flight_rhs_incref(void) {}
 
 void general_flight_rhs_decref(void) {}
+#endif /* CARRIER_NO_CASADI_ABI */

@@ -30,7 +30,8 @@ void carrier_general_gap(const double *q, const double *u, const double *s, cons
   v_n[0] = q[5] - c0*q[7]*u[2] - c0*u[3] - c1*q[8]*u[0] - c1*u[4] - c2*q[6]*u[1] - c2*u[5] + q[15]*nu*q[8]*u[1] + q[15]*q[7]*s[2] - q[15]*q[8]*s[1] + q[16]*nu*q[6]*u[2] - q[16]*q[6]*s[2] + q[16]*q[8]*s[0] + q[17]*nu*q[7]*u[0] + q[17]*q[6]*s[1] - q[17]*q[7]*s[0];
 }
 
-/* ---- CasADi external-function ABI ------------------------------------------------ */
+/* ---- CasADi external-function ABI (left out with CARRIER_NO_CASADI_ABI) ---------- */
+#ifndef CARRIER_NO_CASADI_ABI
 
 int general_gap(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w,
                 int mem)
@@ -122,3 +123,4 @@ void general_gap_release(int mem) { (void)mem; }
 void general_gap_incref(void) {}
 
 void general_gap_decref(void) {}
+#endif /* CARRIER_NO_CASADI_ABI */

@@ -83,7 +83,8 @@ void carrier_general_impact(const double *q, const double *u, const double *s, c
   I[0] = c17;
 }
 
-/* ---- CasADi external-function ABI ------------------------------------------------ */
+/* ---- CasADi external-function ABI (left out with CARRIER_NO_CASADI_ABI) ---------- */
+#ifndef CARRIER_NO_CASADI_ABI
 
 int general_impact(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w,
                    int mem)
@@ -179,3 +180,4 @@ void general_impact_release(int mem) { (void)mem; }
 void general_impact_incref(void) {}
 
 void general_impact_decref(void) {}
+#endif /* CARRIER_NO_CASADI_ABI */

@@ -206,7 +206,8 @@ void carrier_jac_exp_map(const double *W, double *CARRIER_RESTRICT jac_E_W, doub
   jac_quat_W[11] = D_quat_v_W_W2*W[2] + quat_v_W;
 }
 
-/* ---- CasADi external-function ABI ------------------------------------------------ */
+/* ---- CasADi external-function ABI (left out with CARRIER_NO_CASADI_ABI) ---------- */
+#ifndef CARRIER_NO_CASADI_ABI
 /*
  * CasADi's jac_ convention: the inputs of exp_map, then its nominal outputs
  * (out_E, out_quat: not read, no nonzeros); one output per (output, input) block,
@@ -297,3 +298,4 @@ void jac_exp_map_release(int mem) { (void)mem; }
 void jac_exp_map_incref(void) {}
 
 void jac_exp_map_decref(void) {}
+#endif /* CARRIER_NO_CASADI_ABI */

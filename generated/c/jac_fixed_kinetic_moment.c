@@ -141,7 +141,8 @@ void carrier_jac_fixed_kinetic_moment(const double *A, const double *omega, cons
   jac_K_p[14] = A[8]*omega[2];
 }
 
-/* ---- CasADi external-function ABI ------------------------------------------------ */
+/* ---- CasADi external-function ABI (left out with CARRIER_NO_CASADI_ABI) ---------- */
+#ifndef CARRIER_NO_CASADI_ABI
 /*
  * CasADi's jac_ convention: the inputs of fixed_kinetic_moment, then its nominal outputs
  * (out_K: not read, no nonzeros); one output per (output, input) block,
@@ -252,3 +253,4 @@ void jac_fixed_kinetic_moment_release(int mem) { (void)mem; }
 void jac_fixed_kinetic_moment_incref(void) {}
 
 void jac_fixed_kinetic_moment_decref(void) {}
+#endif /* CARRIER_NO_CASADI_ABI */

@@ -39,7 +39,8 @@ void carrier_jac_flight_parabola(const double *c, double tau, const double *p, d
   jac_c_tau_p[1] = -tau;
 }
 
-/* ---- CasADi external-function ABI ------------------------------------------------ */
+/* ---- CasADi external-function ABI (left out with CARRIER_NO_CASADI_ABI) ---------- */
+#ifndef CARRIER_NO_CASADI_ABI
 /*
  * CasADi's jac_ convention: the inputs of flight_parabola, then its nominal outputs
  * (out_c_tau: not read, no nonzeros); one output per (output, input) block,
@@ -140,3 +141,4 @@ void jac_flight_parabola_release(int mem) { (void)mem; }
 void jac_flight_parabola_incref(void) {}
 
 void jac_flight_parabola_decref(void) {}
+#endif /* CARRIER_NO_CASADI_ABI */

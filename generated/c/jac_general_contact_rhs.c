@@ -758,7 +758,8 @@ void carrier_jac_general_contact_rhs(const double *q, const double *u, const dou
   jac_N_p[5] = -c366;
 }
 
-/* ---- CasADi external-function ABI ------------------------------------------------ */
+/* ---- CasADi external-function ABI (left out with CARRIER_NO_CASADI_ABI) ---------- */
+#ifndef CARRIER_NO_CASADI_ABI
 /*
  * CasADi's jac_ convention: the inputs of general_contact_rhs, then its nominal outputs
  * (out_dq, out_N: not read, no nonzeros); one output per (output, input) block,
@@ -910,3 +911,4 @@ void jac_general_contact_rhs_release(int mem) { (void)mem; }
 void jac_general_contact_rhs_incref(void) {}
 
 void jac_general_contact_rhs_decref(void) {}
+#endif /* CARRIER_NO_CASADI_ABI */

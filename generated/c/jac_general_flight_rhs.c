@@ -346,7 +346,8 @@ void carrier_jac_general_flight_rhs(const double *q, const double *u, const doub
   jac_dq_p[15] = -1.0;
 }
 
-/* ---- CasADi external-function ABI ------------------------------------------------ */
+/* ---- CasADi external-function ABI (left out with CARRIER_NO_CASADI_ABI) ---------- */
+#ifndef CARRIER_NO_CASADI_ABI
 /*
  * CasADi's jac_ convention: the inputs of general_flight_rhs, then its nominal outputs
  * (out_dq: not read, no nonzeros); one output per (output, input) block,
@@ -450,3 +451,4 @@ void jac_general_flight_rhs_release(int mem) { (void)mem; }
 void jac_general_flight_rhs_incref(void) {}
 
 void jac_general_flight_rhs_decref(void) {}
+#endif /* CARRIER_NO_CASADI_ABI */

@@ -79,7 +79,8 @@ void carrier_jac_general_gap(const double *q, const double *u, const double *s, 
   jac_v_n_p[1] = D_nu_p1*c15;
 }
 
-/* ---- CasADi external-function ABI ------------------------------------------------ */
+/* ---- CasADi external-function ABI (left out with CARRIER_NO_CASADI_ABI) ---------- */
+#ifndef CARRIER_NO_CASADI_ABI
 /*
  * CasADi's jac_ convention: the inputs of general_gap, then its nominal outputs
  * (out_h, out_v_n: not read, no nonzeros); one output per (output, input) block,
@@ -212,3 +213,4 @@ void jac_general_gap_release(int mem) { (void)mem; }
 void jac_general_gap_incref(void) {}
 
 void jac_general_gap_decref(void) {}
+#endif /* CARRIER_NO_CASADI_ABI */

@@ -406,7 +406,8 @@ void carrier_jac_general_impact(const double *q, const double *u, const double *
   jac_I_e[0] = -c159;
 }
 
-/* ---- CasADi external-function ABI ------------------------------------------------ */
+/* ---- CasADi external-function ABI (left out with CARRIER_NO_CASADI_ABI) ---------- */
+#ifndef CARRIER_NO_CASADI_ABI
 /*
  * CasADi's jac_ convention: the inputs of general_impact, then its nominal outputs
  * (out_q_plus, out_I: not read, no nonzeros); one output per (output, input) block,
@@ -557,3 +558,4 @@ void jac_general_impact_release(int mem) { (void)mem; }
 void jac_general_impact_incref(void) {}
 
 void jac_general_impact_decref(void) {}
+#endif /* CARRIER_NO_CASADI_ABI */

@@ -394,7 +394,8 @@ void carrier_jac_lie_point(const double *W, const double *k, const double *u, co
   jac_omega_p[14] = s1_86;
 }
 
-/* ---- CasADi external-function ABI ------------------------------------------------ */
+/* ---- CasADi external-function ABI (left out with CARRIER_NO_CASADI_ABI) ---------- */
+#ifndef CARRIER_NO_CASADI_ABI
 /*
  * CasADi's jac_ convention: the inputs of lie_point, then its nominal outputs
  * (out_E, out_omega: not read, no nonzeros); one output per (output, input) block,
@@ -523,3 +524,4 @@ void jac_lie_point_release(int mem) { (void)mem; }
 void jac_lie_point_incref(void) {}
 
 void jac_lie_point_decref(void) {}
+#endif /* CARRIER_NO_CASADI_ABI */

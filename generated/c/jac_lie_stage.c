@@ -462,7 +462,8 @@ void carrier_jac_lie_stage(const double *W, const double *k, const double *u, co
   jac_omega_p[14] = s1_95;
 }
 
-/* ---- CasADi external-function ABI ------------------------------------------------ */
+/* ---- CasADi external-function ABI (left out with CARRIER_NO_CASADI_ABI) ---------- */
+#ifndef CARRIER_NO_CASADI_ABI
 /*
  * CasADi's jac_ convention: the inputs of lie_stage, then its nominal outputs
  * (out_dW, out_omega: not read, no nonzeros); one output per (output, input) block,
@@ -597,3 +598,4 @@ void jac_lie_stage_release(int mem) { (void)mem; }
 void jac_lie_stage_incref(void) {}
 
 void jac_lie_stage_decref(void) {}
+#endif /* CARRIER_NO_CASADI_ABI */

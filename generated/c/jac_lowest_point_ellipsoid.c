@@ -69,7 +69,8 @@ void carrier_jac_lowest_point_ellipsoid(const double *n, const double *center, c
   jac_s_semi_axes[8] = -c19*n[2]*semi_axes[2] + c8*n[2]*n[2]*n[2]*semi_axes[2]*semi_axes[2]*semi_axes[2];
 }
 
-/* ---- CasADi external-function ABI ------------------------------------------------ */
+/* ---- CasADi external-function ABI (left out with CARRIER_NO_CASADI_ABI) ---------- */
+#ifndef CARRIER_NO_CASADI_ABI
 /*
  * CasADi's jac_ convention: the inputs of lowest_point_ellipsoid, then its nominal outputs
  * (out_s: not read, no nonzeros); one output per (output, input) block,
@@ -170,3 +171,4 @@ void jac_lowest_point_ellipsoid_release(int mem) { (void)mem; }
 void jac_lowest_point_ellipsoid_incref(void) {}
 
 void jac_lowest_point_ellipsoid_decref(void) {}
+#endif /* CARRIER_NO_CASADI_ABI */

@@ -162,7 +162,8 @@ void carrier_jac_lowest_point_rate_ellipsoid(const double *n, const double *omeg
   jac_sdot_semi_axes[8] = -c107*c53*c7 + 2.0*c28*c52*semi_axes[2] + c92*(-c110*c79 - c110*c85 + c19*(-c108*n[2]*n[2]*n[2]*n[2] + 2.0*c12*c7*semi_axes[2]));
 }
 
-/* ---- CasADi external-function ABI ------------------------------------------------ */
+/* ---- CasADi external-function ABI (left out with CARRIER_NO_CASADI_ABI) ---------- */
+#ifndef CARRIER_NO_CASADI_ABI
 /*
  * CasADi's jac_ convention: the inputs of lowest_point_rate_ellipsoid, then its nominal outputs
  * (out_sdot: not read, no nonzeros); one output per (output, input) block,
@@ -263,3 +264,4 @@ void jac_lowest_point_rate_ellipsoid_release(int mem) { (void)mem; }
 void jac_lowest_point_rate_ellipsoid_incref(void) {}
 
 void jac_lowest_point_rate_ellipsoid_decref(void) {}
+#endif /* CARRIER_NO_CASADI_ABI */

@@ -58,7 +58,8 @@ void carrier_jac_lowest_point_rate_sphere(const double *n, const double *omega, 
   jac_sdot_radius[2] = c4*c9;
 }
 
-/* ---- CasADi external-function ABI ------------------------------------------------ */
+/* ---- CasADi external-function ABI (left out with CARRIER_NO_CASADI_ABI) ---------- */
+#ifndef CARRIER_NO_CASADI_ABI
 /*
  * CasADi's jac_ convention: the inputs of lowest_point_rate_sphere, then its nominal outputs
  * (out_sdot: not read, no nonzeros); one output per (output, input) block,
@@ -159,3 +160,4 @@ void jac_lowest_point_rate_sphere_release(int mem) { (void)mem; }
 void jac_lowest_point_rate_sphere_incref(void) {}
 
 void jac_lowest_point_rate_sphere_decref(void) {}
+#endif /* CARRIER_NO_CASADI_ABI */

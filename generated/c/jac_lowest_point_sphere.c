@@ -51,7 +51,8 @@ void carrier_jac_lowest_point_sphere(const double *n, const double *center, doub
   jac_s_radius[2] = -c4*n[2];
 }
 
-/* ---- CasADi external-function ABI ------------------------------------------------ */
+/* ---- CasADi external-function ABI (left out with CARRIER_NO_CASADI_ABI) ---------- */
+#ifndef CARRIER_NO_CASADI_ABI
 /*
  * CasADi's jac_ convention: the inputs of lowest_point_sphere, then its nominal outputs
  * (out_s: not read, no nonzeros); one output per (output, input) block,
@@ -152,3 +153,4 @@ void jac_lowest_point_sphere_release(int mem) { (void)mem; }
 void jac_lowest_point_sphere_incref(void) {}
 
 void jac_lowest_point_sphere_decref(void) {}
+#endif /* CARRIER_NO_CASADI_ABI */

@@ -251,7 +251,8 @@ void carrier_jac_momentum_omega(const double *A, const double *K, const double *
   jac_omega_p[14] = s1_95;
 }
 
-/* ---- CasADi external-function ABI ------------------------------------------------ */
+/* ---- CasADi external-function ABI (left out with CARRIER_NO_CASADI_ABI) ---------- */
+#ifndef CARRIER_NO_CASADI_ABI
 /*
  * CasADi's jac_ convention: the inputs of momentum_omega, then its nominal outputs
  * (out_omega: not read, no nonzeros); one output per (output, input) block,
@@ -362,3 +363,4 @@ void jac_momentum_omega_release(int mem) { (void)mem; }
 void jac_momentum_omega_incref(void) {}
 
 void jac_momentum_omega_decref(void) {}
+#endif /* CARRIER_NO_CASADI_ABI */

@@ -538,7 +538,8 @@ void carrier_jac_vertical_flight_jacobian(const double *q, const double *u, cons
   jac_A_p[44] = s1_179;
 }
 
-/* ---- CasADi external-function ABI ------------------------------------------------ */
+/* ---- CasADi external-function ABI (left out with CARRIER_NO_CASADI_ABI) ---------- */
+#ifndef CARRIER_NO_CASADI_ABI
 /*
  * CasADi's jac_ convention: the inputs of vertical_flight_jacobian, then its nominal outputs
  * (out_A: not read, no nonzeros); one output per (output, input) block,
@@ -645,3 +646,4 @@ void jac_vertical_flight_jacobian_release(int mem) { (void)mem; }
 void jac_vertical_flight_jacobian_incref(void) {}
 
 void jac_vertical_flight_jacobian_decref(void) {}
+#endif /* CARRIER_NO_CASADI_ABI */

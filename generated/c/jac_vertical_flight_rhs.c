@@ -317,7 +317,8 @@ void carrier_jac_vertical_flight_rhs(const double *q, const double *u, const dou
   jac_dq_p[15] = -1.0;
 }
 
-/* ---- CasADi external-function ABI ------------------------------------------------ */
+/* ---- CasADi external-function ABI (left out with CARRIER_NO_CASADI_ABI) ---------- */
+#ifndef CARRIER_NO_CASADI_ABI
 /*
  * CasADi's jac_ convention: the inputs of vertical_flight_rhs, then its nominal outputs
  * (out_dq: not read, no nonzeros); one output per (output, input) block,
@@ -420,3 +421,4 @@ void jac_vertical_flight_rhs_release(int mem) { (void)mem; }
 void jac_vertical_flight_rhs_incref(void) {}
 
 void jac_vertical_flight_rhs_decref(void) {}
+#endif /* CARRIER_NO_CASADI_ABI */

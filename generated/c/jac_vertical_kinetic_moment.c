@@ -85,7 +85,8 @@ void carrier_jac_vertical_kinetic_moment(const double *q, const double *u, const
   jac_K_p[8] = q[4];
 }
 
-/* ---- CasADi external-function ABI ------------------------------------------------ */
+/* ---- CasADi external-function ABI (left out with CARRIER_NO_CASADI_ABI) ---------- */
+#ifndef CARRIER_NO_CASADI_ABI
 /*
  * CasADi's jac_ convention: the inputs of vertical_kinetic_moment, then its nominal outputs
  * (out_K: not read, no nonzeros); one output per (output, input) block,
@@ -186,3 +187,4 @@ void jac_vertical_kinetic_moment_release(int mem) { (void)mem; }
 void jac_vertical_kinetic_moment_incref(void) {}
 
 void jac_vertical_kinetic_moment_decref(void) {}
+#endif /* CARRIER_NO_CASADI_ABI */

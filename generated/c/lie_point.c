@@ -100,7 +100,8 @@ void carrier_lie_point(const double *W, const double *k, const double *u, const 
   omega[2] = s0_18;
 }
 
-/* ---- CasADi external-function ABI ------------------------------------------------ */
+/* ---- CasADi external-function ABI (left out with CARRIER_NO_CASADI_ABI) ---------- */
+#ifndef CARRIER_NO_CASADI_ABI
 
 int lie_point(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w,
               int mem)
@@ -192,3 +193,4 @@ void lie_point_release(int mem) { (void)mem; }
 void lie_point_incref(void) {}
 
 void lie_point_decref(void) {}
+#endif /* CARRIER_NO_CASADI_ABI */

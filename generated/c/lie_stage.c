@@ -91,7 +91,8 @@ void carrier_lie_stage(const double *W, const double *k, const double *u, const 
   omega[2] = s0_18;
 }
 
-/* ---- CasADi external-function ABI ------------------------------------------------ */
+/* ---- CasADi external-function ABI (left out with CARRIER_NO_CASADI_ABI) ---------- */
+#ifndef CARRIER_NO_CASADI_ABI
 
 int lie_stage(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w,
               int mem)
@@ -183,3 +184,4 @@ void lie_stage_release(int mem) { (void)mem; }
 void lie_stage_incref(void) {}
 
 void lie_stage_decref(void) {}
+#endif /* CARRIER_NO_CASADI_ABI */

@@ -29,7 +29,8 @@ void carrier_lowest_point_ellipsoid(const double *n, const double *center, const
   s[2] = -c2*c3*n[2] + center[2];
 }
 
-/* ---- CasADi external-function ABI ------------------------------------------------ */
+/* ---- CasADi external-function ABI (left out with CARRIER_NO_CASADI_ABI) ---------- */
+#ifndef CARRIER_NO_CASADI_ABI
 
 int lowest_point_ellipsoid(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w,
                            int mem)
@@ -112,3 +113,4 @@ void lowest_point_ellipsoid_release(int mem) { (void)mem; }
 void lowest_point_ellipsoid_incref(void) {}
 
 void lowest_point_ellipsoid_decref(void) {}
+#endif /* CARRIER_NO_CASADI_ABI */

@@ -44,7 +44,8 @@ void carrier_lowest_point_rate_ellipsoid(const double *n, const double *omega, c
   sdot[2] = c4*c7*(c12*c18 + c13*c17 + c14*(c5*c8 - 1.0));
 }
 
-/* ---- CasADi external-function ABI ------------------------------------------------ */
+/* ---- CasADi external-function ABI (left out with CARRIER_NO_CASADI_ABI) ---------- */
+#ifndef CARRIER_NO_CASADI_ABI
 
 int lowest_point_rate_ellipsoid(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w,
                                 int mem)
@@ -127,3 +128,4 @@ void lowest_point_rate_ellipsoid_release(int mem) { (void)mem; }
 void lowest_point_rate_ellipsoid_incref(void) {}
 
 void lowest_point_rate_ellipsoid_decref(void) {}
+#endif /* CARRIER_NO_CASADI_ABI */

@@ -26,7 +26,8 @@ void carrier_lowest_point_rate_sphere(const double *n, const double *omega, doub
   sdot[2] = c0*(-n[0]*omega[1] + n[1]*omega[0]);
 }
 
-/* ---- CasADi external-function ABI ------------------------------------------------ */
+/* ---- CasADi external-function ABI (left out with CARRIER_NO_CASADI_ABI) ---------- */
+#ifndef CARRIER_NO_CASADI_ABI
 
 int lowest_point_rate_sphere(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w,
                              int mem)
@@ -109,3 +110,4 @@ void lowest_point_rate_sphere_release(int mem) { (void)mem; }
 void lowest_point_rate_sphere_incref(void) {}
 
 void lowest_point_rate_sphere_decref(void) {}
+#endif /* CARRIER_NO_CASADI_ABI */

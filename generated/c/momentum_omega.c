@@ -53,7 +53,8 @@ void carrier_momentum_omega(const double *A, const double *K, const double *u, c
   omega[2] = s0_18;
 }
 
-/* ---- CasADi external-function ABI ------------------------------------------------ */
+/* ---- CasADi external-function ABI (left out with CARRIER_NO_CASADI_ABI) ---------- */
+#ifndef CARRIER_NO_CASADI_ABI
 
 int momentum_omega(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w,
                    int mem)
@@ -140,3 +141,4 @@ void momentum_omega_release(int mem) { (void)mem; }
 void momentum_omega_incref(void) {}
 
 void momentum_omega_decref(void) {}
+#endif /* CARRIER_NO_CASADI_ABI */

@@ -113,7 +113,8 @@ void carrier_vertical_contact_rhs(const double *q, const double *u, const double
   N[0] = -c51;
 }
 
-/* ---- CasADi external-function ABI ------------------------------------------------ */
+/* ---- CasADi external-function ABI (left out with CARRIER_NO_CASADI_ABI) ---------- */
+#ifndef CARRIER_NO_CASADI_ABI
 
 int vertical_contact_rhs(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w,
                          int mem)
@@ -209,3 +210,4 @@ void vertical_contact_rhs_release(int mem) { (void)mem; }
 void vertical_contact_rhs_incref(void) {}
 
 void vertical_contact_rhs_decref(void) {}
+#endif /* CARRIER_NO_CASADI_ABI */

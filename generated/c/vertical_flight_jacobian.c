@@ -153,7 +153,8 @@ void carrier_vertical_flight_jacobian(const double *q, const double *u, const do
   A[63] = 0.0;
 }
 
-/* ---- CasADi external-function ABI ------------------------------------------------ */
+/* ---- CasADi external-function ABI (left out with CARRIER_NO_CASADI_ABI) ---------- */
+#ifndef CARRIER_NO_CASADI_ABI
 
 int vertical_flight_jacobian(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w,
                              int mem)
@@ -236,3 +237,4 @@ void vertical_flight_jacobian_release(int mem) { (void)mem; }
 void vertical_flight_jacobian_incref(void) {}
 
 void vertical_flight_jacobian_decref(void) {}
+#endif /* CARRIER_NO_CASADI_ABI */

@@ -64,7 +64,8 @@ void carrier_vertical_flight_rhs(const double *q, const double *u, const double 
   dq[7] = q[5]*q[3] - q[6]*q[2];
 }
 
-/* ---- CasADi external-function ABI ------------------------------------------------ */
+/* ---- CasADi external-function ABI (left out with CARRIER_NO_CASADI_ABI) ---------- */
+#ifndef CARRIER_NO_CASADI_ABI
 
 int vertical_flight_rhs(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w,
                         int mem)
@@ -147,3 +148,4 @@ void vertical_flight_rhs_release(int mem) { (void)mem; }
 void vertical_flight_rhs_incref(void) {}
 
 void vertical_flight_rhs_decref(void) {}
+#endif /* CARRIER_NO_CASADI_ABI */

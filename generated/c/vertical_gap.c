@@ -30,7 +30,8 @@ void carrier_vertical_gap(const double *q, const double *u, const double *s, con
   v_n[0] = q[1] - c0*q[3]*u[2] - c0*u[3] - c1*q[4]*u[0] - c1*u[4] - c2*q[2]*u[1] - c2*u[5] + q[5]*nu*q[4]*u[1] + q[5]*q[3]*s[2] - q[5]*q[4]*s[1] + q[6]*nu*q[2]*u[2] - q[6]*q[2]*s[2] + q[6]*q[4]*s[0] + q[7]*nu*q[3]*u[0] + q[7]*q[2]*s[1] - q[7]*q[3]*s[0];
 }
 
-/* ---- CasADi external-function ABI ------------------------------------------------ */
+/* ---- CasADi external-function ABI (left out with CARRIER_NO_CASADI_ABI) ---------- */
+#ifndef CARRIER_NO_CASADI_ABI
 
 int vertical_gap(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w,
                  int mem)
@@ -122,3 +123,4 @@ void vertical_gap_release(int mem) { (void)mem; }
 void vertical_gap_incref(void) {}
 
 void vertical_gap_decref(void) {}
+#endif /* CARRIER_NO_CASADI_ABI */

@@ -73,7 +73,8 @@ void carrier_vertical_impact(const double *q, const double *u, const double *s, 
   I[0] = c17;
 }
 
-/* ---- CasADi external-function ABI ------------------------------------------------ */
+/* ---- CasADi external-function ABI (left out with CARRIER_NO_CASADI_ABI) ---------- */
+#ifndef CARRIER_NO_CASADI_ABI
 
 int vertical_impact(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w,
                     int mem)
@@ -169,3 +170,4 @@ void vertical_impact_release(int mem) { (void)mem; }
 void vertical_impact_incref(void) {}
 
 void vertical_impact_decref(void) {}
+#endif /* CARRIER_NO_CASADI_ABI */

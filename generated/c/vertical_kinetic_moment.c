@@ -32,7 +32,8 @@ void carrier_vertical_kinetic_moment(const double *q, const double *u, const dou
   K[2] = p[4]*q[4] + mu*(c0*q[4] + c4*q[4] - q[2]*u[0]*u[2] - q[3]*u[1]*u[2] + u[0]*u[4] - u[3]*u[1]);
 }
 
-/* ---- CasADi external-function ABI ------------------------------------------------ */
+/* ---- CasADi external-function ABI (left out with CARRIER_NO_CASADI_ABI) ---------- */
+#ifndef CARRIER_NO_CASADI_ABI
 
 int vertical_kinetic_moment(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w,
                             int mem)
@@ -115,3 +116,4 @@ void vertical_kinetic_moment_release(int mem) { (void)mem; }
 void vertical_kinetic_moment_incref(void) {}
 
 void vertical_kinetic_moment_decref(void) {}
+#endif /* CARRIER_NO_CASADI_ABI */
