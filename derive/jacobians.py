@@ -12,7 +12,8 @@ Forward mode over the specification, entry by entry of every input:
   definitions and unknowns ``s`` it reads (a new definition when not zero);
 * an unknown ``w`` of a solve ``J w = F`` gets ``J dw/dx = dF/dx - (dJ/dx) w``: more
   right-hand sides of the *same* matrix, solved after ``w`` (the emitted program reuses
-  the LDL^T factors), never a symbolic inverse;
+  its factorisation: the adjugate and the reciprocal of the determinant, as
+  :mod:`derive.emit.linalg` chooses), never a symbolic inverse;
 * an output entry ``y`` gets ``dy/dx`` by the same chain rule.
 
 Entries that are identically zero are left out of the blocks' sparsity; right-hand

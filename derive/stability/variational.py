@@ -4,10 +4,10 @@ The ``variational`` model of the runtime (``generated/runtime/model_variational.
 the vertical flight right-hand side ``q' = f(t, q)`` with ``Phi' = (df/dq) Phi``, the
 Jacobian taken from the derived expressions (:func:`derive.models.flight_jacobian`:
 where ``f`` reads the unknown ``omega'`` of ``J omega' = F``, ``d omega'/dq_k`` are
-further right-hand sides of the same LDL^T, no inverse formed).  It is compiled once per
-machine like every model, reading the scene's numbers and its law at run time, so one
-library serves every scene, family member and sweep.  ``Phi(T)`` over a period is the
-monodromy matrix.
+further right-hand sides of the same closed-form solve, no symbolic inverse).  It is
+compiled once per machine like every model, reading the scene's numbers and its law at
+run time, so one library serves every scene, family member and sweep.  ``Phi(T)`` over
+a period is the monodromy matrix.
 """
 from __future__ import annotations
 
