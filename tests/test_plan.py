@@ -491,6 +491,7 @@ BAD = [
     (("plan", "target_matrix"), [[1, 0, 0], [0, 1, 0], [0, 0, -1]], "[plan].target_matrix"),
     (("plan", "region"), {"center": [0, 0, 0], "radius": 0.1, "shape": "cube"},
      "[plan].region.shape"),
+    (("plan", "region"), {"center": [0, 0, 0], "radius": -0.1}, "[plan].region.radius"),
     (("plan", "intervals"), 2, "[plan].intervals"),
     (("body", "mass"), 0.0, "[body].mass"),
     (("point", "law"), ["t", "0", "0"], "[point].law"),

@@ -82,19 +82,23 @@ def _where(key: str) -> str:
     return f"[plan].{key}"
 
 
-def _num(plan: dict, key: str, default=None, *, required=False, positive=False):
+def _num(plan: dict, key: str, default=None, *, required=False, positive=False,
+         within: str = ""):
+    """A number of ``plan`` (``within``: the name of the table ``plan`` is, for messages:
+    ``region`` gives ``[plan].region.radius``)."""
+    where = _where(f"{within}.{key}" if within else key)
     if key not in plan:
         if required:
-            raise SceneError(_where(key), "is required")
+            raise SceneError(where, "is required")
         return default
     v = plan[key]
     if isinstance(v, bool) or not isinstance(v, (int, float)):
-        raise SceneError(_where(key), f"must be a number, not {type(v).__name__}")
+        raise SceneError(where, f"must be a number, not {type(v).__name__}")
     v = float(v)
     if not math.isfinite(v):
-        raise SceneError(_where(key), "must be finite (no NaN or infinity)")
+        raise SceneError(where, "must be finite (no NaN or infinity)")
     if positive and v <= 0:
-        raise SceneError(_where(key), f"must be > 0 (got {v})")
+        raise SceneError(where, f"must be > 0 (got {v})")
     return v
 
 
@@ -211,8 +215,8 @@ def parse_task(source, origin: str = "task") -> Task:
         cc = _vec(circle.get("center", [0.0, 0.0]), _where("circle.center"), 2)
         if "radius" not in circle:
             raise SceneError(_where("circle.radius"), "is required")
-        cr = _num(circle, "radius", positive=True)
-        a0 = _num(circle, "start_angle", 0.0)
+        cr = _num(circle, "radius", positive=True, within="circle")
+        a0 = _num(circle, "start_angle", 0.0, within="circle")
         circ = (float(cc[0]), float(cc[1]), cr, a0)
         start = np.array([cc[0] + cr * math.cos(a0), cc[1] + cr * math.sin(a0), 0.0])
         if "start" in plan:
@@ -224,7 +228,7 @@ def parse_task(source, origin: str = "task") -> Task:
         center = _vec(region.get("center", [0.0, 0.0, 0.0]), _where("region.center"), 3)
         if "radius" not in region:
             raise SceneError(_where("region.radius"), "is required")
-        radius = _num(region, "radius", positive=True)
+        radius = _num(region, "radius", positive=True, within="region")
         circ = None
         start = _vec(plan["start"], _where("start"), 3) if "start" in plan else center.copy()
         if np.linalg.norm(start - center) > radius * (1 + 1e-12):
