@@ -197,7 +197,7 @@ def _bound_source(spec: FunctionSpec) -> tuple[str, dict]:
     text = text.replace(f"variant_{DEFAULT_SOLVER}_{spec.name}", BOUND)
     text = re.sub(r"\b([up])\[(\d+)\]", lambda m: repr(float(values[m.group(1)][int(m.group(2))])),
                   text)
-    head = text.index("{", text.index(f"void {BOUND}(", text.index(f"void {BOUND}(") + 1))
+    head = text.index("{", text.rindex(f"void {BOUND}("))      # the definition's body
     text = text[:head + 1] + "\n  (void)u;\n  (void)p;" + text[head + 1:]
     return text, info
 

@@ -21,7 +21,7 @@ import copy
 import itertools
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields as dataclass_fields
 
 import numpy as np
 
@@ -256,8 +256,7 @@ class _VariantDoc:
 def _differing_field(a: Scene, b: Scene) -> str | None:
     """The first field in which two Scenes differ (the law by its text or samples, the
     attitude by its matrix), or None."""
-    import dataclasses
-    for f in dataclasses.fields(Scene):
+    for f in dataclass_fields(Scene):
         if f.name in ("doc_source", "law_summary", "source"):
             continue
         x, y = getattr(a, f.name), getattr(b, f.name)

@@ -36,7 +36,7 @@ def options(scene: Scene, kind: str) -> np.ndarray:
     """The option vector of a run (indices from abi.OPTIONS)."""
     opt = [0.0] * len(abi.OPTIONS)
     opt[_O["method"]] = METHODS[scene.method]
-    contact = scene.plane and scene.shape != "none"          # scene.contact_possible
+    contact = scene.contact_possible
     opt[_O["plane"]] = 1.0 if contact else 0.0
     opt[_O["rtol"]], opt[_O["atol"]] = scene.rtol, scene.atol
     h_max = scene.duration / 4.0

@@ -765,7 +765,7 @@ def _remember(key: bytes, doc: dict, v: dict, given: set, static: _Static) -> bo
     if not _plain(doc):
         return False                        # e.g. a NumPy float (marshalled as bytes)
     defaults = _defaults()
-    state = {f.where for f in _BY_TABLE[_STATE_TABLE].values()}
+    state = {f.where for f in _STATE_FIELDS}
     v = {k: (defaults[k] if k in state else x) for k, x in v.items()}
     given = {g for g in given if g not in state}
     with _SEEN_LOCK:

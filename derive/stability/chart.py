@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import csv
 import json
+import textwrap
 from pathlib import Path
 
 import numpy as np
@@ -122,7 +123,6 @@ def draw(sw: Sweep, path: Path) -> Path:
     c = counts(sw)
     others = ", ".join(f"{k}={v:g}" for k, v in fixed_values(sw).items())
     what = "" if fam.name == "bounce" else " stationary rotation"
-    import textwrap
     head = textwrap.fill(f"{fam.name}{what}: {fam.title}", 90)       # the figure's width
     ax.set_title(head + "\n" + textwrap.fill(others, 90), fontsize=9)
     ax.set_xlabel(sw.x.name)
