@@ -2,7 +2,7 @@
 (Markeev 2012): derivation, proofs, code generation, simulation, measurement.
 
 ``derive.simulate(scene)`` runs a scene (a TOML path, a dict of the scene schema or a
-parsed :class:`~derive.runtime.scene.Scene`) and returns a
+parsed :class:`~derive.scene.Scene`) and returns a
 :class:`~derive.runtime.driver.Result`; ``derive.simulate_many(scene, variants)`` runs
 many variants of one scene for parameter studies; ``derive.plan(task)`` plans the
 point's motion (:mod:`derive.planner`).  Importing ``derive`` loads neither

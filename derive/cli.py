@@ -120,15 +120,14 @@ def cmd_emit(args: argparse.Namespace) -> int:
 def _scene_doc(args) -> tuple[dict, object, str]:
     """(the scene as a dict with --set applied, its folder, its name for messages)."""
     from pathlib import Path
-    from .runtime import batch
-    from .runtime.scene import builtin_doc, load_scene
+    from .scene import builtin_doc, load_scene, overrides
     if args.scene:
         doc, base, origin = load_scene(args.scene).doc, Path(args.scene).parent, args.scene
     else:
         doc, base, origin = builtin_doc(), None, "built-in scene"
     for text in args.set or []:
-        name, value = batch.parse_override(text)
-        batch._set(doc, name, value)
+        name, value = overrides.parse_assignment(text)
+        overrides.apply_to_doc(doc, name, value)
     return doc, base, origin
 
 
@@ -172,7 +171,7 @@ def _workers(n: int) -> str:
 def cmd_simulate(args: argparse.Namespace) -> int:
     import time
     start = time.perf_counter()
-    from .runtime.scene import SceneError, parse_scene
+    from .scene import SceneError, parse_scene
     _check_output_folder(args.output)
     if args.sweep:
         return _simulate_sweep(args, start)
@@ -220,7 +219,7 @@ def _simulate_sweep(args, start: float) -> int:
     import time
     from pathlib import Path
     from .runtime import batch
-    from .runtime.scene import SceneError, parse_scene
+    from .scene import SceneError, parse_scene
     try:
         doc, base, origin = _scene_doc(args)
         parse_scene(doc, origin, base=base)             # the base must be valid itself
@@ -267,7 +266,7 @@ def _simulate_sweep(args, start: float) -> int:
 
 # ---- scene --------------------------------------------------------------------------
 def cmd_scene(args: argparse.Namespace) -> int:
-    from .runtime.scene import SceneError, load_scene, template
+    from .scene import SceneError, load_scene, template
     if args.action == "new":
         if args.file:
             raise UsageError("scene new: takes no file (it prints a template: redirect it)")
@@ -294,7 +293,7 @@ def cmd_scene(args: argparse.Namespace) -> int:
 def cmd_stability(args: argparse.Namespace) -> int:
     import json
     from dataclasses import replace
-    from .runtime.scene import SceneError, load_scene, parse_scene
+    from .scene import SceneError, load_scene, parse_scene
     from .stability import scenes, sweep
     from .stability.families import FamilyError
     if bool(args.scene) == bool(args.family):
@@ -369,7 +368,7 @@ def cmd_bench_rhs(args) -> int:
 
 def cmd_bench_sim(args) -> int:
     from .bench import sim
-    from .runtime.scene import SceneError, load_scene
+    from .scene import SceneError, load_scene
     doc = None
     if args.scene:
         try:
@@ -647,7 +646,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"derive {args.command}: {exc}", file=sys.stderr)
         return 2
     except ValueError as exc:            # SceneError from a subcommand that raises it
-        from .runtime.scene import SceneError
+        from .scene import SceneError
         if not isinstance(exc, SceneError):
             raise
         print(f"derive {args.command}: {exc}", file=sys.stderr)

@@ -1,6 +1,6 @@
 """Exact reference solutions of the paper, for tests and benchmarks.
 
-Each takes a free-flight :class:`~derive.runtime.scene.Scene` (or builds one) and times
+Each takes a free-flight :class:`~derive.scene.Scene` (or builds one) and times
 ``t`` and returns the state in the ``general`` layout (N, 18):
 
 * :func:`free_parabola` — the centre of mass C in flight (E1.2), for any scene;
@@ -24,7 +24,7 @@ from scipy.integrate import quad
 
 from . import notation as nt
 from .runtime.geometry import momentum_frame, rotation_x, rotation_z
-from .runtime.scene import DEFAULT_SCENE, Scene, parse_scene
+from .scene import DEFAULT_SCENE, Scene, parse_scene
 
 
 def free_parabola(scene: Scene, t) -> tuple[np.ndarray, np.ndarray]:

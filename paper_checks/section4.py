@@ -115,7 +115,7 @@ def _euler_multipliers(values: dict) -> np.ndarray:
 
 @check("O4")
 def o4(r: Report) -> None:
-    from derive.runtime.scene import parse_scene
+    from derive.scene import parse_scene
     from derive.stability import floquet
     from derive.stability.families import FAMILIES, member
     # 1. the machinery against a closed form: C4.2 with the point frozen (a = b = 0)

@@ -13,7 +13,7 @@ import pytest
 
 import derive
 from derive.runtime.batch import BatchError, expand
-from derive.runtime.scene import SceneError, builtin_doc
+from derive.scene import SceneError, builtin_doc
 
 
 def _variant(doc: dict, **changes) -> dict:
@@ -61,7 +61,9 @@ def test_the_quick_path_of_a_variant_equals_the_full_one():
     scene's validation; on random variants (and models) it equals the full path."""
     from derive.runtime.batch import _quick_variant, _VariantDoc
     from derive.runtime.driver import prepare
-    from derive.runtime.scene import _read, build_scene, override_fields, parse_scene
+    from derive.scene import build_scene, parse_scene
+    from derive.scene.overrides import apply_to_values
+    from derive.scene.schema import SCENE
     rng = np.random.default_rng(7)
     docs = [builtin_doc()]
     flat = builtin_doc()
@@ -73,7 +75,7 @@ def test_the_quick_path_of_a_variant_equals_the_full_one():
              "initial.com_velocity[2]", "plane.restitution", "run.g"]
     checked = refused = 0
     for doc in docs:
-        base_v, base_given = _read(doc)
+        base_v, base_given = SCENE.read(doc)
         base = prepare(build_scene(dict(base_v), set(base_given), {}, "base scene"))
         for _ in range(150):
             picked = rng.choice(names, size=rng.integers(1, 4), replace=False)
@@ -83,7 +85,7 @@ def test_the_quick_path_of_a_variant_equals_the_full_one():
                              else rng.uniform(1.0, 20.0)) for n in picked}
             v, given = dict(base_v), set(base_given)
             for n, value in over.items():
-                override_fields(v, given, n, value)
+                apply_to_values(v, given, n, value)
             touched = {f"[{n.split('.')[0]}].{n.split('.')[1].split('[')[0]}" for n in over}
             try:
                 full = prepare(build_scene(v, given, {}, "variant"))
@@ -102,7 +104,7 @@ def test_the_quick_path_of_a_variant_equals_the_full_one():
             checked += 1
     assert checked > 200 and refused > 10      # S started below the plane
     v, given = dict(base_v), set(base_given)
-    override_fields(v, given, "body.mass", 2.0)
+    apply_to_values(v, given, "body.mass", 2.0)
     assert _quick_variant(base, v, {"[body].mass"}, "variant", _VariantDoc(doc, {})) is None
 
 
@@ -114,7 +116,7 @@ def test_a_bad_variant_is_named():
     out = derive.simulate_many(doc, [{"body.mass": 1.0}, {"body.mass": -2.0}], workers=1,
                                strict=False)
     assert out.rows[0]["status"] == "done" and "[body].mass" in out.rows[1]["error"]
-    with pytest.raises(BatchError, match="not a scene field"):
+    with pytest.raises(SceneError, match="not a scene field"):
         derive.simulate_many(doc, [{"body.colour": 1.0}])
 
 
@@ -215,12 +217,11 @@ def test_a_bad_sweep_range_says_which_part_is_wrong(spec, rule):
 def test_overrides_with_5000_digits_are_one_line_errors(override):
     """Python refuses to read integers of more than 4300 digits with a ValueError of its
     own: an --set index or value that long had ended in a traceback."""
-    from derive.runtime.batch import _set, parse_override
-    from derive.runtime.scene import parse_scene
+    from derive.scene import overrides, parse_scene
     doc = builtin_doc()
     with pytest.raises(SceneError) as info:
-        name, value = parse_override(override)
-        _set(doc, name, value)
+        name, value = overrides.parse_assignment(override)
+        overrides.apply_to_doc(doc, name, value)
         parse_scene(doc)
     assert len(str(info.value)) < 300, str(info.value)
 

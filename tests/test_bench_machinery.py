@@ -35,7 +35,7 @@ def test_precision_quick_run_writes_charts_and_data(tmp_path):
 
 def test_errors_are_against_the_closed_form():
     doc, exact = precision.reference_scenes()["vertical bounce C2.4"]
-    from derive.runtime.scene import parse_scene
+    from derive.scene import parse_scene
     route = Runtime(doc, "dop853", 1e-12)
     states, impacts = exact(parse_scene(doc), route.grid)
     from derive.bench.routes import Run

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq, fsolve
 
-from derive.runtime.scene import SceneError, parse_scene
+from derive.scene import SceneError, parse_scene
 from derive.stability import bouncing
 
 G, W = 9.81, 30.0

@@ -18,7 +18,7 @@ import pytest
 
 from derive.bench import robustness as rb
 from derive.runtime.driver import simulate
-from derive.runtime.scene import builtin_doc
+from derive.scene import builtin_doc
 
 
 @pytest.mark.parametrize("block", range(6))

@@ -10,8 +10,8 @@ import pytest
 import sympy as sp
 
 from derive.runtime.driver import Session, prepare
-from derive.runtime.law import compile_law, find_singularity, parse_law
-from derive.runtime.scene import SceneError, builtin_doc, parse_scene
+from derive.scene.law import compile_law, find_singularity, parse_law
+from derive.scene import SceneError, builtin_doc, parse_scene
 
 
 def _random_expr(rng, depth: int) -> str:

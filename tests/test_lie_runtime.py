@@ -11,7 +11,7 @@ import pytest
 
 from derive.runtime.driver import simulate
 from derive.runtime.geometry import kinetic_moment, lowest_point_numeric
-from derive.runtime.scene import parse_scene
+from derive.scene import parse_scene
 
 from test_runtime import ball, scene_dict
 

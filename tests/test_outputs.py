@@ -11,7 +11,7 @@ import pytest
 import derive
 from derive.runtime.motion import energy_balance, motion
 from derive.runtime.outputs import write_all
-from derive.runtime.scene import DEFAULT_SCENE, builtin_doc
+from derive.scene import DEFAULT_SCENE, builtin_doc
 
 
 def scene(**changes):

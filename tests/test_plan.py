@@ -38,7 +38,7 @@ from derive import notation as nt
 from derive.planner.core import plan as make_plan
 from derive.planner.task import load_task, parse_task
 from derive.reduced import planar
-from derive.runtime.scene import SceneError
+from derive.scene import SceneError
 
 EXAMPLES = Path(derive.__file__).parent / "planner" / "examples"
 CC, CXX = shutil.which("cc"), shutil.which("g++")

@@ -36,11 +36,11 @@ def test_readme_documents_the_state_layouts_as_the_code_has_them():
 
 def test_readme_schema_table_is_the_schema():
     """The scene schema is written once: the README's table is rendered from it."""
-    from derive.runtime.scene import schema_table
+    from derive.scene import schema_table
     text = (ROOT / "README.md").read_text(encoding="utf-8")
     block = text.split("<!-- schema:begin -->\n", 1)[1].split("<!-- schema:end -->", 1)[0]
     assert block.strip() == schema_table().strip(), \
-        "README schema table differs: paste derive.runtime.scene.schema_table()"
+        "README schema table differs: paste derive.scene.schema_table()"
 
 
 def test_readme_python_examples_run(tmp_path, monkeypatch, capsys):

@@ -11,7 +11,7 @@ import tomllib
 
 from derive import reference
 from derive.runtime.driver import simulate
-from derive.runtime.scene import DEFAULT_SCENE, parse_scene
+from derive.scene import DEFAULT_SCENE, parse_scene
 
 
 def free_doc(**updates):

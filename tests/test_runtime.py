@@ -13,7 +13,7 @@ from scipy.integrate import solve_ivp
 from derive.emit.numpy_backend import compile_spec
 from derive.models import flight_rhs, gap, impact, lowest_point
 from derive.runtime.driver import simulate
-from derive.runtime.scene import DEFAULT_SCENE, parse_scene
+from derive.scene import DEFAULT_SCENE, parse_scene
 import tomllib
 
 

@@ -10,8 +10,8 @@ import tomllib
 import pytest
 
 from derive.runtime.choice import choose
-from derive.runtime.law import LawError, parse_law
-from derive.runtime.scene import DEFAULT_SCENE, SceneError, parse_scene
+from derive.scene.law import LawError, parse_law
+from derive.scene import DEFAULT_SCENE, SceneError, parse_scene
 
 
 def doc(**changes):
@@ -262,24 +262,24 @@ def test_a_scene_seen_before_is_validated_as_a_new_one():
     [initial] re-validated) or not; and what it keeps is only plain data."""
     import numpy as np
 
-    from derive.runtime import scene as scene_mod
+    from derive.scene import cache
     rng = np.random.default_rng(2026)
     statics = _static_variants(rng, 24)
     hits = 0
     for _ in range(3000):
         static = statics[int(rng.integers(len(statics)))]
         case = {**static, "initial": _initial_table(rng)}
-        scene_mod._SEEN.clear()
+        cache._SEEN.clear()
         cold = _outcome(case)
-        scene_mod._SEEN.clear()
+        cache._SEEN.clear()
         primer = {**static, "initial": {"com": [0.0, 0.0, 2.5]}}
         if isinstance(case["initial"], dict) and "time" in case["initial"]:
             primer["initial"]["time"] = case["initial"]["time"]   # the time is static
         if _outcome(primer)[0] != "scene":
             continue                                # a start time no law check admits
-        before = len(scene_mod._SEEN)
+        before = len(cache._SEEN)
         warm = _outcome(case)
-        hits += len(scene_mod._SEEN) == before and before == 1
+        hits += len(cache._SEEN) == before and before == 1
         assert warm == cold, (case["initial"], cold[1] if cold[0] == "refused" else "",
                               warm[1] if warm[0] == "refused" else "")
     assert hits > 2000, hits                        # the kept part served most of them
@@ -288,21 +288,21 @@ def test_a_scene_seen_before_is_validated_as_a_new_one():
 def test_only_plain_scenes_are_kept_and_types_are_told_apart():
     import numpy as np
 
-    from derive.runtime import scene as scene_mod
-    scene_mod._SEEN.clear()
+    from derive.scene import cache
+    cache._SEEN.clear()
     d = doc()
     d["body"]["mass"] = np.float64(1.0)           # accepted, but marshalled as bytes
     parse_scene(d)
-    assert len(scene_mod._SEEN) == 0
+    assert len(cache._SEEN) == 0
     d = doc()
     parse_scene(d)
-    assert len(scene_mod._SEEN) == 1
+    assert len(cache._SEEN) == 1
     d["body"]["mass"] = True                       # equal to 1.0, not a number here
     with pytest.raises(SceneError, match=r"\[body\].mass: must be a number"):
         parse_scene(d)
     d["body"]["mass"] = 1                          # an integer: another key, accepted
     parse_scene(d)
-    assert len(scene_mod._SEEN) == 2
+    assert len(cache._SEEN) == 2
 
 
 def test_a_scenes_dict_is_the_one_it_was_parsed_from():
@@ -313,8 +313,8 @@ def test_a_scenes_dict_is_the_one_it_was_parsed_from():
 
     import numpy as np
 
-    from derive.runtime import scene as scene_mod
-    scene_mod._SEEN.clear()
+    from derive.scene import cache
+    cache._SEEN.clear()
     for kind in ("first", "seen", "numpy", "toml"):
         d = doc()
         if kind == "numpy":
@@ -353,7 +353,7 @@ def test_numpy_numbers_tuples_and_arrays_are_taken_as_their_values():
         d["body"]["mass"] = bad
         with pytest.raises(SceneError, match=r"\[body\]\.mass: must be a number"):
             parse_scene(d)
-    from derive.runtime.scene import load_scene
+    from derive.scene import load_scene
     for bad in (None, 42, [1.0]):
         with pytest.raises(SceneError, match="scene: must be a path, a dict"):
             load_scene(bad)

@@ -11,7 +11,7 @@ import math
 import numpy as np
 import pytest
 
-from derive.runtime.scene import SceneError, parse_scene
+from derive.scene import SceneError, parse_scene
 from derive.stability import floquet
 from derive.stability.families import FAMILIES, FamilyError, member
 from derive.stability.variational import Monodromy

@@ -18,7 +18,7 @@ import pytest
 
 from derive.bench import robustness as rb
 from derive.runtime.driver import simulate
-from derive.runtime.scene import parse_scene
+from derive.scene import parse_scene
 
 METHODS = ("lie", "lie5", "lie8", "dop853", "dopri5")
 

@@ -29,7 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import reference
-from ..runtime.scene import DEFAULT_SCENE, parse_scene
+from ..scene import DEFAULT_SCENE, parse_scene
 from .routes import Casadi, Run, Runtime, Scipy, StopRun, errors
 
 CORRECT = 1e-6

@@ -1010,7 +1010,7 @@ def _serve(conn):
 
 def _evaluate(job: dict) -> dict:
     import warnings
-    from ..runtime.scene import SceneError, load_scene, parse_scene
+    from ..scene import SceneError, load_scene, parse_scene
     out: dict = {"status": "accepted", "warnings": []}
     start = time.perf_counter()
     with warnings.catch_warnings(record=True) as caught:
@@ -1286,7 +1286,8 @@ def judge_api(case: Case, res: dict, run_limit: float) -> Outcome:
 def run_api(cases: list[Case], simulate: bool = True, parse_limit: float = PARSE_LIMIT_S,
             run_limit: float = RUN_LIMIT_S, progress=None) -> list[Outcome]:
     """Each case through ``parse_scene`` (and ``simulate`` when accepted) in a worker."""
-    from ..runtime import driver, scene  # noqa: F401  (imported once, before the fork)
+    from .. import scene  # noqa: F401  (imported once, before the fork)
+    from ..runtime import driver  # noqa: F401
     warm = base_scene()                     # table laws import their own modules
     warm["point"] = {"mass": 0.2, "samples": table_rows()}
     try:

@@ -136,7 +136,7 @@ def _fresh_build(source: str):
 
 def run(n: int = 200_000, repeats: int = 7, progress=lambda m: None) -> dict:
     from ..runtime.driver import Session, prepare
-    from ..runtime.scene import builtin_doc
+    from ..scene import builtin_doc
     rows = []
     ts = np.linspace(0.0, 5.0, n)
     for name, texts in LAWS.items():

@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import reference
-from ..runtime.scene import DEFAULT_SCENE, parse_scene
+from ..scene import DEFAULT_SCENE, parse_scene
 from .routes import Casadi, Run, Runtime, Scipy, errors
 
 LEVELS = [1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11, 1e-12]

@@ -154,7 +154,7 @@ def judge(result, size: float) -> tuple[str, str]:
 def run_one(args) -> Outcome:
     index, seed, max_duration = args
     from ..runtime.driver import simulate
-    from ..runtime.scene import SceneError, parse_scene
+    from ..scene import SceneError, parse_scene
     rng = np.random.default_rng(seed)
     doc = _with_rk4_step(random_scene(rng, max_duration), rng)
     size = max(doc["body"].get("semi_axes", [doc["body"].get("radius", 0.0)]))

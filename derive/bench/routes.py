@@ -34,7 +34,7 @@ from ..emit.numpy_backend import compile_spec
 from ..models import flight_rhs, gap, impact, lowest_point
 from ..runtime import geometry
 from ..runtime.driver import Session, prepare, run_prepared
-from ..runtime.scene import Scene, parse_scene
+from ..scene import Scene, parse_scene
 
 GRID_DT = 0.05
 EVAL_BUDGET = 3_000_000

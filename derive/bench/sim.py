@@ -32,7 +32,7 @@ import time
 
 import numpy as np
 
-from ..runtime.scene import builtin_doc
+from ..scene import builtin_doc
 from .routes import Casadi, Runtime, Scipy, _timed, errors
 
 TARGET = 1e-9
@@ -176,14 +176,15 @@ def batch_throughput(n: int = 1000) -> dict:
     Session: crt_init and crt_advance, the minimum of five)."""
     import derive
     from ..runtime.driver import prepare, session_for
-    from ..runtime.scene import _read, build_scene, override_fields
+    from ..scene import build_scene, overrides
+    from ..scene.schema import SCENE
     doc = builtin_doc()
     heights = list(1.2 + 0.6 * np.arange(n) / n)
-    base_v, base_given = _read(doc)
+    base_v, base_given = SCENE.read(doc)
     c_runs = []
     for h in heights[::20]:
         v, given = dict(base_v), set(base_given)
-        override_fields(v, given, "initial.com[2]", h)
+        overrides.apply_to_values(v, given, "initial.com[2]", h)
         prep = prepare(build_scene(v, given, {}))
         session = session_for(prep.kind)
         session.set_law(prep.scene.law)

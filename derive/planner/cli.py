@@ -1,7 +1,7 @@
 """``derive plan TASK.toml -o DIR``: the command line of the planner.
 
 ``add_parser(subparsers)`` adds the subcommand; ``run(args)`` returns the exit status
-(0 solved, 1 infeasible or failed) and raises :class:`~derive.runtime.scene.SceneError`
+(0 solved, 1 infeasible or failed) and raises :class:`~derive.scene.SceneError`
 for bad input (exit status 2 in the CLI: one line naming the field and the rule, nothing
 written).
 """

@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 from scipy.interpolate import CubicSpline
 
+from ..scene import toml
 from . import cemit
 from .law import Law
 from .resim import BC, Trajectory, rotation_angle, resimulate, runtime_resimulate
@@ -87,23 +88,6 @@ def tabulate(law: Law, t_end: float | None = None, per_piece: int = 32):
 
 
 # ---- the planned scene --------------------------------------------------------------
-def _toml_value(v) -> str:
-    if isinstance(v, bool):
-        return "true" if v else "false"
-    if isinstance(v, (int, float, np.floating)):
-        x = float(v)
-        if not math.isfinite(x):
-            raise ValueError("non-finite number in the planned scene")
-        return repr(x)
-    if isinstance(v, str):
-        if not all(c.isalnum() or c in "-_.:" for c in v):
-            raise ValueError("unexpected character in a planned scene string")
-        return f'"{v}"'
-    if isinstance(v, (list, tuple, np.ndarray)):
-        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
-    raise TypeError(type(v))
-
-
 def scene_document(task: Task, law: Law, initial: dict, duration: float) -> dict:
     """The task's scene with the planned law as a table: only numbers and fixed
     strings from the whitelists are written (the task's name is not copied)."""
@@ -126,20 +110,10 @@ def scene_document(task: Task, law: Law, initial: dict, duration: float) -> dict
 
 
 def scene_toml(doc: dict) -> str:
-    lines = ["# Planned by `derive plan`: the task's scene with the planned law as a table.",
-             "# `derive simulate scene.toml` reproduces the plan.",
-             f"name = {_toml_value(doc['name'])}"]
-    for table in ("body", "point", "plane", "initial", "run"):
-        if table not in doc:
-            continue
-        lines.append(f"\n[{table}]")
-        for key, value in doc[table].items():
-            if key == "matrix":
-                rows = ", ".join(_toml_value(r) for r in value)
-                lines.append(f"{key} = [{rows}]")
-            else:
-                lines.append(f"{key} = {_toml_value(value)}")
-    return "\n".join(lines) + "\n"
+    """The planned scene as TOML: numbers and the fixed strings of scene_document only
+    (the task's own strings, its name included, are not copied)."""
+    return toml.dumps(doc, ("Planned by `derive plan`: the task's scene with the planned law "
+                            "as a table.", "`derive simulate scene.toml` reproduces the plan."))
 
 
 def _initial_from_task(task: Task) -> dict:

@@ -18,7 +18,7 @@ import math
 
 import numpy as np
 
-from ..runtime.scene import SceneError
+from ..scene import SceneError
 from ..stability.bouncing import existence_threshold, period_doubling_threshold
 from .functions import load, lowest_point
 from .transcribe import Transcription, initial_state

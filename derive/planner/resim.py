@@ -19,10 +19,8 @@ the only place to change when the runtime alone should be used.
 from __future__ import annotations
 
 import bisect
-import copy
 import csv
 import math
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -30,7 +28,7 @@ import numpy as np
 from scipy.integrate import solve_ivp
 from scipy.interpolate import CubicSpline
 
-from ..runtime.scene import Scene, SceneError, parse_scene
+from ..scene import Scene, SceneError, load_scene
 from .functions import Fast, load
 
 BC = {"periodic": "periodic", "rest": "clamped", "free": "not-a-knot"}
@@ -101,18 +99,15 @@ class SplineLaw:
 
 
 def read_scene(scene_path) -> tuple[Scene, SplineLaw, dict]:
-    """The planned scene: the runtime's parser for everything but the law (P held at the
-    table's first row), the table as a spline."""
+    """The planned scene, validated by the scene parser (with its table), and the table
+    as a spline of SciPy's: the re-simulation evaluates the law independently of the
+    runtime's spline."""
     path = Path(scene_path)
-    doc = tomllib.loads(path.read_text(encoding="utf-8"))
+    scene = load_scene(path)
+    doc = scene.doc
     point = doc.get("point", {})
-    table = path.parent / point["table"]
-    ends = point.get("ends", "free")
-    t, xyz = read_table(table)
-    probe = copy.deepcopy(doc)
-    probe["point"] = {"mass": point["mass"], "law": [repr(float(c)) for c in xyz[0]]}
-    scene = parse_scene(probe, str(path))
-    return scene, SplineLaw(t, xyz, ends), doc
+    t, xyz = read_table(path.parent / point["table"])
+    return scene, SplineLaw(t, xyz, point.get("ends", "free")), doc
 
 
 def _state0(scene: Scene) -> np.ndarray:

@@ -28,31 +28,17 @@ import numpy as np
 from .. import parallel
 from . import abi, choice
 from .driver import STATUSES, Prepared, prepare, run_prepared, session_for
-from .scene import (EITHER, FIELDS, Scene, SceneError, _read, _start_above_plane, build_scene,
-                    load_scene, override_fields, parse_scene)
+from ..scene import Scene, SceneError, build_scene, load_scene, overrides, parse_scene
+from ..scene.rules import check_start_above_plane
+from ..scene.schema import SCENE
 
 SUMMARY_COLUMNS = ("status", "model", "t_end", "impacts", "contacts", "liftoffs", "steps",
                    "rhs_evaluations", "min_height", "first_contact_t", "Z_C_end", "run_ms")
-_KNOWN = {f"{f.table}.{f.key}" if f.table else f.key: f for f in FIELDS}
 
 
-class BatchError(SceneError):
-    """A bad variant or override: ``where`` names it, ``rule`` says what."""
-
-
-def parse_override(text: str) -> tuple[str, object]:
-    """``body.mass=1.3`` (numbers, [lists], "strings" or true/false, as in TOML)."""
-    import tomllib
-    name, sep, value = text.partition("=")
-    name = name.strip()
-    if not sep:
-        raise BatchError("--set", f"must be table.key=value, e.g. body.mass=1.3 (got {text!r})")
-    check_name(name, "--set")
-    try:
-        parsed = tomllib.loads(f"v = {value.strip()}")["v"]
-    except ValueError:                    # TOMLDecodeError, or an integer of 5000 digits
-        parsed = value.strip()            # a bare string such as dop853
-    return name, parsed
+class BatchError(overrides.OverrideError):
+    """A bad variant, override or option of a study: ``where`` names it, ``rule`` says
+    what."""
 
 
 def parse_sweep(text: str) -> tuple[str, list]:
@@ -62,7 +48,7 @@ def parse_sweep(text: str) -> tuple[str, list]:
     if not sep:
         raise BatchError("--sweep", f"must be table.key=lo:hi:n or table.key=a,b,c "
                                     f"(got {text!r})")
-    check_name(name, "--sweep")
+    overrides.target(name, "--sweep")
     if ":" in spec:
         parts = spec.split(":")
         if len(parts) != 3:
@@ -87,37 +73,6 @@ def parse_sweep(text: str) -> tuple[str, list]:
     if not values or not all(math.isfinite(v) for v in values):
         raise BatchError("--sweep", f"{name}: values must be finite numbers")
     return name, values
-
-
-def check_name(name: str, where: str) -> None:
-    base = name.split("[")[0]
-    if base not in _KNOWN:
-        raise BatchError(where, f"{name!r} is not a scene field (fields: "
-                                f"{', '.join(sorted(_KNOWN))})")
-
-
-def _set(doc: dict, name: str, value) -> None:
-    """Set a dotted field (``initial.com[2]`` sets one entry of a vector)."""
-    path, _, index = name.partition("[")
-    table, _, key = path.rpartition(".")
-    target = doc.setdefault(table, {}) if table else doc
-    if not isinstance(target, dict):
-        raise BatchError(name, f"[{table}] is not a table in the base scene")
-    if index:
-        text = index[:-1] if index.endswith("]") else "?"
-        if not text.isdigit() or not text.isascii() or len(text) > 9:
-            raise BatchError(name, f"the index of {path} must be a whole number in "
-                                   f"brackets, like {path}[0]")
-        k = int(text)
-        vec = target.get(key)
-        if not isinstance(vec, list) or not 0 <= k < len(vec):
-            raise BatchError(name, f"the base scene has no entry {k} in {path}")
-        vec[k] = value
-    else:
-        target[key] = value
-    other = EITHER.get(f"[{table}].{key}")
-    if other is not None:                   # one of two fields a scene gives one of
-        target.pop(other.rpartition(".")[2], None)
 
 
 def expand(variants) -> list[dict]:
@@ -231,7 +186,7 @@ def _quick_variant(base, v: dict, touched: set, label: str, doc: _VariantDoc):
         changes[attr] = v[where]
     scene = Scene.of_fields(base.scene.__dict__, **changes, source=label, doc_source=doc)
     if "com" in changes:
-        _start_above_plane(scene)
+        check_start_above_plane(scene)
     st = choice.start(scene, base.kind)
     same = not (changes.keys() & _PARAMETER_VALUES or st.constants or base.start.constants)
     return Prepared(scene, base.kind, base.why, st, base.options,
@@ -249,7 +204,7 @@ class _VariantDoc:
     def get(self) -> dict:
         doc = copy.deepcopy(self._base)
         for name, value in self._overrides.items():
-            _set(doc, name, copy.deepcopy(value))
+            overrides.apply_to_doc(doc, name, copy.deepcopy(value))
         return doc
 
 
@@ -280,7 +235,7 @@ def _run_chunk(task: tuple) -> list:
     whole results: one run per variant."""
     base, origin, items, keep = task
     try:
-        base_v, base_given = _read(base)
+        base_v, base_given = SCENE.read(base)
     except SceneError as exc:
         return [(index, {"error": f"base scene: {exc}"}, None) for index, _ in items]
     try:
@@ -289,13 +244,13 @@ def _run_chunk(task: tuple) -> list:
     except SceneError:
         base_prep = None                   # a variant may still make it valid
     out, groups = [], {}
-    for index, overrides in items:
+    for index, changes in items:
         v, given = dict(base_v), set(base_given)
         try:
-            touched = {override_fields(v, given, name, value)
-                       for name, value in overrides.items()}
+            touched = {overrides.apply_to_values(v, given, name, value)
+                       for name, value in changes.items()}
             label = f"variant {index}"
-            doc = _VariantDoc(base, overrides)
+            doc = _VariantDoc(base, changes)
             prep = _quick_variant(base_prep, v, touched, label, doc) if base_prep else None
             if prep is None:
                 prep = prepare(build_scene(v, given, doc, label, base=origin))
@@ -349,7 +304,7 @@ def simulate_many(scene, variants, workers: int | None = None, scheduler: str | 
     items = list(enumerate(expand(variants)))
     for _, v in items:
         for name in v:
-            check_name(name, "variant")
+            overrides.target(name, "variant")
     start = time.perf_counter()
     n_items = len(items)
     if chunk is None:

@@ -23,7 +23,7 @@ import numpy as np
 
 from . import abi
 from .geometry import kinetic_moment, lowest_point_numeric, momentum_frame, rotation_x, rotation_z
-from .scene import Scene, SceneError
+from ..scene import Scene, SceneError
 
 POSE = "pose"
 GENERAL_LABELS = ("X_C", "Y_C", "Z_C", "X_C'", "Y_C'", "Z_C'", "omega_x", "omega_y",

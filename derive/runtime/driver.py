@@ -19,7 +19,7 @@ import numpy as np
 from . import abi, choice
 from .build import DP, IP, Library, library
 from .geometry import heights, kinetic_moment
-from .scene import Scene, _load
+from ..scene import Scene, load as _load
 
 STATUSES = abi.names(abi.STATUSES)
 EVENT_KINDS = abi.names(abi.EVENT_KINDS)
@@ -137,7 +137,7 @@ class Session:
 
     def _refused(self, status: int):
         # validation should have refused the scene: say which rule the C applied
-        from .scene import SceneError
+        from ..scene import SceneError
         return SceneError("[run]", f"the runtime refused the run's options or initial "
                                    f"state ({STATUSES[status]}); please report this scene")
 

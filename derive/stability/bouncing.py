@@ -50,7 +50,7 @@ import sympy as sp
 
 from .. import notation as nt
 from ..runtime.driver import Session, prepare
-from ..runtime.scene import Scene, SceneError, load_scene
+from ..scene import Scene, SceneError, load_scene
 from .floquet import complex_pairs
 from .variational import Monodromy
 

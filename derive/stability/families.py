@@ -25,7 +25,7 @@ import numpy as np
 import sympy as sp
 
 from .. import notation as nt
-from ..runtime.scene import SceneError, parse_scene
+from ..scene import SceneError, parse_scene
 from .floquet import UNIT_TOL, block_verdict
 from .variational import Monodromy
 

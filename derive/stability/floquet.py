@@ -37,7 +37,7 @@ from .. import notation as nt
 from ..emit.casadi_backend import build_function
 from ..emit.numpy_backend import compile_spec
 from ..runtime.driver import simulate
-from ..runtime.scene import Scene, SceneError
+from ..scene import Scene, SceneError
 from .specialise import common as _common
 from .specialise import specialise
 from .variational import Monodromy

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..runtime.scene import Scene, load_scene
+from ..scene import Scene, load_scene
 from . import bouncing, floquet
 
 

@@ -5,7 +5,7 @@ run time).  The stability tools still want a few derived functions of one scene 
 CasADi or NumPy functions of ``(t, q)``: the trace of the flight Jacobian (Liouville's
 check), the gradients of the integrals (the trivial multipliers) and the derivatives of
 the gap and the impact map (the saltation matrix).  Here the scene's numbers and its
-point law (as SymPy, from :meth:`derive.runtime.law.Program.sympy`) are substituted into
+point law (as SymPy, from :meth:`derive.scene.law.Program.sympy`) are substituted into
 the derived specifications of :mod:`derive.models`.
 """
 from __future__ import annotations
@@ -15,7 +15,7 @@ import sympy as sp
 from .. import models as dm
 from .. import notation as nt
 from .. import surfaces
-from ..runtime.scene import Scene
+from ..scene import Scene
 
 T_VEC = dm.Vector("t", (nt.t,), ("t",))
 

@@ -19,7 +19,7 @@ from .. import models as dm
 from ..runtime import choice
 from ..runtime.build import library
 from ..runtime.driver import Session, options
-from ..runtime.scene import Scene
+from ..scene import Scene
 
 
 def augmented_labels(base: str = "vertical") -> tuple:

@@ -3,7 +3,7 @@ the whole run, and compiled into a program the C runtime interprets.
 
 A law string never reaches generated source, ``eval`` or SymPy: the parser turns it into
 a :class:`Program` (nodes of a few opcodes over a table of float constants), which is
-data for the C interpreter (``templates/runtime/law.c.jinja``: value, first and second
+data for the C interpreter (``crt_law.h`` of the runtime: value, first and second
 derivative in one pass, forward mode), for NumPy (:meth:`Program.jets`) and, when a
 symbolic tool asks, for SymPy (:meth:`Program.sympy`).
 
@@ -35,13 +35,11 @@ import math
 import re
 from dataclasses import dataclass, field
 from functools import lru_cache
+from typing import Any
 
 import numpy as np
 
-from . import abi
 
-FUNCTIONS = ("sin", "cos", "tan", "exp", "log", "sqrt", "sinh", "cosh", "tanh",
-             "asin", "acos", "atan")
 MAX_LENGTH = 2000
 MAX_DEPTH = 60
 MAX_NODES = 300
@@ -59,12 +57,359 @@ class LawError(ValueError):
     """A law that is malformed, unsafe, or not twice differentiable on the run."""
 
 
-# ---- the program ---------------------------------------------------------------------
-_MATH = {"sin": math.sin, "cos": math.cos, "tan": math.tan, "exp": math.exp,
-         "log": math.log, "sqrt": math.sqrt, "sinh": math.sinh, "cosh": math.cosh,
-         "tanh": math.tanh, "asin": math.asin, "acos": math.acos, "atan": math.atan}
+# ---- the opcodes: one object each --------------------------------------------------------
+# What every part of this module knows about an operation is in its Op: how its
+# arguments are read (``shape``), its value and two derivatives (``jet``, written once
+# for NumPy arrays and for floats through a namespace of functions), its enclosure over
+# an interval of values (``interval``), its text, its SymPy form, and where it may be
+# singular.  The C interpreter (crt_law.h) implements the same list, numbered by
+# derive.runtime.abi.OPCODES (a test keeps the two lists equal).
+#
+# shape: "const" (a = index into consts), "t", "harmonic" (a = first of A, w, p in
+# consts), "unary" (a = node), "binary" (a, b = nodes), "power" (a = node, b = index of
+# the exponent in consts).
+
+class _Floats:
+    """The functions of a jet on floats: a value that does not exist raises (ValueError,
+    OverflowError, ZeroDivisionError), which :meth:`Program.point` turns into NaN."""
+    sin, cos, tan, exp, log, sqrt = math.sin, math.cos, math.tan, math.exp, math.log, math.sqrt
+    sinh, cosh, tanh = math.sinh, math.cosh, math.tanh
+    arcsin, arccos, arctan = math.asin, math.acos, math.atan
+    power = staticmethod(math.pow)
 
 
+class _Arrays:
+    """The same functions on NumPy arrays (NaN or inf where a value does not exist)."""
+    sin, cos, tan, exp, log, sqrt = np.sin, np.cos, np.tan, np.exp, np.log, np.sqrt
+    sinh, cosh, tanh = np.sinh, np.cosh, np.tanh
+    arcsin, arccos, arctan = np.arcsin, np.arccos, np.arctan
+    power = staticmethod(np.power)
+
+
+def _chain(f0, f1, f2, x):
+    """The jet of f(x) from f, f', f'' at x's value and x's jet."""
+    _, dx, ddx = x
+    return f0, f1 * dx, f2 * dx * dx + f1 * ddx
+
+
+def _jet_unary(fn):
+    """The jet rule of a function from its value and two derivatives, f(xp, x) ->
+    (f, f', f'')."""
+    def jet(xp, x, y, r):
+        return _chain(*fn(xp, x[0]), x)
+    return jet
+
+
+def _sin(xp, v):
+    s, c = xp.sin(v), xp.cos(v)
+    return s, c, -s
+
+
+def _cos(xp, v):
+    s, c = xp.sin(v), xp.cos(v)
+    return c, -s, -c
+
+
+def _tan(xp, v):
+    tn = xp.tan(v)
+    sec2 = 1.0 + tn * tn
+    return tn, sec2, 2.0 * tn * sec2
+
+
+def _exp(xp, v):
+    e = xp.exp(v)
+    return e, e, e
+
+
+def _log(xp, v):
+    r = 1.0 / v
+    return xp.log(v), r, -r * r
+
+
+def _sqrt(xp, v):
+    s = xp.sqrt(v)
+    return s, 0.5 / s, -0.25 / (s * v)
+
+
+def _sinh(xp, v):
+    s, c = xp.sinh(v), xp.cosh(v)
+    return s, c, s
+
+
+def _cosh(xp, v):
+    s, c = xp.sinh(v), xp.cosh(v)
+    return c, s, c
+
+
+def _tanh(xp, v):
+    th = xp.tanh(v)
+    d = 1.0 - th * th
+    return th, d, -2.0 * th * d
+
+
+def _asin(xp, v):
+    w = 1.0 - v * v
+    r = 1.0 / xp.sqrt(w)
+    return xp.arcsin(v), r, v * r / w
+
+
+def _acos(xp, v):
+    w = 1.0 - v * v
+    r = 1.0 / xp.sqrt(w)
+    return xp.arccos(v), -r, -v * r / w
+
+
+def _atan(xp, v):
+    w = 1.0 / (1.0 + v * v)
+    return xp.arctan(v), w, -2.0 * v * w * w
+
+
+def _jet_add(xp, x, y, r):
+    return x[0] + y[0], x[1] + y[1], x[2] + y[2]
+
+
+def _jet_sub(xp, x, y, r):
+    return x[0] - y[0], x[1] - y[1], x[2] - y[2]
+
+
+def _jet_neg(xp, x, y, r):
+    return -x[0], -x[1], -x[2]
+
+
+def _jet_mul(xp, x, y, r):
+    return (x[0] * y[0], x[1] * y[0] + x[0] * y[1],
+            x[2] * y[0] + 2.0 * x[1] * y[1] + x[0] * y[2])
+
+
+def _jet_div(xp, x, y, r):
+    q = x[0] / y[0]
+    dq = (x[1] - q * y[1]) / y[0]
+    return q, dq, (x[2] - 2.0 * dq * y[1] - q * y[2]) / y[0]
+
+
+def _jet_powr(xp, x, y, r):
+    """x ** r for a constant exponent r (an integer for powi)."""
+    p2 = xp.power(x[0], r - 2.0)
+    p1 = p2 * x[0]
+    return _chain(p1 * x[0], r * p1, r * (r - 1.0) * p2, x)
+
+
+def _jet_pow(xp, x, y, r):
+    """x ** y = exp(y log x), x > 0."""
+    lx = xp.log(x[0])
+    e = xp.exp(y[0] * lx)
+    # d(y ln x) = dy ln x + y dx/x; second derivative of the exponent
+    u1 = y[1] * lx + y[0] * x[1] / x[0]
+    u2 = y[2] * lx + 2.0 * y[1] * x[1] / x[0] + y[0] * (x[2] / x[0] - x[1] * x[1] / (x[0] * x[0]))
+    return e, e * u1, e * (u2 + u1 * u1)
+
+
+def harmonic_jet(op, A, w, p, sin, cos, t):
+    """A sin(w t + p) (hsin) or A cos(w t + p) (hcos) and its two derivatives."""
+    th = w * t + p
+    sv, cv = sin(th), cos(th)
+    if op == "hsin":
+        return A * sv, (A * w) * cv, -(A * w * w) * sv
+    return A * cv, -(A * w) * sv, -(A * w * w) * cv
+
+
+# ---- enclosures over intervals of values (NumPy arrays of boxes) -------------------------
+_HALF_PI = 0.5 * math.pi
+
+
+def _none(n):
+    return np.zeros(n, dtype=bool)
+
+
+def _iv_add(x, y, r):
+    return x[0] + y[0], x[1] + y[1], _none(x[0].shape[0])
+
+
+def _iv_sub(x, y, r):
+    return x[0] - y[1], x[1] - y[0], _none(x[0].shape[0])
+
+
+def _iv_neg(x, y, r):
+    return -x[1], -x[0], _none(x[0].shape[0])
+
+
+def _iv_mul(x, y, r):
+    c = np.stack([x[0] * y[0], x[0] * y[1], x[1] * y[0], x[1] * y[1]])
+    c = np.where(np.isnan(c), 0.0, c)            # 0 * inf
+    return c.min(0), c.max(0), _none(x[0].shape[0])
+
+
+def _iv_div(x, y, r):
+    flag = (y[0] <= 0.0) & (y[1] >= 0.0)
+    rlo = np.where(flag, 1.0, 1.0 / np.where(flag, 1.0, y[1]))
+    rhi = np.where(flag, 1.0, 1.0 / np.where(flag, 1.0, y[0]))
+    c = np.stack([x[0] * rlo, x[0] * rhi, x[1] * rlo, x[1] * rhi])
+    c = np.where(np.isnan(c), 0.0, c)
+    return np.where(flag, -np.inf, c.min(0)), np.where(flag, np.inf, c.max(0)), flag
+
+
+def _iv_powi(x, y, r):
+    alo, ahi = x
+    nexp = int(r)
+    flag = (alo <= 0.0) & (ahi >= 0.0) if nexp < 0 else _none(alo.shape[0])
+    p_lo, p_hi = alo ** float(nexp), ahi ** float(nexp)
+    if nexp % 2 == 0:
+        straddle = (alo < 0.0) & (ahi > 0.0)
+        rlo = np.where(straddle, 0.0 if nexp > 0 else -np.inf, np.minimum(p_lo, p_hi))
+        rhi = np.where(straddle, np.maximum(p_lo, p_hi) if nexp > 0 else np.inf,
+                       np.maximum(p_lo, p_hi))
+        if nexp < 0:
+            rlo = np.where(flag, 0.0, rlo)
+            rhi = np.where(flag, np.inf, rhi)
+        return rlo, rhi, flag
+    if nexp < 0:
+        return (np.where(flag, -np.inf, np.minimum(p_lo, p_hi)),
+                np.where(flag, np.inf, np.maximum(p_lo, p_hi)), flag)
+    return p_lo, p_hi, flag
+
+
+def _positive(x):
+    """The box clipped to positive values and the flag where it reaches 0 or below."""
+    flag = x[0] <= 0.0
+    safe_lo = np.where(flag, 1e-300, x[0])
+    return safe_lo, np.maximum(x[1], safe_lo), flag
+
+
+def _iv_log(x, y, r):
+    lo, hi, flag = _positive(x)
+    return np.log(lo), np.log(hi), flag
+
+
+def _iv_sqrt(x, y, r):
+    lo, hi, flag = _positive(x)
+    return np.sqrt(lo), np.sqrt(hi), flag
+
+
+def _iv_powr(x, y, r):
+    lo, hi, flag = _positive(x)
+    c = np.stack([lo ** r, hi ** r])
+    return c.min(0), c.max(0), flag
+
+
+def _iv_pow(x, y, r):
+    lo, hi, flag = _positive(x)
+    llo, lhi = np.log(lo), np.log(hi)
+    c = np.stack([llo * y[0], llo * y[1], lhi * y[0], lhi * y[1]])
+    c = np.where(np.isnan(c), 0.0, c)
+    return np.exp(c.min(0)), np.exp(c.max(0)), flag
+
+
+def _iv_sine(shift):
+    def enclose(x, y, r):
+        x0, x1 = x[0] + shift, x[1] + shift
+        wide = ~np.isfinite(x0) | ~np.isfinite(x1) | (x1 - x0 >= 2 * math.pi)
+        x0s, x1s = np.where(wide, 0.0, x0), np.where(wide, 0.0, x1)
+        s0, s1 = np.sin(x0s), np.sin(x1s)
+        # maxima at pi/2 + 2k pi, minima at -pi/2 + 2k pi
+        kmax = np.ceil((x0s - _HALF_PI) / (2 * math.pi))
+        has_max = _HALF_PI + 2 * math.pi * kmax <= x1s
+        kmin = np.ceil((x0s + _HALF_PI) / (2 * math.pi))
+        has_min = -_HALF_PI + 2 * math.pi * kmin <= x1s
+        rlo = np.where(has_min | wide, -1.0, np.minimum(s0, s1))
+        rhi = np.where(has_max | wide, 1.0, np.maximum(s0, s1))
+        return rlo, rhi, _none(x[0].shape[0])
+    return enclose
+
+
+def _iv_tan(x, y, r):
+    alo, ahi = x
+    wide = ~np.isfinite(alo) | ~np.isfinite(ahi) | (ahi - alo >= math.pi)
+    lo_s, hi_s = np.where(wide, 0.0, alo), np.where(wide, 0.0, ahi)
+    k = np.ceil((lo_s - _HALF_PI) / math.pi)
+    flag = wide | (_HALF_PI + math.pi * k <= hi_s)
+    return (np.where(flag, -np.inf, np.tan(lo_s)), np.where(flag, np.inf, np.tan(hi_s)), flag)
+
+
+def _iv_asin(x, y, r):
+    flag = (x[0] <= -1.0) | (x[1] >= 1.0)
+    return np.arcsin(np.clip(x[0], -1.0, 1.0)), np.arcsin(np.clip(x[1], -1.0, 1.0)), flag
+
+
+def _iv_acos(x, y, r):
+    flag = (x[0] <= -1.0) | (x[1] >= 1.0)
+    return np.arccos(np.clip(x[1], -1.0, 1.0)), np.arccos(np.clip(x[0], -1.0, 1.0)), flag
+
+
+def _iv_cosh(x, y, r):
+    straddle = (x[0] < 0.0) & (x[1] > 0.0)
+    c0, c1 = np.cosh(x[0]), np.cosh(x[1])
+    return np.where(straddle, 1.0, np.minimum(c0, c1)), np.maximum(c0, c1), \
+        _none(x[0].shape[0])
+
+
+def _iv_increasing(fn):
+    def enclose(x, y, r):
+        return fn(x[0]), fn(x[1]), _none(x[0].shape[0])
+    return enclose
+
+
+@dataclass(frozen=True)
+class Op:
+    name: str
+    shape: str                 # const | t | harmonic | unary | binary | power
+    jet: Any = None            # (xp, x, y, r) -> (value, d/dt, d2/dt2); x, y jets, r a const
+    interval: Any = None       # (x, y, r) -> (lo, hi, may-be-singular flag)
+    sympy: Any = None          # (sp, x, y) -> expression (unary, binary)
+    infix: str = ""            # binary: the operator's text
+    singular: str = ""         # where it may be singular: the message
+    entire: bool = True        # no singular point whatever its argument (powi: if r > 0)
+
+    @property
+    def reads_b(self) -> bool:
+        return self.shape == "binary"
+
+    @property
+    def leaf(self) -> bool:
+        return self.shape in ("const", "t", "harmonic")
+
+
+def _fn(name, jet_fn, interval, sympy_name, singular=""):
+    return Op(name, "unary", _jet_unary(jet_fn), interval,
+              lambda sp, x, y: getattr(sp, sympy_name)(x), singular=singular,
+              entire=not singular)
+
+
+OPS = {op.name: op for op in (
+    Op("const", "const"),
+    Op("t", "t"),
+    Op("add", "binary", _jet_add, _iv_add, lambda sp, x, y: x + y, infix=" + "),
+    Op("sub", "binary", _jet_sub, _iv_sub, lambda sp, x, y: x - y, infix=" - "),
+    Op("mul", "binary", _jet_mul, _iv_mul, lambda sp, x, y: x * y, infix="*"),
+    Op("div", "binary", _jet_div, _iv_div, lambda sp, x, y: x / y, infix="/",
+       singular="a division by zero", entire=False),
+    Op("neg", "unary", _jet_neg, _iv_neg, lambda sp, x, y: -x),
+    Op("powi", "power", _jet_powr, _iv_powi, singular="a division by zero", entire=False),
+    Op("powr", "power", _jet_powr, _iv_powr, singular="a power of a non-positive number",
+       entire=False),
+    Op("pow", "binary", _jet_pow, _iv_pow, lambda sp, x, y: x ** y,
+       singular="a power of a non-positive number", entire=False),
+    _fn("sin", _sin, _iv_sine(0.0), "sin"),
+    _fn("cos", _cos, _iv_sine(_HALF_PI), "cos"),
+    _fn("tan", _tan, _iv_tan, "tan", "a pole of tan"),
+    _fn("exp", _exp, _iv_increasing(np.exp), "exp"),
+    _fn("log", _log, _iv_log, "log", "log of a non-positive number"),
+    _fn("sqrt", _sqrt, _iv_sqrt, "sqrt", "sqrt of a non-positive number (not twice "
+        "differentiable where it reaches 0)"),
+    _fn("sinh", _sinh, _iv_increasing(np.sinh), "sinh"),
+    _fn("cosh", _cosh, _iv_cosh, "cosh"),
+    _fn("tanh", _tanh, _iv_increasing(np.tanh), "tanh"),
+    _fn("asin", _asin, _iv_asin, "asin", "asin outside (-1, 1)"),
+    _fn("acos", _acos, _iv_acos, "acos", "acos outside (-1, 1)"),
+    _fn("atan", _atan, _iv_increasing(np.arctan), "atan"),
+    Op("hsin", "harmonic"),
+    Op("hcos", "harmonic"),
+)}
+FUNCTIONS = tuple(name for name, op in OPS.items() if op.shape == "unary" and name != "neg")
+_MATH = {name: getattr(_Floats, {"asin": "arcsin", "acos": "arccos", "atan": "arctan"}
+                       .get(name, name)) for name in FUNCTIONS}
+
+
+# ---- the program -------------------------------------------------------------------------
 @dataclass(eq=False)
 class Program:
     """Nodes in topological order: ``ops[k]`` with arguments ``a[k]``, ``b[k]`` (node
@@ -90,44 +435,46 @@ class Program:
         node = self.outputs[k]
         return self.consts[self.a[node]] if self.ops[node] == "const" else math.nan
 
-    # -- evaluation with NumPy ---------------------------------------------------------
+    def _jets(self, xp, t, one, zero) -> list:
+        """Every node's jet: (value, d/dt, d2/dt2) in the arithmetic of ``xp``."""
+        val: list = [None] * len(self.ops)
+        consts = self.consts
+        for k, name in enumerate(self.ops):
+            a, b = self.a[k], self.b[k]
+            op = OPS[name]
+            if op.shape == "const":
+                val[k] = (consts[a] * one, zero, zero)
+            elif op.shape == "t":
+                val[k] = (t, one, zero)
+            elif op.shape == "harmonic":
+                val[k] = harmonic_jet(name, *consts[a:a + 3], xp.sin, xp.cos, t)
+            elif op.shape == "power":
+                val[k] = op.jet(xp, val[a], None, consts[b])
+            else:
+                val[k] = op.jet(xp, val[a], val[b] if op.reads_b else None, 0.0)
+        return val
+
     def jets(self, ts) -> np.ndarray:
         """(9, N): x, x', x'', y, y', y'', z, z', z'' at the times ``ts``."""
         ts = np.asarray(ts, dtype=float).reshape(-1)
         n = ts.size
-        zero = np.zeros(n)
-        val: list = [None] * len(self.ops)
         with np.errstate(all="ignore"):
-            for k, op in enumerate(self.ops):
-                a, b = self.a[k], self.b[k]
-                if op == "const":
-                    val[k] = (np.full(n, self.consts[a]), zero, zero)
-                elif op == "t":
-                    val[k] = (ts, np.ones(n), zero)
-                elif op in ("hsin", "hcos"):
-                    val[k] = _harmonic(op, *self.consts[a:a + 3], np.sin, np.cos, ts)
-                else:
-                    val[k] = _jet_numpy(op, val, a, b, self.consts)
+            val = self._jets(_Arrays, ts, np.ones(n), np.zeros(n))
         out = []
         for node in self.outputs:
             out.extend(np.broadcast_to(v, (n,)) for v in val[node])
         return np.array(out)
 
     def point(self, t: float) -> np.ndarray:
-        """u = (x, y, z, x', y', z', x'', y'', z'') at one time (scalar arithmetic: for a
-        single point this is faster than :meth:`jets`)."""
-        val: list = [None] * len(self.ops)
-        for k, op in enumerate(self.ops):
-            a, b = self.a[k], self.b[k]
-            if op == "const":
-                val[k] = (self.consts[a], 0.0, 0.0)
-            elif op == "t":
-                val[k] = (float(t), 1.0, 0.0)
-            elif op in ("hsin", "hcos"):
-                val[k] = _harmonic(op, *self.consts[a:a + 3], math.sin, math.cos, float(t))
-            else:
-                val[k] = _jet_scalar(op, val, a, b, self.consts)
+        """u = (x, y, z, x', y', z', x'', y'', z'') at one time (float arithmetic: for a
+        single point this is faster than :meth:`jets`; NaN where a value does not
+        exist)."""
         out = np.empty(9)
+        try:
+            val = self._jets(_Floats, float(t), 1.0, 0.0)
+        except (ValueError, OverflowError, ZeroDivisionError):
+            out[:] = math.nan
+            return out
         for c, node in enumerate(self.outputs):
             out[c], out[3 + c], out[6 + c] = val[node]
         return out
@@ -135,6 +482,7 @@ class Program:
     # -- for the C interpreter -----------------------------------------------------------
     def arrays(self) -> dict:
         """int32 ``code`` rows (op, a, b) and float64 ``consts`` for the runtime."""
+        from ..runtime import abi
         code = np.array([[abi.OP[op], a, b] for op, a, b in zip(self.ops, self.a, self.b)],
                         dtype=np.int32).reshape(-1, 3)
         n_const = sum(1 for op in self.ops if op == "const")
@@ -143,8 +491,28 @@ class Program:
                 "outputs": np.array(self.outputs, dtype=np.int32), "n_const": n_const}
 
     # -- text and SymPy ----------------------------------------------------------------------
-    def node_text(self, k: int) -> str:
-        return _text(self, k)
+    def node_text(self, k: int, depth: int = 0) -> str:
+        name, a, b = self.ops[k], self.a[k], self.b[k]
+        op = OPS[name]
+        if depth > 12:
+            return "..."
+        if op.shape == "const":
+            return f"{self.consts[a]:.15g}"
+        if op.shape == "t":
+            return "t"
+        if op.shape == "harmonic":
+            A, w, ph = self.consts[a:a + 3]
+            return f"{A:.15g}*{name[1:]}({w:.15g}*t + {ph:.15g})"
+        x = self.node_text(a, depth + 1)
+        if op.shape == "power":
+            return f"{x}**{self.consts[b]:.15g}"
+        if name == "pow":
+            return f"{x}**{self.node_text(b, depth + 1)}"
+        if op.infix:
+            return f"({x}{op.infix}{self.node_text(b, depth + 1)})"
+        if name == "neg":
+            return f"-{x}"
+        return f"{name}({x})"
 
     def sympy(self) -> tuple:
         """The three coordinates as SymPy expressions in ``derive.notation.t`` (for the
@@ -152,6 +520,13 @@ class Program:
         if self._sympy is None:
             self._sympy = _to_sympy(self)
         return self._sympy
+
+    def arguments(self, k: int) -> tuple:
+        """The nodes node ``k`` reads."""
+        op = OPS[self.ops[k]]
+        if op.leaf:
+            return ()
+        return (self.a[k], self.b[k]) if op.reads_b else (self.a[k],)
 
     def coordinate_of(self, node: int) -> int:
         """The first coordinate whose expression uses ``node``."""
@@ -165,19 +540,40 @@ def _reachable(p: Program, root: int) -> set:
     seen, stack = set(), [root]
     while stack:
         k = stack.pop()
-        if k in seen:
-            continue
-        seen.add(k)
-        op = p.ops[k]
-        if op in ("const", "t", "hsin", "hcos"):
-            continue
-        stack.append(p.a[k])
-        if op in ("add", "sub", "mul", "div", "pow"):
-            stack.append(p.b[k])
+        if k not in seen:
+            seen.add(k)
+            stack.extend(p.arguments(k))
     return seen
 
 
-# ---- building: hash-consing, constant folding ----------------------------------------------
+def _to_sympy(p: Program) -> tuple:
+    import sympy as sp
+    from .. import notation as nt
+
+    def number(c: float):
+        if c == math.pi:
+            return sp.pi
+        return sp.Integer(int(c)) if c == int(c) and abs(c) < 2 ** 53 else sp.Float(repr(c), 17)
+    val: list = []
+    for name, a, b in zip(p.ops, p.a, p.b):
+        op = OPS[name]
+        if op.shape == "const":
+            v = number(p.consts[a])
+        elif op.shape == "t":
+            v = nt.t
+        elif op.shape == "harmonic":
+            A, w, ph = (sp.Float(repr(c), 17) for c in p.consts[a:a + 3])
+            v = A * (sp.sin if name == "hsin" else sp.cos)(w * nt.t + ph)
+        elif op.shape == "power":
+            r = p.consts[b]
+            v = val[a] ** (sp.Integer(int(r)) if name == "powi" else sp.Float(repr(r), 17))
+        else:
+            v = op.sympy(sp, val[a], val[b] if op.reads_b else None)
+        val.append(v)
+    return tuple(val[k] for k in p.outputs)
+
+
+# ---- building: hash-consing, constant folding --------------------------------------------
 class _Builder:
     def __init__(self):
         self.nodes: list = []          # (op, a, b)
@@ -361,10 +757,10 @@ class _Builder:
                 continue
             used.add(k)
             op, a, b = self.nodes[k]
-            if op in ("const", "t", "hsin", "hcos"):
-                continue
-            stack.append(a)
-            if op in ("add", "sub", "mul", "div", "pow"):
+            shape = OPS[op].shape
+            if shape in ("unary", "binary", "power"):
+                stack.append(a)
+            if shape == "binary":
                 stack.append(b)
         order = sorted(used, key=lambda k: (self.nodes[k][0] != "const",
                                             self.nodes[k][0] != "t", k))
@@ -380,16 +776,17 @@ class _Builder:
         for k in order:
             op, a, b = self.nodes[k]
             ops.append(op)
-            if op == "const":
+            shape = OPS[op].shape
+            if shape == "const":
                 ref = (cref(a), 0)
-            elif op == "t":
+            elif shape == "t":
                 ref = (0, 0)
-            elif op in ("powi", "powr"):
+            elif shape == "power":
                 ref = (new[a], cref(b))
-            elif op in ("hsin", "hcos"):
+            elif shape == "harmonic":
                 ref = (len(consts), 0)
                 consts.extend(self.harmonic[k][1:])          # A, w, p consecutive
-            elif op in ("add", "sub", "mul", "div", "pow"):
+            elif shape == "binary":
                 ref = (new[a], new[b])
             else:
                 ref = (new[a], 0)
@@ -399,7 +796,7 @@ class _Builder:
                        tuple(new[k] for k in outputs), text)
 
 
-# ---- parsing -------------------------------------------------------------------------
+# ---- parsing -----------------------------------------------------------------------------
 def _tokens(text: str) -> list:
     out, pos = [], 0
     while pos < len(text):
@@ -575,207 +972,7 @@ def parse_law(text: str) -> Program:
     return compile_law((text, "0", "0"))
 
 
-# ---- NumPy jets ---------------------------------------------------------------------------
-def _harmonic(op, A, w, p, sin, cos, t):
-    """A sin(w t + p) (hsin) or A cos(w t + p) (hcos) and its two derivatives."""
-    th = w * t + p
-    sv, cv = sin(th), cos(th)
-    if op == "hsin":
-        return A * sv, (A * w) * cv, -(A * w * w) * sv
-    return A * cv, -(A * w) * sv, -(A * w * w) * cv
-
-
-def _jet_numpy(op, val, a, b, consts):
-    x, dx, ddx = val[a]
-    if op in ("add", "sub", "mul", "div", "pow"):
-        y, dy, ddy = val[b]
-    if op == "add":
-        return x + y, dx + dy, ddx + ddy
-    if op == "sub":
-        return x - y, dx - dy, ddx - ddy
-    if op == "neg":
-        return -x, -dx, -ddx
-    if op == "mul":
-        return x * y, dx * y + x * dy, ddx * y + 2.0 * dx * dy + x * ddy
-    if op == "div":
-        q = x / y
-        dq = (dx - q * dy) / y
-        return q, dq, (ddx - 2.0 * dq * dy - q * ddy) / y
-    if op in ("powi", "powr"):
-        r = consts[b]
-        p2 = x ** (r - 2.0) if op == "powr" else _powi(x, int(r) - 2)
-        p1 = p2 * x
-        p0 = p1 * x
-        return _chain(p0, r * p1, r * (r - 1.0) * p2, dx, ddx)
-    if op == "pow":
-        lx = np.log(x)
-        e = np.exp(y * lx)
-        # d(y ln x) = dy ln x + y dx/x; second derivative of the exponent
-        u1 = dy * lx + y * dx / x
-        u2 = ddy * lx + 2.0 * dy * dx / x + y * (ddx / x - dx * dx / (x * x))
-        return e, e * u1, e * (u2 + u1 * u1)
-    f0, f1, f2 = _unary_numpy(op, x)
-    return _chain(f0, f1, f2, dx, ddx)
-
-
-_SCALAR = {"sin": math.sin, "cos": math.cos, "tan": math.tan, "exp": math.exp,
-           "log": math.log, "sqrt": math.sqrt, "sinh": math.sinh, "cosh": math.cosh,
-           "tanh": math.tanh, "asin": math.asin, "acos": math.acos, "atan": math.atan}
-
-
-def _jet_scalar(op, val, a, b, consts):
-    """:func:`_jet_numpy` on floats (NaN where a real value does not exist)."""
-    x, dx, ddx = val[a]
-    try:
-        if op in ("add", "sub", "mul", "div", "pow"):
-            y, dy, ddy = val[b]
-        if op == "add":
-            return x + y, dx + dy, ddx + ddy
-        if op == "sub":
-            return x - y, dx - dy, ddx - ddy
-        if op == "neg":
-            return -x, -dx, -ddx
-        if op == "mul":
-            return x * y, dx * y + x * dy, ddx * y + 2.0 * dx * dy + x * ddy
-        if op == "div":
-            q = x / y
-            dq = (dx - q * dy) / y
-            return q, dq, (ddx - 2.0 * dq * dy - q * ddy) / y
-        if op in ("powi", "powr"):
-            r = consts[b]
-            p2 = math.pow(x, r - 2.0)
-            p1 = p2 * x
-            return p1 * x, r * p1 * dx, r * (r - 1.0) * p2 * dx * dx + r * p1 * ddx
-        if op == "pow":
-            lx = math.log(x)
-            e = math.exp(y * lx)
-            u1 = dy * lx + y * dx / x
-            u2 = ddy * lx + 2.0 * dy * dx / x + y * (ddx / x - dx * dx / (x * x))
-            return e, e * u1, e * (u2 + u1 * u1)
-        f0, f1, f2 = (float(v) for v in _unary_numpy(op, np.float64(x)))
-        return f0, f1 * dx, f2 * dx * dx + f1 * ddx
-    except (ValueError, OverflowError, ZeroDivisionError):
-        return (math.nan,) * 3
-
-
-def _powi(x, n: int):
-    return x ** float(n)
-
-
-def _chain(f0, f1, f2, dx, ddx):
-    return f0, f1 * dx, f2 * dx * dx + f1 * ddx
-
-
-def _unary_numpy(op, x):
-    if op == "sin":
-        s, c = np.sin(x), np.cos(x)
-        return s, c, -s
-    if op == "cos":
-        s, c = np.sin(x), np.cos(x)
-        return c, -s, -c
-    if op == "tan":
-        tn = np.tan(x)
-        sec2 = 1.0 + tn * tn
-        return tn, sec2, 2.0 * tn * sec2
-    if op == "exp":
-        e = np.exp(x)
-        return e, e, e
-    if op == "log":
-        r = 1.0 / x
-        return np.log(x), r, -r * r
-    if op == "sqrt":
-        s = np.sqrt(x)
-        return s, 0.5 / s, -0.25 / (s * x)
-    if op == "sinh":
-        s, c = np.sinh(x), np.cosh(x)
-        return s, c, s
-    if op == "cosh":
-        s, c = np.sinh(x), np.cosh(x)
-        return c, s, c
-    if op == "tanh":
-        th = np.tanh(x)
-        d = 1.0 - th * th
-        return th, d, -2.0 * th * d
-    if op in ("asin", "acos"):
-        w = 1.0 - x * x
-        r = 1.0 / np.sqrt(w)
-        sign = 1.0 if op == "asin" else -1.0
-        f0 = np.arcsin(x) if op == "asin" else np.arccos(x)
-        return f0, sign * r, sign * x * r / w
-    if op == "atan":
-        w = 1.0 / (1.0 + x * x)
-        return np.arctan(x), w, -2.0 * x * w * w
-    raise ValueError(op)
-
-
-# ---- text and SymPy -----------------------------------------------------------------------------
-_INFIX = {"add": " + ", "sub": " - ", "mul": "*", "div": "/"}
-
-
-def _text(p: Program, k: int, depth: int = 0) -> str:
-    op, a, b = p.ops[k], p.a[k], p.b[k]
-    if depth > 12:
-        return "..."
-    if op == "const":
-        return f"{p.consts[a]:.15g}"
-    if op == "t":
-        return "t"
-    if op in ("hsin", "hcos"):
-        A, w, ph = p.consts[a:a + 3]
-        return f"{A:.15g}*{op[1:]}({w:.15g}*t + {ph:.15g})"
-    if op in _INFIX:
-        return f"({_text(p, a, depth + 1)}{_INFIX[op]}{_text(p, b, depth + 1)})"
-    if op == "neg":
-        return f"-{_text(p, a, depth + 1)}"
-    if op in ("powi", "powr"):
-        return f"{_text(p, a, depth + 1)}**{p.consts[b]:.15g}"
-    if op == "pow":
-        return f"{_text(p, a, depth + 1)}**{_text(p, b, depth + 1)}"
-    return f"{op}({_text(p, a, depth + 1)})"
-
-
-def _to_sympy(p: Program) -> tuple:
-    import sympy as sp
-    from .. import notation as nt
-    fns = {"sin": sp.sin, "cos": sp.cos, "tan": sp.tan, "exp": sp.exp, "log": sp.log,
-           "sqrt": sp.sqrt, "sinh": sp.sinh, "cosh": sp.cosh, "tanh": sp.tanh,
-           "asin": sp.asin, "acos": sp.acos, "atan": sp.atan}
-    val: list = []
-    for op, a, b in zip(p.ops, p.a, p.b):
-        if op == "const":
-            c = p.consts[a]
-            v = sp.Integer(int(c)) if c == int(c) and abs(c) < 2 ** 53 else sp.Float(repr(c), 17)
-            if c == math.pi:
-                v = sp.pi
-        elif op == "t":
-            v = nt.t
-        elif op in ("hsin", "hcos"):
-            A, w, ph = (sp.Float(repr(c), 17) for c in p.consts[a:a + 3])
-            v = A * (sp.sin if op == "hsin" else sp.cos)(w * nt.t + ph)
-        elif op == "add":
-            v = val[a] + val[b]
-        elif op == "sub":
-            v = val[a] - val[b]
-        elif op == "mul":
-            v = val[a] * val[b]
-        elif op == "div":
-            v = val[a] / val[b]
-        elif op == "neg":
-            v = -val[a]
-        elif op == "powi":
-            v = val[a] ** sp.Integer(int(p.consts[b]))
-        elif op == "powr":
-            v = val[a] ** sp.Float(repr(p.consts[b]), 17)
-        elif op == "pow":
-            v = val[a] ** val[b]
-        else:
-            v = fns[op](val[a])
-        val.append(v)
-    return tuple(val[k] for k in p.outputs)
-
-
-# ---- the whole run: interval arithmetic -------------------------------------------------
-_HALF_PI = 0.5 * math.pi
+# ---- the whole run: interval arithmetic --------------------------------------------------
 MAX_BOXES = 512
 
 
@@ -786,105 +983,10 @@ class Singularity:
     what: str
 
 
-def _interval(op, lo, hi, a, b, consts):
-    """Enclosure of node ``op`` and a flag per box where the node may be singular."""
-    n = lo[a].shape[0]
-    flag = np.zeros(n, dtype=bool)
-    alo, ahi = lo[a], hi[a]
-    if op in ("add", "sub", "mul", "div", "pow"):
-        blo, bhi = lo[b], hi[b]
-    if op == "add":
-        return alo + blo, ahi + bhi, flag
-    if op == "sub":
-        return alo - bhi, ahi - blo, flag
-    if op == "neg":
-        return -ahi, -alo, flag
-    if op == "mul":
-        c = np.stack([alo * blo, alo * bhi, ahi * blo, ahi * bhi])
-        c = np.where(np.isnan(c), 0.0, c)            # 0 * inf
-        return c.min(0), c.max(0), flag
-    if op == "div":
-        flag = (blo <= 0.0) & (bhi >= 0.0)
-        rlo = np.where(flag, 1.0, 1.0 / np.where(flag, 1.0, bhi))
-        rhi = np.where(flag, 1.0, 1.0 / np.where(flag, 1.0, blo))
-        c = np.stack([alo * rlo, alo * rhi, ahi * rlo, ahi * rhi])
-        c = np.where(np.isnan(c), 0.0, c)
-        return np.where(flag, -np.inf, c.min(0)), np.where(flag, np.inf, c.max(0)), flag
-    if op == "powi":
-        nexp = int(consts[b])
-        if nexp < 0:
-            flag = (alo <= 0.0) & (ahi >= 0.0)
-        p_lo, p_hi = alo ** float(nexp), ahi ** float(nexp)
-        if nexp % 2 == 0:
-            straddle = (alo < 0.0) & (ahi > 0.0)
-            rlo = np.where(straddle, 0.0 if nexp > 0 else -np.inf, np.minimum(p_lo, p_hi))
-            rhi = np.where(straddle, np.maximum(p_lo, p_hi) if nexp > 0 else np.inf,
-                           np.maximum(p_lo, p_hi))
-            if nexp < 0:
-                rlo = np.where(flag, 0.0, rlo)
-                rhi = np.where(flag, np.inf, rhi)
-            return rlo, rhi, flag
-        if nexp < 0:
-            return (np.where(flag, -np.inf, np.minimum(p_lo, p_hi)),
-                    np.where(flag, np.inf, np.maximum(p_lo, p_hi)), flag)
-        return p_lo, p_hi, flag
-    if op in ("powr", "pow", "log", "sqrt"):
-        flag = alo <= 0.0
-        safe_lo = np.where(flag, 1e-300, alo)
-        safe_hi = np.maximum(ahi, safe_lo)
-        if op == "log":
-            return np.log(safe_lo), np.log(safe_hi), flag
-        if op == "sqrt":
-            return np.sqrt(safe_lo), np.sqrt(safe_hi), flag
-        if op == "powr":
-            r = consts[b]
-            c = np.stack([safe_lo ** r, safe_hi ** r])
-            return c.min(0), c.max(0), flag
-        llo, lhi = np.log(safe_lo), np.log(safe_hi)
-        c = np.stack([llo * blo, llo * bhi, lhi * blo, lhi * bhi])
-        c = np.where(np.isnan(c), 0.0, c)
-        return np.exp(c.min(0)), np.exp(c.max(0)), flag
-    if op in ("sin", "cos"):
-        shift = _HALF_PI if op == "cos" else 0.0
-        x0, x1 = alo + shift, ahi + shift
-        wide = ~np.isfinite(x0) | ~np.isfinite(x1) | (x1 - x0 >= 2 * math.pi)
-        x0s, x1s = np.where(wide, 0.0, x0), np.where(wide, 0.0, x1)
-        s0, s1 = np.sin(x0s), np.sin(x1s)
-        # maxima at pi/2 + 2k pi, minima at -pi/2 + 2k pi
-        kmax = np.ceil((x0s - _HALF_PI) / (2 * math.pi))
-        has_max = _HALF_PI + 2 * math.pi * kmax <= x1s
-        kmin = np.ceil((x0s + _HALF_PI) / (2 * math.pi))
-        has_min = -_HALF_PI + 2 * math.pi * kmin <= x1s
-        rlo = np.where(has_min | wide, -1.0, np.minimum(s0, s1))
-        rhi = np.where(has_max | wide, 1.0, np.maximum(s0, s1))
-        return rlo, rhi, flag
-    if op == "tan":
-        wide = ~np.isfinite(alo) | ~np.isfinite(ahi) | (ahi - alo >= math.pi)
-        lo_s, hi_s = np.where(wide, 0.0, alo), np.where(wide, 0.0, ahi)
-        k = np.ceil((lo_s - _HALF_PI) / math.pi)
-        flag = wide | (_HALF_PI + math.pi * k <= hi_s)
-        return (np.where(flag, -np.inf, np.tan(lo_s)), np.where(flag, np.inf, np.tan(hi_s)),
-                flag)
-    if op in ("asin", "acos"):
-        flag = (alo <= -1.0) | (ahi >= 1.0)
-        clo, chi = np.clip(alo, -1.0, 1.0), np.clip(ahi, -1.0, 1.0)
-        if op == "asin":
-            return np.arcsin(clo), np.arcsin(chi), flag
-        return np.arccos(chi), np.arccos(clo), flag
-    if op == "cosh":
-        straddle = (alo < 0.0) & (ahi > 0.0)
-        c0, c1 = np.cosh(alo), np.cosh(ahi)
-        return np.where(straddle, 1.0, np.minimum(c0, c1)), np.maximum(c0, c1), flag
-    fn = {"exp": np.exp, "sinh": np.sinh, "tanh": np.tanh, "atan": np.arctan}[op]
-    return fn(alo), fn(ahi), flag
-
-
-_SINGULAR = {"div": "a division by zero", "powi": "a division by zero",
-             "powr": "a power of a non-positive number", "pow": "a power of a non-positive "
-             "number", "log": "log of a non-positive number", "sqrt": "sqrt of a non-positive "
-             "number (not twice differentiable where it reaches 0)",
-             "tan": "a pole of tan", "asin": "asin outside (-1, 1)",
-             "acos": "acos outside (-1, 1)"}
+def _entire(p: Program) -> bool:
+    """Every node is an entire function of t (nothing to prove)."""
+    return all(OPS[name].entire or (name == "powi" and p.consts[p.b[k]] > 0)
+               for k, name in enumerate(p.ops))
 
 
 def find_singularity(p: Program, t0: float, t1: float) -> Singularity | None:
@@ -892,33 +994,34 @@ def find_singularity(p: Program, t0: float, t1: float) -> Singularity | None:
     differentiable, or None when interval arithmetic proves it is everywhere.  A box is
     bisected while some node may be singular in it; a box narrower than 1e-12 of the run
     (or 1e-300) that still may be singular is reported."""
+    if _entire(p):
+        return None
     ops = p.ops
-    if all(op in ("const", "t", "add", "sub", "mul", "neg", "sin", "cos", "exp", "sinh",
-                  "cosh", "tanh", "atan", "hsin", "hcos") or (op == "powi" and p.consts[p.b[k]] > 0)
-           for k, op in enumerate(ops)):
-        return None                         # entire functions only: nothing to prove
     width_min = max(1e-12 * (t1 - t0), 1e-12 * max(abs(t0), abs(t1)), 1e-300)
     edges = np.linspace(t0, t1, 65)
     lo_t, hi_t = edges[:-1], edges[1:]
     with np.errstate(all="ignore"):
         for _ in range(200):
             n = lo_t.size
-            lo: list = [None] * len(ops)
-            hi: list = [None] * len(ops)
+            box: list = [None] * len(ops)
             bad = np.zeros(n, dtype=bool)
             first_bad = np.full(n, -1)
-            for k, op in enumerate(ops):
-                if op == "const":
-                    lo[k] = hi[k] = np.full(n, p.consts[p.a[k]])
+            for k, name in enumerate(ops):
+                op = OPS[name]
+                a, b = p.a[k], p.b[k]
+                if op.shape == "const":
+                    box[k] = (np.full(n, p.consts[a]),) * 2
                     continue
-                if op == "t":
-                    lo[k], hi[k] = lo_t, hi_t
+                if op.shape == "t":
+                    box[k] = (lo_t, hi_t)
                     continue
-                if op in ("hsin", "hcos"):                 # bounded, entire
-                    amp = abs(p.consts[p.a[k]])
-                    lo[k], hi[k] = np.full(n, -amp), np.full(n, amp)
+                if op.shape == "harmonic":                 # bounded, entire
+                    amp = abs(p.consts[a])
+                    box[k] = (np.full(n, -amp), np.full(n, amp))
                     continue
-                lo[k], hi[k], flag = _interval(op, lo, hi, p.a[k], p.b[k], p.consts)
+                lo, hi, flag = op.interval(box[a], box[b] if op.reads_b else None,
+                                           p.consts[b] if op.shape == "power" else 0.0)
+                box[k] = (lo, hi)
                 new = flag & ~bad
                 first_bad[new] = k
                 bad |= flag
@@ -930,18 +1033,17 @@ def find_singularity(p: Program, t0: float, t1: float) -> Singularity | None:
                 j = narrow[0]
                 node = int(first_bad[j])
                 return Singularity(p.coordinate_of(node), float(0.5 * (lo_t[j] + hi_t[j])),
-                                   _SINGULAR.get(ops[node], "a singular point"))
+                                   OPS[ops[node]].singular or "a singular point")
             idx = idx[:MAX_BOXES]
             mid = 0.5 * (lo_t[idx] + hi_t[idx])
             lo_t = np.concatenate([lo_t[idx], mid])
             hi_t = np.concatenate([mid, hi_t[idx]])
             order = np.argsort(lo_t, kind="stable")
             lo_t, hi_t = lo_t[order], hi_t[order]
-    j = 0
-    return Singularity(0, float(lo_t[j]), "a point that could not be cleared")
+    return Singularity(0, float(lo_t[0]), "a point that could not be cleared")
 
 
-# ---- what a run needs to know about its law ------------------------------------------------------
+# ---- what a run needs to know about its law ----------------------------------------------
 @dataclass(frozen=True)
 class LawSummary:
     """Facts about a law over a run, from its samples and the interval proof."""

@@ -1,0 +1,160 @@
+"""Overrides of a scene's fields by dotted name: ``body.mass``, ``initial.com[2]`` (one
+entry of a vector), ``point.law[0]`` (one formula of the law).  One parser for the
+CLI's ``--set`` and ``--sweep``, the variants of ``simulate_many`` and the benchmarks:
+a name is checked against the schema (the nearest field suggested when it is not one),
+and a value either goes into a scene's dict (:func:`apply_to_doc`, validated later with
+the whole scene) or into field values already read (:func:`apply_to_values`, validated
+now, for variants that re-validate only what they change).
+"""
+from __future__ import annotations
+
+import difflib
+import tomllib
+from dataclasses import dataclass
+
+from .errors import SceneError
+from .schema import SCENE, Field, Schema, check_number, check_value
+
+
+class OverrideError(SceneError):
+    """A bad override: ``where`` names it (or the flag that gave it), ``rule`` says what."""
+
+
+# fields of which a scene gives one: an override of one drops the other from its base
+# (the built-in scene's quaternion would otherwise refuse every matrix given on top of it)
+EITHER = {"[initial].quaternion": "[initial].matrix", "[initial].matrix": "[initial].quaternion"}
+
+
+@dataclass(frozen=True)
+class Target:
+    """What an override name designates: a field, and an entry of it or None."""
+    name: str
+    field: Field
+    index: int | None
+
+
+def _unknown(name: str, schema: Schema) -> str:
+    """Why ``name`` is not a field, with the nearest field or the table's fields."""
+    table, dot, key = name.partition(".")
+    if dot and table in schema.by_table and table:
+        near = difflib.get_close_matches(key, list(schema.by_table[table]), n=1, cutoff=0.6)
+        if near:
+            return f"{name!r} is not a scene field; did you mean '{table}.{near[0]}'?"
+        keys = ", ".join(schema.by_table[table])
+        return f"{name!r} is not a scene field ([{table}] has {keys})"
+    near = difflib.get_close_matches(name, list(schema.by_path), n=1, cutoff=0.75)
+    if near:
+        return f"{name!r} is not a scene field; did you mean {near[0]!r}?"
+    tables = ", ".join(t for t in schema.tables if t)
+    return f"{name!r} is not a scene field (tables: {tables}; e.g. body.mass)"
+
+
+def target(name: str, where: str | None = None, schema: Schema = SCENE) -> Target:
+    """Parse ``table.key`` or ``table.key[k]``; ``where``: how messages name the
+    override (a flag such as ``--set``; by default the name itself)."""
+    if not isinstance(name, str):
+        raise OverrideError(where or "override", f"a field name must be a string, not "
+                                                 f"{type(name).__name__}")
+    path, bracket, rest = name.partition("[")
+    f = schema.by_path.get(path)
+    if f is None:
+        raise OverrideError(where or name, _unknown(path if bracket else name, schema))
+    index = None
+    if bracket:
+        text = rest[:-1] if rest.endswith("]") else "?"
+        if not (text.isascii() and text.isdigit() and len(text) <= 9):
+            raise OverrideError(name, f"the index of {path} must be a whole number in "
+                                      f"brackets, like {path}[0]")
+        if f.kind not in ("vector", "laws", "choices"):
+            raise OverrideError(name, f"{f.where} has no entries: set it whole")
+        index = int(text)
+    return Target(name, f, index)
+
+
+def parse_value(text: str):
+    """A value as TOML writes it (numbers, [lists], "strings", true/false), or the text
+    itself (a bare string such as dop853)."""
+    try:
+        return tomllib.loads(f"v = {text.strip()}")["v"]
+    except ValueError:                    # TOMLDecodeError, or an integer of 5000 digits
+        return text.strip()
+
+
+def parse_assignment(text: str, flag: str = "--set") -> tuple[str, object]:
+    """``body.mass=1.3`` -> ("body.mass", 1.3); the name checked against the schema."""
+    name, sep, value = text.partition("=")
+    name = name.strip()
+    if not sep:
+        raise OverrideError(flag, f"must be table.key=value, e.g. body.mass=1.3 (got "
+                                  f"{text!r})")
+    target(name, flag)
+    return name, parse_value(value)
+
+
+def apply_to_doc(doc: dict, name: str, value) -> None:
+    """Set a dotted field in a scene's dict (``initial.com[2]`` sets one entry of the
+    list the dict holds); the value is checked when the scene is."""
+    t = target(name)
+    f = t.field
+    table, key = f.table, f.key
+    holder = doc.setdefault(table, {}) if table else doc
+    if not isinstance(holder, dict):
+        raise OverrideError(name, f"[{table}] is not a table in the base scene")
+    if t.index is not None:
+        vec = holder.get(key)
+        if not isinstance(vec, list) or not 0 <= t.index < len(vec):
+            raise OverrideError(name, f"the base scene has no entry {t.index} in {f.path}")
+        vec[t.index] = value
+    else:
+        holder[key] = value
+    other = EITHER.get(f.where)
+    if other is not None:                   # one of two fields a scene gives one of
+        holder.pop(other.rpartition(".")[2], None)
+
+
+def apply_to_values(v: dict, given: set, name: str, value, schema: Schema = SCENE) -> str:
+    """Validate one override into the field values ``v`` of a scene already read
+    (``Schema.read``); returns the field it set (``[table].key``)."""
+    t = target(name, schema=schema)
+    f = t.field
+    if t.index is not None:
+        current = v[f.where]
+        k = t.index
+        if not isinstance(current, tuple) or not 0 <= k < len(current):
+            raise OverrideError(name, f"{f.where} has no entry {k}")
+        if f.kind == "vector":
+            entry = check_number(f, value, f"{f.where}[{k}]")
+            v[f.where] = current[:k] + (entry,) + current[k + 1:]
+        else:                               # one string of a list: the list checked whole
+            whole = list(current)
+            whole[k] = value
+            v[f.where] = check_value(f, whole)
+    else:
+        v[f.where] = check_value(f, value)
+    given.add(f.where)
+    other = EITHER.get(f.where)
+    if other is not None and other in given:
+        given.discard(other)
+        v[other] = schema.defaults()[other]
+    if f.table and f.table not in v["__tables__"]:
+        v["__tables__"] = v["__tables__"] | {f.table}
+    return f.where
+
+
+# ---- raw paths (the fuzzers' hostile documents) ------------------------------------------
+def set_path(doc: dict, keys: tuple, value) -> dict:
+    """``doc[k0][k1]... = value``, making tables on the way (any keys: for documents that
+    need not follow the schema)."""
+    d = doc
+    for k in keys[:-1]:
+        d = d.setdefault(k, {})
+    d[keys[-1]] = value
+    return doc
+
+
+def delete_path(doc: dict, keys: tuple) -> dict:
+    d = doc
+    for k in keys[:-1]:
+        d = d[k]
+    d.pop(keys[-1], None)
+    return doc

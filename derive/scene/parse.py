@@ -1,0 +1,163 @@
+"""From a document to a :class:`~derive.scene.scene.Scene`: read every field against
+the schema (:mod:`~derive.scene.schema`), apply the rules across fields
+(:mod:`~derive.scene.rules`) in two parts — the static part, kept for scenes seen
+before (:mod:`~derive.scene.cache`), and the state part — and build the Scene.
+
+A scene is untrusted input.  Nothing in it is executed or pasted into source: laws go
+through :mod:`derive.scene.law` (a whitelist parser into a program the C runtime
+interprets), tables through :mod:`derive.scene.table`, numbers are checked finite and
+in range, and every failure raises :class:`SceneError` naming the field and the rule.
+"""
+from __future__ import annotations
+
+import dataclasses
+import os
+import tomllib
+from pathlib import Path
+
+from . import cache, rules
+from .cache import Copy, Snapshot, Static
+from .errors import SceneError, type_name
+from .rules import Draft
+from .scene import Scene, Stability
+from .schema import SCENE
+
+MAX_BYTES = 16 * 1024 * 1024
+
+
+def read_document(source, origin: str = "scene", what: str = "scene") -> tuple[dict, bool]:
+    """The dict of a document given as TOML text or as a dict, and whether it is the
+    parser's own (a TOML text's: nobody else holds it)."""
+    if isinstance(source, str):
+        if len(source) > MAX_BYTES:
+            raise SceneError(origin, "is larger than 16 MB")
+        if not source.strip():
+            raise SceneError(origin, f"is empty: a {what} needs at least [body] and "
+                                     "[point] (`derive scene new` prints one)")
+        try:
+            doc = tomllib.loads(source)
+        except tomllib.TOMLDecodeError as exc:
+            raise SceneError(origin, f"is not valid TOML ({str(exc)[:200]})") from None
+        except RecursionError:
+            raise SceneError(origin, "is nested too deeply") from None
+        except ValueError as exc:       # e.g. an integer of more than 4300 digits
+            raise SceneError(origin, f"is not valid TOML ({str(exc)[:120]})") from None
+        return doc, True
+    if isinstance(source, dict):
+        return source, False
+    raise SceneError(origin, "must be TOML text, a path or a dict")
+
+
+def read_file(path, what: str = "scene") -> str:
+    """A scene's or a task's text, refused cleanly when it cannot be."""
+    path = Path(path)
+    if not path.is_file():
+        raise SceneError(str(path)[:200], f"no such {what} file")
+    if path.stat().st_size > MAX_BYTES:
+        raise SceneError(str(path)[:200], "is larger than 16 MB")
+    try:
+        return path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise SceneError(str(path)[:200], f"cannot be read ({type(exc).__name__})") from None
+
+
+# ---- the two parts -----------------------------------------------------------------------
+def static_part(v: dict, given: set, origin: str = "scene", base: Path | None = None,
+                with_law: bool = True, point_at: tuple | None = None) -> Static:
+    """Every rule across fields that does not read the initial state, and the Scene's
+    attributes they give."""
+    d = Draft(v, given, origin, base, with_law, point_at)
+    rules.check(rules.STATIC_RULES, d)
+    defaults = SCENE.defaults()
+
+    def run(key):
+        where = f"[run].{key}"
+        return v[where] if where in v else defaults[where]
+    st = Stability(run_stability(v, "period"), run_stability(v, "impacts_every"),
+                   run_stability(v, "long_periods"), run_stability(v, "perturbations"))
+    fields = dict(name=v["name"], M=v["[body].mass"], J=v["[body].inertia"],
+                  shape=v["[body].shape"], size=d.size, center=d.center, m=v["[point].mass"],
+                  law=d.law, law_text=d.law_text, plane=d.plane, e=d.e, t0=d.t0,
+                  duration=d.duration if with_law else 0.0,
+                  method=run("method"), rtol=run("rtol"), atol=run("atol"), g=run("g"),
+                  outputs=run("outputs"), max_events=run("max_events"),
+                  max_steps=run("max_steps"), output_dt=run("output_dt"),
+                  keep_orthonormal=run("keep_orthonormal"), model=run("model"),
+                  zeno_dt=run("zeno_dt"), source=origin, stability=st,
+                  law_summary=d.summary, max_distance=d.max_distance)
+    return Static(fields, d)
+
+
+def run_stability(v: dict, key: str):
+    where = f"[stability].{key}"
+    return v[where] if where in v else SCENE.defaults()[where]
+
+
+def state_part(static: Static, v: dict, given: set, source) -> Scene:
+    """The rules that read the initial state, and the Scene."""
+    d = dataclasses.replace(static.draft, v=v, given=given, A0=None, extra={})
+    rules.check(rules.STATE_RULES, d)
+    return Scene.of_fields(static.fields, com=v["[initial].com"],
+                           com_velocity=v["[initial].com_velocity"],
+                           omega=v["[initial].omega"], A0=d.A0,
+                           step=d.extra.get("step", 0.0), doc_source=source)
+
+
+# ---- scenes ------------------------------------------------------------------------------
+def parse_scene(source: str | dict, origin: str = "scene", base: Path | None = None) -> Scene:
+    """Validate a scene given as TOML text or as an already-parsed dict; ``base`` is the
+    folder a ``[point].table`` path is relative to."""
+    return parse(source, origin, base)[0]
+
+
+def parse(source: str | dict, origin: str = "scene",
+          base: Path | None = None) -> tuple[Scene, Static]:
+    """parse_scene, and the static part the Scene was made from."""
+    doc, owned = read_document(source, origin)
+    key = cache.static_key(doc, origin, base)
+    seen = cache.lookup(key)
+    if seen is not None:
+        v, given = dict(seen[0]), set(seen[1])
+        SCENE.read_table(doc, cache.STATE_TABLE, v, given)
+        return state_part(seen[2], v, given, Snapshot(key, doc, v, given)), seen[2]
+    v, given = SCENE.read(doc)
+    static = static_part(v, given, origin, base)
+    if key is not None and cache.remember(key, doc, v, given, static):
+        kept = Snapshot(key, doc, v, given)
+    else:
+        kept = Copy(doc, owned=owned)
+    return state_part(static, v, given, kept), static
+
+
+def build_scene(v: dict, given: set, doc, origin: str = "scene",
+                base: Path | None = None) -> Scene:
+    """A Scene from field values already read (``SCENE.read`` and overrides); ``doc``:
+    the scene's dict (copied) or an object whose ``get()`` gives it (:attr:`Scene.doc`)."""
+    source = Copy(doc) if isinstance(doc, dict) else doc
+    return state_part(static_part(v, given, origin, base), v, given, source)
+
+
+def build_body(v: dict, given: set, point_at: tuple, origin: str = "scene") -> Scene:
+    """A Scene without a law (a planning task's: the planner makes the law), from field
+    values read by a schema without the law's fields; the point is at ``point_at`` (body
+    axes) at the start."""
+    static = static_part(v, given, origin, None, with_law=False, point_at=tuple(point_at))
+    return state_part(static, v, given, None)
+
+
+def load_scene(scene) -> Scene:
+    """A :class:`Scene` from a path, a dict or a Scene."""
+    return load(scene)[0]
+
+
+def load(scene) -> tuple[Scene, Static | None]:
+    """load_scene, and the static part the Scene was made from (None for a Scene given)."""
+    if isinstance(scene, Scene):
+        return scene, None
+    if isinstance(scene, dict):
+        return parse(scene, "scene", None)
+    if not isinstance(scene, (str, os.PathLike)):
+        raise SceneError("scene", f"must be a path, a dict of the schema or a Scene, not "
+                                  f"{type_name(scene)}")
+    path = Path(scene)
+    return parse(read_file(path), str(path), path.parent)

@@ -1,0 +1,111 @@
+"""A validated scene: :class:`Scene`, what :func:`derive.scene.parse_scene` returns and
+the runtime runs."""
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from .law import LawSummary
+
+
+@dataclass(frozen=True)
+class Stability:
+    """``[stability]``: what ``derive stability`` analyses (see the README)."""
+    period: float | None = None
+    impacts_every: int = 1
+    long_periods: int = 0
+    perturbations: tuple = (1e-6, 1e-4, 1e-2)
+
+
+@dataclass(frozen=True)
+class Scene:
+    name: str
+    M: float
+    J: tuple                   # J_x, J_y, J_z
+    shape: str                 # sphere | ellipsoid | none
+    size: tuple                # (radius,) or semi-axes
+    center: tuple
+    m: float
+    law: Any                   # law.Program or table.TableLaw; None for a scene read
+    law_text: tuple            # the three strings, or () for a table   without a law
+    plane: bool
+    e: float
+    t0: float
+    com: tuple
+    com_velocity: tuple
+    omega: tuple
+    A0: np.ndarray = field(compare=False)   # a_ij = cos(fixed i, body j)
+    duration: float = 5.0
+    method: str = "lie"
+    rtol: float = 1e-10
+    atol: float = 1e-12
+    g: float = 9.81
+    outputs: tuple = ("pose", "impacts")
+    step: float = 0.0          # RK4 step
+    max_events: int = 100000
+    max_steps: int = 10_000_000
+    output_dt: float = 0.0
+    keep_orthonormal: bool = False
+    model: str = "auto"
+    zeno_dt: float = 1e-9
+    source: str = ""
+    stability: Stability = Stability()
+    law_summary: LawSummary | None = field(default=None, compare=False)
+    max_distance: float = 0.0
+    doc_source: Any = field(default=None, compare=False, repr=False)   # see Scene.doc
+
+    @classmethod
+    def of_fields(cls, base: dict | None = None, **values) -> "Scene":
+        """The constructor of the parser: every field given (in ``base`` and ``values``),
+        set at once (the frozen dataclass's ``__init__`` sets them one by one through
+        ``object.__setattr__``, a tenth of a validation's time)."""
+        obj = object.__new__(cls)
+        d = obj.__dict__
+        if base:
+            d.update(base)
+        d.update(values)
+        if len(d) != len(SCENE_ATTRIBUTES) or not d.keys() <= SCENE_ATTRIBUTES:
+            raise TypeError(f"Scene.of_fields needs every field: {sorted(SCENE_ATTRIBUTES)}")
+        return obj
+
+    @property
+    def doc(self) -> dict:
+        """The scene as a dict of the schema, as it was when parsed (a fresh copy on
+        every read, so that a caller who edits the dict it gave changes no Scene; {} for a
+        Scene made otherwise).  A Scene changed with ``dataclasses.replace`` keeps the
+        dict it was parsed from."""
+        return self.doc_source.get() if self.doc_source is not None else {}
+
+    @property
+    def contact_possible(self) -> bool:
+        return self.plane and self.shape != "none"
+
+    @property
+    def mu(self) -> float:
+        return self.M * self.m / (self.M + self.m)
+
+    @property
+    def nu(self) -> float:
+        return self.m / (self.M + self.m)
+
+    @property
+    def p(self) -> tuple:
+        return (self.M, self.m, *self.J, self.g)
+
+    @property
+    def body_size(self) -> float:
+        """The shape's largest semi-axis, or sqrt(J_max/M) for a body with no shape."""
+        if self.size:
+            return float(max(self.size))
+        return math.sqrt(max(self.J) / self.M)
+
+    def jets(self, ts) -> np.ndarray:
+        """The point law at ``ts``: (9, N) x, x', x'', y, y', y'', z, z', z''."""
+        return self.law.jets(ts)
+
+
+SCENE_ATTRIBUTES = frozenset(f.name for f in dataclasses.fields(Scene))

@@ -1,0 +1,500 @@
+"""The schema of every file a user writes, in one table of :class:`Field`: the scene's
+tables (``[body]``, ``[point]``, ``[plane]``, ``[initial]``, ``[run]``,
+``[stability]``) and a planning task's ``[plan]``.  Validation of single values
+(types, ranges, lists, nested tables), the defaults, the README's tables and the
+template of ``derive scene new`` all read it; the rules across fields are in
+:mod:`derive.scene.rules`.
+
+A :class:`Schema` is a selection of fields (a scene's, a task's); its :meth:`~Schema.read`
+turns a parsed document into the values of every field, and the set of fields the
+document gave, refusing unknown keys with the nearest known one suggested.
+"""
+from __future__ import annotations
+
+import difflib
+import math
+import numbers
+import re
+from dataclasses import dataclass
+from functools import cached_property
+from typing import Any
+
+import numpy as np
+
+from .errors import SceneError, type_name
+
+
+class _Required:
+    def __repr__(self) -> str:
+        return "REQUIRED"
+
+
+REQUIRED = _Required()     # a field's default when the document must give it
+
+
+@dataclass(frozen=True)
+class Field:
+    table: str                 # "" for the top level
+    key: str                   # "region.radius" for a field of a nested table
+    kind: str                  # number integer vector string choice choices bool laws
+                               # matrix rotation numbers samples table
+    default: Any               # REQUIRED, None (may be absent) or the default value
+    doc: str
+    lo: float | None = None
+    hi: float | None = None
+    lo_open: bool = False      # lo excluded
+    size: int = 0              # vectors: the number of entries
+    choices: tuple = ()
+    example: Any = None        # what `derive scene new` writes (None: the default)
+    when: str = ""             # the condition under which the field applies
+    fields: tuple = ()         # a nested table's own fields (kind = "table")
+
+    @cached_property
+    def where(self) -> str:
+        """How messages name the field: ``[body].mass``, ``name``."""
+        return f"[{self.table}].{self.key}" if self.table else self.key
+
+    @cached_property
+    def path(self) -> str:
+        """How overrides name the field: ``body.mass``, ``name``."""
+        return f"{self.table}.{self.key}" if self.table else self.key
+
+    @property
+    def rule(self) -> str:
+        if self.choices:
+            return "one of " + ", ".join(self.choices)
+        if self.lo is None and self.hi is None:
+            return ""
+        lo = "(" if self.lo_open else "["
+        if self.hi is None:
+            return f"{'>' if self.lo_open else '>='} {self.lo:g}"
+        return f"in {lo}{self.lo:g}, {self.hi:g}]"
+
+
+F = Field
+MAX_MASS = 1e9
+MAX_LENGTH = 1e6
+MAX_DURATION = 1e7
+MAX_ROWS = 10_000_000
+MIN_DURATION = 1e-12       # s: the runtime's steps (duration / 2000, / 4) stay normal floats
+NAME_CHARACTERS = "- _ . , : ; = + ( ) [ ] / # @ & '"
+_NAME = re.compile(r"[A-Za-z0-9 _.,:;=+()\[\]/#@&'\-]{1,80}", re.ASCII)
+
+SCENE_FIELDS = (
+    F("", "name", "string", "scene", "a label for the outputs: at most 80 ASCII letters, "
+      f"digits, spaces and {NAME_CHARACTERS}", example="my-scene"),
+    F("body", "mass", "number", REQUIRED, "M, mass of the carrier", 0, MAX_MASS, True,
+      example=1.0),
+    F("body", "inertia", "vector", REQUIRED, "J_x, J_y, J_z, principal central moments of "
+      "the carrier; each at most the sum of the other two", 0, MAX_MASS, True, size=3,
+      example=[0.10, 0.12, 0.14]),
+    F("body", "shape", "choice", REQUIRED, "the surface that meets the plane (none: no "
+      "contact possible)", choices=("sphere", "ellipsoid", "none"), example="sphere"),
+    F("body", "radius", "number", None, "sphere radius", 0, MAX_LENGTH, True,
+      example=0.5, when='shape = "sphere"'),
+    F("body", "semi_axes", "vector", None, "ellipsoid semi-axes along the body axes", 0,
+      MAX_LENGTH, True, size=3, example=[0.5, 0.4, 0.3], when='shape = "ellipsoid"'),
+    F("body", "center", "vector", [0.0, 0.0, 0.0], "centre of the shape in body axes",
+      -MAX_LENGTH, MAX_LENGTH, size=3),
+    F("point", "mass", "number", REQUIRED, "m, mass of the point", 0, MAX_MASS, True,
+      example=0.2),
+    F("point", "law", "laws", None, "x(t), y(t), z(t) in body axes: formulas in t, pi, "
+      "numbers, + - * / ** ^ and sin cos tan exp log sqrt sinh cosh tanh asin acos atan",
+      example=["0.2*sin(3*t)", "0.1", "0.05*cos(2*t)"], when="one of law, table, samples"),
+    F("point", "table", "string", None, "a CSV file (path relative to the scene) with "
+      "columns t, x, y, z: the law as samples, interpolated by a cubic spline",
+      when="one of law, table, samples"),
+    F("point", "samples", "samples", None, "the law as rows [t, x, y, z] in the scene itself",
+      when="one of law, table, samples"),
+    F("point", "ends", "choice", "free", "a table's ends: periodic (the law repeats), rest "
+      "(P at rest at both ends), free (not-a-knot; the run stays inside the table)",
+      choices=("periodic", "rest", "free"), when="table or samples"),
+    F("point", "max_distance", "number", None, "how far P may go from O (default: 10 body "
+      "sizes)", 0, MAX_LENGTH, True),
+    F("plane", "restitution", "number", REQUIRED, "e of Newton's law v_n+ = -e v_n- (E1.13)",
+      0, 1, example=0.9, when="[plane] given (absent: free flight)"),
+    F("initial", "time", "number", 0.0, "t0", -1e9, 1e9),
+    F("initial", "com", "vector", [0.0, 0.0, 0.0], "X_C, Y_C, Z_C", -1e9, 1e9, size=3,
+      example=[0.0, 0.0, 1.5]),
+    F("initial", "com_velocity", "vector", [0.0, 0.0, 0.0], "X_C', Y_C', Z_C'", -1e6, 1e6,
+      size=3, example=[0.3, 0.0, 0.0]),
+    F("initial", "omega", "vector", [0.0, 0.0, 0.0], "angular velocity in body axes", -1e6,
+      1e6, size=3, example=[0.5, -0.3, 1.0]),
+    F("initial", "quaternion", "vector", [1.0, 0.0, 0.0, 0.0], "attitude as a unit "
+      "quaternion (w, x, y, z), normalised; or give matrix", -1e9, 1e9, size=4),
+    F("initial", "matrix", "matrix", None, "attitude as the matrix a_ij = cos(fixed axis i, "
+      "body axis j), a rotation", -1.0 - 1e-6, 1.0 + 1e-6),
+    F("run", "duration", "number", 5.0, "length of the run", 0, MAX_DURATION, True),
+    F("run", "method", "choice", "lie", "integrator: lie (the momentum form: K and C's "
+      "parabola constants of each flight, the attitude on SO(3); see the README), lie5, "
+      "lie8, dopri5, dop853, rk4", choices=("lie", "lie5", "lie8", "dopri5", "dop853", "rk4")),
+    F("run", "rtol", "number", 1e-10, "relative tolerance", 1e-15, 1e-2),
+    F("run", "atol", "number", 1e-12, "absolute tolerance", 0, 1, True),
+    F("run", "g", "number", 9.81, "gravity", 0, 1e4),
+    F("run", "outputs", "choices", ["pose", "impacts"], "what the result holds",
+      choices=("pose", "omega", "height", "impacts", "momentum")),
+    F("run", "step", "number", None, "RK4 step (default: the least of duration/2000, "
+      "0.04/|omega(0)| and a tenth of the law's time scale)", 0, MAX_DURATION, True),
+    F("run", "max_events", "integer", 100_000, "stop after this many events", 1, 1e9),
+    F("run", "max_steps", "integer", 10_000_000, "stop after this many steps", 1, 1e10),
+    F("run", "output_dt", "number", 0.0, "rows every output_dt (0: one per step)", 0,
+      MAX_DURATION),
+    F("run", "keep_orthonormal", "bool", False, "project the attitude onto the rotations "
+      "after every step"),
+    F("run", "model", "choice", "auto", "the model (auto: the smallest that answers the "
+      "scene)", choices=("auto", "general", "vertical", "attitude", "translational",
+                         "planar", "axisymmetric")),
+    F("run", "zeno_dt", "number", 1e-9, "accumulating impacts: enter contact when the "
+      "remaining flights sum to less than zeno_dt x duration", 0, 1, True),
+    F("stability", "period", "number", None, "free flight: the period (default: the law's)",
+      0, MAX_DURATION, True),
+    F("stability", "impacts_every", "integer", 1, "on the plane: one impact per n periods",
+      1, 64),
+    F("stability", "long_periods", "integer", 0, "perturbed runs this many periods long "
+      "where the linear test is critical", 0, 1_000_000),
+    F("stability", "perturbations", "numbers", [1e-6, 1e-4, 1e-2], "their sizes", 0, 0.1,
+      True),
+)
+
+# ``[plan]`` of a planning task (derive plan): the goals, bounds and options of the OCP
+PLAN_FIELDS = (
+    F("plan", "goal", "choice", REQUIRED, "what the carrier should do",
+      choices=("reorient", "land", "hop")),
+    F("plan", "horizon", "number", None, "s; reorient: the duration (objective = time: its "
+      "upper bound); land, hop: optional upper bound of the touchdown time / the period",
+      0, MAX_DURATION, True, when="required for reorient"),
+    F("plan", "target_matrix", "rotation", None, "a_ij at the end (reorient; land with "
+      "at_touchdown = attitude), a rotation", -1.0 - 1e-6, 1.0 + 1e-6),
+    F("plan", "at_touchdown", "choice", None, "land: attitude (needs target_matrix) or "
+      "d_zero (d = CS x n = 0: the impact keeps omega, C2.4); default attitude when "
+      "target_matrix is given, else d_zero", choices=("attitude", "d_zero"),
+      when='goal = "land"'),
+    F("plan", "region", "table", None, "P stays in this ball (body axes)",
+      when="one of region, circle", fields=(
+          F("plan", "region.center", "vector", [0.0, 0.0, 0.0], "the ball's centre",
+            -MAX_LENGTH, MAX_LENGTH, size=3),
+          F("plan", "region.radius", "number", REQUIRED, "the ball's radius", 0,
+            MAX_LENGTH, True))),
+    F("plan", "circle", "table", None, "instead of region: P moves on this circle in the "
+      "body plane z = 0", when="one of region, circle; not for hop", fields=(
+          F("plan", "circle.center", "vector", [0.0, 0.0], "the circle's centre (c_x, c_y)",
+            -MAX_LENGTH, MAX_LENGTH, size=2),
+          F("plan", "circle.radius", "number", REQUIRED, "its radius", 0, MAX_LENGTH, True),
+          F("plan", "circle.start_angle", "number", 0.0, "where P starts on it (rad)",
+            -1e6, 1e6))),
+    F("plan", "start", "vector", None, "P at t = 0 (default: the region's centre)",
+      -MAX_LENGTH, MAX_LENGTH, size=3, when="with region"),
+    F("plan", "max_acceleration", "number", REQUIRED, "bound on |OP''|", 0, MAX_MASS, True),
+    F("plan", "rest_at_ends", "bool", None, "P at rest at both ends (x' = x'' = 0); in a "
+      "region it also returns to its start (the law repeats); hop: at rest at the impact "
+      "(default: true but for hop)"),
+    F("plan", "objective", "choice", "effort", "effort (integral of |OP''|^2) or time "
+      "(reorient only)", choices=("effort", "time")),
+    F("plan", "apex_height", "number", None, "hop: the highest Z_C of every hop (the period "
+      "follows); the orbit keeps the spin omega_z of [initial]", 0, MAX_LENGTH, True,
+      when='required for goal = "hop"'),
+    F("plan", "require_stable", "bool", None, "hop: fail unless the orbit is stable "
+      "(default false: prefer a stable one)", when='goal = "hop"'),
+    F("plan", "intervals", "integer", 16, "pieces of the law = multiple-shooting intervals",
+      4, 200),
+    F("plan", "substeps", "integer", 2, "RK4 steps per interval in the NLP", 1, 50),
+    F("plan", "tolerance", "number", 1e-10, "final accuracy of the defect-corrected plan",
+      0, 1e-3, True),
+    F("plan", "max_iterations", "integer", 400, "IPOPT iterations per solve", 10, 100_000),
+)
+
+FIELDS = SCENE_FIELDS + PLAN_FIELDS
+
+
+# ---- single values -----------------------------------------------------------------------
+def check_number(f: Field, value, where: str | None = None) -> float:
+    where = where or f.where
+    if type(value) is float and f.lo is not None and (f.hi is None or value <= f.hi) and \
+            (value > f.lo if f.lo_open else value >= f.lo):
+        return value                        # the common case, checked in one line
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise SceneError(where, f"must be a number, not {type_name(value)}")
+    if isinstance(value, numbers.Integral):              # int, NumPy integers
+        value = int(value)
+    if isinstance(value, int) and abs(value) > 2 ** 53:
+        shown = f"{value:.3e}" if abs(value).bit_length() <= 1000 else \
+            f"about 2^{abs(value).bit_length() - 1}"
+        raise SceneError(where, f"is too large ({shown} exceeds 2^53)")
+    x = float(value)
+    if not math.isfinite(x):
+        raise SceneError(where, "must be finite (no NaN or infinity)")
+    if f.lo is not None:
+        low_bad = x <= f.lo if f.lo_open else x < f.lo
+        high_bad = f.hi is not None and x > f.hi
+        if (low_bad or high_bad) and f.hi is not None and f.hi <= 1.0:
+            raise SceneError(where, f"must be {f.rule} (got {x!r})")     # a fraction
+        if low_bad:
+            raise SceneError(where, f"must be {'>' if f.lo_open else '>='} {f.lo:g} "
+                                    f"(got {x!r})")
+        if high_bad:
+            raise SceneError(where, f"must be at most {f.hi:g} (got {x!r}): beyond any "
+                                    "physical scene this runtime is meant for")
+    return x
+
+
+def check_vector(f: Field, value, where: str | None = None) -> tuple:
+    where = where or f.where
+    size = f.size
+    if type(value) is list and len(value) == size and f.hi is not None:
+        # the common case at once: floats in range (a NaN fails x <= hi)
+        lo, hi, lo_open = f.lo, f.hi, f.lo_open
+        for x in value:
+            if type(x) is not float or not (x <= hi and (x > lo if lo_open else x >= lo)):
+                break
+        else:
+            return tuple(value)
+    if isinstance(value, np.ndarray) and value.ndim == 1:
+        value = value.tolist()
+    if not isinstance(value, (list, tuple)) or len(value) != size:
+        raise SceneError(where, f"must be a list of {size} numbers")
+    return tuple(check_number(f, v, f"{where}[{k}]") for k, v in enumerate(value))
+
+
+def check_matrix(f: Field, value, where: str | None = None) -> np.ndarray:
+    """A 3x3 matrix of numbers in the field's range."""
+    where = where or f.where
+    if isinstance(value, np.ndarray) and value.shape == (3, 3):
+        value = value.tolist()
+    if not isinstance(value, (list, tuple)) or len(value) != 3:
+        raise SceneError(where, "must be a list of 3 rows of 3 numbers")
+    rows = []
+    for i, row in enumerate(value):
+        if isinstance(row, np.ndarray) and row.ndim == 1:
+            row = row.tolist()
+        if not isinstance(row, (list, tuple)) or len(row) != 3:
+            raise SceneError(f"{where}[{i}]", "must be a row of 3 numbers")
+        rows.append([check_number(f, v, f"{where}[{i}][{j}]") for j, v in enumerate(row)])
+    return np.array(rows)
+
+
+def as_rotation(A: np.ndarray, where: str) -> np.ndarray:
+    """A matrix orthonormal to 1e-6 with det +1, projected onto SO(3)."""
+    err = float(np.max(np.abs(A @ A.T - np.eye(3))))
+    if err > 1e-6:
+        raise SceneError(where, f"must be orthonormal (A A^T - 1 is {err:.1e})")
+    if np.linalg.det(A) < 0:
+        raise SceneError(where, "must be a rotation (det = +1), not a reflection")
+    u, _, vt = np.linalg.svd(A)
+    return u @ vt
+
+
+def _shown(text: str) -> str:
+    return text if len(text) <= 30 else text[:27] + "..."
+
+
+def check_value(f: Field, value, where: str | None = None):
+    """``value`` of field ``f`` validated (and converted: tuples for vectors, a rotation
+    matrix, the dict of a nested table)."""
+    where = where or f.where
+    k = f.kind
+    if k == "number":
+        return check_number(f, value, where)
+    if k == "integer":
+        x = check_number(f, value, where)
+        if x != int(x):
+            raise SceneError(where, f"must be an integer (got {x!r})")
+        return int(x)
+    if k == "vector":
+        return check_vector(f, value, where)
+    if k == "bool":
+        if not isinstance(value, bool):
+            raise SceneError(where, "must be true or false")
+        return value
+    if k == "string":
+        if not isinstance(value, str):
+            raise SceneError(where, f"must be a string, not {type_name(value)}")
+        if f.key == "name" and not _NAME.fullmatch(value):
+            raise SceneError(where, "must be 1 to 80 ASCII letters, digits, spaces or "
+                                    f"{NAME_CHARACTERS}")
+        if len(value) > 4096:
+            raise SceneError(where, "is longer than 4096 characters")
+        return value
+    if k == "choice":
+        if not isinstance(value, str):
+            raise SceneError(where, f"must be a string, not {type_name(value)}")
+        if value not in f.choices:
+            raise SceneError(where, f"must be {f.rule}; got {_shown(value)!r}" +
+                             suggestion(value, f.choices))
+        return value
+    if k == "choices":
+        if not isinstance(value, (list, tuple)) or not all(isinstance(v, str) for v in value):
+            raise SceneError(where, f"must be a list of strings, each {f.rule}")
+        for v in value:
+            if v not in f.choices:
+                raise SceneError(where, f"{_shown(v)!r} is not {f.rule}" +
+                                 suggestion(v, f.choices))
+        return tuple(dict.fromkeys(value))
+    if k == "numbers":
+        if not isinstance(value, list) or not value or len(value) > 64:
+            raise SceneError(where, "must be a list of 1 to 64 numbers")
+        return tuple(check_number(f, v, f"{where}[{i}]") for i, v in enumerate(value))
+    if k == "matrix":
+        return check_matrix(f, value, where)
+    if k == "rotation":
+        return as_rotation(check_matrix(f, value, where), where)
+    if k == "laws":
+        if not isinstance(value, (list, tuple)) or len(value) != 3:
+            raise SceneError(where, "must be a list of three strings: x(t), y(t), z(t)")
+        for i, text in enumerate(value):
+            if not isinstance(text, str):
+                raise SceneError(f"{where}[{i}]", f"must be a string, not {type_name(text)}")
+        return tuple(value)
+    if k == "samples":
+        return _samples(where, value)
+    if k == "table":
+        return read_nested(f, value, where)
+    raise AssertionError(k)
+
+
+_CELL = Field("point", "samples", "number", None, "")
+
+
+def _samples(where: str, value) -> list:
+    if not isinstance(value, list) or not 4 <= len(value) <= 100_000:
+        raise SceneError(where, "must be a list of 4 to 100000 rows [t, x, y, z]")
+    rows = []
+    isfinite = math.isfinite
+    for i, row in enumerate(value):
+        if not isinstance(row, list) or len(row) != 4:
+            raise SceneError(f"{where}[{i}]", "must be a row of 4 numbers [t, x, y, z]")
+        if all(type(v) is float and isfinite(v) for v in row):
+            rows.append(row)            # the common case, checked without messages
+            continue
+        rows.append([check_number(_CELL, v, f"{where}[{i}][{j}]") for j, v in enumerate(row)])
+    return rows
+
+
+def _tail(f: Field) -> str:
+    return f.key.rpartition(".")[2]
+
+
+def read_nested(f: Field, value, where: str | None = None) -> dict:
+    """A nested table (``[plan].region``): its keys checked against ``f.fields``, each
+    value validated, defaults filled in; keyed by the sub-field's own name."""
+    where = where or f.where
+    if not isinstance(value, dict):
+        example = ", ".join(f"{_tail(s)} = ..." for s in f.fields)
+        raise SceneError(where, f"must be a table, e.g. {{ {example} }}")
+    subs = {_tail(s): s for s in f.fields}
+    out = {}
+    for key in value:
+        if key not in subs:
+            raise SceneError(f"{where}.{str(key)[:40]}", unknown_key(key, subs))
+    for key, s in subs.items():
+        if key in value:
+            out[key] = check_value(s, value[key], f"{where}.{key}")
+        elif s.default is REQUIRED:
+            raise SceneError(f"{where}.{key}", "is required")
+        else:
+            out[key] = None if s.default is None else check_value(s, s.default)
+    return out
+
+
+# ---- unknown keys ------------------------------------------------------------------------
+def suggestion(got, known) -> str:
+    """'; did you mean "mass"?' when one of ``known`` is close to ``got``, else ''."""
+    if not isinstance(got, str) or len(got) > 80:
+        return ""
+    near = difflib.get_close_matches(got, list(known), n=1, cutoff=0.6)
+    return f"; did you mean {near[0]!r}?" if near else ""
+
+
+def unknown_key(got, known) -> str:
+    """The rule of an unknown key: the nearest known one if any is close, else all of
+    them."""
+    near = suggestion(got, known)
+    if near:
+        return "is not a known key" + near
+    return f"is not a known key (known: {', '.join(known)})"
+
+
+# ---- a document against a selection of fields --------------------------------------------
+class Schema:
+    """The fields of one kind of file (a scene, a task) and how to read a document of
+    it: ``values, given = schema.read(doc)``, ``values`` keyed by ``Field.where`` (every
+    field: its value, its default, or REQUIRED), ``given`` the fields the document gave;
+    ``values["__tables__"]`` the tables it has."""
+
+    def __init__(self, fields: tuple, tables: tuple, what: str = "scene"):
+        self.fields = fields
+        self.tables = tables                       # "" first: the top level
+        self.what = what
+        self.by_table = {t: {f.key: f for f in fields if f.table == t} for t in tables}
+        self.by_where = {f.where: f for f in fields}
+        self.by_path = {f.path: f for f in fields}
+        # the number fields with both bounds, by table: (lo, hi, lo_open) for read's fast path
+        self.scalars = {t: {f.key: (f.lo, f.hi, f.lo_open) for f in fields
+                            if f.table == t and f.kind == "number" and f.hi is not None}
+                        for t in tables}
+        self.required = tuple(f for f in fields if f.default is REQUIRED)
+        self.top_keys = tuple(sorted(set(tables[1:]) | set(self.by_table[""])))
+        self._top = frozenset(self.top_keys)
+        self._defaults = None
+
+    def defaults(self) -> dict:
+        """Every field's default, validated once."""
+        if self._defaults is None:
+            self._defaults = {f.where: (f.default if f.default is None or f.default is REQUIRED
+                                        else check_value(f, f.default)) for f in self.fields}
+        return self._defaults
+
+    def read(self, doc: dict) -> tuple[dict, set]:
+        if not doc.keys() <= self._top:
+            unknown = sorted(str(k) for k in doc if k not in self._top)
+            raise SceneError(unknown[0][:40], unknown_key(unknown[0], self.top_keys))
+        out = dict(self.defaults())
+        given: set = set()
+        for table in self.tables:
+            self.read_table(doc, table, out, given)
+        out["__tables__"] = frozenset(t for t in self.tables[1:] if t in doc)
+        return out, given
+
+    def read_table(self, doc: dict, table: str, out: dict, given: set) -> None:
+        """The fields of one table of ``doc`` (``""``: the top level) into ``out`` and
+        ``given``."""
+        if table == "":
+            tab = doc
+        else:
+            if table not in doc:
+                return
+            tab = doc[table]
+            if not isinstance(tab, dict):
+                raise SceneError(f"[{table}]", "must be a table")
+        if not tab:
+            return
+        fields = self.by_table[table]
+        scalars = self.scalars[table]
+        for key, value in tab.items():
+            f = fields.get(key)
+            if f is None:
+                if table == "":
+                    continue                   # the tables themselves
+                raise SceneError(f"[{table}].{str(key)[:40]}", unknown_key(key, fields))
+            where = f.where
+            bounds = scalars.get(key)
+            if bounds is not None and type(value) is float and value <= bounds[1] and \
+                    (value > bounds[0] if bounds[2] else value >= bounds[0]):
+                out[where] = value              # a number in range (NaN fails <=)
+            elif f.kind == "vector":
+                out[where] = check_vector(f, value)
+            else:
+                out[where] = check_value(f, value)
+            given.add(where)
+
+
+SCENE_TABLES = ("", "body", "point", "plane", "initial", "run", "stability")
+SCENE = Schema(SCENE_FIELDS, SCENE_TABLES, "scene")
+
+# a task's scene tables: a scene without a law and without the run's integration (the
+# plan sets the duration and integrates), and [plan]
+_TASK_SCENE = tuple(f for f in SCENE_FIELDS
+                    if f.table in ("", "body", "initial")
+                    or (f.table, f.key) in (("point", "mass"), ("plane", "restitution"),
+                                            ("run", "g")))
+TASK = Schema(_TASK_SCENE + PLAN_FIELDS, ("", "body", "point", "plane", "initial", "run",
+                                           "plan"), "task")

@@ -1,0 +1,76 @@
+"""The one TOML writer of the project: scenes written by ``derive scene new`` and by the
+planner (``scene.toml`` of a plan), the built-in scene, and the fuzzers' hostile files.
+
+Python's ``tomllib`` only reads; what this writes reads back with it to the same
+values (floats by their shortest repr, bit for bit; NaN and infinities as TOML's
+``nan``/``inf``; every string escaped so that no character of it can end it).
+"""
+from __future__ import annotations
+
+import math
+import re
+
+import numpy as np
+
+_ESCAPES = {'"': '\\"', "\\": "\\\\", "\b": "\\b", "\t": "\\t", "\n": "\\n", "\f": "\\f",
+            "\r": "\\r"}
+_BARE_KEY = re.compile(r"[A-Za-z0-9_-]+")
+
+
+def string(s: str) -> str:
+    """A basic string: quotes, backslashes and control characters escaped (a lone
+    surrogate, which TOML cannot hold, as U+FFFD)."""
+    out = []
+    for ch in s:
+        code = ord(ch)
+        if ch in _ESCAPES:
+            out.append(_ESCAPES[ch])
+        elif code < 0x20 or code == 0x7F:
+            out.append(f"\\u{code:04x}")
+        elif 0xD800 <= code <= 0xDFFF:
+            out.append("\\ufffd")
+        else:
+            out.append(ch)
+    return '"' + "".join(out) + '"'
+
+
+def key(k) -> str:
+    k = str(k)
+    return k if _BARE_KEY.fullmatch(k) else string(k)
+
+
+def value(v) -> str:
+    """One value: booleans, integers, floats (NumPy's too), strings, lists (tuples and
+    arrays) and inline tables."""
+    if isinstance(v, (bool, np.bool_)):
+        return "true" if v else "false"
+    if isinstance(v, (int, np.integer)):
+        return str(int(v))
+    if isinstance(v, (float, np.floating)):
+        x = float(v)
+        if math.isnan(x):
+            return "nan"
+        if math.isinf(x):
+            return "inf" if x > 0 else "-inf"
+        return repr(x)
+    if isinstance(v, str):
+        return string(v)
+    if isinstance(v, (list, tuple, np.ndarray)):
+        return "[" + ", ".join(value(x) for x in v) + "]"
+    if isinstance(v, dict):
+        return "{" + ", ".join(f"{key(k)} = {value(x)}" for k, x in v.items()) + "}"
+    raise TypeError(f"no TOML form for {type(v).__name__}")
+
+
+def dumps(doc: dict, comments: tuple = ()) -> str:
+    """A document: ``comments`` first (each line prefixed ``# ``), the top-level keys,
+    then one ``[table]`` per dict value (dicts inside tables inline)."""
+    lines = [f"# {c}" for c in comments]
+    for k, v in doc.items():
+        if not isinstance(v, dict):
+            lines.append(f"{key(k)} = {value(v)}")
+    for k, v in doc.items():
+        if isinstance(v, dict):
+            lines += ["", f"[{key(k)}]"]
+            lines += [f"{key(kk)} = {value(vv)}" for kk, vv in v.items()]
+    return "\n".join(lines) + "\n"
