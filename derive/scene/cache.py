@@ -40,6 +40,11 @@ class Static:
     memo: dict = field(default_factory=dict, compare=False)
 
 
+def _state_defaults() -> dict:
+    defaults = SCENE.defaults()
+    return {where: defaults[where] for where in _STATE_WHERE}
+
+
 _SEEN: dict = {}
 _SEEN_MAX, _SEEN_MAX_KEY = 64, 1 << 18
 _MARSHAL_VERSION = 2        # from 3 on, marshal marks objects by their reference counts
@@ -70,9 +75,9 @@ def remember(key: bytes, doc: dict, v: dict, given: set, static: Static) -> bool
     """Keep the static part of a plain scene; False for a scene that is not plain."""
     if not _plain(doc):
         return False                        # e.g. a NumPy float (marshalled as bytes)
-    defaults = SCENE.defaults()
-    v = {k: (defaults[k] if k in _STATE_WHERE else x) for k, x in v.items()}
-    given = {g for g in given if g not in _STATE_WHERE}
+    v = dict(v)
+    v.update(_state_defaults())
+    given = given - _STATE_WHERE
     with _SEEN_LOCK:
         if len(_SEEN) >= _SEEN_MAX:
             _SEEN.pop(next(iter(_SEEN)))
@@ -85,14 +90,27 @@ def clear() -> None:
         _SEEN.clear()
 
 
+_ATOMS = frozenset((str, float, int, bool, type(None)))
+
+
 def _plain(x) -> bool:
-    """Only dicts, lists, strings, floats, ints, booleans and None, exactly."""
-    t = type(x)
-    if t is dict:
-        return all(type(k) is str and _plain(y) for k, y in x.items())
-    if t is list:
-        return all(_plain(y) for y in x)
-    return t in (str, float, int, bool) or x is None
+    """Only dicts (with string keys), lists, strings, floats, ints, booleans and None,
+    exactly (a NumPy number is marshalled as bytes, a tuple read back as a tuple)."""
+    stack = [x]
+    atoms = _ATOMS
+    while stack:
+        y = stack.pop()
+        t = type(y)
+        if t is dict:
+            for k in y:
+                if type(k) is not str:
+                    return False
+            stack.extend(y.values())
+        elif t is list:
+            stack.extend(y)
+        elif t not in atoms:
+            return False
+    return True
 
 
 # ---- the dict of a Scene (Scene.doc) -----------------------------------------------------

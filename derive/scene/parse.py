@@ -10,7 +10,6 @@ in range, and every failure raises :class:`SceneError` naming the field and the 
 """
 from __future__ import annotations
 
-import dataclasses
 import os
 import tomllib
 from pathlib import Path
@@ -95,7 +94,7 @@ def run_stability(v: dict, key: str):
 
 def state_part(static: Static, v: dict, given: set, source) -> Scene:
     """The rules that read the initial state, and the Scene."""
-    d = dataclasses.replace(static.draft, v=v, given=given, A0=None, extra={})
+    d = static.draft.for_state(v, given)
     rules.check(rules.STATE_RULES, d)
     return Scene.of_fields(static.fields, com=v["[initial].com"],
                            com_velocity=v["[initial].com_velocity"],

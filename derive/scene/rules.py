@@ -26,7 +26,9 @@ from . import law as lawmod
 from . import table as tablemod
 from .errors import SceneError
 from .law import CoordinateError, LawError, LawSummary
-from .schema import MAX_ROWS, MIN_DURATION, REQUIRED, as_rotation
+from .schema import FIELDS, MAX_ROWS, MIN_DURATION, REQUIRED, as_rotation
+
+REQUIRED_FIELDS = tuple(f for f in FIELDS if f.default is REQUIRED)
 
 
 @dataclass
@@ -53,8 +55,14 @@ class Draft:
     A0: np.ndarray | None = None
     extra: dict = field(default_factory=dict)
 
-    def value(self, where: str):
-        return self.v[where]
+    def for_state(self, v: dict, given: set) -> "Draft":
+        """A copy of this (static) draft for the state rules of other field values (a
+        shallow copy: dataclasses.replace re-runs __init__ and costs a tenth of a
+        validation)."""
+        d = object.__new__(Draft)
+        d.__dict__.update(self.__dict__)
+        d.v, d.given, d.A0, d.extra = v, given, None, {}
+        return d
 
     @property
     def law_field(self) -> str:
@@ -84,9 +92,8 @@ class Rule:
 
 # ---- the static part ---------------------------------------------------------------------
 def _required(d: Draft) -> None:
-    from .schema import FIELDS
     v, given = d.v, d.given
-    for f in FIELDS:
+    for f in REQUIRED_FIELDS:
         if f.where not in v or v[f.where] is not REQUIRED:
             continue
         if f.table == "plane" and "plane" not in v["__tables__"]:

@@ -427,10 +427,10 @@ class Schema:
         self.by_table = {t: {f.key: f for f in fields if f.table == t} for t in tables}
         self.by_where = {f.where: f for f in fields}
         self.by_path = {f.path: f for f in fields}
-        # the number fields with both bounds, by table: (lo, hi, lo_open) for read's fast path
-        self.scalars = {t: {f.key: (f.lo, f.hi, f.lo_open) for f in fields
-                            if f.table == t and f.kind == "number" and f.hi is not None}
-                        for t in tables}
+        # how read checks each key of a table, by table: (where, fast, lo, hi, lo_open,
+        # size, field), fast 1 for a number with both bounds, 2 for a vector, 0 otherwise
+        self.plans = {t: {f.key: (f.where, _fast(f), f.lo, f.hi, f.lo_open, f.size, f)
+                          for f in fields if f.table == t} for t in tables}
         self.required = tuple(f for f in fields if f.default is REQUIRED)
         self.top_keys = tuple(sorted(set(tables[1:]) | set(self.by_table[""])))
         self._top = frozenset(self.top_keys)
@@ -467,24 +467,31 @@ class Schema:
                 raise SceneError(f"[{table}]", "must be a table")
         if not tab:
             return
-        fields = self.by_table[table]
-        scalars = self.scalars[table]
+        plan = self.plans[table]
+        seen = []
         for key, value in tab.items():
-            f = fields.get(key)
-            if f is None:
+            entry = plan.get(key)
+            if entry is None:
                 if table == "":
                     continue                   # the tables themselves
-                raise SceneError(f"[{table}].{str(key)[:40]}", unknown_key(key, fields))
-            where = f.where
-            bounds = scalars.get(key)
-            if bounds is not None and type(value) is float and value <= bounds[1] and \
-                    (value > bounds[0] if bounds[2] else value >= bounds[0]):
+                raise SceneError(f"[{table}].{str(key)[:40]}",
+                                 unknown_key(key, self.by_table[table]))
+            where, fast, lo, hi, lo_open, size, f = entry
+            if fast == 1 and type(value) is float and value <= hi and \
+                    (value > lo if lo_open else value >= lo):
                 out[where] = value              # a number in range (NaN fails <=)
-            elif f.kind == "vector":
+            elif fast == 2:
                 out[where] = check_vector(f, value)
             else:
                 out[where] = check_value(f, value)
-            given.add(where)
+            seen.append(where)
+        given.update(seen)
+
+
+def _fast(f: Field) -> int:
+    if f.kind == "number" and f.hi is not None and f.lo is not None:
+        return 1
+    return 2 if f.kind == "vector" else 0
 
 
 SCENE_TABLES = ("", "body", "point", "plane", "initial", "run", "stability")
