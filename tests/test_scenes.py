@@ -11,7 +11,8 @@ import pytest
 
 from derive.runtime.choice import choose
 from derive.scene.law import LawError, parse_law
-from derive.scene import DEFAULT_SCENE, SceneError, parse_scene
+import derive
+from derive.scene import DEFAULT_SCENE, SceneError, load_scene, parse_scene
 
 
 def doc(**changes):
@@ -385,3 +386,56 @@ def test_prepare_keeps_only_what_reads_the_static_part():
         assert not prep.options.flags.writeable and not prep.parameters.flags.writeable
         checked += prep.kind == "planar"
     assert checked > 50
+
+
+# ---- messages name places one way, and suggest the nearest field (new-user trial) ----------
+@pytest.mark.parametrize("law, t", [("1/sin(t)", "0"), ("0.001/(t - 1)", "1"),
+                                    ("1/(t - 0.3)", "0.3"), ("sqrt(2.2 - t)", "2.2")])
+def test_a_singular_law_is_named_at_its_point(law, t):
+    """The singular point is the number of fewest digits in the last box of the proof:
+    1/sin(t) had been reported near t = 4.54747351e-12."""
+    d = doc()
+    d["point"]["law"] = [law, "0", "0"]
+    d["run"]["duration"] = 3.0
+    with pytest.raises(SceneError) as info:
+        parse_scene(d)
+    assert info.value.rule.endswith(f"near t = {t}"), str(info.value)
+
+
+def test_unknown_keys_are_named_in_the_table_form_with_the_nearest_one():
+    d = doc()
+    d["plain"] = {"restitution": 0.5}
+    with pytest.raises(SceneError) as info:
+        parse_scene(d)
+    assert str(info.value) == "[plain]: is not a known key; did you mean 'plane'?"
+    d = doc()
+    d["body"]["mas"] = 1.0
+    with pytest.raises(SceneError) as info:
+        parse_scene(d)
+    assert str(info.value) == "[body].mas: is not a known key; did you mean 'mass'?"
+    d = doc()
+    d["body"]["colour"] = "red"                # nothing near: the table's keys, not all 57
+    with pytest.raises(SceneError) as info:
+        parse_scene(d)
+    assert "known: mass, inertia" in info.value.rule and "[run]" not in info.value.rule
+
+
+def test_an_empty_file_says_so(tmp_path):
+    path = tmp_path / "empty.toml"
+    path.write_text("\n  \n")
+    with pytest.raises(SceneError, match="is empty: a scene needs at least"):
+        load_scene(path)
+
+
+def test_overrides_name_fields_in_the_table_form_and_suggest_the_nearest():
+    from derive.scene import overrides
+    with pytest.raises(SceneError) as info:
+        overrides.parse_assignment("body.mas=1")
+    assert "did you mean 'body.mass'?" in str(info.value)
+    assert "inertia" not in str(info.value)                # not every field on one line
+    with pytest.raises(SceneError) as info:
+        overrides.apply_to_doc(doc(), "initial.com[5]", 1.0)
+    assert info.value.where == "[initial].com[5]"
+    with pytest.raises(SceneError) as info:
+        derive.simulate_many(doc(), [{"initial.omaga": [0.0, 0.0, 1.0]}])
+    assert "did you mean 'initial.omega'?" in str(info.value)

@@ -983,6 +983,21 @@ class Singularity:
     what: str
 
 
+def shortest_in(lo: float, hi: float) -> float:
+    """The number of fewest significant digits in [lo, hi] (0 when the box holds it): a
+    singular point is reported as 0 or 1.5, not as the middle of the last box,
+    4.54747351e-12 or 1.50000000000023."""
+    lo, hi = float(lo), float(hi)
+    if lo <= 0.0 <= hi:
+        return 0.0
+    mid = 0.5 * (lo + hi)
+    for digits in range(1, 18):
+        x = float(f"{mid:.{digits}g}")
+        if lo <= x <= hi:
+            return x
+    return mid
+
+
 def _entire(p: Program) -> bool:
     """Every node is an entire function of t (nothing to prove)."""
     return all(OPS[name].entire or (name == "powi" and p.consts[p.b[k]] > 0)
@@ -1032,7 +1047,7 @@ def find_singularity(p: Program, t0: float, t1: float) -> Singularity | None:
             if narrow.size:
                 j = narrow[0]
                 node = int(first_bad[j])
-                return Singularity(p.coordinate_of(node), float(0.5 * (lo_t[j] + hi_t[j])),
+                return Singularity(p.coordinate_of(node), shortest_in(lo_t[j], hi_t[j]),
                                    OPS[ops[node]].singular or "a singular point")
             idx = idx[:MAX_BOXES]
             mid = 0.5 * (lo_t[idx] + hi_t[idx])

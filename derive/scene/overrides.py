@@ -32,6 +32,11 @@ class Target:
     field: Field
     index: int | None
 
+    @property
+    def where(self) -> str:
+        """How messages name it: ``[initial].com[2]``, as for a scene file's fields."""
+        return self.field.where + ("" if self.index is None else f"[{self.index}]")
+
 
 def _unknown(name: str, schema: Schema) -> str:
     """Why ``name`` is not a field, with the nearest field or the table's fields."""
@@ -63,10 +68,10 @@ def target(name: str, where: str | None = None, schema: Schema = SCENE) -> Targe
     if bracket:
         text = rest[:-1] if rest.endswith("]") else "?"
         if not (text.isascii() and text.isdigit() and len(text) <= 9):
-            raise OverrideError(name, f"the index of {path} must be a whole number in "
-                                      f"brackets, like {path}[0]")
+            raise OverrideError(f"{f.where}[{rest}", f"the index must be a whole number in "
+                                                     f"brackets, like {path}[0]")
         if f.kind not in ("vector", "laws", "choices"):
-            raise OverrideError(name, f"{f.where} has no entries: set it whole")
+            raise OverrideError(f"{f.where}[{rest}", "has no entries: set it whole")
         index = int(text)
     return Target(name, f, index)
 
@@ -99,11 +104,12 @@ def apply_to_doc(doc: dict, name: str, value) -> None:
     table, key = f.table, f.key
     holder = doc.setdefault(table, {}) if table else doc
     if not isinstance(holder, dict):
-        raise OverrideError(name, f"[{table}] is not a table in the base scene")
+        raise OverrideError(f"[{table}]", "is not a table in the base scene")
     if t.index is not None:
         vec = holder.get(key)
         if not isinstance(vec, list) or not 0 <= t.index < len(vec):
-            raise OverrideError(name, f"the base scene has no entry {t.index} in {f.path}")
+            have = f" (it has {len(vec)})" if isinstance(vec, list) else ""
+            raise OverrideError(t.where, f"the base scene has no entry {t.index}{have}")
         vec[t.index] = value
     else:
         holder[key] = value
@@ -121,7 +127,8 @@ def apply_to_values(v: dict, given: set, name: str, value, schema: Schema = SCEN
         current = v[f.where]
         k = t.index
         if not isinstance(current, tuple) or not 0 <= k < len(current):
-            raise OverrideError(name, f"{f.where} has no entry {k}")
+            have = f" (it has {len(current)})" if isinstance(current, tuple) else ""
+            raise OverrideError(t.where, f"has no entry {k}{have}")
         if f.kind == "vector":
             entry = check_number(f, value, f"{f.where}[{k}]")
             v[f.where] = current[:k] + (entry,) + current[k + 1:]

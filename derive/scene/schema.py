@@ -445,8 +445,9 @@ class Schema:
 
     def read(self, doc: dict) -> tuple[dict, set]:
         if not doc.keys() <= self._top:
-            unknown = sorted(str(k) for k in doc if k not in self._top)
-            raise SceneError(unknown[0][:40], unknown_key(unknown[0], self.top_keys))
+            key = sorted(str(k) for k in doc if k not in self._top)[0]
+            where = f"[{key[:40]}]" if isinstance(doc.get(key), dict) else key[:40]
+            raise SceneError(where, unknown_key(key, self.top_keys))
         out = dict(self.defaults())
         given: set = set()
         for table in self.tables:
