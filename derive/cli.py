@@ -350,92 +350,34 @@ def cmd_chart(args: argparse.Namespace) -> int:
     return 0
 
 
-# ---- bench ------------------------------------------------------------------------
+# ---- bench and verify: commands declared once (derive/bench, derive/verify) -------------
 def _progress(message: str) -> None:
     print(f"  ... {message}", file=sys.stderr, flush=True)
 
 
-def cmd_bench_rhs(args) -> int:
-    import shlex
-    from .bench import rhs
-    cflags = tuple(shlex.split(args.cflags))
-    rep = rhs.run(cflags=cflags, progress=_progress)
-    print(f"cost per evaluation, compiled with {' '.join(cflags)} (C: throughput over "
-          f"1024 states and a latency-bound loop, min of 60 interleaved trials)")
-    print(rhs.report(rep))
-    return 0
-
-
-def cmd_bench_sim(args) -> int:
-    from .bench import sim
-    from .scene import SceneError, load_scene
-    doc = None
-    if args.scene:
-        try:
-            doc = load_scene(args.scene).doc
-        except SceneError as exc:
-            raise UsageError(str(exc)) from None
-    out = sim.run(doc, progress=_progress, repeats=args.repeats, quick=args.quick)
-    print(sim.report(out))
-    return 0
-
-
-def cmd_bench_law(args) -> int:
-    from .bench import law
-    print(law.report(law.run(repeats=args.repeats, progress=_progress)))
-    return 0
-
-
-def cmd_bench_precision(args) -> int:
-    from .bench import precision
-    scenes = args.scenes.split(",") if args.scenes else None
-    known = set(precision.reference_scenes())
-    if scenes and not set(scenes) <= known:
-        raise UsageError(f"--scenes: choose from {', '.join(sorted(known))}")
-    summary = precision.run(args.output, quick=args.quick, repeats=args.repeats,
-                            periods=args.periods, scenes=scenes, progress=_progress)
-    print(precision.report(summary))
-    print(f"charts and data in {args.output}")
-    return 0
-
-
-def cmd_bench_failures(args) -> int:
-    from .bench import failures
-    outcomes = failures.run(progress=_progress)
-    print(failures.report(outcomes))
-    return 0
-
-
-def cmd_bench_fuzz(args) -> int:
-    from .bench import fuzz
-    if not 1 <= args.cases <= 10_000_000:
-        raise UsageError(f"--cases: must be in [1, 1e7] (got {args.cases})")
-    outcomes = fuzz.run(args.cases, args.seed, args.mode, progress=_progress,
-                        cli_cases=max(1, args.cases // 10))
-    print(fuzz.report(outcomes))
-    return 1 if any(o.bad for o in outcomes) else 0
-
-
-def cmd_bench_robustness(args) -> int:
+def _execute(command, dests: list, args: argparse.Namespace) -> int:
+    """Run a declared command: exit 0 when every target passed, 1 when one failed."""
     import time
-    from .bench import robustness
-    if args.n < 1 or args.n > 10_000_000:
-        raise UsageError(f"-n: must be in [1, 1e7] (got {args.n})")
-    if args.workers is not None and args.workers < 1:
-        raise UsageError(f"--workers: must be >= 1 (got {args.workers})")
     start = time.perf_counter()
-    outcomes = robustness.run(args.n, seed=args.seed, max_duration=args.duration,
-                              workers=args.workers, progress=_progress)
-    print(robustness.report(outcomes))
-    bad = [o for o in outcomes if o.verdict not in ("ok",)]
-    if args.parser:
-        from .bench import fuzz
-        cases = fuzz.run(args.parser, seed=args.seed, mode="both", progress=_progress,
-                         cli_cases=max(1, args.parser // 10))
-        print(fuzz.report(cases))
-        bad += [c for c in cases if c.bad]
+    result = command.function("run")(**{d: getattr(args, d) for d in dests},
+                                     progress=_progress)
+    print(command.function("report")(result))
+    ok = command.function("passed")(result)
+    if not isinstance(ok, bool):
+        raise TypeError(f"{command.module}: passed() returned {ok!r}, not a bool")
     print(f"{time.perf_counter() - start:.1f} s in all")
-    return 1 if bad else 0
+    return 0 if ok else 1
+
+
+def _add_commands(sub, name: str, help: str, commands) -> None:
+    """``derive NAME COMMAND``: one parser per declared command, from its own arguments."""
+    import functools
+    p = sub.add_parser(name, help=help)
+    group = p.add_subparsers(dest=name, required=True, parser_class=_Parser)
+    for command in commands:
+        c = group.add_parser(command.name, help=command.help)
+        dests = [c.add_argument(*a.flags, **a.options).dest for a in command.arguments]
+        c.set_defaults(func=functools.partial(_execute, command, dests))
 
 
 # ---- parser -----------------------------------------------------------------------
@@ -551,57 +493,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_chart)
 
-    p = sub.add_parser("bench", help="benchmarks: ratios against peers measured in the same "
-                       "run, each target marked PASS or FAIL")
-    bench = p.add_subparsers(dest="bench", required=True, parser_class=_Parser)
-    b = bench.add_parser("rhs", help="cost per evaluation of the generated functions "
-                         "against CasADi's C, CasADi from Python and NumPy")
-    b.add_argument("--cflags", default="-O2", help="compiler flags for every C build "
-                   "(default: -O2)")
-    b.set_defaults(func=cmd_bench_rhs)
-    b = bench.add_parser("sim", help="what a simulation costs the user end to end (and the "
-                         "C run alone) against SciPy and CasADi at a 1e-9 error; the CLI, "
-                         "simulate_many and the first build")
-    b.add_argument("--scene", help="scene TOML (default: the built-in scene and an offset "
-                   "ellipsoid)")
-    b.add_argument("--repeats", type=int, default=5, help="timing repetitions (min taken)")
-    b.add_argument("--quick", action="store_true", help="the scenes only (no CLI, batch and "
-                   "first-build measurements)")
-    b.set_defaults(func=cmd_bench_sim)
-    b = bench.add_parser("law", help="the point law interpreted against compiled: ns per "
-                         "evaluation, compile time, share of a run")
-    b.add_argument("--repeats", type=int, default=7, help="timing repetitions (min taken)")
-    b.set_defaults(func=cmd_bench_law)
-    b = bench.add_parser("precision", help="work-precision charts on reference scenes and "
-                         "the invariant drift of long runs")
-    b.add_argument("-o", "--output", default="bench-out", help="output folder")
-    b.add_argument("--quick", action="store_true", help="three tolerances only")
-    b.add_argument("--periods", type=int, default=10_000,
-                   help="length of the long run in periods of the point")
-    b.add_argument("--scenes", help="comma-separated reference scene names")
-    b.add_argument("--repeats", type=int, default=5, help="timing repetitions (min taken)")
-    b.set_defaults(func=cmd_bench_precision)
-    b = bench.add_parser("failures", help="hard scenes through every method, peers capped: "
-                         "an outcome table")
-    b.set_defaults(func=cmd_bench_failures)
-    b = bench.add_parser("robustness", help="random valid scenes through the runtime "
-                         "(falls, statuses, invariants, cost) and, with --parser N, random "
-                         "malformed scenes through the parser")
-    b.add_argument("-n", type=int, default=10_000, help="random scenes (default 10000)")
-    b.add_argument("--seed", type=int, default=11, help="the generator's seed")
-    b.add_argument("--duration", type=float, default=60.0, help="longest scene duration")
-    b.add_argument("--workers", type=int, help="local processes (default: every core)")
-    b.add_argument("--parser", type=int, default=0, metavar="N",
-                   help="also N random malformed scenes through the parser and the CLI")
-    b.set_defaults(func=cmd_bench_robustness)
-    b = bench.add_parser("fuzz", help="seeded hostile scenes through the parser, the "
-                         "runtime and the command line (exit 1 on any bad outcome)")
-    b.add_argument("--cases", type=int, default=2000, help="number of cases")
-    b.add_argument("--seed", type=int, default=12, help="the generator's seed")
-    b.add_argument("--mode", choices=["api", "cli", "both"], default="both",
-                   help="through the API, the command line (a tenth of the cases with "
-                        "both) or both")
-    b.set_defaults(func=cmd_bench_fuzz)
+    from .bench import COMMANDS as BENCHES
+    from .verify import COMMANDS as CHECKS
+    _add_commands(sub, "bench", "benchmarks: ratios against peers measured in the same run, "
+                  "each target marked PASS or FAIL (exit 1 on FAIL)", BENCHES)
+    _add_commands(sub, "verify", "verification: fuzzing and property checks over many "
+                  "scenes, each goal marked PASS or FAIL (exit 1 on FAIL)", CHECKS)
 
     from .planner.cli import add_parser as _add_plan_parser
     _add_plan_parser(sub)
@@ -632,7 +529,7 @@ def _terminate_cleanly() -> None:
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
-    if args.command == "bench":
+    if args.command in ("bench", "verify"):
         # the benchmarks time single-threaded code on a shared machine: BLAS worker
         # threads spinning after a NumPy call (the SciPy routes) would take a core from
         # the code timed next.  Only before NumPy loads; a caller's setting wins.

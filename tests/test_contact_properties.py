@@ -1,12 +1,12 @@
 """Issue 11: contact that cannot fall through, over random scenes rather than chosen ones.
 
-A seeded subset of ``derive bench robustness`` (which runs 10,000): random spheres and
+A seeded subset of ``derive verify robustness`` (which runs 10,000): random spheres and
 ellipsoids with offset centres, M and m (m > M included), near-symmetric and strongly
 asymmetric inertia, laws of 1-3 harmonics, spins up to 20 rad/s, restitution in
 {0, 0.1, 0.5, 0.9, 1} or random, every method.  Each run must end ``done`` at its end
 time, S never below the plane by more than 1e-9 of the body's size (as the runtime
 tracks it and on every output row), no NaN, A orthonormal to its method's accuracy and
-|K| constant within every flight (E1.9): :func:`derive.bench.robustness.judge`.
+|K| constant within every flight (E1.9): :func:`derive.verify.judges.judge_run`.
 Then the scenes of the issue that fell through, and long runs that must come to rest.
 """
 from __future__ import annotations
@@ -16,7 +16,8 @@ import math
 import numpy as np
 import pytest
 
-from derive.bench import robustness as rb
+from derive.verify import robustness as rb
+from derive.verify.judges import judge_run
 from derive.runtime.driver import simulate
 from derive.scene import builtin_doc
 
@@ -58,7 +59,7 @@ ISSUE_SCENES = {
 @pytest.mark.parametrize("name", list(ISSUE_SCENES))
 def test_the_scenes_that_fell_through_now_rest_on_the_plane(name):
     res = simulate(ISSUE_SCENES[name])
-    verdict, detail = rb.judge(res, 0.5)
+    verdict, detail = judge_run(res, 0.5)
     assert verdict == "ok", detail
     kinds = [e["kind"] for e in res.events]
     assert "contact" in kinds                       # impacts accumulated into contact
@@ -91,7 +92,7 @@ def test_planar_model_does_not_fall_through():
     doc["run"]["duration"] = 30.0
     res = simulate(doc)
     assert res.model == "planar"
-    verdict, detail = rb.judge(res, 0.5)
+    verdict, detail = judge_run(res, 0.5)
     assert verdict == "ok", detail
     assert "contact" in [e["kind"] for e in res.events]
 

@@ -1,4 +1,4 @@
-"""Issue 6: the hard scenes of `derive bench failures`, through the runtime's methods.
+"""Issue 6: the hard scenes of `derive verify failures`, through the runtime's methods.
 
 Pinned outcomes: the runtime's default (the Lie-group method of the momentum form),
 DOPRI5, DOP853 and DOP853 keeping A orthonormal come out correct on every scene against
@@ -13,7 +13,9 @@ import copy
 
 import pytest
 
-from derive.bench import failures
+from derive.verify import failures
+from derive.verify.judges import classify
+from derive.verify.oracle import reference_run
 
 SCENES = failures.scenes()
 METHODS = dict(failures.methods())
@@ -25,7 +27,7 @@ EXPECTED[("fast spin", "runtime RK4 (T/2000)")] = "wrong"
 
 @pytest.fixture(scope="module")
 def references():
-    return {name: failures.reference_run(doc, kind) for name, (doc, kind) in SCENES.items()}
+    return {name: reference_run(doc, kind) for name, (doc, kind) in SCENES.items()}
 
 
 @pytest.mark.parametrize("name", list(SCENES))
@@ -34,7 +36,7 @@ def test_runtime_outcomes(name, references):
     ref = references[name]
     for method in RUNTIME:
         result = METHODS[method](copy.deepcopy(doc)).result()
-        outcome, err = failures.classify(result, ref, "plane" in doc)
+        outcome, err = classify(result, ref, "plane" in doc)
         assert outcome == EXPECTED[(name, method)], (method, outcome, err, result.status)
 
 
@@ -48,7 +50,7 @@ def test_a_peer_without_contact_phases_fails_where_expected():
     """The classification is sharp: SciPy's DOP853 with terminal events has no
     persistent contact, so a plastic ball lifted off by its point falls through."""
     doc, kind = SCENES["lift-off by the point, e = 0"]
-    ref = failures.reference_run(doc, kind)
+    ref = reference_run(doc, kind)
     result = METHODS["scipy DOP853"](copy.deepcopy(doc)).result()
-    outcome, _ = failures.classify(result, ref, True)
+    outcome, _ = classify(result, ref, True)
     assert outcome in ("fell through the plane", "wrong", "missed events")

@@ -116,7 +116,7 @@ def test_energy_balance_closes_on_random_bouncing_scenes():
     the vertical model, rows on the solver's steps or a coarse grid): the balance closes
     to the run's tolerance.  (Before the rows were resampled for the quadrature, its
     residual reached 2e-3 of the energy on such scenes: the quadrature's error.)"""
-    from derive.bench.robustness import random_scene
+    from derive.verify.generators import random_scene
     rng = np.random.default_rng(20261122)
     worst = 0.0
     for k in range(60):

@@ -6,7 +6,7 @@ Each example of the issue is an explicit case; then a seeded fuzz subset goes th
 ``parse_scene`` and the simulation (in a forked worker with a time and memory limit, so a
 hang fails the test instead of hanging CI) and a smaller one through ``derive simulate``
 in a subprocess with a private HOME and working folder.  The full set is
-``python -m derive.bench.fuzz -n 5000 --mode both``.
+``derive verify fuzz -n 5000``.
 """
 from __future__ import annotations
 
@@ -18,8 +18,11 @@ from pathlib import Path
 
 import pytest
 
-from derive.bench import fuzz
-from derive.bench.fuzz import Case, base_scene, num
+from derive.verify import fuzz, generators
+from derive.verify.generators import Case, base_scene
+from derive.verify.laws import num
+from derive.verify.sandbox import cli_env
+from derive.scene.toml import dumps as to_toml
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -46,7 +49,7 @@ def _field_case(i, desc, path, value, fields=None, expect="refuse", doc=None):
     doc = copy.deepcopy(doc) if doc is not None else _scene()
     doc.setdefault(path[0], {})[path[1]] = value
     return Case(i, "explicit", desc, doc, expect=expect,
-                fields=fields or (fuzz.fname(path),))
+                fields=fields or (generators.fname(path),))
 
 
 def _nested_sin(n):
@@ -106,7 +109,7 @@ def explicit_cases() -> list[Case]:
         # tabulated laws that climb out of the scene's folder
         Case(31, "explicit", "table ../outside.csv", _scene(1.0) | {
             "point": {"mass": 0.2, "table": "../outside.csv"}}, files={
-                "../outside.csv": fuzz.csv_text(fuzz.table_rows()).encode()},
+                "../outside.csv": generators.csv_text(generators.table_rows()).encode()},
              expect="refuse", fields=("[point].table",)),
         Case(32, "explicit", "table absolute path", _scene(1.0) | {
             "point": {"mass": 0.2, "table": "OUTSIDE"}}, expect="refuse",
@@ -123,7 +126,7 @@ def explicit_cases() -> list[Case]:
              fields=("[point].table",)),
         # TOML the reader must survive (refused by the reader: one line naming the file)
         Case(36, "explicit", "integer of 5000 digits", None,
-             text=fuzz.to_toml(base_scene()).replace("mass = 1.0", "mass = " + "9" * 5000, 1),
+             text=to_toml(base_scene()).replace("mass = 1.0", "mass = " + "9" * 5000, 1),
              expect="refuse", fields=None),
     ]
     # positive controls: legitimate scenes are accepted and right
@@ -168,7 +171,7 @@ def test_issue_example(case, explicit_outcomes):
 
 def test_fuzz_parse_and_run():
     """A seeded fuzz subset through parse_scene and the simulation: no BAD outcome."""
-    cases = fuzz.generate(300, seed=2024)
+    cases = generators.generate(300, seed=2024)
     out = fuzz.run_api(cases, simulate=True, parse_limit=2.0, run_limit=10.0)
     assert not any(o.bad for o in out), fuzz.report(out)
     # the subset is hostile: most cases must be refusals, some must run
@@ -179,7 +182,7 @@ def test_fuzz_parse_and_run():
 def _cli_subset(n_per_family=4, seed=77):
     picked, want = [], {"scene": n_per_family, "law": n_per_family, "table": n_per_family,
                         "toml": 2}
-    for c in fuzz.generate(400, seed):
+    for c in generators.generate(400, seed):
         if want.get(c.family, 0) > 0 and "huge" not in c.desc and "100k" not in c.desc:
             want[c.family] -= 1
             picked.append(c)
@@ -230,10 +233,10 @@ def test_injection_never_reaches_generated_code(tmp_path):
     for k, (where, d) in enumerate(docs):
         work = home / f"w{k}"
         work.mkdir()
-        (work / "scene.toml").write_text(fuzz.to_toml(d), encoding="utf-8")
+        (work / "scene.toml").write_text(to_toml(d), encoding="utf-8")
         r = subprocess.run([sys.executable, "-m", "derive", "simulate", "-q", "--no-plots",
                             "scene.toml", "-o", "out"], cwd=work,
-                           env=fuzz.cli_env(home, cache), capture_output=True, text=True,
+                           env=cli_env(home, cache), capture_output=True, text=True,
                            timeout=120)
         assert "Traceback" not in r.stderr, r.stderr[-2000:]
         assert r.returncode in ((0, 2) if where == "name" else (2,)), r.stderr[-2000:]

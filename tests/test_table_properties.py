@@ -6,9 +6,9 @@
   at the default tolerance (1e-10): the final state within steps x rtol of a run by
   another method at 1e-14, every step's error within the tolerance and accumulated (over
   600 such scenes the error reached at most 0.51 of that, 2.8e-8 with 1850 steps).
-* On the plane: the random bouncing scenes of ``derive.bench.robustness`` with their
+* On the plane: the random bouncing scenes of ``derive verify robustness`` with their
   formula law replaced by its samples on random knots (a ``free`` table over the run):
-  every property of :func:`derive.bench.robustness.judge` (done at the end time, no
+  every property of :func:`derive.verify.judges.judge_run` (done at the end time, no
   penetration, A orthonormal, |K| constant within each flight).
 """
 from __future__ import annotations
@@ -16,7 +16,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from derive.bench import robustness as rb
+from derive.verify.generators import random_scene, with_rk4_step
+from derive.verify.judges import judge_run
 from derive.runtime.driver import simulate
 from derive.scene import parse_scene
 
@@ -90,10 +91,10 @@ def test_random_bouncing_scenes_with_tables_hold_every_property(block):
     bad = []
     for k in range(40):
         rng = np.random.default_rng(9900 + 40 * block + k)
-        doc = as_table(rb._with_rk4_step(rb.random_scene(rng, 12.0), rng), rng)
+        doc = as_table(with_rk4_step(random_scene(rng, 12.0), rng), rng)
         size = max(doc["body"].get("semi_axes", [doc["body"].get("radius", 0.0)]))
         result = simulate(doc)
-        verdict, detail = rb.judge(result, size)
+        verdict, detail = judge_run(result, size)
         if verdict != "ok":
             bad.append(f"#{40 * block + k} {doc['run']['method']}: {verdict} {detail}")
     assert not bad, "\n".join(bad)

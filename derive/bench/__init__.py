@@ -1,1 +1,80 @@
-"""Benchmarks: ratios against peers measured in the same run."""
+"""Benchmarks: ratios against peers measured in the same run, each target PASS or FAIL.
+
+``COMMANDS`` declares the subcommands of ``derive bench`` (see :mod:`derive.commands`):
+each module's ``run`` takes the command's arguments, ``report`` prints its table and
+``passed`` says whether every target printed PASS (exit 0) or one printed FAIL (exit 1).
+Verification (fuzzing, random scenes, hard scenes) is :mod:`derive.verify`.
+"""
+from __future__ import annotations
+
+import argparse
+import re
+import shlex
+
+from ..commands import Arg, Command, count
+
+
+def _cflags(text: str) -> tuple:
+    return tuple(shlex.split(text))
+
+
+def _precision_scenes(text: str) -> list:
+    from .precision import reference_scenes
+    names, known = text.split(","), reference_scenes()
+    if not set(names) <= set(known):
+        raise argparse.ArgumentTypeError(f"choose from {', '.join(sorted(known))}")
+    return names
+
+
+REPEATS = count(1, 1000)
+
+COMMANDS = (
+    Command("rhs", "cost per evaluation of the generated functions against CasADi's C, "
+            "CasADi from Python and NumPy", "derive.bench.rhs", (
+                Arg.of("--cflags", type=_cflags, default="-O2",
+                       help="compiler flags for every C build (default: -O2)"),
+            ), report="derive.bench:rhs_report", passed="derive.bench:rhs_passed"),
+    Command("sim", "what a simulation costs the user end to end (and the C run alone) "
+            "against SciPy and CasADi at a 1e-9 error; the CLI, simulate_many and the first "
+            "build", "derive.bench.sim", (
+                Arg.of("--scene", help="scene TOML (default: the built-in scene and an offset "
+                       "ellipsoid)"),
+                Arg.of("--repeats", type=REPEATS, default=5,
+                       help="timing repetitions (min taken)"),
+                Arg.of("--quick", action="store_true", help="the scenes only (no CLI, batch "
+                       "and first-build measurements)"),
+            )),
+    Command("law", "the point law interpreted against compiled: ns per evaluation, compile "
+            "time, share of a run", "derive.bench.law", (
+                Arg.of("--repeats", type=REPEATS, default=7,
+                       help="timing repetitions (min taken)"),
+            )),
+    Command("precision", "work-precision charts on reference scenes and the invariant "
+            "drift of long runs", "derive.bench.precision", (
+                Arg.of("-o", "--output", dest="out_dir", default="bench-out", metavar="DIR",
+                       help="output folder"),
+                Arg.of("--quick", action="store_true", help="three tolerances only"),
+                Arg.of("--periods", type=count(0, 10_000_000), default=10_000,
+                       help="length of the long run in periods of the point (0: none)"),
+                Arg.of("--scenes", type=_precision_scenes,
+                       help="comma-separated reference scene names"),
+                Arg.of("--repeats", type=REPEATS, default=5,
+                       help="timing repetitions (min taken)"),
+            )),
+)
+
+
+# ---- rhs: derive/bench/rhs.py prints its verdicts; read them off its report ------------
+def rhs_report(rep) -> str:
+    from . import rhs
+    return (f"cost per evaluation, compiled with {' '.join(rep.flags)} (C: throughput over "
+            f"1024 states and a latency-bound loop, min of 60 interleaved trials)\n"
+            + rhs.report(rep))
+
+
+def rhs_passed(rep) -> bool:
+    """Every target line of ``rhs.report`` ends in PASS (until rhs returns its verdicts
+    itself)."""
+    from . import rhs
+    marks = re.findall(r": (PASS|FAIL)\s*$", rhs.report(rep), re.M)
+    return bool(marks) and "FAIL" not in marks

@@ -32,6 +32,7 @@ import time
 
 import numpy as np
 
+from ..commands import Target
 from ..scene import builtin_doc
 from .routes import Casadi, Runtime, Scipy, _timed, errors
 
@@ -223,9 +224,14 @@ def first_build() -> dict:
     return {"general_s": float(out.split()[-1])}
 
 
-def run(scene_doc: dict | None = None, progress=lambda m: None, repeats: int = 5,
-        quick: bool = False) -> dict:
-    docs = [scene_doc] if scene_doc is not None else [builtin_doc(), ellipsoid_doc()]
+def run(scene=None, progress=lambda m: None, repeats: int = 5, quick: bool = False) -> dict:
+    """The scene (a file or a dict; default: the built-in scene and an offset
+    ellipsoid) through every route; unless ``quick``, the CLI, ``simulate_many`` and a
+    first build too."""
+    if isinstance(scene, (str, os.PathLike)):
+        from ..scene import load_scene
+        scene = load_scene(scene).doc            # SceneError: bad input (exit 2)
+    docs = [scene] if scene is not None else [builtin_doc(), ellipsoid_doc()]
     for d in docs:
         d.setdefault("name", "scene")
         d.setdefault("run", {}).setdefault("duration", 5.0)
@@ -241,8 +247,46 @@ def run(scene_doc: dict | None = None, progress=lambda m: None, repeats: int = 5
     return {"target": TARGET, "scenes": scenes, **extra}
 
 
-def _verdict(ok: bool) -> str:
-    return "PASS" if ok else "FAIL"
+# ---- the targets (issue 10) -------------------------------------------------------------
+def _scene_targets(sc: dict) -> list[Target]:
+    """derive.simulate end to end against SciPy: the law seen before, a new law."""
+    by = {r["route"]: r["seconds"] for r in sc["rows"]}
+    scipy = by.get("scipy DOP853", np.nan)
+    out = []
+    for label, key, goal in (("law seen before", "derive.simulate (law seen)", "seen"),
+                             ("new law", "derive.simulate (new law)", "unseen")):
+        ratio = scipy / by[key]
+        out.append(Target(f"derive.simulate end to end, {label}: {ratio:.0f}x faster than "
+                          f"SciPy (target >= {GOALS[goal]:g}x)", ratio >= GOALS[goal]))
+    return out
+
+
+def _cli_target(c: dict) -> Target:
+    return Target(f"CLI on the built-in scene: {c['with static plots']:.2f} s with static "
+                  f"plots, {c['no plots']:.2f} s without (target < {GOALS['cli_s']:g} s)",
+                  c["with static plots"] < GOALS["cli_s"])
+
+
+def _batch_target(b: dict) -> Target:
+    return Target(f"simulate_many: {b['variants']} variants in {b['wall_s']:.3f} s on "
+                  f"{b['workers']} {b['executor']} (the first call of the process: "
+                  f"{b['first_call_s']:.3f} s); {1e3 * b['per_variant_per_core_s']:.3f} "
+                  f"ms per variant per core vs {1e3 * b['c_run_s']:.3f} ms for the C run "
+                  f"of a variant: {b['ratio']:.2f}x (target <= {GOALS['batch']:g}x)",
+                  b["ratio"] <= GOALS["batch"])
+
+
+def targets(out: dict) -> list[Target]:
+    found = [t for sc in out["scenes"] for t in _scene_targets(sc)]
+    if "cli" in out:
+        found.append(_cli_target(out["cli"]))
+    if "batch" in out:
+        found.append(_batch_target(out["batch"]))
+    return found
+
+
+def passed(out: dict) -> bool:
+    return all(t.ok for t in targets(out))
 
 
 def report(out: dict) -> str:
@@ -264,27 +308,14 @@ def report(out: dict) -> str:
         by = {r["route"]: r["seconds"] for r in rows}
         scipy = by.get("scipy DOP853", np.nan)
         c_run = next(v for k, v in by.items() if k.startswith("runtime C"))
-        for label, key, goal in (("law seen before", "derive.simulate (law seen)", "seen"),
-                                 ("new law", "derive.simulate (new law)", "unseen")):
-            ratio = scipy / by[key]
-            lines.append(f"  derive.simulate end to end, {label}: {ratio:.0f}x faster than "
-                         f"SciPy (target >= {GOALS[goal]:g}x): {_verdict(ratio >= GOALS[goal])}")
+        lines += [f"  {t}" for t in _scene_targets(sc)]
         lines.append(f"  the C run alone: {scipy / c_run:.0f}x SciPy; end to end costs "
                      f"{by['derive.simulate (law seen)'] / c_run:.2f}x the C run")
     if "cli" in out:
-        c = out["cli"]
-        lines.append(f"CLI on the built-in scene: {c['with static plots']:.2f} s with static "
-                     f"plots, {c['no plots']:.2f} s without (target < {GOALS['cli_s']:g} s): "
-                     f"{_verdict(c['with static plots'] < GOALS['cli_s'])}")
+        lines.append(str(_cli_target(out["cli"])))
     if "batch" in out:
-        b = out["batch"]
-        p = b["processes"]
-        lines.append(f"simulate_many: {b['variants']} variants in {b['wall_s']:.3f} s on "
-                     f"{b['workers']} {b['executor']} (the first call of the process: "
-                     f"{b['first_call_s']:.3f} s); {1e3 * b['per_variant_per_core_s']:.3f} "
-                     f"ms per variant per core vs {1e3 * b['c_run_s']:.3f} ms for the C run "
-                     f"of a variant: {b['ratio']:.2f}x (target <= {GOALS['batch']:g}x): "
-                     f"{_verdict(b['ratio'] <= GOALS['batch'])}")
+        p = out["batch"]["processes"]
+        lines.append(str(_batch_target(out["batch"])))
         lines.append(f"  (executor='processes': {p['wall_s']:.3f} s on {p['workers']} "
                      f"processes, {p['ratio']:.2f}x the C run)")
     if "first_build" in out:

@@ -1,0 +1,62 @@
+"""Verification apart from benchmarks: fuzzers and property checks over many scenes.
+
+Modules, by role:
+
+* :mod:`~derive.verify.generators`: random valid bouncing scenes and seeded hostile ones
+  (with :mod:`~derive.verify.laws`, the law grammar's trees and hostile law texts; a case
+  is written as a scene file by the one TOML writer, :mod:`derive.scene.toml`);
+* :mod:`~derive.verify.oracle`: what the answer should be, computed another way (law
+  derivatives, properties of any honest run, references of hard scenes);
+* :mod:`~derive.verify.sandbox`: running a case where it can do no harm (a forked worker
+  with time and memory limits; the command line in a private folder);
+* :mod:`~derive.verify.judges`: the verdict on what came out, against the README's
+  contract;
+* the drivers, one per command: :mod:`~derive.verify.fuzz` (hostile scenes through the
+  parser, the runtime and the CLI), :mod:`~derive.verify.robustness` (random valid
+  scenes through the runtime), :mod:`~derive.verify.failures` (hard scenes through every
+  method and peer).
+
+``COMMANDS`` declares ``derive verify``'s subcommands (see :mod:`derive.commands`): the
+same spelling for the same thing (``-n/--cases``, ``--seed``, ``--workers``), and exit
+status 1 when the report says FAIL.
+"""
+from __future__ import annotations
+
+from ..commands import Arg, Command, count, positive_float
+
+CASES = count(1, 10_000_000)
+WORKERS = count(1, 4096)
+
+COMMANDS = (
+    Command("fuzz", "seeded hostile scenes through the parser, the runtime and the "
+            "command line: each refused in one line naming the field, or run right",
+            "derive.verify.fuzz", (
+                Arg.of("-n", "--cases", dest="n", type=CASES, default=2000,
+                       help="number of cases (default 2000)"),
+                Arg.of("--seed", type=int, default=12, help="the generator's seed"),
+                Arg.of("--mode", choices=["api", "cli", "both"], default="both",
+                       help="through the API (parse_scene and the simulation), the command "
+                            "line, or both (default: every case through the API, "
+                            "--cli-cases of them through the CLI too)"),
+                Arg.of("--cli-cases", type=CASES, metavar="N",
+                       help="--mode both: cases through the CLI too (default: a tenth)"),
+                Arg.of("--workers", type=WORKERS, metavar="N",
+                       help="command lines at once (default: every core; the API cases "
+                            "run one at a time in one sandboxed worker)"),
+                Arg.of("--no-simulate", dest="simulate", action="store_false",
+                       help="API cases: validation only, accepted scenes not run"),
+            )),
+    Command("robustness", "random valid bouncing scenes through the runtime: falls, "
+            "statuses, invariants, cost", "derive.verify.robustness", (
+                Arg.of("-n", "--cases", dest="n", type=CASES, default=10_000,
+                       help="number of scenes (default 10000)"),
+                Arg.of("--seed", type=int, default=11, help="the generator's seed"),
+                Arg.of("--duration", dest="max_duration", type=positive_float, metavar="SECONDS",
+                       default=60.0, help="longest scene duration in s (default 60)"),
+                Arg.of("--workers", type=WORKERS, metavar="N",
+                       help="processes at once (default: every core)"),
+            )),
+    Command("failures", "hard scenes (accumulating impacts, grazing, chatter, a thin rod, "
+            "a fast spin) through every method and peer, against references computed "
+            "another way", "derive.verify.failures"),
+)

@@ -1,0 +1,672 @@
+"""Scenes for the verifiers: random valid bouncing scenes, and hostile ones.
+
+* :func:`random_scene`: a random valid bouncing scene (spheres and ellipsoids with offset
+  centres, M and m with m > M included, near-symmetric and strongly asymmetric inertia,
+  laws of 1-3 harmonics up to 30% of the body's size and 15 rad/s, spins up to 20 rad/s,
+  restitution in {0, 0.1, 0.5, 0.9, 1} or random, durations up to 60 s, every method);
+  ``derive verify robustness`` runs thousands.
+* :func:`generate`: seeded hostile cases (a :class:`Case` each, with what the README says
+  must happen to it) in four families, written from the README's contract, not from
+  the parser's code:
+
+  - ``scene``: mutations of a valid scene: wrong types, NaN and infinities, huge, tiny
+    and negative numbers, big integers, missing and extra keys, wrong list shapes,
+    hostile strings (C/Python/shell injection, control characters, unicode digits and
+    spaces, very long text) in every string field, deep nesting;
+  - ``law``: random laws of the README's grammar (:mod:`derive.verify.laws`), planted
+    poles and non-smooth points, hostile tokens;
+  - ``table``: tabulated laws (``[point] table = "file.csv"`` or ``samples``) with paths
+    that climb out (``..``, absolute, symlinks, FIFOs, devices) and huge, ragged or
+    non-numeric files;
+  - ``toml``: text the TOML reader itself must survive (deep arrays, bad bytes, size).
+"""
+from __future__ import annotations
+
+import math
+import random
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .judges import CONTROL_RE
+from .laws import EITHER_LAWS, HOSTILE_LAWS, deep_laws, law_text, planted_law, random_law
+from ..scene import toml
+from ..scene.overrides import delete_path as _del, set_path as _set
+
+
+# ---- random valid scenes ------------------------------------------------------------
+METHODS = ("lie", "lie5", "lie8", "dopri5", "dop853", "rk4")
+RESTITUTIONS = (0.0, 0.1, 0.5, 0.9, 1.0)
+
+
+def _harmonics(rng, amp: float, max_w: float = 15.0) -> str:
+    terms = []
+    for _ in range(int(rng.integers(1, 4))):
+        a = rng.uniform(-amp, amp) / 2
+        w = rng.uniform(0.5, max_w)
+        ph = rng.uniform(0, 2 * math.pi)
+        terms.append(f"{a:.6g}*sin({w:.6g}*t + {ph:.6g})")
+    return " + ".join(terms)
+
+
+def random_scene(rng: np.random.Generator, max_duration: float = 60.0,
+                 method: str | None = None) -> dict:
+    """A random valid bouncing scene (a dict of the schema)."""
+    shape = "sphere" if rng.random() < 0.5 else "ellipsoid"
+    size = rng.uniform(0.1, 1.0)
+    if shape == "sphere":
+        geom = {"radius": size}
+    else:
+        axes = size * rng.uniform(0.4, 1.0, 3)
+        axes[rng.integers(3)] = size
+        geom = {"semi_axes": [float(a) for a in axes]}
+    center = (rng.uniform(-0.3, 0.3, 3) * size if rng.random() < 0.6 else np.zeros(3))
+    M = rng.uniform(0.2, 5.0)
+    m = M * (rng.uniform(0.05, 2.0) if rng.random() < 0.8 else rng.uniform(1.0, 4.0))
+    if rng.random() < 0.3:                          # near-symmetric
+        base = rng.uniform(0.05, 1.0) * M * size ** 2
+        J = base * (1 + rng.uniform(-1e-3, 1e-3, 3))
+    else:                                           # from a real mass distribution
+        second = rng.uniform(0.02, 1.0, 3) * M * size ** 2
+        J = np.array([second[1] + second[2], second[0] + second[2], second[0] + second[1]])
+    amp = 0.3 * size
+    law = [_harmonics(rng, amp) if rng.random() < 0.8 else f"{rng.uniform(-amp, amp):.6g}"
+           for _ in range(3)]
+    e = float(rng.choice(RESTITUTIONS)) if rng.random() < 0.6 else float(rng.uniform(0, 1))
+    spin = rng.normal(size=3)
+    spin *= rng.uniform(0, 20) / max(np.linalg.norm(spin), 1e-12)
+    quat = rng.normal(size=4)
+    # start high enough: the lowest point of any attitude is within |center| + size of O
+    z0 = float(np.linalg.norm(center) + size + 0.35 * size + rng.uniform(0.0, 2.0))
+    return {
+        "name": "random",
+        "body": {"mass": float(M), "inertia": [float(j) for j in J], "shape": shape, **geom,
+                 "center": [float(c) for c in center]},
+        "point": {"mass": float(m), "law": law},
+        "plane": {"restitution": e},
+        "initial": {"com": [0.0, 0.0, z0],
+                    "com_velocity": [float(v) for v in rng.normal(0, 1, 2)]
+                    + [float(rng.normal(0, 2))],
+                    "omega": [float(w) for w in spin], "quaternion": [float(x) for x in quat]},
+        "run": {"duration": float(rng.uniform(1.0, max_duration)),
+                "method": method or str(rng.choice(METHODS)),
+                "rtol": float(10 ** rng.uniform(-11, -7)), "atol": 1e-12,
+                "outputs": ["pose", "impacts"]},
+    }
+
+
+def with_rk4_step(doc: dict, rng) -> dict:
+    """RK4 has no error control: give it a step that resolves fast spins (a user of RK4
+    chooses its step; the default is for slow scenes)."""
+    if doc["run"]["method"] == "rk4":
+        doc["run"]["step"] = float(rng.uniform(1e-3, 2e-3))
+    return doc
+
+
+# ---- hostile cases ------------------------------------------------------------------
+def base_scene(duration: float = 1.0) -> dict:
+    """The README's scene, 1 s long (a few impacts, milliseconds to run)."""
+    return {
+        "name": "bouncing-ball",
+        "body": {"mass": 1.0, "inertia": [0.10, 0.12, 0.14], "shape": "sphere",
+                 "radius": 0.5, "center": [0.0, 0.0, 0.0]},
+        "point": {"mass": 0.2, "law": ["0.2*sin(3*t)", "0.1", "0.05*cos(2*t)"]},
+        "plane": {"restitution": 0.9},
+        "initial": {"time": 0.0, "com": [0.0, 0.0, 1.5], "com_velocity": [0.3, 0.0, 0.0],
+                    "omega": [0.5, -0.3, 1.0], "quaternion": [1.0, 0.0, 0.0, 0.0]},
+        "run": {"duration": duration, "method": "dopri5", "rtol": 1e-10, "atol": 1e-12,
+                "g": 9.81, "outputs": ["pose", "impacts"]},
+    }
+
+
+def table_rows(n: int = 101, t1: float = 1.0) -> list:
+    t = np.linspace(0.0, t1, n)
+    return [[float(a), float(0.1 * math.sin(3 * a)), 0.1, float(0.05 * math.cos(2 * a))]
+            for a in t]
+
+
+def csv_text(rows, header: str = "t,x,y,z") -> str:
+    return header + "\n" + "".join(",".join(repr(v) for v in r) + "\n" for r in rows)
+
+
+# ---- the case ----------------------------------------------------------------------
+@dataclass
+class Case:
+    index: int
+    family: str                       # scene, law, table, toml, explicit
+    desc: str
+    doc: dict | None = None           # the scene as a dict (serialised for the CLI)
+    text: str | bytes | None = None   # or as TOML text
+    files: dict = field(default_factory=dict)   # name -> bytes | ("symlink", target) |
+    #                                             ("fifo",) | ("dir",)
+    expect: str = "either"            # refuse | either | accept
+    fields: tuple | None = ()         # a refusal must name one of these (None: any line)
+    laws: dict = field(default_factory=dict)    # component -> tree (the law oracle)
+    window: tuple = (0.0, 1.0)
+    size: float = 0.5                 # body size (the oracle's bound)
+    toml_level_ok: bool = False       # the TOML reader may refuse it (nesting depth)
+
+    def short(self) -> str:
+        d = self.desc if len(self.desc) < 110 else self.desc[:100] + "...(" + \
+            f"{len(self.desc)} chars)"
+        return d.encode("unicode_escape").decode("ascii")
+
+
+# ---- hostile strings, numbers and mutations ---------------------------------------------
+def hostile_strings(marker: str) -> list:
+    return [
+        f'*/ __attribute__((constructor)) static void pwn(void){{system("touch {marker}");}} /*',
+        f'$(touch {marker})', f'`touch {marker}`', f'"; import os; os.system("touch {marker}"); "',
+        f"'; touch {marker}; '", f'\\"); system("touch {marker}"); //', '\x00', '\n', '\r\n',
+        '../../../../x', '/etc/passwd', '..', '.', '', ' ', 'con', 'a/b', '\u202etxt.exe',
+        'A' * 100_000, '%s%n%x', '{{7*7}}', '{% include "/etc/passwd" %}', '${HOME}', '\\',
+        '\U0001f642', '\u0660\u0661', '#include </dev/random>', '\x1b[2J', '-o /tmp/x',
+        '<script>', 'DOPRI5', 'dopri5 ', ' dopri5', 'dopri\uff15', 'sphere\x00',
+    ]
+
+
+# ---- scene mutations ---------------------------------------------------------------
+NUMBER_FIELDS = {      # path: rule  (pos: > 0, nonneg, unit: [0, 1], any, count)
+    ("body", "mass"): "pos", ("point", "mass"): "pos", ("body", "radius"): "pos",
+    ("plane", "restitution"): "unit", ("initial", "time"): "any",
+    ("run", "duration"): "pos", ("run", "rtol"): "pos", ("run", "atol"): "pos",
+    ("run", "g"): "any", ("run", "step"): "pos", ("run", "output_dt"): "nonneg",
+    ("run", "max_events"): "count", ("run", "max_steps"): "count", ("run", "zeno_dt"): "pos",
+}
+VECTOR_FIELDS = {
+    ("body", "inertia"): "pos", ("body", "center"): "any", ("initial", "com"): "any",
+    ("initial", "com_velocity"): "any", ("initial", "omega"): "any",
+    ("initial", "quaternion"): "quat",
+}
+RELATED = {
+    "[body].mass": ["[point].mass", "[body].inertia"],
+    "[point].mass": ["[body].mass", "[body].inertia"],
+    "[body].inertia": ["[body].mass", "[point].mass", "[point].law"],
+    "[body].radius": ["[point].law", "[initial].com", "[body].center", "[body].shape"],
+    "[body].semi_axes": ["[point].law", "[initial].com", "[body].center", "[body].shape"],
+    "[body].center": ["[point].law", "[initial].com", "[body].radius"],
+    "[initial].com": ["[body].radius", "[body].center", "[body].shape"],
+    "[initial].time": ["[run].duration"],
+    "[run].duration": ["[initial].time", "[run].step", "[run].max_steps", "[run].output_dt",
+                       "[run].zeno_dt", "[point].law", "[point].samples", "[point].table"],
+    "[run].step": ["[run].duration", "[run].max_steps"],
+    "[run].output_dt": ["[run].duration"],
+    "[run].zeno_dt": ["[run].duration"],
+    "[run].rtol": ["[run].atol"], "[run].atol": ["[run].rtol"],
+    "[run].max_steps": ["[run].duration", "[run].step", "[point].law", "[point].samples",
+                        "[point].table"],
+    "[initial].quaternion": ["[initial].matrix"],
+}
+
+
+def fname(path) -> str:
+    if isinstance(path, str):
+        return path
+    if len(path) == 1:
+        return path[0]
+    return f"[{path[0]}]." + ".".join(path[1:])
+
+
+def fields_for(path) -> tuple:
+    f = fname(path)
+    return (f, *RELATED.get(f, ()))
+
+
+def _deep_list(depth: int, leaf=1.0):
+    v = leaf
+    for _ in range(depth):
+        v = [v]
+    return v
+
+
+def _deep_dict(depth: int):
+    v = {"a": 1.0}
+    for _ in range(depth):
+        v = {"a": v}
+    return v
+
+
+NONFINITE = (math.nan, math.inf, -math.inf)
+HUGE = (1e308, -1e308, 1.7976931348623157e308, 1e200)
+BIGINT = (2 ** 63 - 1, 2 ** 63, 10 ** 30, -(2 ** 63), 2 ** 64 + 1, 10 ** 400)
+TINY = (1e-300, 5e-324, 2.2250738585072014e-308, 1e-320)
+WRONG_TYPES = ("1.0", "", True, False, [1.0], {"a": 1.0}, [], "nan", "0x10", "\uff11")
+
+
+def scene_mutation(rng: random.Random, index: int, marker: str) -> Case:
+    doc = base_scene()
+    r = rng.random()
+    if r < 0.35:          # a number
+        path, rule = rng.choice(list(NUMBER_FIELDS.items()))
+        kind = rng.choice(("nonfinite", "huge", "bigint", "tiny", "zero", "negative",
+                           "wrongtype", "int", "deep", "mid"))
+        expect = "either"
+        if kind == "nonfinite":
+            v = rng.choice(NONFINITE)
+            expect = "refuse"
+        elif kind == "huge":
+            v = rng.choice(HUGE)
+            expect = "refuse" if rule != "count" or v < 0 else "either"
+        elif kind == "bigint":
+            v = rng.choice(BIGINT)
+            expect = "refuse" if rule != "count" or v < 0 or v >= 2 ** 63 else "either"
+        elif kind == "tiny":
+            v = rng.choice(TINY)
+            expect = "refuse" if rule in ("count",) else "either"
+        elif kind == "zero":
+            v = rng.choice((0.0, -0.0, 0))
+            expect = "refuse" if rule in ("pos",) else "either"
+        elif kind == "negative":
+            v = rng.choice((-1.0, -1e-12, -5))
+            expect = "refuse" if rule in ("pos", "nonneg", "unit", "count") else "either"
+            if path == ("run", "g"):
+                expect = "either"
+        elif kind == "wrongtype":
+            v = rng.choice(WRONG_TYPES)
+            expect = "refuse"
+        elif kind == "int":
+            v = rng.choice((1, 2, 3))
+            expect = "either"
+        elif kind == "deep":
+            v = _deep_list(rng.choice((2, 50, 5000)))
+            expect = "refuse"
+        else:                 # 1e30, 1.5 for counts
+            v = rng.choice((1e30, 1e15, 1.5, 1e-30))
+            expect = "either"
+            if rule == "unit" and v > 1:
+                expect = "refuse"
+        if path == ("run", "step"):
+            doc["run"]["method"] = "rk4"
+        _set(doc, path, v)
+        return Case(index, "scene", f"{fname(path)} = {_short(v)}", doc, expect=expect,
+                    fields=fields_for(path), toml_level_ok=kind == "deep")
+    if r < 0.55:          # a vector
+        path, rule = rng.choice(list(VECTOR_FIELDS.items()))
+        base = list(doc[path[0]][path[1]])
+        kind = rng.choice(("element", "length", "scalar", "wrongtype", "nested", "deep",
+                           "zero"))
+        expect = "refuse"
+        if kind == "element":
+            k = rng.randrange(len(base))
+            v = rng.choice(NONFINITE + HUGE + BIGINT[:3] + ("1", True, None))
+            if v is None:
+                v = [1.0, 2.0]
+            base[k] = v
+            value = base
+            if isinstance(v, int) and not isinstance(v, bool) and v < 2 ** 63 and \
+                    rule == "quat":
+                expect = "either"
+        elif kind == "length":
+            value = base[:rng.choice((0, 1, 2))] if rng.random() < 0.5 else base + [0.0] * \
+                rng.choice((1, 2, 1000))
+        elif kind == "scalar":
+            value = 1.0
+        elif kind == "wrongtype":
+            value = rng.choice(("[1, 2, 3]", {"x": 1.0}, True))
+        elif kind == "nested":
+            value = [base]
+        elif kind == "deep":
+            value = _deep_list(rng.choice((3, 100, 5000)), 0.1)
+        else:
+            value = [0.0] * len(base)
+            expect = "refuse" if rule in ("pos", "quat") else "either"
+        _set(doc, path, value)
+        return Case(index, "scene", f"{fname(path)} = {_short(value)}", doc, expect=expect,
+                    fields=fields_for(path), toml_level_ok=kind == "deep")
+    if r < 0.70:          # strings
+        choices = [("name",), ("body", "shape"), ("run", "method"), ("run", "model"),
+                   ("run", "outputs"), ("point", "law")]
+        path = rng.choice(choices)
+        s = rng.choice(hostile_strings(marker))
+        if path == ("run", "outputs"):
+            value = [s] if rng.random() < 0.5 else ["pose", s]
+            expect = "refuse"
+            f = fields_for(path)
+        elif path == ("point", "law"):
+            k = rng.randrange(3)
+            value = list(doc["point"]["law"])
+            value[k] = s
+            expect = "refuse"
+            f = (f"[point].law[{k}]",)
+        elif path == ("name",):
+            value = s
+            expect = "either"
+            f = ("name",)
+        else:
+            value = s
+            expect = "refuse"
+            f = fields_for(path)
+        if rng.random() < 0.1 and path != ("point", "law"):
+            value = rng.choice((1.0, True, ["sphere"], {"a": "b"}))
+            expect = "refuse"
+        _set(doc, path, value)
+        return Case(index, "scene", f"{fname(path)} = {_short(value)}", doc, expect=expect,
+                    fields=f)
+    if r < 0.80:          # missing keys and tables
+        paths = [(k,) for k in doc] + [(t, k) for t in doc if isinstance(doc[t], dict)
+                                        for k in doc[t]]
+        path = rng.choice(paths)
+        _del(doc, path)
+        return Case(index, "scene", f"without {fname(path)}", doc, expect="either",
+                    fields=fields_for(path) + ((f"[{path[0]}]",) if len(path) == 1 else ()))
+    if r < 0.90:          # extra keys
+        where = rng.choice(("top", "body", "point", "plane", "initial", "run", "newtable",
+                            "nested"))
+        key = rng.choice(("colour", "rtoll", "Mass", "mass ", "law\x00", "__class__",
+                          "shape.x", "k" * 1000, "\u043c\u0430ss"))
+        if where == "top":
+            doc[key] = 1.0
+            f = (key,)
+        elif where == "newtable":
+            doc[key] = {"x": 1.0}
+            f = (key,)
+        elif where == "nested":
+            doc["body"]["extra"] = _deep_dict(rng.choice((3, 200)))
+            key, f = "extra", ("[body].extra", "extra")
+            return Case(index, "scene", f"extra key {key!r:.40} in {where}", doc,
+                        expect="refuse", fields=f, toml_level_ok=True)
+        else:
+            doc[where][key] = 1.0
+            f = (f"[{where}].{_escaped(key)[:30]}", _escaped(key)[:30])
+        if where in ("top", "newtable"):
+            f = (_escaped(key)[:30],)
+        return Case(index, "scene", f"extra key {key!r:.40} in {where}", doc,
+                    expect="refuse", fields=f)
+    # several things at once (either; must not crash)
+    c1 = scene_mutation(rng, index, marker)
+    c2 = scene_mutation(rng, index, marker)
+    doc = c1.doc
+    for t, v in c2.doc.items():
+        if isinstance(v, dict) and isinstance(doc.get(t), dict):
+            doc[t].update(v)
+    return Case(index, "scene", f"{c1.desc} and {c2.desc}", doc, expect="either",
+                fields=None)
+
+
+def _escaped(key: str) -> str:
+    """How a message shows a key: control characters escaped (\\x00)."""
+    return CONTROL_RE.sub(lambda m: m.group().encode("unicode_escape").decode("ascii"), key)
+
+
+def _short(v) -> str:
+    depth = 0
+    while isinstance(v, list) and len(v) == 1 and isinstance(v[0], list):
+        v, depth = v[0], depth + 1
+    if depth > 3:
+        return f"a list nested {depth + 1} deep"
+    s = repr(v)
+    return s if len(s) < 80 else s[:70] + f"...({len(s)} chars)"
+
+
+def law_case(rng: random.Random, index: int, marker: str) -> Case:
+    doc = base_scene()
+    k = rng.randrange(3)
+    window = (0.0, doc["run"]["duration"])
+    r = rng.random()
+    laws = {}
+    if r < 0.35:
+        tree = random_law(rng, depth=rng.choice((1, 2, 3, 4)))
+        text, expect, desc = law_text(tree), "either", "random"
+        laws[k] = tree
+        if rng.random() < 0.3:
+            text = text.replace("**", "^")
+    elif r < 0.60:
+        kind, tree, a, inside = planted_law(rng, window)
+        text = law_text(tree)
+        expect = "refuse" if inside else "either"
+        desc = f"{kind} at t = {a:.6g} ({'inside' if inside else 'outside'} the run)"
+        laws[k] = tree
+    elif r < 0.90:
+        text = rng.choice(HOSTILE_LAWS + EITHER_LAWS).replace("MARKER", marker)
+        expect, desc = ("either" if text in EITHER_LAWS else "refuse"), "hostile"
+        if rng.random() < 0.3:    # inside a valid expression
+            text = f"0.1*sin(t) + {text}"
+    else:
+        desc, text, expect = rng.choice(deep_laws())
+    doc["point"]["law"][k] = text
+    return Case(index, "law", f"law[{k}] {desc}: {text}", doc, expect=expect,
+                fields=(f"[point].law[{k}]",), laws=laws, window=window)
+
+
+def table_case(rng: random.Random, index: int, marker: str, outside: str) -> Case:
+    """Tabulated laws: a file below the scene's folder, or samples inline."""
+    doc = base_scene()
+    good = csv_text(table_rows())
+    r = rng.random()
+    files: dict = {}
+    expect, f = "refuse", ("[point].table",)
+    point = {"mass": 0.2, "table": "law.csv"}
+    if r < 0.45:
+        kind = rng.choice((
+            "dotdot", "absolute", "absolute-good", "symlink-out", "symlink-dev",
+            "dev-zero", "dev-random", "fifo", "dir", "missing", "empty-name", "nul-name",
+            "home", "proc", "inside-dotdot", "url", "glob", "backslash", "long-name"))
+        if kind == "dotdot":
+            point["table"] = "../" * rng.choice((1, 3, 8)) + "outside.csv"
+            if point["table"] == "../outside.csv":
+                files["../outside.csv"] = good.encode()
+        elif kind == "absolute":
+            point["table"] = rng.choice(("/etc/passwd", "/etc/hostname", "/"))
+        elif kind == "absolute-good":
+            point["table"] = outside
+        elif kind == "symlink-out":
+            files["law.csv"] = ("symlink", outside)
+        elif kind == "symlink-dev":
+            files["law.csv"] = ("symlink", "/dev/zero")
+        elif kind == "dev-zero":
+            point["table"] = "/dev/zero"
+        elif kind == "dev-random":
+            point["table"] = "/dev/urandom"
+        elif kind == "fifo":
+            files["law.csv"] = ("fifo",)
+        elif kind == "dir":
+            files["law.csv"] = ("dir",)
+        elif kind == "missing":
+            point["table"] = "nothere.csv"
+        elif kind == "empty-name":
+            point["table"] = rng.choice(("", ".", "./"))
+        elif kind == "nul-name":
+            point["table"] = "law.csv\x00.txt"
+        elif kind == "home":
+            point["table"] = "~/law.csv"
+        elif kind == "proc":
+            point["table"] = "/proc/self/environ"
+        elif kind == "inside-dotdot":
+            files["sub/x"] = b""
+            files["law.csv"] = good.encode()
+            point["table"] = "sub/../law.csv"
+            expect = "either"
+        elif kind == "url":
+            point["table"] = "http://127.0.0.1:9/law.csv"
+        elif kind == "glob":
+            point["table"] = "*.csv"
+        elif kind == "backslash":
+            point["table"] = "..\\outside.csv"
+        else:
+            point["table"] = "a" * 5000 + ".csv"
+        files.setdefault("law.csv", good.encode())
+        desc = f"table path {kind}: {point['table']!r:.60}"
+    elif r < 0.80:
+        kind = rng.choice((
+            "huge", "long-line", "ragged", "text", "nan", "inf", "big", "fullwidth",
+            "unsorted", "duplicate", "one-row", "empty", "header-only", "binary", "bom",
+            "crlf", "extra-col", "no-header", "short-range", "hostile-header", "quoted",
+            "spaces", "jumps"))
+        rows = table_rows()
+        text = None
+        expect = "refuse"
+        if kind == "huge":
+            n = 1_000_000
+            t = np.linspace(0, 1, n)
+            body = "\n".join(f"{float(a)!r},0.1,0.1,0.1" for a in t[:n])
+            text = "t,x,y,z\n" + body + "\n"
+            expect = "either"
+        elif kind == "long-line":
+            text = "t,x,y,z\n" + "1" * 5_000_000 + "\n"
+        elif kind == "ragged":
+            rows[rng.randrange(1, 100)] = rows[0][:rng.choice((1, 2, 3))]
+        elif kind in ("text", "nan", "inf", "big", "fullwidth"):
+            rr = rng.randrange(1, 100)
+            cc = rng.randrange(4)
+            rows[rr][cc] = {"text": "abc", "nan": "nan", "inf": "inf", "big": "1e400",
+                            "fullwidth": "\uff10.1"}[kind]
+        elif kind == "unsorted":
+            rows[10], rows[20] = rows[20], rows[10]
+        elif kind == "duplicate":
+            rows[11] = list(rows[10])
+        elif kind == "one-row":
+            rows = rows[:rng.choice((0, 1, 2))]
+            expect = "refuse"
+        elif kind == "empty":
+            text = ""
+        elif kind == "header-only":
+            text = "t,x,y,z\n"
+        elif kind == "binary":
+            text = bytes(rng.randrange(256) for _ in range(5000))
+        elif kind == "bom":
+            text = "\ufeff" + good
+            expect = "either"
+        elif kind == "crlf":
+            text = good.replace("\n", "\r\n")
+            expect = "either"
+        elif kind == "extra-col":
+            text = csv_text([r + [1.0] for r in rows], "t,x,y,z,w")
+            expect = "either"
+        elif kind == "no-header":
+            text = good.split("\n", 1)[1]
+        elif kind == "short-range":     # covers half the run
+            rows = table_rows(51, 0.5)
+            expect = "either"
+        elif kind == "hostile-header":
+            text = good.replace("t,x,y,z", f"t,x,y,z$(touch {marker})", 1)
+        elif kind == "quoted":
+            text = good.replace("0.1,", '"0.1",')
+            expect = "either"
+        elif kind == "spaces":
+            text = good.replace(",", ", ")
+            expect = "either"
+        else:                          # a step in x: not C^2
+            rows = [[r[0], r[1] + (0.05 if r[0] > 0.5 else 0.0), r[2], r[3]] for r in rows]
+            expect = "either"
+        if text is None:
+            text = csv_text(rows)
+        files["law.csv"] = text if isinstance(text, bytes) else text.encode("utf-8")
+        desc = f"table file {kind}"
+    else:
+        f = ("[point].samples", "[point].ends")
+        rows = table_rows()
+        kind = rng.choice(("flat", "short-rows", "long-rows", "empty", "one", "strings",
+                           "nan", "bools", "nested", "unsorted", "both", "ends-bad",
+                           "ends-type", "big", "many", "deep", "ends-periodic",
+                           "scalar"))
+        expect = "refuse"
+        samples: object = rows
+        point = {"mass": 0.2, "samples": samples}
+        if kind == "flat":
+            point["samples"] = [v for r in rows for v in r]
+        elif kind == "short-rows":
+            point["samples"] = [r[:3] for r in rows]
+        elif kind == "long-rows":
+            point["samples"] = [r + [0.0] for r in rows]
+        elif kind == "empty":
+            point["samples"] = []
+        elif kind == "one":
+            point["samples"] = rows[:1]
+        elif kind == "strings":
+            rows[5][2] = "0.1"
+        elif kind == "nan":
+            rows[5][rng.randrange(4)] = rng.choice(NONFINITE)
+        elif kind == "bools":
+            rows[5][1] = True
+        elif kind == "nested":
+            rows[5][1] = [0.1]
+        elif kind == "unsorted":
+            rows[3], rows[4] = rows[4], rows[3]
+        elif kind == "both":
+            point["law"] = ["0", "0", "0"]
+            f = ("[point].samples", "[point].law", "[point]")
+        elif kind == "ends-bad":
+            point["ends"] = rng.choice(hostile_strings(marker)[:8] + ["Periodic", "loop"])
+            f = ("[point].ends",)
+        elif kind == "ends-type":
+            point["ends"] = rng.choice((1, True, ["rest"]))
+            f = ("[point].ends",)
+        elif kind == "big":
+            rows[7][1] = 1e300
+        elif kind == "many":
+            point["samples"] = table_rows(100_000)
+            expect = "either"
+        elif kind == "deep":
+            point["samples"] = _deep_list(3000, 0.0)
+            doc["point"] = point
+            return Case(index, "table", "samples deep", doc, expect=expect, fields=f,
+                        toml_level_ok=True)
+        elif kind == "ends-periodic":
+            point["ends"] = "periodic"
+        else:
+            point["samples"] = 1.0
+        desc = f"samples {kind}"
+        doc["point"] = point
+        return Case(index, "table", desc, doc, expect=expect, fields=f)
+    doc["point"] = point
+    return Case(index, "table", desc, doc, files=files, expect=expect, fields=f)
+
+
+def toml_case(rng: random.Random, index: int) -> Case:
+    good = toml.dumps(base_scene())
+    kind = rng.choice(("deep-array", "deep-inline", "bad-utf8", "nul", "duplicate",
+                       "huge-comment", "dotted-conflict", "bom", "unterminated",
+                       "huge-int", "ml-string-law", "control-char"))
+    fields = None
+    expect = "refuse"
+    if kind == "deep-array":
+        text = good.replace("inertia = [0.1, 0.12, 0.14]",
+                            "inertia = " + "[" * 5000 + "]" * 5000)
+    elif kind == "deep-inline":
+        text = good + "\n[extra]\nx = " + "{a = " * 3000 + "1" + "}" * 3000 + "\n"
+    elif kind == "bad-utf8":
+        text = good.encode() + b"\nname2 = \"\xff\xfe\"\n"
+    elif kind == "nul":
+        text = good.replace('name = "bouncing-ball"', 'name = "a\x00b"')
+    elif kind == "duplicate":
+        text = good + "\n[body]\nmass = 2.0\n"
+    elif kind == "huge-comment":
+        text = good + "#" + "x" * 20_000_000 + "\n"
+        expect = "either"
+    elif kind == "dotted-conflict":
+        text = "body.mass = 1.0\n" + good
+    elif kind == "bom":
+        text = "\ufeff" + good
+        expect = "either"
+    elif kind == "unterminated":
+        text = good[: len(good) // 2]
+    elif kind == "huge-int":
+        text = good.replace("mass = 1.0", "mass = " + "9" * 5000, 1)   # the reader's
+        fields = None                                                  # limit: file named
+    elif kind == "ml-string-law":
+        text = good.replace('"0.1"', '"""0.1\n*t"""', 1)
+        fields = ("[point].law[1]",)
+    else:
+        text = good.replace('name = "bouncing-ball"', 'name = "a\x07b"')
+    return Case(index, "toml", f"TOML {kind}", None, text=text, expect=expect,
+                fields=fields)
+
+
+def generate(n: int, seed: int = 12) -> list[Case]:
+    """n cases from the seed, in the proportions scene 45%, law 35%, table 15%, toml 5%."""
+    rng = random.Random(seed)
+    marker = "MARKER_PWNED"
+    cases = []
+    for i in range(n):
+        r = rng.random()
+        if r < 0.45:
+            c = scene_mutation(rng, i, marker)
+        elif r < 0.80:
+            c = law_case(rng, i, marker)
+        elif r < 0.95:
+            c = table_case(rng, i, marker, outside="OUTSIDE")
+        else:
+            c = toml_case(rng, i)
+        cases.append(c)
+    return cases
+

@@ -1,0 +1,240 @@
+"""Verdicts: what the toolkit did with a case, judged against the README's contract.
+
+* :func:`judge_api` and :func:`judge_cli`: a hostile scene through ``parse_scene`` (and
+  the simulation) or through ``derive simulate``.  GOOD outcomes are ``ran-ok``,
+  ``ran-status`` (accepted; ended max_steps, ... honestly) and ``refused`` (exit 2, one
+  line, the field named, nothing written).  BAD ones: traceback, crash, hang,
+  silent-accept (a scene the README says must be refused ran), wrong-field (refused, but
+  blaming another field or none), multi-line, control-chars, wrong-exit, warning,
+  wrong-answer (rows off the true trajectory, law values off the expression, a status
+  that lies; from :mod:`derive.verify.oracle`), wrote-files (an output folder after a
+  refusal), outside-files (anything created outside it), fuzzer-error.
+* :func:`judge_run`: a random valid bouncing scene's run: ``ok``, or ``status``,
+  ``nan``, ``fell``, ``orthonormality``, ``integral`` (|K| not constant in a flight,
+  E1.9).
+* :func:`classify`: a hard scene's run against its reference: ``correct``, ``wrong``,
+  ``missed events``, ``fell through the plane`` or a named status.
+"""
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from ..runtime.motion import contact_intervals, phases
+
+if TYPE_CHECKING:
+    from ..bench.routes import Run
+    from .generators import Case
+
+PARSE_LIMIT_S = 2.0        # validation must take milliseconds; this is the hang verdict
+RUN_LIMIT_S = 20.0         # a 1 s scene runs in milliseconds
+CLI_LIMIT_S = 60.0
+
+BAD = ("traceback", "crash", "hang", "silent-accept", "wrong-field", "multi-line",
+       "control-chars", "wrong-exit", "warning", "wrong-answer", "wrote-files",
+       "outside-files", "fuzzer-error")
+GOOD = ("ran-ok", "ran-status", "refused")
+
+FIELD_RE = re.compile(r"^(\[[^\]\n]+\][^:\n]*|[^\W\d][\w.\\-]*\s?(\[\d+\])*)( \([^)]*\))?:")
+CONTROL_RE = re.compile(r"[\x00-\x08\x0b-\x1f\x7f\u2028\u2029\u202a-\u202e]")
+
+
+@dataclass
+class Outcome:
+    """A hostile case's verdict (GOOD or BAD), why, and what the toolkit printed."""
+    case: Case
+    verdict: str
+    detail: str = ""
+    seconds: float = 0.0
+    message: str = ""
+
+    @property
+    def bad(self) -> bool:
+        return self.verdict in BAD
+
+
+def _names_field(message: str) -> bool:
+    return bool(FIELD_RE.match(message.strip()))
+
+
+def judge_api(case: Case, res: dict, run_limit: float) -> Outcome:
+    st = res.get("status")
+    secs = res.get("seconds", 0.0) + res.get("run_seconds", 0.0)
+    if st == "timeout":
+        return Outcome(case, "hang", "no answer within the time limit", secs)
+    if st == "crash":
+        return Outcome(case, "crash", f"worker died (exit code {res.get('exitcode')})", secs)
+    if st == "error":
+        where = " while simulating" if res.get("stage") else ""
+        last = [ln for ln in res.get("tb", "").strip().splitlines() if ln.strip()]
+        return Outcome(case, "traceback", f"{res.get('type')}{where}: "
+                       f"{(last[-1] if last else '')[:160]}", secs)
+    if st == "refused":
+        msg = res.get("message", "")
+        if "\n" in msg.strip():
+            return Outcome(case, "multi-line", msg[:200], secs, msg)
+        if CONTROL_RE.search(msg):
+            return Outcome(case, "control-chars", f"raw control characters: {msg[:160]!r}",
+                           secs, msg)
+        if res.get("seconds", 0.0) > PARSE_LIMIT_S:
+            return Outcome(case, "hang", f"refused after {res['seconds']:.1f} s", secs, msg)
+        if case.fields is not None and not _names_field(msg):
+            return Outcome(case, "wrong-field", f"names no field: {msg[:160]}", secs, msg)
+        if case.fields and not any(f in msg for f in case.fields):
+            return Outcome(case, "wrong-field", f"wants {case.fields[0]}: {msg[:160]}",
+                           secs, msg)
+        return Outcome(case, "refused", "", secs, msg)
+    # accepted
+    problems = list(res.get("problems", []))
+    if res.get("seconds", 0.0) > PARSE_LIMIT_S:
+        return Outcome(case, "hang", f"accepted after {res['seconds']:.1f} s", secs)
+    if case.expect == "refuse":
+        return Outcome(case, "silent-accept", f"accepted (run: {res.get('run_status')}) "
+                       + "; ".join(problems)[:200], secs)
+    for p in problems:
+        verdict = p.split(":", 1)[0]
+        return Outcome(case, verdict if verdict in BAD else "wrong-answer", p[:300], secs)
+    if res.get("warnings"):
+        return Outcome(case, "warning", "; ".join(res["warnings"])[:200], secs)
+    if res.get("run_seconds", 0.0) > run_limit:
+        return Outcome(case, "hang", f"ran for {res['run_seconds']:.1f} s", secs)
+    status = res.get("run_status", "done")
+    return Outcome(case, "ran-ok" if status == "done" else "ran-status",
+                   "" if status == "done" else status, secs)
+
+
+def judge_cli(case, run, limit: float = CLI_LIMIT_S) -> Outcome:
+    """``derive simulate`` on the case in the sandbox (a :class:`~derive.verify.sandbox.
+    CliRun`): a refusal is exit 2 with one line ``derive simulate: <field>: <rule>`` and
+    no output folder; a run is exit 0 (done) or 1 (another status) with its folder; no
+    file anywhere else."""
+    if run.returncode is None:
+        return Outcome(case, "hang", f"no exit within {limit:.0f} s", limit)
+    secs, err, so, rc = run.seconds, run.stderr, run.stdout, run.returncode
+    lines = err.strip().splitlines()
+    if "Traceback" in err:
+        last = lines[-1] if lines else ""
+        return Outcome(case, "traceback", f"exit {rc}: {last[:160]}", secs, err[-2000:])
+    if run.outside:
+        return Outcome(case, "outside-files", f"exit {rc}, created {run.outside[:3]}",
+                       secs, err)
+    if rc == 2:
+        msg = lines[0] if lines else ""
+        if len(lines) != 1:
+            return Outcome(case, "multi-line", f"{len(lines)} lines on stderr: "
+                           f"{err[:160]!r}", secs, err)
+        if run.output:
+            return Outcome(case, "wrote-files", f"out/ exists after a refusal: {msg}",
+                           secs, msg)
+        if not msg.startswith("derive simulate: "):
+            return Outcome(case, "wrong-field", f"not 'derive simulate:': {msg[:160]}",
+                           secs, msg)
+        body = msg[len("derive simulate: "):]
+        if CONTROL_RE.search(body):
+            return Outcome(case, "control-chars", f"raw control characters: "
+                           f"{msg[:160]!r}", secs, msg)
+        if case.fields is not None and not _names_field(body):
+            return Outcome(case, "wrong-field", f"names no field: {msg[:160]}", secs,
+                           msg)
+        if case.toml_level_ok and body.startswith("scene.toml: is nested too deeply"):
+            return Outcome(case, "refused", "", secs, msg)
+        if case.fields and not any(f in body for f in case.fields):
+            return Outcome(case, "wrong-field", f"wants {case.fields[0]}: {msg[:160]}",
+                           secs, msg)
+        return Outcome(case, "refused", "", secs, msg)
+    if rc in (0, 1):
+        if case.expect == "refuse":
+            return Outcome(case, "silent-accept", f"exit {rc}: {so.splitlines()[:1]}", secs,
+                           err)
+        if "Warning" in err:
+            return Outcome(case, "warning", err.strip()[:200], secs, err)
+        if not run.output:
+            return Outcome(case, "wrong-exit", f"exit {rc} but no out/", secs, err)
+        if secs > limit / 2:
+            return Outcome(case, "hang", f"took {secs:.1f} s", secs, err)
+        return Outcome(case, "ran-ok" if rc == 0 else "ran-status",
+                       so.splitlines()[0][:120] if so else "", secs, err)
+    return Outcome(case, "wrong-exit", f"exit {rc}: {err.strip()[-160:]!r}", secs, err)
+
+
+# ---- a random valid bouncing scene's run ----------------------------------------------
+LIE = ("lie", "lie5", "lie8")
+ROUNDING = 1e-12          # the Lie methods: orthonormality and |K| in flight at round-off
+
+
+def judge_run(result, size: float) -> tuple[str, str]:
+    """The verdict on one run: ``ok`` or what is wrong."""
+    scene = result.scene
+    if result.status != "done":
+        return "status", f"ended with {result.status} at t = {result.t[-1]:.6g}"
+    if abs(result.t[-1] - (scene.t0 + scene.duration)) > 1e-9 * max(1.0, scene.duration):
+        return "status", f"says done but ended at t = {result.t[-1]:.9g}"
+    if not np.all(np.isfinite(result.model_q)):
+        return "nan", "non-finite state"
+    if result.min_height < -1e-9 * size:
+        return "fell", f"S reached {result.min_height:.3g} below the plane"
+    h = result.height
+    if h is not None and np.min(h) < -1e-9 * size:
+        k = int(np.argmin(h))
+        return "fell", f"a row has S at {h[k]:.3g} (t = {result.t[k]:.6g})"
+    g = result.general
+    lie = scene.method in LIE
+    contact_rows = np.zeros(len(result.t), dtype=bool)
+    for a, b in contact_intervals(result):
+        contact_rows |= (result.t >= a) & (result.t <= b)
+    if g is not None:
+        A = g[:, 9:18].reshape(-1, 3, 3)
+        dev = np.abs(np.einsum("nij,nkj->nik", A, A) - np.eye(3)).max(axis=(1, 2))
+        # classical methods let A drift at the level of their tolerance per unit time
+        # (RK4: of its step); the Lie-group methods keep it to round-off in flight (in
+        # persistent contact the classical method of the same order runs)
+        bound = 1e-9 + 1e4 * (scene.rtol if scene.method != "rk4" else 1e-8) \
+            * max(1.0, scene.duration)
+        err = float(dev[~contact_rows].max()) if lie and (~contact_rows).any() else float(dev.max())
+        if lie and err > ROUNDING:
+            return "orthonormality", f"A A^T - 1 reaches {err:.2e} in flight (Lie: round-off)"
+        # RK4 has no error control: after impacts spin the body up, its fixed step no
+        # longer resolves the rotation, and A's drift says so; not a fault of the runtime
+        if scene.method != "rk4" and float(dev.max()) > bound:
+            return "orthonormality", f"A A^T - 1 reaches {dev.max():.2e} (bound {bound:.1e})"
+    # E1.9 within each flight: |K| constant between events (tolerance-dependent)
+    K = result.momentum["K_norm"]
+    worst = 0.0
+    for a, b, _ in phases(result):
+        if b - a > 2 and K[a] > 1e-9 and not contact_rows[a:b].any():
+            worst = max(worst, float(np.max(np.abs(K[a:b] - K[a])) / K[a]))
+    if worst > (ROUNDING if lie else 1e-4):
+        return "integral", f"|K| drifts by {worst:.2e} within a flight"
+    return "ok", ""
+
+
+# ---- a hard scene's run against its reference -----------------------------------------
+CORRECT = 1e-6
+
+
+def classify(run: Run, ref: Run, scene_has_plane: bool) -> tuple[str, float]:
+    """Accumulating impacts resolved as persistent contact give fewer impacts than the
+    reference with the same states: an impact count alone does not make a miss; a miss
+    is fewer impacts and a state that went wrong."""
+    status = run.status
+    if status.startswith("stopped"):
+        return "stopped at a limit", math.nan
+    if status.startswith("failed"):
+        return status, math.nan
+    if status != "done":
+        return status, math.nan
+    if scene_has_plane and run.min_height < -CORRECT:
+        return "fell through the plane", math.nan
+    from ..bench.routes import errors
+    err, _ = errors(run, ref)
+    if not np.isfinite(err):
+        return "wrong (incomplete)", math.nan
+    if err <= CORRECT:
+        return "correct", err
+    if len(run.impacts) < len(ref.impacts):
+        return "missed events", err
+    return "wrong", err

@@ -1,0 +1,256 @@
+"""``derive bench`` and ``derive verify``: each command declared once, one parser each, and
+an exit status that says what the report says.
+
+For every command, a run whose verdict is forced one way and then the other: exit 0 and
+only PASS printed, or exit 1 and FAIL printed.  The measuring parts are stubbed or run at
+their smallest (a canned timing table, a peer made faster, one scene, a compiled law
+that computes another law, a scene capped at ten steps); the verdict logic is the
+commands' own.  And the README's command table names exactly the declared commands,
+with options they have.
+"""
+from __future__ import annotations
+
+import copy
+import re
+from pathlib import Path
+
+import pytest
+
+from derive.bench import COMMANDS as BENCHES
+from derive.cli import build_parser, main
+from derive.verify import COMMANDS as CHECKS
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _verdict(argv, capsys) -> tuple[int, str]:
+    """Exit status and stdout of ``derive *argv``; the status must match the marks."""
+    status = main(argv)
+    out = capsys.readouterr().out
+    fails = re.findall(r"\bFAIL\b", out)
+    passes = re.findall(r"\bPASS\b", out)
+    assert status in (0, 1), out
+    assert bool(fails) == (status == 1), out
+    assert passes or fails, f"no verdict printed:\n{out}"
+    return status, out
+
+
+# ---- the registry ------------------------------------------------------------------------
+def _subcommands(parser, name):
+    sub = next(a for a in parser._actions if a.dest == "command").choices[name]
+    return next(a for a in sub._actions if a.dest == name).choices
+
+
+def test_the_parser_is_built_from_the_declarations():
+    parser = build_parser()
+    for group, commands in (("bench", BENCHES), ("verify", CHECKS)):
+        parsers = _subcommands(parser, group)
+        assert list(parsers) == [c.name for c in commands]
+        for c in commands:
+            for role in ("run", "report", "passed"):
+                assert callable(c.function(role)), (c.name, role)
+            options = {s for a in parsers[c.name]._actions for s in a.option_strings}
+            declared = {f for a in c.arguments for f in a.flags} | {"-h", "--help"}
+            assert options == declared, c.name
+
+
+@pytest.mark.parametrize("argv", [
+    ["bench", "law", "--cases", "3"],             # an option of another command
+    ["verify", "failures", "--seed", "1"],
+    ["bench", "fuzz"],                            # moved to derive verify
+    ["bench", "robustness"],
+    ["verify", "robustness", "-n", "0"],          # out of range
+    ["verify", "fuzz", "--workers", "0"],
+    ["bench", "precision", "--scenes", "nowhere"],
+])
+def test_one_parser_per_command(argv, capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(argv)
+    assert exc.value.code == 2
+    assert "Traceback" not in capsys.readouterr().err
+
+
+def test_readme_command_table_is_the_registry():
+    """Every ``derive bench``/``derive verify`` line of the README's command table names a
+    declared command and only options it has; every declared command is there."""
+    text = (ROOT / "README.md").read_text(encoding="utf-8")
+    table = text.split("## Command line", 1)[1].split("```", 2)[1]
+    parser = build_parser()
+    seen = set()
+    for group, commands in (("bench", BENCHES), ("verify", CHECKS)):
+        parsers = _subcommands(parser, group)
+        for name, rest in re.findall(rf"^derive {group} (\w+)(.*)$", table, re.M):
+            assert name in parsers, f"README: derive {group} {name} is not a command"
+            options = {s for a in parsers[name]._actions for s in a.option_strings}
+            for flag in re.findall(r"\[(-{1,2}[\w-]+)", rest):
+                assert flag in options, f"README: derive {group} {name} has no {flag}"
+            seen.add((group, name))
+        assert {(group, c.name) for c in commands} <= seen, group
+    assert "derive bench fuzz" not in text and "derive bench robustness" not in text
+    assert "derive bench failures" not in text
+
+
+# ---- bench rhs: a canned timing table, the hand-written peer fast or slow ----------------
+def _rhs_report(hand_latency_ns: float):
+    from derive.bench import rhs
+    from derive.emit.linalg import DEFAULT_SOLVER
+    rows = [rhs.Row("general_flight_rhs", 300, 400, 50.0, 60.0, 5e3, 9e3, 30.0, 40.0),
+            rhs.Row("vertical_flight_rhs", 100, 150, 20.0, 25.0, 4e3, 8e3, 12.0, 15.0)]
+    variants = [rhs.Variant("general_flight_rhs", solver, 300, 320, "mul 3", 10.0, 5.0,
+                            50.0, 30.0, 2.0, 1.0) for solver in ("ldlt", DEFAULT_SOLVER)]
+    peers = {"hand_general_flight_rhs": (45.0, hand_latency_ns, 500),
+             rhs.FLOOR: (5.0, 5.0, 18), rhs.BOUND: (20.0, 20.0, 0)}
+    machine = {"add": 1.0, "mul": 1.2, "div": 4.0, "sqrt_add": 6.0, "issue": 0.3}
+    return rhs.Report(rows, variants, peers, machine, ("-O2",))
+
+
+@pytest.mark.parametrize("hand_latency_ns, status", [(50.0, 0), (35.0, 1)])
+def test_bench_rhs_exit_status(hand_latency_ns, status, monkeypatch, capsys):
+    from derive.bench import rhs
+    monkeypatch.setattr(rhs, "run", lambda cflags, progress: _rhs_report(hand_latency_ns))
+    got, out = _verdict(["bench", "rhs"], capsys)
+    assert got == status
+    assert ("latency-bound, standalone / hand-written CasADi C: 0.60" in out) == (status == 0)
+
+
+# ---- bench sim: canned routes, SciPy fast or slow ------------------------------------------
+def _sim_rows(scipy_s: float):
+    def rows(doc, progress, repeats):
+        return {"scene": doc["name"], "duration": 5.0, "reference_agreement": (1e-12, 1e-13),
+                "rows": [{"route": r, "setting": 1e-9, "seconds": s, "error": 5e-10,
+                          "impact_error": 1e-11, "evaluations": 100}
+                         for r, s in (("runtime C (lie)", 9e-5), ("derive.simulate (law seen)",
+                                                                  1.4e-4),
+                                      ("derive.simulate (new law)", 1e-3),
+                                      ("scipy DOP853", scipy_s), ("casadi cvodes", 0.05))]}
+    return rows
+
+
+@pytest.mark.parametrize("scipy_s, status", [(0.165, 0), (0.1, 1)])
+def test_bench_sim_exit_status(scipy_s, status, monkeypatch, capsys):
+    from derive.bench import sim
+    monkeypatch.setattr(sim, "scene_rows", _sim_rows(scipy_s))
+    got, out = _verdict(["bench", "sim", "--quick"], capsys)
+    assert got == status
+    assert out.count("law seen before: 714x faster than SciPy") == (2 if status else 0)
+
+
+def test_bench_sim_refuses_a_bad_scene_in_one_line(tmp_path, capsys):
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[body]\nmass = -1\n")
+    assert main(["bench", "sim", "--scene", str(bad)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("derive bench: ") and "mass" in err[0]
+
+
+# ---- bench law: one law for real; its compiled peer computing another law ------------------
+@pytest.mark.parametrize("wrong_peer, status", [(False, 0), (True, 1)])
+def test_bench_law_exit_status(wrong_peer, status, monkeypatch, capsys):
+    from derive.bench import law
+    monkeypatch.setattr(law, "LAWS", {"built-in": law.LAWS["built-in"]})
+    if wrong_peer:
+        straight = law.straight_line_c
+        monkeypatch.setattr(law, "straight_line_c", lambda program: straight(program).replace(
+            "  }\n}", "    u[9L * k] *= 1.01;\n  }\n}"))
+    got, out = _verdict(["bench", "law", "--repeats", "1"], capsys)
+    assert got == status
+    assert ("interpreted and compiled agree to" in out
+            and re.search(r"agree to .*: PASS", out) is not None) == (status == 0)
+
+
+def test_law_payback_target():
+    """A compiled law that repays its compile time within PAYBACK runs fails the target;
+    one that never does (slower than the interpreter) passes."""
+    from derive.bench import law
+    row = {"law": "x", "agreement": 1e-16, "compile_ms": 60.0}
+    assert not law.passed({"rows": [dict(row, saving_ms=1.0)]})        # 60 runs
+    assert law.passed({"rows": [dict(row, saving_ms=0.01)]})           # 6000 runs
+    assert law.passed({"rows": [dict(row, saving_ms=-0.01)]})          # never
+
+
+# ---- bench precision: canned work-precision points, LIE faster or slower -------------------
+def _points(lie_factor: float):
+    from derive.bench.precision import Point
+
+    def sweep(name, doc, ref, quick, repeats, progress):
+        out = []
+        for method, factor in (("runtime LIE", lie_factor), ("runtime DOP853", 1.0)):
+            for k in range(9):
+                tol = 10.0 ** (-4 - k)
+                out.append(Point(name, method, tol, factor * 1e-4 * (1 + k), 0.5 * tol,
+                                 0.0, 100 * (k + 1), "done"))
+        return out
+    return sweep
+
+
+@pytest.mark.parametrize("lie_factor, periods, status", [(0.8, "20", 0), (1.25, "0", 1)])
+def test_bench_precision_exit_status(lie_factor, periods, status, tmp_path, monkeypatch,
+                                     capsys):
+    from derive.bench import precision
+    monkeypatch.setattr(precision, "sweep", _points(lie_factor))
+    monkeypatch.setattr(precision, "_reference", lambda *a: None)
+    monkeypatch.setattr(precision, "retime", lambda *a, **k: None)
+    monkeypatch.setattr(precision, "chart", lambda *a: None)
+    monkeypatch.setattr(precision, "long_chart", lambda *a: None)
+    got, out = _verdict(["bench", "precision", "--quick", "--scenes", "planar E4.2",
+                         "--periods", periods, "-o", str(tmp_path)], capsys)
+    assert got == status
+    assert f"target (E4.2 at every level): {'FAIL' if status else 'PASS'}" in out
+    assert ("targets of LIE: |K| <= 1e-12: PASS" in out) == (periods != "0")
+    assert f"charts and data in {tmp_path}" in out
+
+
+# ---- verify failures: one hard scene, a method at its default or made loose ----------------
+@pytest.mark.parametrize("rtol, status", [(1e-10, 0), (1e-3, 1)])
+def test_verify_failures_exit_status(rtol, status, monkeypatch, capsys):
+    from derive.bench.routes import Runtime
+    from derive.verify import failures
+    scenes = failures.scenes()
+    monkeypatch.setattr(failures, "scenes", lambda: {
+        "impacts accumulate, e = 0.5": scenes["impacts accumulate, e = 0.5"]})
+    monkeypatch.setattr(failures, "methods", lambda: [
+        ("runtime DOPRI5", lambda d: Runtime(d, "dopri5", rtol))])
+    got, out = _verdict(["verify", "failures"], capsys)
+    assert got == status
+    assert (re.search(r"runtime DOPRI5 +correct", out) is not None) == (status == 0)
+
+
+# ---- verify fuzz: a case refused as it must be, or one that must be refused and runs -------
+def _fuzz_cases(must_refuse_the_valid_scene: bool):
+    from derive.verify.generators import Case, base_scene
+    bad = base_scene()
+    bad["body"]["mass"] = -1.0
+    cases = [Case(0, "explicit", "negative mass", bad, expect="refuse",
+                  fields=("[body].mass",))]
+    if must_refuse_the_valid_scene:
+        cases.append(Case(1, "explicit", "a valid scene said to be hostile", base_scene(),
+                          expect="refuse", fields=("name",)))
+    return lambda n, seed: copy.deepcopy(cases)
+
+
+@pytest.mark.parametrize("planted, status", [(False, 0), (True, 1)])
+def test_verify_fuzz_exit_status(planted, status, monkeypatch, capsys):
+    from derive.verify import fuzz
+    monkeypatch.setattr(fuzz, "generate", _fuzz_cases(planted))
+    got, out = _verdict(["verify", "fuzz", "--mode", "api", "-n", "2"], capsys)
+    assert got == status
+    assert ("BAD silent-accept #1" in out) == planted
+
+
+# ---- verify robustness: two random scenes, or the same capped at ten steps ----------------
+@pytest.mark.parametrize("capped, status", [(False, 0), (True, 1)])
+def test_verify_robustness_exit_status(capped, status, monkeypatch, capsys):
+    from derive.verify import robustness
+    if capped:
+        scene = robustness.random_scene
+
+        def capped_scene(*args, **kwargs):
+            doc = scene(*args, **kwargs)
+            doc["run"]["max_steps"] = 10        # valid for both scenes, too few to end
+            return doc
+        monkeypatch.setattr(robustness, "random_scene", capped_scene)
+    got, out = _verdict(["verify", "robustness", "-n", "2", "--workers", "1", "--duration",
+                         "1", "--seed", "3"], capsys)
+    assert got == status
+    assert ("0 wrong statuses or invariants (2): FAIL" in out) == capped
+    assert all(f"#{k} status: ended with max_steps" in out for k in range(2)) == capped
