@@ -172,6 +172,12 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     import time
     start = time.perf_counter()
     from .scene import SceneError, parse_scene
+    if args.scheduler and not args.sweep:
+        raise UsageError("--scheduler: runs the variants of a sweep on a Dask cluster, "
+                         "so it goes only with --sweep")
+    if args.scheduler and args.workers is not None:
+        raise UsageError("--scheduler: the cluster's workers run the sweep; --workers "
+                         "(local threads) does not go with it")
     _check_output_folder(args.output)
     if args.sweep:
         return _simulate_sweep(args, start)
@@ -219,18 +225,18 @@ def _simulate_sweep(args, start: float) -> int:
     import time
     from pathlib import Path
     from .runtime import batch
-    from .scene import SceneError, parse_scene
+    from .scene import SceneError, overrides, parse_scene
     try:
         doc, base, origin = _scene_doc(args)
         parse_scene(doc, origin, base=base)             # the base must be valid itself
-        grid = dict(batch.parse_sweep(text) for text in args.sweep)
+        grid = dict(overrides.parse_sweep(text) for text in args.sweep)
         n = 1
         for values in grid.values():
             n *= len(values)
         if n > 1_000_000:
             raise SceneError("--sweep", f"{n} variants (at most 1e6)")
-        out = batch.simulate_many(doc, grid, workers=args.workers, progress=not args.quiet,
-                                  strict=False)
+        out = batch.simulate_many(doc, grid, workers=args.workers, scheduler=args.scheduler,
+                                  progress=not args.quiet, strict=False)
     except SceneError as exc:
         raise UsageError(str(exc)) from None
     bad = sum(1 for r in out.rows if "error" in r)
@@ -249,13 +255,31 @@ def _simulate_sweep(args, start: float) -> int:
     (folder / "sweep.json").write_text(json.dumps(
         {"scene": origin, "sweep": {k: list(v) for k, v in grid.items()},
          "variants": len(out.rows), "statuses": statuses, "seconds": out.seconds,
-         "executor": out.executor, "workers": out.workers}, indent=2) + "\n", encoding="utf-8")
+         "executor": out.executor, "workers": out.workers, "tasks": out.tasks},
+        indent=2, allow_nan=False) + "\n", encoding="utf-8")
     written = ["sweep.csv", "sweep.json"]
     if not args.no_plots and len(grid) <= 2:
         from .runtime.sweep_plot import sweep_plot
         written.append(sweep_plot(out, grid, folder).name)
-    print(f"{len(out.rows)} variants of {origin} in {out.seconds:.2f} s on {out.executor} "
-          f"({_workers(out.workers)}): " + ", ".join(f"{v} {k}" for k, v in statuses.items()))
+    where = {"serial": "this thread", "threads": f"{out.workers} threads",
+             "processes": f"{out.workers} processes"}.get(
+        out.executor, f"a Dask cluster of {_workers(out.workers)}")
+    outcome = ", ".join(f"{v} {k}" for k, v in statuses.items() if k != "refused")
+    if bad:
+        print(f"{len(out.rows)} variants of {origin}: {len(out.rows) - bad} ran in "
+              f"{out.seconds:.2f} s on {where}, {bad} refused (not run); {outcome}")
+    else:
+        print(f"{len(out.rows)} variants of {origin} ran in {out.seconds:.2f} s on {where}: "
+              f"{outcome}")
+    if out.executor == "dask":
+        # what a call costs on a cluster: a worker's first task readies the runtime
+        # library (loads it, or builds it where the machine has not)
+        ready, run = max(out.ready_s), [t - r for t, r in zip(out.task_s, out.ready_s)]
+        print(f"  Dask: imported and connected in {out.connect_s:.2f} s; {out.tasks} task"
+              f"{'s' if out.tasks != 1 else ''} of {min(run):.2f}-{max(run):.2f} s in the "
+              "workers" + (f", and {ready:.2f} s readying the runtime library on a "
+                           "worker's first task (once per worker)" if ready >= 0.01
+                           else " (the runtime library already loaded: not the first call)"))
     if bad:
         first = next(r["error"] for r in out.rows if "error" in r)
         print(f"  {bad} refused, e.g. {first}")
@@ -449,6 +473,9 @@ def build_parser() -> argparse.ArgumentParser:
                         "repeatable): sweep.csv, sweep.json and a plot")
     p.add_argument("--workers", type=int, help="--sweep: local threads (default: every "
                    "core; 1: serial)")
+    p.add_argument("--scheduler", metavar="tcp://HOST:PORT", help="--sweep: run the "
+                   "variants on the Dask cluster of this scheduler instead (pip install -e "
+                   "'.[cluster]'); many variants per task")
     p.set_defaults(func=cmd_simulate)
 
     p = sub.add_parser("scene", help="scene files: a commented template, or a check")

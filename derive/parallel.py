@@ -16,8 +16,9 @@ from __future__ import annotations
 import multiprocessing
 import os
 import threading
+import time
 from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor, as_completed
-from typing import Callable, Iterable
+from typing import Callable
 
 
 class ExecutorError(ValueError):
@@ -41,43 +42,55 @@ def _chunk(args):
 EXECUTORS = ("processes", "threads")
 
 
-def run(fn: Callable, tasks: list, workers: int | None = None, scheduler: str | None = None,
-        collect: Callable | None = None, chunk: int = 1,
-        local: str = "processes") -> tuple[list, str, int]:
+def run(fn: Callable, tasks, workers: int | None = None, scheduler: str | None = None,
+        collect: Callable | None = None, chunk: int = 1, local: str = "processes",
+        info: dict | None = None) -> tuple[list, str, int]:
     """Apply ``fn`` to every task; returns (results in task order, executor name, number
-    of workers).  ``collect(index, result)`` is called as results arrive (progress).
-    ``workers``: local workers (default every core; 1: this thread), ``local`` says
-    whether they are processes or threads; ``scheduler``: a Dask scheduler address
-    instead.  ``chunk``: tasks per process call (cheap tasks)."""
-    results: list = [None] * len(tasks)
+    of workers).  ``tasks``: a list, or a function of the number of worker threads that
+    will run them (known for a Dask cluster only once connected) returning the list, so
+    that a caller can size its tasks to them.  ``collect(index, result)`` is called as
+    results arrive (progress).  ``workers``: local workers (default every core; 1: this
+    thread), ``local`` says whether they are processes or threads; ``scheduler``: a Dask
+    scheduler address instead.  ``chunk``: tasks per process call (cheap tasks).
+    ``info``, if given, receives ``tasks`` (how many ran) and, on Dask, ``connect_s``
+    (seconds importing Dask and connecting to the scheduler)."""
+    if workers is not None and workers < 1:
+        raise ExecutorError("--workers", f"must be >= 1 (got {workers})")
+    info = {} if info is None else info
+    results: list = []
+
+    def plan(slots: int) -> list:
+        listed = list(tasks(slots) if callable(tasks) else tasks)
+        results[:] = [None] * len(listed)
+        info["tasks"] = len(listed)
+        return listed
 
     def got(index, value):
         results[index] = value
         if collect:
             collect(index, value)
 
-    if workers is not None and workers < 1:
-        raise ExecutorError("--workers", f"must be >= 1 (got {workers})")
     if scheduler:
-        n = _dask(fn, tasks, scheduler, got)
+        n = _dask(fn, plan, scheduler, got, info)
         return results, "dask", n
-    if workers == 1 or len(tasks) <= 1:
-        for index, task in enumerate(tasks):
-            got(index, fn(task))
-        return results, "serial", 1
     if local not in EXECUTORS:
         raise ExecutorError("executor", f"must be one of {', '.join(EXECUTORS)} (got {local!r})")
-    n = min(workers or os.cpu_count() or 1, len(tasks))
+    listed = plan(1 if workers == 1 else workers or os.cpu_count() or 1)
+    if workers == 1 or len(listed) <= 1:
+        for index, task in enumerate(listed):
+            got(index, fn(task))
+        return results, "serial", 1
+    n = min(workers or os.cpu_count() or 1, len(listed))
     if local == "threads":
         pool = _threads(n)
-        futures = {pool.submit(fn, task): index for index, task in enumerate(tasks)}
+        futures = {pool.submit(fn, task): index for index, task in enumerate(listed)}
         for fut in as_completed(futures):
             got(futures[fut], fut.result())
         return results, "threads", n
     # fork: the workers inherit loaded libraries and caches (and need no main guard)
     methods = multiprocessing.get_all_start_methods()
     context = multiprocessing.get_context("fork" if "fork" in methods else "spawn")
-    items = list(enumerate(tasks))
+    items = list(enumerate(listed))
     batches = [items[k:k + chunk] for k in range(0, len(items), chunk)]
     with ProcessPoolExecutor(max_workers=n, mp_context=context) as pool:
         for fut in as_completed([pool.submit(_chunk, (fn, b)) for b in batches]):
@@ -100,7 +113,10 @@ def _threads(n: int) -> ThreadPoolExecutor:
         return _POOLS[n]
 
 
-def _dask(fn: Callable, tasks: Iterable, scheduler: str, got: Callable) -> int:
+def _dask(fn: Callable, plan: Callable, scheduler: str, got: Callable, info: dict) -> int:
+    """Run on a Dask cluster; returns its number of workers.  ``plan(threads)`` gives the
+    tasks once the cluster's worker threads are known."""
+    start = time.perf_counter()
     try:
         from distributed import Client
         from distributed import as_completed as dask_completed
@@ -111,10 +127,12 @@ def _dask(fn: Callable, tasks: Iterable, scheduler: str, got: Callable) -> int:
     except (OSError, TimeoutError, ValueError) as exc:
         raise ExecutorError("--scheduler", f"cannot reach {scheduler} ({exc})") from None
     try:
-        n_workers = max(len(client.scheduler_info().get("workers", {})), 1)
+        threads = client.nthreads()                 # {worker address: its threads}
+        info["connect_s"] = time.perf_counter() - start
+        tasks = plan(max(sum(threads.values()), 1))
         futures = client.map(_indexed, [(fn, k, t) for k, t in enumerate(tasks)], pure=False)
         for fut in dask_completed(futures):
             got(*fut.result())
     finally:
         client.close()
-    return n_workers
+    return max(len(threads), 1)

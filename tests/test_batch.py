@@ -206,8 +206,8 @@ def test_a_sweep_no_variant_of_which_can_run_is_a_usage_error(tmp_path, sweep, w
 def test_a_bad_sweep_range_says_which_part_is_wrong(spec, rule):
     """Each part of lo:hi:n is named (a bad n had been reported as 'values must be
     numbers', and 5000 digits ended in a traceback)."""
-    from derive.runtime.batch import parse_sweep
-    with pytest.raises(BatchError) as info:
+    from derive.scene.overrides import parse_sweep
+    with pytest.raises(SceneError) as info:
         parse_sweep(f"plane.restitution={spec}")
     assert info.value.where == "--sweep" and rule in info.value.rule, str(info.value)
     assert parse_sweep("plane.restitution=0.1:0.9:3")[1] == pytest.approx([0.1, 0.5, 0.9])
@@ -284,3 +284,235 @@ def test_an_attitude_override_replaces_the_base_scenes_other_attitude(tmp_path):
     assert np.array_equal(b.results[0].scene.A0, np.array(rot))
     assert "quaternion" not in b.results[0].scene.doc["initial"]
     assert np.allclose(b.results[1].scene.A0, np.diag([-1.0, -1.0, 1.0]))
+
+
+# ---- sweeps: the grid typed, missing values, the summary line, a Dask cluster ------------
+def test_a_sweep_range_is_the_decimal_grid_typed():
+    """lo:hi:n runs the decimal values lo + k (hi - lo)/(n - 1), each as the float nearest
+    to it, checked against exact rational arithmetic (0.1:0.9:17 had run and written
+    0.30000000000000004, np.linspace's value)."""
+    from fractions import Fraction
+
+    from derive.scene.overrides import parse_sweep
+    rng = np.random.default_rng(11)
+    cases = [("0.1", "0.9", 17), ("0", "1", 3), ("-2.5", "7.25", 40), ("1e-3", "2e-3", 11),
+             ("0.9", "0.1", 9), ("0.3", "0.3", 4), ("2", "5", 1), ("0", "1", 7)]
+    for _ in range(400):
+        d = int(rng.integers(0, 5))
+        lo, hi = (f"{v:.{d}f}" for v in rng.uniform(-20, 20, 2))
+        cases.append((lo, hi, int(rng.integers(1, 80))))
+    for lo, hi, n in cases:
+        a, b = Fraction(lo), Fraction(hi)
+        want = [float(a + (b - a) * k / (n - 1)) for k in range(n)] if n > 1 else [float(a)]
+        assert parse_sweep(f"body.mass={lo}:{hi}:{n}")[1] == want, (lo, hi, n)
+    assert parse_sweep("plane.restitution=0.1:0.9:17")[1][4] == 0.3
+
+
+def test_missing_values_of_a_partly_refused_study_are_missing(tmp_path):
+    """A refused row has no status, counts or times, and a row that ran no error: missing,
+    not the string 'nan', and the counts stay integers (column: masked arrays for numbers,
+    object arrays with None for text; to_csv: empty cells), against one simulate."""
+    import csv
+
+    from derive.runtime.batch import SUMMARY_COLUMNS
+    doc = builtin_doc()
+    out = derive.simulate_many(doc, [{"body.mass": 1.3}, {"body.mass": -2.0}], workers=1,
+                               strict=False)
+    alone = derive.simulate(_variant(doc, body__mass=1.3))
+    status, error = out.column("status"), out.column("error")
+    assert status.dtype == object and status.tolist() == [alone.status, None]
+    assert error.dtype == object and error[0] is None and "[body].mass" in error[1]
+    assert out.column("model").tolist() == [alone.model, None]
+    for name in ("impacts", "contacts", "liftoffs", "steps", "rhs_evaluations"):
+        col = out.column(name)
+        assert isinstance(col, np.ma.MaskedArray) and col.dtype.kind == "i", (name, col)
+        assert col.mask.tolist() == [False, True] and col[0] == alone.stats[name]
+    for name in ("t_end", "min_height", "first_contact_t", "Z_C_end", "run_ms"):
+        col = out.column(name)
+        assert isinstance(col, np.ma.MaskedArray) and col.dtype == float
+        assert col.mask.tolist() == [False, True], name
+    assert out.column("t_end")[0] == alone.t[-1]
+    assert out.column("min_height")[0] == alone.min_height
+    assert out.column("body.mass").tolist() == [1.3, -2.0]
+    full = derive.simulate_many(doc, {"body.mass": [1.0, 2.0]}, workers=1)
+    assert full.column("steps").dtype.kind == "i" and not full.column("steps").mask.any()
+    with pytest.raises(BatchError, match="status"):
+        out.column("impact")
+    out.to_csv(tmp_path / "b.csv")
+    header, ran, refused = list(csv.reader(open(tmp_path / "b.csv", encoding="utf-8")))
+    assert ran[header.index("error")] == "" and refused[header.index("error")] != ""
+    assert ran[header.index("impacts")] == str(alone.stats["impacts"])
+    assert all(refused[header.index(c)] == "" for c in SUMMARY_COLUMNS)
+
+
+def _no_nan(text: str) -> dict:
+    def refuse(name):
+        raise ValueError(f"{name} is not JSON")
+    return json.loads(text, parse_constant=refuse)
+
+
+def test_the_summary_of_a_partly_refused_sweep_says_what_ran(tmp_path):
+    """'2 variants ... on serial (1 worker)' had counted the refused variant as run: the
+    line says how many ran and where, and how many were refused; sweep.csv leaves the
+    refused row's cells empty and sweep.json is strict JSON."""
+    import csv
+    out = tmp_path / "s"
+    proc = subprocess.run([sys.executable, "-m", "derive", "simulate", "-q", "--no-plots",
+                           "--sweep", "plane.restitution=0.5,1.5", "-o", str(out)],
+                          capture_output=True, text=True)
+    assert proc.returncode == 1, proc.stderr
+    first = proc.stdout.splitlines()[0]
+    assert "1 ran" in first and "1 refused" in first and "worker" not in first, first
+    header, ran, refused = list(csv.reader(open(out / "sweep.csv", encoding="utf-8")))
+    assert ran[header.index("error")] == "" and ran[header.index("status")] == "done"
+    assert refused[header.index("status")] == "" and refused[header.index("impacts")] == ""
+    info = _no_nan((out / "sweep.json").read_text())
+    assert info["statuses"] == {"done": 1, "refused": 1} and info["variants"] == 2
+
+
+@pytest.mark.parametrize("args, rule", [
+    (["--scheduler", "tcp://127.0.0.1:9"], "with --sweep"),
+    (["--sweep", "plane.restitution=0.3,0.6", "--workers", "2", "--scheduler",
+      "tcp://127.0.0.1:9"], "--workers"),
+])
+def test_a_scheduler_needs_a_sweep_and_no_workers(tmp_path, args, rule):
+    """--scheduler runs a sweep on a Dask cluster: alone, or with --workers, it is refused
+    in one line (exit 2, nothing written) before anything is tried."""
+    proc = subprocess.run([sys.executable, "-m", "derive", "simulate", "-q", *args, "-o",
+                           str(tmp_path / "o")], capture_output=True, text=True)
+    assert proc.returncode == 2, proc.stderr
+    assert "--scheduler" in proc.stderr and rule in proc.stderr, proc.stderr
+    assert len(proc.stderr.strip().splitlines()) == 1 and not (tmp_path / "o").exists()
+
+
+@pytest.fixture(scope="module")
+def dask_cluster():
+    """A local Dask cluster of two single-threaded worker processes, with a scheduler
+    plugin that counts the tasks that finished (the count the study reports is checked
+    against the scheduler's own)."""
+    distributed = pytest.importorskip("distributed")
+    from distributed.diagnostics.plugin import SchedulerPlugin
+
+    class Finished(SchedulerPlugin):
+        def __init__(self):
+            self.keys = set()
+
+        def transition(self, key, start, finish, *args, **kwargs):
+            if finish == "memory":
+                self.keys.add(key)
+
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                  dashboard_address=None) as cluster:
+        plugin = Finished()
+        cluster.scheduler.add_plugin(plugin)
+        yield cluster, plugin
+
+
+def test_a_cli_sweep_on_a_dask_cluster_equals_the_local_one(tmp_path, dask_cluster):
+    """derive simulate --sweep ... --scheduler: the same sweep.csv as on local threads (the
+    C time aside), in a few tasks of many variants each (a task costs Dask more than a
+    run of the C); simulate_many(scheduler=...) likewise."""
+    import csv
+    cluster, finished = dask_cluster
+    sweep = ["--sweep", "plane.restitution=0.1:0.9:17", "--sweep", "body.mass=0.5:2:30"]
+    tables = {}
+    for name, where in (("local", ["--workers", "2"]),
+                        ("dask", ["--scheduler", cluster.scheduler_address])):
+        finished.keys.clear()
+        proc = subprocess.run([sys.executable, "-m", "derive", "simulate", "-q", "--no-plots",
+                               *sweep, *where, "-o", str(tmp_path / name)],
+                              capture_output=True, text=True)
+        assert proc.returncode == 0, proc.stderr
+        rows = list(csv.reader(open(tmp_path / name / "sweep.csv", encoding="utf-8")))
+        ms = rows[0].index("run_ms")
+        tables[name] = [r[:ms] + r[ms + 1:] for r in rows]
+        info = _no_nan((tmp_path / name / "sweep.json").read_text())
+        assert info["variants"] == 17 * 30 == len(rows) - 1
+    assert tables["dask"] == tables["local"]
+    assert info["executor"] == "dask" and info["workers"] == 2
+    assert 1 <= info["tasks"] <= 2 * info["workers"] and info["tasks"] == len(finished.keys)
+    assert "Dask" in proc.stdout and "first" in proc.stdout, proc.stdout
+
+    doc = builtin_doc()
+    grid = {"plane.restitution": [0.2, 0.5, 0.8], "initial.com[2]": list(np.linspace(1, 2, 40))}
+    finished.keys.clear()
+    remote = derive.simulate_many(doc, grid, scheduler=cluster.scheduler_address)
+    here = derive.simulate_many(doc, grid, workers=2)
+    assert remote.executor == "dask" and 1 <= remote.tasks <= 4 == 2 * remote.workers
+    assert remote.tasks == len(finished.keys)
+    for ra, rb in zip(here.rows, remote.rows):
+        assert all(_same(ra[k], rb[k]) for k in ra if k != "run_ms"), (ra, rb)
+
+
+def _drawn_figure(monkeypatch, draw):
+    """The matplotlib Figure that ``draw()`` saves (drawn, so its labels are laid out)."""
+    from matplotlib.figure import Figure
+    saved, save = [], Figure.savefig
+
+    def keep(self, *args, **kwargs):
+        saved.append(self)
+        return save(self, *args, **kwargs)
+    monkeypatch.setattr(Figure, "savefig", keep)
+    draw()
+    assert len(saved) == 1
+    saved[0].canvas.draw()
+    return saved[0]
+
+
+def _ticks(axis, lo, hi):
+    """(position, label) of the ticks of a matplotlib axis inside its limits."""
+    return [(t.get_loc(), t.label1.get_text()) for t in axis.get_major_ticks()
+            if lo - 1e-9 <= t.get_loc() <= hi + 1e-9 and t.label1.get_visible()]
+
+
+@pytest.mark.parametrize("grid", [
+    {"point.mass": [0.2, 0.5], "plane.restitution": [0.3, 0.6, 0.9]},
+    {"body.mass": [0.5, 1.0, 4.0], "plane.restitution": [0.1, 0.15, 0.8, 0.9]},
+    {"plane.restitution": [round(0.1 + 0.025 * k, 3) for k in range(33)],
+     "body.mass": [1.0, 1.1]},
+])
+def test_a_sweep_map_has_a_cell_centred_on_each_value_swept(tmp_path, monkeypatch, grid):
+    """sweep.png's map of two swept fields: one cell per variant, centred on a tick that
+    says its value, coloured by that variant's impacts (two point masses had been drawn
+    as cells from 0.05 to 0.65 with ticks at 0.1, ..., 0.6, none of them swept)."""
+    from matplotlib.collections import QuadMesh
+
+    from derive.runtime.sweep_plot import sweep_plot
+    doc = builtin_doc()
+    doc["run"]["duration"] = 2.0
+    batch = derive.simulate_many(doc, grid, workers=1)
+    fig = _drawn_figure(monkeypatch, lambda: sweep_plot(batch, grid, tmp_path))
+    ax = next(a for a in fig.axes if any(isinstance(c, QuadMesh) for c in a.collections))
+    mesh = next(c for c in ax.collections if isinstance(c, QuadMesh))
+    corners = mesh.get_coordinates()                        # (ny + 1, nx + 1, 2)
+    xs, ys = (list(v) for v in grid.values())
+    assert corners.shape == (len(ys) + 1, len(xs) + 1, 2)
+    centres_x = 0.5 * (corners[0, 1:, 0] + corners[0, :-1, 0])
+    centres_y = 0.5 * (corners[1:, 0, 1] + corners[:-1, 0, 1])
+    impacts = np.asarray(mesh.get_array()).reshape(len(ys), len(xs))
+    for i, x in enumerate(xs):
+        for j, y in enumerate(ys):
+            k = i * len(ys) + j
+            assert batch.variants[k] == dict(zip(grid, (x, y)))
+            assert impacts[j, i] == batch.rows[k]["impacts"]
+    for axis, centres, values, lim in ((ax.xaxis, centres_x, xs, ax.get_xlim()),
+                                       (ax.yaxis, centres_y, ys, ax.get_ylim())):
+        ticks = _ticks(axis, *sorted(lim))
+        assert 2 <= len(ticks) <= 12 or len(ticks) == len(values), ticks
+        if len(values) <= 12:
+            assert len(ticks) == len(values)
+        for loc, text in ticks:
+            k = int(np.argmin(np.abs(centres - loc)))
+            assert loc == pytest.approx(centres[k], abs=1e-9) and float(text) == values[k]
+
+
+def test_a_one_field_sweep_plot_has_its_values_as_ticks(tmp_path, monkeypatch):
+    """The curves of one swept field: ticks at the values swept when they are few."""
+    from derive.runtime.sweep_plot import sweep_plot
+    grid = {"point.mass": [0.2, 0.5, 1.5]}
+    doc = builtin_doc()
+    doc["run"]["duration"] = 2.0
+    batch = derive.simulate_many(doc, grid, workers=1)
+    fig = _drawn_figure(monkeypatch, lambda: sweep_plot(batch, grid, tmp_path))
+    ax = fig.axes[0]
+    assert [float(t) for _, t in _ticks(ax.xaxis, *ax.get_xlim())] == grid["point.mass"]

@@ -168,3 +168,25 @@ def test_bounce_chart_agrees_with_the_table_closed_forms():
                 assert rho > 1 + 1e-3, (e, G, rho)
                 checked += 1
     assert checked >= 15
+
+
+def test_an_axis_is_the_decimal_grid_typed(tmp_path):
+    """--x e=0.1:0.9:17 charts e = 0.3, not np.linspace's 0.30000000000000004, in the
+    points run and in the CSV: each value the float nearest to lo + k (hi - lo)/(n - 1),
+    checked against exact rational arithmetic (--sweep of derive simulate shares it)."""
+    from fractions import Fraction
+    for text, n in (("e=0.1:0.9:17", 17), ("Gamma=0.5:3.5:21", 21)):
+        ax = sweep.parse_axis(text, "bounce", "--x")
+        lo, hi = (Fraction(v) for v in text.split("=")[1].split(":")[:2])
+        assert ax.values.tolist() == [float(lo + (hi - lo) * k / (n - 1)) for k in range(n)]
+    e = sweep.parse_axis("e=0.1:0.9:17", "bounce", "--x")
+    assert e.values[4] == 0.3
+    points = sweep.tasks("bounce", e, sweep.parse_axis("Gamma=1:2:2", "bounce", "--y"),
+                         {}, 1e-12)[0][3]
+    assert [p["e"] for p in points][4] == 0.3
+    a = sweep.parse_axis("a=0:0.7:8", "C4.1", "--x")
+    sw = sweep.run("C4.1", a, Y, FIXED, workers=1, progress=False)
+    rows = list(csv.DictReader(open(chart.write(sw, tmp_path, plot=False)[0],
+                                    encoding="utf-8")))
+    assert sorted({r["a"] for r in rows}, key=float) == [f"0.{k}" if k else "0.0"
+                                                         for k in range(8)]

@@ -45,29 +45,73 @@ def _impact_lines(ax, impacts):
                   lw=0.6, zorder=0)
 
 
-def snapshot_rows(view, mo: Motion, size: float, most: int = 6, candidates: int = 60):
-    """Rows at which to draw the body: the first and the last, then in time order every
-    instant whose picture (with its time written beside it) overlaps none of those
-    chosen (at most ``most``)."""
-    idx = np.unique(np.searchsorted(mo.t, np.linspace(mo.t[0], mo.t[-1], candidates)
-                                    ).clip(0, len(mo.t) - 1))
-    centres = view(mo.r_O[idx])
-    W = float(np.ptp(view(np.vstack([mo.r_O, mo.r_P]))[:, 0])) + 2.0 * size
-    # apart: the bodies do not touch, nor do the times written left of them
-    gap = np.array([max(2.05 * size, 0.22 * W), max(2.05 * size, 0.09 * W)])
+# the times written beside the bodies: font size, gap to the body, margins (points)
+_TIME_FONT, _TIME_GAP, _TIME_MARGIN = 8, 3.0, 2.0
 
-    def clear(k, chosen):
-        return bool(np.all(np.any(np.abs(centres[chosen] - centres[k]) >= gap, axis=1)))
 
-    chosen = [0]
-    if clear(len(idx) - 1, chosen):
-        chosen.append(len(idx) - 1)
-    for k in range(1, len(idx) - 1):
+def _time_text(t: float) -> str:
+    return f"t = {t:.2f} s"
+
+
+def _text_width(text: str) -> float:
+    """The width of ``text`` at the times' font size, in points (matplotlib's own text
+    layout, with no renderer)."""
+    from matplotlib.font_manager import FontProperties
+    from matplotlib.textpath import TextToPath
+    return TextToPath().get_text_width_height_descent(
+        text, FontProperties(size=_TIME_FONT), ismath=False)[0]
+
+
+def _apart(a, b) -> bool:
+    """Two boxes (x0, y0, x1, y1) apart (touching counts as overlapping)."""
+    return a[2] < b[0] or b[2] < a[0] or a[3] < b[1] or b[3] < a[1]
+
+
+def snapshot_rows(bodies: np.ndarray, pictures: np.ndarray, widths, height: float,
+                  gap: float, xlim: tuple, most: int = 6) -> list[tuple[int, int]]:
+    """Which candidate instants to draw the body at, and on which side to write each
+    time: (index, -1 left or +1 right).  Per candidate, in time order, boxes (x0, y0,
+    x1, y1) in the panel's data units: ``bodies`` around the body's outline,
+    ``pictures`` around all that is drawn of it (the outline and the axes); ``widths``,
+    ``height`` and ``gap``: the times' boxes and their gap to the picture, in the same
+    units.  The first and the last, then in time order every instant whose body does not
+    touch a body chosen and whose picture and time overlap no picture or time chosen (at
+    most ``most``); a time is written on the outer side of its body (left of a body left
+    of the middle of the travel, right of one right of it) if there is room there, else
+    on the other."""
+    middle = 0.5 * (bodies[:, 0].min() + bodies[:, 2].max())
+
+    def label(k, side):
+        y = 0.5 * (bodies[k, 1] + bodies[k, 3])
+        if side < 0:
+            x1 = pictures[k, 0] - gap
+            return (x1 - widths[k], y - height / 2, x1, y + height / 2)
+        x0 = pictures[k, 2] + gap
+        return (x0, y - height / 2, x0 + widths[k], y + height / 2)
+
+    chosen: list[tuple[int, int]] = []
+
+    def fits(k):
+        if not all(_apart(bodies[k], bodies[j]) and _apart(pictures[k], label(j, s))
+                   for j, s in chosen):
+            return None
+        outer = -1 if 0.5 * (bodies[k, 0] + bodies[k, 2]) <= middle else 1
+        for side in (outer, -outer):
+            t = label(k, side)
+            if xlim[0] <= t[0] and t[2] <= xlim[1] and all(
+                    _apart(t, pictures[j]) and _apart(t, label(j, s)) for j, s in chosen):
+                return side
+        return None
+
+    for k in [0, len(bodies) - 1, *range(1, len(bodies) - 1)]:
         if len(chosen) == most:
             break
-        if clear(k, chosen):
-            chosen.append(k)
-    return idx[sorted(chosen)]
+        if any(k == j for j, _ in chosen):
+            continue
+        side = fits(k)
+        if side is not None:
+            chosen.append((k, side))
+    return sorted(chosen)
 
 
 def side_panel(ax, result, mo: Motion) -> None:
@@ -110,7 +154,7 @@ def motion_panel(ax, result, mo: Motion) -> None:
     from matplotlib.collections import LineCollection, PolyCollection
     s = result.scene
     view = drawing.view_for(mo.r_C)
-    xlim, ylim, reach = drawing.scene_extent(s, mo)
+    xlim, ylim, _ = drawing.scene_extent(s, mo)
     D, real = drawing.body_semi_axes(s)
     labels = []
     if s.plane:
@@ -127,7 +171,38 @@ def motion_panel(ax, result, mo: Motion) -> None:
         Sv = view(drawing.lowest_points(s, mo.r_O[rows], mo.A[rows]))
         ax.plot(Sv[:, 0], Sv[:, 1], "x", color="#d62728", ms=6, mew=1.5, zorder=1.7)
         labels.append((f"x  impacts at S ({len(rows)})", "#d62728"))
-    rows = snapshot_rows(view, mo, float(D.max()))
+    # the candidate instants, and the panel's limits from everything that may be drawn
+    # (the traces, the plane, the body at every candidate, room for a time on either
+    # side) so that the times can be placed by their size in the panel's own units
+    cand = np.unique(np.searchsorted(mo.t, np.linspace(mo.t[0], mo.t[-1], 60))
+                     .clip(0, len(mo.t) - 1))
+    R = float(D.max())         # the outline lies within R of the shape's centre
+    centres = view(mo.r_O[cand] + mo.A[cand] @ np.asarray(s.center, dtype=float))
+    bodies = np.hstack([centres - R, centres + R])
+    O = view(mo.r_O[cand])     # the axes reach 1.3 R from O (drawing.body_pictures)
+    tips = np.stack([view(mo.r_O[cand] + 1.3 * R * mo.A[cand][:, :, j]) for j in range(3)])
+    pictures = np.hstack([np.minimum(bodies[:, :2], np.minimum(O, tips.min(axis=0))),
+                          np.maximum(bodies[:, 2:], np.maximum(O, tips.max(axis=0)))])
+    texts = [_time_text(mo.t[i]) for i in cand]
+    widths_pt = np.array([_text_width(t) for t in texts]) + 2 * _TIME_MARGIN
+    pts = np.vstack([C, P, pictures[:, :2], pictures[:, 2:]] + ([poly] if s.plane else []))
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    pad = 0.04 * (hi - lo).max()
+    lo, hi = lo - pad, hi + pad
+    box = ax.get_position()
+    fw, fh = ax.figure.get_size_inches()
+    width_pt = box.width * fw * 72.0
+    ratio = (box.height * fh) / (box.width * fw)
+    room = (widths_pt.max() + _TIME_GAP) / width_pt       # of the panel's width
+    # equal scales, the narrower side widened to the panel's proportions
+    X = max((hi[0] - lo[0]) / (1.0 - 2.0 * room), (hi[1] - lo[1]) / ratio)
+    x0 = 0.5 * (lo[0] + hi[0] - X)
+    ymid = 0.5 * (lo[1] + hi[1])
+    panel_x, panel_y = (x0, x0 + X), (ymid - 0.5 * X * ratio, ymid + 0.5 * X * ratio)
+    unit = X / width_pt                                    # data units per point
+    chosen = snapshot_rows(bodies, pictures, widths_pt * unit, _TIME_FONT * 1.25 * unit,
+                           _TIME_GAP * unit, panel_x)
+    rows = cand[[k for k, _ in chosen]]
     pics = [drawing.body_pictures(view, s, mo.r_O[i], mo.A[i]) for i in rows]
     if s.plane:
         ax.add_collection(PolyCollection([p["shadow"] for p in pics], facecolors="0.35",
@@ -147,26 +222,13 @@ def motion_panel(ax, result, mo: Motion) -> None:
     labels += [("body x axis", drawing.AXIS_COLOURS[0]), ("body y axis",
                drawing.AXIS_COLOURS[1]), ("body z axis", drawing.AXIS_COLOURS[2]),
                ("o  the point P", "#e6550d")]
-    for i, p in zip(rows, pics):
-        ax.annotate(f"t = {mo.t[i]:.2f} s", (p["outline"][:, 0].min(), p["centre"][1]),
-                    textcoords="offset points", xytext=(-3, 0), ha="right", va="center",
-                    fontsize=8)
-    pts = np.vstack([C, P, *(p["outline"] for p in pics)] +
-                    ([poly] if s.plane else []))
-    lo, hi = pts.min(axis=0), pts.max(axis=0)
-    pad = 0.04 * (hi - lo).max()
-    lo, hi = lo - np.array([5 * pad, pad]), hi + pad      # room for the times on the left
-    # widen the narrower side to the panel's own proportions: equal scales, no shrinking
-    box = ax.get_position()
-    fw, fh = ax.figure.get_size_inches()
-    ratio = (box.height * fh) / (box.width * fw)
-    mid, half = 0.5 * (lo + hi), 0.5 * (hi - lo)
-    if half[1] / half[0] < ratio:
-        half[1] = half[0] * ratio
-    else:
-        half[0] = half[1] / ratio
-    ax.set_xlim(mid[0] - half[0], mid[0] + half[0])
-    ax.set_ylim(mid[1] - half[1], mid[1] + half[1])
+    for k, side in chosen:            # written where snapshot_rows made room for it
+        ax.annotate(texts[k], (pictures[k, 0 if side < 0 else 2], centres[k, 1]),
+                    textcoords="offset points", xytext=(side * (_TIME_GAP + _TIME_MARGIN), 0),
+                    ha="right" if side < 0 else "left", va="center", fontsize=_TIME_FONT,
+                    annotation_clip=False)
+    ax.set_xlim(*panel_x)
+    ax.set_ylim(*panel_y)
     ax.set_aspect("equal")
     ax.set_axis_off()
     note = "" if real else "\n(no surface: the body drawn as its equivalent ellipsoid of inertia)"

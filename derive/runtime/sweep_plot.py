@@ -1,21 +1,42 @@
 """The picture of a parameter sweep (``derive simulate --sweep``): for one swept field,
 the number of impacts and the time of the first resting contact against it; for two, a
-map of the number of impacts with refused or failed variants marked."""
+map of the number of impacts with refused or failed variants marked.
+
+The map has one cell per variant, centred on a tick that says its value: the axes are
+categorical (the values in the order swept, equally spaced whatever their spacing), so
+two values are two cells, not a continuous axis from half a step below the first."""
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import numpy as np
+
+MOST_TICKS = 12                   # every value is a tick up to this many values
+
+
+def value_text(v: float) -> str:
+    """A swept value as written: the shortest form that reads back as the same float."""
+    text = f"{v:.15g}"
+    return text if float(text) == v else repr(float(v))
+
+
+def category_ticks(n: int) -> list[int]:
+    """The indices of n values to mark: all of them up to MOST_TICKS, else every k-th
+    from the first (about ten)."""
+    step = 1 if n <= MOST_TICKS else math.ceil(n / 10)
+    return list(range(0, n, step))
 
 
 def sweep_plot(batch, grid: dict, folder: Path) -> Path:
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib.ticker import MaxNLocator
     names = list(grid)
-    impacts = batch.column("impacts").astype(float)
-    first = batch.column("first_contact_t").astype(float)
-    ok = np.array([r.get("status") == "done" for r in batch.rows])
+    impacts = batch.column("impacts").astype(float).filled(np.nan)
+    first = batch.column("first_contact_t").filled(np.nan)
+    ok = batch.column("status") == "done"
     path = folder / "sweep.png"
     if len(names) == 1:
         x = np.array(grid[names[0]], dtype=float)
@@ -23,9 +44,16 @@ def sweep_plot(batch, grid: dict, folder: Path) -> Path:
         ax.plot(x, impacts, "o-", ms=3, lw=1, color="C0", label="impacts")
         ax.set_xlabel(names[0])
         ax.set_ylabel("impacts", color="C0")
+        ax.yaxis.set_major_locator(MaxNLocator(integer=True))
+        if len(x) <= MOST_TICKS:
+            ax.set_xticks(x, [value_text(v) for v in x])
         ax2 = ax.twinx()
         ax2.plot(x, first, "s-", ms=3, lw=1, color="C1", label="first resting contact")
         ax2.set_ylabel("time of first resting contact [s]", color="C1")
+        if not np.isfinite(first).any():
+            ax2.set_yticks([])
+            ax2.text(0.98, 0.5, "no resting contact", transform=ax2.transAxes, ha="right",
+                     va="center", color="C1", fontsize=8)
         if (~ok).any():
             ax.plot(x[~ok], impacts[~ok], "x", color="red", ms=8, label="not done")
         ax.set_title(f"{len(batch.rows)} variants", fontsize=10)
@@ -34,15 +62,28 @@ def sweep_plot(batch, grid: dict, folder: Path) -> Path:
         ax.legend(h1 + h2, l1 + l2, loc="upper left", fontsize=8)
         fig.tight_layout()
     else:
-        x = np.array(grid[names[0]], dtype=float)
-        y = np.array(grid[names[1]], dtype=float)
-        Z = impacts.reshape(len(x), len(y)).T
+        xs, ys = list(grid[names[0]]), list(grid[names[1]])
+        nx, ny = len(xs), len(ys)
+        Z = np.ma.masked_invalid(impacts.reshape(nx, ny).T)
         fig, ax = plt.subplots(figsize=(6.5, 5))
-        mesh = ax.pcolormesh(x, y, Z, shading="nearest", cmap="viridis")
+        mesh = ax.pcolormesh(np.arange(nx + 1) - 0.5, np.arange(ny + 1) - 0.5, Z,
+                             shading="flat", cmap="viridis")
         fig.colorbar(mesh, ax=ax, label="impacts")
-        bad = (~ok).reshape(len(x), len(y)).T
+        for axis, values in ((ax.xaxis, xs), (ax.yaxis, ys)):
+            ticks = category_ticks(len(values))
+            axis.set_ticks(ticks, [value_text(values[k]) for k in ticks])
+        if nx * ny <= 64:                # few cells: the count written in each
+            missing = np.ma.getmaskarray(Z)
+            lo, hi = mesh.norm.vmin, mesh.norm.vmax
+            for i in range(nx):
+                for j in range(ny):
+                    if not missing[j, i]:
+                        dark = hi > lo and (Z[j, i] - lo) / (hi - lo) < 0.6
+                        ax.text(i, j, f"{int(Z[j, i])}", ha="center", va="center",
+                                fontsize=8, color="white" if dark else "black")
+        bad = (~ok).reshape(nx, ny).T
         if bad.any():
-            X, Y = np.meshgrid(x, y)
+            X, Y = np.meshgrid(np.arange(nx), np.arange(ny))
             ax.plot(X[bad], Y[bad], "x", color="red", ms=6, label="not done")
             ax.legend(fontsize=8, loc="upper right")
         ax.set_xlabel(names[0])

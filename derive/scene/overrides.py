@@ -9,6 +9,7 @@ now, for variants that re-validate only what they change).
 from __future__ import annotations
 
 import difflib
+import math
 import tomllib
 from dataclasses import dataclass
 
@@ -94,6 +95,66 @@ def parse_assignment(text: str, flag: str = "--set") -> tuple[str, object]:
                                   f"{text!r})")
     target(name, flag)
     return name, parse_value(value)
+
+
+def parse_sweep(text: str) -> tuple[str, list]:
+    """``body.mass=0.5:2:7`` (n points from lo to hi) or ``plane.restitution=0.1,0.5,0.9``."""
+    name, sep, spec = text.partition("=")
+    name = name.strip()
+    if not sep:
+        raise OverrideError("--sweep", f"must be table.key=lo:hi:n or table.key=a,b,c "
+                                    f"(got {text!r})")
+    target(name, "--sweep")
+    if ":" in spec:
+        parts = spec.split(":")
+        if len(parts) != 3:
+            raise OverrideError("--sweep", f"{name}: a range is lo:hi:n, three parts (got "
+                                        f"{spec!r})")
+        try:
+            lo, hi = float(parts[0]), float(parts[1])
+        except ValueError:
+            raise OverrideError("--sweep", f"{name}: lo and hi of lo:hi:n must be numbers (got "
+                                        f"{spec!r})") from None
+        n = parts[2].strip()
+        if not (n.isascii() and n.isdigit() and len(n) <= 6) or not 1 <= int(n) <= 100_000:
+            raise OverrideError("--sweep", f"{name}: n of lo:hi:n, the number of values, must "
+                                        f"be a whole number in [1, 100000] (got {n!r})")
+        if not (math.isfinite(lo) and math.isfinite(hi)):
+            raise OverrideError("--sweep", f"{name}: values must be finite numbers")
+        values = decimal_grid(parts[0], parts[1], int(n))
+    else:
+        try:
+            values = [float(v) for v in spec.split(",")]
+        except ValueError:
+            raise OverrideError("--sweep", f"{name}: values must be numbers separated by commas "
+                                        f"(got {spec!r})") from None
+    if not values or not all(math.isfinite(v) for v in values):
+        raise OverrideError("--sweep", f"{name}: values must be finite numbers")
+    return name, values
+
+
+def decimal_grid(lo, hi, n: int) -> list[float]:
+    """``n`` values from ``lo`` to ``hi`` evenly spaced in decimal, as a user types them:
+    ``lo + k (hi - lo)/(n - 1)`` computed from the numbers as written (strings, or floats
+    by their shortest repr) to 60 digits, each rounded once to the nearest float.  So
+    0.1:0.9:17 gives 0.3, where ``np.linspace`` gives 0.30000000000000004 (its steps add
+    the rounding of (hi - lo)/(n - 1)).  ``derive simulate --sweep`` and ``derive chart
+    stability --x/--y`` both use it."""
+    from decimal import Decimal, InvalidOperation, localcontext
+
+    def exact(v) -> Decimal:
+        if isinstance(v, str):
+            try:
+                return Decimal(v.strip())
+            except InvalidOperation:
+                v = float(v)                      # what float() reads and Decimal not
+        return Decimal(repr(float(v)))
+    with localcontext() as ctx:
+        ctx.prec = 60
+        a, b = exact(lo), exact(hi)
+        if n == 1:
+            return [float(a)]
+        return [float(a + (b - a) * k / (n - 1)) for k in range(n)]
 
 
 def apply_to_doc(doc: dict, name: str, value) -> None:
