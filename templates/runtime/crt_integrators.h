@@ -85,7 +85,7 @@ static double crt_step_rk4(crt_session *s, double t, const double *y0, const dou
   return 0.0;
 }
 
-#include "crt_rk_steps.h"        /* crt_step_dopri5, crt_step_dop853, crt_dense_complete_classical */
+#include "crt_rk_steps.h"   /* crt_step_dopri5, crt_step_dop853, crt_dense_complete_classical */
 
 static double crt_step_classical(crt_session *s, int method, double t, const double *y0,
                                  const double *f0, double h, double *y1, double *f1,
