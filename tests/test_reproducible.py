@@ -57,3 +57,31 @@ def test_check_reports_a_diff_and_exit_1(tmp_path, monkeypatch):
     delta = driver.diff(files, tmp_path)
     assert "--- generated/c/general_flight_rhs.c" in delta and "-  dq[0] = 1.0 +" in delta
     assert "generated/c/stale.c" in delta
+
+
+def test_the_plain_runtime_headers_are_copied_byte_for_byte(monkeypatch, tmp_path):
+    """templates/runtime/*.h are hand-written C (no template syntax), copied verbatim by
+    derive emit: the render holds them byte for byte, so --check compares the copies."""
+    from derive.emit import driver, runtime_backend
+    from derive.paths import GENERATED, TEMPLATES
+    monkeypatch.setattr(runtime_backend, "render_model", lambda m: "")   # not needed here
+    files = runtime_backend.render_runtime()
+    plain = sorted(p.name for p in (TEMPLATES / "runtime").glob("*.h"))
+    assert plain == ["crt_core.h", "crt_integrators.h", "crt_law.h", "crt_lie.h"]
+    for name in plain:
+        source = (TEMPLATES / "runtime" / name).read_bytes()
+        assert files[f"runtime/{name}"].encode("utf-8") == source
+        assert (GENERATED / "runtime" / name).read_bytes() == source
+        text = source.decode("utf-8")
+        assert not any(tag in text for tag in ("{{", "{%", "{#")), name
+        assert f"templates/runtime/{name}, copied verbatim" in " ".join(
+            line.lstrip(" *") for line in text[:800].splitlines()), name
+    # an edited copy is a difference for --check
+    committed = driver.existing(GENERATED)
+    for rel, data in committed.items():
+        (tmp_path / rel).parent.mkdir(parents=True, exist_ok=True)
+        (tmp_path / rel).write_bytes(data)
+    edited = committed["runtime/crt_core.h"].replace(b"CRT_MAX_SUB 32", b"CRT_MAX_SUB 33")
+    (tmp_path / "runtime" / "crt_core.h").write_bytes(edited)
+    delta = driver.diff(committed, tmp_path)
+    assert delta.startswith("--- generated/runtime/crt_core.h") and "CRT_MAX_SUB 33" in delta

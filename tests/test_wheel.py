@@ -52,7 +52,7 @@ def _checkout_files() -> set:
     want = {p.relative_to(ROOT).as_posix() for p in (ROOT / "derive").rglob("*.py")
             if "__pycache__" not in p.parts}
     want |= {f"derive/{p.relative_to(ROOT).as_posix()}"
-             for p in (ROOT / "templates").rglob("*.jinja")}
+             for p in (ROOT / "templates").rglob("*") if p.is_file()}   # *.jinja and *.h
     want |= {f"derive/generated/{rel}" for rel in _generated()}
     return want
 

@@ -1,15 +1,24 @@
-"""The C runtime, rendered once by ``derive emit`` into ``generated/runtime/``.
+"""The C runtime, written once into ``generated/runtime/`` by ``derive emit``.
 
-One C file per model (``model_<kind>.c``): the derived functions it calls (generic in
-every number of a scene: the parameters arrive at run time in ``prm[]``), the model's
-thin wrappers, and ``#include`` of the shared runtime headers:
+One C file per model (``model_<kind>.c``, rendered from ``templates/runtime/model.c.jinja``):
+the derived functions it calls (generic in every number of a scene: the parameters arrive
+at run time in ``prm[]``), the model's thin wrappers, and ``#include`` of the shared runtime
+headers.  Those are plain C, kept in ``templates/runtime/*.h`` and copied verbatim:
 
-* ``crt_abi.h``: enums and names from :mod:`derive.runtime.abi`;
 * ``crt_law.h``: the point-law interpreter and splines;
-* ``crt_integrators.h``: RK4, DOPRI5, DOP853 with dense output;
+* ``crt_integrators.h``: RK4, DOPRI5, DOP853 with dense output, and their dispatch;
 * ``crt_lie.h``: the Lie-group methods of the momentum form (K and C's parabola constant
   in flight, the attitude on SO(3)) and the dispatch between methods;
-* ``crt_core.h``: sessions, events, impacts, contact, output, the public API.
+* ``crt_core.h``: sessions, events, impacts, contact, output, the public API (its
+  comments are the runtime's manual);
+
+and rendered only where numbers or names come from Python (``templates/runtime/*.h.jinja``):
+
+* ``crt_abi.h``: enums, return codes and name tables from :mod:`derive.runtime.abi`;
+* ``crt_constants.h``: the constants of the runtime's sine and cosine
+  (:mod:`derive.emit.sincos`) and the limits of the Lie methods;
+* ``crt_rk_steps.h``, ``crt_lie_steps.h``: the steps of DOPRI5 and DOP853, classical and
+  Lie, with their tableaus (:mod:`derive.runtime.tableaus`) written out term by term.
 
 Nothing of a scene reaches this code: it is rendered from the derivation alone, and
 :mod:`derive.runtime.build` compiles each model once per machine.
@@ -24,7 +33,7 @@ from ..runtime import abi
 from ..runtime import tableaus as T
 from . import sincos
 from .c_backend import body
-from .render import environment, versions
+from .render import TEMPLATES, environment, versions
 
 
 @dataclass(frozen=True)
@@ -148,19 +157,43 @@ def render_model(m: RuntimeModel) -> str:
     return env.get_template("runtime/model.c.jinja").render(**ctx)
 
 
+# the headers rendered from templates/runtime/<name>.jinja; every other templates/runtime/*.h
+# is plain C, copied verbatim
+RENDERED = ("crt_abi.h", "crt_constants.h", "crt_rk_steps.h", "crt_lie_steps.h")
+
+
+def plain_headers() -> dict[str, str]:
+    """The hand-written headers, ``templates/runtime/*.h``, by name, as text."""
+    return {path.name: path.read_bytes().decode("utf-8")
+            for path in sorted((TEMPLATES / "runtime").glob("*.h"))}
+
+
+def _macro_lines(text: str, breaks: tuple) -> str:
+    """A long macro body on continued lines, broken before each of ``breaks``."""
+    for b in breaks:
+        text = text.replace(b, " \\\n  " + b.lstrip(), 1)
+    return text
+
+
 def render_runtime() -> dict[str, str]:
     """Every file of ``generated/runtime`` as text."""
     env = environment()
     from .. import lie
     theta = float(lie.THETA_MAX)
-    common = {"versions": versions(), **abi.c_context(), **tableau_context(),
-              **sincos.template_context(),
+    consts = sincos.template_context()
+    for key in ("sincos_sin_poly", "sincos_cos_poly"):
+        consts[key] = _macro_lines(consts[key], (" + z4 * ",))
+    common = {"versions": versions(), **abi.c_context(), **tableau_context(), **consts,
               "lie_theta_max": repr(theta), "lie_theta_max2": repr(theta * theta),
               "lie_max_turn": repr(LIE_MAX_TURN), "lie_tight": repr(LIE_TIGHT)}
     files = {}
-    for name in ("crt_abi.h", "crt_law.h", "crt_integrators.h", "crt_lie.h", "crt_core.h"):
+    for name in RENDERED:
         files[f"runtime/{name}"] = env.get_template(f"runtime/{name}.jinja").render(
             template=f"templates/runtime/{name}.jinja", **common)
+    for name, text in plain_headers().items():
+        if name in RENDERED:
+            raise ValueError(f"templates/runtime/{name} and {name}.jinja both exist")
+        files[f"runtime/{name}"] = text
     for m in MODELS:
         files[f"runtime/model_{m.kind}.c"] = render_model(m)
     return files

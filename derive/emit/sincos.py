@@ -1,5 +1,6 @@
 """The constants of the runtime's sine and cosine (``crt_sincos`` in
-``templates/runtime/crt_law.h.jinja``), computed here from their definitions.
+``templates/runtime/crt_law.h``), computed here from their definitions and rendered into
+``generated/runtime/crt_constants.h`` (``CRT_SINCOS_*``).
 
 The point law's harmonics take a sine and a cosine of one argument at every evaluation;
 in a run of the built-in scene they were 28% of the C time through the C library.  The

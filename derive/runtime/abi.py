@@ -1,11 +1,11 @@
 """The runtime's names, in one place: options, parameters, statuses, event kinds, counters,
 row kinds and the opcodes of the point-law interpreter.
 
-Everything the C runtime and Python exchange by position is listed here once, in order.
+Everything the C runtime and Python exchange by position or by code is listed here once.
 ``derive emit`` renders ``generated/runtime/crt_abi.h`` from these lists (enums, and
-name tables the compiled library exports), and Python reads the same lists; a test loads
-a compiled runtime and compares its name tables with these.  Nothing else in the project
-numbers an option, a status or a counter.
+name tables the compiled library exports), and Python reads the same lists; the library
+compares its name tables with these when it is loaded (:mod:`derive.runtime.build`).
+Nothing else in the project numbers an option, a status or a counter.
 """
 from __future__ import annotations
 
@@ -16,29 +16,34 @@ from dataclasses import dataclass
 class Name:
     name: str
     doc: str
+    rule: str = ""      # options: what crt_init requires of the value ("" : nothing)
 
 
 def _names(*pairs) -> tuple:
-    return tuple(Name(n, d) for n, d in pairs)
+    return tuple(Name(*p) for p in pairs)
 
 
-# Options: a double vector the caller fills by these indices (crt_init copies it).
+# Options: a double vector the caller fills by these indices (crt_init copies it).  The
+# third field is the rule crt_init checks (CRT_BAD_OPTIONS, and crt_bad_option gives the
+# index of the first option that breaks its rule); tests/test_runtime_status.py breaks
+# each rule and expects its option named.
 OPTIONS = _names(
-    ("method", "integrator: an index into METHODS"),
+    ("method", "integrator (enum crt_method)", "an integer index into METHODS"),
     ("plane", "1: the plane is there (a model with contact); 0: free flight"),
-    ("rtol", "relative tolerance of the adaptive methods"),
-    ("atol", "absolute tolerance of the adaptive methods"),
+    ("rtol", "relative tolerance of the adaptive methods", "> 0"),
+    ("atol", "absolute tolerance of the adaptive methods", "> 0"),
     ("h0", "first step (0: chosen automatically)"),
-    ("hmax", "largest step"),
-    ("rk4_step", "step of the fixed-step RK4"),
-    ("max_steps", "stop with max_steps after this many accepted steps"),
-    ("max_events", "stop with max_events after this many events"),
-    ("output_dt", "rows every output_dt from the dense output (0: one row per step)"),
+    ("hmax", "largest step", "> 0"),
+    ("rk4_step", "step of the fixed-step RK4", "> 0"),
+    ("max_steps", "stop with max_steps after this many accepted steps", ">= 1"),
+    ("max_events", "stop with max_events after this many events", ">= 1"),
+    ("output_dt", "rows every output_dt from the dense output (0: one row per step)", ">= 0"),
     ("orthonormal", "1: project the attitude onto the rotations after every step"),
-    ("time_scale", "the scene's time scale (its duration): tolerances of time are relative to it"),
-    ("event_tol", "event location tolerance, relative to the time scale"),
+    ("time_scale", "the scene's time scale (its duration): tolerances of time are relative "
+                   "to it", "> 0"),
+    ("event_tol", "event location tolerance, relative to the time scale", "> 0"),
     ("length_scale", "the largest |CS| (surface and point): heights are resolved relative "
-                     "to it"),
+                     "to it", ">= 0"),
     ("zeno_dt", "accumulating impacts: enter contact when the remaining flights sum to less "
                 "than zeno_dt times the time scale"),
 )
@@ -78,16 +83,50 @@ METHODS = _names(
              "output); DOP853 in persistent contact and in models without an attitude"),
 )
 
-STATUSES = _names(
-    ("paused", "the output buffer is full: call crt_advance again"),
-    ("done", "the end time was reached"),
-    ("max_events", "max_events events happened"),
-    ("step_underflow", "the step size fell below 1e-14 of the time scale"),
-    ("nonfinite", "the state or the right-hand side became NaN or infinite"),
-    ("max_steps", "max_steps steps were taken"),
-    ("bad_options", "an option is out of range"),
-    ("penetration", "S went below the plane and the event could not be located"),
+
+
+@dataclass(frozen=True)
+class Status:
+    name: str
+    code: int
+    doc: str
+
+
+# Return codes, in the manner of SUNDIALS' CVODE: 0 is success (a law or a run accepted),
+# positive codes are stops that are not errors (the buffer is full, the end time or the
+# caller's own event budget reached), negative codes are errors: the integration failed
+# (-1 to -4: CVODE's CV_TOO_MUCH_WORK, CV_ERR_FAILURE, CV_RHSFUNC_FAIL, CV_RTFUNC_FAIL)
+# or the call's input was refused (-20 and below: CVODE's CV_ILL_INPUT).  max_steps is an
+# error as CVODE's mxstep is (work ran out before t_end); max_events is the caller's own
+# budget of events, a stop like CVODE's root return.  The codes are part of the ABI:
+# never renumber one.
+STATUSES = (
+    Status("ok", 0, "accepted: the law (crt_set_law_*), or the run is ready (crt_init)"),
+    Status("paused", 1, "an output buffer is full: read the rows, call crt_advance again"),
+    Status("done", 2, "the end time was reached"),
+    Status("max_events", 3, "max_events events happened (opt[CRT_OPT_MAX_EVENTS])"),
+    Status("max_steps", -1, "max_steps steps were taken before the end time"),
+    Status("step_underflow", -2, "the step size fell below 1e-14 of the time scale"),
+    Status("nonfinite", -3, "the state or the right-hand side became NaN or infinite"),
+    Status("penetration", -4, "S went below the plane and the event could not be located"),
+    Status("bad_argument", -20, "an output buffer is smaller than CRT_MIN_ROWS rows or "
+                                "CRT_MIN_EVENTS events (nothing is done: call again with "
+                                "larger ones)"),
+    Status("bad_options", -21, "an option breaks its rule: crt_bad_option names it"),
+    Status("bad_parameters", -22, "a parameter is not finite: crt_bad_parameter names it"),
+    Status("bad_law", -23, "crt_set_law_* refused the law (malformed), or crt_init found "
+                           "no law set"),
 )
+STATUS = {s.name: s.code for s in STATUSES}
+
+
+def status_name(code: int) -> str:
+    """The name of a return code (as ``crt_status_name``), or ``status <code>``."""
+    for s in STATUSES:
+        if s.code == code:
+            return s.name
+    return f"status {code}"
+
 
 PHASES = _names(
     ("flight", "S above the plane"),
@@ -148,6 +187,11 @@ OPCODES = _names(
 )
 
 LAW_MAX_NODES = 1024      # nodes of one law (three coordinates): the C jet workspace
+# The smallest output buffers crt_advance takes (rows, events); smaller ones are refused
+# with bad_argument: a step needs room for its rows and an event's (before, after, and
+# the rows of output_dt up to it), else no call could make progress.
+MIN_ROWS = 8
+MIN_EVENTS = 4
 
 
 def index(table: tuple, name: str) -> int:
@@ -168,11 +212,20 @@ OP = {entry.name: k for k, entry in enumerate(OPCODES)}
 
 EVENT_COLUMNS = ("t", "kind", "value", "v_minus", "v_plus", "t_accumulation")
 
+# What crt_count(CRT_COUNT_<NAME>) reports, with the value abi.py expects.
+COUNTS = (
+    ("options", len(OPTIONS)), ("parameters", len(PARAMETERS)), ("stats", len(STATS)),
+    ("summary", len(SUMMARY)), ("opcodes", len(OPCODES)),
+    ("event_columns", len(EVENT_COLUMNS)), ("law_max_nodes", LAW_MAX_NODES),
+    ("min_rows", MIN_ROWS), ("min_events", MIN_EVENTS),
+)
+
 
 def c_context() -> dict:
-    """What ``templates/runtime/crt_abi.h.jinja`` and ``crt_core.h.jinja`` render."""
+    """What ``templates/runtime/crt_abi.h.jinja`` renders."""
     return {"options": OPTIONS, "parameters": PARAMETERS, "methods": METHODS,
             "statuses": STATUSES, "phases": PHASES, "event_kinds": EVENT_KINDS,
             "stats": STATS, "row_kinds": ROW_KINDS, "summary": SUMMARY,
             "law_kinds": LAW_KINDS, "opcodes": OPCODES, "law_max_nodes": LAW_MAX_NODES,
-            "event_columns": EVENT_COLUMNS}
+            "event_columns": EVENT_COLUMNS, "min_rows": MIN_ROWS, "min_events": MIN_EVENTS,
+            "counts": COUNTS}

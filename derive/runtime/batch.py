@@ -27,7 +27,7 @@ import numpy as np
 
 from .. import parallel
 from . import abi, choice
-from .driver import STATUSES, Prepared, prepare, run_prepared, session_for
+from .driver import Prepared, prepare, run_prepared, session_for
 from ..scene import Scene, SceneError, build_scene, load_scene, overrides, parse_scene
 from ..scene.rules import check_start_above_plane
 from ..scene.schema import SCENE
@@ -160,11 +160,14 @@ def _summary_rows(preps: list, session) -> list:
     stats, summ, last = out["stats"].tolist(), out["summary"], out["last"]
     rows = []
     for i, p in enumerate(preps):
-        if out["init_status"][i] != 0:
-            rows.append({"error": str(session._refused(int(out["init_status"][i])))})
+        if out["init_status"][i] != abi.STATUS["ok"]:
+            # crt_init again on this run's inputs: the C then names what it refused
+            status = session.init_status(p.options, p.parameters, p.scene.t0, p.start.q0)
+            rows.append({"error": str(session._refused(status))})
             continue
         st, t_end = stats[i], float(last[i, 0])
-        rows.append({"status": STATUSES[out["status"][i]], "model": p.kind, "t_end": t_end,
+        rows.append({"status": abi.status_name(int(out["status"][i])), "model": p.kind,
+                     "t_end": t_end,
                      "impacts": st[_STAT["impacts"]], "contacts": st[_STAT["contacts"]],
                      "liftoffs": st[_STAT["liftoffs"]], "steps": st[_STAT["steps"]],
                      "rhs_evaluations": st[_STAT["rhs_evaluations"]],

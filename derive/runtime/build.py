@@ -29,12 +29,17 @@ def runtime_dir() -> Path:
     return GENERATED / "runtime"
 
 
+# the runtime's headers (derive/emit/runtime_backend.py writes them; each model's file
+# includes all of them)
+HEADERS = ("crt_abi.h", "crt_constants.h", "crt_law.h", "crt_integrators.h",
+           "crt_rk_steps.h", "crt_lie.h", "crt_lie_steps.h", "crt_core.h")
+
+
 def sources(kind: str) -> dict[str, bytes]:
     folder = runtime_dir()
     if kind not in KINDS:
         raise KeyError(kind)
-    names = ["crt_abi.h", "crt_law.h", "crt_integrators.h", "crt_lie.h", "crt_core.h",
-             f"model_{kind}.c"]
+    names = [*HEADERS, f"model_{kind}.c"]
     missing = [n for n in names if not (folder / n).is_file()]
     if missing:
         raise FileNotFoundError(f"{folder} lacks {', '.join(missing)}: run `derive emit`")
@@ -60,6 +65,8 @@ class Library:
                 ("crt_law_at", None, [c.c_void_p, c.c_double, DP]),
                 ("crt_law_rows", None, [c.c_void_p, c.c_int, DP, DP]),
                 ("crt_init", c.c_int, [c.c_void_p, DP, DP, c.c_double, DP]),
+                ("crt_bad_option", c.c_int, [c.c_void_p]),
+                ("crt_bad_parameter", c.c_int, [c.c_void_p]),
                 ("crt_advance", c.c_int, [c.c_void_p, c.c_double, DP, DP, IP, c.c_int, IP,
                                           DP, c.c_int, IP]),
                 ("crt_run", c.c_int, [c.c_void_p, DP, DP, c.c_double, DP, c.c_double, DP, DP,
@@ -95,19 +102,26 @@ class Library:
         return tuple(getter(i).decode() for i in range(count))
 
     def _check_names(self) -> None:
-        """The library and abi.py must agree on every name and position."""
+        """The library and abi.py must agree on every name, position, return code and
+        size."""
         tables = (("crt_option_name", abi.OPTIONS), ("crt_parameter_name", abi.PARAMETERS),
-                  ("crt_method_name", abi.METHODS), ("crt_status_name", abi.STATUSES),
-                  ("crt_event_name", abi.EVENT_KINDS), ("crt_stat_name", abi.STATS),
-                  ("crt_summary_name", abi.SUMMARY), ("crt_opcode_name", abi.OPCODES))
+                  ("crt_method_name", abi.METHODS), ("crt_event_name", abi.EVENT_KINDS),
+                  ("crt_stat_name", abi.STATS), ("crt_summary_name", abi.SUMMARY),
+                  ("crt_opcode_name", abi.OPCODES))
         for fn, table in tables:
             got = self._names(fn, len(table))
             if got != abi.names(table):
                 raise RuntimeError(f"{self.path}: {fn} disagrees with derive/runtime/abi.py "
                                    "(run `derive emit`)")
-        counts = [self.lib.crt_count(k) for k in range(7)]
-        want = [len(abi.OPTIONS), len(abi.PARAMETERS), len(abi.STATS), len(abi.SUMMARY),
-                len(abi.OPCODES), len(abi.EVENT_COLUMNS), abi.LAW_MAX_NODES]
+        # return codes by code, negative ones included; the codes next to them unnamed
+        codes = [s.code for s in abi.STATUSES]
+        got = {code: self.lib.crt_status_name(code).decode()
+               for code in range(min(codes) - 1, max(codes) + 2)}
+        if got != {code: abi.status_name(code) if code in codes else "" for code in got}:
+            raise RuntimeError(f"{self.path}: crt_status_name disagrees with "
+                               "derive/runtime/abi.py (run `derive emit`)")
+        counts = [self.lib.crt_count(k) for k in range(len(abi.COUNTS))]
+        want = [value for _, value in abi.COUNTS]
         if counts != want:
             raise RuntimeError(f"{self.path}: table sizes {counts} differ from abi.py {want}")
 

@@ -21,7 +21,7 @@ from .build import DP, IP, Library, library
 from .geometry import heights, kinetic_moment
 from ..scene import Scene, load as _load
 
-STATUSES = abi.names(abi.STATUSES)
+_S = abi.STATUS                 # return codes by name (abi.status_name: the reverse)
 EVENT_KINDS = abi.names(abi.EVENT_KINDS)
 STAT_NAMES = abi.names(abi.STATS)
 SUMMARY_NAMES = abi.names(abi.SUMMARY)
@@ -74,6 +74,9 @@ class Session:
     an initial state per run)."""
 
     def __init__(self, lib: Library, chunk: int = 8192):
+        if chunk < max(abi.MIN_ROWS, abi.MIN_EVENTS):
+            raise ValueError(f"Session: chunk = {chunk} rows, the runtime needs at least "
+                             f"{max(abi.MIN_ROWS, abi.MIN_EVENTS)}")
         self.library = lib
         self._mem = ctypes.create_string_buffer(lib.session_size + 64)
         base = ctypes.addressof(self._mem)
@@ -118,8 +121,8 @@ class Session:
                                              arrays["consts"].ctypes.data_as(DP),
                                              len(arrays["consts"]),
                                              arrays["outputs"].ctypes.data_as(IP))
-        if status != 0:
-            raise RuntimeError(f"the runtime refused the law ({STATUSES[status]})")
+        if status != _S["ok"]:
+            raise RuntimeError(f"the runtime refused the law ({abi.status_name(status)})")
         self._law, self._law_key = (law, arrays), key
 
     def law_at(self, t: float) -> np.ndarray:
@@ -136,18 +139,38 @@ class Session:
         return u
 
     def _refused(self, status: int):
-        # validation should have refused the scene: say which rule the C applied
+        """The error for crt_init's ``status`` (not ok), naming the option or parameter
+        at fault (read from the C after that crt_init).  Validation should have refused
+        the scene: say which rule the C applied."""
         from ..scene import SceneError
-        return SceneError("[run]", f"the runtime refused the run's options or initial "
-                                   f"state ({STATUSES[status]}); please report this scene")
+        lib, name = self.library.lib, abi.status_name(status)
+        if status == _S["bad_options"]:
+            k = lib.crt_bad_option(self.handle)
+            what = (f"the option {abi.OPTIONS[k].name} = {self._opt[k]!r} (it must be "
+                    f"{abi.OPTIONS[k].rule})") if 0 <= k < len(abi.OPTIONS) else "an option"
+        elif status == _S["bad_parameters"]:
+            k = lib.crt_bad_parameter(self.handle)
+            what = (f"the parameter {abi.PARAMETERS[k].name} = {self._prm[k]!r} (it must "
+                    f"be finite)") if 0 <= k < len(abi.PARAMETERS) else "a parameter"
+        elif status == _S["bad_law"]:
+            what = "the run: no law set"
+        else:
+            what = "the run's initial state"
+        return SceneError("[run]", f"the runtime refused {what} ({name}); please report "
+                                   "this scene")
 
-    def init(self, opt, prm, t0: float, q0) -> None:
+    def init_status(self, opt, prm, t0: float, q0) -> int:
+        """crt_init's return code for these inputs (the session is then set up when it is
+        ok)."""
         self._opt[:] = opt
         self._prm[:] = prm
         self._q0[:] = q0
         op, pp, qp, _ = self._in
-        status = self.library.lib.crt_init(self.handle, op, pp, float(t0), qp)
-        if status != 0:
+        return self.library.lib.crt_init(self.handle, op, pp, float(t0), qp)
+
+    def init(self, opt, prm, t0: float, q0) -> None:
+        status = self.init_status(opt, prm, t0, q0)
+        if status != _S["ok"]:
             raise self._refused(status)
 
     def run(self, t0: float, duration: float, q0, opt, prm, progress=None) -> Raw:
@@ -163,14 +186,14 @@ class Session:
         status = lib.crt_run(self.handle, op, pp, float(t0), q0p, t_end, tp, qp, kp,
                              self.chunk, n_ref, ep, self.chunk, ne_ref, self._stats, summ,
                              init_ref)
-        if self._init.value != 0:
+        if self._init.value != _S["ok"]:
             raise self._refused(self._init.value)
         n, ne = self._n.value, self._ne.value
         t, q, kinds, ev = (self.t_buf[:n].copy(), self.q_buf[:n].copy(),
                            self.k_buf[:n].copy(), self.ev_buf[:ne].copy())
-        if status == 0:                       # a buffer filled: the rest chunk by chunk
+        if status == _S["paused"]:            # a buffer filled: the rest chunk by chunk
             ts, qs, ks, evs = [t], [q], [kinds], [ev]
-            while status == 0:
+            while status == _S["paused"]:
                 if progress is not None:
                     progress((lib.crt_time(self.handle) - t0) / duration)
                 status = lib.crt_advance(self.handle, t_end, tp, qp, kp, self.chunk,
@@ -184,11 +207,12 @@ class Session:
             lib.crt_summary(self.handle, summ)
             t, q, kinds, ev = (np.concatenate(ts), np.concatenate(qs), np.concatenate(ks),
                                np.concatenate(evs))
+        if status == _S["bad_argument"]:     # the buffers are checked in __init__
+            raise RuntimeError(f"the runtime refused the buffers of {self.chunk} rows")
         if progress is not None:
             progress(1.0)
         return Raw(t, q, kinds, ev, dict(zip(STAT_NAMES, self._stats[:])),
-                   dict(zip(SUMMARY_NAMES, self._summ.tolist())),
-                   STATUSES[status] if 0 <= status < len(STATUSES) else str(status))
+                   dict(zip(SUMMARY_NAMES, self._summ.tolist())), abi.status_name(status))
 
     def run_many(self, t0, t_end, q0, opt, prm) -> dict:
         """Many runs of the session's law in one call into C (crt_run_many), keeping per

@@ -3,33 +3,36 @@
  * Regenerate with `derive emit`; `derive emit --check` compares with a fresh render.
  * Tools: sympy 1.14.0, casadi 3.8.2 (ABI), jinja2 3.1.6.
  * The runtime's names: rendered from derive/runtime/abi.py, the one list Python reads too.
+ * Defines the exported name functions (crt_*_name): part of the model's one translation unit.
  */
 
 #ifndef CRT_ABI_H
 #define CRT_ABI_H
 
-/* Options: indices into the vector opt[CRT_OPT_COUNT] given to crt_init. */
+/* Options: indices into the vector opt[CRT_OPT_COUNT] given to crt_init ("must be": the
+   rule crt_init checks; crt_bad_option names the first option that breaks its rule). */
 enum crt_option {
-  CRT_OPT_METHOD = 0,  /* integrator: an index into METHODS */
+  CRT_OPT_METHOD = 0,  /* integrator (enum crt_method); must be an integer index into METHODS */
   CRT_OPT_PLANE = 1,  /* 1: the plane is there (a model with contact); 0: free flight */
-  CRT_OPT_RTOL = 2,  /* relative tolerance of the adaptive methods */
-  CRT_OPT_ATOL = 3,  /* absolute tolerance of the adaptive methods */
+  CRT_OPT_RTOL = 2,  /* relative tolerance of the adaptive methods; must be > 0 */
+  CRT_OPT_ATOL = 3,  /* absolute tolerance of the adaptive methods; must be > 0 */
   CRT_OPT_H0 = 4,  /* first step (0: chosen automatically) */
-  CRT_OPT_HMAX = 5,  /* largest step */
-  CRT_OPT_RK4_STEP = 6,  /* step of the fixed-step RK4 */
-  CRT_OPT_MAX_STEPS = 7,  /* stop with max_steps after this many accepted steps */
-  CRT_OPT_MAX_EVENTS = 8,  /* stop with max_events after this many events */
-  CRT_OPT_OUTPUT_DT = 9,  /* rows every output_dt from the dense output (0: one row per step) */
+  CRT_OPT_HMAX = 5,  /* largest step; must be > 0 */
+  CRT_OPT_RK4_STEP = 6,  /* step of the fixed-step RK4; must be > 0 */
+  CRT_OPT_MAX_STEPS = 7,  /* stop with max_steps after this many accepted steps; must be >= 1 */
+  CRT_OPT_MAX_EVENTS = 8,  /* stop with max_events after this many events; must be >= 1 */
+  CRT_OPT_OUTPUT_DT = 9,  /* rows every output_dt from the dense output (0: one row per step); must be >= 0 */
   CRT_OPT_ORTHONORMAL = 10,  /* 1: project the attitude onto the rotations after every step */
-  CRT_OPT_TIME_SCALE = 11,  /* the scene's time scale (its duration): tolerances of time are relative to it */
-  CRT_OPT_EVENT_TOL = 12,  /* event location tolerance, relative to the time scale */
-  CRT_OPT_LENGTH_SCALE = 13,  /* the largest |CS| (surface and point): heights are resolved relative to it */
+  CRT_OPT_TIME_SCALE = 11,  /* the scene's time scale (its duration): tolerances of time are relative to it; must be > 0 */
+  CRT_OPT_EVENT_TOL = 12,  /* event location tolerance, relative to the time scale; must be > 0 */
+  CRT_OPT_LENGTH_SCALE = 13,  /* the largest |CS| (surface and point): heights are resolved relative to it; must be >= 0 */
   CRT_OPT_ZENO_DT = 14,  /* accumulating impacts: enter contact when the remaining flights sum to less than zeno_dt times the time scale */
   CRT_OPT_COUNT = 15
 };
 
 /* Parameters: indices into the vector prm[CRT_P_COUNT] given to crt_init (the scene's
-   numbers; a model reads those it needs).  Named as in the paper, case kept (M, m). */
+   numbers; a model reads those it needs; each must be finite).  Named as in the paper,
+   case kept (M, m). */
 enum crt_parameter {
   CRT_P_M = 0,  /* mass of the carrier */
   CRT_P_m = 1,  /* mass of the point */
@@ -63,17 +66,24 @@ enum crt_method {
   CRT_METHOD_COUNT = 6
 };
 
-/* Return values of crt_init and crt_advance (crt_status_name gives the name). */
+/* Return codes of crt_set_law_program, crt_set_law_table, crt_init, crt_advance, crt_run
+   and of each run of crt_run_many, as in SUNDIALS' CVODE: CRT_OK (0) is success, positive
+   codes are stops that are not errors, negative codes are errors (-1 to -4: the
+   integration failed; -20 and below: an input was refused).  crt_status_name(code) gives
+   the name Python reports (Result.status).  The codes are fixed: none is ever renumbered. */
 enum crt_status {
-  CRT_PAUSED = 0,  /* the output buffer is full: call crt_advance again */
-  CRT_DONE = 1,  /* the end time was reached */
-  CRT_MAX_EVENTS = 2,  /* max_events events happened */
-  CRT_STEP_UNDERFLOW = 3,  /* the step size fell below 1e-14 of the time scale */
-  CRT_NONFINITE = 4,  /* the state or the right-hand side became NaN or infinite */
-  CRT_MAX_STEPS = 5,  /* max_steps steps were taken */
-  CRT_BAD_OPTIONS = 6,  /* an option is out of range */
-  CRT_PENETRATION = 7,  /* S went below the plane and the event could not be located */
-  CRT_STATUS_COUNT = 8
+  CRT_OK = 0,  /* accepted: the law (crt_set_law_*), or the run is ready (crt_init) */
+  CRT_PAUSED = 1,  /* an output buffer is full: read the rows, call crt_advance again */
+  CRT_DONE = 2,  /* the end time was reached */
+  CRT_MAX_EVENTS = 3,  /* max_events events happened (opt[CRT_OPT_MAX_EVENTS]) */
+  CRT_MAX_STEPS = -1,  /* max_steps steps were taken before the end time */
+  CRT_STEP_UNDERFLOW = -2,  /* the step size fell below 1e-14 of the time scale */
+  CRT_NONFINITE = -3,  /* the state or the right-hand side became NaN or infinite */
+  CRT_PENETRATION = -4,  /* S went below the plane and the event could not be located */
+  CRT_BAD_ARGUMENT = -20,  /* an output buffer is smaller than CRT_MIN_ROWS rows or CRT_MIN_EVENTS events (nothing is done: call again with larger ones) */
+  CRT_BAD_OPTIONS = -21,  /* an option breaks its rule: crt_bad_option names it */
+  CRT_BAD_PARAMETERS = -22,  /* a parameter is not finite: crt_bad_parameter names it */
+  CRT_BAD_LAW = -23   /* crt_set_law_* refused the law (malformed), or crt_init found no law set */
 };
 
 /* crt_phase. */
@@ -163,5 +173,172 @@ enum crt_opcode {
 
 #define CRT_LAW_MAX_NODES 1024
 #define CRT_EVENT_COLUMNS 6  /* t, kind, value, v_minus, v_plus, t_accumulation */
+/* The smallest output buffers crt_advance takes: smaller ones are refused with
+   CRT_BAD_ARGUMENT (a step needs room for its rows and an event's). */
+#define CRT_MIN_ROWS 8
+#define CRT_MIN_EVENTS 4
+
+/* What crt_count reports (the library's sizes, which Python compares with abi.py). */
+enum crt_count_kind {
+  CRT_COUNT_OPTIONS = 0,
+  CRT_COUNT_PARAMETERS = 1,
+  CRT_COUNT_STATS = 2,
+  CRT_COUNT_SUMMARY = 3,
+  CRT_COUNT_OPCODES = 4,
+  CRT_COUNT_EVENT_COLUMNS = 5,
+  CRT_COUNT_LAW_MAX_NODES = 6,
+  CRT_COUNT_MIN_ROWS = 7,
+  CRT_COUNT_MIN_EVENTS = 8
+};
+
+/* ---- the exported name functions: "" for an index or a code without a name ------------ */
+const char *crt_option_name(int i)
+{
+  static const char names[15][13] = {
+    "method",
+    "plane",
+    "rtol",
+    "atol",
+    "h0",
+    "hmax",
+    "rk4_step",
+    "max_steps",
+    "max_events",
+    "output_dt",
+    "orthonormal",
+    "time_scale",
+    "event_tol",
+    "length_scale",
+    "zeno_dt"
+  };
+  return (i >= 0 && i < 15) ? names[i] : "";
+}
+
+const char *crt_parameter_name(int i)
+{
+  static const char names[18][9] = {
+    "M",
+    "m",
+    "J_x",
+    "J_y",
+    "J_z",
+    "g",
+    "e",
+    "axis_a",
+    "axis_b",
+    "axis_c",
+    "center_x",
+    "center_y",
+    "center_z",
+    "n0_x",
+    "n0_y",
+    "n0_z",
+    "K",
+    "omega_z0"
+  };
+  return (i >= 0 && i < 18) ? names[i] : "";
+}
+
+const char *crt_method_name(int i)
+{
+  static const char names[6][7] = {
+    "rk4",
+    "dopri5",
+    "dop853",
+    "lie",
+    "lie5",
+    "lie8"
+  };
+  return (i >= 0 && i < 6) ? names[i] : "";
+}
+
+/* the name of a return code, negative ones included (CVODE's CVodeGetReturnFlagName) */
+const char *crt_status_name(int code)
+{
+  switch (code) {
+    case CRT_OK: return "ok";
+    case CRT_PAUSED: return "paused";
+    case CRT_DONE: return "done";
+    case CRT_MAX_EVENTS: return "max_events";
+    case CRT_MAX_STEPS: return "max_steps";
+    case CRT_STEP_UNDERFLOW: return "step_underflow";
+    case CRT_NONFINITE: return "nonfinite";
+    case CRT_PENETRATION: return "penetration";
+    case CRT_BAD_ARGUMENT: return "bad_argument";
+    case CRT_BAD_OPTIONS: return "bad_options";
+    case CRT_BAD_PARAMETERS: return "bad_parameters";
+    case CRT_BAD_LAW: return "bad_law";
+    default: return "";
+  }
+}
+
+const char *crt_event_name(int i)
+{
+  static const char names[5][8] = {
+    "none",
+    "impact",
+    "contact",
+    "liftoff",
+    "graze"
+  };
+  return (i >= 0 && i < 5) ? names[i] : "";
+}
+
+const char *crt_stat_name(int i)
+{
+  static const char names[9][27] = {
+    "steps",
+    "rejected",
+    "rhs_evaluations",
+    "event_function_evaluations",
+    "impacts",
+    "contacts",
+    "liftoffs",
+    "grazes",
+    "law_evaluations"
+  };
+  return (i >= 0 && i < 9) ? names[i] : "";
+}
+
+const char *crt_summary_name(int i)
+{
+  static const char names[3][13] = {
+    "min_height",
+    "min_normal",
+    "t_min_height"
+  };
+  return (i >= 0 && i < 3) ? names[i] : "";
+}
+
+const char *crt_opcode_name(int i)
+{
+  static const char names[24][6] = {
+    "const",
+    "t",
+    "add",
+    "sub",
+    "mul",
+    "div",
+    "neg",
+    "powi",
+    "powr",
+    "pow",
+    "sin",
+    "cos",
+    "tan",
+    "exp",
+    "log",
+    "sqrt",
+    "sinh",
+    "cosh",
+    "tanh",
+    "asin",
+    "acos",
+    "atan",
+    "hsin",
+    "hcos"
+  };
+  return (i >= 0 && i < 24) ? names[i] : "";
+}
 
 #endif /* CRT_ABI_H */

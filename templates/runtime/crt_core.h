@@ -1,6 +1,52 @@
-{% import "c/util.jinja" as util %}
-{{ util.preamble(template, versions, ["The event-driven runtime: sessions, event location, impacts, persistent contact,", "lift-off, output and the public API.  Included at the end of each model's file."]) }}
 /*
+ * crt_core.h: the event-driven runtime -- sessions, event location, impacts, persistent
+ * contact, lift-off, output and the public API.  Included at the end of each model's file
+ * (model_<kind>.c: with the headers it includes, the runtime's one translation unit).
+ *
+ * Hand-written C: this file is templates/runtime/crt_core.h, copied verbatim into
+ * generated/runtime/ by `derive emit` (`derive emit --check` compares the copy byte for
+ * byte).  Edit it there, then run `derive emit`.  The comments of this header are the
+ * runtime's manual; the names of options, parameters, counters and return codes are in
+ * crt_abi.h, rendered from derive/runtime/abi.py.
+ *
+ * ---- Use -----------------------------------------------------------------------------
+ * A session lives in the caller's memory (crt_sizeof() bytes, aligned for a double);
+ * nothing is allocated and nothing is global, so sessions are independent.  A run:
+ *   crt_set_law_program or crt_set_law_table   the point law (kept for later runs)
+ *   crt_init(s, opt, prm, t0, q0)              options, parameters, the initial state
+ *   crt_advance(s, t_end, rows, events)        again while it returns CRT_PAUSED
+ *   crt_stats, crt_summary, crt_state, crt_time, crt_phase   what the run did
+ * or crt_run (crt_init and crt_advance in one call), or crt_run_many (many runs of one
+ * law in one call).  Each function below documents its inputs.
+ *
+ * ---- Return codes (enum crt_status in crt_abi.h; crt_status_name gives the name) ------
+ * As in SUNDIALS' CVODE: zero is success, positive codes are stops that are not errors,
+ * negative codes are errors.
+ *   CRT_OK               0  crt_set_law_*: the law is accepted; crt_init: ready to advance
+ *   CRT_PAUSED           1  crt_advance: an output buffer is full; read it, call again
+ *   CRT_DONE             2  crt_advance: t_end reached
+ *   CRT_MAX_EVENTS       3  crt_advance: opt[CRT_OPT_MAX_EVENTS] events happened (the
+ *                           caller's own budget: a stop, as CVODE's root return)
+ *   CRT_MAX_STEPS       -1  crt_advance: opt[CRT_OPT_MAX_STEPS] steps before t_end (an
+ *                           error, as CVODE's CV_TOO_MUCH_WORK)
+ *   CRT_STEP_UNDERFLOW  -2  crt_advance: the step fell below 1e-14 of the time scale
+ *   CRT_NONFINITE       -3  the state or the right-hand side is NaN or infinite (crt_init:
+ *                           at t0; crt_advance: even after steps cut down to the minimum)
+ *   CRT_PENETRATION     -4  crt_advance: S below the plane by more than h_pen and no
+ *                           shorter step avoids it (the contact guarantees below)
+ *   CRT_BAD_ARGUMENT   -20  crt_advance, crt_run, crt_run_many: cap < CRT_MIN_ROWS or
+ *                           ev_cap < CRT_MIN_EVENTS.  Nothing is done, nothing written:
+ *                           the session is as it was (call again with larger buffers)
+ *   CRT_BAD_OPTIONS    -21  crt_init: an option breaks its rule (crt_abi.h);
+ *                           crt_bad_option(s) gives its index CRT_OPT_*
+ *   CRT_BAD_PARAMETERS -22  crt_init: a parameter is not finite; crt_bad_parameter(s)
+ *                           gives its index CRT_P_*
+ *   CRT_BAD_LAW        -23  crt_set_law_*: the law is malformed (the session then has no
+ *                           law); crt_init: no law is set
+ * After any code but CRT_OK, CRT_PAUSED and CRT_BAD_ARGUMENT, crt_advance returns that
+ * code again, doing nothing, until the next crt_init.
+ *
+ * ---- The model -------------------------------------------------------------------------
  * A model file defines, before including this header:
  *   NQ, MODEL_NAME, MODEL_HAS_PLANE, MODEL_Z (index of Z_C), MODEL_ZD (index of Z_C'),
  *   model_rhs(p, u, q, dq)                   flight right-hand side
@@ -77,7 +123,9 @@ typedef struct {
   int g_valid;                            /* g_start, d_start: the event function at t */
   double g_start, d_start;
   int phase;
-  int status;
+  int status;                             /* CRT_OK after crt_init, CRT_PAUSED while it
+                                             runs, then the code that ended the run */
+  int bad_option, bad_parameter;          /* crt_bad_option, crt_bad_parameter (-1: none) */
   int plane;                              /* MODEL_HAS_PLANE and opt[CRT_OPT_PLANE] */
   double err_old;
   double last_event_t;                    /* the time of the last event */
@@ -412,6 +460,26 @@ static int crt_search(crt_session *s, double t1, const double *y1, double rate,
   return CRT_STEP_CLEAR;
 }
 
+/* Lift off at (t, s->q) in contact, N the reaction that reached zero: S put on the plane
+   with v_n = 0 (the contact constraint the phase ends with; N does not depend on Z_C and
+   Z_C', which that changes), the rows before and after the event, the event, and the
+   session in flight from t.  The one lift-off of the runtime: at the start of a step
+   whose reaction is already non-positive (crt_advance), and where N crosses zero inside
+   a step (crt_handle_event). */
+static void crt_lift_off(crt_session *s, crt_out *o, double t, double N)
+{
+  s->last_event_t = t;
+  crt_project(s, t, s->q, 1);
+  crt_emit(o, t, s->q, CRT_ROW_BEFORE_EVENT);
+  s->phase = CRT_FLIGHT;
+  crt_event(o, t, CRT_EV_LIFTOFF, N, 0.0, 0.0, 0.0);
+  ++s->stat[CRT_STAT_LIFTOFFS];
+  s->last_flight = 0.0;
+  crt_emit(o, t, s->q, CRT_ROW_AFTER_EVENT);
+  crt_changed(s);
+  s->g_valid = 0;
+}
+
 static int crt_events_exhausted(crt_session *s)
 {
   const double n = (double)(s->stat[CRT_STAT_IMPACTS] + s->stat[CRT_STAT_CONTACTS]
@@ -506,11 +574,18 @@ static void crt_collide(crt_session *s, crt_out *o, double t, const double *q)
    sqrt(rtol) of the re-step (crt_handle_event) */
 #define CRT_TAYLOR_DT 1e-3
 
-/* Locate the event in [ta, tb], move the session there and apply it.  Returns 1 when the
-   run must stop, 2 when the output buffer filled before the event (nothing changed: the
-   step is redone on the next call), 0 otherwise. */
-static int crt_handle_event(crt_session *s, crt_out *o, double ta, double ga, double tb,
-                            double gb)
+/* What crt_handle_event did. */
+enum crt_handled {
+  CRT_HANDLED_GO_ON = 0,        /* the event applied: take the next step */
+  CRT_HANDLED_STOP = 1,         /* the event applied and the run stops (max_events) */
+  CRT_HANDLED_BUFFER_FULL = 2   /* no room for the event's rows: nothing changed, the step
+                                   is redone on the next call */
+};
+
+/* Locate the event in [ta, tb], move the session there and apply it: an impact, a graze
+   or an entry into contact in flight (crt_collide), a lift-off in contact. */
+static enum crt_handled crt_handle_event(crt_session *s, crt_out *o, double ta, double ga,
+                                         double tb, double gb)
 {
   const double tol = s->opt[CRT_OPT_EVENT_TOL] * crt_max(s->opt[CRT_OPT_TIME_SCALE], fabs(tb));
   double t_ev;
@@ -545,29 +620,22 @@ static int crt_handle_event(crt_session *s, crt_out *o, double ta, double ga, do
       if (it == 3) crt_step(s, s->t, s->q, s->f, t_ev - s->t, q_ev, f_ev, 0);
     }
   }
-  if (!crt_flush_outputs(s, o, t_ev, 0)) return 2;
-  if (o->n + 3 > o->cap || o->ev_n + 3 > o->ev_cap) return 2;
+  if (!crt_flush_outputs(s, o, t_ev, 0)) return CRT_HANDLED_BUFFER_FULL;
+  if (o->n + 3 > o->cap || o->ev_n + 3 > o->ev_cap) return CRT_HANDLED_BUFFER_FULL;
   ++s->stat[CRT_STAT_STEPS];
   if (s->phase == CRT_FLIGHT) {
     crt_collide(s, o, t_ev, q_ev);
+    crt_emit(o, t_ev, s->q, CRT_ROW_AFTER_EVENT);
+    crt_changed(s);
+    s->g_valid = 0;
   } else {
     double N, a_free;
-    s->last_event_t = t_ev;
     for (it = 0; it < NQ; ++it) s->q[it] = q_ev[it];
-    /* leave from the plane with the contact constraint satisfied (h = 0, v_n = 0) */
-    crt_project(s, t_ev, s->q, 1);
-    crt_emit(o, t_ev, s->q, CRT_ROW_BEFORE_EVENT);
     crt_contact_state(s, t_ev, s->q, &N, &a_free);
-    s->phase = CRT_FLIGHT;
-    crt_event(o, t_ev, CRT_EV_LIFTOFF, N, 0.0, 0.0, 0.0);
-    ++s->stat[CRT_STAT_LIFTOFFS];
-    s->last_flight = 0.0;
+    crt_lift_off(s, o, t_ev, N);
   }
-  crt_emit(o, t_ev, s->q, CRT_ROW_AFTER_EVENT);
   s->t = t_ev;
-  crt_changed(s);
-  s->g_valid = 0;
-  return crt_events_exhausted(s);
+  return crt_events_exhausted(s) ? CRT_HANDLED_STOP : CRT_HANDLED_GO_ON;
 }
 #endif
 
@@ -597,77 +665,69 @@ static double crt_initial_step(crt_session *s)
   return crt_min(crt_min(100.0 * h0, h1), s->opt[CRT_OPT_HMAX]);
 }
 
-/* ---- public API: the manual is generated/runtime/README.md ----------------------------------- */
+/* ---- public API (its manual: the comment at the top of this file and those below) ---- */
+
+/* the size of a session in bytes: the caller gives the memory (aligned for a double) */
 int crt_sizeof(void) { return (int)sizeof(crt_session); }
 
+/* the number of states of the model, and their names (crt_state_name, model_<kind>.c) */
 int crt_nq(void) { return NQ; }
 
+/* 1 when the model has the plane (impacts, contact), else 0 */
 int crt_has_plane(void) { return MODEL_HAS_PLANE; }
 
 const char *crt_model_name(void) { return MODEL_NAME; }
 
-{% macro name_table(fn, items) %}
-const char *{{ fn }}(int i)
-{
-  static const char names[{{ items|length }}][{{ items|map(attribute="name")|map("length")|max + 1 }}] = {
-{% for item in items %}
-    "{{ item.name }}"{{ "," if not loop.last }}
-{% endfor %}
-  };
-  return (i >= 0 && i < {{ items|length }}) ? names[i] : "";
-}
-{% endmacro %}
-{{ name_table("crt_option_name", options) }}
-{{ name_table("crt_parameter_name", parameters) }}
-{{ name_table("crt_method_name", methods) }}
-{{ name_table("crt_status_name", statuses) }}
-{{ name_table("crt_event_name", event_kinds) }}
-{{ name_table("crt_stat_name", stats) }}
-{{ name_table("crt_summary_name", summary) }}
-{{ name_table("crt_opcode_name", opcodes) }}
+/* the library's sizes (which: CRT_COUNT_*, crt_abi.h), 0 for an unknown one; Python
+   compares them with derive/runtime/abi.py when it loads the library */
 int crt_count(int which)
 {
   switch (which) {
-    case 0: return CRT_OPT_COUNT;
-    case 1: return CRT_P_COUNT;
-    case 2: return CRT_STAT_COUNT;
-    case 3: return CRT_SUMMARY_COUNT;
-    case 4: return CRT_OP_COUNT;
-    case 5: return CRT_EVENT_COLUMNS;
-    case 6: return CRT_LAW_MAX_NODES;
+    case CRT_COUNT_OPTIONS: return CRT_OPT_COUNT;
+    case CRT_COUNT_PARAMETERS: return CRT_P_COUNT;
+    case CRT_COUNT_STATS: return CRT_STAT_COUNT;
+    case CRT_COUNT_SUMMARY: return CRT_SUMMARY_COUNT;
+    case CRT_COUNT_OPCODES: return CRT_OP_COUNT;
+    case CRT_COUNT_EVENT_COLUMNS: return CRT_EVENT_COLUMNS;
+    case CRT_COUNT_LAW_MAX_NODES: return CRT_LAW_MAX_NODES;
+    case CRT_COUNT_MIN_ROWS: return CRT_MIN_ROWS;
+    case CRT_COUNT_MIN_EVENTS: return CRT_MIN_EVENTS;
     default: return 0;
   }
 }
 
-/* The law as an interpreted program: n_nodes rows (op, a, b) of code, the first n_const
-   of them constants; out: the nodes of x, y, z.  The arrays are the caller's and must
-   outlive the runs.  Returns CRT_BAD_OPTIONS for a malformed program. */
+/* The law as an interpreted program: n_nodes (1 to CRT_LAW_MAX_NODES) rows (op, a, b) of
+   code, the first n_const of them CRT_OP_CONST and no other; consts[n_consts]; out: the
+   nodes of x, y, z.  Each node reads only nodes before it, each constant index is below
+   n_consts.  The arrays are the caller's and must outlive the runs.  Returns CRT_OK, or
+   CRT_BAD_LAW for a malformed program (the session then has no law: crt_init refuses to
+   start until one is set). */
 int crt_set_law_program(crt_session *s, int n_nodes, int n_const, const int *code,
                         const double *consts, int n_consts, const int *out)
 {
   int k;
   s->law.kind = -1;
   if (n_nodes < 1 || n_nodes > CRT_LAW_MAX_NODES || n_const < 0 || n_const > n_nodes)
-    return CRT_BAD_OPTIONS;
+    return CRT_BAD_LAW;
   for (k = 0; k < n_nodes; ++k) {
     const int op = code[3 * k], a = code[3 * k + 1], b = code[3 * k + 2];
     if (op < 0 || op >= CRT_OP_COUNT || (k < n_const) != (op == CRT_OP_CONST))
-      return CRT_BAD_OPTIONS;
-    if (op == CRT_OP_CONST) { if (a < 0 || a >= n_consts) return CRT_BAD_OPTIONS; continue; }
+      return CRT_BAD_LAW;
+    if (op == CRT_OP_CONST) { if (a < 0 || a >= n_consts) return CRT_BAD_LAW; continue; }
     if (op == CRT_OP_T) continue;
     if (op == CRT_OP_HSIN || op == CRT_OP_HCOS) {
-      if (a < 0 || a + 2 >= n_consts) return CRT_BAD_OPTIONS;
+      if (a < 0 || a + 2 >= n_consts) return CRT_BAD_LAW;
       continue;
     }
-    if (a < 0 || a >= k) return CRT_BAD_OPTIONS;
+    if (a < 0 || a >= k) return CRT_BAD_LAW;
     if ((op == CRT_OP_POWI || op == CRT_OP_POWR) && (b < 0 || b >= n_consts))
-      return CRT_BAD_OPTIONS;
+      return CRT_BAD_LAW;
     if ((op == CRT_OP_ADD || op == CRT_OP_SUB || op == CRT_OP_MUL || op == CRT_OP_DIV
          || op == CRT_OP_POW) && (b < 0 || b >= k))
-      return CRT_BAD_OPTIONS;
+      return CRT_BAD_LAW;
   }
   for (k = 0; k < 3; ++k)
-    if (out[k] < 0 || out[k] >= n_nodes) return CRT_BAD_OPTIONS;
+    if (out[k] < 0 || out[k] >= n_nodes) return CRT_BAD_LAW;
   s->law.n_nodes = n_nodes;
   s->law.n_const = n_const;
   s->law.code = code;
@@ -675,27 +735,29 @@ int crt_set_law_program(crt_session *s, int n_nodes, int n_const, const int *cod
   for (k = 0; k < 3; ++k) s->law.out[k] = out[k];
   s->law.kind = CRT_LAW_PROGRAM;
   crt_law_prepare(&s->law, &s->lw);
-  return CRT_PAUSED;
+  return CRT_OK;
 }
 
-/* The law as a cubic spline: knots[0..n_knots-1] increasing, coef[(n_knots-1)*12] the
-   coefficients of x, y, z on each interval (c0 s^3 + c1 s^2 + c2 s + c3, s = t - knot);
-   periodic: the law repeats with period knots[n-1] - knots[0]. */
+/* The law as a cubic spline: knots[0..n_knots-1] (n_knots >= 2) increasing, coef[(n_knots
+   - 1) * 12] the coefficients of x, y, z on each interval (c0 s^3 + c1 s^2 + c2 s + c3,
+   s = t - knot); periodic (0 or 1): the law repeats with period knots[n-1] - knots[0].
+   The arrays are the caller's and must outlive the runs.  Returns CRT_OK, or CRT_BAD_LAW
+   (fewer than two knots, or knots not increasing: the session then has no law). */
 int crt_set_law_table(crt_session *s, int n_knots, const double *knots, const double *coef,
                       int periodic)
 {
   int k;
   s->law.kind = -1;
-  if (n_knots < 2) return CRT_BAD_OPTIONS;
+  if (n_knots < 2) return CRT_BAD_LAW;
   for (k = 1; k < n_knots; ++k)
-    if (!(knots[k] > knots[k - 1])) return CRT_BAD_OPTIONS;
+    if (!(knots[k] > knots[k - 1])) return CRT_BAD_LAW;
   s->law.n_knots = n_knots;
   s->law.knots = knots;
   s->law.coef = coef;
   s->law.periodic = periodic != 0;
   s->law.kind = CRT_LAW_TABLE;
   crt_law_prepare(&s->law, &s->lw);
-  return CRT_PAUSED;
+  return CRT_OK;
 }
 
 /* the law at t: u = (x, y, z, x', y', z', x'', y'', z'') */
@@ -716,8 +778,43 @@ void crt_law_rows(crt_session *s, int n, const double *t, double *u)
   }
 }
 
-/* Start a run at (t0, q0) with the options opt[CRT_OPT_COUNT] and the parameters
-   prm[CRT_P_COUNT] (both copied); the law must be set.  Returns CRT_PAUSED when ready. */
+/* The first option that breaks its rule (the rules of crt_abi.h's enum crt_option), or
+   -1.  Options without a rule take any value. */
+static int crt_option_fault(const double *opt)
+{
+  const double method = opt[CRT_OPT_METHOD];
+  if (!(method >= 0.0 && method < (double)CRT_METHOD_COUNT && (double)(int)method == method))
+    return CRT_OPT_METHOD;
+  if (!(opt[CRT_OPT_RTOL] > 0.0)) return CRT_OPT_RTOL;
+  if (!(opt[CRT_OPT_ATOL] > 0.0)) return CRT_OPT_ATOL;
+  if (!(opt[CRT_OPT_HMAX] > 0.0)) return CRT_OPT_HMAX;
+  if (!(opt[CRT_OPT_TIME_SCALE] > 0.0)) return CRT_OPT_TIME_SCALE;
+  if (!(opt[CRT_OPT_RK4_STEP] > 0.0)) return CRT_OPT_RK4_STEP;
+  if (!(opt[CRT_OPT_OUTPUT_DT] >= 0.0)) return CRT_OPT_OUTPUT_DT;
+  if (!(opt[CRT_OPT_EVENT_TOL] > 0.0)) return CRT_OPT_EVENT_TOL;
+  if (!(opt[CRT_OPT_LENGTH_SCALE] >= 0.0)) return CRT_OPT_LENGTH_SCALE;
+  if (!(opt[CRT_OPT_MAX_STEPS] >= 1.0)) return CRT_OPT_MAX_STEPS;
+  if (!(opt[CRT_OPT_MAX_EVENTS] >= 1.0)) return CRT_OPT_MAX_EVENTS;
+  return -1;
+}
+
+/* The first parameter that is not finite, or -1. */
+static int crt_parameter_fault(const double *prm)
+{
+  int i;
+  for (i = 0; i < CRT_P_COUNT; ++i)
+    if (!(prm[i] - prm[i] == 0.0)) return i;   /* NaN or infinite */
+  return -1;
+}
+
+/* Start a run at (t0, q0[NQ]) with the options opt[CRT_OPT_COUNT] and the parameters
+   prm[CRT_P_COUNT] (both copied: the caller may reuse its arrays); the law must be set.
+   Returns CRT_OK when the run is ready to advance, else (and crt_advance then returns the
+   same code until the next crt_init):
+     CRT_BAD_LAW          no law is set, or the last crt_set_law_* refused its law;
+     CRT_BAD_OPTIONS      an option breaks its rule: crt_bad_option(s) is its index;
+     CRT_BAD_PARAMETERS   a parameter is not finite: crt_bad_parameter(s) is its index;
+     CRT_NONFINITE        q0, or the right-hand side at (t0, q0), is not finite. */
 int crt_init(crt_session *s, const double *opt, const double *prm, double t0, const double *q0)
 {
   int i;
@@ -731,7 +828,9 @@ int crt_init(crt_session *s, const double *opt, const double *prm, double t0, co
   s->lw.valid = 0;
   s->t = t0;
   s->phase = CRT_FLIGHT;
-  s->status = CRT_PAUSED;
+  s->status = CRT_OK;
+  s->bad_option = -1;
+  s->bad_parameter = -1;
   s->plane = MODEL_HAS_PLANE && s->opt[CRT_OPT_PLANE] != 0.0;
   s->err_old = 1e-4;
   crt_changed(s);
@@ -744,25 +843,14 @@ int crt_init(crt_session *s, const double *opt, const double *prm, double t0, co
   s->out_k = 0.0;
   s->out_pending = 0;
   s->out_until = t0;
-  {
-    const int method = (int)s->opt[CRT_OPT_METHOD];
-    if (s->law.kind != CRT_LAW_PROGRAM && s->law.kind != CRT_LAW_TABLE) {
-      s->status = CRT_BAD_OPTIONS;
-      return s->status;
-    }
-    if (!(method >= 0 && method < CRT_METHOD_COUNT && (double)method == s->opt[CRT_OPT_METHOD])
-        || !(s->opt[CRT_OPT_RTOL] > 0.0) || !(s->opt[CRT_OPT_ATOL] > 0.0)
-        || !(s->opt[CRT_OPT_HMAX] > 0.0) || !(s->opt[CRT_OPT_TIME_SCALE] > 0.0)
-        || !(s->opt[CRT_OPT_RK4_STEP] > 0.0) || !(s->opt[CRT_OPT_OUTPUT_DT] >= 0.0)
-        || !(s->opt[CRT_OPT_EVENT_TOL] > 0.0) || !(s->opt[CRT_OPT_LENGTH_SCALE] >= 0.0)
-        || !(s->opt[CRT_OPT_MAX_STEPS] >= 1.0) || !(s->opt[CRT_OPT_MAX_EVENTS] >= 1.0)) {
-      s->status = CRT_BAD_OPTIONS;
-      return s->status;
-    }
+  if (s->law.kind != CRT_LAW_PROGRAM && s->law.kind != CRT_LAW_TABLE) {
+    s->status = CRT_BAD_LAW;
+    return s->status;
   }
-  for (i = 0; i < CRT_P_COUNT; ++i) {
-    if (!(s->prm[i] - s->prm[i] == 0.0)) { s->status = CRT_BAD_OPTIONS; return s->status; }
-  }
+  s->bad_option = crt_option_fault(s->opt);
+  if (s->bad_option >= 0) { s->status = CRT_BAD_OPTIONS; return s->status; }
+  s->bad_parameter = crt_parameter_fault(s->prm);
+  if (s->bad_parameter >= 0) { s->status = CRT_BAD_PARAMETERS; return s->status; }
   if (!crt_finite(s->q)) { s->status = CRT_NONFINITE; return s->status; }
   crt_rhs(s, s->t, s->q, s->f);
   if (!crt_finite(s->f)) { s->status = CRT_NONFINITE; return s->status; }
@@ -776,22 +864,35 @@ int crt_init(crt_session *s, const double *opt, const double *prm, double t0, co
   return s->status;
 }
 
+/* After crt_init returned CRT_BAD_OPTIONS: the index (CRT_OPT_*) of the first option
+   that breaks its rule (crt_option_name gives its name); otherwise -1. */
+int crt_bad_option(const crt_session *s) { return s->bad_option; }
+
+/* After crt_init returned CRT_BAD_PARAMETERS: the index (CRT_P_*) of the first parameter
+   that is not finite (crt_parameter_name gives its name); otherwise -1. */
+int crt_bad_parameter(const crt_session *s) { return s->bad_parameter; }
+
+/* CRT_FLIGHT or CRT_CONTACT (S held on the plane) */
 int crt_phase(const crt_session *s) { return s->phase; }
 
+/* the time the session has reached */
 double crt_time(const crt_session *s) { return s->t; }
 
+/* the state at crt_time: q[NQ] */
 void crt_state(const crt_session *s, double *q)
 {
   int i;
   for (i = 0; i < NQ; ++i) q[i] = s->q[i];
 }
 
+/* the run's counters: out[CRT_STAT_COUNT] (enum crt_stat) */
 void crt_stats(const crt_session *s, long *out)
 {
   int i;
   for (i = 0; i < CRT_STAT_COUNT; ++i) out[i] = s->stat[i];
 }
 
+/* what the run kept: out[CRT_SUMMARY_COUNT] (enum crt_summary_value) */
 void crt_summary(const crt_session *s, double *out)
 {
   int i;
@@ -837,37 +938,27 @@ void crt_eval_rhs_rows(crt_session *s, int n, const double *t, const double *q, 
   for (k = 0; k < n; ++k) model_rhs(s->prm, crt_u(s, t[k]), q + (long)k * NQ, dq + (long)k * NQ);
 }
 
-/* Advance to t_end, or until an output buffer is full (CRT_PAUSED: call again).  Rows of
-   t_out/q_out/kind_out (capacity cap >= 8): the state at every accepted step (or every
-   output_dt), and before and after every event; events are listed in ev_out, rows of
-   CRT_EVENT_COLUMNS (capacity ev_cap >= 4). */
-int crt_advance(crt_session *s, double t_end, double *t_out, double *q_out, int *kind_out,
-                int cap, int *n_out, double *ev_out, int ev_cap, int *n_ev)
+/* crt_advance's work, its arguments checked: steps until t_end, a stop, an error or a
+   full buffer; the code in s->status */
+static void crt_integrate(crt_session *s, double t_end, crt_out *o)
 {
-  crt_out o;
   double y1[NQ], f1[NQ];
   const double scale = s->opt[CRT_OPT_TIME_SCALE];
   const double h_min = 1e-14 * crt_max(scale, fabs(s->t));
   const double out_dt = s->opt[CRT_OPT_OUTPUT_DT];
   const int adaptive = (int)s->opt[CRT_OPT_METHOD] != CRT_RK4;
   const int order = crt_order(s);
-  o.t = t_out; o.q = q_out; o.kind = kind_out; o.cap = cap; o.n = 0;
-  o.ev = ev_out; o.ev_cap = ev_cap; o.ev_n = 0;
-  *n_out = 0; *n_ev = 0;
-  if (s->status != CRT_PAUSED) return s->status;
-  if (cap < 8 || ev_cap < 4) return s->status;
   if (s->stat[CRT_STAT_STEPS] == 0 && s->t_first == s->t && s->out_k == 0.0) {
-    crt_emit(&o, s->t, s->q, CRT_ROW_STEP);
+    crt_emit(o, s->t, s->q, CRT_ROW_STEP);
     s->out_k = 1.0;
     s->next_output = out_dt > 0.0 ? s->t_first + out_dt : s->t;
   }
-  if (s->out_pending && !crt_flush_outputs(s, &o, s->out_until, s->out_until >= t_end)) {
-    *n_out = o.n; *n_ev = o.ev_n;
-    return CRT_PAUSED;
+  if (s->out_pending && !crt_flush_outputs(s, o, s->out_until, s->out_until >= t_end)) {
+    return;
   }
   while (s->t < t_end) {
     double h, h_wanted, knot, err, t1;
-    if (o.n + 8 > o.cap || o.ev_n + 4 > o.ev_cap) break;
+    if (o->n + CRT_MIN_ROWS > o->cap || o->ev_n + CRT_MIN_EVENTS > o->ev_cap) break;
     if ((double)s->stat[CRT_STAT_STEPS] >= s->opt[CRT_OPT_MAX_STEPS]) { s->status = CRT_MAX_STEPS; break; }
 #if MODEL_HAS_PLANE
     if (s->plane && s->phase == CRT_CONTACT) {
@@ -875,16 +966,7 @@ int crt_advance(crt_session *s, double t_end, double *t_out, double *q_out, int 
       double N, a_free;
       crt_contact_state(s, s->t, s->q, &N, &a_free);
       if (!(N > 0.0)) {
-        s->last_event_t = s->t;
-        crt_project(s, s->t, s->q, 1);
-        crt_emit(&o, s->t, s->q, CRT_ROW_BEFORE_EVENT);
-        s->phase = CRT_FLIGHT;
-        crt_event(&o, s->t, CRT_EV_LIFTOFF, N, 0.0, 0.0, 0.0);
-        ++s->stat[CRT_STAT_LIFTOFFS];
-        s->last_flight = 0.0;
-        crt_emit(&o, s->t, s->q, CRT_ROW_AFTER_EVENT);
-        crt_changed(s);
-        s->g_valid = 0;
+        crt_lift_off(s, o, s->t, N);
         if (crt_events_exhausted(s)) break;
         continue;
       }
@@ -901,8 +983,8 @@ int crt_advance(crt_session *s, double t_end, double *t_out, double *q_out, int 
         double q_now[NQ];
         int i;
         for (i = 0; i < NQ; ++i) q_now[i] = s->q[i];
-        crt_collide(s, &o, s->t, q_now);
-        crt_emit(&o, s->t, s->q, CRT_ROW_AFTER_EVENT);
+        crt_collide(s, o, s->t, q_now);
+        crt_emit(o, s->t, s->q, CRT_ROW_AFTER_EVENT);
         crt_changed(s);
         s->g_valid = 0;
         if (crt_events_exhausted(s)) break;
@@ -936,9 +1018,9 @@ int crt_advance(crt_session *s, double t_end, double *t_out, double *q_out, int 
       const int found = crt_search(s, t1, y1, model_rate(s->prm, crt_u(s, t1), y1),
                                    &ta, &ga, &tb, &gb);
       if (found == CRT_STEP_EVENT) {
-        const int handled = crt_handle_event(s, &o, ta, ga, tb, gb);
-        if (handled == 2) { s->g_valid = 0; break; }
-        if (handled == 1) break;
+        const enum crt_handled handled = crt_handle_event(s, o, ta, ga, tb, gb);
+        if (handled == CRT_HANDLED_BUFFER_FULL) { s->g_valid = 0; break; }
+        if (handled == CRT_HANDLED_STOP) break;
         continue;
       }
       if (found == CRT_STEP_RETRY) {
@@ -978,8 +1060,8 @@ int crt_advance(crt_session *s, double t_end, double *t_out, double *q_out, int 
       s->g_valid = 0;
     }
 #endif
-    if (out_dt <= 0.0) crt_emit(&o, s->t, s->q, CRT_ROW_STEP);
-    else if (!crt_flush_outputs(s, &o, s->t, s->t >= t_end)) {
+    if (out_dt <= 0.0) crt_emit(o, s->t, s->q, CRT_ROW_STEP);
+    else if (!crt_flush_outputs(s, o, s->t, s->t >= t_end)) {
       /* the rest on the next call */
     }
     if (!adaptive) {
@@ -1003,19 +1085,45 @@ int crt_advance(crt_session *s, double t_end, double *t_out, double *q_out, int 
   if (s->status == CRT_PAUSED && s->t >= t_end && !s->out_pending) {
     s->status = CRT_DONE;
     /* the output_dt grid need not land on t_end: the final state is a row too */
-    if (out_dt > 0.0 && (o.n == 0 || o.t[o.n - 1] < s->t))
-      crt_emit(&o, s->t, s->q, CRT_ROW_STEP);
+    if (out_dt > 0.0 && (o->n == 0 || o->t[o->n - 1] < s->t))
+      crt_emit(o, s->t, s->q, CRT_ROW_STEP);
   }
+}
+
+/* Advance the run to t_end (> crt_time, or nothing happens and the run is done), or until
+   an output buffer is full.  Writes rows t_out[cap], q_out[cap * NQ], kind_out[cap]
+   (enum crt_row_kind): the initial state (on the first call), the state at every accepted
+   step (or every opt[CRT_OPT_OUTPUT_DT] from the dense output, and at t_end), and before
+   and after every event; *n_out of them.  Writes events ev_out[ev_cap * CRT_EVENT_COLUMNS]
+   (t, kind (enum crt_event_kind), value, v_n-, v_n+, t_accumulation); *n_ev of them.
+   cap >= CRT_MIN_ROWS and ev_cap >= CRT_MIN_EVENTS, else CRT_BAD_ARGUMENT and nothing is
+   done.  Returns CRT_PAUSED when a buffer is full (read the rows, call again: the run
+   resumes where it paused), CRT_DONE at t_end, or the code that stopped the run
+   (CRT_MAX_EVENTS, or an error: the manual at the top of this file); after a stop or an
+   error, and after crt_init failed, it returns that code again and writes nothing. */
+int crt_advance(crt_session *s, double t_end, double *t_out, double *q_out, int *kind_out,
+                int cap, int *n_out, double *ev_out, int ev_cap, int *n_ev)
+{
+  crt_out o;
+  *n_out = 0; *n_ev = 0;
+  if (cap < CRT_MIN_ROWS || ev_cap < CRT_MIN_EVENTS) return CRT_BAD_ARGUMENT;
+  if (s->status != CRT_OK && s->status != CRT_PAUSED) return s->status;
+  s->status = CRT_PAUSED;                  /* running: a stop or an error overwrites it */
+  o.t = t_out; o.q = q_out; o.kind = kind_out; o.cap = cap; o.n = 0;
+  o.ev = ev_out; o.ev_cap = ev_cap; o.ev_n = 0;
+  crt_integrate(s, t_end, &o);
   *n_out = o.n;
   *n_ev = o.ev_n;
   return s->status;
 }
 
 /* crt_init, then crt_advance to t_end, then crt_stats and crt_summary: a whole run in one
-   call (what a binding pays per call is per crossing).  *init_status is crt_init's result;
-   when it is not CRT_PAUSED nothing ran and that status is returned.  Otherwise returns
-   crt_advance's: CRT_PAUSED when a buffer filled (call crt_advance again, then crt_stats
-   and crt_summary). */
+   call (what a binding pays per call is per crossing).  The arguments are those of the
+   three.  *init_status is crt_init's result; when it is not CRT_OK nothing ran, and that
+   code is returned (stats and summary are not written).  Otherwise returns crt_advance's
+   code: CRT_PAUSED when a buffer filled (call crt_advance again, then crt_stats and
+   crt_summary), CRT_BAD_ARGUMENT for too small buffers (nothing ran yet: call
+   crt_advance with larger ones). */
 int crt_run(crt_session *s, const double *opt, const double *prm, double t0, const double *q0,
             double t_end, double *t_out, double *q_out, int *kind_out, int cap, int *n_out,
             double *ev_out, int ev_cap, int *n_ev, long *stats, double *summary,
@@ -1024,7 +1132,7 @@ int crt_run(crt_session *s, const double *opt, const double *prm, double t0, con
   int status = crt_init(s, opt, prm, t0, q0);
   *init_status = status;
   *n_out = 0; *n_ev = 0;
-  if (status != CRT_PAUSED) return status;
+  if (status != CRT_OK) return status;
   status = crt_advance(s, t_end, t_out, q_out, kind_out, cap, n_out, ev_out, ev_cap, n_ev);
   crt_stats(s, stats);
   crt_summary(s, summary);
@@ -1035,10 +1143,14 @@ int crt_run(crt_session *s, const double *opt, const double *prm, double t0, con
    study reads: its status, counters, summary, final time and state, and the time of its
    first contact (NaN if none) -- one crossing into C for many runs.  Row i of opt
    (CRT_OPT_COUNT), prm (CRT_P_COUNT) and q0 (NQ), and t0[i], t_end[i], are run i's; the
-   row and event buffers are scratch (cap >= 8 rows, ev_cap >= 4 events).  init_status[i]
-   is crt_init's result (when not CRT_PAUSED, run i did not start and its status is that
-   result).  Outputs: status[n], stats[n * CRT_STAT_COUNT], summary[n * CRT_SUMMARY_COUNT],
-   last[n * (1 + NQ)] (t, then q), first_contact[n]. */
+   row and event buffers (t_buf[cap], q_buf[cap * NQ], kind_buf[cap], ev_buf[ev_cap *
+   CRT_EVENT_COLUMNS]) are scratch; the smaller they are, the more often each run pauses
+   and resumes inside.  init_status[i] is crt_init's result (when not CRT_OK, run i did
+   not start and its status is that code).  status[i] is the code that ended run i:
+   CRT_DONE, CRT_MAX_EVENTS or an error, never CRT_PAUSED; CRT_BAD_ARGUMENT when cap <
+   CRT_MIN_ROWS or ev_cap < CRT_MIN_EVENTS (then no run advances).  Outputs: status[n],
+   stats[n * CRT_STAT_COUNT], summary[n * CRT_SUMMARY_COUNT], last[n * (1 + NQ)] (t, then
+   q), first_contact[n]. */
 void crt_run_many(crt_session *s, int n, const double *opt, const double *prm,
                   const double *t0, const double *q0, const double *t_end, double *t_buf,
                   double *q_buf, int *kind_buf, int cap, double *ev_buf, int ev_cap,
@@ -1054,7 +1166,7 @@ void crt_run_many(crt_session *s, int n, const double *opt, const double *prm,
     st = crt_init(s, opt + (long)i * CRT_OPT_COUNT, prm + (long)i * CRT_P_COUNT, t0[i],
                   q0 + (long)i * NQ);
     init_status[i] = st;
-    if (st == CRT_PAUSED) {
+    if (st == CRT_OK) {
       do {
         st = crt_advance(s, t_end[i], t_buf, q_buf, kind_buf, cap, &n_rows, ev_buf, ev_cap,
                          &n_ev);

@@ -1,7 +1,15 @@
-{# Flight on the integral: the Lie-group methods of the runtime, and the dispatch between
-   them and the classical methods.  Included by crt_core.h after crt_integrators.h. #}
-{% import "c/util.jinja" as util %}
-{{ util.preamble(template, versions, ["Flight on the integral: Lie-group steps for the attitude with K and C's parabola as constants", "of the flight, and the dispatch of crt_step, crt_order and the dense output.  Included by crt_core.h."]) }}
+/*
+ * crt_lie.h: flight on the integral -- the Lie-group steps for the attitude with K and C's
+ * parabola as constants of the flight, and the dispatch of crt_step, crt_order and the
+ * dense output between them and the classical methods (crt_integrators.h).  The steps
+ * lie8 and lie5, whose tableaus are written out term by term, are rendered into
+ * crt_lie_steps.h from derive/runtime/tableaus.py; the limits CRT_LIE_* come from
+ * crt_constants.h.  Included by crt_core.h after crt_integrators.h.
+ *
+ * Hand-written C: this file is templates/runtime/crt_lie.h, copied verbatim into
+ * generated/runtime/ by `derive emit` (`derive emit --check` compares the copy byte for
+ * byte).  Edit it there, then run `derive emit`.
+ */
 #ifndef CRT_LIE_H
 #define CRT_LIE_H
 
@@ -25,9 +33,9 @@
  * attitude the classical method of the same order runs instead (DOP853, DOPRI5).
  */
 
-/* lie: the order of its coefficients by the tolerance (8 below CRT_LIE_TIGHT, else 5) */
-#define CRT_LIE_TIGHT {{ lie_tight }}
+#include "crt_constants.h"     /* CRT_LIE_TIGHT, CRT_LIE_MAX_W2, CRT_LIE_MAX_TURN */
 
+/* lie: the order of its coefficients by the tolerance (8 below CRT_LIE_TIGHT, else 5) */
 static int crt_resolve_method(const crt_session *s)
 {
   const int method = (int)s->opt[CRT_OPT_METHOD];
@@ -218,127 +226,17 @@ static void crt_lie_dense_start(crt_session *s, double t, double h, int m, int p
   d->n_scale = L->n_scale;
 }
 
-/* exponential coordinates of a step beyond |W| = {{ lie_theta_max }} rad are refused (the series of
-   derive/lie.py are exact to rounding up to there), and steps are kept below a turn of
-   CRT_LIE_MAX_TURN radians at the rate of the step's start so that this rarely happens */
-#define CRT_LIE_MAX_W2 {{ lie_theta_max2 }}
-#define CRT_LIE_MAX_TURN {{ lie_max_turn }}
-
-/* a refused chart: an error norm that shrinks the step by about 0.45 |W|max/|W| */
+/* Exponential coordinates of a step beyond |W| = CRT_LIE_THETA_MAX rad (CRT_LIE_MAX_W2 is
+   its square) are refused: the series of derive/lie.py are exact to rounding up to there.
+   Steps are kept below a turn of CRT_LIE_MAX_TURN radians at the rate of the step's start
+   so that this rarely happens.  A refused chart returns an error norm that shrinks the
+   step by about 0.45 |W|max/|W|. */
 static double crt_lie_refuse(double big, int order)
 {
   return pow(4.0 * big / CRT_LIE_MAX_W2, 0.5 * order);
 }
 
-{# a linear combination sum_j c_j k[j][i] over the (j, c_j) pairs with c_j != 0 #}
-{% macro combo(pairs) -%}
-{% for j, v in pairs %}{{ " + " if not loop.first }}{{ v }} * k[{{ j }}][i]{% endfor %}
-{%- endmacro %}
-/* ---- lie: DOP853's coefficients for W ---------------------------------------------------- */
-static double crt_step_lie8(crt_session *s, double t, double h, double *y1, int with_dense)
-{
-  crt_lie *L = &s->lie;
-  double (*k)[NQ] = s->k;
-  double W[3], omega[3], err3 = 0.0, err5 = 0.0, denom, big = 0.0;
-  const double sc = s->opt[CRT_OPT_ATOL] + s->opt[CRT_OPT_RTOL];
-  int i;
-  for (i = 0; i < 3; ++i) k[0][i] = L->omega[i];       /* dexpinv(0, omega) = omega */
-{% for st in range(1, 12) %}
-  for (i = 0; i < 3; ++i) W[i] = h * ({{ combo(dop853.a_pairs[st]) }});
-  big = crt_max(big, W[0] * W[0] + W[1] * W[1] + W[2] * W[2]);
-  crt_lie_eval(s, t + {{ dop853.c[st] }} * h, W, L->k, k[{{ st }}], omega);
-{% endfor %}
-  for (i = 0; i < 3; ++i) W[i] = h * ({{ combo(dop853.b_pairs) }});
-  big = crt_max(big, W[0] * W[0] + W[1] * W[1] + W[2] * W[2]);
-  crt_lie_eval(s, t + h, W, L->k, k[12], L->omega_end);
-  for (i = 0; i < 3; ++i) {
-    const double e3 = ({{ combo(dop853.e3_pairs) }}) / sc;
-    const double e5 = ({{ combo(dop853.e5_pairs) }}) / sc;
-    err3 += e3 * e3;
-    err5 += e5 * e5;
-  }
-  crt_lie_finish(s, t + h, W, y1);
-  if (with_dense) {
-    crt_dense *d = &s->dense;
-    crt_lie_dense_start(s, t, h, 7, 1);
-    for (i = 0; i < 3; ++i) {
-      d->y0[i] = 0.0;
-      d->F[0][i] = W[i];
-      d->F[1][i] = h * k[0][i] - W[i];
-      d->F[2][i] = 2.0 * W[i] - h * (k[0][i] + k[12][i]);
-    }
-  }
-  if (!(big <= CRT_LIE_MAX_W2)) return crt_lie_refuse(big, 8);   /* too far for one chart */
-  denom = err5 + 0.01 * err3;
-  if (denom <= 0.0) denom = 1.0;
-  return fabs(h) * err5 / sqrt(denom * 3.0);
-}
-
-/* the extra stages of the 7th-order dense output of W, in the chart of the step */
-static void crt_lie_dense_complete8(crt_session *s)
-{
-  crt_dense *d = &s->dense;
-  double (*k)[NQ] = s->k;
-  double W[3], omega[3];
-  const double t = d->t0, h = d->h;
-  int i;
-  d->pending = 0;
-{% for st in range(13, 16) %}
-  for (i = 0; i < 3; ++i) W[i] = h * ({{ combo(dop853.a_pairs[st]) }});
-  crt_lie_eval(s, t + {{ dop853.c[st] }} * h, W, d->k0, k[{{ st }}], omega);
-{% endfor %}
-  for (i = 0; i < 3; ++i) {
-{% for r in range(4) %}
-    d->F[{{ 3 + r }}][i] = h * ({{ combo(dop853.d_pairs[r]) }});
-{% endfor %}
-  }
-}
-
-/* ---- lie5: DOPRI5's coefficients for W --------------------------------------------------- */
-static double crt_step_lie5(crt_session *s, double t, double h, double *y1, int with_dense)
-{
-{% for i in range(1, 7) %}
-  static const double a{{ i }}[{{ i }}] = { {{ dopri5.a[i]|join(", ") }} };
-{% endfor %}
-  static const double c[7] = { {{ dopri5.c|join(", ") }} };
-  static const double e[7] = { {{ dopri5.e|join(", ") }} };
-  static const double dd[7] = { {{ dopri5.d|join(", ") }} };
-  crt_lie *L = &s->lie;
-  double (*k)[NQ] = s->k;
-  double W[3], omega[3], err = 0.0, big = 0.0;
-  const double sc = s->opt[CRT_OPT_ATOL] + s->opt[CRT_OPT_RTOL];
-  int i;
-  for (i = 0; i < 3; ++i) k[0][i] = L->omega[i];
-{% for i in range(1, 6) %}
-  for (i = 0; i < 3; ++i)
-    W[i] = h * ({% for j in range(i) %}{{ " + " if not loop.first }}a{{ i }}[{{ j }}] * k[{{ j }}][i]{% endfor %});
-  big = crt_max(big, W[0] * W[0] + W[1] * W[1] + W[2] * W[2]);
-  crt_lie_eval(s, t + c[{{ i }}] * h, W, L->k, k[{{ i }}], omega);
-{% endfor %}
-  for (i = 0; i < 3; ++i)
-    W[i] = h * ({% for j in range(6) %}{{ " + " if not loop.first }}a6[{{ j }}] * k[{{ j }}][i]{% endfor %});
-  big = crt_max(big, W[0] * W[0] + W[1] * W[1] + W[2] * W[2]);
-  crt_lie_eval(s, t + h, W, L->k, k[6], L->omega_end);
-  for (i = 0; i < 3; ++i) {
-    const double r = h * ({% for j in range(7) %}{{ " + " if not loop.first }}e[{{ j }}] * k[{{ j }}][i]{% endfor %}) / sc;
-    err += r * r;
-  }
-  crt_lie_finish(s, t + h, W, y1);
-  if (with_dense) {
-    crt_dense *d = &s->dense;
-    crt_lie_dense_start(s, t, h, 4, 0);
-    for (i = 0; i < 3; ++i) {
-      d->y0[i] = 0.0;
-      d->F[0][i] = W[i];
-      d->F[1][i] = h * k[0][i] - W[i];
-      d->F[2][i] = W[i] - h * k[6][i] - d->F[1][i];
-      d->F[3][i] = h * ({% for j in range(7) %}{{ " + " if not loop.first }}dd[{{ j }}] * k[{{ j }}][i]{% endfor %});
-    }
-  }
-  (void)c;
-  if (!(big <= CRT_LIE_MAX_W2)) return crt_lie_refuse(big, 5);
-  return sqrt(err / 3.0);
-}
+#include "crt_lie_steps.h"     /* crt_step_lie8, crt_lie_dense_complete8, crt_step_lie5 */
 
 /* the state at t from the dense output of W: A = A_n cay(W(t)) (a rotation whatever W),
    omega from E1.4 at that attitude, C on its parabola */
