@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 from derive.paths import GENERATED
-from derive.runtime import abi
+from derive import abi
 from derive.runtime.driver import prepare
 
 from test_runtime import ball, scene_dict
@@ -238,7 +238,7 @@ def test_runtime_headers_are_valid_cpp(kind):
 
 
 def test_the_library_and_abi_agree_on_every_name():
-    """One source of truth: the compiled name tables equal derive/runtime/abi.py (the
+    """One source of truth: the compiled name tables equal derive/abi.py (the
     library refuses to load otherwise), and the header's enums are rendered from it."""
     from derive.runtime.build import library
     lib = library("vertical")

@@ -1,4 +1,4 @@
-"""The runtime's return codes say what happened (derive/runtime/abi.py STATUSES, in the
+"""The runtime's return codes say what happened (derive/abi.py STATUSES, in the
 manner of SUNDIALS' CVODE: 0 success, positive stops, negative errors).
 
 * Output buffers smaller than CRT_MIN_ROWS rows or CRT_MIN_EVENTS events are refused
@@ -24,7 +24,7 @@ import numpy as np
 import pytest
 
 from derive.paths import GENERATED
-from derive.runtime import abi
+from derive import abi
 from derive.runtime.build import DP, IP, library
 from derive.runtime.driver import Session, prepare
 from derive.scene import SceneError

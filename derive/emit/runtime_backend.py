@@ -14,7 +14,7 @@ headers.  Those are plain C, kept in ``templates/runtime/*.h`` and copied verbat
 
 and rendered only where numbers or names come from Python (``templates/runtime/*.h.jinja``):
 
-* ``crt_abi.h``: enums, return codes and name tables from :mod:`derive.runtime.abi`;
+* ``crt_abi.h``: enums, return codes and name tables from :mod:`derive.abi`;
 * ``crt_constants.h``: the constants of the runtime's sine and cosine
   (:mod:`derive.emit.sincos`) and the limits of the Lie methods;
 * ``crt_rk_steps.h``, ``crt_lie_steps.h``: the steps of DOPRI5 and DOP853, classical and
@@ -29,7 +29,7 @@ from dataclasses import dataclass
 from functools import lru_cache
 
 from .. import models as dm
-from ..runtime import abi
+from .. import abi
 from ..runtime import tableaus as T
 from . import sincos
 from .c_backend import body

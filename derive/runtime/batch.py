@@ -26,7 +26,8 @@ from dataclasses import dataclass, field, fields as dataclass_fields
 import numpy as np
 
 from .. import parallel
-from . import abi, choice
+from .. import abi
+from . import choice
 from .driver import Prepared, prepare, run_prepared, session_for
 from ..scene import Scene, SceneError, build_scene, load_scene, overrides, parse_scene
 from ..scene.rules import check_start_above_plane

@@ -15,7 +15,7 @@ from functools import lru_cache
 from pathlib import Path
 
 from ..cbuild import build_shared, runtime_flags
-from . import abi
+from .. import abi
 
 KINDS = ("general", "vertical", "attitude", "translational", "planar", "axisymmetric",
          "variational")
@@ -48,7 +48,7 @@ def sources(kind: str) -> dict[str, bytes]:
 
 class Library:
     """One model's runtime through ctypes; checks its name tables against
-    :mod:`derive.runtime.abi` when loaded."""
+    :mod:`derive.abi` when loaded."""
 
     def __init__(self, path: Path, kind: str, build_seconds: float = 0.0):
         self.path, self.kind, self.build_seconds = Path(path), kind, build_seconds
@@ -111,7 +111,7 @@ class Library:
         for fn, table in tables:
             got = self._names(fn, len(table))
             if got != abi.names(table):
-                raise RuntimeError(f"{self.path}: {fn} disagrees with derive/runtime/abi.py "
+                raise RuntimeError(f"{self.path}: {fn} disagrees with derive/abi.py "
                                    "(run `derive emit`)")
         # return codes by code, negative ones included; the codes next to them unnamed
         codes = [s.code for s in abi.STATUSES]
@@ -119,7 +119,7 @@ class Library:
                for code in range(min(codes) - 1, max(codes) + 2)}
         if got != {code: abi.status_name(code) if code in codes else "" for code in got}:
             raise RuntimeError(f"{self.path}: crt_status_name disagrees with "
-                               "derive/runtime/abi.py (run `derive emit`)")
+                               "derive/abi.py (run `derive emit`)")
         counts = [self.lib.crt_count(k) for k in range(len(abi.COUNTS))]
         want = [value for _, value in abi.COUNTS]
         if counts != want:

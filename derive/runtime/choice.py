@@ -21,7 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import abi
+from .. import abi
 from .geometry import kinetic_moment, lowest_point_numeric, momentum_frame, rotation_x, rotation_z
 from ..scene import Scene, SceneError
 

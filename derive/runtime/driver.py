@@ -16,7 +16,8 @@ from functools import cached_property
 
 import numpy as np
 
-from . import abi, choice
+from .. import abi
+from . import choice
 from .build import DP, IP, Library, library
 from .geometry import heights, kinetic_moment
 from ..scene import Scene, load as _load

@@ -39,7 +39,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import abi
+from .. import abi
 
 
 @dataclass

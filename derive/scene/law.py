@@ -63,7 +63,7 @@ class LawError(ValueError):
 # for NumPy arrays and for floats through a namespace of functions), its enclosure over
 # an interval of values (``interval``), its text, its SymPy form, and where it may be
 # singular.  The C interpreter (crt_law.h) implements the same list, numbered by
-# derive.runtime.abi.OPCODES (a test keeps the two lists equal).
+# derive.abi.OPCODES (a test keeps the two lists equal).
 #
 # shape: "const" (a = index into consts), "t", "harmonic" (a = first of A, w, p in
 # consts), "unary" (a = node), "binary" (a, b = nodes), "power" (a = node, b = index of
@@ -482,7 +482,7 @@ class Program:
     # -- for the C interpreter -----------------------------------------------------------
     def arrays(self) -> dict:
         """int32 ``code`` rows (op, a, b) and float64 ``consts`` for the runtime."""
-        from ..runtime import abi
+        from .. import abi
         code = np.array([[abi.OP[op], a, b] for op, a, b in zip(self.ops, self.a, self.b)],
                         dtype=np.int32).reshape(-1, 3)
         n_const = sum(1 for op in self.ops if op == "const")

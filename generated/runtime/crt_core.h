@@ -7,7 +7,7 @@
  * generated/runtime/ by `derive emit` (`derive emit --check` compares the copy byte for
  * byte).  Edit it there, then run `derive emit`.  The comments of this header are the
  * runtime's manual; the names of options, parameters, counters and return codes are in
- * crt_abi.h, rendered from derive/runtime/abi.py.
+ * crt_abi.h, rendered from derive/abi.py.
  *
  * ---- Use -----------------------------------------------------------------------------
  * A session lives in the caller's memory (crt_sizeof() bytes, aligned for a double);
@@ -679,7 +679,7 @@ int crt_has_plane(void) { return MODEL_HAS_PLANE; }
 const char *crt_model_name(void) { return MODEL_NAME; }
 
 /* the library's sizes (which: CRT_COUNT_*, crt_abi.h), 0 for an unknown one; Python
-   compares them with derive/runtime/abi.py when it loads the library */
+   compares them with derive/abi.py when it loads the library */
 int crt_count(int which)
 {
   switch (which) {
