@@ -2,10 +2,12 @@
 
 A :class:`FunctionSpec` lists named inputs (vectors of symbols), named outputs (vectors
 of expressions) and the linear solves with ``J`` that the outputs need.  The unknowns of
-a solve appear as symbols in the outputs; emitters solve numerically (LDL^T), never by a
-symbolic inverse.
+a solve appear as symbols in the outputs; the generated code solves numerically, on the
+matrix's numeric entries (the adjugate over the determinant, derive/emit/linalg.py),
+never by a symbolic inverse.
 
-State layouts (``a_ij = cos(fixed axis i, body axis j)``; row 3 is n in body axes):
+State layouts: :mod:`derive.layout` (``a_ij = cos(fixed axis i, body axis j)``; row 3
+is n in body axes); here each label gets its symbol:
 
 * ``general`` (18): X_C, Y_C, Z_C, X_C', Y_C', Z_C', omega_x, omega_y, omega_z,
   a11, a12, a13, a21, a22, a23, a31, a32, a33
@@ -22,6 +24,7 @@ from functools import lru_cache
 
 import sympy as sp
 
+from . import layout
 from . import notation as nt
 from .impact import K_SYMBOL, V_N_MINUS, height, impact_map, lever
 from .kinematics import poisson_equations
@@ -70,19 +73,15 @@ class FunctionSpec:
 
 # ---- layouts ----------------------------------------------------------------------
 A_FLAT = tuple(nt.a[i, j] for i in range(3) for j in range(3))
-STATES = {
-    "general": (nt.X_C, nt.Y_C, nt.Z_C, nt.X_Cd, nt.Y_Cd, nt.Z_Cd, *nt.omega, *A_FLAT),
-    "vertical": (nt.Z_C, nt.Z_Cd, *nt.omega, *nt.n),
-    "attitude": tuple(nt.omega),
-}
-STATE_LABELS = {
-    "general": ("X_C", "Y_C", "Z_C", "X_C'", "Y_C'", "Z_C'", "omega_x", "omega_y",
-                "omega_z", "a11", "a12", "a13", "a21", "a22", "a23", "a31", "a32", "a33"),
-    "vertical": ("Z_C", "Z_C'", "omega_x", "omega_y", "omega_z", "a31", "a32", "a33"),
-    "attitude": ("omega_x", "omega_y", "omega_z"),
-}
+# the symbol of each state label (the labels and their order: derive/layout.py)
+_SYMBOL = {"X_C": nt.X_C, "Y_C": nt.Y_C, "Z_C": nt.Z_C, "X_C'": nt.X_Cd, "Y_C'": nt.Y_Cd,
+           "Z_C'": nt.Z_Cd, **dict(zip(layout.ATTITUDE.labels, nt.omega)),
+           **dict(zip(layout.GENERAL.labels[layout.GENERAL.A], A_FLAT))}
+STATE_LABELS = {model: layout.of(model).labels for model in ("general", "vertical", "attitude")}
+STATES = {model: tuple(_SYMBOL[label] for label in labels)
+          for model, labels in STATE_LABELS.items()}
 U = (nt.x, nt.y, nt.z, nt.xd, nt.yd, nt.zd, nt.xdd, nt.ydd, nt.zdd)
-U_LABELS = ("x", "y", "z", "x'", "y'", "z'", "x''", "y''", "z''")
+U_LABELS = layout.U_LABELS
 P = (nt.M, nt.m, nt.J_x, nt.J_y, nt.J_z, nt.g)
 P_LABELS = ("M", "m", "J_x", "J_y", "J_z", "g")
 S = tuple(nt.OS)

@@ -22,9 +22,12 @@ import numpy as np
 import sympy as sp
 from scipy.integrate import quad
 
+from . import layout
 from . import notation as nt
 from .runtime.geometry import momentum_frame, rotation_x, rotation_z
 from .scene import DEFAULT_SCENE, Scene, parse_scene
+
+G = layout.GENERAL
 
 
 def free_parabola(scene: Scene, t) -> tuple[np.ndarray, np.ndarray]:
@@ -105,7 +108,7 @@ def axisymmetric(scene: Scene, t) -> np.ndarray:
                              np.full(len(ts), w0[2])])
     A = R_K[None] @ rotation_z(psi) @ rotation_x(np.full(len(ts), theta0)) @ rotation_z(phi)
     R, V = free_parabola(scene, ts)
-    return np.column_stack([R, V, omega, A.reshape(len(ts), 9)])
+    return G.assemble(com=R, com_velocity=V, omega=omega, A=A.reshape(len(ts), 9))
 
 
 def planar(scene: Scene, t) -> np.ndarray:
@@ -126,7 +129,7 @@ def planar(scene: Scene, t) -> np.ndarray:
     A = scene.A0[None] @ rotation_z(phi)
     R, V = free_parabola(scene, ts)
     omega = np.column_stack([np.zeros(len(ts)), np.zeros(len(ts)), wz])
-    return np.column_stack([R, V, omega, A.reshape(len(ts), 9)])
+    return G.assemble(com=R, com_velocity=V, omega=omega, A=A.reshape(len(ts), 9))
 
 
 def stationary_scene(case: str, omega: float = 2.0, duration: float = 3.0,
@@ -165,7 +168,7 @@ def stationary(scene: Scene, t) -> np.ndarray:
     A = scene.A0[None] @ rotation_z(w * (ts - scene.t0))
     R, V = free_parabola(scene, ts)
     omega = np.tile(np.asarray(scene.omega, dtype=float), (len(ts), 1))
-    return np.column_stack([R, V, omega, A.reshape(len(ts), 9)])
+    return G.assemble(com=R, com_velocity=V, omega=omega, A=A.reshape(len(ts), 9))
 
 
 def scene_of(doc) -> Scene:
@@ -215,16 +218,16 @@ def vertical_bounce(scene: Scene, t) -> tuple[np.ndarray, np.ndarray]:
             break
     starts = np.array([sg[0] for sg in segments])
     idx = np.searchsorted(starts, ts, side="right") - 1
-    out = np.empty((len(ts), 18))
+    out = np.empty((len(ts), G.nq))
     R, V = free_parabola(scene, ts)
-    out[:, 0:2], out[:, 3:5] = R[:, 0:2], V[:, 0:2]
+    out[:, G.horizontal], out[:, G.horizontal_velocity] = R[:, 0:2], V[:, 0:2]
     for k, (tau, i) in enumerate(zip(ts, idx)):
         t_i, Z_i, V_i = segments[i]
         s = tau - t_i
-        out[k, 2] = Z_i + V_i * s - 0.5 * g * s * s
-        out[k, 5] = V_i - g * s
-    out[:, 6:9] = 0.0
-    out[:, 9:18] = scene.A0.reshape(-1)
+        out[k, G.Z] = Z_i + V_i * s - 0.5 * g * s * s
+        out[k, G.Zd] = V_i - g * s
+    out[:, G.omega] = 0.0
+    out[:, G.A] = scene.A0.reshape(-1)
     return out, np.array(impacts)
 
 
@@ -334,19 +337,19 @@ def translational_bounce(scene: Scene, t, max_events: int = 100000):
             kind = "rest"
             Zk, Vk = -offset + nu * z(hit), nu * zd(hit)
     ts = np.asarray(t, dtype=float)
-    out = np.empty((len(ts), 18))
+    out = np.empty((len(ts), G.nq))
     R, V = free_parabola(scene, ts)
-    out[:, 0:2], out[:, 3:5] = R[:, 0:2], V[:, 0:2]
+    out[:, G.horizontal], out[:, G.horizontal_velocity] = R[:, 0:2], V[:, 0:2]
     starts = np.array([sg[1] for sg in segments])
     idx = np.clip(np.searchsorted(starts, ts, side="right") - 1, 0, len(segments) - 1)
     for k, (tau, i) in enumerate(zip(ts, idx)):
         kind, t_i, Z_i, V_i = segments[i]
         if kind == "rest":
-            out[k, 2], out[k, 5] = -offset + nu * z(tau), nu * zd(tau)
+            out[k, G.Z], out[k, G.Zd] = -offset + nu * z(tau), nu * zd(tau)
         else:
             s = tau - t_i
-            out[k, 2], out[k, 5] = Z_i + V_i * s - 0.5 * g * s * s, V_i - g * s
-    out[:, 6:9] = 0.0
-    out[:, 9:18] = scene.A0.reshape(-1)
+            out[k, G.Z], out[k, G.Zd] = Z_i + V_i * s - 0.5 * g * s * s, V_i - g * s
+    out[:, G.omega] = 0.0
+    out[:, G.A] = scene.A0.reshape(-1)
     rests = [sg[1] for sg in segments if sg[0] == "rest"]
     return out, np.array(impacts), rests

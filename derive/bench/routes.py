@@ -32,7 +32,8 @@ from .. import notation as nt
 from ..emit.casadi_backend import Translator, build_function
 from ..emit.numpy_backend import compile_spec
 from ..models import flight_rhs, gap, impact, lowest_point
-from ..runtime import geometry
+from .. import layout
+from ..runtime import choice, geometry
 from ..runtime.driver import Session, prepare, run_prepared
 from ..scene import Scene, parse_scene
 
@@ -75,8 +76,11 @@ def _timed(fn, repeats: int) -> float:
     return best
 
 
+G = layout.GENERAL
+
+
 def _initial(scene: Scene) -> np.ndarray:
-    return np.r_[scene.com, scene.com_velocity, scene.omega, scene.A0.reshape(-1)]
+    return choice.start(scene, "general").q0
 
 
 # ---- the runtime -----------------------------------------------------------------------------
@@ -159,7 +163,7 @@ class Scipy:
 
     def u(self, t):
         v = self.law(np.array([t]))[:, 0]
-        return v[[0, 3, 6, 1, 4, 7, 2, 5, 8]]
+        return layout.u_of_jets(v)
 
     def f(self, t, q):
         self.calls += 1
@@ -169,7 +173,7 @@ class Scipy:
 
     def gap_at(self, t, q):
         s = self.scene
-        sv = self.lp(q[15:18], s.center, self.size)[0]
+        sv = self.lp(q[G.n], s.center, self.size)[0]
         return self.gap_f(q, self.u(t), sv, self.p)[0][0]
 
     def result(self) -> Run:
@@ -197,7 +201,7 @@ class Scipy:
                     filled += n
                 if sol.status == 1:
                     t, q = sol.t_events[0][0], np.asarray(sol.y_events[0][0])
-                    sv = self.lp(q[15:18], s.center, self.size)[0]
+                    sv = self.lp(q[G.n], s.center, self.size)[0]
                     q = self.imp_f(q, self.u(t), sv, self.p, [s.e])[0]
                     impacts.append(t)
                     if len(impacts) > self.max_impacts:
@@ -242,7 +246,7 @@ class Casadi:
         law = []
         for f in s.law.sympy():
             law += [tr(f), tr(sp.diff(f, nt.t)), tr(sp.diff(f, nt.t, 2))]
-        u_of_t = ca.vertcat(*[law[i] for i in (0, 3, 6, 1, 4, 7, 2, 5, 8)])
+        u_of_t = ca.vertcat(*layout.u_of_jets(law))
         self.u_fun = ca.Function("u", [t_sym], [u_of_t])
         ode = prm[1] * rhs(x, self.u_fun(prm[0] + tau * prm[1]), ca.DM(s.p))
         self.integrator = ca.integrator(
@@ -259,7 +263,7 @@ class Casadi:
 
     def _gap(self, t, x):
         s = self.scene
-        sv = self.lp_f(x[15:18], s.center, self.size)
+        sv = self.lp_f(x[G.n], s.center, self.size)
         h, _ = self.gap_f(x, self.u_fun(t), sv, s.p)
         return float(h)
 

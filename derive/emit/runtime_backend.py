@@ -29,7 +29,7 @@ from dataclasses import dataclass
 from functools import lru_cache
 
 from .. import models as dm
-from .. import abi
+from .. import abi, layout
 from ..runtime import tableaus as T
 from . import sincos
 from .c_backend import body
@@ -39,12 +39,25 @@ from .render import TEMPLATES, environment, versions
 @dataclass(frozen=True)
 class RuntimeModel:
     kind: str
-    labels: tuple
     plane: bool
-    z_index: int
-    zd_index: int
     normalize: str            # matrix | vector | none
     summary: str
+
+    @property
+    def layout(self) -> layout.Layout:
+        return layout.of(self.kind)
+
+    @property
+    def labels(self) -> tuple:
+        return self.layout.labels
+
+    @property
+    def z_index(self) -> int:
+        return getattr(self.layout, "Z", -1)
+
+    @property
+    def zd_index(self) -> int:
+        return getattr(self.layout, "Zd", -1)
 
     @property
     def lie(self) -> bool:
@@ -75,26 +88,19 @@ class RuntimeModel:
         raise ValueError(contact)
 
 
-def _variational_labels() -> tuple:
-    base = dm.STATE_LABELS["vertical"]
-    n = len(base)
-    return base + tuple(f"Phi[{i},{j}]" for i in range(n) for j in range(n))
-
-
 MODELS = (
-    RuntimeModel("general", dm.STATE_LABELS["general"], True, 2, 5, "matrix",
+    RuntimeModel("general", True, "matrix",
                  "E1.2, E1.7, E1.8 in flight; impacts (E1.10-E1.16); persistent contact."),
-    RuntimeModel("vertical", dm.STATE_LABELS["vertical"], True, 0, 1, "vector",
+    RuntimeModel("vertical", True, "vector",
                  "the general model without the horizontal motion of C and the heading."),
-    RuntimeModel("attitude", dm.STATE_LABELS["attitude"], False, -1, -1, "none",
-                 "E1.7 alone: free flight, omega only."),
-    RuntimeModel("translational", ("Z_C", "Z_C'"), True, 0, 1, "none",
+    RuntimeModel("attitude", False, "none", "E1.7 alone: free flight, omega only."),
+    RuntimeModel("translational", True, "none",
                  "omega = 0 kept by the law of areas (C2.1-C2.4): the vertical motion of C."),
-    RuntimeModel("planar", ("Z_C", "Z_C'", "kappa", "phi"), True, 0, 1, "none",
+    RuntimeModel("planar", True, "none",
                  "z = 0, omega along z (E4.1, E4.2): omega_z from the integral kappa = K_z."),
-    RuntimeModel("axisymmetric", ("psi", "phi"), False, -1, -1, "none",
+    RuntimeModel("axisymmetric", False, "none",
                  "J_x = J_y, P on the axis, free flight: the quadratures of E3.14."),
-    RuntimeModel("variational", _variational_labels(), False, -1, -1, "none",
+    RuntimeModel("variational", False, "none",
                  "the vertical flight with its variational equations Phi' = (df/dq) Phi."),
 )
 KINDS = tuple(m.kind for m in MODELS)
@@ -144,6 +150,13 @@ def tableau_context() -> dict:
     }
 
 
+def _offsets(lay: layout.Layout) -> list:
+    """(NAME, index) of each part's start and each named index of a layout, in order."""
+    named = [(name.upper(), where.start) for name, where in lay.parts.items()]
+    named += [(name.upper(), k) for name, k in lay.indices.items()]
+    return sorted(named, key=lambda item: (item[1], item[0]))
+
+
 def render_model(m: RuntimeModel) -> str:
     env = environment()
     functions = []
@@ -152,6 +165,10 @@ def render_model(m: RuntimeModel) -> str:
         functions.append({"name": spec.name, "doc": spec.doc, **b})
     ctx = {"template": "templates/runtime/model.c.jinja", "versions": versions(),
            "kind": m.kind, "nq": len(m.labels), "labels": m.labels, "plane": m.plane,
+           "offsets": _offsets(m.layout),
+           "vertical_offsets": (_offsets(layout.VERTICAL) + [("COUNT", layout.VERTICAL.nq)]
+                                if m.kind in ("translational", "planar", "variational")
+                                else []),
            "z_index": m.z_index, "zd_index": m.zd_index, "normalize": m.normalize,
            "summary": m.summary, "functions": functions, "lie": m.lie}
     return env.get_template("runtime/model.c.jinja").render(**ctx)

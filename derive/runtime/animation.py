@@ -15,6 +15,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .. import layout
+
 from . import drawing
 from .motion import Motion, impact_rows
 
@@ -49,7 +51,7 @@ def interpolate(mo: Motion, scene, times: np.ndarray) -> dict:
     A = np.stack([np.interp(times, t, mo.A[:, i, j]) for i in range(3) for j in range(3)],
                  axis=1).reshape(-1, 3, 3)
     A = _orthonormal(A)
-    r = scene.law.jets(times)[[0, 3, 6]].T
+    r = scene.law.jets(times)[list(layout.JET_R)].T
     Ar = np.einsum("nij,nj->ni", A, r)
     r_O = r_C - scene.nu * Ar
     return {"r_C": r_C, "A": A, "r_O": r_O, "r_P": r_O + Ar}

@@ -21,13 +21,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .. import abi
+from .. import abi, layout
 from .geometry import kinetic_moment, lowest_point_numeric, momentum_frame, rotation_x, rotation_z
 from ..scene import Scene, SceneError
 
 POSE = "pose"
-GENERAL_LABELS = ("X_C", "Y_C", "Z_C", "X_C'", "Y_C'", "Z_C'", "omega_x", "omega_y",
-                  "omega_z", "a11", "a12", "a13", "a21", "a22", "a23", "a31", "a32", "a33")
+G = layout.GENERAL
+GENERAL_LABELS = G.labels
 
 
 def _samples(scene: Scene, n: int = 801) -> tuple:
@@ -39,7 +39,7 @@ def _translational_reason(scene: Scene) -> str | None:
     if any(w != 0.0 for w in scene.omega):
         return None
     _, vals = _samples(scene)
-    r, a = vals[[0, 3, 6]], vals[[2, 5, 8]]
+    r, a = vals[list(layout.JET_R)], vals[list(layout.JET_A)]
     cross = np.cross(r.T, a.T)
     scale = max(np.max(np.linalg.norm(r, axis=0)) * np.max(np.linalg.norm(a, axis=0)), 1e-300)
     if np.max(np.abs(cross)) > 1e-12 * scale:
@@ -124,14 +124,11 @@ class Start:
 
 def start(scene: Scene, kind: str) -> Start:
     A0 = scene.A0
-    if kind == "general":
-        return Start(np.array([*scene.com, *scene.com_velocity, *scene.omega,
-                               *A0.reshape(-1).tolist()]), {})
-    if kind == "vertical":
-        return Start(np.array([scene.com[2], scene.com_velocity[2], *scene.omega,
-                               *A0[2].tolist()]), {})
-    if kind == "attitude":
-        return Start(np.asarray(scene.omega, dtype=float), {})
+    if kind in ("general", "vertical", "attitude"):
+        q = G.assemble(com=scene.com, com_velocity=scene.com_velocity, omega=scene.omega,
+                       A=A0.reshape(-1))
+        return Start(q if kind == "general" else
+                     layout.vertical_of_general(q) if kind == "vertical" else q[G.omega], {})
     n0 = {"n0_x": A0[2][0], "n0_y": A0[2][1], "n0_z": A0[2][2]}
     if kind == "translational":
         return Start(np.array([scene.com[2], scene.com_velocity[2]]), n0)
@@ -181,21 +178,17 @@ def omega_of(scene: Scene, kind: str, st: Start, t, Q, rates=None) -> np.ndarray
     """omega in body axes along the rows; ``rates`` (dq/dt of the rows, from the library)
     for the models whose omega is a rate (planar: phi', axisymmetric: psi')."""
     n = len(t)
-    if kind == "general":
-        return Q[:, 6:9]
-    if kind == "vertical":
-        return Q[:, 2:5]
-    if kind == "attitude":
-        return Q[:, 0:3]
+    if kind in ("general", "vertical", "attitude"):
+        return Q[:, layout.of(kind).omega]
     if kind == "translational":
         return np.zeros((n, 3))
     if kind == "planar":
-        return np.column_stack([np.zeros(n), np.zeros(n), rates[:, 3]])
+        return np.column_stack([np.zeros(n), np.zeros(n), rates[:, layout.PLANAR.phi]])
     if kind == "axisymmetric":
         _, theta0 = st.constants["_frame"]
         s0 = np.sin(theta0)
-        return np.column_stack([rates[:, 0] * s0 * np.sin(Q[:, 1]),
-                                rates[:, 0] * s0 * np.cos(Q[:, 1]),
+        psi_rate, phi = rates[:, layout.AXISYMMETRIC.psi], Q[:, layout.AXISYMMETRIC.phi]
+        return np.column_stack([psi_rate * s0 * np.sin(phi), psi_rate * s0 * np.cos(phi),
                                 np.full(n, st.constants["omega_z0"])])
     raise KeyError(kind)
 
@@ -210,28 +203,34 @@ def to_general(scene: Scene, kind: str, st: Start, t, Q, omega) -> np.ndarray | 
         return None
     X, Y, VX, VY = _uniform_horizontal(scene, t)
     if kind == "translational":
-        return np.column_stack([X, Y, Q[:, 0], VX, VY, Q[:, 1], np.zeros((n, 3)),
-                                np.tile(A0.reshape(-1), (n, 1))])
+        T = layout.TRANSLATIONAL
+        return _general_rows(X, Y, Q[:, T.Z], VX, VY, Q[:, T.Zd], np.zeros((n, 3)),
+                             np.tile(A0.reshape(-1), (n, 1)))
     if kind == "planar":
-        A = A0[None] @ rotation_z(Q[:, 3])
-        return np.column_stack([X, Y, Q[:, 0], VX, VY, Q[:, 1], omega, A.reshape(n, 9)])
+        P = layout.PLANAR
+        A = A0[None] @ rotation_z(Q[:, P.phi])
+        return _general_rows(X, Y, Q[:, P.Z], VX, VY, Q[:, P.Zd], omega, A.reshape(n, 9))
     if kind == "axisymmetric":
+        S = layout.AXISYMMETRIC
         R_K, theta0 = st.constants["_frame"]
         dt = np.asarray(t) - scene.t0
         Z = scene.com[2] + scene.com_velocity[2] * dt - 0.5 * scene.g * dt ** 2
         VZ = scene.com_velocity[2] - scene.g * dt
-        A = (R_K[None] @ rotation_z(Q[:, 0]) @ rotation_x(np.full(n, theta0))
-             @ rotation_z(Q[:, 1]))
-        return np.column_stack([X, Y, Z, VX, VY, VZ, omega, A.reshape(n, 9)])
+        A = (R_K[None] @ rotation_z(Q[:, S.psi]) @ rotation_x(np.full(n, theta0))
+             @ rotation_z(Q[:, S.phi]))
+        return _general_rows(X, Y, Z, VX, VY, VZ, omega, A.reshape(n, 9))
     raise KeyError(kind)
+
+
+def _general_rows(X, Y, Z, VX, VY, VZ, omega, A) -> np.ndarray:
+    return G.assemble(com=np.column_stack([X, Y, Z]), com_velocity=np.column_stack([VX, VY, VZ]),
+                      omega=omega, A=A)
 
 
 def height_of_c(scene: Scene, kind: str, t: float, q) -> float:
     """Z_C at time t from one state of a model (NaN for the attitude model)."""
-    if kind == "general":
-        return float(q[2])
-    if kind in ("vertical", "translational", "planar"):
-        return float(q[0])
+    if kind in ("general", "vertical", "translational", "planar"):
+        return float(q[layout.of(kind).Z])
     if kind == "axisymmetric":                # free flight: C on its parabola
         dt = t - scene.t0
         return scene.com[2] + scene.com_velocity[2] * dt - 0.5 * scene.g * dt * dt
@@ -241,7 +240,8 @@ def height_of_c(scene: Scene, kind: str, t: float, q) -> float:
 def vertical_of(kind: str, general, Q) -> tuple | None:
     """(Z_C, n) along the rows, for the height of S."""
     if general is not None:
-        return general[:, 2], general[:, 15:18]
+        return general[:, G.Z], general[:, G.n]
     if kind == "vertical":
-        return Q[:, 0], Q[:, 5:8]
+        V = layout.VERTICAL
+        return Q[:, V.Z], Q[:, V.n]
     return None

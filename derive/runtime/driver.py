@@ -16,7 +16,7 @@ from functools import cached_property
 
 import numpy as np
 
-from .. import abi
+from .. import abi, layout
 from . import choice
 from .build import DP, IP, Library, library
 from .geometry import heights, kinetic_moment
@@ -388,7 +388,7 @@ class Result:
         K = kinetic_moment(self.scene, self.omega, self.scene.law.jets(self.t))
         out = {"K_body": K, "K_norm": np.linalg.norm(K, axis=1)}
         if self.general is not None:
-            A = self.general[:, 9:18].reshape(-1, 3, 3)
+            A = self.general[:, layout.GENERAL.A].reshape(-1, 3, 3)
             out["K_fixed"] = np.einsum("nij,nj->ni", A, K)
         return out
 

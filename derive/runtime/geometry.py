@@ -3,6 +3,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .. import layout
+
 
 def lowest_point_numeric(scene, n) -> np.ndarray:
     """OS for the vertical ``n`` (body axes): the ellipsoid's support point, a sphere
@@ -54,7 +56,7 @@ def kinetic_moment(scene, omega, jets) -> np.ndarray:
     """K about C in body axes along rows (E1.4 with the J of E1.5): ``omega`` (N, 3), the
     law's ``jets`` (9, N).  tests/test_runtime_models.py compares it with the derived
     ``general_kinetic_moment`` of the generated C."""
-    r, v = jets[[0, 3, 6]].T, jets[[1, 4, 7]].T
+    r, v = jets[list(layout.JET_R)].T, jets[list(layout.JET_V)].T
     omega = np.asarray(omega, dtype=float)
     J = np.asarray(scene.J, dtype=float)
     rr = np.einsum("ij,ij->i", r, r)[:, None]
@@ -69,5 +71,5 @@ def heights(scene, t, Z, n) -> np.ndarray:
     axes = np.full(3, scene.size[0]) if scene.shape == "sphere" else np.asarray(scene.size)
     D2n = axes ** 2 * n
     s = c - D2n / np.sqrt(np.einsum("ij,ij->i", n, D2n))[:, None]
-    r = scene.law.jets(t)[[0, 3, 6]].T
+    r = scene.law.jets(t)[list(layout.JET_R)].T
     return Z + np.einsum("ij,ij->i", n, s - scene.nu * r)

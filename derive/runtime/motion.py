@@ -39,7 +39,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .. import abi
+from .. import abi, layout
+
+G = layout.GENERAL
 
 
 @dataclass
@@ -70,11 +72,11 @@ def _centre(result):
     """(r_C, v_C) in fixed axes along the rows, or (None, None)."""
     s = result.scene
     if result.general is not None:
-        return result.general[:, 0:3], result.general[:, 3:6]
+        return result.general[:, G.com], result.general[:, G.com_velocity]
     dt = result.t - s.t0
     if result.model == "vertical":
         n = len(dt)
-        Z, VZ = result.model_q[:, 0], result.model_q[:, 1]
+        Z, VZ = result.model_q[:, layout.VERTICAL.Z], result.model_q[:, layout.VERTICAL.Zd]
     elif not s.contact_possible:            # free flight: C moves on its parabola (E1.2)
         n = len(dt)
         Z = s.com[2] + s.com_velocity[2] * dt - 0.5 * s.g * dt ** 2
@@ -110,9 +112,9 @@ def motion(result) -> Motion:
     s = result.scene
     t = result.t
     jets = s.law.jets(t)
-    r, v_r, a_r = jets[[0, 3, 6]].T, jets[[1, 4, 7]].T, jets[[2, 5, 8]].T
+    r, v_r, a_r = (jets[list(rows)].T for rows in (layout.JET_R, layout.JET_V, layout.JET_A))
     omega = np.asarray(result.omega, dtype=float)
-    A = result.general[:, 9:18].reshape(-1, 3, 3) if result.general is not None else None
+    A = result.general[:, G.A].reshape(-1, 3, 3) if result.general is not None else None
     r_C, v_C = _centre(result)
     nu, J0 = s.nu, np.asarray(s.J, dtype=float)
     u = v_r + np.cross(omega, r)

@@ -21,6 +21,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .. import layout
+
 from .driver import Result
 from .motion import Motion, energy_balance, event_rows, for_pictures, motion, phases
 
@@ -35,7 +37,7 @@ def invariant_drift(result: Result) -> dict:
             worst = max(worst, float(np.max(np.abs(K[a:b] - K[a])) / K[a]))
     out["K_norm_relative_drift_between_events"] = worst
     if result.general is not None:
-        A = result.general[:, 9:18].reshape(-1, 3, 3)
+        A = result.general[:, layout.GENERAL.A].reshape(-1, 3, 3)
         err = np.abs(np.einsum("nij,nkj->nik", A, A) - np.eye(3)).max(axis=(1, 2))
         out["orthonormality_error_max"] = float(err.max())
     return out

@@ -12,6 +12,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .. import layout
+
 from . import drawing
 from .motion import Motion, contact_intervals, impact_rows, phases
 
@@ -304,7 +306,7 @@ def overview(result, mo: Motion, path: Path, dpi: int = 80, steps=None) -> Path:
 
     ax = panels[1]
     n = mo.A[:, 2, :] if mo.A is not None else \
-        (result.model_q[:, 5:8] if result.model == "vertical" else None)
+        (result.model_q[:, layout.VERTICAL.n] if result.model == "vertical" else None)
     if n is not None:
         elev = np.degrees(np.arcsin(np.clip(n, -1.0, 1.0)))
         i = drawing.drawn_rows(t, *elev.T)

@@ -39,6 +39,8 @@ from typing import Any
 
 import numpy as np
 
+from .. import layout
+
 
 MAX_LENGTH = 2000
 MAX_DEPTH = 60
@@ -1073,7 +1075,7 @@ SAMPLES = 4097
 
 
 def summarise(jets: np.ndarray) -> LawSummary:
-    r, v, a = jets[[0, 3, 6]], jets[[1, 4, 7]], jets[[2, 5, 8]]
+    r, v, a = (jets[list(rows)] for rows in (layout.JET_R, layout.JET_V, layout.JET_A))
     with np.errstate(over="ignore", invalid="ignore"):     # huge laws: inf, then refused
         rn = np.sqrt((r * r).sum(0))
         amp = float(np.sqrt(((r - r.mean(axis=1, keepdims=True)) ** 2).sum(0)).max())

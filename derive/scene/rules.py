@@ -22,6 +22,8 @@ from typing import Any, Callable
 
 import numpy as np
 
+from .. import layout
+
 from . import law as lawmod
 from . import table as tablemod
 from .errors import SceneError
@@ -257,7 +259,8 @@ def _reach(d: Draft) -> None:
     if summary.max_radius > d.max_distance:
         if d.law_text:
             with np.errstate(all="ignore"):
-                r = d.law.jets(np.linspace(d.t0, d.t0 + d.duration, lawmod.SAMPLES))[[0, 3, 6]]
+                ts = np.linspace(d.t0, d.t0 + d.duration, lawmod.SAMPLES)
+                r = d.law.jets(ts)[list(layout.JET_R)]
                 far = np.nan_to_num(np.abs(r), nan=np.inf).max(axis=1)
             where = f"[point].law[{int(np.argmax(far))}]"
         else:

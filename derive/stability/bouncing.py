@@ -48,11 +48,14 @@ import casadi as ca
 import numpy as np
 import sympy as sp
 
+from .. import layout
 from .. import notation as nt
 from ..runtime.driver import Session, prepare
 from ..scene import Scene, SceneError, load_scene
 from .floquet import complex_pairs
 from .variational import Monodromy
+
+V = layout.VERTICAL
 
 
 # ---- the ball on a vibrating table, in closed form -------------------------------------
@@ -198,17 +201,17 @@ class HybridMap:
 
 def _pack(q) -> np.ndarray:
     """Newton's unknowns: Z_C', omega, n_x, n_y (Z_C follows from h = 0, n_z from |n|)."""
-    return np.r_[q[1], q[2:5], q[5:7]]
+    return np.r_[q[V.Zd], q[V.omega], q[V.n][:2]]
 
 
 def _unpack(x, t, hybrid: HybridMap) -> np.ndarray:
     """A post-impact state on the plane: Z_C from the gap h = 0 at time t."""
-    n_xy = x[4:6]
+    Zd, omega, n_xy = x[0], x[1:4], x[4:6]
     nz = math.sqrt(max(1.0 - n_xy @ n_xy, 0.0))
-    q = np.r_[0.0, x[0], x[1:4], n_xy, nz]
+    q = V.assemble(Z=0.0, Zd=Zd, omega=omega, n=np.r_[n_xy, nz])
     # h is affine in Z_C with slope 1: one gap evaluation fixes it
     h0 = hybrid_gap(hybrid, t, q)
-    q[0] -= h0
+    q[V.Z] -= h0
     return q
 
 
@@ -223,9 +226,9 @@ def _generic() -> ca.Function:
         return ca.Function.load(str(GENERATED / "casadi" / f"{name}.casadi"))
     gap, impact, rhs = load("vertical_gap"), load("vertical_impact"), load("vertical_flight_rhs")
     lowest = load("lowest_point_ellipsoid")
-    q, u, p = ca.SX.sym("q", 8), ca.SX.sym("u", 9), ca.SX.sym("p", 6)
+    q, u, p = ca.SX.sym("q", V.nq), ca.SX.sym("u", 9), ca.SX.sym("p", 6)
     e, c, ax = ca.SX.sym("e"), ca.SX.sym("c", 3), ca.SX.sym("ax", 3)
-    sv = lowest(q[5:8], c, ax)
+    sv = lowest(q[V.n], c, ax)
     h = gap(q, u, sv, p)[0]
     q_plus = impact(q, u, sv, p, e)[0]
     f = rhs(q, u, p)

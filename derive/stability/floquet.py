@@ -36,6 +36,8 @@ from .. import models as dm
 from .. import notation as nt
 from ..emit.casadi_backend import build_function
 from ..emit.numpy_backend import compile_spec
+from .. import layout
+from ..runtime import choice
 from ..runtime.driver import simulate
 from ..scene import Scene, SceneError
 from .specialise import common as _common
@@ -112,8 +114,11 @@ def law_period(scene: Scene) -> float:
     return 2 * math.pi / (base / den)
 
 
+V = layout.VERTICAL
+
+
 def initial_state(scene: Scene) -> np.ndarray:
-    return np.r_[scene.com[2], scene.com_velocity[2], scene.omega, scene.A0[2]]
+    return choice.start(scene, "vertical").q0
 
 
 class TraceOfJacobian:
@@ -220,11 +225,12 @@ def integral_gradients(scene: Scene, q0) -> dict:
     x = ca.SX.sym("q", len(q))
     K = K_fn(scene.t0, x)
     grad = ca.Function("grad", [x], [ca.gradient(ca.dot(K, K), x),
-                                     ca.gradient(ca.dot(K, x[5:8]), x)])
+                                     ca.gradient(ca.dot(K, x[V.n]), x)])
     gK2, gKn = (np.array(v.full()).ravel() for v in grad(np.asarray(q0, dtype=float)))
-    n = np.asarray(q0[5:8], dtype=float)
-    grads = {"|K|^2": gK2, "K.n": gKn, "|n|^2": np.r_[0, 0, 0, 0, 0, 2 * n],
-             "Z_C'": np.r_[0, 1, 0, 0, 0, 0, 0, 0]}
+    n = np.asarray(q0[V.n], dtype=float)
+    grads = {"|K|^2": gK2, "K.n": gKn,
+             "|n|^2": V.assemble(Z=0.0, Zd=0.0, omega=np.zeros(3), n=2 * n),
+             "Z_C'": V.assemble(Z=0.0, Zd=1.0, omega=np.zeros(3), n=np.zeros(3))}
     return {k: g for k, g in grads.items() if np.max(np.abs(g)) > 0}
 
 
@@ -279,8 +285,8 @@ def long_run(scene: Scene, T: float, periods: int, eps: float, seed: int = 0,
     rows = res.row_kind == 0
     Q = res.model_q[rows]
     base = np.r_[scene.omega, scene.A0[2]]
-    both = _growth(np.max(np.abs(Q[:, 2:8] - base), axis=1))
-    omega_only = _growth(np.max(np.abs(Q[:, 2:5] - base[:3]), axis=1))
+    both = _growth(np.max(np.abs(np.c_[Q[:, V.omega], Q[:, V.n]] - base), axis=1))
+    omega_only = _growth(np.max(np.abs(Q[:, V.omega] - base[:3]), axis=1))
     return {"eps": eps, "periods": periods, **both,
             **{f"{k}_omega": v for k, v in omega_only.items()}, "status": res.status}
 

@@ -13,11 +13,13 @@
 #define NQ 3
 #define MODEL_NAME "attitude"
 #define MODEL_HAS_PLANE 0
-#define MODEL_Z -1
-#define MODEL_ZD -1
 #define MODEL_LIE 1
 
-/* State: omega_x, omega_y, omega_z */
+/* State: omega_x, omega_y, omega_z
+   where each quantity sits, from derive/layout.py (attitude) */
+#define Q_OMEGA 0
+#define MODEL_Z -1
+#define MODEL_ZD -1
 
 /* ---- the derived functions this model calls (derive/models.py, one CSE each) ---------- */
 
@@ -309,7 +311,7 @@ static int model_lie_read(const double *q, double *c0, double *omega, double *R,
   for (i = 0; i < 6; ++i) c0[i] = 0.0;
   for (i = 0; i < 9; ++i) R[i] = 0.0;
   *n_scale = 1.0;
-  for (i = 0; i < 3; ++i) omega[i] = q[i];
+  for (i = 0; i < 3; ++i) omega[i] = q[Q_OMEGA + i];
   return 2;
 }
 
@@ -320,7 +322,7 @@ static void model_lie_state(const double *p, const double *c0, double tau,
 {
   int i;
   (void)p; (void)c0; (void)tau; (void)R; (void)n_scale;
-  for (i = 0; i < 3; ++i) q[i] = omega[i];
+  for (i = 0; i < 3; ++i) q[Q_OMEGA + i] = omega[i];
 }
 
 static void model_normalize(double *q)

@@ -13,11 +13,14 @@
 #define NQ 2
 #define MODEL_NAME "axisymmetric"
 #define MODEL_HAS_PLANE 0
-#define MODEL_Z -1
-#define MODEL_ZD -1
 #define MODEL_LIE 0
 
-/* State: psi, phi */
+/* State: psi, phi
+   where each quantity sits, from derive/layout.py (axisymmetric) */
+#define Q_PSI 0
+#define Q_PHI 1
+#define MODEL_Z -1
+#define MODEL_ZD -1
 
 /* ---- the derived functions this model calls (derive/models.py, one CSE each) ---------- */
 

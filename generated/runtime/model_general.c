@@ -13,11 +13,21 @@
 #define NQ 18
 #define MODEL_NAME "general"
 #define MODEL_HAS_PLANE 1
-#define MODEL_Z 2
-#define MODEL_ZD 5
 #define MODEL_LIE 1
 
-/* State: X_C, Y_C, Z_C, X_C', Y_C', Z_C', omega_x, omega_y, omega_z, a11, a12, a13, a21, a22, a23, a31, a32, a33 */
+/* State: X_C, Y_C, Z_C, X_C', Y_C', Z_C', omega_x, omega_y, omega_z, a11, a12, a13, a21, a22, a23, a31, a32, a33
+   where each quantity sits, from derive/layout.py (general) */
+#define Q_COM 0
+#define Q_HORIZONTAL 0
+#define Q_Z 2
+#define Q_COM_VELOCITY 3
+#define Q_HORIZONTAL_VELOCITY 3
+#define Q_ZD 5
+#define Q_OMEGA 6
+#define Q_A 9
+#define Q_N 15
+#define MODEL_Z Q_Z
+#define MODEL_ZD Q_ZD
 
 /* ---- the derived functions this model calls (derive/models.py, one CSE each) ---------- */
 
@@ -551,14 +561,14 @@ static void model_rhs(const double *p, const double *u, const double *q, double 
 static double model_rate(const double *p, const double *u, const double *q)
 {
   (void)p; (void)u;
-  return sqrt(q[6] * q[6] + q[7] * q[7]
-              + q[8] * q[8]);
+  return sqrt(q[Q_OMEGA] * q[Q_OMEGA] + q[Q_OMEGA + 1] * q[Q_OMEGA + 1]
+              + q[Q_OMEGA + 2] * q[Q_OMEGA + 2]);
 }
 
 static void model_gap(const double *p, const double *u, const double *q, double *h, double *v_n)
 {
   double s[3];
-  model_shape(p, q + 15, s);
+  model_shape(p, q + Q_N, s);
   general_gap(q, u, s, p, h, v_n);
 }
 
@@ -566,7 +576,7 @@ static void model_impact(const double *p, double e, const double *u, const doubl
                          double *q_plus, double *I)
 {
   double s[3];
-  model_shape(p, q + 15, s);
+  model_shape(p, q + Q_N, s);
   general_impact(q, u, s, p, e, q_plus, I);
 }
 
@@ -574,8 +584,8 @@ static void model_contact(const double *p, const double *u, const double *q, dou
                           double *N, double *a_free)
 {
   double s[3], sdot[3];
-  model_shape(p, q + 15, s);
-  lowest_point_rate_ellipsoid(q + 15, q + 6, p + CRT_P_axis_a, sdot);
+  model_shape(p, q + Q_N, s);
+  lowest_point_rate_ellipsoid(q + Q_N, q + Q_OMEGA, p + CRT_P_axis_a, sdot);
   general_contact_rhs_free(q, u, s, sdot, p, dq, N, a_free);
 }
 
@@ -590,9 +600,10 @@ static int model_lie_read(const double *q, double *c0, double *omega, double *R,
   for (i = 0; i < 6; ++i) c0[i] = 0.0;
   for (i = 0; i < 9; ++i) R[i] = 0.0;
   *n_scale = 1.0;
-  for (i = 0; i < 6; ++i) c0[i] = q[i];
-  for (i = 0; i < 3; ++i) omega[i] = q[6 + i];
-  for (i = 0; i < 9; ++i) R[i] = q[9 + i];
+  for (i = 0; i < 3; ++i) c0[i] = q[Q_COM + i];
+  for (i = 0; i < 3; ++i) c0[3 + i] = q[Q_COM_VELOCITY + i];
+  for (i = 0; i < 3; ++i) omega[i] = q[Q_OMEGA + i];
+  for (i = 0; i < 9; ++i) R[i] = q[Q_A + i];
   return 0;
 }
 
@@ -603,19 +614,22 @@ static void model_lie_state(const double *p, const double *c0, double tau,
 {
   int i;
   (void)n_scale;
-  flight_parabola(c0, tau, p, q);
-  for (i = 0; i < 3; ++i) q[6 + i] = omega[i];
-  for (i = 0; i < 9; ++i) q[9 + i] = R[i];
+  double c[6];
+  flight_parabola(c0, tau, p, c);
+  for (i = 0; i < 3; ++i) q[Q_COM + i] = c[i];
+  for (i = 0; i < 3; ++i) q[Q_COM_VELOCITY + i] = c[3 + i];
+  for (i = 0; i < 3; ++i) q[Q_OMEGA + i] = omega[i];
+  for (i = 0; i < 9; ++i) q[Q_A + i] = R[i];
 }
 
 static void model_normalize(double *q)
 {
-  /* nearest rotation to A = q[9..17] (row-major): two Newton-Schulz steps of the polar
-     decomposition, X <- X (3 - X^T X)/2 */
+  /* nearest rotation to A = q[Q_A..Q_A+8] (row-major): two Newton-Schulz steps of the
+     polar decomposition, X <- X (3 - X^T X)/2 */
   int it, i, j, k;
   for (it = 0; it < 2; ++it) {
     double X[9], S[9];
-    for (i = 0; i < 9; ++i) X[i] = q[9 + i];
+    for (i = 0; i < 9; ++i) X[i] = q[Q_A + i];
     for (i = 0; i < 3; ++i)
       for (j = 0; j < 3; ++j) {
         double acc = 0.0;
@@ -626,7 +640,7 @@ static void model_normalize(double *q)
       for (j = 0; j < 3; ++j) {
         double acc = 0.0;
         for (k = 0; k < 3; ++k) acc += X[3 * i + k] * S[3 * k + j];
-        q[9 + 3 * i + j] = 0.5 * acc;
+        q[Q_A + 3 * i + j] = 0.5 * acc;
       }
   }
 }

@@ -13,11 +13,22 @@
 #define NQ 4
 #define MODEL_NAME "planar"
 #define MODEL_HAS_PLANE 1
-#define MODEL_Z 0
-#define MODEL_ZD 1
 #define MODEL_LIE 0
 
-/* State: Z_C, Z_C', kappa, phi */
+/* State: Z_C, Z_C', kappa, phi
+   where each quantity sits, from derive/layout.py (planar, and the vertical model's
+   state qv that the reduced models build) */
+#define Q_Z 0
+#define Q_ZD 1
+#define Q_KAPPA 2
+#define Q_PHI 3
+#define QV_Z 0
+#define QV_ZD 1
+#define QV_OMEGA 2
+#define QV_N 5
+#define QV_COUNT 8
+#define MODEL_Z Q_Z
+#define MODEL_ZD Q_ZD
 
 /* ---- the derived functions this model calls (derive/models.py, one CSE each) ---------- */
 
@@ -254,65 +265,66 @@ static void model_shape(const double *p, const double *n, double *s)
 static void model_vertical_state(const double *p, const double *u, const double *q, double *qv)
 {
   double wz;
-  const double c = cos(q[3]), s = sin(q[3]);
-  planar_omega_z(q[2], u, p, &wz);
-  qv[0] = q[0]; qv[1] = q[1]; qv[2] = 0.0; qv[3] = 0.0; qv[4] = wz;
-  qv[5] = p[CRT_P_n0_x] * c + p[CRT_P_n0_y] * s;
-  qv[6] = -p[CRT_P_n0_x] * s + p[CRT_P_n0_y] * c;
-  qv[7] = p[CRT_P_n0_z];
+  const double c = cos(q[Q_PHI]), s = sin(q[Q_PHI]);
+  planar_omega_z(q[Q_KAPPA], u, p, &wz);
+  qv[QV_Z] = q[Q_Z]; qv[QV_ZD] = q[Q_ZD];
+  qv[QV_OMEGA] = 0.0; qv[QV_OMEGA + 1] = 0.0; qv[QV_OMEGA + 2] = wz;
+  qv[QV_N] = p[CRT_P_n0_x] * c + p[CRT_P_n0_y] * s;
+  qv[QV_N + 1] = -p[CRT_P_n0_x] * s + p[CRT_P_n0_y] * c;
+  qv[QV_N + 2] = p[CRT_P_n0_z];
 }
 
 static void model_rhs(const double *p, const double *u, const double *q, double *dq)
 {
   double wz;
-  planar_omega_z(q[2], u, p, &wz);
-  dq[0] = q[1];
-  dq[1] = -p[CRT_P_g];                     /* E1.2 */
-  dq[2] = 0.0;                             /* kappa = K_z, an integral in flight (E4.2) */
-  dq[3] = wz;
+  planar_omega_z(q[Q_KAPPA], u, p, &wz);
+  dq[Q_Z] = q[Q_ZD];
+  dq[Q_ZD] = -p[CRT_P_g];                  /* E1.2 */
+  dq[Q_KAPPA] = 0.0;                       /* kappa = K_z, an integral in flight (E4.2) */
+  dq[Q_PHI] = wz;
 }
 
 static double model_rate(const double *p, const double *u, const double *q)
 {
   double wz;
-  planar_omega_z(q[2], u, p, &wz);
+  planar_omega_z(q[Q_KAPPA], u, p, &wz);
   return fabs(wz);
 }
 
 static void model_gap(const double *p, const double *u, const double *q, double *h, double *v_n)
 {
-  double qv[8], s[3];
+  double qv[QV_COUNT], s[3];
   model_vertical_state(p, u, q, qv);
-  model_shape(p, qv + 5, s);
+  model_shape(p, qv + QV_N, s);
   vertical_gap(qv, u, s, p, h, v_n);
 }
 
 static void model_impact(const double *p, double e, const double *u, const double *q,
                          double *q_plus, double *I)
 {
-  double qv[8], qv_plus[8], s[3];
+  double qv[QV_COUNT], qv_plus[QV_COUNT], s[3];
   model_vertical_state(p, u, q, qv);
-  model_shape(p, qv + 5, s);
+  model_shape(p, qv + QV_N, s);
   vertical_impact(qv, u, s, p, e, qv_plus, I);
-  q_plus[0] = qv_plus[0];
-  q_plus[1] = qv_plus[1];
-  planar_kappa(qv_plus[4], u, p, q_plus + 2);
-  q_plus[3] = q[3];
+  q_plus[Q_Z] = qv_plus[QV_Z];
+  q_plus[Q_ZD] = qv_plus[QV_ZD];
+  planar_kappa(qv_plus[QV_OMEGA + 2], u, p, q_plus + Q_KAPPA);
+  q_plus[Q_PHI] = q[Q_PHI];
 }
 
 static void model_contact(const double *p, const double *u, const double *q, double *dq,
                           double *N, double *a_free)
 {
-  double qv[8], dqv[8], s[3], sdot[3], d_z;
+  double qv[QV_COUNT], dqv[QV_COUNT], s[3], sdot[3], d_z;
   model_vertical_state(p, u, q, qv);
-  model_shape(p, qv + 5, s);
-  lowest_point_rate_ellipsoid(qv + 5, qv + 2, p + CRT_P_axis_a, sdot);
+  model_shape(p, qv + QV_N, s);
+  lowest_point_rate_ellipsoid(qv + QV_N, qv + QV_OMEGA, p + CRT_P_axis_a, sdot);
   vertical_contact_rhs_free(qv, u, s, sdot, p, dqv, N, a_free);
   planar_lever_z(qv, u, s, p, &d_z);
-  dq[0] = dqv[0];
-  dq[1] = dqv[1];
-  dq[2] = *N * d_z;                        /* dK/dt = N d (the moment of the reaction) */
-  dq[3] = qv[4];
+  dq[Q_Z] = dqv[QV_Z];
+  dq[Q_ZD] = dqv[QV_ZD];
+  dq[Q_KAPPA] = *N * d_z;                  /* dK/dt = N d (the moment of the reaction) */
+  dq[Q_PHI] = qv[QV_OMEGA + 2];
 }
 
 static void model_normalize(double *q)

@@ -13,11 +13,16 @@
 #define NQ 8
 #define MODEL_NAME "vertical"
 #define MODEL_HAS_PLANE 1
-#define MODEL_Z 0
-#define MODEL_ZD 1
 #define MODEL_LIE 1
 
-/* State: Z_C, Z_C', omega_x, omega_y, omega_z, a31, a32, a33 */
+/* State: Z_C, Z_C', omega_x, omega_y, omega_z, a31, a32, a33
+   where each quantity sits, from derive/layout.py (vertical) */
+#define Q_Z 0
+#define Q_ZD 1
+#define Q_OMEGA 2
+#define Q_N 5
+#define MODEL_Z Q_Z
+#define MODEL_ZD Q_ZD
 
 /* ---- the derived functions this model calls (derive/models.py, one CSE each) ---------- */
 
@@ -521,14 +526,14 @@ static void model_rhs(const double *p, const double *u, const double *q, double 
 static double model_rate(const double *p, const double *u, const double *q)
 {
   (void)p; (void)u;
-  return sqrt(q[2] * q[2] + q[3] * q[3]
-              + q[4] * q[4]);
+  return sqrt(q[Q_OMEGA] * q[Q_OMEGA] + q[Q_OMEGA + 1] * q[Q_OMEGA + 1]
+              + q[Q_OMEGA + 2] * q[Q_OMEGA + 2]);
 }
 
 static void model_gap(const double *p, const double *u, const double *q, double *h, double *v_n)
 {
   double s[3];
-  model_shape(p, q + 5, s);
+  model_shape(p, q + Q_N, s);
   vertical_gap(q, u, s, p, h, v_n);
 }
 
@@ -536,7 +541,7 @@ static void model_impact(const double *p, double e, const double *u, const doubl
                          double *q_plus, double *I)
 {
   double s[3];
-  model_shape(p, q + 5, s);
+  model_shape(p, q + Q_N, s);
   vertical_impact(q, u, s, p, e, q_plus, I);
 }
 
@@ -544,8 +549,8 @@ static void model_contact(const double *p, const double *u, const double *q, dou
                           double *N, double *a_free)
 {
   double s[3], sdot[3];
-  model_shape(p, q + 5, s);
-  lowest_point_rate_ellipsoid(q + 5, q + 2, p + CRT_P_axis_a, sdot);
+  model_shape(p, q + Q_N, s);
+  lowest_point_rate_ellipsoid(q + Q_N, q + Q_OMEGA, p + CRT_P_axis_a, sdot);
   vertical_contact_rhs_free(q, u, s, sdot, p, dq, N, a_free);
 }
 
@@ -560,11 +565,11 @@ static int model_lie_read(const double *q, double *c0, double *omega, double *R,
   for (i = 0; i < 6; ++i) c0[i] = 0.0;
   for (i = 0; i < 9; ++i) R[i] = 0.0;
   *n_scale = 1.0;
-  c0[2] = q[0];
-  c0[5] = q[1];
-  for (i = 0; i < 3; ++i) omega[i] = q[2 + i];
-  for (i = 0; i < 3; ++i) R[6 + i] = q[5 + i];
-  *n_scale = sqrt(q[5] * q[5] + q[6] * q[6] + q[7] * q[7]);
+  c0[2] = q[Q_Z];
+  c0[5] = q[Q_ZD];
+  for (i = 0; i < 3; ++i) omega[i] = q[Q_OMEGA + i];
+  for (i = 0; i < 3; ++i) R[6 + i] = q[Q_N + i];
+  *n_scale = sqrt(q[Q_N] * q[Q_N] + q[Q_N + 1] * q[Q_N + 1] + q[Q_N + 2] * q[Q_N + 2]);
   return 1;
 }
 
@@ -576,16 +581,16 @@ static void model_lie_state(const double *p, const double *c0, double tau,
   int i;
   double c[6];
   flight_parabola(c0, tau, p, c);
-  q[0] = c[2];
-  q[1] = c[5];
-  for (i = 0; i < 3; ++i) q[2 + i] = omega[i];
-  for (i = 0; i < 3; ++i) q[5 + i] = n_scale * R[6 + i];
+  q[Q_Z] = c[2];
+  q[Q_ZD] = c[5];
+  for (i = 0; i < 3; ++i) q[Q_OMEGA + i] = omega[i];
+  for (i = 0; i < 3; ++i) q[Q_N + i] = n_scale * R[6 + i];
 }
 
 static void model_normalize(double *q)
 {
-  const double norm = sqrt(q[5] * q[5] + q[6] * q[6] + q[7] * q[7]);
-  q[5] /= norm; q[6] /= norm; q[7] /= norm;
+  const double norm = sqrt(q[Q_N] * q[Q_N] + q[Q_N + 1] * q[Q_N + 1] + q[Q_N + 2] * q[Q_N + 2]);
+  q[Q_N] /= norm; q[Q_N + 1] /= norm; q[Q_N + 2] /= norm;
 }
 
 const char *crt_state_name(int i)

@@ -1,0 +1,109 @@
+"""Where each quantity sits in a model's state vector, by name (Pinocchio's
+``model.idx_qs``/``nqs``): nobody writes ``q[15:18]``, they write ``GENERAL.n``.
+
+The one list of every model's states is here; :mod:`derive.models` maps these labels
+to the derivation's symbols, the emitters render the C offsets from them
+(``MODEL_Z``, where the vertical ``n`` and ``omega`` sit), and the runtime, the
+planner, the stability tools and the benchmarks slice states through them.  No SymPy:
+the runtime imports this.
+
+Also the point law's two orders: ``u = (x, y, z, x', y', z', x'', y'', z'')`` (what the
+derived functions read, :data:`U`) and the jets of a law ``(x, x', x'', y, y', y'', z,
+z', z'')`` (what :meth:`derive.scene.law.Program.jets` returns), and the map between
+them (:func:`u_of_jets`).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+
+class Layout:
+    """A model's state labels and named parts: ``layout.omega`` is a slice,
+    ``layout.Z`` an index (``None`` where the model has no such part); ``nq`` states."""
+
+    def __init__(self, model: str, labels: tuple, parts: dict, indices: dict):
+        self.model, self.labels, self.nq = model, tuple(labels), len(labels)
+        self.parts = {}
+        for name, names in parts.items():
+            k = self.labels.index(names[0])
+            if self.labels[k:k + len(names)] != tuple(names):
+                raise ValueError(f"{model}: the part {name} is not contiguous")
+            self.parts[name] = slice(k, k + len(names))
+        self.indices = {name: self.labels.index(label) for name, label in indices.items()}
+        for name, where in {**self.parts, **self.indices}.items():
+            setattr(self, name, where)
+
+    def index(self, label: str) -> int:
+        return self.labels.index(label)
+
+    def assemble(self, **parts) -> np.ndarray:
+        """States from their parts (``com=..., omega=...``: rows, or one state), every
+        state covered once."""
+        n = {np.shape(v)[0] for v in parts.values() if np.ndim(v) == 2}
+        out = np.empty((*n, self.nq)) if n else np.empty(self.nq)
+        covered = np.zeros(self.nq, dtype=int)
+        for name, value in parts.items():
+            where = getattr(self, name)
+            out[..., where] = value
+            covered[where] += 1
+        if not np.all(covered == 1):
+            raise ValueError(f"{self.model}: {dict(parts).keys()} do not cover the state once")
+        return out
+
+    def __repr__(self) -> str:
+        return f"Layout({self.model}, {self.nq} states)"
+
+
+_A = ("a11", "a12", "a13", "a21", "a22", "a23", "a31", "a32", "a33")
+_OMEGA = ("omega_x", "omega_y", "omega_z")
+_N = ("a31", "a32", "a33")
+
+# a_ij = cos(fixed axis i, body axis j); the row a3j is the vertical n in body axes
+GENERAL = Layout("general",
+                 ("X_C", "Y_C", "Z_C", "X_C'", "Y_C'", "Z_C'", *_OMEGA, *_A),
+                 {"com": ("X_C", "Y_C", "Z_C"), "com_velocity": ("X_C'", "Y_C'", "Z_C'"),
+                  "horizontal": ("X_C", "Y_C"), "horizontal_velocity": ("X_C'", "Y_C'"),
+                  "omega": _OMEGA, "A": _A, "n": _N},
+                 {"Z": "Z_C", "Zd": "Z_C'"})
+VERTICAL = Layout("vertical", ("Z_C", "Z_C'", *_OMEGA, *_N),
+                  {"omega": _OMEGA, "n": _N}, {"Z": "Z_C", "Zd": "Z_C'"})
+ATTITUDE = Layout("attitude", _OMEGA, {"omega": _OMEGA}, {})
+TRANSLATIONAL = Layout("translational", ("Z_C", "Z_C'"), {}, {"Z": "Z_C", "Zd": "Z_C'"})
+PLANAR = Layout("planar", ("Z_C", "Z_C'", "kappa", "phi"), {},
+                {"Z": "Z_C", "Zd": "Z_C'", "kappa": "kappa", "phi": "phi"})
+AXISYMMETRIC = Layout("axisymmetric", ("psi", "phi"), {}, {"psi": "psi", "phi": "phi"})
+_PHI = tuple(f"Phi[{i},{j}]" for i in range(VERTICAL.nq) for j in range(VERTICAL.nq))
+VARIATIONAL = Layout("variational", VERTICAL.labels + _PHI,
+                     {"omega": _OMEGA, "n": _N, "Phi": _PHI}, {"Z": "Z_C", "Zd": "Z_C'"})
+LAYOUTS = {lay.model: lay for lay in (GENERAL, VERTICAL, ATTITUDE, TRANSLATIONAL, PLANAR,
+                                      AXISYMMETRIC, VARIATIONAL)}
+
+
+def of(model: str) -> Layout:
+    return LAYOUTS[model]
+
+
+def vertical_of_general(q: np.ndarray) -> np.ndarray:
+    """The vertical model's state from general states (rows or one state)."""
+    q = np.asarray(q)
+    return np.concatenate([q[..., [GENERAL.Z, GENERAL.Zd]], q[..., GENERAL.omega],
+                           q[..., GENERAL.n]], axis=-1)
+
+
+# ---- the point law ---------------------------------------------------------------------
+U_LABELS = ("x", "y", "z", "x'", "y'", "z'", "x''", "y''", "z''")
+U = Layout("u", U_LABELS, {"r": ("x", "y", "z"), "v": ("x'", "y'", "z'"),
+                           "a": ("x''", "y''", "z''")}, {})
+JET_LABELS = ("x", "x'", "x''", "y", "y'", "y''", "z", "z'", "z''")
+# the rows of a law's jets that hold OP, OP' and OP'' (x, y, z each)
+JET_R, JET_V, JET_A = ((0, 3, 6), (1, 4, 7), (2, 5, 8))
+# jets -> u: u[i] = jets[JET_TO_U[i]]
+JET_TO_U = tuple(JET_LABELS.index(label) for label in U_LABELS)
+
+
+def u_of_jets(jets):
+    """u = (x, y, z, x', y', z', x'', y'', z'') from a law's jets (x, x', x'', y, ...):
+    (9, N) -> (9, N), or a sequence of nine (CasADi's entries) -> nine."""
+    if isinstance(jets, np.ndarray):
+        return jets[list(JET_TO_U)]
+    return [jets[i] for i in JET_TO_U]
