@@ -214,6 +214,14 @@ def sticking_rhs() -> FunctionSpec:
         definitions=MASS_DEFINITIONS)
 
 
+@lru_cache(maxsize=None)
+def numpy_function(name: str):
+    """The NumPy evaluation (derive.emit.numpy_backend) of the friction function
+    ``name``, compiled once."""
+    from .emit.numpy_backend import compile_spec
+    return compile_spec(next(s for s in friction_specs() if s.name == name))
+
+
 def friction_specs() -> list[FunctionSpec]:
     return [delassus(), contact_velocity(), impulse_slip_rate(), impulse_stick_rate(),
             impulse_resliding(), apply_impulse(), sliding_rhs(), sticking_rhs()]
