@@ -47,6 +47,8 @@ def _energy_sweep(n, seed, restitutions=("energetic",)):
             assert res.work_friction <= 1e-12 * scale
             if restitution == "energetic":
                 assert res.work_normal <= 1e-12 * scale
+            elif work > 1e-12 * scale:
+                seen["poisson gains"] = seen.get("poisson gains", 0) + 1
             T0 = ne.kinetic_energy(q, c.u, c.p)
             T1 = ne.kinetic_energy(res.q_plus, c.u, c.p)
             drive = ne.drive_work(q, c.u, c.s, c.p, res.impulse)
