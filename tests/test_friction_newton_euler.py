@@ -106,7 +106,7 @@ def test_resliding_ray(f):
     """Where stick is impossible the derived ray (Newton on |sigma(c)|^2 = 1) is the one
     and only ray found by scanning the circle."""
     seen = 0
-    for c, rng in _states(200, 59):
+    for c, rng in _states(100, 59):
         w6, _ = f["general_delassus"](c.q_general, c.u, c.s, c.p)
         W = dk.full(w6)
         tau, _ = ne.stick_rate(ne.inverse_inertia_at_S(c.q_general, c.u, c.s, c.p))
