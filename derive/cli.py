@@ -51,8 +51,8 @@ def cmd_prove(args: argparse.Namespace) -> int:
         known = {e.id for e in entries}
         bad = [i for i in args.id if i not in known]
         if bad:
-            raise UsageError(f"--id: {', '.join(bad)} not in CLAIMS.md (section filter "
-                             f"{args.section or 'all'})")
+            raise UsageError(f"--id: {', '.join(bad)} not in CLAIMS.md or EXTENSIONS.md "
+                             f"(section filter {args.section or 'all'})")
         entries = [e for e in entries if e.id in args.id]
     start = time.perf_counter()
     outcomes = []
@@ -436,7 +436,8 @@ def build_parser() -> argparse.ArgumentParser:
                    "checked equal to the expanded form before it is printed)")
     p.set_defaults(func=cmd_equations)
 
-    p = sub.add_parser("prove", help="run paper_checks/: every ID of CLAIMS.md")
+    p = sub.add_parser("prove", help="run paper_checks/: every ID of CLAIMS.md and "
+                       "EXTENSIONS.md")
     p.add_argument("--section", type=_section, action="append",
                    help="only this section (repeatable)")
     p.add_argument("--id", action="append", help="only this ID (repeatable)")

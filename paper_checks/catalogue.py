@@ -1,4 +1,6 @@
-"""Read the IDs of ``CLAIMS.md`` from its tables, so that a missing check is a failure."""
+"""Read the IDs of ``CLAIMS.md`` (the paper's catalogue) and of ``EXTENSIONS.md`` (what
+the project derives beyond the paper, IDs ``X...``) from their tables, so that a missing
+check is a failure."""
 from __future__ import annotations
 
 import re
@@ -6,7 +8,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 CLAIMS = Path(__file__).with_name("CLAIMS.md")
-_ID = re.compile(r"^([ECRO])(\d+)(?:\.(\d+)([a-z]?))?$")
+EXTENSIONS = Path(__file__).with_name("EXTENSIONS.md")
+_ID = re.compile(r"^([ECROX])(\d+)(?:\.(\d+)([a-z]?))?$")
 
 
 @dataclass(frozen=True)
@@ -25,17 +28,20 @@ def _expand(cell: str) -> list[str]:
             lo, hi = re.split(r"[–-]", part)
             a, b = _ID.match(lo.strip()), _ID.match(hi.strip())
             if not (a and b and a.group(1) == b.group(1) and a.group(2) == b.group(2)):
-                raise ValueError(f"CLAIMS.md: cannot expand the range {part!r}")
+                raise ValueError(f"catalogue: cannot expand the range {part!r}")
             out += [f"{a.group(1)}{a.group(2)}.{k}"
                     for k in range(int(a.group(3)), int(b.group(3)) + 1)]
         elif _ID.match(part):
             out.append(part)
         else:
-            raise ValueError(f"CLAIMS.md: {part!r} is not an ID")
+            raise ValueError(f"catalogue: {part!r} is not an ID")
     return out
 
 
-def entries(path: Path = CLAIMS) -> list[Entry]:
+def entries(path: Path | None = None) -> list[Entry]:
+    """The entries of ``path``, or of ``CLAIMS.md`` then ``EXTENSIONS.md``."""
+    if path is None:
+        return entries(CLAIMS) + entries(EXTENSIONS)
     rows: list[Entry] = []
     for line in path.read_text(encoding="utf-8").splitlines():
         cells = [c.strip() for c in line.strip().strip("|").split("|")]

@@ -59,7 +59,7 @@ def check(check_id: str):
 
 
 def load_all() -> dict[str, Callable[[Report], None]]:
-    from . import section1, section2, section3, section4  # noqa: F401  (registration)
+    from . import extensions, section1, section2, section3, section4  # noqa: F401  (registration)
     return CHECKS
 
 

@@ -59,3 +59,49 @@ def test_a_law_outside_the_claim_fails_c4_2(monkeypatch):
 def test_a_wrong_psi_rate_is_caught(monkeypatch):
     monkeypatch.setattr(printed, "E3_14_PSI_DOT", printed.E3_14_PSI_DOT * 2)
     assert run("E3.14").status == "fail"
+
+
+# ---- X1.1 (EXTENSIONS.md): the rough plane reduces to the smooth one at mu_f = 0 ----------
+def _patched(monkeypatch, name, **changes):
+    """Replace ``derive.friction.<name>()`` by its result with ``changes``."""
+    import dataclasses
+
+    from derive import friction
+    value = dataclasses.replace(getattr(friction, name)(), **changes)
+    monkeypatch.setattr(friction, name, lambda: value)
+
+
+def test_x1_1_catches_a_wrong_mass_term_in_w(monkeypatch):
+    from derive import friction
+    W = friction.delassus().matrix
+    _patched(monkeypatch, "delassus",
+             matrix=W + sp.diag(0, 0, 1 / nt.M - 1 / (nt.M + nt.m)))
+    assert run("X1.1").status == "fail"
+
+
+def test_x1_1_catches_a_wrong_energetic_termination(monkeypatch):
+    from derive import friction
+    dk = friction.darboux_keller()
+    terms = dict(dk.terminations)
+    terms["energetic"] = friction.E_N - (1 - nt.e) * friction.E_C      # e for e^2
+    _patched(monkeypatch, "darboux_keller", terminations=terms)
+    assert run("X1.1").status == "fail"
+
+
+def test_x1_1_catches_a_sliding_normal_force_without_the_mass_term(monkeypatch):
+    from derive import friction
+    sc = friction.sliding_contact()
+    _patched(monkeypatch, "sliding_contact",
+             normal_force=-sc.a_free / (sc.k_f - 1 / (nt.M + nt.m)))
+    assert run("X1.1").status == "fail"
+
+
+def test_x1_1_catches_friction_in_the_wrong_lever(monkeypatch):
+    # a lever that keeps a friction-like term at mu_f = 0 (CS x e_X instead of mu_f ...)
+    from derive import friction
+    from derive.impact import lever
+    CS, _ = lever()
+    sc = friction.sliding_contact()
+    _patched(monkeypatch, "sliding_contact",
+             lever=sc.lever + nt.cross(CS, nt.a.T * sp.Matrix([1, 0, 0])) / 1000)
+    assert run("X1.1").status == "fail"

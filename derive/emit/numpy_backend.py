@@ -15,29 +15,31 @@ from ..models import FunctionSpec
 
 
 def compile_spec(spec: FunctionSpec) -> Callable[..., tuple]:
-    """Return ``f(*inputs) -> tuple of output arrays`` (inputs in the spec's order)."""
+    """Return ``f(*inputs) -> tuple of output arrays`` (inputs in the spec's order).
+
+    The solves run in their order; a solve's matrix and right-hand sides may read the
+    unknowns of the solves before it (the sticking contact's solve with the Delassus
+    matrix, derive.friction_models)."""
     args = [list(v.entries) for v in spec.inputs]
-    stage1 = []
+    stages = []          # one (function, number of right-hand sides) per solve
+    known: list = []     # unknowns of the solves so far, as lambdify arguments
     for solve in spec.solves:
-        stage1.append([spec.inlined(v) for v in solve.matrix])
-        stage1 += [[spec.inlined(v) for v in r] for r in solve.rhs]
-    unknowns = [list(u) for solve in spec.solves for u in solve.unknowns]
-    f1 = sp.lambdify(args, stage1, modules="numpy", cse=True) if stage1 else None
+        values = [[spec.inlined(v) for v in solve.matrix]]
+        values += [[spec.inlined(v) for v in r] for r in solve.rhs]
+        stages.append((sp.lambdify(args + known, values, modules="numpy", cse=True),
+                       len(solve.rhs)))
+        known = known + [list(u) for u in solve.unknowns]
     outs = [[spec.inlined(v) for v in vec.entries] for vec in spec.outputs]
-    f2 = sp.lambdify(args + unknowns, outs, modules="numpy", cse=True)
+    f2 = sp.lambdify(args + known, outs, modules="numpy", cse=True)
 
     def evaluate(*inputs):
         inputs = [np.asarray(x, dtype=float).reshape(-1) for x in inputs]
         solved = []
-        if f1 is not None:
-            values = f1(*inputs)
-            k = 0
-            for solve in spec.solves:
-                mat = np.array(values[k], dtype=float).reshape(3, 3)
-                k += 1
-                for _ in solve.rhs:
-                    solved.append(np.linalg.solve(mat, np.array(values[k], dtype=float)))
-                    k += 1
+        for stage, n_rhs in stages:
+            values = stage(*inputs, *solved)
+            mat = np.array(values[0], dtype=float).reshape(3, 3)
+            for k in range(n_rhs):
+                solved.append(np.linalg.solve(mat, np.array(values[1 + k], dtype=float)))
         result = f2(*inputs, *solved)
         return tuple(np.array(r, dtype=float) for r in result)
 

@@ -1,0 +1,227 @@
+"""The rough plane's functions (:mod:`derive.friction`) as FunctionSpecs for the emitters.
+
+Not part of ``derive emit`` yet (the runtime that will call them is being reorganised):
+:func:`friction_specs` lists them, and the tests render them to C and CasADi the same
+way ``emit`` does and compare both with the NumPy evaluation and an independent
+Newton–Euler formulation (``tests/test_friction_newton_euler.py``).
+
+All for the ``general`` state (the slip of S needs the horizontal velocity of C and the
+whole attitude, which the ``vertical`` model leaves out).  ``W`` is passed as its upper
+triangle ``(W_XX, W_XY, W_XZ, W_YY, W_YZ, W_ZZ)`` (fixed axes); the Darboux–Keller state
+along the normal impulse ``p`` is ``y = (v_X, v_Y, v_Z, P_X, P_Y, E_n, E_t)``: the
+velocity of S, the tangential impulse, the work of the normal impulse and of friction.
+
+* ``general_delassus(q, u, s, p) -> (W, v_S)``: W from three solves with J, and v_S.
+* ``general_contact_velocity(q, u, s, p) -> v_S``: the velocity of S (fixed axes).
+* ``impulse_slip_rate(y, W, mu_f) -> dy``: dy/dp while S slips (``v_t != 0``).
+* ``impulse_stick_rate(y, W, mu_f) -> (dy, tau, margin)``: dy/dp while S sticks;
+  ``margin = mu_f^2 - |tau|^2 >= 0`` iff stick is possible.
+* ``impulse_resliding(W, mu_f, c) -> (sigma, f, df_dc)``: the ray ``sigma(c)`` and
+  ``f = |sigma|^2 - 1``; Newton from ``c = 0`` finds the re-sliding ray.
+* ``general_apply_impulse(q, u, s, p, P) -> q_plus``: the state after a total impulse
+  P at S.
+* ``general_sliding_rhs(q, u, s, sdot, p, mu_f, dir) -> (dq, N, v_t, a_t)``: sliding
+  contact along the unit horizontal ``dir``.
+* ``general_sticking_rhs(q, u, s, sdot, p) -> (dq, R)``: sticking contact and its
+  reaction R.
+"""
+from __future__ import annotations
+
+from functools import lru_cache
+
+import sympy as sp
+
+from . import friction as fr
+from . import notation as nt
+from .models import (MASS_DEFINITIONS, SDOT, SDOT_LABELS, STATE_LABELS, STATES, FunctionSpec,
+                     LinearSolve, Vector, _p, _q, _rates, _s, _u)
+from .momentum import flight_dynamics_structured
+
+MODEL = "general"
+Y_STATE = (*fr.V_S, *fr.P_T, fr.E_N, fr.E_T)
+Y_LABELS = ("v_X", "v_Y", "v_Z", "P_X", "P_Y", "E_n", "E_t")
+RHO = sp.Symbol("rho_t", nonnegative=True)       # |v_t|, the slip speed
+
+
+def _W() -> Vector:
+    return Vector("W", fr.W_UPPER, fr.W_LABELS)
+
+
+def _mu() -> Vector:
+    return Vector("mu_f", (fr.mu_f,), ("mu_f",))
+
+
+def _y() -> Vector:
+    return Vector("y", Y_STATE, Y_LABELS)
+
+
+def _upper(matrix: sp.Matrix) -> tuple:
+    return tuple(matrix[i, j] for i in range(3) for j in range(i, 3))
+
+
+def _dq(rates: dict) -> Vector:
+    dq = tuple(sp.sympify(rates[s]) for s in STATES[MODEL])
+    return Vector("dq", dq, tuple(f"d({lb})/dt" for lb in STATE_LABELS[MODEL]))
+
+
+@lru_cache(maxsize=None)
+def delassus() -> FunctionSpec:
+    """``general_delassus(q, u, s, p) -> (W, v_S)``."""
+    dl = fr.delassus()
+    fd = flight_dynamics_structured()
+    return FunctionSpec(
+        name="general_delassus",
+        doc="Delassus matrix W of S (fixed axes, upper triangle): an impulse P at S changes "
+            "the velocity of S by W P (derive.friction); and that velocity v_S.",
+        inputs=(_q(MODEL), _u(), _s(), _p()),
+        outputs=(Vector("W", _upper(dl.matrix), fr.W_LABELS),
+                 Vector("v_S", tuple(fr.velocity_of_S()), ("v_X", "v_Y", "v_Z"))),
+        solves=(LinearSolve(matrix=fd.mass_matrix, rhs=dl.rhs, unknowns=fr.Y),),
+        definitions=MASS_DEFINITIONS)
+
+
+@lru_cache(maxsize=None)
+def contact_velocity() -> FunctionSpec:
+    """``general_contact_velocity(q, u, s, p) -> v_S``."""
+    return FunctionSpec(
+        name="general_contact_velocity",
+        doc="Velocity of the body point S, fixed axes (its Z component is E1.14's v_n; "
+            "X and Y are the slip velocity).",
+        inputs=(_q(MODEL), _u(), _s(), _p()),
+        outputs=(Vector("v_S", tuple(fr.velocity_of_S()), ("v_X", "v_Y", "v_Z")),),
+        definitions=MASS_DEFINITIONS)
+
+
+@lru_cache(maxsize=None)
+def impulse_slip_rate() -> FunctionSpec:
+    """``impulse_slip_rate(y, W, mu_f) -> dy``: Darboux–Keller while S slips."""
+    dk = fr.darboux_keller()
+    sigma = dict(zip(fr.SIGMA, (fr.V_S[0] / RHO, fr.V_S[1] / RHO)))
+    dy = (*dk.slip_rate, -fr.mu_f * fr.SIGMA[0], -fr.mu_f * fr.SIGMA[1], fr.V_S[2],
+          -fr.mu_f * RHO)
+    definitions = ((RHO, sp.sqrt(fr.V_S[0] ** 2 + fr.V_S[1] ** 2)), *sigma.items())
+    return FunctionSpec(
+        name="impulse_slip_rate",
+        doc="Darboux-Keller rate dy/dp in the normal impulse p while S slips (|v_t| > 0): "
+            "dv/dp = W (e_Z - mu_f v_t/|v_t|) (derive.friction).",
+        inputs=(_y(), _W(), _mu()),
+        outputs=(Vector("dy", dy, tuple(f"d({lb})/dp" for lb in Y_LABELS)),),
+        definitions=definitions)
+
+
+@lru_cache(maxsize=None)
+def impulse_stick_rate() -> FunctionSpec:
+    """``impulse_stick_rate(y, W, mu_f) -> (dy, tau, margin)``: while S sticks."""
+    dk = fr.darboux_keller()
+    tau = dk.stick_tau_by_z
+    dy = (*dk.stick_rate, tau[0], tau[1], fr.V_S[2], sp.Integer(0))
+    return FunctionSpec(
+        name="impulse_stick_rate",
+        doc="Darboux-Keller rate dy/dp while S sticks (v_t = 0): the tangential impulse "
+            "rate tau = z_t/z_Z with W z = e_Z keeps v_t = 0; stick is possible iff "
+            "margin = mu_f^2 - |tau|^2 >= 0 (derive.friction).",
+        inputs=(_y(), _W(), _mu()),
+        outputs=(Vector("dy", dy, tuple(f"d({lb})/dp" for lb in Y_LABELS)),
+                 Vector("tau", tuple(tau), ("tau_X", "tau_Y")),
+                 Vector("margin", (dk.stick_margin,), ("margin",))),
+        solves=(LinearSolve(matrix=fr.W_SYM, rhs=(sp.Matrix([0, 0, 1]),),
+                            unknowns=(fr.Z_STICK,)),))
+
+
+@lru_cache(maxsize=None)
+def impulse_resliding() -> FunctionSpec:
+    """``impulse_resliding(W, mu_f, c) -> (sigma, f, df_dc)``."""
+    dk = fr.darboux_keller()
+    f = dk.ray_residual
+    return FunctionSpec(
+        name="impulse_resliding",
+        doc="Re-sliding when stick is impossible: sigma(c) = (c + mu_f W_tt)^-1 W_tn (2x2 "
+            "closed form on the numbers W) and f(c) = |sigma(c)|^2 - 1, convex and "
+            "decreasing for c > 0: Newton's method from c = 0 finds the ray's rate c, "
+            "sigma(c) its direction (derive.friction).",
+        inputs=(_W(), _mu(), Vector("c", (fr.C_RAY,), ("c",))),
+        outputs=(Vector("sigma", tuple(dk.ray_direction), ("sigma_X", "sigma_Y")),
+                 Vector("f", (f,), ("f",)),
+                 Vector("df_dc", (sp.diff(f, fr.C_RAY),), ("df/dc",))))
+
+
+OMEGA_JUMP = sp.Matrix(sp.symbols("domega_x domega_y domega_z", real=True))
+
+
+@lru_cache(maxsize=None)
+def apply_impulse() -> FunctionSpec:
+    """``general_apply_impulse(q, u, s, p, P) -> q_plus``."""
+    dl = fr.delassus()
+    fd = flight_dynamics_structured()
+    after = {v: v + dv for v, dv in zip(nt.V_C, dl.velocity_jump)}
+    after.update({w: w + dw for w, dw in zip(nt.omega, OMEGA_JUMP)})
+    q_plus = tuple(after.get(s, s) for s in STATES[MODEL])
+    return FunctionSpec(
+        name="general_apply_impulse",
+        doc="State just after an impact whose total impulse at S is P (fixed axes): "
+            "V_C + P/(m+M), omega + J^-1 (CS x A^T P) (derive.friction).",
+        inputs=(_q(MODEL), _u(), _s(), _p(), Vector("P", tuple(fr.P_IMP), ("P_X", "P_Y", "P_Z"))),
+        outputs=(Vector("q_plus", q_plus, STATE_LABELS[MODEL]),),
+        solves=(LinearSolve(matrix=fd.mass_matrix, rhs=(dl.moment,), unknowns=(OMEGA_JUMP,)),),
+        definitions=MASS_DEFINITIONS)
+
+
+@lru_cache(maxsize=None)
+def sliding_rhs() -> FunctionSpec:
+    """``general_sliding_rhs(q, u, s, sdot, p, mu_f, dir) -> (dq, N, v_t, a_t)``."""
+    sc = fr.sliding_contact()
+    fd = flight_dynamics_structured()
+    N = sc.normal_force
+    rates = _rates(MODEL)
+    rates.update(dict(zip(nt.V_C, sc.acc_C)))
+    rates.update(dict(zip(nt.omega, sc.omega_dot)))
+    rates = {k: sp.sympify(v).xreplace({nt.N: N}) for k, v in rates.items()}
+    v_t = tuple(fr.velocity_of_S()[:2])
+    a_t = tuple(c.xreplace({nt.N: N}) for c in sc.slip_acceleration)
+    return FunctionSpec(
+        name="general_sliding_rhs",
+        doc="Sliding contact: S on the plane slipping along the unit horizontal dir, "
+            "reaction N (e_Z - mu_f dir) with N from dv_n/dt = 0 (derive.friction); also "
+            "the slip velocity v_t and its rate a_t.  Valid while N >= 0 and v_t != 0.",
+        inputs=(_q(MODEL), _u(), _s(), Vector("sdot", SDOT, SDOT_LABELS), _p(), _mu(),
+                Vector("dir", tuple(fr.SIGMA), ("dir_X", "dir_Y"))),
+        outputs=(_dq(rates), Vector("N", (N,), ("N",)), Vector("v_t", v_t, ("v_X", "v_Y")),
+                 Vector("a_t", a_t, ("v_X'", "v_Y'"))),
+        solves=(LinearSolve(matrix=fd.mass_matrix, rhs=(sc.forcing, sc.lever),
+                            unknowns=(fr.OMEGA_DOT_0, fr.W_SLIDE)),),
+        definitions=MASS_DEFINITIONS)
+
+
+@lru_cache(maxsize=None)
+def sticking_rhs() -> FunctionSpec:
+    """``general_sticking_rhs(q, u, s, sdot, p) -> (dq, R)``."""
+    st = fr.sticking_contact()
+    dl = fr.delassus()
+    fd = flight_dynamics_structured()
+    rates = _rates(MODEL)
+    rates.update(dict(zip(nt.V_C, st.acc_C)))
+    rates.update(dict(zip(nt.omega, st.omega_dot)))
+    return FunctionSpec(
+        name="general_sticking_rhs",
+        doc="Sticking contact: S at rest on the plane, held by the reaction R (fixed axes) "
+            "from dv_S/dt = 0, a solve with the Delassus matrix W (derive.friction).  "
+            "Valid while R_Z >= 0 and R_X^2 + R_Y^2 <= mu_f^2 R_Z^2.",
+        inputs=(_q(MODEL), _u(), _s(), Vector("sdot", SDOT, SDOT_LABELS), _p()),
+        outputs=(_dq(rates), Vector("R", tuple(fr.R_VEC), ("R_X", "R_Y", "R_Z"))),
+        solves=(LinearSolve(matrix=fd.mass_matrix, rhs=(st.forcing, *dl.rhs),
+                            unknowns=(fr.OMEGA_DOT_0, *fr.Y)),
+                LinearSolve(matrix=st.matrix, rhs=(-st.a_free,), unknowns=(fr.R_VEC,))),
+        definitions=MASS_DEFINITIONS)
+
+
+@lru_cache(maxsize=None)
+def numpy_function(name: str):
+    """The NumPy evaluation (derive.emit.numpy_backend) of the friction function
+    ``name``, compiled once."""
+    from .emit.numpy_backend import compile_spec
+    return compile_spec(next(s for s in friction_specs() if s.name == name))
+
+
+def friction_specs() -> list[FunctionSpec]:
+    return [delassus(), contact_velocity(), impulse_slip_rate(), impulse_stick_rate(),
+            impulse_resliding(), apply_impulse(), sliding_rhs(), sticking_rhs()]
