@@ -9,10 +9,12 @@ Measured in one run, on the same machine, with the same compiler flags: the runt
 * CasADi's generated C of a *hand-written* right-hand side (E1.2, E1.7 and E1.8 typed in
   CasADi SX, ``casadi.solve`` on the 3x3 system J omega' = F) in three forms
   (:data:`HAND_FORMS`): the peer of the target is the fastest of them in each loop;
-* the emitted flight RHS with each closed-form 3x3 solve of :mod:`derive.emit.linalg`
-  (LDL^T, adjugate, Cholesky, Sherman-Morrison on J as a diagonal minus a rank-one term)
-  and the previous emitted form (E1.7 as the structured residual, adjugate), with their
-  accuracy against a 30-digit evaluation of E1.7 as derived from E1.6;
+* the emitted flight RHS and lie_stage with each closed-form 3x3 solve of
+  :mod:`derive.emit.linalg` (LDL^T, adjugate and Cholesky on J's entries; Sherman-Morrison
+  and the adjugate on J as a diagonal minus a rank-one term) and the forms emitted before
+  (the flight RHS: E1.7 as the structured residual; both: J by its entries, adjugate),
+  the flight RHS's with its accuracy against a 30-digit evaluation of E1.7 as derived
+  from E1.6;
 * the floor of the latency loop: a function of the general flight RHS's signature with
   one multiplication per output entry (what the loop's loads, stores and feedback cost
   whatever the function computes);
@@ -31,7 +33,7 @@ from __future__ import annotations
 import subprocess
 import tempfile
 import timeit
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import lru_cache
 from pathlib import Path
 
@@ -55,7 +57,7 @@ ACCURACY_STATES = 1000    # random physical states of the accuracy check
 ACCURACY_SLACK_ULP = 1.0  # the emitted RHS's 99th percentile of errors may exceed the
                           # previous emitted form's (Coriolis form, adjugate) by this much
 FLAG_SETS = (RUNTIME_FLAGS, ("-O2",))   # the target is judged at the first, -O2 reported
-PREVIOUS = "coriolis"     # the variant of the previous emitted form
+PREVIOUS = "previous"     # the variant of the form emitted before (previous_flight_rhs)
 
 
 @dataclass
@@ -151,13 +153,21 @@ def hand_written_flight_rhs(form: str = "euler_scaled") -> ca.Function:
 def previous_flight_rhs() -> FunctionSpec:
     """``general_flight_rhs`` as emitted before E1.7's Euler form: the structured residual
     of E1.7 (derive.momentum.flight_dynamics_structured) and E1.5's J by its entries."""
-    from dataclasses import replace
-
     from ..momentum import flight_dynamics_structured
     fd = flight_dynamics_structured()
     spec = flight_rhs("general")
     return replace(spec, solves=(LinearSolve(matrix=fd.mass_matrix, rhs=(fd.forcing,),
                                              unknowns=spec.solves[0].unknowns),))
+
+
+def previous_lie_stage() -> FunctionSpec:
+    """``lie_stage`` as emitted before J was stated as a diagonal minus a rank-one term:
+    E1.5's J by its entries (derive.momentum.momentum_form)."""
+    from ..momentum import momentum_form
+    spec = lie_stage()
+    (solve,) = spec.solves
+    return replace(spec, solves=(LinearSolve(matrix=momentum_form().J, rhs=solve.rhs,
+                                             unknowns=solve.unknowns),))
 
 
 # ---- the harness ---------------------------------------------------------------------------
@@ -455,6 +465,7 @@ def run(cflags: tuple = RUNTIME_FLAGS, trials: int = 60, reps: int = 40,
                 symbols[solver] = symbol
     symbols[PREVIOUS] = _variant(previous_flight_rhs(), "adjugate", PREVIOUS, sources,
                                  contexts, variants)
+    _variant(previous_lie_stage(), "adjugate", PREVIOUS, sources, contexts, variants)
     text, info = _floor_source(flight_rhs("general"))
     sources[f"{FLOOR}.c"] = text
     ctx = _plain_context(flight_rhs("general"), FLOOR, FLOOR)
@@ -564,12 +575,12 @@ def report(rep: Report, judged: bool = True) -> tuple[str, bool]:
         lines.append(f"{mark}{v.function + ' ' + v.solver:<35}{v.ops:>5}{v.flops:>7}"
                      f"{v.throughput_ns:>9.1f}{v.latency_ns:>8.1f}{v.path_ns:>10.1f}"
                      f"{v.issue_ns:>10.1f}  {v.path:<30}{ulp}")
-    lines.append(f"  * the solve the emitted code uses; {PREVIOUS}: the previous emitted form "
-                 "(E1.7's structured residual, J by its entries, adjugate).  Physical limits\n"
-                 "    of a call in the latency loop: chain ns, the longest chain of dependent "
-                 "operations from the state weighted by the\n    latencies above; issue ns, "
-                 "the flops at the rate of independent operations ('issue'); a call cannot "
-                 "take less\n    than the larger.")
+    lines.append(f"  * the solve the emitted code uses; {PREVIOUS}: the form emitted before (the "
+                 "flight RHS: E1.7's structured residual, Coriolis form; both: J by its\n"
+                 "    entries, adjugate).  Physical limits of a call in the latency loop: chain "
+                 "ns, the longest chain of dependent operations from the state weighted by\n"
+                 "    the latencies above; issue ns, the flops at the rate of independent "
+                 "operations ('issue'); a call cannot take less than the larger.")
     by = {r.name: r for r in rows}
     g = by["general_flight_rhs"]
     lines.append("")
