@@ -23,10 +23,11 @@ differentiated (``<model>_flight_jacobian`` solves for every state, most of them
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
+
 import sympy as sp
 
-from .models import FunctionSpec, LinearSolve, Vector
+from .models import FunctionSpec, Vector
 
 
 @dataclass(frozen=True)
@@ -101,8 +102,7 @@ def _without_zero_solves(spec: FunctionSpec):
                 rhs.append(b)
                 unknowns.append(tuple(w))
         if rhs:
-            solves.append(LinearSolve(matrix=solve.matrix, rhs=tuple(rhs),
-                                      unknowns=tuple(unknowns)))
+            solves.append(replace(solve, rhs=tuple(rhs), unknowns=tuple(unknowns)))
     return solves, zero
 
 
@@ -179,8 +179,7 @@ def jacobian(spec: FunctionSpec) -> JacobianSpec:
                 unknowns.append(d)
                 chain.derivative.update({(s, x): ds for s, ds in zip(w, d)})
         if rhs:
-            derived_solves.append(LinearSolve(matrix=J, rhs=tuple(rhs),
-                                              unknowns=tuple(unknowns)))
+            derived_solves.append(replace(solve, rhs=tuple(rhs), unknowns=tuple(unknowns)))
 
     blocks, outputs = [], []
     for out in spec.outputs:

@@ -19,7 +19,7 @@ Common inputs: ``u = (x, y, z, x', y', z', x'', y'', z'')`` (point law in body a
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import lru_cache
 
 import sympy as sp
@@ -28,7 +28,7 @@ from . import layout
 from . import notation as nt
 from .impact import K_SYMBOL, V_N_MINUS, height, impact_map, lever
 from .kinematics import poisson_equations
-from .momentum import flight_dynamics_structured
+from .momentum import (MU_OP, flight_dynamics_euler, flight_dynamics_euler_scaled)
 from . import surfaces
 
 
@@ -42,10 +42,20 @@ class Vector:
 @dataclass(frozen=True)
 class LinearSolve:
     """``matrix @ unknowns[k] = rhs[k]`` for each k; ``matrix`` symmetric positive
-    definite 3x3."""
+    definite 3x3.  ``diagonal`` and ``rank_one = (a0, a1, a2, v0, v1, v2)``, when given,
+    state ``matrix = diag(diagonal) - a v^T`` with ``a`` a multiple of ``v`` (E1.5's J:
+    ``a = mu OP``, ``v = OP``, derive.momentum.flight_dynamics_euler), which a solver
+    may use instead of the entries (derive.emit.linalg)."""
     matrix: sp.Matrix
     rhs: tuple
     unknowns: tuple
+    diagonal: tuple = ()
+    rank_one: tuple = ()
+
+    @property
+    def structure(self) -> tuple | None:
+        """``(d0, d1, d2, a0, a1, a2, v0, v1, v2)`` or None."""
+        return (*self.diagonal, *self.rank_one) if self.diagonal else None
 
 
 @dataclass(frozen=True)
@@ -112,6 +122,8 @@ def _e() -> Vector:
 # The derivation states the mass ratios as nu = m/(m+M) and mu = mM/(m+M) = M nu;
 # emitted code takes M and m and computes these once, first.
 MASS_DEFINITIONS = ((nt.nu, nt.MASS_FRACTION), (nt.mu, nt.M * nt.nu))
+# ... and mu OP, which E1.5's J reads as a diagonal minus a rank-one term (inertia_solve)
+INERTIA_DEFINITIONS = MASS_DEFINITIONS + tuple(zip(MU_OP, nt.mu * sp.Matrix(nt.OP)))
 
 
 def _rates(model: str) -> dict:
@@ -124,22 +136,37 @@ def _rates(model: str) -> dict:
     return rates
 
 
+def euler_solve(form, unknowns: tuple = (nt.omega_dot,)) -> LinearSolve:
+    """E1.7 in Euler's form (derive.momentum.flight_dynamics_euler) as a solve whose
+    matrix is stated as a diagonal minus a rank-one term."""
+    return LinearSolve(matrix=form.matrix, rhs=(form.forcing,), unknowns=unknowns,
+                       diagonal=tuple(form.diagonal), rank_one=(*MU_OP, *form.vector))
+
+
+def inertia_solve(rhs: tuple, unknowns: tuple) -> LinearSolve:
+    """``J x = b`` for each right-hand side, E1.5's J stated as ``diag(J_i + mu |OP|^2) -
+    (mu OP) OP^T`` (derive.momentum.flight_dynamics_euler; it reads mu OP from
+    :data:`INERTIA_DEFINITIONS`)."""
+    form = flight_dynamics_euler()
+    return LinearSolve(matrix=form.matrix, rhs=rhs, unknowns=unknowns,
+                       diagonal=tuple(form.diagonal), rank_one=(*MU_OP, *form.vector))
+
+
 @lru_cache(maxsize=None)
 def flight_rhs(model: str) -> FunctionSpec:
-    """``<model>_flight_rhs(q, u, p) -> dq``: E1.2, E1.7 (solved numerically), E1.8."""
-    fd = flight_dynamics_structured()
+    """``<model>_flight_rhs(q, u, p) -> dq``: E1.2, E1.7 (solved numerically), E1.8.
+    E1.7 in Euler's form, times m + M (derive.momentum.flight_dynamics_euler_scaled)."""
     rates = _rates(model)
     dq = tuple(rates[s] for s in STATES[model])
-    solve = LinearSolve(matrix=fd.mass_matrix,
-                        rhs=(fd.forcing,),
-                        unknowns=(nt.omega_dot,))
+    form = flight_dynamics_euler_scaled()
+    solve = euler_solve(form)
     return FunctionSpec(
         name=f"{model}_flight_rhs",
         doc=f"Flight right-hand side of the {model} model: dq/dt (E1.2, E1.7 solved for "
             "omega', E1.8).",
         inputs=(_q(model), _u(), _p()),
         outputs=(Vector("dq", dq, tuple(f"d({lb})/dt" for lb in STATE_LABELS[model])),),
-        solves=(solve,), definitions=MASS_DEFINITIONS)
+        solves=(solve,), definitions=MASS_DEFINITIONS + form.definitions)
 
 
 @lru_cache(maxsize=None)
@@ -172,9 +199,8 @@ def flight_jacobian(model: str) -> FunctionSpec:
         inputs=(_q(model), _u(), _p()),
         outputs=(Vector("A", tuple(entries),
                         tuple(f"d({a}')/d({b})" for a in labels for b in labels)),),
-        solves=(LinearSolve(matrix=solve.matrix, rhs=tuple(F.diff(qk) for qk in q),
-                            unknowns=tuple(X)),),
-        definitions=MASS_DEFINITIONS)
+        solves=(replace(solve, rhs=tuple(F.diff(qk) for qk in q), unknowns=tuple(X)),),
+        definitions=rhs.definitions)
 
 
 @lru_cache(maxsize=None)
@@ -184,7 +210,6 @@ def impact(model: str) -> FunctionSpec:
         raise ValueError("the attitude model has no contact geometry")
     im = impact_map()
     _, d = lever()
-    fd = flight_dynamics_structured()
     impulse = im.impulse.xreplace({V_N_MINUS: im.normal_velocity, K_SYMBOL: im.k})
     after = {nt.X_Cd: nt.X_Cd + im.velocity_jump[0], nt.Y_Cd: nt.Y_Cd + im.velocity_jump[1],
              nt.Z_Cd: nt.Z_Cd + im.velocity_jump[2]}
@@ -195,14 +220,13 @@ def impact(model: str) -> FunctionSpec:
     # I itself is an intermediate: substitute it last so that CSE sees one impulse
     outputs = tuple(Vector(v.name, tuple(ex.xreplace({nt.I: impulse})
                                          for ex in v.entries), v.labels) for v in outputs)
-    solve = LinearSolve(matrix=fd.mass_matrix, rhs=(d,),
-                        unknowns=(nt.W,))
+    solve = inertia_solve((d,), (nt.W,))
     return FunctionSpec(
         name=f"{model}_impact",
         doc=f"Impact map of the {model} model: state just after the impact and the "
             "impulse I (E1.11, E1.12, E1.15, E1.16); apply only when v_n < 0.",
         inputs=(_q(model), _u(), _s(), _p(), _e()),
-        outputs=outputs, solves=(solve,), definitions=MASS_DEFINITIONS)
+        outputs=outputs, solves=(solve,), definitions=INERTIA_DEFINITIONS)
 
 
 @lru_cache(maxsize=None)
@@ -252,7 +276,6 @@ def contact_rhs(model: str) -> FunctionSpec:
     from .contact import A_FREE, contact_dynamics
     cd = contact_dynamics()
     im = impact_map()
-    fd = flight_dynamics_structured()
     f, d = cd.omega_rhs
     a_free = cd.a_free.xreplace(dict(zip(nt.omega_dot, OMEGA_DOT_FREE)))
     normal = cd.normal_force.xreplace({A_FREE: a_free, K_SYMBOL: im.k})
@@ -261,9 +284,7 @@ def contact_rhs(model: str) -> FunctionSpec:
     rates[nt.Z_Cd] = cd.z_acceleration
     rates.update(dict(zip(nt.omega, omega_dot)))
     dq = tuple(sp.sympify(rates[s]).xreplace({nt.N: normal}) for s in STATES[model])
-    solve = LinearSolve(matrix=fd.mass_matrix,
-                        rhs=(f, d),
-                        unknowns=(OMEGA_DOT_FREE, nt.W))
+    solve = inertia_solve((f, d), (OMEGA_DOT_FREE, nt.W))
     return FunctionSpec(
         name=f"{model}_contact_rhs",
         doc=f"Persistent contact of the {model} model: dq/dt with S held on the plane "
@@ -272,7 +293,7 @@ def contact_rhs(model: str) -> FunctionSpec:
         outputs=(Vector("dq", tuple(v for v in dq),
                         tuple(f"d({lb})/dt" for lb in STATE_LABELS[model])),
                  Vector("N", (normal,), ("N",))),
-        solves=(solve,), definitions=MASS_DEFINITIONS)
+        solves=(solve,), definitions=INERTIA_DEFINITIONS)
 
 
 @lru_cache(maxsize=None)
@@ -327,8 +348,8 @@ def momentum_omega() -> FunctionSpec:
             "(E1.1), J omega = A^T K - mu OP x V_r.",
         inputs=(_A(), Vector("K", tuple(K_FIXED), ("K_X", "K_Y", "K_Z")), _u(), _p()),
         outputs=(_omega(),),
-        solves=(LinearSolve(matrix=mf.J, rhs=(rhs,), unknowns=(nt.omega,)),),
-        definitions=MASS_DEFINITIONS)
+        solves=(inertia_solve((rhs,), (nt.omega,)),),
+        definitions=INERTIA_DEFINITIONS)
 
 
 @lru_cache(maxsize=None)
@@ -374,8 +395,8 @@ def lie_stage() -> FunctionSpec:
             "body axes, and W' = dexpinv(W, omega) (E1.8 in exponential coordinates).",
         inputs=(_W(), Vector("k", tuple(K_BODY), ("k_x", "k_y", "k_z")), _u(), _p()),
         outputs=(Vector("dW", tuple(dW), ("W_x'", "W_y'", "W_z'")), _omega()),
-        solves=(LinearSolve(matrix=mf.J, rhs=(rhs,), unknowns=(nt.omega,)),),
-        definitions=MASS_DEFINITIONS + series)
+        solves=(inertia_solve((rhs,), (nt.omega,)),),
+        definitions=INERTIA_DEFINITIONS + series)
 
 
 @lru_cache(maxsize=None)
@@ -399,8 +420,8 @@ def lie_point() -> FunctionSpec:
         inputs=(_W(), Vector("k", tuple(K_BODY), ("k_x", "k_y", "k_z")), _u(), _p()),
         outputs=(Vector("E", tuple(E), tuple(f"e{i}{j}" for i in "123" for j in "123")),
                  _omega()),
-        solves=(LinearSolve(matrix=mf.J, rhs=(rhs,), unknowns=(nt.omega,)),),
-        definitions=MASS_DEFINITIONS + tuple((sym, v) for sym, v in series if sym in keep))
+        solves=(inertia_solve((rhs,), (nt.omega,)),),
+        definitions=INERTIA_DEFINITIONS + tuple((sym, v) for sym, v in series if sym in keep))
 
 
 @lru_cache(maxsize=None)

@@ -104,6 +104,133 @@ def flight_dynamics_structured() -> FlightDynamics:
     return FlightDynamics(residual=residual, mass_matrix=mass, forcing=forcing)
 
 
+def _same(lhs: sp.Matrix, rhs: sp.Matrix, what: str) -> sp.Matrix:
+    """``rhs`` after checking ``lhs == rhs`` by expansion (a step of a derivation)."""
+    if (lhs - rhs).applyfunc(sp.expand) != sp.zeros(*lhs.shape):
+        raise AssertionError(f"{what}: the two sides differ")
+    return rhs
+
+
+# named quantities of E1.7's Euler form: mu OP, and 2 mu OP.V_r (derive.models computes
+# them first, so that the code forms each product once)
+MU_OP = sp.Matrix(sp.symbols("muOP_x muOP_y muOP_z", real=True))
+MU_OP_V = sp.Symbol("muOPV2", real=True)
+
+
+@dataclass(frozen=True)
+class EulerForm:
+    """E1.7 as ``matrix omega' = forcing`` with the matrix a diagonal minus a rank-one
+    term: ``matrix = diag(diagonal) - rank OP OP^T``.
+
+    ``forcing`` is in Euler's form: the carrier's ``-omega x J_O omega`` (the components
+    ``(J_y - J_z) omega_y omega_z, ...``), then what the point adds, with OP, V_r, A_r
+    and omega in dot and cross products only (:func:`flight_dynamics_euler`).
+    ``forcing`` and ``matrix`` read the named quantities of ``definitions``
+    (:data:`MU_OP` = rank OP, :data:`MU_OP_V` = 2 rank OP.V_r); ``inline`` substitutes
+    them.
+    """
+    diagonal: sp.Matrix     # 3 entries
+    rank: sp.Expr
+    vector: sp.Matrix       # OP
+    forcing: sp.Matrix
+    definitions: tuple      # ((symbol, value), ...)
+    scale: sp.Expr          # this system is ``scale`` times E1.7 (1 or m + M)
+
+    @property
+    def matrix(self) -> sp.Matrix:
+        """``diag(diagonal) - (rank OP) OP^T``, with rank OP named."""
+        return sp.diag(*self.diagonal) - MU_OP * self.vector.T
+
+    def inline(self, expr):
+        return expr.xreplace(dict(self.definitions))
+
+
+@lru_cache(maxsize=None)
+def flight_dynamics_euler() -> EulerForm:
+    """E1.7 in Euler's form, from the theorem of angular momentum applied to the summed
+    K of E1.4, ``K = J_O omega + mu OP x U`` with ``U = V_r + omega x OP`` (the absolute
+    rate of OP in body axes).  Each step is an identity of vector algebra, checked by
+    expansion; the result is checked against :func:`flight_dynamics_structured`, and
+    ``tests/test_momentum.py`` against :func:`flight_dynamics` (E1.6 expanded).
+
+    E1.3 on each part of K (the relative rate plus ``omega x``), with ``OP' = V_r``,
+    ``U' = A_r + omega' x OP + omega x V_r`` (both found by differentiating):
+
+        J_O omega' + omega x J_O omega
+          + mu [V_r x U + OP x U' + omega x (OP x U)] = 0.
+
+    The terms in omega' are ``J_O omega' + mu OP x (omega' x OP) = J omega'``, and
+    ``OP x (omega' x OP) = |OP|^2 omega' - OP (OP.omega')`` makes J (E1.5) the diagonal
+    ``J_O + mu |OP|^2`` minus ``mu OP OP^T``.  Of the rest, ``V_r x U = V_r x (omega x
+    OP)``, and by Jacobi's identity ``V_r x (omega x OP) + omega x (OP x V_r) = OP x
+    (omega x V_r)``, so the three terms in V_r and omega are ``2 OP x (omega x V_r) =
+    2 (OP.V_r) omega - 2 (OP.omega) V_r``; and ``omega x (OP x (omega x OP)) = -(OP.omega)
+    omega x OP``.  So
+
+        J omega' = -omega x J_O omega - mu OP x A_r
+                   + (OP.omega) (2 mu V_r + omega x mu OP) - 2 mu (OP.V_r) omega.
+
+    The forcing is linear in ``(J_x, J_y, J_z, mu)`` jointly and so is J: times
+    ``m + M`` the system reads the same with ``J_i -> (m + M) J_i`` and ``mu -> mM``
+    (``scaled``), which needs no division for mu."""
+    from .notation import A_r, OP, V_r, dot, mu, omega as w, omega_dot as wd, skew
+    J_O = sp.diag(J_x, J_y, J_z)
+    U = V_r + cross(w, OP)
+    # OP' and U' by differentiating the time functions (body components)
+    OP_rate = freeze(OP_t.diff(t))
+    U_t = thaw(U)
+    U_rate = _same(freeze(U_t.diff(t)), A_r + cross(wd, OP) + cross(w, V_r), "U'")
+    K = J_O * w + mu * cross(OP, U)
+    _same(K, angular_momentum().K_vector, "K = J_O omega + mu OP x U")
+    # E1.3 part by part: the relative rate of J_O omega and of OP x U, plus omega x K
+    residual = (J_O * wd + cross(w, J_O * w)
+                + mu * (cross(OP_rate, U) + cross(OP, U_rate) + cross(w, cross(OP, U))))
+    _same(residual, flight_dynamics_structured().residual, "E1.3 applied to K")
+    # the terms in omega': J omega', J a diagonal minus a rank-one term
+    r2 = dot(OP, OP)
+    J_wd = _same(J_O * wd + mu * cross(OP, cross(wd, OP)),
+                 J_O * wd + mu * (r2 * wd - OP * dot(OP, wd)), "OP x (omega' x OP)")
+    diagonal = sp.Matrix([J_x + mu * r2, J_y + mu * r2, J_z + mu * r2])
+    _same(J_wd, (sp.diag(*diagonal) - mu * OP * OP.T) * wd, "J = diag - mu OP OP^T")
+    # the rest, identity by identity
+    three = _same(cross(V_r, cross(w, OP)) + cross(OP, cross(w, V_r)) + cross(w, cross(OP, V_r)),
+                  2 * cross(OP, cross(w, V_r)), "Jacobi's identity")
+    three = _same(three, 2 * dot(OP, V_r) * w - 2 * dot(OP, w) * V_r, "OP x (omega x V_r)")
+    spin = _same(cross(w, cross(OP, cross(w, OP))), -dot(OP, w) * cross(w, OP),
+                 "omega x (OP x (omega x OP))")
+    rest = _same(residual - J_wd,
+                 cross(w, J_O * w) + mu * cross(OP, A_r) + mu * three + mu * spin,
+                 "the terms without omega'")
+    # -omega x J_O omega: Euler's terms, (J_y - J_z) omega_y omega_z, ...
+    carrier = (-skew(w) * J_O * w).applyfunc(sp.factor)
+    forcing = (carrier - cross(MU_OP, A_r)
+               + dot(OP, w) * (2 * mu * V_r + cross(w, MU_OP)) - MU_OP_V * w)
+    definitions = tuple(zip(MU_OP, mu * OP)) + ((MU_OP_V, 2 * mu * dot(OP, V_r)),)
+    form = EulerForm(diagonal=diagonal, rank=mu, vector=OP, forcing=forcing,
+                     definitions=definitions, scale=sp.Integer(1))
+    _same(form.inline(forcing), -rest, "the forcing")
+    _same(form.inline(form.matrix), sp.diag(*diagonal) - mu * OP * OP.T, "the matrix")
+    return form
+
+
+@lru_cache(maxsize=None)
+def flight_dynamics_euler_scaled() -> EulerForm:
+    """:func:`flight_dynamics_euler` times ``m + M``: ``J_i -> (m + M) J_i`` and ``mu ->
+    mM`` (both sides are linear in ``(J_x, J_y, J_z, mu)`` jointly), so that the
+    emitted code divides once, in the solve, and never for mu."""
+    from .notation import MU_DEFINITION, mu
+    ef = flight_dynamics_euler()
+    scale = M + m
+    rank = M * m
+    if sp.cancel(scale * MU_DEFINITION - rank) != 0:
+        raise AssertionError("(m + M) mu != mM")
+    sub = {J_x: scale * J_x, J_y: scale * J_y, J_z: scale * J_z, mu: rank}
+    return EulerForm(diagonal=ef.diagonal.xreplace(sub), rank=rank, vector=ef.vector,
+                     forcing=ef.forcing.xreplace(sub),
+                     definitions=tuple((s, v.xreplace(sub)) for s, v in ef.definitions),
+                     scale=scale)
+
+
 @lru_cache(maxsize=None)
 def centre_of_mass_motion():
     """E1.1 (momentum) -> E1.2.

@@ -51,13 +51,16 @@ def test_errors_are_against_the_closed_form():
     assert loose > 1e-8
 
 
-def test_hand_written_peer_equals_the_derivation():
-    """The peer of `derive bench rhs` (E1.4/E1.7 typed in CasADi, casadi.solve) computes
-    the same right-hand side as the derived one, at the 200 physical states."""
-    from derive.bench.rhs import hand_written_flight_rhs, physical_inputs
+@pytest.mark.parametrize("form", ["coriolis", "euler", "euler_scaled"])
+def test_hand_written_peer_equals_the_derivation(form):
+    """The peers of `derive bench rhs` (E1.2, E1.7, E1.8 typed in CasADi, casadi.solve,
+    in each form) compute the same right-hand side as the derived one, at the 200
+    physical states."""
+    from derive.bench.rhs import HAND_FORMS, hand_written_flight_rhs, physical_inputs
     from derive.emit.numpy_backend import compile_spec
     from derive.models import flight_rhs
-    hand = hand_written_flight_rhs()
+    assert form in HAND_FORMS
+    hand = hand_written_flight_rhs(form)
     ours = compile_spec(flight_rhs("general"))
     for q, u, p in physical_inputs(200):
         a = np.array(hand(q, u, p).full()).ravel()
@@ -65,16 +68,29 @@ def test_hand_written_peer_equals_the_derivation():
         assert np.max(np.abs(a - b)) <= 1e-12 * np.max(np.abs(b))
 
 
-@pytest.mark.parametrize("solver", ["ldlt", "adjugate", "cholesky"])
+@pytest.mark.parametrize("solver", ["ldlt", "adjugate", "cholesky", "rank1-sm",
+                                    "rank1-adjugate"])
 def test_every_closed_form_solve_agrees_with_numpy(solver):
-    from derive.emit.linalg import SOLVERS
+    """Each solve of derive.emit.linalg on SPD matrices E1.5 can give: diag(J_i + mu
+    |r|^2) - mu r r^T with J of a real mass distribution; the solvers that read the
+    entries also on general SPD matrices.  One, two and four right-hand sides (four: the
+    adjugate forms the inverse's entries once)."""
+    from derive.emit.linalg import SOLVERS, STRUCTURED
     rng = np.random.default_rng(1)
-    for _ in range(50):
-        B = rng.normal(size=(3, 3))
-        A = B @ B.T + 0.1 * np.eye(3)
-        b = [rng.normal(size=3), rng.normal(size=3)]
-        tri = (A[0, 0], A[1, 0], A[1, 1], A[2, 0], A[2, 1], A[2, 2])
-        for x, rhs in zip(SOLVERS[solver](tri, b), b):
+    for k in range(60):
+        second = rng.uniform(0.02, 1.0, 3)
+        J = np.array([second[1] + second[2], second[0] + second[2], second[0] + second[1]])
+        mu, r = rng.uniform(0.05, 2.0), rng.uniform(-1, 1, 3)
+        A = np.diag(J + mu * r @ r) - mu * np.outer(r, r)
+        if solver not in STRUCTURED and k % 2:
+            B = rng.normal(size=(3, 3))
+            A = B @ B.T + 0.1 * np.eye(3)
+        b = [rng.normal(size=3) for _ in range(1 + k % 3 + (k % 3 == 2))]
+        if solver in STRUCTURED:
+            given = (*(J + mu * r @ r), *(mu * r), *r)
+        else:
+            given = (A[0, 0], A[1, 0], A[1, 1], A[2, 0], A[2, 1], A[2, 2])
+        for x, rhs in zip(SOLVERS[solver](given, b), b):
             np.testing.assert_allclose(x, np.linalg.solve(A, rhs), rtol=1e-9, atol=1e-12)
 
 

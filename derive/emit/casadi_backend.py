@@ -12,7 +12,7 @@ import casadi as ca
 import sympy as sp
 
 from ..models import FunctionSpec
-from .linalg import DEFAULT_SOLVER, SOLVERS, lower_triangle
+from .linalg import SOLVERS, solve_values, solver_for
 
 _FUNCTIONS = {sp.sin: ca.sin, sp.cos: ca.cos, sp.tan: ca.tan, sp.exp: ca.exp,
               sp.log: ca.log, sp.sinh: ca.sinh, sp.cosh: ca.cosh, sp.tanh: ca.tanh,
@@ -79,9 +79,10 @@ def build_function(spec: FunctionSpec) -> ca.Function:
     for sym, expr in spec.definitions:
         tr.memo[sym] = tr(expr)
     for solve in spec.solves:
-        tri = [tr(v) for v in lower_triangle(solve.matrix)]
+        kind = solver_for(solve)
+        tri = [tr(v) for v in solve_values(solve, kind)]
         rhs = [[tr(v) for v in vec] for vec in solve.rhs]
-        for unknown, values in zip(solve.unknowns, SOLVERS[DEFAULT_SOLVER](tri, rhs)):
+        for unknown, values in zip(solve.unknowns, SOLVERS[kind](tri, rhs)):
             for sym, val in zip(unknown, values):
                 tr.memo[sym] = val
     outputs = [ca.vertcat(*[tr(v) for v in vec.entries]) for vec in spec.outputs]

@@ -173,10 +173,101 @@ def cholesky3_solve(A: Sequence, rhs: Sequence[Sequence],
     return cholesky3_apply(cholesky3_factor(A, assign), rhs, assign)
 
 
+def rank_one3_factor(S: Sequence, assign: Callable[[str, object], object] = _identity) -> tuple:
+    """``A = diag(d) - a v^T`` (``a`` a multiple of ``v``) from ``S = (d0, d1, d2, a0, a1,
+    a2, v0, v1, v2)`` (E1.5's J: the diagonal ``J_i + mu |OP|^2``, ``a = mu OP``, ``v =
+    OP``), solved by Sherman and Morrison's formula with one division:
+
+        A^-1 b = D^-1 b + D^-1 a (v^T D^-1 b) / (1 - v^T D^-1 a)
+
+    With ``e_i = d_j d_k`` (the other two), ``P = d0 d1 d2`` and ``z = P D^-1 v =
+    (e_i v_i)``, the determinant is ``det = P - a.z`` and ``A^-1 b = alpha o b + beta
+    (z.b)`` with ``alpha_i = e_i det / (P det) = 1/d_i`` and ``beta_i = e_i a_i / (P
+    det)``: one reciprocal, of ``P det``.  Returns ``(alpha0..2, beta0..2, z0..2)``."""
+    d0, d1, d2, a0, a1, a2, v0, v1, v2 = S
+    e = [assign("e0", d1 * d2), assign("e1", d0 * d2), assign("e2", d0 * d1)]
+    big_p = assign("P", d0 * e[0])
+    z = [assign(f"z{i}", ei * vi) for i, (ei, vi) in enumerate(zip(e, (v0, v1, v2)))]
+    det = assign("det", big_p - (a0 * z[0] + a1 * z[1] + a2 * z[2]))
+    inv = assign("inv", 1 / (big_p * det))
+    scale = assign("det_inv", det * inv)
+    alpha = [assign(f"alpha{i}", ei * scale) for i, ei in enumerate(e)]
+    beta = [assign(f"beta{i}", ai * assign(f"e_inv{i}", ei * inv))
+            for i, (ai, ei) in enumerate(zip((a0, a1, a2), e))]
+    return (*alpha, *beta, *z)
+
+
+def rank_one3_solve(S: Sequence, rhs: Sequence[Sequence],
+                    assign: Callable[[str, object], object] = _identity) -> list[list]:
+    return rank_one3_apply(rank_one3_factor(S, assign), rhs, assign)
+
+
+def adjugate_rank_one3_solve(S: Sequence, rhs: Sequence[Sequence],
+                             assign: Callable[[str, object], object] = _identity) -> list[list]:
+    return adjugate3_apply(adjugate_rank_one3_factor(S, assign), rhs, assign)
+
+
+def adjugate_rank_one3_factor(S: Sequence,
+                              assign: Callable[[str, object], object] = _identity) -> tuple:
+    """:func:`adjugate3_factor` of ``A = diag(d) - a v^T`` from ``S`` as in
+    :func:`rank_one3_factor`: the entries ``d_i - a_i v_i`` and ``-a_i v_j``, and the
+    cofactors off the diagonal as ``a_i v_j d_k`` (k the third index: the terms of
+    second order in ``a`` cancel, so one product each, without that cancellation)."""
+    d0, d1, d2, a0, a1, a2, v0, v1, v2 = S
+    a00 = assign("a00", d0 - a0 * v0)
+    a11 = assign("a11", d1 - a1 * v1)
+    a22 = assign("a22", d2 - a2 * v2)
+    p10 = assign("p10", a1 * v0)            # -a10
+    p20 = assign("p20", a2 * v0)            # -a20
+    p21 = assign("p21", a2 * v1)            # -a21
+    c00 = assign("c00", a11 * a22 - p21 * p21)
+    c11 = assign("c11", a00 * a22 - p20 * p20)
+    c22 = assign("c22", a00 * a11 - p10 * p10)
+    c10 = assign("c10", p10 * d2)
+    c20 = assign("c20", p20 * d1)
+    c21 = assign("c21", p21 * d0)
+    inv_det = assign("inv_det", 1 / (a00 * c00 - p10 * c10 - p20 * c20))
+    return c00, c10, c20, c11, c21, c22, inv_det
+
+
+def rank_one3_apply(factors: Sequence, rhs: Sequence[Sequence],
+                    assign: Callable[[str, object], object] = _identity) -> list[list]:
+    """Per right-hand side ``b``: ``s = z.b`` (3 multiplications), then ``x_i = beta_i s +
+    alpha_i b_i``."""
+    alpha, beta, z = factors[0:3], factors[3:6], factors[6:9]
+    solutions = []
+    for k, b in enumerate(rhs):
+        s = assign(f"s_{k}", z[0] * b[0] + z[1] * b[1] + z[2] * b[2])
+        solutions.append([assign(f"x{i}_{k}", beta[i] * s + alpha[i] * b[i])
+                          for i in range(3)])
+    return solutions
+
+
 # each solver as (factor, apply): a solve with the matrix of an earlier one reuses its
 # factors (the derivatives of a solve's unknowns, derive.jacobians)
 FACTORED = {"ldlt": (ldlt3_factor, ldlt3_apply),
             "adjugate": (adjugate3_factor, adjugate3_apply),
-            "cholesky": (cholesky3_factor, cholesky3_apply)}
-SOLVERS = {"ldlt": ldlt3_solve, "adjugate": adjugate3_solve, "cholesky": cholesky3_solve}
-DEFAULT_SOLVER = "adjugate"
+            "cholesky": (cholesky3_factor, cholesky3_apply),
+            "rank1-sm": (rank_one3_factor, rank_one3_apply),
+            "rank1-adjugate": (adjugate_rank_one3_factor, adjugate3_apply)}
+SOLVERS = {"ldlt": ldlt3_solve, "adjugate": adjugate3_solve, "cholesky": cholesky3_solve,
+           "rank1-sm": rank_one3_solve, "rank1-adjugate": adjugate_rank_one3_solve}
+# solvers that read a solve's structure diag(d) - a v^T (LinearSolve.structure), not the
+# matrix's entries; a solve without that structure takes FALLBACK_SOLVER instead
+STRUCTURED = ("rank1-sm", "rank1-adjugate")
+DEFAULT_SOLVER = "rank1-adjugate"
+FALLBACK_SOLVER = "adjugate"
+
+
+def solver_for(solve, requested: str | None = None) -> str:
+    """The solver a :class:`~derive.models.LinearSolve` is emitted with: ``requested`` (or
+    :data:`DEFAULT_SOLVER`), unless it needs a structure the solve does not have."""
+    name = requested or DEFAULT_SOLVER
+    if name in STRUCTURED and solve.structure is None:
+        return FALLBACK_SOLVER
+    return name
+
+
+def solve_values(solve, solver: str) -> tuple:
+    """What ``solver`` factors: the lower triangle of the matrix, or its structure."""
+    return solve.structure if solver in STRUCTURED else lower_triangle(solve.matrix)

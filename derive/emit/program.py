@@ -3,11 +3,12 @@
 One common-subexpression elimination over everything the function computes: its named
 definitions (``nu``, ``mu``, a scene's point law ...), the matrices and right-hand sides
 of its solves, and its outputs.  The steps are then scheduled by dependency: a
-temporary is emitted once what it reads is available, the numeric LDL^T of each solve
+temporary is emitted once what it reads is available, the numeric solve of each one
 (:mod:`derive.emit.linalg`) as soon as its matrix and right-hand sides are, and the
 temporaries that read the unknowns after it.  Definitions that are plain numbers are
-propagated first.  The program is what the C backend prints; its operation count is
-what the preambles and the benchmarks report.
+propagated first.  The steps that do not read the state (:data:`HOT`) come first.  The
+program is what the C backend prints; its operation count is what the preambles and the
+benchmarks report.
 """
 from __future__ import annotations
 
@@ -16,7 +17,12 @@ from dataclasses import dataclass
 import sympy as sp
 
 from ..models import FunctionSpec
-from .linalg import DEFAULT_SOLVER, FACTORED, lower_triangle
+from .linalg import FACTORED, solve_values, solver_for
+
+# the input vectors an integrator feeds back: each call's state is computed from the last
+# call's output, so what reads them is on the loop's chain (the law and the parameters are
+# not: what reads only them can run ahead)
+HOT = ("q", "W")
 
 
 @dataclass(frozen=True)
@@ -72,11 +78,27 @@ def _prune(steps: list, outputs: list) -> list:
     return kept[::-1]
 
 
+def _state_last(steps: list, spec: FunctionSpec) -> list:
+    """The steps that do not read the state (an input named in :data:`HOT`, directly or
+    through other steps) first, then the others, each group in its order.  A processor
+    takes a call's instructions in this order: the law's and the parameters' part (J, the
+    factors of its solve) is then under way before the state arrives from the caller's
+    last stage."""
+    hot = {s for vec in spec.inputs if vec.name in HOT for s in vec.entries}
+    cold, warm = [], []
+    for sym, expr in steps:
+        if expr.free_symbols & hot:
+            hot.add(sym)
+            warm.append((sym, expr))
+        else:
+            cold.append((sym, expr))
+    return cold + warm
+
+
 def build(spec: FunctionSpec, solver: str | None = None) -> Program:
     """CSE over everything the function computes, then scheduling around the solves
     (``solver``: a name of :data:`derive.emit.linalg.SOLVERS`, default the emitted
-    one)."""
-    factor3, apply3 = FACTORED[solver or DEFAULT_SOLVER]
+    one; :func:`derive.emit.linalg.solver_for` picks, per solve)."""
     definitions, constants = _propagate_constants(spec)
 
     def prepared(v):
@@ -85,8 +107,9 @@ def build(spec: FunctionSpec, solver: str | None = None) -> Program:
 
     pool = [value for _, value in definitions]
     n_def = len(pool)
-    for solve in spec.solves:
-        pool += [prepared(v) for v in lower_triangle(solve.matrix)]
+    kinds = [solver_for(solve, solver) for solve in spec.solves]
+    for solve, kind in zip(spec.solves, kinds):
+        pool += [prepared(v) for v in solve_values(solve, kind)]
         for rhs in solve.rhs:
             pool += [prepared(v) for v in rhs]
     n_stage1 = len(pool)
@@ -100,22 +123,23 @@ def build(spec: FunctionSpec, solver: str | None = None) -> Program:
     # the solves, each waiting for its matrix and right-hand sides
     solve_blocks = []
     k = n_def
-    for index, solve in enumerate(spec.solves):
-        n_values = 6 + 3 * len(solve.rhs)
+    for index, (solve, kind) in enumerate(zip(spec.solves, kinds)):
+        n_matrix = len(solve_values(solve, kind))
+        n_values = n_matrix + 3 * len(solve.rhs)
         values = reduced[k:k + n_values]
         k += n_values
         own = {s for vec in solve.unknowns for s in vec}
         if any(v.free_symbols & own for v in values):
             raise ValueError(f"{spec.name}: a solve's matrix or right-hand side needs "
                              "its own unknown")
-        solve_blocks.append((index, solve, values))
+        solve_blocks.append((index, solve, kind, n_matrix, values))
     assert k == n_stage1
     out_values = list(reduced[n_stage1:])
 
     assigned = {s for vec in spec.inputs for s in vec.entries}
     produced = {sym for sym, _ in pending} | unknowns
     steps: list = []
-    factored: dict = {}       # matrix (after CSE) -> its LDL^T factors, computed once
+    factored: dict = {}       # (solver, matrix after CSE) -> its factors, computed once
     while pending or solve_blocks:
         progress = False
         for item in list(pending):
@@ -126,7 +150,7 @@ def build(spec: FunctionSpec, solver: str | None = None) -> Program:
                 pending.remove(item)
                 progress = True
         for block in list(solve_blocks):
-            index, solve, values = block
+            index, solve, kind, n_matrix, values = block
             if not all((v.free_symbols & produced) <= assigned for v in values):
                 continue
             names = _temps(f"_s{index}_")
@@ -140,11 +164,12 @@ def build(spec: FunctionSpec, solver: str | None = None) -> Program:
 
             # a solve with the matrix of an earlier one (the derivatives of its
             # unknowns, derive.jacobians) reuses that one's factors
-            key = tuple(values[:6])
+            factor3, apply3 = FACTORED[kind]
+            key = (kind, *values[:n_matrix])
             factors = factored.get(key)
             if factors is None:
-                tri = [assign("a", v) for v in values[:6]]
-            rhs = [[assign("b", v) for v in values[6 + 3 * j:9 + 3 * j]]
+                tri = [assign("a", v) for v in values[:n_matrix]]
+            rhs = [[assign("b", v) for v in values[n_matrix + 3 * j:n_matrix + 3 + 3 * j]]
                    for j in range(len(solve.rhs))]
             if factors is None:
                 factors = factored[key] = factor3(tri, assign)
@@ -165,6 +190,7 @@ def build(spec: FunctionSpec, solver: str | None = None) -> Program:
     steps = [(sym, expr.xreplace(alias)) for sym, expr in steps if sym not in alias]
     out_values = [v.xreplace(alias) for v in out_values]
     steps = _prune(steps, out_values)
+    steps = _state_last(steps, spec)
     grouped, pos = [], 0
     for vec in spec.outputs:
         grouped.append(tuple(out_values[pos:pos + len(vec.entries)]))

@@ -79,7 +79,10 @@ def specialise(spec: dm.FunctionSpec, subs: dict, definitions: list, q: tuple,
                                                 for v in spec.outputs]
     solves = tuple(dm.LinearSolve(matrix=s.matrix.applyfunc(sub),
                                   rhs=tuple(r.applyfunc(sub) for r in s.rhs),
-                                  unknowns=s.unknowns) for s in spec.solves)
+                                  unknowns=s.unknowns,
+                                  diagonal=tuple(sub(v) for v in s.diagonal),
+                                  rank_one=tuple(sub(v) for v in s.rank_one))
+                   for s in spec.solves)
     new_outputs = [dm.Vector(oname, tuple(sub(e) for e in exprs), labels)
                    for oname, exprs, labels in outs]
     defs = tuple((sym, sub(v)) for sym, v in definitions)

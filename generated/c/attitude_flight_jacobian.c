@@ -3,7 +3,7 @@
  * Regenerate with `derive emit`; `derive emit --check` compares with a fresh render.
  * Tools: sympy 1.14.0, casadi 3.8.2 (ABI), jinja2 3.1.6.
  * attitude_flight_jacobian(q[3], u[9], p[6]) -> (A[9])
- * Total ops: 204 (SymPy count_ops of the program after CSE), 67 intermediate terms.
+ * Total ops: 159 (SymPy count_ops of the program after CSE), 62 intermediate terms.
  */
 
 #include <math.h>
@@ -20,82 +20,80 @@
  */
 void carrier_attitude_flight_jacobian(const double *q, const double *u, const double *p, double *CARRIER_RESTRICT A)
 {
-  const double c0 = u[1]*u[1];
-  const double c1 = u[2]*u[2];
-  const double c4 = u[0]*u[0];
-  const double c8 = q[2]*u[0];
-  const double c10 = q[1]*u[2];
-  const double c12 = 2.0*u[1]*u[4];
-  const double c13 = 2.0*u[2]*u[5];
-  const double c14 = p[4]*q[2];
-  const double c15 = q[0]*u[2];
-  const double c17 = -c15 + c8 + u[4];
-  const double c18 = q[2]*u[1];
-  const double c19 = c10 - c18 + u[3];
-  const double c21 = p[3]*q[1];
-  const double c23 = q[1]*u[0];
-  const double c24 = -c23 + q[0]*u[1] + u[5];
-  const double c27 = 2.0*u[0]*u[3];
-  const double c28 = p[2]*q[0];
-  const double nu = p[1]/(p[0] + p[1]);
-  const double mu = p[0]*nu;
-  const double c2 = p[2] + mu*(c0 + c1);
-  const double c3 = mu*u[0];
-  const double c5 = p[3] + mu*(c1 + c4);
-  const double c6 = mu*u[1];
-  const double c7 = p[4] + mu*(c0 + c4);
-  const double c9 = c6*c8;
-  const double c11 = c10*c3;
-  const double c16 = mu*(-u[0]*u[4] - u[3]*u[1]);
-  const double c20 = mu*(c17*u[0] - c19*u[1]);
-  const double c22 = mu*(-u[0]*u[5] - u[3]*u[2]);
-  const double c25 = mu*(c19*u[2] - c24*u[0]);
-  const double c26 = c15*c6;
-  const double c29 = mu*(-u[1]*u[5] - u[4]*u[2]);
-  const double c30 = mu*(-c17*u[2] + c24*u[1]);
-  const double s0_0 = -c3*u[1];
-  const double s0_1 = -c3*u[2];
-  const double s0_2 = -c6*u[2];
-  const double s0_3 = c11 - c9 - mu*(c12 + c13);
-  const double s0_4 = c14 - c15*c3 - c16 - c2*q[2] + c20;
-  const double s0_5 = c2*q[1] - c21 - c22 - c25 + mu*q[0]*u[0]*u[1];
-  const double s0_6 = -c14 - c16 - c20 + c5*q[2] + mu*q[1]*u[1]*u[2];
-  const double s0_7 = -c26 + c9 - mu*(c13 + c27);
-  const double s0_8 = -c23*c6 + c28 - c29 + c30 - c5*q[0];
-  const double s0_9 = -c18*mu*u[2] + c21 - c22 + c25 - c7*q[1];
-  const double s0_10 = -c28 - c29 - c30 + c7*q[0] + mu*q[2]*u[0]*u[2];
-  const double s0_11 = -c11 + c26 - mu*(c12 + c27);
-  const double s0_12 = c5*c7 - s0_2*s0_2;
-  const double s0_13 = -c7*s0_0 + s0_1*s0_2;
-  const double s0_14 = -c5*s0_1 + s0_0*s0_2;
-  const double s0_15 = c2*c7 - s0_1*s0_1;
-  const double s0_16 = -c2*s0_2 + s0_0*s0_1;
-  const double s0_17 = c2*c5 - s0_0*s0_0;
-  const double s0_18 = 1.0/(c2*s0_12 + s0_0*s0_13 + s0_1*s0_14);
-  const double s0_19 = s0_12*s0_18;
-  const double s0_20 = s0_13*s0_18;
-  const double s0_21 = s0_14*s0_18;
-  const double s0_22 = s0_15*s0_18;
-  const double s0_23 = s0_16*s0_18;
-  const double s0_24 = s0_17*s0_18;
-  const double s0_25 = s0_19*s0_3 + s0_20*s0_4 + s0_21*s0_5;
-  const double s0_26 = s0_20*s0_3 + s0_22*s0_4 + s0_23*s0_5;
-  const double s0_27 = s0_21*s0_3 + s0_23*s0_4 + s0_24*s0_5;
-  const double s0_28 = s0_19*s0_6 + s0_20*s0_7 + s0_21*s0_8;
-  const double s0_29 = s0_20*s0_6 + s0_22*s0_7 + s0_23*s0_8;
-  const double s0_30 = s0_21*s0_6 + s0_23*s0_7 + s0_24*s0_8;
-  const double s0_31 = s0_10*s0_20 + s0_11*s0_21 + s0_19*s0_9;
-  const double s0_32 = s0_10*s0_22 + s0_11*s0_23 + s0_20*s0_9;
-  const double s0_33 = s0_10*s0_23 + s0_11*s0_24 + s0_21*s0_9;
-  A[0] = s0_25;
-  A[1] = s0_28;
-  A[2] = s0_31;
-  A[3] = s0_26;
-  A[4] = s0_29;
-  A[5] = s0_32;
-  A[6] = s0_27;
-  A[7] = s0_30;
-  A[8] = s0_33;
+  const double c0 = p[0] + p[1];
+  const double c1 = p[0]*p[1];
+  const double c2 = 2.0*c1;
+  const double c3 = p[2]*c0;
+  const double c4 = c1*(u[1]*u[1] + u[0]*u[0] + u[2]*u[2]);
+  const double c5 = p[3]*c0;
+  const double c6 = p[4]*c0;
+  const double c10 = -c6;
+  const double c11 = c10 + c3;
+  const double c14 = c3 - c5;
+  const double c16 = c10 + c5;
+  const double muOP_x = c1*u[0];
+  const double muOP_y = c1*u[1];
+  const double muOP_z = c1*u[2];
+  const double muOPV2 = c2*(u[1]*u[4] + u[0]*u[3] + u[2]*u[5]);
+  const double s0_0 = c3 + c4;
+  const double s0_1 = c4 + c5;
+  const double s0_2 = c4 + c6;
+  const double s0_12 = s0_0 - muOP_x*u[0];
+  const double s0_13 = s0_1 - muOP_y*u[1];
+  const double s0_14 = s0_2 - muOP_z*u[2];
+  const double s0_15 = muOP_y*u[0];
+  const double s0_16 = muOP_z*u[0];
+  const double s0_17 = muOP_z*u[1];
+  const double s0_18 = -s0_17*s0_17 + s0_13*s0_14;
+  const double s0_19 = -s0_16*s0_16 + s0_12*s0_14;
+  const double s0_20 = -s0_15*s0_15 + s0_12*s0_13;
+  const double s0_21 = s0_15*s0_2;
+  const double s0_22 = s0_1*s0_16;
+  const double s0_23 = s0_0*s0_17;
+  const double s0_24 = 1.0/(-s0_15*s0_21 + s0_12*s0_18 - s0_16*s0_22);
+  const double s0_25 = s0_18*s0_24;
+  const double s0_26 = s0_21*s0_24;
+  const double s0_27 = s0_22*s0_24;
+  const double s0_28 = s0_19*s0_24;
+  const double s0_29 = s0_23*s0_24;
+  const double s0_30 = s0_20*s0_24;
+  const double omega_x = ((const volatile double *)q)[0];
+  const double omega_y = ((const volatile double *)q)[1];
+  const double omega_z = ((const volatile double *)q)[2];
+  const double c8 = u[1]*omega_y + u[0]*omega_x + u[2]*omega_z;
+  const double c7 = -muOP_y*omega_z + c2*u[3] + muOP_z*omega_y;
+  const double c9 = muOP_z*c8;
+  const double c12 = muOP_x*omega_z + c2*u[4] - muOP_z*omega_x;
+  const double c13 = muOP_y*c8;
+  const double c15 = -muOP_x*omega_y + c2*u[5] + muOP_y*omega_x;
+  const double c17 = muOP_x*c8;
+  const double s0_3 = -muOPV2 + u[0]*c7;
+  const double s0_4 = u[0]*c12 - c11*omega_z - c9;
+  const double s0_5 = u[0]*c15 + c14*omega_y + c13;
+  const double s0_6 = u[1]*c7 + c16*omega_z + c9;
+  const double s0_7 = -muOPV2 + u[1]*c12;
+  const double s0_8 = u[1]*c15 + c14*omega_x - c17;
+  const double s0_9 = u[2]*c7 + c16*omega_y - c13;
+  const double s0_10 = u[2]*c12 - c11*omega_x + c17;
+  const double s0_11 = -muOPV2 + u[2]*c15;
+  const double s0_31 = s0_26*s0_4 + s0_25*s0_3 + s0_27*s0_5;
+  const double s0_32 = s0_28*s0_4 + s0_26*s0_3 + s0_29*s0_5;
+  const double s0_33 = s0_29*s0_4 + s0_27*s0_3 + s0_30*s0_5;
+  const double s0_34 = s0_25*s0_6 + s0_26*s0_7 + s0_27*s0_8;
+  const double s0_35 = s0_26*s0_6 + s0_28*s0_7 + s0_29*s0_8;
+  const double s0_36 = s0_27*s0_6 + s0_29*s0_7 + s0_30*s0_8;
+  const double s0_37 = s0_25*s0_9 + s0_27*s0_11 + s0_26*s0_10;
+  const double s0_38 = s0_26*s0_9 + s0_29*s0_11 + s0_28*s0_10;
+  const double s0_39 = s0_27*s0_9 + s0_30*s0_11 + s0_29*s0_10;
+  A[0] = s0_31;
+  A[1] = s0_34;
+  A[2] = s0_37;
+  A[3] = s0_32;
+  A[4] = s0_35;
+  A[5] = s0_38;
+  A[6] = s0_33;
+  A[7] = s0_36;
+  A[8] = s0_39;
 }
 
 /* ---- CasADi external-function ABI (left out with CARRIER_NO_CASADI_ABI) ---------- */

@@ -23,13 +23,16 @@ void carrier_attitude_kinetic_moment(const double *q, const double *u, const dou
   const double c0 = u[1]*u[1];
   const double c1 = u[2]*u[2];
   const double c2 = u[0]*u[1];
-  const double c3 = q[2]*u[2];
   const double c4 = u[0]*u[0];
   const double nu = p[1]/(p[0] + p[1]);
   const double mu = p[0]*nu;
-  K[0] = p[2]*q[0] + mu*(c0*q[0] + c1*q[0] - c2*q[1] - c3*u[0] + u[1]*u[5] - u[4]*u[2]);
-  K[1] = p[3]*q[1] + mu*(c1*q[1] - c2*q[0] - c3*u[1] + c4*q[1] - u[0]*u[5] + u[3]*u[2]);
-  K[2] = p[4]*q[2] + mu*(c0*q[2] + c4*q[2] - q[0]*u[0]*u[2] - q[1]*u[1]*u[2] + u[0]*u[4] - u[3]*u[1]);
+  const double omega_z = ((const volatile double *)q)[2];
+  const double c3 = u[2]*omega_z;
+  const double omega_x = ((const volatile double *)q)[0];
+  const double omega_y = ((const volatile double *)q)[1];
+  K[0] = mu*(-u[4]*u[2] + u[1]*u[5] + c0*omega_x + c1*omega_x - c2*omega_y - u[0]*c3) + p[2]*omega_x;
+  K[1] = mu*(u[3]*u[2] - u[0]*u[5] + c1*omega_y - c2*omega_x + c4*omega_y - u[1]*c3) + p[3]*omega_y;
+  K[2] = mu*(-u[3]*u[1] + u[0]*u[4] + c0*omega_z + c4*omega_z - u[0]*u[2]*omega_x - u[1]*u[2]*omega_y) + p[4]*omega_z;
 }
 
 /* ---- CasADi external-function ABI (left out with CARRIER_NO_CASADI_ABI) ---------- */

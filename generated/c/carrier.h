@@ -568,7 +568,7 @@ void jac_attitude_flight_rhs_incref(void);
 void jac_attitude_flight_rhs_decref(void);
 #endif
 
-/* jac_general_flight_jacobian(q[18], u[9], p[6]) -> (jac_A_q[63 of 324x18], jac_A_u[45 of 324x9], jac_A_p[45 of 324x6]) */
+/* jac_general_flight_jacobian(q[18], u[9], p[6]) -> (jac_A_q[63 of 324x18], jac_A_u[54 of 324x9], jac_A_p[45 of 324x6]) */
 void carrier_jac_general_flight_jacobian(const double *q, const double *u, const double *p, double *CARRIER_RESTRICT jac_A_q, double *CARRIER_RESTRICT jac_A_u, double *CARRIER_RESTRICT jac_A_p);
 #ifndef CARRIER_NO_CASADI_ABI
 int jac_general_flight_jacobian(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
@@ -586,7 +586,7 @@ void jac_general_flight_jacobian_incref(void);
 void jac_general_flight_jacobian_decref(void);
 #endif
 
-/* jac_vertical_flight_jacobian(q[8], u[9], p[6]) -> (jac_A_q[39 of 64x8], jac_A_u[45 of 64x9], jac_A_p[45 of 64x6]) */
+/* jac_vertical_flight_jacobian(q[8], u[9], p[6]) -> (jac_A_q[39 of 64x8], jac_A_u[54 of 64x9], jac_A_p[45 of 64x6]) */
 void carrier_jac_vertical_flight_jacobian(const double *q, const double *u, const double *p, double *CARRIER_RESTRICT jac_A_q, double *CARRIER_RESTRICT jac_A_u, double *CARRIER_RESTRICT jac_A_p);
 #ifndef CARRIER_NO_CASADI_ABI
 int jac_vertical_flight_jacobian(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
@@ -604,7 +604,7 @@ void jac_vertical_flight_jacobian_incref(void);
 void jac_vertical_flight_jacobian_decref(void);
 #endif
 
-/* jac_attitude_flight_jacobian(q[3], u[9], p[6]) -> (jac_A_q[27 of 9x3], jac_A_u[45 of 9x9], jac_A_p[45 of 9x6]) */
+/* jac_attitude_flight_jacobian(q[3], u[9], p[6]) -> (jac_A_q[27 of 9x3], jac_A_u[54 of 9x9], jac_A_p[45 of 9x6]) */
 void carrier_jac_attitude_flight_jacobian(const double *q, const double *u, const double *p, double *CARRIER_RESTRICT jac_A_q, double *CARRIER_RESTRICT jac_A_u, double *CARRIER_RESTRICT jac_A_p);
 #ifndef CARRIER_NO_CASADI_ABI
 int jac_attitude_flight_jacobian(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);

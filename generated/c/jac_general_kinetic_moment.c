@@ -28,16 +28,6 @@ void carrier_jac_general_kinetic_moment(const double *q, const double *u, const 
   const double c3 = u[1]*u[1];
   const double c4 = u[2]*u[2];
   const double c9 = u[0]*u[0];
-  const double c11 = q[7]*u[1];
-  const double c12 = q[8]*u[2];
-  const double c13 = q[6]*u[1];
-  const double c14 = q[6]*u[2];
-  const double c15 = q[8]*u[0];
-  const double c16 = q[6]*u[0];
-  const double c17 = q[7]*u[2];
-  const double c19 = -c11*u[0] - c12*u[0] + c3*q[6] + c4*q[6] + u[1]*u[5] - u[4]*u[2];
-  const double c20 = -c12*u[1] - c13*u[0] + c4*q[7] + c9*q[7] - u[0]*u[5] + u[3]*u[2];
-  const double c21 = -c11*u[2] - c14*u[0] + c3*q[8] + c9*q[8] + u[0]*u[4] - u[3]*u[1];
   const double nu = c1*p[1];
   const double mu = p[0]*nu;
   const double D_nu_p0 = -c2;
@@ -50,6 +40,19 @@ void carrier_jac_general_kinetic_moment(const double *q, const double *u, const 
   const double c8 = -c7*u[0];
   const double c10 = -c7*u[1];
   const double c18 = mu*u[0];
+  const double omega_y = ((const volatile double *)q)[7];
+  const double c11 = u[1]*omega_y;
+  const double omega_z = ((const volatile double *)q)[8];
+  const double c12 = u[2]*omega_z;
+  const double omega_x = ((const volatile double *)q)[6];
+  const double c13 = u[1]*omega_x;
+  const double c14 = u[2]*omega_x;
+  const double c15 = u[0]*omega_z;
+  const double c16 = u[0]*omega_x;
+  const double c17 = u[2]*omega_y;
+  const double c19 = -u[4]*u[2] + u[1]*u[5] + c3*omega_x + c4*omega_x - u[0]*c11 - u[0]*c12;
+  const double c20 = u[3]*u[2] - u[0]*u[5] + c4*omega_y + c9*omega_y - u[1]*c12 - u[0]*c13;
+  const double c21 = -u[3]*u[1] + u[0]*u[4] + c3*omega_z + c9*omega_z - u[2]*c11 - u[0]*c14;
   jac_K_q[0] = p[2] + mu*(c3 + c4);
   jac_K_q[1] = c6;
   jac_K_q[2] = c8;
@@ -60,13 +63,13 @@ void carrier_jac_general_kinetic_moment(const double *q, const double *u, const 
   jac_K_q[7] = c10;
   jac_K_q[8] = p[4] + mu*(c3 + c9);
   jac_K_u[0] = mu*(-c11 - c12);
-  jac_K_u[1] = mu*(-c13 + 2.0*q[7]*u[0] - u[5]);
-  jac_K_u[2] = mu*(-c14 + 2.0*c15 + u[4]);
-  jac_K_u[3] = mu*(2.0*c13 - q[7]*u[0] + u[5]);
+  jac_K_u[1] = mu*(-u[5] + 2.0*u[0]*omega_y - c13);
+  jac_K_u[2] = mu*(u[4] - c14 + 2.0*c15);
+  jac_K_u[3] = mu*(u[5] - u[0]*omega_y + 2.0*c13);
   jac_K_u[4] = mu*(-c12 - c16);
-  jac_K_u[5] = mu*(-c17 + 2.0*q[8]*u[1] - u[3]);
-  jac_K_u[6] = mu*(-c15 + 2.0*q[6]*u[2] - u[4]);
-  jac_K_u[7] = mu*(2.0*c17 - q[8]*u[1] + u[3]);
+  jac_K_u[5] = mu*(-u[3] + 2.0*u[1]*omega_z - c17);
+  jac_K_u[6] = mu*(-u[4] + 2.0*u[2]*omega_x - c15);
+  jac_K_u[7] = mu*(u[3] - u[1]*omega_z + 2.0*c17);
   jac_K_u[8] = mu*(-c11 - c16);
   jac_K_u[9] = c7;
   jac_K_u[10] = -c5;
@@ -80,9 +83,9 @@ void carrier_jac_general_kinetic_moment(const double *q, const double *u, const 
   jac_K_p[3] = D_mu_p1*c19;
   jac_K_p[4] = D_mu_p1*c20;
   jac_K_p[5] = D_mu_p1*c21;
-  jac_K_p[6] = q[6];
-  jac_K_p[7] = q[7];
-  jac_K_p[8] = q[8];
+  jac_K_p[6] = omega_x;
+  jac_K_p[7] = omega_y;
+  jac_K_p[8] = omega_z;
 }
 
 /* ---- CasADi external-function ABI (left out with CARRIER_NO_CASADI_ABI) ---------- */

@@ -3,7 +3,7 @@
  * Regenerate with `derive emit`; `derive emit --check` compares with a fresh render.
  * Tools: sympy 1.14.0, casadi 3.8.2 (ABI), jinja2 3.1.6.
  * lie_point(W[3], k[3], u[9], p[6]) -> (E[9], omega[3])
- * Total ops: 167 (SymPy count_ops of the program after CSE), 64 intermediate terms.
+ * Total ops: 161 (SymPy count_ops of the program after CSE), 68 intermediate terms.
  */
 
 #include <math.h>
@@ -22,82 +22,89 @@
  */
 void carrier_lie_point(const double *W, const double *k, const double *u, const double *p, double *CARRIER_RESTRICT E, double *CARRIER_RESTRICT omega)
 {
-  const double c0 = W[0]*W[0];
-  const double c1 = W[1]*W[1];
-  const double c2 = W[2]*W[2];
-  const double c3 = u[1]*u[1];
-  const double c4 = u[2]*u[2];
-  const double c6 = u[0]*u[0];
   const double nu = p[1]/(p[0] + p[1]);
   const double mu = p[0]*nu;
-  const double s_W = c0 + c1 + c2;
+  const double c0 = mu*u[0];
+  const double c1 = mu*u[1];
+  const double c2 = mu*u[2];
+  const double c6 = mu*(u[1]*u[1] + u[0]*u[0] + u[2]*u[2]);
+  const double muOP_x = c0;
+  const double muOP_y = c1;
+  const double muOP_z = c2;
+  const double s0_0 = p[2] + c6;
+  const double s0_1 = p[3] + c6;
+  const double s0_2 = p[4] + c6;
+  const double s0_6 = s0_0 - muOP_x*u[0];
+  const double s0_7 = s0_1 - muOP_y*u[1];
+  const double s0_8 = s0_2 - muOP_z*u[2];
+  const double s0_9 = muOP_y*u[0];
+  const double s0_10 = muOP_z*u[0];
+  const double s0_11 = muOP_z*u[1];
+  const double s0_12 = s0_7*s0_8 - s0_11*s0_11;
+  const double s0_13 = s0_6*s0_8 - s0_10*s0_10;
+  const double s0_14 = -s0_9*s0_9 + s0_6*s0_7;
+  const double s0_15 = s0_2*s0_9;
+  const double s0_16 = s0_1*s0_10;
+  const double s0_17 = s0_0*s0_11;
+  const double s0_18 = 1.0/(s0_12*s0_6 - s0_10*s0_16 - s0_15*s0_9);
+  const double W_x = ((const volatile double *)W)[0];
+  const double c3 = W_x*W_x;
+  const double W_y = ((const volatile double *)W)[1];
+  const double c4 = W_y*W_y;
+  const double W_z = ((const volatile double *)W)[2];
+  const double c5 = W_z*W_z;
+  const double s_W = c3 + c4 + c5;
   const double s_W2 = s_W*s_W;
   const double s_W4 = s_W2*s_W2;
   const double s_W8 = s_W4*s_W4;
-  const double a_W_1_0 = -0.16666666666666666*s_W + s_W2*(0.008333333333333333 - 0.0001984126984126984*s_W) + 1.0;
-  const double a_W_1_1 = -2.505210838544172e-08*s_W + s_W2*(1.6059043836821613e-10 - 7.647163731819816e-13*s_W) + 2.7557319223985893e-06;
-  const double a_W_1_2 = -8.22063524662433e-18*s_W + 1.9572941063391263e-20*s_W2 + 2.8114572543455206e-15;
-  const double a_W_2_0 = a_W_1_0 + a_W_1_1*s_W4;
+  const double a_W_1_0 = 1.0 - 0.16666666666666666*s_W + s_W2*(0.008333333333333333 - 0.0001984126984126984*s_W);
+  const double a_W_1_1 = 2.7557319223985893e-06 - 2.505210838544172e-08*s_W + s_W2*(1.6059043836821613e-10 - 7.647163731819816e-13*s_W);
+  const double a_W_1_2 = 2.8114572543455206e-15 - 8.22063524662433e-18*s_W + 1.9572941063391263e-20*s_W2;
+  const double a_W_2_0 = a_W_1_0 + s_W4*a_W_1_1;
   const double a_W_2_1 = a_W_1_2;
-  const double a_W = a_W_2_0 + a_W_2_1*s_W8;
-  const double b_W_1_0 = -0.041666666666666664*s_W + s_W2*(0.001388888888888889 - 2.48015873015873e-05*s_W) + 0.5;
-  const double b_W_1_1 = -2.08767569878681e-09*s_W + s_W2*(1.1470745597729725e-11 - 4.779477332387385e-14*s_W) + 2.755731922398589e-07;
-  const double b_W_1_2 = -4.110317623312165e-19*s_W + 8.896791392450574e-22*s_W2 + 1.5619206968586225e-16;
-  const double b_W_2_0 = b_W_1_0 + b_W_1_1*s_W4;
+  const double a_W = s_W8*a_W_2_1 + a_W_2_0;
+  const double b_W_1_0 = 0.5 - 0.041666666666666664*s_W + s_W2*(0.001388888888888889 - 2.48015873015873e-05*s_W);
+  const double b_W_1_1 = 2.755731922398589e-07 - 2.08767569878681e-09*s_W + s_W2*(1.1470745597729725e-11 - 4.779477332387385e-14*s_W);
+  const double b_W_1_2 = 1.5619206968586225e-16 - 4.110317623312165e-19*s_W + 8.896791392450574e-22*s_W2;
+  const double b_W_2_0 = b_W_1_0 + s_W4*b_W_1_1;
   const double b_W_2_1 = b_W_1_2;
-  const double b_W = b_W_2_0 + b_W_2_1*s_W8;
-  const double c5 = mu*u[0];
-  const double c7 = mu*u[2];
-  const double c8 = mu*u[1];
-  const double c9 = W[2]*a_W;
-  const double c10 = W[0]*b_W;
-  const double c11 = W[1]*c10;
-  const double c12 = c11 + c9;
-  const double c13 = W[1]*a_W;
-  const double c14 = W[2]*c10;
-  const double c15 = -c13 + c14;
-  const double c16 = c1*b_W;
-  const double c17 = c2*b_W - 1.0;
-  const double c18 = -c16 - c17;
-  const double c19 = W[0]*a_W;
-  const double c20 = W[1]*W[2]*b_W + c19;
-  const double c21 = c11 - c9;
-  const double c22 = c0*b_W;
-  const double c23 = -c17 - c22;
-  const double c24 = c13 + c14;
-  const double c25 = W[1]*W[2]*b_W - c19;
-  const double c26 = -c16 - c22 + 1.0;
-  const double s0_0 = p[2] + mu*(c3 + c4);
-  const double s0_1 = -c5*u[1];
-  const double s0_2 = p[3] + mu*(c4 + c6);
-  const double s0_3 = -c5*u[2];
-  const double s0_4 = -c7*u[1];
-  const double s0_5 = p[4] + mu*(c3 + c6);
-  const double s0_6 = c12*k[1] + c15*k[2] + c18*k[0] + c7*u[4] - c8*u[5];
-  const double s0_7 = c20*k[2] + c21*k[0] + c23*k[1] + c5*u[5] - c7*u[3];
-  const double s0_8 = c24*k[0] + c25*k[1] + c26*k[2] - c5*u[4] + c8*u[3];
-  const double s0_9 = s0_2*s0_5 - s0_4*s0_4;
-  const double s0_10 = -s0_1*s0_5 + s0_3*s0_4;
-  const double s0_11 = s0_1*s0_4 - s0_2*s0_3;
-  const double s0_12 = s0_0*s0_5 - s0_3*s0_3;
-  const double s0_13 = -s0_0*s0_4 + s0_1*s0_3;
-  const double s0_14 = s0_0*s0_2 - s0_1*s0_1;
-  const double s0_15 = 1.0/(s0_0*s0_9 + s0_1*s0_10 + s0_11*s0_3);
-  const double s0_16 = s0_15*(s0_10*s0_7 + s0_11*s0_8 + s0_6*s0_9);
-  const double s0_17 = s0_15*(s0_10*s0_6 + s0_12*s0_7 + s0_13*s0_8);
-  const double s0_18 = s0_15*(s0_11*s0_6 + s0_13*s0_7 + s0_14*s0_8);
-  E[0] = c18;
-  E[1] = c21;
-  E[2] = c24;
-  E[3] = c12;
-  E[4] = c23;
-  E[5] = c25;
-  E[6] = c15;
-  E[7] = c20;
-  E[8] = c26;
-  omega[0] = s0_16;
-  omega[1] = s0_17;
-  omega[2] = s0_18;
+  const double b_W = s_W8*b_W_2_1 + b_W_2_0;
+  const double c7 = W_z*a_W;
+  const double c8 = W_x*b_W;
+  const double c9 = W_y*c8;
+  const double c10 = c7 + c9;
+  const double c11 = W_y*a_W;
+  const double c12 = W_z*c8;
+  const double c13 = -c11 + c12;
+  const double c14 = c4*b_W;
+  const double c15 = -1.0 + c5*b_W;
+  const double c16 = -c14 - c15;
+  const double c17 = W_x*a_W;
+  const double c18 = W_y*W_z*b_W + c17;
+  const double c19 = -c7 + c9;
+  const double c20 = c3*b_W;
+  const double c21 = -c20 - c15;
+  const double c22 = c11 + c12;
+  const double c23 = W_y*W_z*b_W - c17;
+  const double c24 = 1.0 - c14 - c20;
+  const double s0_3 = c2*u[4] - c1*u[5] + k[0]*c16 + k[1]*c10 + k[2]*c13;
+  const double s0_4 = -c2*u[3] + c0*u[5] + k[2]*c18 + k[1]*c21 + k[0]*c19;
+  const double s0_5 = c1*u[3] - c0*u[4] + k[1]*c23 + k[2]*c24 + k[0]*c22;
+  const double s0_19 = s0_18*(s0_16*s0_5 + s0_15*s0_4 + s0_12*s0_3);
+  const double s0_20 = s0_18*(s0_17*s0_5 + s0_13*s0_4 + s0_15*s0_3);
+  const double s0_21 = s0_18*(s0_14*s0_5 + s0_17*s0_4 + s0_16*s0_3);
+  E[0] = c16;
+  E[1] = c19;
+  E[2] = c22;
+  E[3] = c10;
+  E[4] = c21;
+  E[5] = c23;
+  E[6] = c13;
+  E[7] = c18;
+  E[8] = c24;
+  omega[0] = s0_19;
+  omega[1] = s0_20;
+  omega[2] = s0_21;
 }
 
 /* ---- CasADi external-function ABI (left out with CARRIER_NO_CASADI_ABI) ---------- */

@@ -3,7 +3,7 @@
  * Regenerate with `derive emit`; `derive emit --check` compares with a fresh render.
  * Tools: sympy 1.14.0, casadi 3.8.2 (ABI), jinja2 3.1.6.
  * lie_stage(W[3], k[3], u[9], p[6]) -> (dW[3], omega[3])
- * Total ops: 219 (SymPy count_ops of the program after CSE), 61 intermediate terms.
+ * Total ops: 213 (SymPy count_ops of the program after CSE), 65 intermediate terms.
  */
 
 #include <math.h>
@@ -22,73 +22,80 @@
  */
 void carrier_lie_stage(const double *W, const double *k, const double *u, const double *p, double *CARRIER_RESTRICT dW, double *CARRIER_RESTRICT omega)
 {
-  const double c0 = u[1]*u[1];
-  const double c1 = u[2]*u[2];
-  const double c3 = u[0]*u[0];
-  const double c6 = W[1]*k[2] - W[2]*k[1];
-  const double c7 = W[0]*k[1] - W[1]*k[0];
-  const double c8 = -W[0]*k[2] + W[2]*k[0];
   const double nu = p[1]/(p[0] + p[1]);
   const double mu = p[0]*nu;
-  const double s_W = W[0]*W[0] + W[1]*W[1] + W[2]*W[2];
+  const double c0 = mu*u[0];
+  const double c1 = mu*u[1];
+  const double c2 = mu*u[2];
+  const double c3 = mu*(u[1]*u[1] + u[0]*u[0] + u[2]*u[2]);
+  const double muOP_x = c0;
+  const double muOP_y = c1;
+  const double muOP_z = c2;
+  const double s0_0 = p[2] + c3;
+  const double s0_1 = p[3] + c3;
+  const double s0_2 = p[4] + c3;
+  const double s0_6 = s0_0 - muOP_x*u[0];
+  const double s0_7 = s0_1 - muOP_y*u[1];
+  const double s0_8 = s0_2 - muOP_z*u[2];
+  const double s0_9 = muOP_y*u[0];
+  const double s0_10 = muOP_z*u[0];
+  const double s0_11 = muOP_z*u[1];
+  const double s0_12 = s0_7*s0_8 - s0_11*s0_11;
+  const double s0_13 = s0_6*s0_8 - s0_10*s0_10;
+  const double s0_14 = -s0_9*s0_9 + s0_6*s0_7;
+  const double s0_15 = s0_2*s0_9;
+  const double s0_16 = s0_1*s0_10;
+  const double s0_17 = s0_0*s0_11;
+  const double s0_18 = 1.0/(s0_12*s0_6 - s0_10*s0_16 - s0_15*s0_9);
+  const double W_y = ((const volatile double *)W)[1];
+  const double W_z = ((const volatile double *)W)[2];
+  const double c4 = -k[1]*W_z + k[2]*W_y;
+  const double W_x = ((const volatile double *)W)[0];
+  const double c5 = -k[0]*W_y + k[1]*W_x;
+  const double c6 = k[0]*W_z - k[2]*W_x;
+  const double s_W = W_y*W_y + W_x*W_x + W_z*W_z;
   const double s_W2 = s_W*s_W;
   const double s_W4 = s_W2*s_W2;
   const double s_W8 = s_W4*s_W4;
-  const double a_W_1_0 = -0.16666666666666666*s_W + s_W2*(0.008333333333333333 - 0.0001984126984126984*s_W) + 1.0;
-  const double a_W_1_1 = -2.505210838544172e-08*s_W + s_W2*(1.6059043836821613e-10 - 7.647163731819816e-13*s_W) + 2.7557319223985893e-06;
-  const double a_W_1_2 = -8.22063524662433e-18*s_W + 1.9572941063391263e-20*s_W2 + 2.8114572543455206e-15;
-  const double a_W_2_0 = a_W_1_0 + a_W_1_1*s_W4;
+  const double a_W_1_0 = 1.0 - 0.16666666666666666*s_W + s_W2*(0.008333333333333333 - 0.0001984126984126984*s_W);
+  const double a_W_1_1 = 2.7557319223985893e-06 - 2.505210838544172e-08*s_W + s_W2*(1.6059043836821613e-10 - 7.647163731819816e-13*s_W);
+  const double a_W_1_2 = 2.8114572543455206e-15 - 8.22063524662433e-18*s_W + 1.9572941063391263e-20*s_W2;
+  const double a_W_2_0 = a_W_1_0 + s_W4*a_W_1_1;
   const double a_W_2_1 = a_W_1_2;
-  const double a_W = a_W_2_0 + a_W_2_1*s_W8;
-  const double b_W_1_0 = -0.041666666666666664*s_W + s_W2*(0.001388888888888889 - 2.48015873015873e-05*s_W) + 0.5;
-  const double b_W_1_1 = -2.08767569878681e-09*s_W + s_W2*(1.1470745597729725e-11 - 4.779477332387385e-14*s_W) + 2.755731922398589e-07;
-  const double b_W_1_2 = -4.110317623312165e-19*s_W + 8.896791392450574e-22*s_W2 + 1.5619206968586225e-16;
-  const double b_W_2_0 = b_W_1_0 + b_W_1_1*s_W4;
+  const double a_W = s_W8*a_W_2_1 + a_W_2_0;
+  const double b_W_1_0 = 0.5 - 0.041666666666666664*s_W + s_W2*(0.001388888888888889 - 2.48015873015873e-05*s_W);
+  const double b_W_1_1 = 2.755731922398589e-07 - 2.08767569878681e-09*s_W + s_W2*(1.1470745597729725e-11 - 4.779477332387385e-14*s_W);
+  const double b_W_1_2 = 1.5619206968586225e-16 - 4.110317623312165e-19*s_W + 8.896791392450574e-22*s_W2;
+  const double b_W_2_0 = b_W_1_0 + s_W4*b_W_1_1;
   const double b_W_2_1 = b_W_1_2;
-  const double b_W = b_W_2_0 + b_W_2_1*s_W8;
-  const double c_W_1_0 = 0.001388888888888889*s_W + s_W2*(8.267195767195768e-07*s_W + 3.306878306878307e-05) + 0.08333333333333333;
-  const double c_W_1_1 = 5.284190138687493e-10*s_W + s_W2*(3.3896802963225827e-13*s_W + 1.3382536530684679e-11) + 2.08767569878681e-08;
-  const double c_W_1_2 = 2.174868698558062e-16*s_W + s_W2*(1.3954464685812522e-19*s_W + 5.5090028283602295e-18) + 8.586062056277845e-15;
-  const double c_W_1_3 = 8.953517427037546e-23*s_W + 3.534707039629467e-21;
-  const double c_W_2_0 = c_W_1_0 + c_W_1_1*s_W4;
-  const double c_W_2_1 = c_W_1_2 + c_W_1_3*s_W4;
-  const double c_W = c_W_2_0 + c_W_2_1*s_W8;
-  const double c2 = mu*u[0];
-  const double c4 = mu*u[2];
-  const double c5 = mu*u[1];
-  const double s0_0 = p[2] + mu*(c0 + c1);
-  const double s0_1 = -c2*u[1];
-  const double s0_2 = p[3] + mu*(c1 + c3);
-  const double s0_3 = -c2*u[2];
-  const double s0_4 = -c4*u[1];
-  const double s0_5 = p[4] + mu*(c0 + c3);
-  const double s0_6 = c4*u[4] - c5*u[5] - c6*a_W + b_W*(W[1]*c7 - W[2]*c8) + k[0];
-  const double s0_7 = c2*u[5] - c4*u[3] - c8*a_W + b_W*(-W[0]*c7 + W[2]*c6) + k[1];
-  const double s0_8 = -c2*u[4] + c5*u[3] - c7*a_W + b_W*(W[0]*c8 - W[1]*c6) + k[2];
-  const double s0_9 = s0_2*s0_5 - s0_4*s0_4;
-  const double s0_10 = -s0_1*s0_5 + s0_3*s0_4;
-  const double s0_11 = s0_1*s0_4 - s0_2*s0_3;
-  const double s0_12 = s0_0*s0_5 - s0_3*s0_3;
-  const double s0_13 = -s0_0*s0_4 + s0_1*s0_3;
-  const double s0_14 = s0_0*s0_2 - s0_1*s0_1;
-  const double s0_15 = 1.0/(s0_0*s0_9 + s0_1*s0_10 + s0_11*s0_3);
-  const double s0_16 = s0_15*(s0_10*s0_7 + s0_11*s0_8 + s0_6*s0_9);
-  const double s0_17 = s0_15*(s0_10*s0_6 + s0_12*s0_7 + s0_13*s0_8);
-  const double s0_18 = s0_15*(s0_11*s0_6 + s0_13*s0_7 + s0_14*s0_8);
-  const double c9 = W[1]*s0_18;
-  const double c10 = W[2]*s0_17;
-  const double c11 = W[0]*s0_17;
-  const double c12 = W[1]*s0_16;
-  const double c13 = c11 - c12;
-  const double c14 = W[0]*s0_18;
-  const double c15 = W[2]*s0_16 - c14;
-  const double c16 = -c10 + c9;
-  dW[0] = -0.5*c10 + 0.5*c9 + s0_16 + c_W*(W[1]*c13 - W[2]*c15);
-  dW[1] = 0.5*W[2]*s0_16 - 0.5*c14 + s0_17 + c_W*(-W[0]*c13 + W[2]*c16);
-  dW[2] = 0.5*c11 - 0.5*c12 + s0_18 + c_W*(W[0]*c15 - W[1]*c16);
-  omega[0] = s0_16;
-  omega[1] = s0_17;
-  omega[2] = s0_18;
+  const double b_W = s_W8*b_W_2_1 + b_W_2_0;
+  const double c_W_1_0 = 0.08333333333333333 + 0.001388888888888889*s_W + s_W2*(3.306878306878307e-05 + 8.267195767195768e-07*s_W);
+  const double c_W_1_1 = 2.08767569878681e-08 + 5.284190138687493e-10*s_W + s_W2*(1.3382536530684679e-11 + 3.3896802963225827e-13*s_W);
+  const double c_W_1_2 = 8.586062056277845e-15 + 2.174868698558062e-16*s_W + s_W2*(5.5090028283602295e-18 + 1.3954464685812522e-19*s_W);
+  const double c_W_1_3 = 3.534707039629467e-21 + 8.953517427037546e-23*s_W;
+  const double c_W_2_0 = c_W_1_0 + s_W4*c_W_1_1;
+  const double c_W_2_1 = c_W_1_3*s_W4 + c_W_1_2;
+  const double c_W = c_W_2_0 + s_W8*c_W_2_1;
+  const double s0_3 = c2*u[4] - c1*u[5] + k[0] - c4*a_W + (-W_z*c6 + W_y*c5)*b_W;
+  const double s0_4 = -c2*u[3] + c0*u[5] + k[1] - c6*a_W + (-W_x*c5 + W_z*c4)*b_W;
+  const double s0_5 = c1*u[3] - c0*u[4] + k[2] - c5*a_W + (W_x*c6 - W_y*c4)*b_W;
+  const double s0_19 = s0_18*(s0_15*s0_4 + s0_12*s0_3 + s0_16*s0_5);
+  const double s0_20 = s0_18*(s0_13*s0_4 + s0_15*s0_3 + s0_17*s0_5);
+  const double s0_21 = s0_18*(s0_17*s0_4 + s0_16*s0_3 + s0_14*s0_5);
+  const double c7 = W_y*s0_21;
+  const double c8 = W_z*s0_20;
+  const double c9 = W_x*s0_20;
+  const double c10 = W_y*s0_19;
+  const double c11 = -c10 + c9;
+  const double c12 = W_x*s0_21;
+  const double c13 = W_z*s0_19 - c12;
+  const double c14 = c7 - c8;
+  dW[0] = s0_19 + 0.5*c7 - 0.5*c8 + c_W*(-W_z*c13 + W_y*c11);
+  dW[1] = s0_20 + 0.5*W_z*s0_19 - 0.5*c12 + c_W*(W_z*c14 - W_x*c11);
+  dW[2] = s0_21 - 0.5*c10 + 0.5*c9 + c_W*(W_x*c13 - W_y*c14);
+  omega[0] = s0_19;
+  omega[1] = s0_20;
+  omega[2] = s0_21;
 }
 
 /* ---- CasADi external-function ABI (left out with CARRIER_NO_CASADI_ABI) ---------- */

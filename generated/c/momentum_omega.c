@@ -3,7 +3,7 @@
  * Regenerate with `derive emit`; `derive emit --check` compares with a fresh render.
  * Tools: sympy 1.14.0, casadi 3.8.2 (ABI), jinja2 3.1.6.
  * momentum_omega(A[9], K[3], u[9], p[6]) -> (omega[3])
- * Total ops: 93 (SymPy count_ops of the program after CSE), 27 intermediate terms.
+ * Total ops: 87 (SymPy count_ops of the program after CSE), 31 intermediate terms.
  */
 
 #include <math.h>
@@ -21,36 +21,40 @@
  */
 void carrier_momentum_omega(const double *A, const double *K, const double *u, const double *p, double *CARRIER_RESTRICT omega)
 {
-  const double c0 = u[1]*u[1];
-  const double c1 = u[2]*u[2];
-  const double c3 = u[0]*u[0];
   const double nu = p[1]/(p[0] + p[1]);
   const double mu = p[0]*nu;
-  const double c2 = mu*u[0];
-  const double c4 = mu*u[2];
-  const double c5 = mu*u[1];
-  const double s0_0 = p[2] + mu*(c0 + c1);
-  const double s0_1 = -c2*u[1];
-  const double s0_2 = p[3] + mu*(c1 + c3);
-  const double s0_3 = -c2*u[2];
-  const double s0_4 = -c4*u[1];
-  const double s0_5 = p[4] + mu*(c0 + c3);
-  const double s0_6 = K[0]*A[0] + K[1]*A[3] + K[2]*A[6] + c4*u[4] - c5*u[5];
-  const double s0_7 = K[0]*A[1] + K[1]*A[4] + K[2]*A[7] + c2*u[5] - c4*u[3];
-  const double s0_8 = K[0]*A[2] + K[1]*A[5] + K[2]*A[8] - c2*u[4] + c5*u[3];
-  const double s0_9 = s0_2*s0_5 - s0_4*s0_4;
-  const double s0_10 = -s0_1*s0_5 + s0_3*s0_4;
-  const double s0_11 = s0_1*s0_4 - s0_2*s0_3;
-  const double s0_12 = s0_0*s0_5 - s0_3*s0_3;
-  const double s0_13 = -s0_0*s0_4 + s0_1*s0_3;
-  const double s0_14 = s0_0*s0_2 - s0_1*s0_1;
-  const double s0_15 = 1.0/(s0_0*s0_9 + s0_1*s0_10 + s0_11*s0_3);
-  const double s0_16 = s0_15*(s0_10*s0_7 + s0_11*s0_8 + s0_6*s0_9);
-  const double s0_17 = s0_15*(s0_10*s0_6 + s0_12*s0_7 + s0_13*s0_8);
-  const double s0_18 = s0_15*(s0_11*s0_6 + s0_13*s0_7 + s0_14*s0_8);
-  omega[0] = s0_16;
-  omega[1] = s0_17;
-  omega[2] = s0_18;
+  const double c0 = mu*u[0];
+  const double c1 = mu*u[1];
+  const double c2 = mu*u[2];
+  const double c3 = mu*(u[0]*u[0] + u[1]*u[1] + u[2]*u[2]);
+  const double muOP_x = c0;
+  const double muOP_y = c1;
+  const double muOP_z = c2;
+  const double s0_0 = p[2] + c3;
+  const double s0_1 = p[3] + c3;
+  const double s0_2 = p[4] + c3;
+  const double s0_3 = K[0]*A[0] + K[1]*A[3] + K[2]*A[6] - c1*u[5] + c2*u[4];
+  const double s0_4 = K[0]*A[1] + K[1]*A[4] + K[2]*A[7] + c0*u[5] - c2*u[3];
+  const double s0_5 = K[0]*A[2] + K[1]*A[5] + K[2]*A[8] - c0*u[4] + c1*u[3];
+  const double s0_6 = s0_0 - muOP_x*u[0];
+  const double s0_7 = s0_1 - muOP_y*u[1];
+  const double s0_8 = s0_2 - muOP_z*u[2];
+  const double s0_9 = muOP_y*u[0];
+  const double s0_10 = muOP_z*u[0];
+  const double s0_11 = muOP_z*u[1];
+  const double s0_12 = -s0_11*s0_11 + s0_7*s0_8;
+  const double s0_13 = -s0_10*s0_10 + s0_6*s0_8;
+  const double s0_14 = s0_6*s0_7 - s0_9*s0_9;
+  const double s0_15 = s0_2*s0_9;
+  const double s0_16 = s0_1*s0_10;
+  const double s0_17 = s0_0*s0_11;
+  const double s0_18 = 1.0/(-s0_10*s0_16 + s0_12*s0_6 - s0_15*s0_9);
+  const double s0_19 = s0_18*(s0_12*s0_3 + s0_15*s0_4 + s0_16*s0_5);
+  const double s0_20 = s0_18*(s0_13*s0_4 + s0_15*s0_3 + s0_17*s0_5);
+  const double s0_21 = s0_18*(s0_14*s0_5 + s0_16*s0_3 + s0_17*s0_4);
+  omega[0] = s0_19;
+  omega[1] = s0_20;
+  omega[2] = s0_21;
 }
 
 /* ---- CasADi external-function ABI (left out with CARRIER_NO_CASADI_ABI) ---------- */

@@ -3,7 +3,7 @@
  * Regenerate with `derive emit`; `derive emit --check` compares with a fresh render.
  * Tools: sympy 1.14.0, casadi 3.8.2 (ABI), jinja2 3.1.6.
  * vertical_flight_rhs(q[8], u[9], p[6]) -> (dq[8])
- * Total ops: 153 (SymPy count_ops of the program after CSE), 34 intermediate terms.
+ * Total ops: 133 (SymPy count_ops of the program after CSE), 35 intermediate terms.
  */
 
 #include <math.h>
@@ -20,48 +20,56 @@
  */
 void carrier_vertical_flight_rhs(const double *q, const double *u, const double *p, double *CARRIER_RESTRICT dq)
 {
-  const double c0 = u[1]*u[1];
-  const double c1 = u[2]*u[2];
-  const double c3 = u[0]*u[0];
-  const double c4 = -q[2]*u[2] + q[4]*u[0] + u[4];
-  const double c5 = q[3]*u[2] - q[4]*u[1] + u[3];
-  const double c7 = q[2]*u[1] - q[3]*u[0] + u[5];
-  const double c9 = q[2]*u[4] - q[3]*u[3] + u[8];
-  const double c10 = -q[2]*u[5] + q[4]*u[3] + u[7];
-  const double c12 = q[3]*u[5] - q[4]*u[4] + u[6];
-  const double nu = p[1]/(p[0] + p[1]);
-  const double mu = p[0]*nu;
-  const double c2 = mu*u[0];
-  const double c6 = p[4]*q[4] + mu*(c4*u[0] - c5*u[1]);
-  const double c8 = p[3]*q[3] + mu*(c5*u[2] - c7*u[0]);
-  const double c11 = p[2]*q[2] + mu*(-c4*u[2] + c7*u[1]);
-  const double s0_0 = p[2] + mu*(c0 + c1);
-  const double s0_1 = -c2*u[1];
-  const double s0_2 = p[3] + mu*(c1 + c3);
-  const double s0_3 = -c2*u[2];
-  const double s0_4 = -mu*u[1]*u[2];
-  const double s0_5 = p[4] + mu*(c0 + c3);
-  const double s0_6 = -c6*q[3] + c8*q[4] - mu*(-c10*u[2] - c4*u[5] + c7*u[4] + c9*u[1]);
-  const double s0_7 = -c11*q[4] + c6*q[2] - mu*(c12*u[2] + c5*u[5] - c7*u[3] - c9*u[0]);
-  const double s0_8 = c11*q[3] - c8*q[2] - mu*(c10*u[0] - c12*u[1] + c4*u[3] - c5*u[4]);
-  const double s0_9 = s0_2*s0_5 - s0_4*s0_4;
-  const double s0_10 = -s0_1*s0_5 + s0_3*s0_4;
-  const double s0_11 = s0_1*s0_4 - s0_2*s0_3;
-  const double s0_12 = s0_0*s0_5 - s0_3*s0_3;
-  const double s0_13 = -s0_0*s0_4 + s0_1*s0_3;
-  const double s0_14 = s0_0*s0_2 - s0_1*s0_1;
-  const double s0_15 = 1.0/(s0_0*s0_9 + s0_1*s0_10 + s0_11*s0_3);
-  const double s0_16 = s0_15*(s0_10*s0_7 + s0_11*s0_8 + s0_6*s0_9);
-  const double s0_17 = s0_15*(s0_10*s0_6 + s0_12*s0_7 + s0_13*s0_8);
-  const double s0_18 = s0_15*(s0_11*s0_6 + s0_13*s0_7 + s0_14*s0_8);
-  dq[0] = q[1];
+  const double c0 = p[0] + p[1];
+  const double c1 = p[0]*p[1];
+  const double c2 = 2.0*c1;
+  const double c3 = p[2]*c0;
+  const double c4 = c1*(u[1]*u[1] + u[0]*u[0] + u[2]*u[2]);
+  const double c5 = p[3]*c0;
+  const double c6 = p[4]*c0;
+  const double c7 = -c6;
+  const double muOP_x = c1*u[0];
+  const double muOP_y = c1*u[1];
+  const double muOP_z = c1*u[2];
+  const double muOPV2 = c2*(u[1]*u[4] + u[0]*u[3] + u[2]*u[5]);
+  const double s0_0 = c3 + c4;
+  const double s0_1 = c4 + c5;
+  const double s0_2 = c4 + c6;
+  const double s0_6 = s0_0 - muOP_x*u[0];
+  const double s0_7 = s0_1 - muOP_y*u[1];
+  const double s0_8 = s0_2 - muOP_z*u[2];
+  const double s0_9 = muOP_y*u[0];
+  const double s0_10 = muOP_z*u[0];
+  const double s0_11 = muOP_z*u[1];
+  const double s0_12 = s0_7*s0_8 - s0_11*s0_11;
+  const double s0_13 = s0_6*s0_8 - s0_10*s0_10;
+  const double s0_14 = -s0_9*s0_9 + s0_6*s0_7;
+  const double s0_15 = s0_2*s0_9;
+  const double s0_16 = s0_1*s0_10;
+  const double s0_17 = s0_0*s0_11;
+  const double s0_18 = 1.0/(s0_12*s0_6 - s0_10*s0_16 - s0_15*s0_9);
+  const double omega_x = ((const volatile double *)q)[2];
+  const double omega_y = ((const volatile double *)q)[3];
+  const double omega_z = ((const volatile double *)q)[4];
+  const double c8 = u[1]*omega_y + u[0]*omega_x + u[2]*omega_z;
+  const double s0_3 = muOP_z*u[7] - muOP_y*u[8] - muOPV2*omega_x + (c5 + c7)*omega_y*omega_z + (-muOP_y*omega_z + c2*u[3] + muOP_z*omega_y)*c8;
+  const double s0_4 = -muOP_z*u[6] + muOP_x*u[8] - muOPV2*omega_y - (c3 + c7)*omega_x*omega_z + (muOP_x*omega_z + c2*u[4] - muOP_z*omega_x)*c8;
+  const double s0_5 = muOP_y*u[6] - muOP_x*u[7] - muOPV2*omega_z + (c3 - c5)*omega_x*omega_y + (-muOP_x*omega_y + c2*u[5] + muOP_y*omega_x)*c8;
+  const double s0_19 = s0_18*(s0_15*s0_4 + s0_12*s0_3 + s0_16*s0_5);
+  const double s0_20 = s0_18*(s0_13*s0_4 + s0_15*s0_3 + s0_17*s0_5);
+  const double s0_21 = s0_18*(s0_17*s0_4 + s0_16*s0_3 + s0_14*s0_5);
+  const double Z_C_d = ((const volatile double *)q)[1];
+  const double a32 = ((const volatile double *)q)[6];
+  const double a33 = ((const volatile double *)q)[7];
+  const double a31 = ((const volatile double *)q)[5];
+  dq[0] = Z_C_d;
   dq[1] = -p[5];
-  dq[2] = s0_16;
-  dq[3] = s0_17;
-  dq[4] = s0_18;
-  dq[5] = q[6]*q[4] - q[7]*q[3];
-  dq[6] = -q[5]*q[4] + q[7]*q[2];
-  dq[7] = q[5]*q[3] - q[6]*q[2];
+  dq[2] = s0_19;
+  dq[3] = s0_20;
+  dq[4] = s0_21;
+  dq[5] = -a33*omega_y + a32*omega_z;
+  dq[6] = a33*omega_x - a31*omega_z;
+  dq[7] = -a32*omega_x + a31*omega_y;
 }
 
 /* ---- CasADi external-function ABI (left out with CARRIER_NO_CASADI_ABI) ---------- */

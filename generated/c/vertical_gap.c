@@ -23,11 +23,19 @@
 void carrier_vertical_gap(const double *q, const double *u, const double *s, const double *p, double *CARRIER_RESTRICT h, double *CARRIER_RESTRICT v_n)
 {
   const double nu = p[1]/(p[0] + p[1]);
-  const double c0 = q[5]*nu;
-  const double c1 = q[6]*nu;
-  const double c2 = q[7]*nu;
-  h[0] = q[0] - c0*u[0] - c1*u[1] - c2*u[2] + q[5]*s[0] + q[6]*s[1] + q[7]*s[2];
-  v_n[0] = q[1] - c0*q[3]*u[2] - c0*u[3] - c1*q[4]*u[0] - c1*u[4] - c2*q[2]*u[1] - c2*u[5] + q[5]*nu*q[4]*u[1] + q[5]*q[3]*s[2] - q[5]*q[4]*s[1] + q[6]*nu*q[2]*u[2] - q[6]*q[2]*s[2] + q[6]*q[4]*s[0] + q[7]*nu*q[3]*u[0] + q[7]*q[2]*s[1] - q[7]*q[3]*s[0];
+  const double a31 = ((const volatile double *)q)[5];
+  const double c0 = nu*a31;
+  const double a32 = ((const volatile double *)q)[6];
+  const double c1 = nu*a32;
+  const double a33 = ((const volatile double *)q)[7];
+  const double c2 = nu*a33;
+  const double Z_C = ((const volatile double *)q)[0];
+  const double Z_C_d = ((const volatile double *)q)[1];
+  const double omega_x = ((const volatile double *)q)[2];
+  const double omega_y = ((const volatile double *)q)[3];
+  const double omega_z = ((const volatile double *)q)[4];
+  h[0] = Z_C + s[0]*a31 + s[1]*a32 + s[2]*a33 - u[0]*c0 - u[1]*c1 - u[2]*c2;
+  v_n[0] = Z_C_d + nu*u[1]*a31*omega_z + s[2]*a31*omega_y - s[1]*a31*omega_z + nu*u[2]*a32*omega_x - s[2]*a32*omega_x + s[0]*a32*omega_z + nu*u[0]*a33*omega_y + s[1]*a33*omega_x - s[0]*a33*omega_y - u[2]*omega_y*c0 - u[3]*c0 - u[0]*omega_z*c1 - u[4]*c1 - u[1]*omega_x*c2 - u[5]*c2;
 }
 
 /* ---- CasADi external-function ABI (left out with CARRIER_NO_CASADI_ABI) ---------- */

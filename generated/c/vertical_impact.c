@@ -3,7 +3,7 @@
  * Regenerate with `derive emit`; `derive emit --check` compares with a fresh render.
  * Tools: sympy 1.14.0, casadi 3.8.2 (ABI), jinja2 3.1.6.
  * vertical_impact(q[8], u[9], s[3], p[6], e) -> (q_plus[8], I[1])
- * Total ops: 171 (SymPy count_ops of the program after CSE), 39 intermediate terms.
+ * Total ops: 166 (SymPy count_ops of the program after CSE), 42 intermediate terms.
  */
 
 #include <math.h>
@@ -24,53 +24,64 @@
 void carrier_vertical_impact(const double *q, const double *u, const double *s, const double *p, double e, double *CARRIER_RESTRICT q_plus, double *CARRIER_RESTRICT I)
 {
   const double c0 = 1.0/(p[0] + p[1]);
-  const double c1 = u[1]*u[1];
-  const double c2 = u[2]*u[2];
-  const double c4 = u[0]*u[0];
-  const double c11 = q[5]*s[1];
-  const double c12 = q[6]*s[2];
-  const double c13 = q[7]*s[0];
   const double nu = c0*p[1];
   const double mu = p[0]*nu;
-  const double c3 = mu*u[0];
-  const double c5 = nu*u[2];
-  const double c6 = -c5 + s[2];
-  const double c7 = nu*u[1];
-  const double c8 = -c7 + s[1];
-  const double c9 = nu*u[0];
-  const double c10 = -c9 + s[0];
-  const double c14 = c5*q[5];
-  const double c15 = c9*q[6];
-  const double c16 = c7*q[7];
-  const double s0_0 = p[2] + mu*(c1 + c2);
-  const double s0_1 = -c3*u[1];
-  const double s0_2 = p[3] + mu*(c2 + c4);
-  const double s0_3 = -c3*u[2];
-  const double s0_4 = -mu*u[1]*u[2];
-  const double s0_5 = p[4] + mu*(c1 + c4);
-  const double s0_6 = -c6*q[6] + c8*q[7];
-  const double s0_7 = -c10*q[7] + c6*q[5];
-  const double s0_8 = c10*q[6] - c8*q[5];
-  const double s0_9 = s0_2*s0_5 - s0_4*s0_4;
-  const double s0_10 = -s0_1*s0_5 + s0_3*s0_4;
-  const double s0_11 = s0_1*s0_4 - s0_2*s0_3;
-  const double s0_12 = s0_0*s0_5 - s0_3*s0_3;
-  const double s0_13 = -s0_0*s0_4 + s0_1*s0_3;
-  const double s0_14 = s0_0*s0_2 - s0_1*s0_1;
-  const double s0_15 = 1.0/(s0_0*s0_9 + s0_1*s0_10 + s0_11*s0_3);
-  const double s0_16 = s0_15*(s0_10*s0_7 + s0_11*s0_8 + s0_6*s0_9);
-  const double s0_17 = s0_15*(s0_10*s0_6 + s0_12*s0_7 + s0_13*s0_8);
-  const double s0_18 = s0_15*(s0_11*s0_6 + s0_13*s0_7 + s0_14*s0_8);
-  const double c17 = (-e - 1.0)*(q[1] - c11*q[4] - c12*q[2] - c13*q[3] - c14*q[3] - c15*q[4] - c16*q[2] + q[5]*nu*q[4]*u[1] - q[5]*nu*u[3] + q[5]*q[3]*s[2] + q[6]*nu*q[2]*u[2] - q[6]*nu*u[4] + q[6]*q[4]*s[0] + q[7]*nu*q[3]*u[0] - q[7]*nu*u[5] + q[7]*q[2]*s[1])/(c0 - c11*s0_18 - c12*s0_16 - c13*s0_17 - c14*s0_17 - c15*s0_18 - c16*s0_16 + c5*s0_16*q[6] + c7*s0_18*q[5] + c9*s0_17*q[7] + s0_16*q[7]*s[1] + s0_17*q[5]*s[2] + s0_18*q[6]*s[0]);
-  q_plus[0] = q[0];
-  q_plus[1] = q[1] + c0*c17;
-  q_plus[2] = c17*s0_16 + q[2];
-  q_plus[3] = c17*s0_17 + q[3];
-  q_plus[4] = c17*s0_18 + q[4];
-  q_plus[5] = q[5];
-  q_plus[6] = q[6];
-  q_plus[7] = q[7];
-  I[0] = c17;
+  const double muOP_x = mu*u[0];
+  const double muOP_y = mu*u[1];
+  const double muOP_z = mu*u[2];
+  const double c1 = mu*(u[1]*u[1] + u[0]*u[0] + u[2]*u[2]);
+  const double c2 = nu*u[2];
+  const double c3 = -c2 + s[2];
+  const double c4 = nu*u[1];
+  const double c5 = -c4 + s[1];
+  const double c6 = nu*u[0];
+  const double c7 = -c6 + s[0];
+  const double s0_0 = p[2] + c1;
+  const double s0_1 = p[3] + c1;
+  const double s0_2 = p[4] + c1;
+  const double s0_6 = s0_0 - muOP_x*u[0];
+  const double s0_7 = s0_1 - muOP_y*u[1];
+  const double s0_8 = s0_2 - muOP_z*u[2];
+  const double s0_9 = muOP_y*u[0];
+  const double s0_10 = muOP_z*u[0];
+  const double s0_11 = muOP_z*u[1];
+  const double s0_12 = s0_7*s0_8 - s0_11*s0_11;
+  const double s0_13 = s0_6*s0_8 - s0_10*s0_10;
+  const double s0_14 = -s0_9*s0_9 + s0_6*s0_7;
+  const double s0_15 = s0_2*s0_9;
+  const double s0_16 = s0_1*s0_10;
+  const double s0_17 = s0_0*s0_11;
+  const double s0_18 = 1.0/(s0_12*s0_6 - s0_10*s0_16 - s0_15*s0_9);
+  const double a31 = ((const volatile double *)q)[5];
+  const double c8 = s[1]*a31;
+  const double a32 = ((const volatile double *)q)[6];
+  const double c9 = s[2]*a32;
+  const double a33 = ((const volatile double *)q)[7];
+  const double c10 = s[0]*a33;
+  const double c11 = c2*a31;
+  const double c12 = c6*a32;
+  const double c13 = c4*a33;
+  const double s0_3 = c5*a33 - c3*a32;
+  const double s0_4 = -c7*a33 + c3*a31;
+  const double s0_5 = c7*a32 - c5*a31;
+  const double s0_19 = s0_18*(s0_15*s0_4 + s0_12*s0_3 + s0_16*s0_5);
+  const double s0_20 = s0_18*(s0_13*s0_4 + s0_15*s0_3 + s0_17*s0_5);
+  const double s0_21 = s0_18*(s0_17*s0_4 + s0_16*s0_3 + s0_14*s0_5);
+  const double Z_C_d = ((const volatile double *)q)[1];
+  const double omega_x = ((const volatile double *)q)[2];
+  const double omega_y = ((const volatile double *)q)[3];
+  const double omega_z = ((const volatile double *)q)[4];
+  const double c14 = (-e - 1.0)*(Z_C_d - nu*u[3]*a31 - nu*u[4]*a32 - nu*u[5]*a33 + nu*u[1]*a31*omega_z + s[2]*a31*omega_y + nu*u[2]*a32*omega_x + s[0]*a32*omega_z + nu*u[0]*a33*omega_y + s[1]*a33*omega_x - omega_z*c8 - omega_x*c9 - omega_y*c10 - omega_y*c11 - omega_z*c12 - omega_x*c13)/(c0 - c13*s0_19 + c2*a32*s0_19 - c9*s0_19 + s[1]*a33*s0_19 - c10*s0_20 - c11*s0_20 + c6*a33*s0_20 + s[2]*a31*s0_20 - c12*s0_21 + c4*a31*s0_21 - c8*s0_21 + s[0]*a32*s0_21);
+  const double Z_C = ((const volatile double *)q)[0];
+  q_plus[0] = Z_C;
+  q_plus[1] = Z_C_d + c0*c14;
+  q_plus[2] = omega_x + s0_19*c14;
+  q_plus[3] = omega_y + s0_20*c14;
+  q_plus[4] = omega_z + s0_21*c14;
+  q_plus[5] = a31;
+  q_plus[6] = a32;
+  q_plus[7] = a33;
+  I[0] = c14;
 }
 
 /* ---- CasADi external-function ABI (left out with CARRIER_NO_CASADI_ABI) ---------- */
