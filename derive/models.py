@@ -174,7 +174,7 @@ def flight_jacobian(model: str) -> FunctionSpec:
     """``<model>_flight_jacobian(q, u, p) -> A``: A = d(dq/dt)/dq, row-major, from the
     derived expressions.  Where dq/dt reads omega', solved from ``J omega' = F(q, u, p)``,
     ``d omega'/dq_k = X_k`` with ``J X_k = dF/dq_k``: J depends on u and p only, so these
-    are further right-hand sides of the same LDL^T solve (no inverse is formed)."""
+    are further right-hand sides of the same closed-form solve (no inverse is formed)."""
     rhs = flight_rhs(model)
     (solve,) = rhs.solves
     (F,) = solve.rhs
