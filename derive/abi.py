@@ -105,6 +105,8 @@ STATUSES = (
     Status("paused", 1, "an output buffer is full: read the rows, call crt_advance again"),
     Status("done", 2, "the end time was reached"),
     Status("max_events", 3, "max_events events happened (opt[CRT_OPT_MAX_EVENTS])"),
+    Status("stopped", 4, "the controller stopped the run (its call returned a negative "
+                         "value)"),
     Status("max_steps", -1, "max_steps steps were taken before the end time"),
     Status("step_underflow", -2, "the step size fell below 1e-14 of the time scale"),
     Status("nonfinite", -3, "the state or the right-hand side became NaN or infinite"),
@@ -116,6 +118,8 @@ STATUSES = (
     Status("bad_parameters", -22, "a parameter is not finite: crt_bad_parameter names it"),
     Status("bad_law", -23, "crt_set_law_* refused the law (malformed), or crt_init found "
                            "no law set"),
+    Status("bad_control", -24, "the controller's law is refused (its knots, or x or x' "
+                               "not continuous at its start): crt_control_fault says why"),
 )
 STATUS = {s.name: s.code for s in STATUSES}
 
@@ -139,6 +143,7 @@ EVENT_KINDS = _names(
     ("contact", "impacts accumulated: S now rests on the plane"),
     ("liftoff", "N reached 0: S leaves the plane"),
     ("graze", "S touched the plane without approaching it"),
+    ("push", "an impulsive push of the disturbances (value: |P|)"),
 )
 
 STATS = _names(
@@ -151,6 +156,9 @@ STATS = _names(
     ("liftoffs", "lift-offs"),
     ("grazes", "grazes"),
     ("law_evaluations", "evaluations of the point law"),
+    ("controller_calls", "calls of the controller (crt_control.h)"),
+    ("law_changes", "laws the controller set"),
+    ("pushes", "pushes applied"),
 )
 
 ROW_KINDS = _names(
@@ -187,6 +195,26 @@ OPCODES = _names(
 )
 
 LAW_MAX_NODES = 1024      # nodes of one law (three coordinates): the C jet workspace
+
+# The closed loop (crt_control.h): why the controller is called, why its law is refused,
+# the most knots of one law it sets, and the rows of pushes and of the realised law.
+CALL_REASONS = _names(
+    ("start", "once, at the start of the run"),
+    ("sample", "at a sample time t0 + k period"),
+    ("event", "after an impact, an entry into contact or a lift-off"),
+)
+CONTROL_FAULTS = _names(
+    ("none", "no fault"),
+    ("knot_count", "n_knots outside [2, CRT_CTL_MAX_KNOTS]"),
+    ("first_knot", "knots[0] is not the time of the call"),
+    ("knot_order", "the knots do not increase, or one is not finite"),
+    ("nonfinite", "a coefficient is not finite"),
+    ("position_jump", "x, y or z of the new law at its start differs from the law's"),
+    ("velocity_jump", "x', y' or z' of the new law at its start differs from the law's"),
+)
+CTL_MAX_KNOTS = 256
+PUSH_COLUMNS = ("time", "P_X", "P_Y", "P_Z", "at_x", "at_y", "at_z")
+LOG_COLUMNS = ("knot", "t_from", "t_to", *(f"{c}_{k}" for c in "xyz" for k in range(4)))
 # The smallest output buffers crt_advance takes (rows, events); smaller ones are refused
 # with bad_argument: a step needs room for its rows and an event's (before, after, and
 # the rows of output_dt up to it), else no call could make progress.
@@ -218,6 +246,8 @@ COUNTS = (
     ("summary", len(SUMMARY)), ("opcodes", len(OPCODES)),
     ("event_columns", len(EVENT_COLUMNS)), ("law_max_nodes", LAW_MAX_NODES),
     ("min_rows", MIN_ROWS), ("min_events", MIN_EVENTS),
+    ("ctl_max_knots", CTL_MAX_KNOTS), ("push_columns", len(PUSH_COLUMNS)),
+    ("log_columns", len(LOG_COLUMNS)),
 )
 
 
@@ -228,4 +258,6 @@ def c_context() -> dict:
             "stats": STATS, "row_kinds": ROW_KINDS, "summary": SUMMARY,
             "law_kinds": LAW_KINDS, "opcodes": OPCODES, "law_max_nodes": LAW_MAX_NODES,
             "event_columns": EVENT_COLUMNS, "min_rows": MIN_ROWS, "min_events": MIN_EVENTS,
-            "counts": COUNTS}
+            "counts": COUNTS, "call_reasons": CALL_REASONS, "control_faults": CONTROL_FAULTS,
+            "ctl_max_knots": CTL_MAX_KNOTS, "push_columns": PUSH_COLUMNS,
+            "log_columns": LOG_COLUMNS}

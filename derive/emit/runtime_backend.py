@@ -28,6 +28,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from functools import lru_cache
 
+from .. import friction_models
 from .. import models as dm
 from .. import abi, layout
 from ..runtime import tableaus as T
@@ -69,9 +70,13 @@ class RuntimeModel:
         contact = ["lowest_point_ellipsoid", "lowest_point_rate_ellipsoid"]
         momentum = [dm.lie_stage(), dm.lie_point(), dm.fixed_kinetic_moment(), dm.exp_map()]
         if self.kind in ("general", "vertical"):
+            # the general model applies the closed loop's pushes: an impulse at a body
+            # point (derive/friction_models.py's impulse map at S, with S that point)
+            push = [friction_models.apply_impulse()] if self.kind == "general" else []
             return [dm.flight_rhs(self.kind), dm.gap(self.kind), dm.impact(self.kind),
                     dm.runtime_contact(self.kind), dm.lowest_point("ellipsoid"),
-                    dm.lowest_point_rate("ellipsoid"), *momentum, dm.flight_parabola()]
+                    dm.lowest_point_rate("ellipsoid"), *momentum, dm.flight_parabola(),
+                    *push]
         if self.kind == "attitude":
             return [dm.flight_rhs("attitude"), *momentum]
         if self.kind == "translational":

@@ -32,7 +32,7 @@ def runtime_dir() -> Path:
 # the runtime's headers (derive/emit/runtime_backend.py writes them; each model's file
 # includes all of them)
 HEADERS = ("crt_abi.h", "crt_constants.h", "crt_law.h", "crt_integrators.h",
-           "crt_rk_steps.h", "crt_lie.h", "crt_lie_steps.h", "crt_core.h")
+           "crt_rk_steps.h", "crt_lie.h", "crt_lie_steps.h", "crt_control.h", "crt_core.h")
 
 
 def sources(kind: str) -> dict[str, bytes]:
@@ -83,7 +83,15 @@ class Library:
                 ("crt_eval_rhs", None, [c.c_void_p, c.c_double, DP, DP]),
                 ("crt_eval_rhs_rows", None, [c.c_void_p, c.c_int, DP, DP, DP]),
                 ("crt_eval_contact", None, [c.c_void_p, c.c_double, DP, DP, DP, DP]),
-                ("crt_eval_contact_rows", None, [c.c_void_p, c.c_int, DP, DP, DP, DP, DP])):
+                ("crt_eval_contact_rows", None, [c.c_void_p, c.c_int, DP, DP, DP, DP, DP]),
+                ("crt_control_sizeof", c.c_int, []),
+                ("crt_control_setup", c.c_int, [c.c_void_p, c.c_void_p, c.c_void_p,
+                                                c.c_double, DP, c.c_double, DP, c.c_int, DP,
+                                                c.c_int]),
+                ("crt_set_control", c.c_int, [c.c_void_p, c.c_void_p]),
+                ("crt_control_log_count", c.c_int, [c.c_void_p]),
+                ("crt_control_log_taken", None, [c.c_void_p]),
+                ("crt_control_fault", c.c_int, [c.c_void_p])):
             fn = getattr(lib, name)
             fn.restype, fn.argtypes = res, args
         for name in ("option", "parameter", "method", "status", "event", "stat", "summary",

@@ -174,8 +174,20 @@ class Session:
         if status != _S["ok"]:
             raise self._refused(status)
 
-    def run(self, t0: float, duration: float, q0, opt, prm, progress=None) -> Raw:
-        """One run: a single crossing into C (crt_run) unless the buffers fill."""
+    def run(self, t0: float, duration: float, q0, opt, prm, progress=None,
+            loop=None) -> Raw:
+        """One run: a single crossing into C (crt_run) unless the buffers fill.  ``loop``:
+        a :class:`derive.runtime.loop.Loop` closing the loop around the run (its log of
+        the realised law is drained as the run goes)."""
+        if loop is None:
+            return self._run(t0, duration, q0, opt, prm, progress, None)
+        loop.attach(self.library.lib, self.handle)
+        try:
+            return self._run(t0, duration, q0, opt, prm, progress, loop)
+        finally:                              # the loop's memory is Python's: let go of it
+            self.library.lib.crt_set_control(self.handle, None)
+
+    def _run(self, t0, duration, q0, opt, prm, progress, loop) -> Raw:
         lib = self.library.lib
         self._opt[:] = opt
         self._prm[:] = prm
@@ -197,6 +209,8 @@ class Session:
             while status == _S["paused"]:
                 if progress is not None:
                     progress((lib.crt_time(self.handle) - t0) / duration)
+                if loop is not None:
+                    loop.drain(lib)
                 status = lib.crt_advance(self.handle, t_end, tp, qp, kp, self.chunk,
                                          n_ref, ep, self.chunk, ne_ref)
                 n, ne = self._n.value, self._ne.value
@@ -210,6 +224,12 @@ class Session:
                                np.concatenate(evs))
         if status == _S["bad_argument"]:     # the buffers are checked in __init__
             raise RuntimeError(f"the runtime refused the buffers of {self.chunk} rows")
+        if loop is not None:
+            loop.drain(lib)
+            if loop.error is not None:        # the Python controller raised: say so
+                raise loop.error
+            if status == _S["bad_control"]:
+                raise ValueError(f"the controller's law was refused: {loop.fault(lib)}")
         if progress is not None:
             progress(1.0)
         return Raw(t, q, kinds, ev, dict(zip(STAT_NAMES, self._stats[:])),
@@ -442,7 +462,9 @@ def session_for(kind: str) -> Session:
     return sessions[kind]
 
 
-def run_prepared(prep: Prepared, session: Session | None = None, progress=None) -> Result:
+def run_prepared(prep: Prepared, session: Session | None = None, progress=None,
+                 loop=None) -> Result:
+    """Run a prepared scene (``loop``: closed around the run, see derive.runtime.loop)."""
     timings = {}
     start = time.perf_counter()
     session = session or session_for(prep.kind)
@@ -450,7 +472,7 @@ def run_prepared(prep: Prepared, session: Session | None = None, progress=None) 
     start = time.perf_counter()
     session.set_law(prep.scene.law)
     raw = session.run(prep.scene.t0, prep.scene.duration, prep.start.q0, prep.options,
-                      prep.parameters, progress)
+                      prep.parameters, progress, loop=loop)
     rates = session.rhs_rows(raw.t, raw.q) if prep.kind in ("planar", "axisymmetric") \
         else None
     timings["run_s"] = time.perf_counter() - start

@@ -76,6 +76,7 @@ enum crt_status {
   CRT_PAUSED = 1,  /* an output buffer is full: read the rows, call crt_advance again */
   CRT_DONE = 2,  /* the end time was reached */
   CRT_MAX_EVENTS = 3,  /* max_events events happened (opt[CRT_OPT_MAX_EVENTS]) */
+  CRT_STOPPED = 4,  /* the controller stopped the run (its call returned a negative value) */
   CRT_MAX_STEPS = -1,  /* max_steps steps were taken before the end time */
   CRT_STEP_UNDERFLOW = -2,  /* the step size fell below 1e-14 of the time scale */
   CRT_NONFINITE = -3,  /* the state or the right-hand side became NaN or infinite */
@@ -83,7 +84,8 @@ enum crt_status {
   CRT_BAD_ARGUMENT = -20,  /* an output buffer is smaller than CRT_MIN_ROWS rows or CRT_MIN_EVENTS events (nothing is done: call again with larger ones) */
   CRT_BAD_OPTIONS = -21,  /* an option breaks its rule: crt_bad_option names it */
   CRT_BAD_PARAMETERS = -22,  /* a parameter is not finite: crt_bad_parameter names it */
-  CRT_BAD_LAW = -23   /* crt_set_law_* refused the law (malformed), or crt_init found no law set */
+  CRT_BAD_LAW = -23,  /* crt_set_law_* refused the law (malformed), or crt_init found no law set */
+  CRT_BAD_CONTROL = -24   /* the controller's law is refused (its knots, or x or x' not continuous at its start): crt_control_fault says why */
 };
 
 /* crt_phase. */
@@ -100,7 +102,8 @@ enum crt_event_kind {
   CRT_EV_CONTACT = 2,  /* impacts accumulated: S now rests on the plane */
   CRT_EV_LIFTOFF = 3,  /* N reached 0: S leaves the plane */
   CRT_EV_GRAZE = 4,  /* S touched the plane without approaching it */
-  CRT_EV_COUNT = 5
+  CRT_EV_PUSH = 5,  /* an impulsive push of the disturbances (value: |P|) */
+  CRT_EV_COUNT = 6
 };
 
 /* Counters read with crt_stats (long[CRT_STAT_COUNT]). */
@@ -114,7 +117,10 @@ enum crt_stat {
   CRT_STAT_LIFTOFFS = 6,  /* lift-offs */
   CRT_STAT_GRAZES = 7,  /* grazes */
   CRT_STAT_LAW_EVALUATIONS = 8,  /* evaluations of the point law */
-  CRT_STAT_COUNT = 9
+  CRT_STAT_CONTROLLER_CALLS = 9,  /* calls of the controller (crt_control.h) */
+  CRT_STAT_LAW_CHANGES = 10,  /* laws the controller set */
+  CRT_STAT_PUSHES = 11,  /* pushes applied */
+  CRT_STAT_COUNT = 12
 };
 
 /* The kind of each output row. */
@@ -177,6 +183,30 @@ enum crt_opcode {
    CRT_BAD_ARGUMENT (a step needs room for its rows and an event's). */
 #define CRT_MIN_ROWS 8
 #define CRT_MIN_EVENTS 4
+/* The closed loop (crt_control.h): why the controller is called (crt_call.reason), why
+   its law was refused (crt_control_fault), the most knots of one law it sets, the columns
+   of a push and of a row of the realised law's log. */
+enum crt_call_reason {
+  CRT_CALL_START = 0,  /* once, at the start of the run */
+  CRT_CALL_SAMPLE = 1,  /* at a sample time t0 + k period */
+  CRT_CALL_EVENT = 2,  /* after an impact, an entry into contact or a lift-off */
+  CRT_CALL_COUNT = 3
+};
+
+enum crt_control_fault {
+  CRT_FAULT_NONE = 0,  /* no fault */
+  CRT_FAULT_KNOT_COUNT = 1,  /* n_knots outside [2, CRT_CTL_MAX_KNOTS] */
+  CRT_FAULT_FIRST_KNOT = 2,  /* knots[0] is not the time of the call */
+  CRT_FAULT_KNOT_ORDER = 3,  /* the knots do not increase, or one is not finite */
+  CRT_FAULT_NONFINITE = 4,  /* a coefficient is not finite */
+  CRT_FAULT_POSITION_JUMP = 5,  /* x, y or z of the new law at its start differs from the law's */
+  CRT_FAULT_VELOCITY_JUMP = 6,  /* x', y' or z' of the new law at its start differs from the law's */
+  CRT_FAULT_COUNT = 7
+};
+
+#define CRT_CTL_MAX_KNOTS 256
+#define CRT_PUSH_COLUMNS 7  /* time, P_X, P_Y, P_Z, at_x, at_y, at_z */
+#define CRT_LOG_COLUMNS 15  /* knot, t_from, t_to, then c0..c3 of x, y, z */
 
 /* What crt_count reports (the library's sizes, which Python compares with abi.py). */
 enum crt_count_kind {
@@ -188,7 +218,10 @@ enum crt_count_kind {
   CRT_COUNT_EVENT_COLUMNS = 5,
   CRT_COUNT_LAW_MAX_NODES = 6,
   CRT_COUNT_MIN_ROWS = 7,
-  CRT_COUNT_MIN_EVENTS = 8
+  CRT_COUNT_MIN_EVENTS = 8,
+  CRT_COUNT_CTL_MAX_KNOTS = 9,
+  CRT_COUNT_PUSH_COLUMNS = 10,
+  CRT_COUNT_LOG_COLUMNS = 11
 };
 
 /* ---- the exported name functions: "" for an index or a code without a name ------------ */
@@ -260,6 +293,7 @@ const char *crt_status_name(int code)
     case CRT_PAUSED: return "paused";
     case CRT_DONE: return "done";
     case CRT_MAX_EVENTS: return "max_events";
+    case CRT_STOPPED: return "stopped";
     case CRT_MAX_STEPS: return "max_steps";
     case CRT_STEP_UNDERFLOW: return "step_underflow";
     case CRT_NONFINITE: return "nonfinite";
@@ -268,25 +302,27 @@ const char *crt_status_name(int code)
     case CRT_BAD_OPTIONS: return "bad_options";
     case CRT_BAD_PARAMETERS: return "bad_parameters";
     case CRT_BAD_LAW: return "bad_law";
+    case CRT_BAD_CONTROL: return "bad_control";
     default: return "";
   }
 }
 
 const char *crt_event_name(int i)
 {
-  static const char names[5][8] = {
+  static const char names[6][8] = {
     "none",
     "impact",
     "contact",
     "liftoff",
-    "graze"
+    "graze",
+    "push"
   };
-  return (i >= 0 && i < 5) ? names[i] : "";
+  return (i >= 0 && i < 6) ? names[i] : "";
 }
 
 const char *crt_stat_name(int i)
 {
-  static const char names[9][27] = {
+  static const char names[12][27] = {
     "steps",
     "rejected",
     "rhs_evaluations",
@@ -295,9 +331,12 @@ const char *crt_stat_name(int i)
     "contacts",
     "liftoffs",
     "grazes",
-    "law_evaluations"
+    "law_evaluations",
+    "controller_calls",
+    "law_changes",
+    "pushes"
   };
-  return (i >= 0 && i < 9) ? names[i] : "";
+  return (i >= 0 && i < 12) ? names[i] : "";
 }
 
 const char *crt_summary_name(int i)

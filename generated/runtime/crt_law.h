@@ -29,6 +29,8 @@ typedef struct {
   const double *knots;
   const double *coef;
   int periodic;
+  int extend;                  /* beyond the last knot: 1 the last cubic goes on (a
+                                  controller's law, crt_control.h), 0 the end is held */
 } crt_law;
 
 /* Workspace: the jets (value, first, second derivative) of every node, and the last
@@ -219,7 +221,7 @@ static void crt_law_table(const crt_law *L, crt_law_work *w, double t, double *u
     t = tt;
   } else if (t < t0) {
     t = t0;
-  } else if (t > t1) {
+  } else if (t > t1 && !L->extend) {
     t = t1;
   }
   if (!(i >= 0 && i < L->n_knots - 1 && L->knots[i] <= t && t < L->knots[i + 1])) {

@@ -14,6 +14,7 @@
 #define MODEL_NAME "general"
 #define MODEL_HAS_PLANE 1
 #define MODEL_LIE 1
+#define MODEL_PUSH 1
 
 /* State: X_C, Y_C, Z_C, X_C', Y_C', Z_C', omega_x, omega_y, omega_z, a11, a12, a13, a21, a22, a23, a31, a32, a33
    where each quantity sits, from derive/layout.py (general) */
@@ -625,6 +626,79 @@ static void flight_parabola(const double *c, double tau, const double *p, double
   c_tau[5] = c[5] - p[5]*tau;
 }
 
+/* State just after an impact whose total impulse at S is P (fixed axes): V_C + P/(m+M), omega + J^-1 (CS x A^T P) (derive.friction). (105 ops) */
+static void general_apply_impulse(const double *q, const double *u, const double *s, const double *p, const double *P, double *restrict q_plus)
+{
+  const double c0 = 1.0/(p[0] + p[1]);
+  const double c1 = u[1]*u[1];
+  const double c2 = u[2]*u[2];
+  const double c4 = u[0]*u[0];
+  const double nu = c0*p[1];
+  const double mu = p[0]*nu;
+  const double c3 = mu*u[0];
+  const double c5 = -nu*u[1] + s[1];
+  const double c7 = -nu*u[2] + s[2];
+  const double c9 = -nu*u[0] + s[0];
+  const double s0_0 = p[2] + mu*(c1 + c2);
+  const double s0_1 = -c3*u[1];
+  const double s0_2 = p[3] + mu*(c2 + c4);
+  const double s0_3 = -c3*u[2];
+  const double s0_4 = -mu*u[1]*u[2];
+  const double s0_5 = p[4] + mu*(c1 + c4);
+  const double s0_9 = -s0_4*s0_4 + s0_2*s0_5;
+  const double s0_10 = s0_3*s0_4 - s0_1*s0_5;
+  const double s0_11 = -s0_2*s0_3 + s0_1*s0_4;
+  const double s0_12 = -s0_3*s0_3 + s0_0*s0_5;
+  const double s0_13 = s0_1*s0_3 - s0_0*s0_4;
+  const double s0_14 = -s0_1*s0_1 + s0_0*s0_2;
+  const double s0_15 = 1.0/(s0_1*s0_10 + s0_0*s0_9 + s0_11*s0_3);
+  const double a13 = ((const volatile double *)q)[11];
+  const double a23 = ((const volatile double *)q)[14];
+  const double a33 = ((const volatile double *)q)[17];
+  const double c6 = P[1]*a23 + P[0]*a13 + P[2]*a33;
+  const double a12 = ((const volatile double *)q)[10];
+  const double a22 = ((const volatile double *)q)[13];
+  const double a32 = ((const volatile double *)q)[16];
+  const double c8 = P[1]*a22 + P[0]*a12 + P[2]*a32;
+  const double a11 = ((const volatile double *)q)[9];
+  const double a21 = ((const volatile double *)q)[12];
+  const double a31 = ((const volatile double *)q)[15];
+  const double c10 = P[1]*a21 + P[0]*a11 + P[2]*a31;
+  const double s0_6 = -c7*c8 + c5*c6;
+  const double s0_7 = c7*c10 - c9*c6;
+  const double s0_8 = -c5*c10 + c9*c8;
+  const double s0_16 = s0_15*(s0_10*s0_7 + s0_9*s0_6 + s0_11*s0_8);
+  const double s0_17 = s0_15*(s0_12*s0_7 + s0_10*s0_6 + s0_13*s0_8);
+  const double s0_18 = s0_15*(s0_13*s0_7 + s0_11*s0_6 + s0_14*s0_8);
+  const double X_C = ((const volatile double *)q)[0];
+  const double Y_C = ((const volatile double *)q)[1];
+  const double Z_C = ((const volatile double *)q)[2];
+  const double X_C_d = ((const volatile double *)q)[3];
+  const double Y_C_d = ((const volatile double *)q)[4];
+  const double Z_C_d = ((const volatile double *)q)[5];
+  const double omega_x = ((const volatile double *)q)[6];
+  const double omega_y = ((const volatile double *)q)[7];
+  const double omega_z = ((const volatile double *)q)[8];
+  q_plus[0] = X_C;
+  q_plus[1] = Y_C;
+  q_plus[2] = Z_C;
+  q_plus[3] = P[0]*c0 + X_C_d;
+  q_plus[4] = P[1]*c0 + Y_C_d;
+  q_plus[5] = P[2]*c0 + Z_C_d;
+  q_plus[6] = omega_x + s0_16;
+  q_plus[7] = omega_y + s0_17;
+  q_plus[8] = omega_z + s0_18;
+  q_plus[9] = a11;
+  q_plus[10] = a12;
+  q_plus[11] = a13;
+  q_plus[12] = a21;
+  q_plus[13] = a22;
+  q_plus[14] = a23;
+  q_plus[15] = a31;
+  q_plus[16] = a32;
+  q_plus[17] = a33;
+}
+
 /* ---- the model: what the runtime (crt_core.h) calls ------------------------------------ */
 /* S for the vertical n (a sphere is the ellipsoid with equal semi-axes) */
 static void model_shape(const double *p, const double *n, double *s)
@@ -667,6 +741,14 @@ static void model_contact(const double *p, const double *u, const double *q, dou
   model_shape(p, q + Q_N, s);
   lowest_point_rate_ellipsoid(q + Q_N, q + Q_OMEGA, p + CRT_P_axis_a, sdot);
   general_contact_rhs_free(q, u, s, sdot, p, dq, N, a_free);
+}
+
+/* an impulse P (fixed axes) at the body point r (body axes, from O): a push of the
+   closed loop's disturbances (crt_control.h) */
+static void model_push(const double *p, const double *u, const double *q, const double *r,
+                       const double *P, double *q_plus)
+{
+  general_apply_impulse(q, u, r, p, P, q_plus);
 }
 
 /* ---- the momentum form (crt_lie.h) ------------------------------------------------------ */

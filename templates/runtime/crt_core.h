@@ -27,6 +27,8 @@
  *   CRT_DONE             2  crt_advance: t_end reached
  *   CRT_MAX_EVENTS       3  crt_advance: opt[CRT_OPT_MAX_EVENTS] events happened (the
  *                           caller's own budget: a stop, as CVODE's root return)
+ *   CRT_STOPPED          4  crt_advance: the controller of a closed loop stopped the run
+ *                           (crt_control.h)
  *   CRT_MAX_STEPS       -1  crt_advance: opt[CRT_OPT_MAX_STEPS] steps before t_end (an
  *                           error, as CVODE's CV_TOO_MUCH_WORK)
  *   CRT_STEP_UNDERFLOW  -2  crt_advance: the step fell below 1e-14 of the time scale
@@ -43,6 +45,8 @@
  *                           gives its index CRT_P_*
  *   CRT_BAD_LAW        -23  crt_set_law_*: the law is malformed (the session then has no
  *                           law); crt_init: no law is set
+ *   CRT_BAD_CONTROL    -24  crt_advance: the controller's law is refused (knots, or x or x'
+ *                           not continuous at its start); crt_control_fault says why
  * After any code but CRT_OK, CRT_PAUSED and CRT_BAD_ARGUMENT, crt_advance returns that
  * code again, doing nothing, until the next crt_init.
  *
@@ -111,10 +115,13 @@ typedef struct {
 } crt_lie;
 #endif
 
+typedef struct crt_control crt_control;      /* the closed loop: crt_control.h */
+
 typedef struct {
   double opt[CRT_OPT_COUNT];
   double prm[CRT_P_COUNT];
   crt_law law;
+  crt_control *ctl;                       /* the loop, or NULL (crt_set_control) */
   crt_law_work lw;
   double t, h;
   double q[NQ];
@@ -639,6 +646,8 @@ static enum crt_handled crt_handle_event(crt_session *s, crt_out *o, double ta, 
 }
 #endif
 
+#include "crt_control.h"
+
 static double crt_initial_step(crt_session *s)
 {
   double d0 = 0.0, d1 = 0.0, d2 = 0.0, h0, h1, y1[NQ], f1[NQ];
@@ -692,6 +701,9 @@ int crt_count(int which)
     case CRT_COUNT_LAW_MAX_NODES: return CRT_LAW_MAX_NODES;
     case CRT_COUNT_MIN_ROWS: return CRT_MIN_ROWS;
     case CRT_COUNT_MIN_EVENTS: return CRT_MIN_EVENTS;
+    case CRT_COUNT_CTL_MAX_KNOTS: return CRT_CTL_MAX_KNOTS;
+    case CRT_COUNT_PUSH_COLUMNS: return CRT_PUSH_COLUMNS;
+    case CRT_COUNT_LOG_COLUMNS: return CRT_LOG_COLUMNS;
     default: return 0;
   }
 }
@@ -734,6 +746,8 @@ int crt_set_law_program(crt_session *s, int n_nodes, int n_const, const int *cod
   s->law.consts = consts;
   for (k = 0; k < 3; ++k) s->law.out[k] = out[k];
   s->law.kind = CRT_LAW_PROGRAM;
+  s->law.extend = 0;
+  s->ctl = (crt_control *)0;               /* an open-loop law: crt_set_control again */
   crt_law_prepare(&s->law, &s->lw);
   return CRT_OK;
 }
@@ -756,6 +770,8 @@ int crt_set_law_table(crt_session *s, int n_knots, const double *knots, const do
   s->law.coef = coef;
   s->law.periodic = periodic != 0;
   s->law.kind = CRT_LAW_TABLE;
+  s->law.extend = 0;
+  s->ctl = (crt_control *)0;               /* an open-loop law: crt_set_control again */
   crt_law_prepare(&s->law, &s->lw);
   return CRT_OK;
 }
@@ -843,6 +859,7 @@ int crt_init(crt_session *s, const double *opt, const double *prm, double t0, co
   s->out_k = 0.0;
   s->out_pending = 0;
   s->out_until = t0;
+  if (s->ctl) crt_control_start(s, t0);    /* the loop's clock, noise, pushes; the law */
   if (s->law.kind != CRT_LAW_PROGRAM && s->law.kind != CRT_LAW_TABLE) {
     s->status = CRT_BAD_LAW;
     return s->status;
@@ -953,12 +970,18 @@ static void crt_integrate(crt_session *s, double t_end, crt_out *o)
     s->out_k = 1.0;
     s->next_output = out_dt > 0.0 ? s->t_first + out_dt : s->t;
   }
+  if (s->ctl && !s->ctl->started) {        /* the loop's first call, at t0 */
+    const int stop = crt_control_call(s, CRT_CALL_START, 0);
+    s->ctl->started = 1;
+    if (stop) { s->status = stop; return; }
+  }
   if (s->out_pending && !crt_flush_outputs(s, o, s->out_until, s->out_until >= t_end)) {
     return;
   }
   while (s->t < t_end) {
-    double h, h_wanted, knot, err, t1;
+    double h, h_wanted, knot, err, t1, stop = HUGE_VAL;
     if (o->n + CRT_MIN_ROWS > o->cap || o->ev_n + CRT_MIN_EVENTS > o->ev_cap) break;
+    if (s->ctl && s->ctl->log_n + CRT_CTL_MAX_KNOTS > s->ctl->log_cap) break;
     if ((double)s->stat[CRT_STAT_STEPS] >= s->opt[CRT_OPT_MAX_STEPS]) { s->status = CRT_MAX_STEPS; break; }
 #if MODEL_HAS_PLANE
     if (s->plane && s->phase == CRT_CONTACT) {
@@ -968,6 +991,10 @@ static void crt_integrate(crt_session *s, double t_end, crt_out *o)
       if (!(N > 0.0)) {
         crt_lift_off(s, o, s->t, N);
         if (crt_events_exhausted(s)) break;
+        if (s->ctl) {
+          const int halt = crt_control_call(s, CRT_CALL_EVENT, CRT_EV_LIFTOFF);
+          if (halt) { s->status = halt; break; }
+        }
         continue;
       }
     }
@@ -981,13 +1008,19 @@ static void crt_integrate(crt_session *s, double t_end, crt_out *o)
         /* S on (or, after round-off, just below) the plane and moving down: collide now
            (once: not again at the time of the event that put it there) */
         double q_now[NQ];
+        long before[3];
         int i;
+        crt_control_counters(s, before);
         for (i = 0; i < NQ; ++i) q_now[i] = s->q[i];
         crt_collide(s, o, s->t, q_now);
         crt_emit(o, s->t, s->q, CRT_ROW_AFTER_EVENT);
         crt_changed(s);
         s->g_valid = 0;
         if (crt_events_exhausted(s)) break;
+        if (s->ctl) {
+          const int halt = crt_control_after_event(s, before);
+          if (halt) { s->status = halt; break; }
+        }
         continue;
       }
     }
@@ -997,6 +1030,16 @@ static void crt_integrate(crt_session *s, double t_end, crt_out *o)
     h_wanted = h;
     knot = crt_law_next_knot(&s->law, s->t);     /* steps end on a table's knots */
     if (s->t + h > knot) h = knot - s->t;
+    if (s->ctl) {                                /* and on the loop's samples and pushes */
+      stop = crt_control_next_stop(s);
+      if (stop <= s->t) {                        /* due now (a push at an event's time) */
+        const int halt = crt_control_at_stop(s, o);
+        if (halt) { s->status = halt; break; }
+        continue;
+      }
+      /* a knot a rounding error before the stop is the stop: no step of 1e-16 s */
+      if (s->t + h >= stop || stop - (s->t + h) < h_min) h = stop - s->t;
+    }
     if (s->t + h > t_end) h = t_end - s->t;
     if (h < h_min && s->t + h < t_end) { s->status = CRT_STEP_UNDERFLOW; break; }
     err = crt_step(s, s->t, s->q, s->f, h, y1, f1, 1);
@@ -1018,9 +1061,16 @@ static void crt_integrate(crt_session *s, double t_end, crt_out *o)
       const int found = crt_search(s, t1, y1, model_rate(s->prm, crt_u(s, t1), y1),
                                    &ta, &ga, &tb, &gb);
       if (found == CRT_STEP_EVENT) {
-        const enum crt_handled handled = crt_handle_event(s, o, ta, ga, tb, gb);
+        enum crt_handled handled;
+        long before[3];
+        crt_control_counters(s, before);
+        handled = crt_handle_event(s, o, ta, ga, tb, gb);
         if (handled == CRT_HANDLED_BUFFER_FULL) { s->g_valid = 0; break; }
         if (handled == CRT_HANDLED_STOP) break;
+        if (s->ctl) {
+          const int halt = crt_control_after_event(s, before);
+          if (halt) { s->status = halt; break; }
+        }
         continue;
       }
       if (found == CRT_STEP_RETRY) {
@@ -1035,6 +1085,7 @@ static void crt_integrate(crt_session *s, double t_end, crt_out *o)
 #endif
     /* accepted step without event */
     ++s->stat[CRT_STAT_STEPS];
+    if (h == stop - s->t) t1 = stop;             /* exactly at the loop's stop */
     {
       int i;
       s->t = t1;
@@ -1064,6 +1115,10 @@ static void crt_integrate(crt_session *s, double t_end, crt_out *o)
     else if (!crt_flush_outputs(s, o, s->t, s->t >= t_end)) {
       /* the rest on the next call */
     }
+    if (s->ctl && s->t >= stop) {                /* a sample, a push: the loop acts */
+      const int halt = crt_control_at_stop(s, o);
+      if (halt) { s->status = halt; break; }
+    }
     if (!adaptive) {
       /* RK4: back to the nominal step after a hop or a retry shortened it */
       s->h = crt_min(2.0 * s->h, s->opt[CRT_OPT_RK4_STEP]);
@@ -1082,8 +1137,10 @@ static void crt_integrate(crt_session *s, double t_end, crt_out *o)
     }
     if (s->out_pending) break;
   }
+  if (s->ctl && s->status != CRT_PAUSED) crt_control_log_law(s->ctl, s->t);
   if (s->status == CRT_PAUSED && s->t >= t_end && !s->out_pending) {
     s->status = CRT_DONE;
+    if (s->ctl) crt_control_log_law(s->ctl, s->t);
     /* the output_dt grid need not land on t_end: the final state is a row too */
     if (out_dt > 0.0 && (o->n == 0 || o->t[o->n - 1] < s->t))
       crt_emit(o, s->t, s->q, CRT_ROW_STEP);
