@@ -4,7 +4,8 @@ from __future__ import annotations
 
 from . import rules
 from . import toml
-from .schema import PLAN_FIELDS, REQUIRED, SCENE_FIELDS, SCENE_TABLES
+from .schema import (CONTROL_FIELDS, DISTURBANCE_FIELDS, PLAN_FIELDS, REQUIRED, SCENE_FIELDS,
+                     SCENE_TABLES)
 
 
 def _default(f) -> str:
@@ -23,13 +24,15 @@ def _rows(fields) -> list:
         rows.append(f"| `{f.where}` | {kind} | {_default(f)} | {f.rule} | {doc} |")
         for s in f.fields:
             kind = f"{s.kind}[{s.size}]" if s.size else s.kind
-            rows.append(f"| `{s.where}` | {kind} | {_default(s)} | {s.rule} | {s.doc} |")
+            where = s.where.replace(f"{f.key}.", f"{f.key}[].") if f.kind == "tables" \
+                else s.where
+            rows.append(f"| `{where}` | {kind} | {_default(s)} | {s.rule} | {s.doc} |")
     return rows
 
 
 def schema_table() -> str:
     """The README's scene schema: every field, then the rules across fields."""
-    rows = _rows(SCENE_FIELDS)
+    rows = _rows(SCENE_FIELDS + CONTROL_FIELDS + DISTURBANCE_FIELDS)
     rows += ["", "Rules across fields:", ""]
     rows += [f"- {text}" for text in rules.texts()]
     return "\n".join(rows)
@@ -47,7 +50,8 @@ def template(shape: str = "sphere") -> str:
     table = None
     skip = {"sphere": {"semi_axes"}, "ellipsoid": {"radius"}, "none": {"radius", "semi_axes"}}
     for f in SCENE_FIELDS:
-        if f.table == "stability" or f.key in skip.get(shape, set()):
+        if f.table in ("stability", "control", "disturbance") or \
+                f.key in skip.get(shape, set()):
             continue
         if f.table != table:
             table = f.table
@@ -65,6 +69,7 @@ def template(shape: str = "sphere") -> str:
             lines.append(f"{f.key} = {toml.value(value)}  # {note}")
     lines.append("")
     lines.append("# [stability] (optional): period, impacts_every, long_periods, perturbations")
+    lines.append("# [control] and [disturbance] (optional): the loop closed around the run")
     return "\n".join(lines) + "\n"
 
 

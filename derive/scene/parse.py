@@ -18,8 +18,8 @@ from . import cache, rules
 from .cache import Copy, Snapshot, Static
 from .errors import SceneError, type_name
 from .rules import Draft
-from .scene import Scene, Stability
-from .schema import SCENE
+from .scene import Control, Disturbance, Scene, Stability
+from .schema import CONTROL_FIELDS, DISTURBANCE_FIELDS, SCENE
 
 MAX_BYTES = 16 * 1024 * 1024
 
@@ -83,8 +83,26 @@ def static_part(v: dict, given: set, origin: str = "scene", base: Path | None = 
                   max_steps=run("max_steps"), output_dt=run("output_dt"),
                   keep_orthonormal=run("keep_orthonormal"), model=run("model"),
                   zeno_dt=run("zeno_dt"), source=origin, stability=st,
-                  law_summary=d.summary, max_distance=d.max_distance)
+                  law_summary=d.summary, max_distance=d.max_distance,
+                  control=_control(v), disturbance=_disturbance(v))
     return Static(fields, d)
+
+
+def _control(v: dict) -> Control | None:
+    if "control" not in v["__tables__"]:
+        return None
+    return Control(**{f.key: v[f.where] for f in CONTROL_FIELDS})
+
+
+def _disturbance(v: dict) -> Disturbance | None:
+    if "disturbance" not in v["__tables__"]:
+        return None
+    got = {f.key: v[f.where] for f in DISTURBANCE_FIELDS}
+    noise = got.pop("noise") or {}
+    pushes = got.pop("pushes") or ()
+    return Disturbance(**got, noise=tuple(noise.get(k, 0.0) for k in
+                                          ("omega", "attitude", "com", "com_velocity")),
+                       pushes=tuple((p["time"], *p["impulse"], *p["at"]) for p in pushes))
 
 
 def run_stability(v: dict, key: str):

@@ -31,6 +31,8 @@ from .law import CoordinateError, LawError, LawSummary
 from .schema import FIELDS, MAX_ROWS, MIN_DURATION, REQUIRED, as_rotation
 
 REQUIRED_FIELDS = tuple(f for f in FIELDS if f.default is REQUIRED)
+# tables a scene may leave out: their required fields are required when they are given
+OPTIONAL_TABLES = frozenset(("plane", "stability", "plan", "control", "disturbance"))
 
 
 @dataclass
@@ -98,8 +100,8 @@ def _required(d: Draft) -> None:
     for f in REQUIRED_FIELDS:
         if f.where not in v or v[f.where] is not REQUIRED:
             continue
-        if f.table == "plane" and "plane" not in v["__tables__"]:
-            continue
+        if f.table in OPTIONAL_TABLES and f.table not in v["__tables__"]:
+            continue                  # a table given whole or not at all
         if f.table in ("body", "point") and not any(g.startswith(f"[{f.table}]")
                                                      for g in given):
             raise SceneError(f"[{f.table}]", "is required")

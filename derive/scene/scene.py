@@ -22,6 +22,41 @@ class Stability:
 
 
 @dataclass(frozen=True)
+class Control:
+    """``[control]``: the loop closed around the run (see the README)."""
+    mode: str
+    period: float | None = None
+    gain: str = "lqr"
+    state_weight: float = 1.0
+    input_weight: float = 1.0
+    apex_height: float | None = None
+    intervals: int = 30
+    iterations: int = 1
+    solver: str = "sqp"
+    duration: float | None = None
+
+
+@dataclass(frozen=True)
+class Disturbance:
+    """``[disturbance]``: how the plant differs from the model; ``noise`` (omega,
+    attitude, com, com_velocity) standard deviations of what the controller reads;
+    ``pushes`` rows (time, P_X, P_Y, P_Z, at_x, at_y, at_z)."""
+    seed: int = 0
+    mass_factor: float = 1.0
+    point_mass_factor: float = 1.0
+    inertia_factor: tuple = (1.0, 1.0, 1.0)
+    restitution: float | None = None
+    noise: tuple = (0.0, 0.0, 0.0, 0.0)
+    pushes: tuple = ()
+
+    @property
+    def changes_plant(self) -> bool:
+        return (self.mass_factor != 1.0 or self.point_mass_factor != 1.0
+                or tuple(self.inertia_factor) != (1.0, 1.0, 1.0)
+                or self.restitution is not None)
+
+
+@dataclass(frozen=True)
 class Scene:
     name: str
     M: float
@@ -56,6 +91,8 @@ class Scene:
     stability: Stability = Stability()
     law_summary: LawSummary | None = field(default=None, compare=False)
     max_distance: float = 0.0
+    control: Control | None = None
+    disturbance: Disturbance | None = None
     doc_source: Any = field(default=None, compare=False, repr=False)   # see Scene.doc
 
     @classmethod

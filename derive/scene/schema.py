@@ -37,7 +37,7 @@ class Field:
     table: str                 # "" for the top level
     key: str                   # "region.radius" for a field of a nested table
     kind: str                  # number integer vector string choice choices bool laws
-                               # matrix rotation numbers samples table
+                               # matrix rotation numbers samples table tables
     default: Any               # REQUIRED, None (may be absent) or the default value
     doc: str
     lo: float | None = None
@@ -77,6 +77,7 @@ MAX_LENGTH = 1e6
 MAX_DURATION = 1e7
 MAX_ROWS = 10_000_000
 MIN_DURATION = 1e-12       # s: the runtime's steps (duration / 2000, / 4) stay normal floats
+MAX_TABLES = 1000          # entries of a list of tables ([disturbance].pushes)
 NAME_CHARACTERS = "- _ . , : ; = + ( ) [ ] / # @ & '"
 _NAME = re.compile(r"[A-Za-z0-9 _.,:;=+()\[\]/#@&'\-]{1,80}", re.ASCII)
 
@@ -203,7 +204,62 @@ PLAN_FIELDS = (
     F("plan", "max_iterations", "integer", 400, "IPOPT iterations per solve", 10, 100_000),
 )
 
-FIELDS = SCENE_FIELDS + PLAN_FIELDS
+# ``[control]``: the loop closed around a run (derive control, derive simulate)
+CONTROL_FIELDS = (
+    F("control", "mode", "choice", REQUIRED, "hop: per-hop feedback on the impact-to-impact "
+      "map of a periodic hop (acts at impacts); mirror: the mirror law of Buehler and "
+      "Koditschek (the vertical bounce; acts every period); replan: the plan re-solved in "
+      "flight every period from the state read (reorient, land)",
+      choices=("hop", "mirror", "replan")),
+    F("control", "period", "number", None, "the sample period (replan default 0.02 s, "
+      "mirror 0.002 s; hop acts at impacts)", 0, 10, True),
+    F("control", "gain", "choice", "lqr", "hop: a discrete LQR gain, or deadbeat (both "
+      "multipliers of the controlled block placed at 0)", choices=("lqr", "deadbeat")),
+    F("control", "state_weight", "number", 1.0, "hop: the LQR's weight of the hop's "
+      "deviation (phase in rad, velocity in units of the orbit's)", 0, 1e9, True),
+    F("control", "input_weight", "number", 1.0, "hop: the LQR's weight of the law's "
+      "correction (relative to the gait's amplitude)", 0, 1e9, True),
+    F("control", "apex_height", "number", None, "hop: steer the apex of C to this height "
+      "above its impact height (the gait's frequency follows)", 0, MAX_LENGTH, True),
+    F("control", "intervals", "integer", 30, "replan: intervals of the re-planned horizon",
+      4, 200),
+    F("control", "iterations", "integer", 1, "replan: SQP iterations per sample (1: a "
+      "real-time iteration)", 1, 100),
+    F("control", "solver", "choice", "sqp", "replan: the generated C solver (sqp: CasADi's "
+      "sqpmethod with qrqp) or ipopt (in-process, for comparison)",
+      choices=("sqp", "ipopt")),
+    F("control", "duration", "number", None, "how long the loop runs (default: the plan's "
+      "horizon and a fifth more, or two seconds)", 0, MAX_DURATION, True),
+)
+
+# ``[disturbance]``: the plant that differs from the model, seeded and recorded
+DISTURBANCE_FIELDS = (
+    F("disturbance", "seed", "integer", 0, "the seed of the noise", 0, 2 ** 53),
+    F("disturbance", "mass_factor", "number", 1.0, "the plant's M over the model's", 0, 100,
+      True),
+    F("disturbance", "point_mass_factor", "number", 1.0, "the plant's m over the model's", 0,
+      100, True),
+    F("disturbance", "inertia_factor", "vector", [1.0, 1.0, 1.0], "the plant's J_x, J_y, "
+      "J_z over the model's", 0, 100, True, size=3),
+    F("disturbance", "restitution", "number", None, "the plant's e where it differs from "
+      "the model's", 0, 1),
+    F("disturbance", "noise", "table", None, "standard deviations of what the controller "
+      "reads", fields=(
+          F("disturbance", "noise.omega", "number", 0.0, "of omega (rad/s)", 0, 1e3),
+          F("disturbance", "noise.attitude", "number", 0.0, "of the attitude (rad, a "
+            "rotation about each body axis)", 0, 1),
+          F("disturbance", "noise.com", "number", 0.0, "of C's position (m)", 0, 1e3),
+          F("disturbance", "noise.com_velocity", "number", 0.0, "of C's velocity (m/s)", 0,
+            1e3))),
+    F("disturbance", "pushes", "tables", None, "impulsive pushes (general model)", fields=(
+        F("disturbance", "pushes.time", "number", REQUIRED, "when (s)", -1e9, 1e9),
+        F("disturbance", "pushes.impulse", "vector", REQUIRED, "the impulse P in fixed axes "
+          "(N s)", -1e6, 1e6, size=3),
+        F("disturbance", "pushes.at", "vector", [0.0, 0.0, 0.0], "the body point it acts at "
+          "(body axes, from O)", -MAX_LENGTH, MAX_LENGTH, size=3))),
+)
+
+FIELDS = SCENE_FIELDS + PLAN_FIELDS + CONTROL_FIELDS + DISTURBANCE_FIELDS
 
 
 # ---- single values -----------------------------------------------------------------------
@@ -348,6 +404,10 @@ def check_value(f: Field, value, where: str | None = None):
         return _samples(where, value)
     if k == "table":
         return read_nested(f, value, where)
+    if k == "tables":
+        if not isinstance(value, list) or len(value) > MAX_TABLES:
+            raise SceneError(where, f"must be a list of at most {MAX_TABLES} tables")
+        return tuple(read_nested(f, item, f"{where}[{i}]") for i, item in enumerate(value))
     raise AssertionError(k)
 
 
@@ -495,8 +555,9 @@ def _fast(f: Field) -> int:
     return 2 if f.kind == "vector" else 0
 
 
-SCENE_TABLES = ("", "body", "point", "plane", "initial", "run", "stability")
-SCENE = Schema(SCENE_FIELDS, SCENE_TABLES, "scene")
+SCENE_TABLES = ("", "body", "point", "plane", "initial", "run", "stability", "control",
+                "disturbance")
+SCENE = Schema(SCENE_FIELDS + CONTROL_FIELDS + DISTURBANCE_FIELDS, SCENE_TABLES, "scene")
 
 # a task's scene tables: a scene without a law and without the run's integration (the
 # plan sets the duration and integrates), and [plan]
@@ -504,5 +565,6 @@ _TASK_SCENE = tuple(f for f in SCENE_FIELDS
                     if f.table in ("", "body", "initial")
                     or (f.table, f.key) in (("point", "mass"), ("plane", "restitution"),
                                             ("run", "g")))
-TASK = Schema(_TASK_SCENE + PLAN_FIELDS, ("", "body", "point", "plane", "initial", "run",
-                                           "plan"), "task")
+TASK = Schema(_TASK_SCENE + PLAN_FIELDS + CONTROL_FIELDS + DISTURBANCE_FIELDS,
+              ("", "body", "point", "plane", "initial", "run", "plan", "control",
+               "disturbance"), "task")
