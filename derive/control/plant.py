@@ -1,0 +1,53 @@
+"""The plant a controller acts on: the scene with its ``[disturbance]`` (a heavier body,
+other moments of inertia, another restitution), and the loop's noise and pushes.
+
+The controller keeps the model's numbers (the scene as written); the plant is the scene
+with the disturbance's factors applied, validated again like any scene (a factor that
+makes the body impossible is refused naming ``[disturbance]``).
+"""
+from __future__ import annotations
+
+import copy
+
+import numpy as np
+
+from ..runtime.loop import Loop
+from ..scene import Scene, SceneError, parse_scene
+from ..scene.scene import Disturbance
+
+
+def plant_doc(doc: dict, disturbance: Disturbance | None) -> dict:
+    """A scene's dict with the disturbance's factors applied (the model's dict unchanged)."""
+    d = copy.deepcopy(doc)
+    if disturbance is None:
+        return d
+    body, point = d["body"], d["point"]
+    body["mass"] = float(body["mass"]) * disturbance.mass_factor
+    point["mass"] = float(point["mass"]) * disturbance.point_mass_factor
+    body["inertia"] = [float(j) * f for j, f in zip(body["inertia"],
+                                                     disturbance.inertia_factor)]
+    if disturbance.restitution is not None and "plane" in d:
+        d["plane"]["restitution"] = disturbance.restitution
+    return d
+
+
+def plant_scene(scene: Scene, origin: str = "plant") -> Scene:
+    """The scene the plant runs: the model's scene with its disturbance applied (pushes
+    need the general model: it is forced when there are any)."""
+    dist = scene.disturbance
+    doc = plant_doc(scene.doc, dist)
+    if dist is not None and dist.pushes:
+        doc.setdefault("run", {})["model"] = "general"
+    try:
+        return parse_scene(doc, origin)
+    except SceneError as exc:
+        raise SceneError("[disturbance]", f"gives a plant that is not a valid scene: "
+                                          f"{exc}") from None
+
+
+def loop(controller, scene: Scene, period: float = 0.0) -> Loop:
+    """The loop around a run of ``scene``'s plant: ``controller``, the sample period, and
+    the disturbance's noise, seed and pushes."""
+    dist = scene.disturbance or Disturbance()
+    return Loop(controller, period=period, noise=dist.noise, seed=dist.seed,
+                pushes=np.array(dist.pushes, dtype=float).reshape(-1, 7))
