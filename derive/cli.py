@@ -181,11 +181,17 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     _check_output_folder(args.output)
     if args.sweep:
         return _simulate_sweep(args, start)
+    closed = None
     try:
         doc, base, origin = _scene_doc(args)
         scene = parse_scene(doc, origin, base=base)
-        from .runtime.driver import simulate
-        result = simulate(scene, progress=not args.quiet)
+        if scene.control is not None:         # the loop closed: derive.control.closed
+            from .control.closed import simulate_closed
+            closed = simulate_closed(scene)
+            result = closed.result
+        else:
+            from .runtime.driver import simulate
+            result = simulate(scene, progress=not args.quiet)
     except SceneError as exc:
         raise UsageError(str(exc)) from None
     from .progress import Bar
@@ -195,12 +201,15 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     try:
         written = write_all(result, args.output, plot=not args.no_plots,
                             animation=not (args.no_animation or args.no_plots),
-                            fmt=args.format, progress=bar.update)
+                            fmt=args.format, progress=bar.update,
+                            extra=closed.files() if closed is not None else None)
     finally:
         bar.close()
     t_done = time.perf_counter()
     info = result.stats
     print(f"{scene.name}: {result.status}; model {result.model} ({result.why})")
+    if closed is not None:
+        print(f"  closed loop ({closed.describe()})")
     print(f"  {scene.method}, {info['steps']} steps ({info['rejected']} rejected), "
           f"{info['rhs_evaluations']} RHS evaluations, {info['impacts']} impacts, "
           f"{info['contacts']} contact phases, {info['liftoffs']} lift-offs")

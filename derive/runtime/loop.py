@@ -4,9 +4,10 @@ A :class:`Loop` holds what closes the loop around one run: the controller, the s
 period, the noise on what the controller reads and its seed, and the pushes.  The
 controller is either
 
-* a Python callable (research): ``controller(call) -> None | Segments`` with ``call`` a
-  :class:`Call` (the time, why, the measured state in the model's layout, the law's u at
-  that time); the C calls it through ctypes at every sample and event; or
+* a Python callable (research): ``controller(call) -> None | Segments | STOP`` with
+  ``call`` a :class:`Call` (the time, why, the measured state in the model's layout, the
+  law's u at that time): None lets the law go on, :data:`STOP` ends the run (status
+  ``stopped``); the C calls it through ctypes at every sample and event; or
 * a C function of the ABI ``crt_controller_fn`` in a compiled library, with its own
   memory (:class:`CController`): the C runtime calls it with no Python per sample.
 
@@ -28,6 +29,7 @@ from ..scene.table import TableLaw
 from .build import DP
 
 MAX_KNOTS = abi.CTL_MAX_KNOTS
+STOP = "stop"             # what a Python controller returns to end the run
 LOG_ROWS = 8 * MAX_KNOTS
 _S = abi.STATUS
 
@@ -138,6 +140,8 @@ class Loop:
                                       EVENTS[c.event] if c.reason == 2 else "", q, u, c.k))
                 if out is None:
                     return 0
+                if isinstance(out, str) and out == STOP:
+                    return -1
                 n = len(out.knots)
                 if not 2 <= n <= max_knots:
                     raise ValueError(f"the controller's law has {n} knots (2 to {max_knots})")

@@ -169,7 +169,10 @@ TABLE_FILES = {"csv": ("trajectory.csv", "events.csv", "impacts.csv"), "npz": ("
 FORMATS = tuple(TABLE_FILES)
 PICTURE_FILES = ("overview.png", "motion.gif")
 SUMMARY_FILE = "summary.json"
-OUTPUT_NAMES = frozenset(sum(TABLE_FILES.values(), PICTURE_FILES + (SUMMARY_FILE,)))
+# a closed loop's own files (derive.control): the realised law and what the loop did
+LOOP_FILES = ("law.csv", "control.json")
+OUTPUT_NAMES = frozenset(sum(TABLE_FILES.values(), PICTURE_FILES + (SUMMARY_FILE,)
+                             + LOOP_FILES))
 
 
 def write_tables(result: Result, mo: Motion, out: Path, fmt: str = "csv",
@@ -198,7 +201,7 @@ def write_tables(result: Result, mo: Motion, out: Path, fmt: str = "csv",
 
 
 def write_all(result: Result, out_dir, plot: bool = True, animation: bool = False,
-              fmt: str = "csv", progress=None) -> list[Path]:
+              fmt: str = "csv", progress=None, extra: dict | None = None) -> list[Path]:
     """Tables, ``overview.png`` (``plot``), ``motion.gif`` (``animation``) and
     ``summary.json`` (last, with the time each part took).  Each file is complete or
     absent: all are written into a hidden folder inside ``out_dir`` and moved into place
@@ -207,12 +210,16 @@ def write_all(result: Result, out_dir, plot: bool = True, animation: bool = Fals
     write removes the outputs of an earlier run it did not replace (``OUTPUT_NAMES``:
     another format, plots not asked this time), so the folder holds one run.
     ``progress``: told the fraction of the trajectory's table written (the long part of a
-    run with millions of rows)."""
+    run with millions of rows).  ``extra``: more files, name -> text, written with the
+    others (a closed loop's law.csv and control.json)."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     stage = Path(tempfile.mkdtemp(prefix=".writing-", dir=out))
     try:
         staged = _write_all(result, stage, plot, animation, fmt, progress)
+        for name, text in (extra or {}).items():
+            (stage / name).write_text(text, encoding="utf-8")
+            staged.append(stage / name)
         final = []
         for path in staged:
             os.replace(path, out / path.name)

@@ -434,9 +434,17 @@ int crt_control_setup(crt_control *c, crt_controller_fn fn, void *ctx, double pe
   return CRT_OK;
 }
 
-/* Close the loop of a session (after its law is set; c == NULL opens it again). */
+/* Close the loop of a session (after its law is set; c == NULL opens it again).  The
+   session gets back the law set before the loop it had (a run leaves it reading the
+   controller's buffers): call crt_set_control(s, NULL) before the crt_control's memory
+   goes, if the session is to run again. */
 int crt_set_control(crt_session *s, crt_control *c)
 {
+  if (s->ctl && s->ctl->controlled) {
+    s->law = s->ctl->base;
+    crt_law_prepare(&s->law, &s->lw);
+    s->lw.valid = 0;
+  }
   s->ctl = c;
   if (c) {
     if (s->law.kind != CRT_LAW_PROGRAM && s->law.kind != CRT_LAW_TABLE) return CRT_BAD_LAW;

@@ -1,0 +1,173 @@
+"""The loop closed at run time (crt_control.h, derive/runtime/loop.py): calls at samples
+and events, the law a controller sets, pushes, noise, the realised law and its replay,
+refusals.  Each check compares with something computed another way: the momentum
+theorems for a push, the noise's sample statistics, an open-loop rerun of the realised
+law, the state a sample reads against the run's own row."""
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+
+from derive import layout
+from derive.runtime.driver import prepare, run_prepared
+from derive.runtime.loop import STOP, Loop, Segments, hermite, realised_law
+from derive.scene import builtin_doc, parse_scene
+
+G = layout.GENERAL
+
+
+def _scene(**run):
+    doc = builtin_doc()
+    doc["run"].update({"duration": 2.0, **run})
+    return parse_scene(doc)
+
+
+def _follow(scene, horizon=0.05):
+    """A controller that follows the scene's own law by Hermite pieces of ``horizon``."""
+    calls = []
+
+    def controller(call):
+        calls.append(call)
+        t1 = call.t + horizon
+        u1 = scene.law.point(t1)
+        coef = hermite(call.t, call.u[:3], call.u[3:6], t1, u1[:3], u1[3:6])
+        return Segments(np.array([call.t, t1]), coef[None])
+    return controller, calls
+
+
+def test_samples_and_events_call_the_controller_with_the_runs_own_state():
+    scene = _scene()
+    controller, calls = _follow(scene)
+    res = run_prepared(prepare(scene), loop=Loop(controller, period=0.05))
+    assert res.status == "done"
+    samples = [c for c in calls if c.reason == "sample"]
+    ks = np.round([(c.t - scene.t0) / 0.05 for c in samples], 9)
+    assert np.array_equal(ks, np.arange(1, len(samples) + 1))      # exactly on the grid
+    # the state a sample reads is the row the run wrote at that time (a step's end)
+    for c in samples[::7]:
+        i = np.flatnonzero(res.t == c.t)
+        assert len(i) and np.array_equal(res.q[i[0]], c.q)
+    impacts = [c.t for c in calls if c.reason == "event" and c.event == "impact"]
+    assert np.allclose(impacts, res.impacts[:, 0], rtol=0, atol=0)
+    assert calls[0].reason == "start" and calls[0].t == scene.t0
+    assert res.stats["controller_calls"] == len(calls)
+
+
+def test_a_closed_loop_replayed_open_loop_by_its_realised_law_is_the_same_run():
+    scene = _scene()
+    controller, _ = _follow(scene, 0.037)
+    loop = Loop(controller, period=0.037)
+    prep = prepare(scene)
+    res = run_prepared(prep, loop=loop)
+    law = realised_law(loop.law_rows())
+    assert law.knots[0] == scene.t0 and law.knots[-1] == pytest.approx(scene.t0 + 2.0)
+    replay = run_prepared(dataclasses.replace(prep, scene=dataclasses.replace(
+        scene, law=law, law_text=())))
+    assert replay.status == "done"
+    assert np.allclose(replay.impacts[:, 0], res.impacts[:, 0], rtol=0, atol=1e-10)
+    assert np.max(np.abs(replay.q[-1] - res.q[-1])) < 1e-9
+
+
+def test_a_law_that_jumps_is_refused_naming_the_fault():
+    scene = _scene()
+
+    def jump(call):
+        t1 = call.t + 0.1
+        coef = hermite(call.t, call.u[:3] + np.array([1e-6, 0, 0]), call.u[3:6], t1,
+                       call.u[:3], call.u[3:6])
+        return Segments(np.array([call.t, t1]), coef[None])
+
+    def kink(call):
+        t1 = call.t + 0.1
+        coef = hermite(call.t, call.u[:3], call.u[3:6] + np.array([0, 0, 1e-6]), t1,
+                       call.u[:3], call.u[3:6])
+        return Segments(np.array([call.t, t1]), coef[None])
+    for fn, fault in ((jump, "position_jump"), (kink, "velocity_jump")):
+        with pytest.raises(ValueError, match=fault):
+            run_prepared(prepare(scene), loop=Loop(fn, period=0.1))
+
+
+def test_a_controller_that_raises_or_stops():
+    scene = _scene()
+
+    def broken(call):
+        raise KeyError("the controller's own bug")
+    with pytest.raises(KeyError, match="own bug"):
+        run_prepared(prepare(scene), loop=Loop(broken, period=0.1))
+
+    def stop_at_half(call):
+        return STOP if call.t >= 1.0 else None
+    res = run_prepared(prepare(scene), loop=Loop(stop_at_half, period=0.25))
+    assert res.status == "stopped" and res.t[-1] == pytest.approx(1.0)
+
+
+def test_a_push_changes_the_momenta_as_the_theorems_say():
+    """Q+ - Q- = P and K+ - K- = CA x P about C (fixed axes), A the body point."""
+    scene = _scene(outputs=["pose", "momentum"], model="general")
+    P, at = np.array([0.2, -0.3, 0.5]), np.array([0.1, -0.2, 0.3])
+    loop = Loop(lambda call: None, pushes=[[0.7, *P, *at]])
+    res = run_prepared(prepare(scene), loop=loop)
+    assert res.stats["pushes"] == 1
+    i = int(np.flatnonzero((res.t == 0.7) & (res.row_kind == 1))[0])   # before, after
+    before, after = res.general[i], res.general[i + 1]
+    mass = scene.M + scene.m
+    assert np.allclose((after[G.com_velocity] - before[G.com_velocity]) * mass, P,
+                       atol=1e-13)
+    K = res.momentum["K_fixed"]
+    A = before[G.A].reshape(3, 3)
+    r = scene.law.point(0.7)[:3]
+    CA = A @ (at - scene.nu * r)                  # OC = nu OP: C's offset from O
+    assert np.allclose(K[i + 1] - K[i], np.cross(CA, P), atol=1e-12)
+
+
+def test_the_noise_has_the_deviations_asked_and_is_the_seeds():
+    scene = _scene(model="general")
+    seen = []
+
+    def record(call):
+        if call.reason == "sample":
+            seen.append((call.t, call.q))
+        return None
+    true = run_prepared(prepare(scene), loop=Loop(record, period=0.01))
+    runs = []
+    for seed in (5, 5, 6):
+        seen.clear()
+        run_prepared(prepare(scene), loop=Loop(record, period=0.01, seed=seed,
+                                               noise=(0.01, 0.002, 0.001, 0.02)))
+        runs.append(list(seen))
+    q = np.array([row for _, row in runs[0]])
+    assert np.array_equal(q, np.array([row for _, row in runs[1]]))
+    assert not np.array_equal(q, np.array([row for _, row in runs[2]]))
+    q_true = np.array([true.q[np.flatnonzero((true.t == t) & (true.row_kind == 0))[0]]
+                       for t, _ in runs[0]])
+    d = q - q_true
+    assert len(d) > 150
+    for part, std in ((G.omega, 0.01), (G.com, 0.001), (G.com_velocity, 0.02)):
+        got = np.std(d[:, part])
+        assert abs(got - std) < 0.15 * std, (part, got)
+    # the attitude: A exp(delta^), a rotation, delta of the deviation asked per axis
+    angles = []
+    for row, qt in zip(q, q_true):
+        A, At = row[G.A].reshape(3, 3), qt[G.A].reshape(3, 3)
+        assert np.allclose(A @ A.T, np.eye(3), atol=1e-12)
+        R = At.T @ A
+        angles.append(math.acos(max(-1.0, min(1.0, (np.trace(R) - 1) / 2))))
+    # |delta| of three normal deviates of 0.002: its mean is 0.002 sqrt(8/pi)
+    assert abs(np.mean(angles) - 0.002 * math.sqrt(8 / math.pi)) < 0.15 * 0.0032
+
+
+def test_a_session_runs_open_loop_again_after_a_closed_loop():
+    """A run leaves the session on the controller's buffers; the next open-loop run of
+    the same law must read the law set before (it had read freed memory)."""
+    from derive.runtime.driver import session_for
+    scene = _scene()
+    prep = prepare(scene)
+    first = run_prepared(prep)
+    for _ in range(3):
+        controller, _ = _follow(scene, 0.1)
+        run_prepared(prep, session=session_for(prep.kind), loop=Loop(controller, 0.1))
+        again = run_prepared(prep, session=session_for(prep.kind))
+        assert np.array_equal(again.q, first.q)

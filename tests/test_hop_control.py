@@ -1,0 +1,154 @@
+"""Per-hop feedback on the Poincare map of the reference-[5] hop, and the mirror law.
+
+Checks against what is computed another way: the hop map's Jacobian from the variational
+equations and the saltation matrix against finite differences of the hybrid runtime
+(here with the exact sine law, through derive.stability.bouncing, not the controller's
+sampled law); its vertical multipliers against the table's closed form; the closed
+loop's per-hop convergence against the eigenvalues of A - B K; an orbit unstable open
+loop (past period doubling) held by the feedback; the apex a target sets, measured on
+the run; the mirror law's apex on the run.
+"""
+from __future__ import annotations
+
+import json
+import math
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from derive.control import hop as H
+from derive.control.closed import simulate_closed
+from derive.runtime.driver import prepare, run_prepared
+from derive.runtime.loop import Loop
+from derive.scene import parse_scene, toml
+from derive.stability import bouncing
+
+UNSTABLE = 0.1            # a: Gamma = 1.83 beyond the period doubling at 1.53 (e = 0.5)
+
+
+@pytest.fixture(scope="module")
+def unstable():
+    sc = parse_scene(bouncing.bouncing_scene(a=UNSTABLE))
+    hm = H.HopMap(sc)
+    return hm, H.design(hm, hm.gait)
+
+
+def _exact_section_map(doc):
+    """The impact-to-impact map in section coordinates by the hybrid runtime with the
+    scene's own (exact) law, written from derive.stability.bouncing's pieces."""
+    hybrid = bouncing.HybridMap(doc)
+    T = 2 * math.pi / bouncing.reference5(hybrid.scene)["W"]
+
+    def P(x):
+        q0 = bouncing._unpack(x[1:], x[0], hybrid)
+        t1, q1 = hybrid.to_next_impact(x[0], q0, 1.5 * T)
+        return np.r_[t1 - T, bouncing._pack(q1)]
+    return P
+
+
+def test_the_jacobian_of_the_hop_map_agrees_with_finite_differences(unstable):
+    hm, d = unstable
+    P = _exact_section_map(bouncing.bouncing_scene(a=UNSTABLE))
+    x = d.orbit.x
+    fd = np.column_stack([(P(x + h) - P(x - h)) / (2 * h[k])
+                          for k, h in enumerate(1e-6 * np.eye(len(x)))])
+    J = d.jacobian_variational
+    assert np.max(np.abs(fd - J)) < 1e-5 * max(1.0, np.max(np.abs(J)))
+    # the controller's own finite differences (its sampled law) agree to its sampling
+    assert np.max(np.abs(d.jacobian_fd[:, :7] - J)) < 2e-3 * np.max(np.abs(J))
+
+
+def test_the_vertical_multipliers_are_the_tables(unstable):
+    hm, d = unstable
+    sc = hm.scene
+    nu = sc.m / (sc.m + sc.M)
+    Gamma = nu * UNSTABLE * 30.0 ** 2 / sc.g
+    table = bouncing.table_orbit(sc.e, 1, Gamma)["multipliers"]
+    assert np.allclose(np.sort_complex(d.open_loop), np.sort_complex(table), atol=1e-7)
+    assert max(abs(d.open_loop)) > 2.0              # unstable: period doubling passed
+
+
+def _deviations(hm, design, controller, hops=14, dv=2e-3):
+    """Scaled deviations (phase in rad, velocity relative) at the impacts of a run from
+    the orbit with C's velocity off by dv."""
+    import dataclasses
+    orbit = design.orbit
+    q0 = H._state(hm, orbit.x + np.r_[0.0, dv, 0, 0, 0, 0, 0])
+    T = orbit.gait.period
+    scene = dataclasses.replace(hm.scene, t0=orbit.t, duration=(hops + 0.5) * T,
+                                com=(0.0, 0.0, q0[0]), com_velocity=(0.0, 0.0, q0[1]))
+    res = run_prepared(prepare(scene), loop=Loop(controller))
+    rows = np.flatnonzero(res.row_kind == 2)
+    dt = (res.t[rows] - orbit.t + 0.5 * T) % T - 0.5 * T
+    dv = res.model_q[rows, 1] - orbit.v
+    return np.hypot(orbit.gait.W * dt, dv / orbit.v)
+
+
+def test_feedback_holds_an_orbit_unstable_open_loop_at_the_predicted_rate(unstable):
+    hm, d = unstable
+    open_dev = _deviations(hm, d, H.OpenLoopGait(hm.gait), hops=8, dv=1e-4)
+    assert open_dev[-1] > 30 * open_dev[0]          # |rho| = 2.016: it runs away
+    closed = _deviations(hm, d, H.HopController(d))
+    lam = max(abs(d.closed_loop))
+    rate = (closed[9] / closed[3]) ** (1 / 6)       # in the linear range
+    assert closed[-1] < 1e-6 * closed[0]
+    assert abs(rate - lam) < 0.25 * lam, (rate, lam)
+
+
+def test_a_deadbeat_gain_settles_in_three_hops(unstable):
+    hm, _ = unstable
+    d = H.design(hm, hm.gait, gain="deadbeat", orbit=unstable[1].orbit)
+    Acl = d.A - d.B @ d.K                 # nilpotent (its eigenvalues only to eps^(1/3))
+    assert np.max(np.abs(np.linalg.matrix_power(Acl, 3))) < 1e-9 * np.max(np.abs(d.A)) ** 3
+    dev = _deviations(hm, d, H.HopController(d), hops=6, dv=1e-4)
+    assert dev[4] < 0.02 * dev[0]
+
+
+def test_the_apex_a_target_sets_is_the_runs():
+    doc = bouncing.bouncing_scene(a=0.07)
+    doc["control"] = {"mode": "hop", "apex_height": 0.09, "duration": 3.0}
+    out = simulate_closed(doc)
+    assert out.result.status == "done"
+    assert out.target["apex_height"] == pytest.approx(0.09, abs=1e-8)
+    res = out.result
+    R = 0.5
+    imp = res.impacts[:, 0]
+    Z = res.model_q[:, 0]
+    apexes = [Z[(res.t > a) & (res.t < b)].max() - R for a, b in zip(imp[:-1], imp[1:])]
+    assert abs(apexes[-1] - 0.09) < 2e-4 and abs(apexes[0] - 0.09) > 5e-3
+
+
+def test_the_mirror_law_brings_the_apex_to_its_target():
+    doc = bouncing.bouncing_scene(a=UNSTABLE)
+    doc["initial"].update(com=[0.0, 0.0, 0.6], com_velocity=[0.0, 0.0, 0.0], time=0.0)
+    doc["control"] = {"mode": "mirror", "apex_height": 0.05, "duration": 5.0}
+    res = simulate_closed(doc).result
+    Z, imp = res.model_q[:, 0], res.impacts[:, 0]
+    apexes = [Z[(res.t > a) & (res.t < b)].max() - 0.5 for a, b in zip(imp[:-1], imp[1:])]
+    assert np.allclose(apexes[-3:], 0.05, atol=2e-4)
+
+
+def test_derive_simulate_runs_a_scene_with_a_control_table(tmp_path):
+    doc = bouncing.bouncing_scene(a=UNSTABLE)
+    doc["initial"]["com_velocity"][2] += 0.02
+    doc["run"].update(duration=2.0, outputs=["omega", "height", "impacts"])
+    doc["control"] = {"mode": "hop"}
+    path = tmp_path / "hop.toml"
+    path.write_text(toml.dumps(doc))
+    out = tmp_path / "out"
+    proc = subprocess.run([sys.executable, "-m", "derive", "simulate", str(path), "-o",
+                           str(out), "-q", "--no-plots"], capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr
+    info = json.loads((out / "control.json").read_text())
+    assert info["mode"] == "hop" and info["law_changes"] == info["impacts"] + 1
+    deviations = [np.abs(h["deviation"][:2]) for h in info["per_hop"]]
+    assert deviations[-1][1] < 1e-4 * deviations[0][1]
+    law = np.genfromtxt(out / "law.csv", delimiter=",", names=True)
+    assert law["t"][0] == pytest.approx(doc["initial"]["time"])
+    bad = path.read_text().replace('mode = "hop"', 'mode = "replan"')
+    path.write_text(bad)
+    proc = subprocess.run([sys.executable, "-m", "derive", "simulate", str(path), "-o",
+                           str(tmp_path / "bad")], capture_output=True, text=True)
+    assert proc.returncode == 2 and "[control].mode" in proc.stderr
