@@ -152,3 +152,101 @@ def test_derive_simulate_runs_a_scene_with_a_control_table(tmp_path):
     proc = subprocess.run([sys.executable, "-m", "derive", "simulate", str(path), "-o",
                            str(tmp_path / "bad")], capture_output=True, text=True)
     assert proc.returncode == 2 and "[control].mode" in proc.stderr
+
+
+# ---- the controller in C ------------------------------------------------------------------
+def test_the_c_controller_writes_the_python_routes_law_to_the_bit(unstable):
+    """crt_hop.c, called by the C runtime with no Python per call, against
+    HopController through ctypes: the same laws, the same run."""
+    import dataclasses
+    hm, d = unstable
+    doc = bouncing.bouncing_scene(a=UNSTABLE)
+    doc["initial"]["com_velocity"][2] += 0.02
+    doc["run"]["duration"] = 2.0
+    prep = prepare(parse_scene(doc))
+    loops = [Loop(H.HopController(d)), Loop(H.c_controller(d))]
+    runs = [run_prepared(prep, loop=lp) for lp in loops]
+    assert runs[0].stats["law_changes"] == runs[1].stats["law_changes"] > 5
+    assert np.array_equal(loops[0].law_rows(), loops[1].law_rows())
+    assert np.array_equal(runs[0].q, runs[1].q)
+    del dataclasses
+
+
+C_LOOP = """
+#include "model_vertical.c"
+#include "crt_hop.c"
+#include <stdio.h>
+%(law_data)s
+int main(void)
+{
+  static const double opt[CRT_OPT_COUNT] = {%(opt)s};
+  static const double prm[CRT_P_COUNT] = {%(prm)s};
+  static const double q0[NQ] = {%(q0)s};
+  static const double noise[4] = {0.001, 0.0005, 0.0, 0.001};
+  crt_session s;
+  crt_control c;
+  crt_hop_params P = {{%(K)s}, %(t_star)s, %(v_star)s, %(a)s, %(W)s, %(T)s, %(tb)s, %(h)s,
+                      0.5, %(n)s, %(zd)s, %(a)s};
+  double t[16], q[16 * NQ], ev[8 * CRT_EVENT_COLUMNS], log[512 * CRT_LOG_COLUMNS];
+  int kind[16], n, n_ev, status, rows = 0, logged = 0;
+  if (%(set_law)s != CRT_OK) return 3;
+  if (crt_control_setup(&c, crt_hop_controller, &P, 0.0, noise, 7.0, 0, 0, log, 512)
+      != CRT_OK) return 4;
+  if (crt_set_control(&s, &c) != CRT_OK) return 5;
+  if (crt_init(&s, opt, prm, %(t0)s, q0) != CRT_OK) return 6;
+  do {
+    status = crt_advance(&s, %(t1)s, t, q, kind, 16, &n, ev, 8, &n_ev);
+    rows += n;
+    logged += crt_control_log_count(&c);
+    crt_control_log_taken(&c);
+  } while (status == CRT_PAUSED);
+  crt_set_control(&s, 0);
+  printf("status %%s rows %%d logged %%d calls %%ld\\n", crt_status_name(status), rows,
+         logged, (long)s.stat[CRT_STAT_CONTROLLER_CALLS]);
+  return status == CRT_DONE && logged > 100 ? 0 : 1;
+}
+"""
+
+
+def test_a_closed_loop_in_c_is_clean_under_sanitizers(unstable, tmp_path):
+    """The model's runtime and crt_hop.c in one C program, no Python: strict C99, ASan
+    and UBSan, the pause and resume of the loop's log; and crt_hop.c has no writable
+    statics and needs only libm."""
+    import shutil
+    from derive.paths import GENERATED
+    from test_runtime_c import scene_fields
+    cc = shutil.which("cc") or shutil.which("gcc")
+    if cc is None:
+        pytest.skip("no C compiler")
+    hm, d = unstable
+
+    def make():
+        doc = bouncing.bouncing_scene(a=UNSTABLE)
+        doc["initial"]["com_velocity"][2] += 0.02
+        doc["run"].update(duration=1.5, outputs=["omega", "impacts"])
+        return doc
+    f = scene_fields(make, ["lie"])
+    g, o = d.orbit.gait, d.orbit
+    src = tmp_path / "main.c"
+    src.write_text(C_LOOP % {
+        **f, "opt": f["opts"][1:-1], "K": ", ".join(repr(float(k)) for k in d.K.ravel()),
+        "t_star": repr(o.t), "v_star": repr(o.v), "a": repr(g.a), "W": repr(g.W),
+        "T": repr(g.period), "tb": repr(H.BLEND * g.period),
+        "h": repr(g.period / H.KNOTS_PER_PERIOD),
+        "n": str(int(round(H.SPAN * H.KNOTS_PER_PERIOD))), "zd": str(hm.V.Zd)})
+    exe = tmp_path / "main"
+    strict = ["-std=c99", "-Wall", "-Wextra", "-Wpedantic", "-Werror"]
+    build = subprocess.run([cc, *strict, "-O1", "-g", "-fsanitize=address,undefined",
+                            "-fno-sanitize-recover=all", "-I", str(GENERATED / "runtime"),
+                            str(src), "-o", str(exe), "-lm"], capture_output=True, text=True)
+    assert build.returncode == 0, build.stderr[-3000:]
+    run = subprocess.run([str(exe)], capture_output=True, text=True, timeout=120)
+    assert run.returncode == 0, run.stdout + run.stderr[-3000:]
+    assert "runtime error" not in run.stderr
+    obj = tmp_path / "hop.o"
+    subprocess.run([cc, *strict, "-O2", "-c", str(GENERATED / "runtime" / "crt_hop.c"),
+                    "-o", str(obj)], check=True)
+    nm = subprocess.run(["nm", str(obj)], capture_output=True, text=True).stdout.split("\n")
+    assert not [ln for ln in nm if len(ln.split()) == 3 and ln.split()[1] in "BbDdGgSs"]
+    assert {ln.split()[1] for ln in nm if ln.split()[:1] == ["U"]} <= {"sin", "cos", "sincos",
+                                                                     "fmod"}

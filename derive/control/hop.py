@@ -28,14 +28,16 @@ kappa growing with the ball's energy deficit, E = y'^2/2 + g y.
 """
 from __future__ import annotations
 
+import ctypes
 import math
 from dataclasses import dataclass, field, replace
+from functools import lru_cache
 
 import numpy as np
 
 from .. import layout
 from ..runtime.driver import Session, options, prepare
-from ..runtime.loop import STOP, Loop, Segments, hermite
+from ..runtime.loop import STOP, CController, Loop, Segments, hermite
 from ..scene import Scene, SceneError
 from ..stability import bouncing
 
@@ -51,8 +53,11 @@ class Gait:
     W: float
 
     def jet(self, t):
-        """z, z', z'' at t."""
-        s, c = np.sin(self.W * t), np.cos(self.W * t)
+        """z, z', z'' at t (sine and cosine by the C library, as crt_hop.c has them: the
+        Python and the C controllers write the same law to the last bit)."""
+        wt = self.W * np.asarray(t, dtype=float)
+        s = np.array([math.sin(x) for x in np.ravel(wt)]).reshape(np.shape(wt))
+        c = np.array([math.cos(x) for x in np.ravel(wt)]).reshape(np.shape(wt))
         return self.a * s, self.a * self.W * c, -self.a * self.W ** 2 * s
 
     @property
@@ -450,3 +455,45 @@ def gait_for_apex(hm: HopMap, apex: float, tol: float = 1e-10) -> tuple:
         raise SceneError("[control].apex_height", f"no period-1 hop of this body rises to "
                                                   f"{apex:g} (closest {apex + f1:g})")
     return gait, orbit
+
+
+# ---- the same controller in C ------------------------------------------------------------------
+class _HopParams(ctypes.Structure):
+    """``crt_hop_params`` (generated/runtime/crt_hop.c)."""
+    _fields_ = [("K", ctypes.c_double * 3), ("t_star", ctypes.c_double),
+                ("v_star", ctypes.c_double), ("a_star", ctypes.c_double),
+                ("W", ctypes.c_double), ("T", ctypes.c_double), ("tb", ctypes.c_double),
+                ("h", ctypes.c_double), ("limit", ctypes.c_double), ("n", ctypes.c_int),
+                ("zd", ctypes.c_int), ("a_prev", ctypes.c_double)]
+
+
+@lru_cache(maxsize=1)
+def _hop_library():
+    """crt_hop.c compiled with the runtime's flags (once per machine, cached)."""
+    from ..cbuild import build_shared, runtime_flags
+    from ..runtime.build import runtime_dir
+    folder = runtime_dir()
+    sources = {name: (folder / name).read_bytes() for name in ("crt_hop.c", "crt_call.h")}
+    # no contraction into fused multiply-adds: the C rounds as NumPy does, so the two
+    # routes write the same law (tests/test_hop_control.py compares them)
+    flags = tuple(f for f in runtime_flags() if not f.startswith("-ffp-contract"))
+    lib = ctypes.CDLL(str(build_shared(sources, flags=flags + ("-ffp-contract=off",),
+                                       name="crt_hop")))
+    lib.crt_hop_sizeof.restype = ctypes.c_int
+    if lib.crt_hop_sizeof() != ctypes.sizeof(_HopParams):
+        raise RuntimeError("crt_hop.c's crt_hop_params differs from derive.control.hop's")
+    return lib
+
+
+def c_controller(design: Design, layout_: layout.Layout = layout.VERTICAL,
+                 limit: float = 0.5) -> CController:
+    """The per-hop feedback of ``design`` as the C controller crt_hop.c (called by the C
+    runtime with no Python per call); its memory holds the design's numbers."""
+    lib = _hop_library()
+    g, orbit = design.orbit.gait, design.orbit
+    T = g.period
+    params = _HopParams((ctypes.c_double * 3)(*design.K.ravel()), orbit.t, orbit.v, g.a,
+                        g.W, T, BLEND * T, T / KNOTS_PER_PERIOD, limit,
+                        int(round(SPAN * KNOTS_PER_PERIOD)), layout_.Zd, g.a)
+    address = ctypes.cast(lib.crt_hop_controller, ctypes.c_void_p).value
+    return CController(address, params, keep=(lib,))

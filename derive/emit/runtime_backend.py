@@ -185,9 +185,11 @@ RENDERED = ("crt_abi.h", "crt_constants.h", "crt_rk_steps.h", "crt_lie_steps.h")
 
 
 def plain_headers() -> dict[str, str]:
-    """The hand-written headers, ``templates/runtime/*.h``, by name, as text."""
+    """The hand-written C, ``templates/runtime/*.h`` and ``*.c`` (the C controllers of the
+    closed loop), by name, as text."""
+    folder = TEMPLATES / "runtime"
     return {path.name: path.read_bytes().decode("utf-8")
-            for path in sorted((TEMPLATES / "runtime").glob("*.h"))}
+            for path in sorted([*folder.glob("*.h"), *folder.glob("*.c")])}
 
 
 def _macro_lines(text: str, breaks: tuple) -> str:

@@ -32,7 +32,8 @@ def runtime_dir() -> Path:
 # the runtime's headers (derive/emit/runtime_backend.py writes them; each model's file
 # includes all of them)
 HEADERS = ("crt_abi.h", "crt_constants.h", "crt_law.h", "crt_integrators.h",
-           "crt_rk_steps.h", "crt_lie.h", "crt_lie_steps.h", "crt_control.h", "crt_core.h")
+           "crt_rk_steps.h", "crt_lie.h", "crt_lie_steps.h", "crt_call.h", "crt_control.h",
+           "crt_core.h")
 
 
 def sources(kind: str) -> dict[str, bytes]:

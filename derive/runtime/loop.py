@@ -99,7 +99,8 @@ def hermite_law(t, x, v) -> Segments:
 
 class CController:
     """A controller compiled to C: the address of its ``crt_controller_fn`` and its memory
-    (``ctx``: a ctypes buffer the function reads as its state; kept alive here)."""
+    (``ctx``: a ctypes object (a Structure, a buffer) or an address, the function's state;
+    ``keep``: what must stay alive while it runs)."""
 
     def __init__(self, address: int, ctx, keep=()):
         self.address, self.ctx, self.keep = address, ctx, keep
@@ -167,7 +168,8 @@ class Loop:
         else:
             self._fn = self._python_fn()
             fn, ctx = ctypes.cast(self._fn, ctypes.c_void_p), None
-        ctx_p = ctypes.cast(ctx, ctypes.c_void_p) if ctx is not None else None
+        ctx_p = None if ctx is None else ctypes.c_void_p(
+            ctx if isinstance(ctx, int) else ctypes.addressof(ctx))
         status = lib.crt_control_setup(self.handle, fn, ctx_p, float(self.period),
                                        self._noise.ctypes.data_as(DP), float(self.seed),
                                        self.pushes.ctypes.data_as(DP), len(self.pushes),

@@ -48,19 +48,7 @@
 #ifndef CRT_CONTROL_H
 #define CRT_CONTROL_H
 
-/* What the runtime hands a controller at each call. */
-typedef struct {
-  double t;                 /* the time of the call */
-  int reason;               /* enum crt_call_reason */
-  int event;                /* CRT_CALL_EVENT: the event's kind (enum crt_event_kind) */
-  int nq;                   /* the model's states (NQ) */
-  const double *q;          /* the state as measured: the run's state plus the noise */
-  const double *u;          /* the law at t: x, y, z, x', y', z', x'', y'', z'' */
-  long k;                   /* the calls before this one */
-} crt_call;
-
-typedef int (*crt_controller_fn)(void *ctx, const crt_call *call, int max_knots,
-                                 int *n_knots, double *knots, double *coef);
+#include "crt_call.h"          /* crt_call, crt_controller_fn: the ABI of a controller */
 
 struct crt_control {
   /* set by crt_control_setup */
