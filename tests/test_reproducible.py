@@ -66,9 +66,10 @@ def test_the_plain_runtime_headers_are_copied_byte_for_byte(monkeypatch, tmp_pat
     from derive.paths import GENERATED, TEMPLATES
     monkeypatch.setattr(runtime_backend, "render_model", lambda m: "")   # not needed here
     files = runtime_backend.render_runtime()
-    plain = sorted(p.name for p in (TEMPLATES / "runtime").glob("*.h"))
-    assert plain == ["crt_call.h", "crt_control.h", "crt_core.h", "crt_integrators.h",
-                     "crt_law.h", "crt_lie.h"]
+    plain = sorted(p.name for pattern in ("*.h", "*.c")
+                   for p in (TEMPLATES / "runtime").glob(pattern))
+    assert plain == ["crt_call.h", "crt_control.h", "crt_core.h", "crt_hop.c", "crt_hop.h",
+                     "crt_integrators.h", "crt_law.h", "crt_lie.h"]
     for name in plain:
         source = (TEMPLATES / "runtime" / name).read_bytes()
         assert files[f"runtime/{name}"].encode("utf-8") == source

@@ -1,4 +1,8 @@
 /*
+ * Hand-written C: this file is templates/runtime/crt_hop.c, copied verbatim into
+ * generated/runtime/ by `derive emit` (`derive emit --check` compares the copy byte for
+ * byte).  Edit it there, then run `derive emit`.
+ *
  * crt_hop.c: per-hop feedback as a C controller of the closed loop (crt_call.h's ABI):
  * the controller of derive/control/hop.py (HopController), for a robot's firmware or for
  * runs with no Python per call.  Every number is in its memory (crt_hop_params), set by
@@ -10,29 +14,10 @@
  * (corrected to the law's value and rate now) blended into the new one over tb by a
  * smoothstep, as cubic Hermite pieces of step h over n pieces; at the start, the design's
  * gait.  No heap, no globals: C99, and valid C++.
- *
- * Hand-written C: this file is templates/runtime/crt_hop.c, copied verbatim into
- * generated/runtime/ by `derive emit` (`derive emit --check` compares the copy byte for
- * byte).  Edit it there, then run `derive emit`.
  */
 #include <math.h>
 
-#include "crt_call.h"
-
-#ifdef __cplusplus
-extern "C" {
-#endif
-
-/* The design (derive.control.hop.Design) and the controller's state. */
-typedef struct {
-  double K[3];              /* the gain on (phase, velocity, gait before) */
-  double t_star, v_star;    /* the orbit's impact time (mod T) and C's velocity after it */
-  double a_star, W;         /* the design's gait a* sin(W t) */
-  double T, tb, h, limit;   /* the period, the blend, the step of the pieces, the clamp */
-  int n;                    /* pieces of a law */
-  int zd;                   /* where Z_C' sits in the plant model's state */
-  double a_prev;            /* the gait of the hop before (the controller's state) */
-} crt_hop_params;
+#include "crt_hop.h"
 
 int crt_hop_sizeof(void) { return (int)sizeof(crt_hop_params); }
 
@@ -101,7 +86,7 @@ static int crt_hop_blend(const crt_hop_params *P, double t0, const double *u0, d
   return 1;
 }
 
-/* The controller (crt_controller_fn): ctx is a crt_hop_params. */
+/* The controller (crt_controller_fn): ctx is a crt_hop_params (crt_hop.h). */
 int crt_hop_controller(void *ctx, const crt_call *call, int max_knots, int *n_knots,
                        double *knots, double *coef)
 {
@@ -126,7 +111,3 @@ int crt_hop_controller(void *ctx, const crt_call *call, int max_knots, int *n_kn
   P->a_prev = a_new;
   return crt_hop_blend(P, call->t, call->u, r, a_new, max_knots, n_knots, knots, coef);
 }
-
-#ifdef __cplusplus
-}
-#endif
