@@ -51,6 +51,14 @@ COMMANDS = (
                 Arg.of("--repeats", type=REPEATS, default=7,
                        help="timing repetitions (min taken)"),
             )),
+    Command("hop", "per-hop feedback on the reference-[5] hop: regions of attraction open "
+            "loop, per-hop LQR and mirror law (a chart), the decay against the predicted "
+            "eigenvalues, the C controller's cost", "derive.bench.hop", (
+                Arg.of("-o", "--output", dest="out_dir", default="bench-out", metavar="DIR",
+                       help="output folder (hop-region.png)"),
+                Arg.of("--grid", type=count(3, 101), default=15,
+                       help="starts per axis of the grid (default 15)"),
+            )),
     Command("precision", "work-precision charts on reference scenes and the invariant "
             "drift of long runs", "derive.bench.precision", (
                 Arg.of("-o", "--output", dest="out_dir", default="bench-out", metavar="DIR",
