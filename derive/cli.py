@@ -202,7 +202,8 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         written = write_all(result, args.output, plot=not args.no_plots,
                             animation=not (args.no_animation or args.no_plots),
                             fmt=args.format, progress=bar.update,
-                            extra=closed.files() if closed is not None else None)
+                            extra=closed.files(plot=not args.no_plots)
+                            if closed is not None else None)
     finally:
         bar.close()
     t_done = time.perf_counter()

@@ -31,9 +31,9 @@ class ClosedLoop:
     def law(self):
         return realised_law(self.law_rows)
 
-    def files(self) -> dict:
-        """law.csv (the realised law: t and u on its knots and a fine grid) and
-        control.json, written with the run's own outputs."""
+    def files(self, plot: bool = True) -> dict:
+        """law.csv (the realised law: t and u on its knots and a fine grid), control.json
+        and (``plot``) control.png, written with the run's own outputs."""
         import json
         law = self.law
         t = np.unique(np.r_[law.knots, np.linspace(law.t_first, law.t_last, 2001)])
@@ -41,8 +41,12 @@ class ClosedLoop:
         cols = ("t", *layout.U_LABELS)
         rows = "\n".join(",".join(repr(float(v)) for v in (tt, *u[:, k]))
                          for k, tt in enumerate(t))
-        return {"law.csv": ",".join(cols) + "\n" + rows + "\n",
-                "control.json": json.dumps(self.summary(), indent=2) + "\n"}
+        out = {"law.csv": ",".join(cols) + "\n" + rows + "\n",
+               "control.json": json.dumps(self.summary(), indent=2) + "\n"}
+        if plot:
+            from .plots import chart
+            out["control.png"] = lambda path: chart(self, path)
+        return out
 
     def describe(self) -> str:
         s = f"{self.mode}; {int(self.result.stats.get('controller_calls', 0))} calls"

@@ -170,7 +170,7 @@ FORMATS = tuple(TABLE_FILES)
 PICTURE_FILES = ("overview.png", "motion.gif")
 SUMMARY_FILE = "summary.json"
 # a closed loop's own files (derive.control): the realised law and what the loop did
-LOOP_FILES = ("law.csv", "control.json")
+LOOP_FILES = ("law.csv", "control.json", "control.png")
 OUTPUT_NAMES = frozenset(sum(TABLE_FILES.values(), PICTURE_FILES + (SUMMARY_FILE,)
                              + LOOP_FILES))
 
@@ -210,15 +210,19 @@ def write_all(result: Result, out_dir, plot: bool = True, animation: bool = Fals
     write removes the outputs of an earlier run it did not replace (``OUTPUT_NAMES``:
     another format, plots not asked this time), so the folder holds one run.
     ``progress``: told the fraction of the trajectory's table written (the long part of a
-    run with millions of rows).  ``extra``: more files, name -> text, written with the
-    others (a closed loop's law.csv and control.json)."""
+    run with millions of rows).  ``extra``: more files, name -> text (or a function that
+    writes the file at the path it is given), written with the others (a closed loop's
+    law.csv, control.json and control.png)."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     stage = Path(tempfile.mkdtemp(prefix=".writing-", dir=out))
     try:
         staged = _write_all(result, stage, plot, animation, fmt, progress)
-        for name, text in (extra or {}).items():
-            (stage / name).write_text(text, encoding="utf-8")
+        for name, content in (extra or {}).items():
+            if callable(content):                  # a picture: it writes itself
+                content(stage / name)
+            else:
+                (stage / name).write_text(content, encoding="utf-8")
             staged.append(stage / name)
         final = []
         for path in staged:
