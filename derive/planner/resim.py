@@ -28,11 +28,24 @@ from pathlib import Path
 import numpy as np
 from scipy.interpolate import CubicSpline
 
+from ..models import STATE_LABELS
 from ..scene import Scene, SceneError, load_scene
 from ..scipy_hybrid import Functions, Hybrid
 from .functions import Fast, load
 
 BC = {"periodic": "periodic", "rest": "clamped", "free": "not-a-knot"}
+ATTITUDE = tuple(f"a{i}{j}" for i in (1, 2, 3) for j in (1, 2, 3))
+OMEGA = ("omega_x", "omega_y", "omega_z")
+
+
+def rows(labels) -> list:
+    """Where the entries ``labels`` sit in a trajectory's state (the general layout)."""
+    return [STATE_LABELS["general"].index(lb) for lb in labels]
+
+
+def attitude_of(q) -> np.ndarray:
+    """a_ij of a state of the general layout."""
+    return np.asarray(q)[rows(ATTITUDE)].reshape(3, 3)
 
 
 @dataclass
