@@ -612,13 +612,14 @@ def test_diagnosis_names_each_limit_that_blocks_with_what_it_needs():
     result = make_plan(doc, runtime=False)
     assert result.status == "infeasible"
     b = result.summary.blocking
-    assert b["limit"] == "max_acceleration"          # the smaller excess comes first
+    assert b["limit"] == "region"          # the larger excess (0.19 against 0.085) first
     acc, region = _finding(result.summary, "max_acceleration"), _finding(result.summary,
                                                                            "region")
     assert acc["verdict"] == region["verdict"] == "blocks"
-    assert result.message.startswith(f"infeasible: max_acceleration blocks it: the plan "
-                                     f"needs |OP''| up to {acc['needed']:.4g} m/s^2")
-    assert "region blocks it too" in result.message
+    assert result.message.startswith(f"infeasible: region blocks it: the plan needs a "
+                                     f"region of radius {region['needed']:.4g} m")
+    assert (f"max_acceleration blocks it too: the plan needs |OP''| up to "
+            f"{acc['needed']:.4g} m/s^2 (limit 20)") in result.message
     s = _solves_with(doc, max_acceleration=1.01 * acc["needed"])
     assert abs(s["law"]["max_acceleration"] - acc["needed"]) < 1e-3 * acc["needed"]
     s = _solves_with(doc, radius=1.01 * region["needed"])

@@ -10,9 +10,9 @@ reach" with no evidence.  The diagnosis now works by continuation from relaxed p
 the task's one IPOPT instance (no NLP is built again), every run with a cap on its
 iterations:
 
-0. a solve stopped without evidence of infeasibility (at max_iterations, say) is resumed
-   from where it stopped, its barrier started afresh: it often converges then, and the
-   task is solved;
+0. a solve stopped near a solution (violations below :data:`NEAR`) without evidence of
+   infeasibility (at max_iterations, say) is resumed from where it stopped, its barrier
+   started afresh: it often converges then, and the task is solved;
 1. the limits are raised, not removed (the region and the horizon by :data:`RAISE`, the
    acceleration bound to the working bound of :mod:`derive.planner.continuation`), and
    raised again while one is active in the solution; the run starts from where IPOPT
@@ -24,14 +24,18 @@ iterations:
    centre, T: the quantities the NLP bounds, so that a region of the radius reported is
    enough); the limits it exceeds are the ones that bind.  Exceeding none, the task is
    feasible, solved from that plan;
-3. for each binding limit (the smallest relative excess first) the others are set back to
+3. for each binding limit (the largest relative excess first) the others are set back to
    their values, directly, else in geometric steps from that plan (:data:`STEP`, halved
    once when a step does not converge), this one raised.  Reaching them, this limit
    blocks the task and the plan reached says what it needs; else it does not block it
    alone, and the report says how far the others came.  When IPOPT gave no evidence of
-   infeasibility, the blocking limit is also brought back towards its own value: the
-   task may turn out feasible (then solved), else the report adds the smallest value a
-   plan was found with.
+   infeasibility and the plan needs less than :data:`CLOSE` times the limit, the
+   blocking limit is also brought back towards its own value: the task may turn out
+   feasible (then solved), else the report adds the smallest value a plan was found
+   with.
+
+The whole diagnosis has a budget of :data:`BUDGET` IPOPT iterations; what it could not
+examine within it is reported as such.
 
 If the run with every limit raised is infeasible too, the goal itself is out of reach;
 if IPOPT does not converge on it, the report says so and claims nothing.  What a plan
@@ -53,6 +57,9 @@ CAP_COLD = 150         # iterations of the run from the guess with every limit l
 CAP_STEP = 60          # iterations of a continuation step, warm-started
 STEP = 0.7             # a step moves a limit by at most this factor
 HALVINGS = 1           # a failed step is retried this many times, halved
+BUDGET = 400           # iterations of the whole diagnosis (a few seconds)
+CLOSE = 2.0            # a blocking limit within this factor is brought back to its value
+NEAR = 1e-3            # a solve stopped with violations below this is resumed
 INFEASIBLE = ("Infeasible_Problem_Detected", "Restoration_Failed")
 
 
@@ -114,15 +121,24 @@ def candidates(tr) -> list[str]:
     return [n for n in LIMITS if n in names]
 
 
+class Spent(Exception):
+    """The diagnosis's budget of iterations is spent."""
+
+
 class _Runner:
-    """The session's runs, counted."""
+    """The session's runs, counted, within the budget of :data:`BUDGET` iterations
+    (the run that solves a task found feasible is not counted against it)."""
 
     def __init__(self, session):
         self.session = session
         self.runs, self.iterations = 0, 0
 
-    def __call__(self, w0, limits: Limits, lam=None, cap: float = CAP_STEP, label=""):
-        res = self.session.run(w0, limits, lam=lam, cap=cap,
+    def __call__(self, w0, limits: Limits, lam=None, cap: float = CAP_STEP, label="",
+                 budget: bool = True):
+        left = BUDGET - self.iterations
+        if budget and left <= 0:
+            raise Spent
+        res = self.session.run(w0, limits, lam=lam, cap=min(cap, left) if budget else cap,
                                label=f"{self.session.label} ({label})")
         self.runs += 1
         self.iterations += res.iterations
@@ -140,9 +156,10 @@ def diagnose(session, failed) -> Diagnosis:
 
 def _diagnose(session, run, failed) -> Diagnosis:
     tr, limits = session.tr, session.limits
-    if failed.status not in INFEASIBLE and failed.extra["limits"] == limits:
-        # stopped without evidence of infeasibility (at max_iterations, say): IPOPT
-        # resumed from there, its barrier started afresh, often converges at once
+    if (failed.status not in INFEASIBLE and failed.extra["limits"] == limits
+            and violation(failed) <= NEAR):
+        # stopped near a solution without evidence of infeasibility (at max_iterations,
+        # say): IPOPT resumed from there, its barrier started afresh, often converges
         res = run(failed.w, limits, cap=CAP_COLD, label="resumed")
         if res.success:
             return Diagnosis(None, None, "the task is feasible: IPOPT, resumed from where it "
@@ -163,11 +180,15 @@ def _diagnose(session, run, failed) -> Diagnosis:
         starts.reverse()
     tries = [(w, raised) for w in starts]
     tries.append((session.w_guess, {**raised, "max_acceleration": limits.max_acceleration}))
-    for start, values in tries:
-        free, raised_to = _raise(session, run, start, None, limits, values, names,
-                                 cap=CAP_COLD, label=f"{listed} raised")
-        if usable(free):
-            break
+    try:
+        for start, values in tries:
+            free, raised_to = _raise(session, run, start, None, limits, values, names,
+                                     cap=CAP_COLD, label=f"{listed} raised")
+            if usable(free):
+                break
+    except Spent:
+        return Diagnosis(None, None, f"not diagnosed: IPOPT did not converge with {listed} "
+                                     f"raised within {BUDGET} iterations")
     raised = raised_to
     if not usable(free):
         if free.status in INFEASIBLE:
@@ -177,8 +198,10 @@ def _diagnose(session, run, failed) -> Diagnosis:
         return Diagnosis(None, None, f"not diagnosed: IPOPT did not converge with {listed} "
                                      f"raised ({_values(raised)}; {free.status})")
     need = tr.limit_values(free.w)
+    # the limit exceeded most first: to see whether it alone blocks the task, the
+    # others (exceeded less) are set back to their values, the cheaper test
     binding = sorted((n for n in names if need[n] > limits.value(n) * (1 + 1e-6)),
-                     key=lambda n: need[n] / limits.value(n))
+                     key=lambda n: -need[n] / limits.value(n))
     if not binding:
         return _feasible(session, run, free, "the plan with the limits raised keeps them all")
     # IPOPT's "infeasible problem detected" is evidence that the task is infeasible;
@@ -187,37 +210,17 @@ def _diagnose(session, run, failed) -> Diagnosis:
     evidence = failed.status in INFEASIBLE
     findings = []
     for n in binding:
-        others = [m for m in binding if m != n]
-        res = free
-        if others:
-            # directly: the others at their values, n raised (further while active),
-            # from the start of the raised run; failing that, by continuation from it
-            res, _ = _raise(session, run, start, None, limits, {n: raised[n]}, [n],
-                            cap=CAP_COLD, label=f"{n} raised")
-            reached = {m: limits.value(m) for m in others}
-            if not usable(res):
-                res, reached = _continue(session, run, free, limits, others,
-                                         {m: need[m] for m in others}, {n: raised[n]})
-            if res is None:
-                far = ", ".join(f"{m} to {reached[m]:.4g} (asked {limits.value(m):.4g})"
-                                for m in others)
-                findings.append(Finding(n, "not alone", limits.value(n), reached=reached,
-                                        text=f"{n} alone does not unblock it: with {n} "
-                                             f"lifted the continuation brought {far}"))
-                continue
-        got = tr.limit_values(res.w)[n]
-        if got <= limits.value(n) * (1 + 1e-6):
-            return _feasible(session, run, res, f"with {n} lifted the plan keeps it")
-        text, smallest = blocks_text(n, got, limits.value(n)), None
-        if not evidence:
-            back, reached = _continue(session, run, res, limits, [n], {n: got}, {})
-            if back is not None:
-                return _feasible(session, run, back, f"{n} brought back to its value")
-            smallest = reached[n]
-            if smallest < got * (1 - 1e-3):
-                text += f"; IPOPT found plans down to {quantity(n, smallest)}"
-        findings.append(Finding(n, "blocks", limits.value(n), got, smallest=smallest,
-                                text=text))
+        try:
+            found = _examine(session, run, n, binding, limits, need, raised, free, start,
+                             evidence)
+        except Spent:
+            findings.append(Finding(n, "not examined", limits.value(n),
+                                    text=f"{n} not examined (the diagnosis's {BUDGET} "
+                                         "iterations are spent)"))
+            continue
+        if isinstance(found, Diagnosis):
+            return found
+        findings.append(found)
     if not any(f.verdict == "blocks" for f in findings):
         together = " and ".join(quantity(n, need[n]) for n in binding)
         findings.append(Finding(", ".join(binding), "blocks together", math.nan, None,
@@ -226,16 +229,54 @@ def _diagnose(session, run, failed) -> Diagnosis:
     return _report(findings)
 
 
+def _examine(session, run, n, binding, limits, need, raised, free, start, evidence):
+    """What the binding limit ``n`` does: a Finding, or a Diagnosis if the task turns
+    out feasible."""
+    tr = session.tr
+    others = [m for m in binding if m != n]
+    res = free
+    if others:
+        # directly: the others at their values, n raised (further while active),
+        # from the start of the raised run; failing that, by continuation from it
+        res, _ = _raise(session, run, start, None, limits, {n: raised[n]}, [n],
+                        cap=CAP_COLD, label=f"{n} raised")
+        reached = {m: limits.value(m) for m in others}
+        if not usable(res):
+            res, reached = _continue(session, run, free, limits, others,
+                                     {m: need[m] for m in others}, {n: raised[n]})
+        if res is None:
+            far = ", ".join(f"{m} to {reached[m]:.4g} (asked {limits.value(m):.4g})"
+                            for m in others)
+            return Finding(n, "not alone", limits.value(n), reached=reached,
+                           text=f"{n} alone does not unblock it: with {n} lifted the "
+                                f"continuation brought {far}")
+    got = tr.limit_values(res.w)[n]
+    if got <= limits.value(n) * (1 + 1e-6):
+        return _feasible(session, run, res, f"with {n} lifted the plan keeps it")
+    text, smallest = blocks_text(n, got, limits.value(n)), None
+    if not evidence and got <= CLOSE * limits.value(n):
+        back, reached = _continue(session, run, res, limits, [n], {n: got}, {})
+        if back is not None:
+            return _feasible(session, run, back, f"{n} brought back to its value")
+        smallest = reached[n]
+        if smallest < got * (1 - 1e-3):
+            text += f"; IPOPT found plans down to {quantity(n, smallest)}"
+    return Finding(n, "blocks", limits.value(n), got, smallest=smallest, text=text)
+
+
+def violation(res) -> float:
+    """The largest constraint violation of a run's last point (its own bounds)."""
+    lbg, ubg = res.extra["bounds"]
+    g = res.extra["g"]
+    return float(np.max(np.maximum(np.maximum(lbg - g, g - ubg), 0.0)))
+
+
 def usable(res) -> bool:
     """A run that converged, or that was stopped at its cap at a feasible point (to
     1e-6): its plan then proves what the limits it was given allow."""
     if res.success:
         return True
-    if res.status != "User_Requested_Stop":
-        return False
-    lbg, ubg = res.extra["bounds"]
-    g = res.extra["g"]
-    return bool(np.max(np.maximum(np.maximum(lbg - g, g - ubg), 0.0)) <= 1e-6)
+    return res.status == "User_Requested_Stop" and violation(res) <= 1e-6
 
 
 def _values(values: dict) -> str:
@@ -276,7 +317,7 @@ def _report(findings: list) -> Diagnosis:
 def _feasible(session, run, start, why: str) -> Diagnosis:
     """The task is feasible: solve it from the plan found (warm), to its own tolerance."""
     res = run(start.w, session.limits, lam=(start.lam_g, start.lam_x),
-              cap=session.task.max_iterations, label="restart")
+              cap=session.task.max_iterations, label="restart", budget=False)
     if res.success:
         return Diagnosis(None, None, f"the task is feasible ({why}): solved again from "
                                      "that plan", solution=res)
