@@ -200,7 +200,6 @@ class SolveReport:
     build_seconds: float = 0.0    # the transcription, the guess and IPOPT's derivatives
     continuity_exact: float = float("nan")   # max |Q_{k+1} - flow(Q_k)| at the end
     session: Session | None = None
-    stages: list = field(default_factory=list)    # the continuation in max_acceleration
 
 
 def solve(task, goal, progress: bool = False, max_rounds: int = 6, w0=None,
@@ -209,12 +208,11 @@ def solve(task, goal, progress: bool = False, max_rounds: int = 6, w0=None,
     correction; on failure, diagnosed (which limit blocks it)."""
     session = Session(task, goal, progress, stabilize, w0)
     tr = session.tr
-    stages = first_solution(session)
+    stages = solve_with_continuation(session)     # [(result, stage)], the task's last
     res = stages[-1][0]
     rounds = [_round(0, r, stage) for r, stage in stages]
     report = SolveReport(tr, res, session.zero_delta(), rounds,
-                         build_seconds=session.build_seconds, session=session,
-                         stages=[stage for _, stage in stages if stage])
+                         build_seconds=session.build_seconds, session=session)
     if not res.success:
         report.message = failure_message(tr, res, stages[-1][1])
         if diagnose:
@@ -241,12 +239,6 @@ def _round(r: int, res: NLPResult, stage: str = "") -> dict:
     if stage:
         out["stage"] = stage
     return out
-
-
-def first_solution(session: Session):
-    """The first IPOPT solve, from the guess: [(result, stage label)]; the continuation
-    in max_acceleration goes here (:mod:`derive.planner.continuation`)."""
-    return solve_with_continuation(session)
 
 
 def correct(session: Session, report: SolveReport, max_rounds: int) -> SolveReport:
