@@ -9,9 +9,10 @@ repetitions after a warm-up.
 * :class:`Runtime` — this project's C runtime (lie and lie5, the momentum form on SO(3);
   rk4, dopri5, dop853, dop853 keeping A orthonormal), model forced to ``general`` so
   that every route integrates the same equations;
-* :class:`Scipy` — ``solve_ivp`` (DOP853, RK45, Radau) with the NumPy evaluation of the
-  derived RHS or with the generated C RHS through ctypes, a terminal event on the gap
-  and the derived impact map with a restart at each impact;
+* :class:`Scipy` — the SciPy peer of :mod:`derive.scipy_hybrid` (``solve_ivp``: DOP853,
+  RK45, Radau; a terminal event on the gap and the derived impact map with a restart at
+  each impact) with the NumPy evaluation of the derived functions or the generated C
+  through ctypes;
 * :class:`Casadi` — CasADi's ``cvodes`` on the emitted CasADi RHS over the output grid,
   segment by segment, with regula falsi (Illinois) on re-integrations for impacts.
 
@@ -26,7 +27,6 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 import sympy as sp
-from scipy.integrate import solve_ivp
 
 from .. import notation as nt
 from ..emit.casadi_backend import Translator, build_function
@@ -36,13 +36,10 @@ from .. import layout
 from ..runtime import choice, geometry
 from ..runtime.driver import Session, prepare, run_prepared
 from ..scene import Scene, parse_scene
+from ..scipy_hybrid import Functions, Hybrid, StopRun
 
 GRID_DT = 0.05
 EVAL_BUDGET = 3_000_000
-
-
-class StopRun(RuntimeError):
-    """A peer exceeded its evaluation budget."""
 
 
 @dataclass
@@ -135,6 +132,9 @@ class Runtime:
 
 # ---- SciPy -------------------------------------------------------------------------------------
 class Scipy:
+    """The shared SciPy peer (:mod:`derive.scipy_hybrid`) on the NumPy evaluation of the
+    derived functions, or on the generated C through ctypes (``rhs="c"``)."""
+
     def __init__(self, doc: dict, method: str, setting: float, rhs: str = "numpy",
                  dt: float = GRID_DT, budget: int = EVAL_BUDGET, max_impacts: int = 20000):
         self.scene = parse_scene(doc)
@@ -142,82 +142,38 @@ class Scipy:
         self.max_impacts = max_impacts
         self.label = f"scipy {method}" + (" (C RHS)" if rhs == "c" else "")
         s = self.scene
+        shape = "sphere" if s.shape == "sphere" else "ellipsoid"
         if rhs == "c":
             from ..clib import load_generated
             funcs = load_generated()
-            self.rhs, self.gap_f = funcs["general_flight_rhs"], funcs["general_gap"]
-            self.imp_f = funcs["general_impact"]
-            shape = "sphere" if s.shape == "sphere" else "ellipsoid"
-            self.lp = funcs[f"lowest_point_{shape}"]
+            fns = Functions(funcs["general_flight_rhs"], funcs["general_gap"],
+                            funcs["general_impact"], funcs[f"lowest_point_{shape}"])
         else:
-            self.rhs = compile_spec(flight_rhs("general"))
-            self.gap_f = compile_spec(gap("general"))
-            self.imp_f = compile_spec(impact("general"))
-            shape = "sphere" if s.shape == "sphere" else "ellipsoid"
-            self.lp = compile_spec(lowest_point(shape))
+            fns = Functions(compile_spec(flight_rhs("general")), compile_spec(gap("general")),
+                            compile_spec(impact("general")), compile_spec(lowest_point(shape)))
         self.size = [s.size[0]] if s.shape == "sphere" else list(s.size)
         self.law = s.law.jets
-        self.p = np.array(s.p)
         self.grid = grid_of(s, dt)
-        self.calls = 0
+        self.hybrid = Hybrid(fns, self.u, s.p, contact=s.contact_possible, e=s.e,
+                             center=s.center, size=self.size, method=method, rtol=setting,
+                             budget=budget, max_impacts=max_impacts)
+
+    @property
+    def calls(self) -> int:
+        return self.hybrid.calls
 
     def u(self, t):
         v = self.law(np.array([t]))[:, 0]
         return layout.u_of_jets(v)
 
-    def f(self, t, q):
-        self.calls += 1
-        if self.calls > self.budget:
-            raise StopRun("evaluation budget exhausted")
-        return self.rhs(q, self.u(t), self.p)[0]
-
-    def gap_at(self, t, q):
-        s = self.scene
-        sv = self.lp(q[G.n], s.center, self.size)[0]
-        return self.gap_f(q, self.u(t), sv, self.p)[0][0]
-
     def result(self) -> Run:
         s = self.scene
-        self.calls = 0
-        plane = s.contact_possible
-        event = None
-        if plane:
-            def event(t, q):
-                return self.gap_at(t, q)
-            event.terminal, event.direction = True, -1
-        t, q = s.t0, _initial(s)
-        t_end = s.t0 + s.duration
-        states = np.empty((len(self.grid), 18))
-        filled, impacts = 0, []
-        try:
-            while t < t_end - 1e-15:
-                grid = self.grid[filled:]
-                sol = solve_ivp(self.f, (t, t_end), q, method=self.method, rtol=self.rtol,
-                                atol=self.rtol * 1e-2, events=event,
-                                t_eval=grid if len(grid) else None)
-                if len(grid):
-                    n = np.asarray(sol.y).reshape(18, -1).shape[1]
-                    states[filled:filled + n] = np.asarray(sol.y).reshape(18, -1).T
-                    filled += n
-                if sol.status == 1:
-                    t, q = sol.t_events[0][0], np.asarray(sol.y_events[0][0])
-                    sv = self.lp(q[G.n], s.center, self.size)[0]
-                    q = self.imp_f(q, self.u(t), sv, self.p, [s.e])[0]
-                    impacts.append(t)
-                    if len(impacts) > self.max_impacts:
-                        raise StopRun("impacts do not stop")
-                    step = solve_ivp(self.f, (t, min(t + 1e-9, t_end)), q, method=self.method,
-                                     rtol=self.rtol, atol=self.rtol * 1e-2)
-                    t, q = step.t[-1], step.y[:, -1]
-                elif sol.status == 0:
-                    break
-                else:
-                    return Run(states[:filled], np.array(impacts), self.calls,
-                               "failed: " + sol.message)
-        except StopRun as exc:
-            return Run(states[:filled], np.array(impacts), self.calls, f"stopped: {exc}")
-        h = heights(s, self.grid[:filled], states[:filled])
-        return Run(states[:filled], np.array(impacts), self.calls, "done",
+        path = self.hybrid.run(s.t0, s.t0 + s.duration, _initial(s), t_eval=self.grid)
+        impacts = np.array([imp["t"] for imp in path.impacts])
+        if path.status != "done":
+            return Run(path.q, impacts, path.evaluations, path.status)
+        h = heights(s, path.t, path.q)
+        return Run(path.q, impacts, path.evaluations, "done",
                    float(np.min(h)) if len(h) else np.inf)
 
     def timed(self, repeats: int) -> float:

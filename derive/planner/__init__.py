@@ -4,10 +4,15 @@
 land or hop) instead of a point law; the planner transcribes it by direct multiple
 shooting over the derived CasADi functions, solves it with IPOPT, makes it exact by
 defect correction, writes the law as a table, a scene, C and plots, and re-simulates the
-scene to measure what it achieves.  Modules: ``task`` (parsing), ``law`` (the C^2
-B-spline), ``transcribe`` (the NLP), ``guess``, ``solve`` (IPOPT, defect correction,
-infeasibility report), ``resim`` (re-simulation adapter), ``stability`` (a hop's
-multipliers), ``core`` (the pipeline), ``outputs``, ``cemit`` (law.c, law.h), ``cli``.
+scene to measure what it achieves.  Modules, upstream first: ``task`` (parsing), ``law``
+(the C^2 B-spline), ``functions`` (the derived CasADi functions), ``transcribe`` (the
+NLP; the limits as parameters), ``guess``, ``resim`` (re-simulation, on the SciPy peer of
+:mod:`derive.scipy_hybrid`), ``stability`` (a hop's multipliers), ``solve`` (one IPOPT
+instance per task, defect correction), ``continuation`` (a loose acceleration bound
+approached from a working one), ``diagnose`` (which limit blocks an infeasible task),
+``goals`` (one object per goal: what differs between reorient, land and hop),
+``summary`` (plan.json), ``outputs`` (the files), ``cemit`` (law.c, law.h), ``core``
+(the pipeline), ``cli``.
 
 Importing this package is cheap; CasADi and SciPy load on the first call.
 """
@@ -17,8 +22,9 @@ from __future__ import annotations
 def plan(task, progress: bool = False, runtime: bool = True):
     """Plan the point's law for a task (a TOML path, a dict of the task schema or a
     :class:`~derive.planner.task.Task`); returns a :class:`~derive.planner.core.Plan` whose
-    ``summary`` is plan.json and whose ``write(dir)`` writes every output.  Silent unless
-    ``progress`` (one line per IPOPT iteration on stderr)."""
+    ``summary`` (a :class:`~derive.planner.summary.Summary`; ``summary.to_dict()``) is
+    plan.json and whose ``write(dir)`` writes every output.  Silent unless ``progress``
+    (one line per IPOPT iteration on stderr)."""
     from .core import plan as _plan
     return _plan(task, progress=progress, runtime=runtime)
 

@@ -39,43 +39,36 @@ def run(args) -> int:
 
 
 def report_lines(result) -> list[str]:
+    """The lines the CLI prints about a plan (from its summary)."""
+    from .goals import goal_of
     s = result.summary
-    sv = s["solver"]
-    lines = [f"{s['goal']}: {s['status']}; IPOPT and defect correction "
-             f"{sv['ipopt_and_defect_correction_seconds']:.2f} s ({len(sv['solves'])} solves, "
-             f"{sv['iterations']} iterations; {sv['variables']} variables, "
-             f"{sv['constraints']} constraints), NLP build {sv['nlp_build_seconds']:.2f} s, "
-             f"total {s['total_seconds']:.1f} s"]
+    sv = s.solver
+    lines = [f"{s.goal}: {s.status}; IPOPT and defect correction "
+             f"{sv.ipopt_and_defect_correction_seconds:.2f} s ({len(sv.solves)} solves, "
+             f"{sv.iterations} iterations; {sv.variables} variables, "
+             f"{sv.constraints} constraints), NLP build {sv.nlp_build_seconds:.2f} s, "
+             f"total {s.total_seconds:.1f} s"]
     if not result.ok:
-        lines.append(f"  {s['message']}")
+        lines.append(f"  {s.message}")
+        if s.blocking and "seconds" in s.blocking:
+            b = s.blocking
+            lines.append(f"  diagnosis: {b['runs']} IPOPT runs, {b['iterations']} "
+                         f"iterations, {b['seconds']:.2f} s")
         return lines
-    law = s["law"]
+    law = s.law
     task = result.task
-    lines.append(f"  law: {law['pieces']} pieces over {law['duration']:.6g} s ({law['ends']}), "
-                 f"max |OP''| {law['max_acceleration']:.4g} m/s^2 (limit "
-                 f"{task.max_acceleration:.4g}), effort {law['effort']:.5g} m^2/s^3")
-    for name, meas in s["achieved"].items():
+    goal = goal_of(task)
+    lines.append(f"  law: {law.pieces} pieces over {law.duration:.6g} s ({law.ends}), "
+                 f"max |OP''| {law.max_acceleration:.4g} m/s^2 (limit "
+                 f"{task.max_acceleration:.4g}), effort {law.effort:.5g} m^2/s^3")
+    for name, meas in s.achieved.items():
         if meas.get("available") is False:
             lines.append(f"  achieved ({name}): not measured, {meas['reason']}")
             continue
-        lines.append(f"  achieved ({name}, re-simulated scene.toml): " + achieved_text(task, meas))
-    if "stability" in s:
-        st = s["stability"]
+        lines.append(f"  achieved ({name}, re-simulated scene.toml): "
+                     + goal.achieved_text(meas))
+    if s.stability is not None:
+        st = s.stability
         lines.append(f"  multipliers |rho|: {', '.join(f'{m:.4f}' for m in st['moduli'])}")
         lines.append(f"  {st['verdict']}")
     return lines
-
-
-def achieved_text(task, m: dict) -> str:
-    if "error" in m:
-        return m["error"]
-    if task.goal == "reorient":
-        return f"attitude error {m['attitude_error_rad']:.2e} rad at t = {m['t_end']:.6g} s"
-    if task.goal == "land":
-        text = (f"touchdown at t = {m['touchdown_time']:.9g} s (planned "
-                f"{m['touchdown_time'] - m['touchdown_time_error']:.9g})")
-        if "attitude_error_rad" in m:
-            return text + f", attitude error {m['attitude_error_rad']:.2e} rad"
-        return text + f", |d| = {m['d_norm']:.2e}, |omega+ - omega-| = {m['omega_jump']:.2e}"
-    return (f"{m['impacts']} impacts, apex error {m['apex_error']:.2e} m, post-impact state "
-            f"error {m['max_state_error']:.2e}, period {m['period']:.9g} s")

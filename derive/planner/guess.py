@@ -18,6 +18,7 @@ import math
 
 import numpy as np
 
+from .. import layout
 from ..scene import SceneError
 from ..stability.bouncing import existence_threshold, period_doubling_threshold
 from .functions import load, lowest_point
@@ -44,8 +45,8 @@ def inertia_at(tr: Transcription, r) -> np.ndarray:
     omega minus K at omega = 0, P at rest."""
     K = load("general_kinetic_moment")
     u = np.r_[r, np.zeros(6)]
-    q = np.zeros(18)
-    q[9:18] = np.eye(3).ravel()
+    q = np.zeros(layout.GENERAL.nq)
+    q[layout.GENERAL.A] = np.eye(3).ravel()
     base = np.array(K(q, u, tr.p).full()).ravel()
     cols = []
     for i in range(3):
@@ -175,30 +176,37 @@ def touchdown_time(tr: Transcription, ctrl, q0) -> float:
                                       "the height)")
 
 
-def initial_guess(tr: Transcription) -> np.ndarray:
-    """The starting point w0 of the NLP."""
-    task = tr.task
-    if task.goal == "hop":
-        return _hop_guess(tr)
-    q0 = initial_state(task)[list(tr.layout.keep)]
-    if task.goal == "reorient":
-        T = task.horizon
-        ctrl = _attitude_guess(tr, T, task.target, q0)
-    else:
-        rest = _rest_ctrl(tr)
-        T = touchdown_time(tr, rest, q0)
-        if task.at_touchdown == "attitude":
-            ctrl = _attitude_guess(tr, T, task.target, q0)
-        else:
-            ctrl = _d_zero_guess(tr, T, q0, rest)
-        ctrl = fix_ends(tr, ctrl)
-        T = touchdown_time(tr, ctrl, q0)
-        if task.horizon is not None:
-            T = min(T, task.horizon)
+def _nodes(tr: Transcription, ctrl, q0, T) -> np.ndarray:
+    """w0 from a law: the ends honoured, the nodes marched by the NLP's own RK4."""
     ctrl = fix_ends(tr, ctrl)
     tr._T_guess = T
-    Q = tr.rk4_nodes(ctrl, q0, T)
-    return tr.pack(ctrl, Q, T)
+    return tr.pack(ctrl, tr.rk4_nodes(ctrl, q0, T), T)
+
+
+def reorient_guess(tr: Transcription) -> np.ndarray:
+    """Loops that turn the drifting body to target_matrix by the end of the horizon."""
+    task = tr.task
+    q0 = initial_state(task)[list(tr.layout.keep)]
+    T = task.horizon
+    return _nodes(tr, _attitude_guess(tr, T, task.target, q0), q0, T)
+
+
+def land_guess(tr: Transcription) -> np.ndarray:
+    """The touchdown time of P at rest, then loops that turn the body to target_matrix
+    (or OP to the vertical, for d = 0) by then, and the touchdown time of that law."""
+    task = tr.task
+    q0 = initial_state(task)[list(tr.layout.keep)]
+    rest = _rest_ctrl(tr)
+    T = touchdown_time(tr, rest, q0)
+    if task.at_touchdown == "attitude":
+        ctrl = _attitude_guess(tr, T, task.target, q0)
+    else:
+        ctrl = _d_zero_guess(tr, T, q0, rest)
+    ctrl = fix_ends(tr, ctrl)
+    T = touchdown_time(tr, ctrl, q0)
+    if task.horizon is not None:
+        T = min(T, task.horizon)
+    return _nodes(tr, ctrl, q0, T)
 
 
 def _d_zero_guess(tr: Transcription, T, q0, rest):
@@ -251,7 +259,8 @@ def hop_table(task) -> dict:
             "Gamma_1": G1, "Gamma_pd": Gpd}
 
 
-def _hop_guess(tr: Transcription) -> np.ndarray:
+def hop_guess(tr: Transcription) -> np.ndarray:
+    """The orbit of the ball on a vibrating table (:func:`hop_table`)."""
     task = tr.task
     tab = hop_table(task)
     c = task.region_center

@@ -7,8 +7,9 @@ Until the runtime on this branch reads tables, this adapter integrates the scene
 * :func:`resimulate` — the same spline (``CubicSpline`` with bc ``periodic``,
   ``clamped`` for ``rest``, ``not-a-knot`` for ``free``), the derived ``general`` flight
   right-hand side, gap, lowest point and impact map (CasADi functions from
-  ``generated/casadi``), SciPy DOP853 at rtol 1e-12, impacts located as events of the
-  gap (terminal, then the impact map applied when v_n < 0);
+  ``generated/casadi``), integrated by the SciPy peer the benchmarks use
+  (:mod:`derive.scipy_hybrid`: DOP853 at rtol 1e-12, impacts located as events of the
+  gap, the impact map applied when v_n < 0);
 * :func:`runtime_resimulate` — ``derive.simulate`` itself, tried on the scene: when the
   runtime accepts ``[point].table`` its result is used too; otherwise the reason is
   recorded.
@@ -25,13 +26,26 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-from scipy.integrate import solve_ivp
 from scipy.interpolate import CubicSpline
 
+from ..models import STATE_LABELS
 from ..scene import Scene, SceneError, load_scene
+from ..scipy_hybrid import Functions, Hybrid
 from .functions import Fast, load
 
 BC = {"periodic": "periodic", "rest": "clamped", "free": "not-a-knot"}
+ATTITUDE = tuple(f"a{i}{j}" for i in (1, 2, 3) for j in (1, 2, 3))
+OMEGA = ("omega_x", "omega_y", "omega_z")
+
+
+def rows(labels) -> list:
+    """Where the entries ``labels`` sit in a trajectory's state (the general layout)."""
+    return [STATE_LABELS["general"].index(lb) for lb in labels]
+
+
+def attitude_of(q) -> np.ndarray:
+    """a_ij of a state of the general layout."""
+    return np.asarray(q)[rows(ATTITUDE)].reshape(3, 3)
 
 
 @dataclass
@@ -115,71 +129,18 @@ def _state0(scene: Scene) -> np.ndarray:
 
 
 def resimulate(scene_path, rtol: float = 1e-12, max_impacts: int = 1000) -> Trajectory:
-    """Integrate the planned scene with SciPy DOP853 on the derived functions."""
+    """Integrate the planned scene with the SciPy peer (:mod:`derive.scipy_hybrid`:
+    DOP853, impacts as events) on the derived CasADi functions."""
     scene, law, _ = read_scene(scene_path)
-    p = np.array([scene.M, scene.m, *scene.J, scene.g])
-    f = Fast(load("general_flight_rhs"))
     contact = scene.contact_possible
-    if contact:
-        gap, impact = Fast(load("general_gap")), Fast(load("general_impact"))
-        lp = Fast(load(f"lowest_point_{scene.shape}"))
-        center, size = np.array(scene.center), np.array(scene.size)
-
-        def s_of(q):
-            return lp(q[15:18], center, size)[0]
-
-        def h_vn(t, q):
-            h, vn = gap(q, law(t), s_of(q), p)
-            return float(h[0]), float(vn[0])
-
-    def rhs(t, q):
-        return f(q, law(t), p)[0]
-
-    def event(t, q):
-        return h_vn(t, q)[0]
-    event.terminal, event.direction = True, -1
-
-    t0, t_end = scene.t0, scene.t0 + scene.duration
-    q = _state0(scene)
-    ts, qs, impacts = [np.array([t0])], [q[None, :]], []
-    status = "done"
-    t = t0
-    # after an impact, the event is armed again once S has left the plane
-    while t < t_end:
-        events = [event] if contact else None
-        sol = solve_ivp(rhs, (t, t_end), q, method="DOP853", rtol=rtol, atol=rtol * 1e-2,
-                        events=events, dense_output=False)
-        if sol.status < 0:
-            status = "failed: " + sol.message
-            break
-        ts.append(sol.t[1:])
-        qs.append(sol.y[:, 1:].T)
-        if sol.status == 1 and len(sol.t_events[0]):
-            t = float(sol.t_events[0][0])
-            q_minus = sol.y_events[0][0]
-            h, vn = h_vn(t, q_minus)
-            if vn < 0:
-                q_plus, I = impact(q_minus, law(t), s_of(q_minus), p, [scene.e])
-                I = I[0]
-                vn_plus = h_vn(t, q_plus)[1]
-                impacts.append({"t": t, "I": float(I), "v_minus": vn, "v_plus": vn_plus,
-                                "q_minus": q_minus, "q_plus": q_plus})
-                ts.append(np.array([t]))
-                qs.append(q_plus[None, :])
-                q = q_plus
-            else:
-                q = q_minus
-            if len(impacts) >= max_impacts:
-                status = "max_events"
-                break
-            # step off the event: integrate a hair without the event
-            t_next = min(t + 1e-9 * max(1.0, scene.duration), t_end)
-            sol2 = solve_ivp(rhs, (t, t_next), q, method="DOP853", rtol=rtol,
-                             atol=rtol * 1e-2)
-            t, q = t_next, sol2.y[:, -1]
-            continue
-        t, q = t_end, sol.y[:, -1]
-    return Trajectory(np.concatenate(ts), np.vstack(qs), impacts, status, "scipy-dop853")
+    fns = Functions(Fast(load("general_flight_rhs")), *(
+        (Fast(load("general_gap")), Fast(load("general_impact")),
+         Fast(load(f"lowest_point_{scene.shape}"))) if contact else ()))
+    hybrid = Hybrid(fns, law, [scene.M, scene.m, *scene.J, scene.g],
+                    contact=contact, e=scene.e, center=scene.center,
+                    size=scene.size, method="DOP853", rtol=rtol, max_impacts=max_impacts)
+    path = hybrid.run(scene.t0, scene.t0 + scene.duration, _state0(scene))
+    return Trajectory(path.t, path.q, path.impacts, path.status, "scipy-dop853")
 
 
 def runtime_resimulate(scene_path) -> Trajectory | str:

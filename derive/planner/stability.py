@@ -17,10 +17,13 @@ import casadi as ca
 import numpy as np
 from scipy.integrate import solve_ivp
 
+from .. import layout
 from ..stability.bouncing import saltation_of_functions
 from ..stability.floquet import UNIT_TOL, complex_pairs
 from .functions import Fast, load, lowest_point
 from .law import Law
+
+V = layout.VERTICAL
 
 RTOL = 1e-12
 
@@ -41,7 +44,7 @@ class HopFlow:
         self.sc = sc
 
     def s_of(self, q):
-        return np.array(lowest_point(self.sc.shape, q[5:8], self.sc.center,
+        return np.array(lowest_point(self.sc.shape, q[V.n], self.sc.center,
                                      self.sc.size).full()).ravel()
 
     def u(self, t):
@@ -103,7 +106,7 @@ class HopFlow:
         d1 = [P[c, 1] + d * (2 * P[c, 2] + 3 * d * P[c, 3]) for c in range(3)]
         d2 = [2 * P[c, 2] + 6 * d * P[c, 3] for c in range(3)]
         u = ca.vertcat(*val, *d1, *d2)
-        s = lowest_point(self.sc.shape, q[5:8], self.sc.center, self.sc.size)
+        s = lowest_point(self.sc.shape, q[V.n], self.sc.center, self.sc.size)
         p = ca.DM(self.p)
         h, vn = self.gap(q, u, s, p)
         qp, I = self.imp(q, u, s, p, ca.DM([self.sc.e]))
@@ -115,11 +118,14 @@ class HopFlow:
 def integrals(flow: HopFlow, t, q) -> dict:
     """Gradients of |n|^2 and K.n at (t, q) (K from the derived kinetic moment)."""
     K = load("general_kinetic_moment")
-    x = ca.SX.sym("q", 8)
-    full = ca.vertcat(0, 0, x[0], 0, 0, x[1], x[2:5], 1, 0, 0, 0, 1, 0, x[5:8])
+    x = ca.SX.sym("q", V.nq)
+    G = layout.GENERAL
+    full = ca.SX.zeros(G.nq)                # the general state: C on the axis, A = (., ., n)
+    full[G.Z], full[G.Zd], full[G.omega] = x[V.Z], x[V.Zd], x[V.omega]
+    full[G.A] = ca.vertcat(1, 0, 0, 0, 1, 0, x[V.n])
     Kv = K(full, flow.u(t), flow.p)
-    grad = ca.Function("grad", [x], [ca.gradient(ca.dot(Kv, x[5:8]), x),
-                                     ca.gradient(ca.sumsqr(x[5:8]), x)])
+    grad = ca.Function("grad", [x], [ca.gradient(ca.dot(Kv, x[V.n]), x),
+                                     ca.gradient(ca.sumsqr(x[V.n]), x)])
     gKn, gn = (np.array(v.full()).ravel() for v in grad(q))
     return {"K.n": gKn, "|n|^2": gn}
 

@@ -44,10 +44,6 @@ class Task:
     max_iterations: int
     source: str = "task"
 
-    @property
-    def free_time(self) -> bool:
-        return self.goal in ("land", "hop") or self.objective == "time"
-
 
 class _Plan:
     """What the rules of ``[plan]`` read (the field values) and derive."""

@@ -16,12 +16,17 @@ re-solved, warm-started, until ``delta`` stops changing.  The fixed point satisf
 constraints with the exact flow.
 
 Constraints come in named groups (``Group``), which the progress line and the
-infeasibility report use.
+infeasibility report use.  What differs between goals (the layout, the end conditions,
+the bounds of the first node, the guess) is asked of the goal object
+(:mod:`derive.planner.goals`), which the caller passes in.  The task's three limits
+(``max_acceleration``, ``region``, ``horizon``) are not built into the NLP: they are a
+parameter and bounds of each run (:class:`Limits`), so that one IPOPT instance solves
+the task, lifts a limit to diagnose an infeasible task, or moves a bound step by step.
 """
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import casadi as ca
 import numpy as np
@@ -29,12 +34,15 @@ import numpy as np
 from .. import models as dm
 from .functions import load, lowest_point
 from .law import BASIS, Spline, circle_u
-from .task import Task
 
 GAUSS3 = ((0.5 - math.sqrt(15) / 10, 5 / 18), (0.5, 8 / 18), (0.5 + math.sqrt(15) / 10, 5 / 18))
 HOP_PERIODIC = ("Z_C'", "omega_x", "omega_y", "a31", "a32")     # see Transcription._hop
 CONTINUITY = "continuity of the motion (multiple shooting)"
 GAP_GROUP = "flight: S above the plane before touchdown (h >= 0)"
+REGION_GROUP = "region: P in the ball (control points)"
+# OP and OP'' in the law's u = (OP, OP', OP'')
+POS = slice(dm.U_LABELS.index("x"), dm.U_LABELS.index("z") + 1)
+ACC = slice(dm.U_LABELS.index("x''"), dm.U_LABELS.index("z''") + 1)
 
 
 @dataclass
@@ -85,19 +93,36 @@ class Layout:
         return ca.reshape(q[idx], 3, 3).T
 
 
-def layout_for(task) -> Layout:
-    """reorient: omega and A; land: also Z_C, Z_C' (the gap); hop: the vertical model."""
-    if task.goal == "hop":
-        return Layout("vertical", tuple(range(8)), np.zeros(8))
-    fill = initial_state(task)
-    keep = tuple(range(6, 18)) if task.goal == "reorient" else (2, 5) + tuple(range(6, 18))
-    return Layout("general", keep, fill)
+def general_layout(task, labels: tuple) -> Layout:
+    """The ``general`` model's state reduced to ``labels``, the others held at the
+    task's initial values."""
+    every = dm.STATE_LABELS["general"]
+    return Layout("general", tuple(every.index(lb) for lb in labels), initial_state(task))
 
 
-@dataclass
-class Relax:
-    """Task limits removed, to find which one blocks an infeasible task."""
-    names: frozenset = frozenset()
+LIMITS = ("max_acceleration", "region", "horizon")
+
+
+@dataclass(frozen=True)
+class Limits:
+    """The values of the task's limits in one run; ``inf`` lifts a limit."""
+    max_acceleration: float
+    region: float                    # the region's (or circle's) radius
+    horizon: float = math.inf        # the upper bound of a free T
+
+    @classmethod
+    def of(cls, task) -> "Limits":
+        return cls(task.max_acceleration, task.region_radius,
+                   math.inf if task.horizon is None else task.horizon)
+
+    def value(self, name: str) -> float:
+        return getattr(self, name)
+
+    def replace(self, **values) -> "Limits":
+        return replace(self, **values)
+
+    def lifted(self, *names) -> "Limits":
+        return replace(self, **{n: math.inf for n in names})
 
 
 def vee_skew(R):
@@ -108,20 +133,20 @@ def vee_skew(R):
 class Transcription:
     """The NLP of one task: variables, constraints by group, objective, bounds."""
 
-    def __init__(self, task: Task, relax: Relax = Relax(), stabilize: bool = False):
-        self.task, self.relax, self.stabilize = task, relax, stabilize
+    def __init__(self, task, goal, stabilize: bool = False):
+        self.task, self.goal, self.stabilize = task, goal, stabilize
         sc = task.scene
         self.p = [sc.M, sc.m, *sc.J, sc.g]
-        self.layout = layout_for(task)
+        self.layout = goal.layout(task)
         self.kind = "circle" if task.circle is not None else "cartesian"
         self.dim = 1 if self.kind == "circle" else 3
         self.N = task.intervals
         self.m = task.substeps
-        self.spline = Spline(self.N, periodic=task.goal == "hop")
+        self.spline = Spline(self.N, periodic=goal.periodic_law)
         lay = self.layout
         f = load(f"{lay.model}_flight_rhs")
         self.f = lambda q, u, p: f(lay.full(q), u, p)[list(lay.keep)]
-        self.plane = task.goal in ("land", "hop")
+        self.plane = goal.plane
         if self.plane:
             gap = load(f"{lay.model}_gap")
             impact = load(f"{lay.model}_impact")
@@ -157,7 +182,7 @@ class Transcription:
             u = circle_u(rows[0], rows[1], rows[2], cx, cy, R, ca)
         self.U = ca.Function("U", [cl, s, T], [u], ["cl", "s", "T"], ["u"])
 
-    def _s_of(self, q):
+    def s_of(self, q):
         sc = self.task.scene
         return lowest_point(sc.shape, self.layout.n_of(q), sc.center, sc.size)
 
@@ -182,7 +207,7 @@ class Transcription:
             k4 = self.f(q + h * k3, u1, p)
             q = q + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
             if self.plane:
-                gaps.append(self.gap(q, u1, self._s_of(q), p)[0])
+                gaps.append(self.gap(q, u1, self.s_of(q), p)[0])
         outs = [q + delta]
         names = ["q_end"]
         if self.plane:
@@ -202,7 +227,7 @@ class Transcription:
         C = ca.MX.sym("C", sp.n_ctrl, dim)
         Q = ca.MX.sym("Q", nq, N + 1)
         parts = [ca.vec(C), ca.vec(Q)]
-        self.free_T = task.free_time
+        self.free_T = self.goal.free_time(task)
         if self.free_T:
             Tv = ca.MX.sym("T")
             parts.append(Tv)
@@ -213,6 +238,9 @@ class Transcription:
         self.n_c, self.n_q = sp.n_ctrl * dim, nq * (N + 1)
         self.C, self.Q, self.T = C, Q, T
         self.delta = ca.MX.sym("delta", nq, N)      # a parameter: the defect correction
+        self.k_acc = ca.MX.sym("k_acc")             # a parameter: 1/max_acceleration^2
+        self.params = ca.vertcat(ca.vec(self.delta), self.k_acc)
+        self.n_p = self.params.shape[0]
         cls = [ca.vec(C[sp.indices(k), :]) for k in range(N)]
         self.CL = ca.horzcat(*cls)
         out = self.FN.call([Q[:, :N], self.CL, T, self.delta])
@@ -235,10 +263,11 @@ class Transcription:
         add(CONTINUITY, Q[:, 1:] - self.q_end, 0, 0)
         self._law_constraints(add)
         self._limits(add)
-        getattr(self, f"_{task.goal}")(add)
+        self.goal.end_constraints(self, add)
         self.g = ca.vertcat(*g)
         self.lbg, self.ubg = np.array(lbg), np.array(ubg)
-        self.J = self._objective()
+        self._effort()
+        self.set_effort_scale(self.max_acceleration_scale())
         self._bounds()
 
     def _z_index(self, k: int) -> list:
@@ -269,10 +298,10 @@ class Transcription:
         """The groups other than continuity and the in-flight gap: (groups, SX w, J, g)."""
         rest = [gr for gr in self.groups if gr.name not in (CONTINUITY, GAP_GROUP)]
         g_rest = ca.vertcat(*[self.group_exprs[self.groups.index(gr)] for gr in rest])
-        f_rest = ca.Function("rest", [self.w], [self.J, g_rest]).expand()
-        ws = ca.SX.sym("w", self.w.shape[0])
-        J_s, g_s = f_rest(ws)
-        return rest, ws, J_s, g_s
+        f_rest = ca.Function("rest", [self.w, self.k_acc], [self.J, g_rest]).expand()
+        ws, ks = ca.SX.sym("w", self.w.shape[0]), ca.SX.sym("k_acc")
+        J_s, g_s = f_rest(ws, ks)
+        return rest, (ws, ks), J_s, g_s
 
     def jacobian_function(self) -> ca.Function:
         """``(x, p) -> (g, dg/dx)`` from its structure, like :meth:`hessian_function`:
@@ -285,13 +314,14 @@ class Transcription:
         JF = ca.Function("JF", [q, cl, T, delta], outs).map(N)
         nz = z.shape[0]
         x = ca.MX.sym("x", nw)
-        p = ca.MX.sym("p", self.delta.numel())
+        p = ca.MX.sym("p", self.n_p)
         Qx, CLx, Tx = self._x_parts(x)
-        J_int = JF.call([Qx[:, :N], CLx, Tx, ca.reshape(p, nq, N)])
+        delta, k_acc = ca.reshape(p[:nq * N], nq, N), p[nq * N]
+        J_int = JF.call([Qx[:, :N], CLx, Tx, delta])
         E = [ca.DM(ca.Sparsity.triplet(nz, nw, list(range(nz)), self._z_index(k)), 1.0)
              for k in range(N)]
-        rest, ws, _, g_s = self._rest()
-        Jrest = ca.Function("Jrest", [ws], [ca.jacobian(g_s, ws)])(x)
+        rest, (ws, ks), _, g_s = self._rest()
+        Jrest = ca.Function("Jrest", [ws, ks], [ca.jacobian(g_s, ws)])(x, k_acc)
         blocks, r = [], 0
         for gr in self.groups:
             if gr.name == CONTINUITY:
@@ -307,7 +337,7 @@ class Transcription:
                 n = gr.stop - gr.start
                 blocks.append(Jrest[r:r + n, :])
                 r += n
-        g = ca.Function("g", [self.w, ca.vec(self.delta)], [self.g])(x, p)
+        g = ca.Function("g", [self.w, self.params], [self.g])(x, p)
         return ca.Function("jac_g", [x, p], [g, ca.vertcat(*blocks)], ["x", "p"],
                            ["g", "jac_g_x"])
 
@@ -327,7 +357,8 @@ class Transcription:
         HF = ca.Function("HF", [q, cl, T, delta, lq, lh], [ca.hessian(phi, z)[0]]).map(N)
         nz = z.shape[0]
         x = ca.MX.sym("x", nw)
-        p = ca.MX.sym("p", self.delta.numel())
+        p = ca.MX.sym("p", self.n_p)
+        delta, k_acc = ca.reshape(p[:nq * N], nq, N), p[nq * N]
         lam_f = ca.MX.sym("lam_f")
         lam_g = ca.MX.sym("lam_g", self.g.shape[0])
         cont = next(gr for gr in self.groups if gr.name == CONTINUITY)
@@ -338,19 +369,43 @@ class Transcription:
         else:
             LH = ca.MX(0, N)
         Qx, CLx, Tx = self._x_parts(x)
-        blocks = HF(Qx[:, :N], CLx, Tx, ca.reshape(p, nq, N), LQ, LH)
+        blocks = HF(Qx[:, :N], CLx, Tx, delta, LQ, LH)
         H = ca.MX(nw, nw)
         for k in range(N):
             E = ca.DM(ca.Sparsity.triplet(nz, nw, list(range(nz)), self._z_index(k)), 1.0)
             H += ca.mtimes([E.T, blocks[:, k * nz:(k + 1) * nz], E])
-        rest, ws, J_s, g_s = self._rest()
+        rest, (ws, ks), J_s, g_s = self._rest()
         lam_rest = ca.vertcat(*[lam_g[gr.start:gr.stop] for gr in rest])
         ls, lf = ca.SX.sym("l", g_s.shape[0]), ca.SX.sym("lf")
-        H_rest = ca.Function("Hrest", [ws, lf, ls], [ca.hessian(lf * J_s + ca.dot(ls, g_s),
-                                                                 ws)[0]])
-        H += H_rest(x, lam_f, lam_rest)
+        H_rest = ca.Function("Hrest", [ws, ks, lf, ls],
+                             [ca.hessian(lf * J_s + ca.dot(ls, g_s), ws)[0]])
+        H += H_rest(x, k_acc, lam_f, lam_rest)
         return ca.Function("hess_lag", [x, p, lam_f, lam_g], [ca.triu(H)],
                            ["x", "p", "lam_f", "lam_g"], ["hess_gamma_x_x"])
+
+    def effort_of(self, w) -> float:
+        """The effort (integral of |OP''|^2) of a point w."""
+        if not hasattr(self, "_effort_f"):
+            self._effort_f = ca.Function("effort", [self.w], [self.effort])
+        return float(self._effort_f(w))
+
+    def limit_values(self, w) -> dict:
+        """What the point w asks of each limit, in the NLP's own terms: the largest
+        |OP''| where it is bounded (at the knots, where it is largest; on a circle at the
+        RK4 points), the largest distance of a control point from the region's centre
+        (what the region bounds; on a circle its radius) and T."""
+        ctrl, _, T = self.unpack(w)
+        task = self.task
+        if self.kind == "cartesian":
+            W2 = np.array([self.spline.weights(k / self.N, 2) for k in range(self.N + 1)])
+            acc = float(np.max(np.linalg.norm(W2 @ ctrl, axis=1))) / T ** 2
+            region = float(np.max(np.linalg.norm(ctrl - task.region_center, axis=1)))
+        else:
+            acc = max(float(np.linalg.norm(np.array(self.U(self.local_ctrl(ctrl, k), j / self.m,
+                                                           T).full()).ravel()[ACC]))
+                      for k in range(self.N) for j in range(self.m + 1))
+            region = task.region_radius
+        return {"max_acceleration": acc, "region": region, "horizon": T}
 
     def u_at(self, k: int, s: float):
         return self.U(self.CL[:, k], s, self.T)
@@ -359,7 +414,7 @@ class Transcription:
         task, sp, C = self.task, self.spline, self.C
         N = self.N
         if self.kind == "cartesian":
-            if task.goal == "hop":
+            if self.goal.periodic_law:
                 if task.rest_at_ends:
                     add("P at rest at the impact (rest_at_ends)",
                         ca.vertcat(ca.mtimes(ca.DM(sp.weights(0.0, 1)).T, C),
@@ -378,127 +433,89 @@ class Transcription:
                     - task.circle[3], 0, 0)
 
     def _limits(self, add):
+        """The task's limits, their values set per run (:meth:`bounds`, :meth:`parameters`):
+        the region's radius^2 is the upper bound of its rows, 1/max_acceleration^2 the
+        parameter ``k_acc`` (0 lifts it), the horizon the upper bound of a free T."""
         task, sp, C, T = self.task, self.spline, self.C, self.T
         if self.kind == "cartesian":
-            if "region" not in self.relax.names:
-                d = C - ca.repmat(ca.DM(task.region_center).T, sp.n_ctrl, 1)
-                add("region: P in the ball (control points)", ca.sum2(d * d),
-                    -np.inf, task.region_radius ** 2, "region")
-            if "max_acceleration" not in self.relax.names:
-                W2 = np.array([sp.weights(k / self.N, 2) for k in range(self.N + 1)])
-                A = ca.mtimes(ca.DM(W2), C)          # tau-accelerations at the knots
-                amax = task.max_acceleration
-                # |A|^2 <= amax^2 T^4, without the A-T coupling of |A|^2 / T^4 (whose
-                # curvature slows IPOPT down when T is free); scaled by T_ref^4
-                T_ref = task.horizon or self.T_guess_value()
-                add("max_acceleration: |OP''| at the knots", (ca.sum2(A * A) / amax ** 2
-                    - T ** 4) / T_ref ** 4, -np.inf, 0.0, "max_acceleration")
-        elif "max_acceleration" not in self.relax.names:
+            d = C - ca.repmat(ca.DM(task.region_center).T, sp.n_ctrl, 1)
+            add(REGION_GROUP, ca.sum2(d * d), -np.inf, task.region_radius ** 2, "region")
+            W2 = np.array([sp.weights(k / self.N, 2) for k in range(self.N + 1)])
+            A = ca.mtimes(ca.DM(W2), C)          # tau-accelerations at the knots
+            # |A|^2 <= amax^2 T^4, without the A-T coupling of |A|^2 / T^4 (whose
+            # curvature slows IPOPT down when T is free); scaled by T_ref^4
+            T_ref = task.horizon or self.T_guess_value()
+            add("max_acceleration: |OP''| at the knots", (ca.sum2(A * A) * self.k_acc
+                - T ** 4) / T_ref ** 4, -np.inf, 0.0, "max_acceleration")
+        else:
             vals = []
             for k in range(self.N):
                 for j in range(self.m + 1):
                     u = self.u_at(k, j / self.m)
-                    vals.append(ca.sumsqr(u[6:9]))
-            add("max_acceleration: |OP''| at the RK4 points", ca.vertcat(*vals)
-                / task.max_acceleration ** 2, -np.inf, 1.0, "max_acceleration")
+                    vals.append(ca.sumsqr(u[ACC]))
+            add("max_acceleration: |OP''| at the RK4 points", ca.vertcat(*vals) * self.k_acc,
+                -np.inf, 1.0, "max_acceleration")
 
-    def _attitude_error(self, q):
+    def bounds(self, limits: Limits):
+        """(lbx, ubx, lbg, ubg) of a run with these limits."""
+        ubg, ubx = self.ubg.copy(), self.ubx.copy()
+        for gr in self.groups:
+            if gr.limit == "region":
+                ubg[gr.start:gr.stop] = limits.region ** 2
+        if self.free_T:
+            ubx[-1] = limits.horizon
+        return self.lbx, ubx, self.lbg, ubg
+
+    def parameters(self, delta, limits: Limits) -> np.ndarray:
+        """The NLP's parameter: the defect correction and 1/max_acceleration^2."""
+        return np.r_[np.asarray(delta, dtype=float).ravel(order="F"),
+                     1.0 / limits.max_acceleration ** 2]
+
+    def attitude_error(self, q):
+        """sin(angle) * axis of target_matrix^T A at the state q."""
         A = self.layout.A_of(q)
         return vee_skew(ca.mtimes(ca.DM(self.task.target).T, A))
 
-    def _reorient(self, add):
-        add("target_matrix at the end of the horizon",
-            self._attitude_error(self.Q[:, self.N]), 0, 0, "target_matrix")
-
-    def _touchdown(self, add):
-        """The gap closes at t = T, S approaching, and stays open before."""
+    def touchdown(self, add):
+        """The gap closes at t = T, S approaching, and stays open before; returns the
+        state and the law at t = T."""
         p = ca.DM(self.p)
         qN = self.Q[:, self.N]
         uN = self.u_at(self.N - 1, 1.0)
-        h, vn = self.gap(qN, uN, self._s_of(qN), p)
+        h, vn = self.gap(qN, uN, self.s_of(qN), p)
         add("touchdown: S reaches the plane at t = T (h = 0)", h, 0, 0)
-        add("touchdown: S approaches the plane (v_n < 0)", vn / self.v_ref, -np.inf, -0.05)
+        add("touchdown: S approaches the plane (v_n < 0)", vn / self.goal.v_ref(self.task),
+            -np.inf, -0.05)
         hs = ca.vec(self.h_sub)         # after every RK4 step; the last one is t = T
-        add(GAP_GROUP, hs[:-1], 0, np.inf,
-            "plane")
+        add(GAP_GROUP, hs[:-1], 0, np.inf, "plane")
         return qN, uN
 
-    @property
-    def v_ref(self) -> float:
-        sc, task = self.task.scene, self.task
-        if task.goal == "hop":
-            return math.sqrt(2 * sc.g * max(task.apex_height, 1e-3))
-        return math.sqrt(2 * sc.g * max(sc.com[2], 1e-3))
-
-    def _land(self, add):
-        qN, uN = self._touchdown(add)
-        if self.task.at_touchdown == "attitude":
-            add("target_matrix at touchdown", self._attitude_error(qN), 0, 0,
-                "target_matrix")
-        else:
-            CS, _ = load("lever")(self.layout.full(qN), uN, self._s_of(qN), ca.DM(self.p))
-            A = self.layout.A_of(qN)
-            add("d = CS x n = 0 at touchdown (CS vertical)", ca.mtimes(A[0:2, :], CS)
-                / self.task.scene.size[0], 0, 0, "at_touchdown")
-
-    def _hop(self, add):
-        """One impact per period, at t = 0 = T: post-impact state Q_0 on the plane;
-        Q_N is the state just before the next impact, mapped by E1.10-E1.16 back to Q_0.
-        Z_C(T) and n_z follow from h = 0 and |n| = 1, omega_z from K.n (conserved in
-        flight and at impacts, since d is normal to n): those are not repeated."""
-        p = ca.DM(self.p)
-        q0, u0 = self.Q[:, 0], self.u_at(0, 0.0)
-        n0 = self.layout.n_of(q0)
-        add("hop: S on the plane just after the impact (h = 0)",
-            self.gap(q0, u0, self._s_of(q0), p)[0], 0, 0)
-        add("hop: |n| = 1", ca.sumsqr(n0) - 1, 0, 0)
-        qN, uN = self._touchdown(add)
-        e = ca.DM([self.task.scene.e])
-        q_plus = self.impact(qN, uN, self._s_of(qN), p, e)[0]
-        sel = [self.layout.index(name) for name in HOP_PERIODIC]
-        add("hop: periodic orbit (impact map E1.10-E1.16 back to the start)",
-            q_plus[sel] - q0[sel], 0, 0)
-        g = self.task.scene.g
-        add("apex_height: highest Z_C of the hop", q0[0] + q0[1] ** 2 / (2 * g)
-            - self.task.apex_height, 0, 0, "apex_height")
-        if self.stabilize:
-            self._hop_stability(add, q0, u0)
-
-    def _hop_stability(self, add, q0, u0):
-        """Two conditions that favour a stable orbit (then checked by the multipliers):
-
-        * tilt: C below the centre of the shape at the impact (for a sphere, below the
-          centre of curvature of the contact: the impulse then rights the body);
-        * vertical: the "table" of reference [5] (the height nu n.OP that the point's
-          motion gives S) accelerates at the impact within the stable window of the ball
-          on a vibrating table, tr DP = 1 + e^2 + (1 + e)^2 s''/g in
-          [-(1 + e^2), 1 + e^2], kept 30 % inside it."""
-        sc = self.task.scene
-        nu = sc.m / (sc.m + sc.M)
-        n0 = self.layout.n_of(q0)
-        depth = ca.dot(n0, nu * u0[0:3] - ca.DM(list(sc.center)))
-        add("stability (tilt): C below the shape's centre at the impact", depth, -np.inf,
-            -0.1 * nu * self.task.region_radius, "require_stable")
-        e, g = sc.e, sc.g
-        tr = 1 + e * e + (1 + e) ** 2 * nu * ca.dot(n0, u0[6:9]) / g
-        bound = 0.7 * (1 + e * e)
-        add("stability (vertical): impact in the stable window of reference [5]", tr,
-            -bound, bound, "require_stable")
-
-    def _objective(self):
-        task, T = self.task, self.T
+    def _effort(self):
+        """The integral of |OP''|^2 by 3-point Gauss on each piece."""
         terms = []
         for k in range(self.N):
             for s, wq in GAUSS3:
                 u = self.u_at(k, s)
-                terms.append(wq * ca.sumsqr(u[6:9]))
-        effort = (T / self.N) * sum(terms)
-        self.effort = effort
-        T_ref = task.horizon or self.T_guess_value()
-        self.effort_scale = task.max_acceleration ** 2 * T_ref
+                terms.append(wq * ca.sumsqr(u[ACC]))
+        self.effort = (self.T / self.N) * sum(terms)
+
+    def max_acceleration_scale(self) -> float:
+        """The effort of max_acceleration held over the horizon: the scale of the
+        objective until :meth:`set_effort_scale` is given the guess's effort."""
+        return self.task.max_acceleration ** 2 * (self.task.horizon or self.T_guess_value())
+
+    def set_effort_scale(self, scale: float):
+        """The objective, with the effort divided by ``scale``: the effort of the initial
+        guess, so that the objective starts near 1 whatever max_acceleration is (a bound
+        of 1e6 had made the objective 1e-12 of the constraints, and IPOPT stopped at the
+        first feasible point)."""
+        task = self.task
+        self.effort_scale = float(scale)
         if task.objective == "time":
-            return T / T_ref + 1e-6 * effort / self.effort_scale
-        return effort / self.effort_scale
+            T_ref = task.horizon or self.T_guess_value()
+            self.J = self.T / T_ref + 1e-6 * self.effort / self.effort_scale
+        else:
+            self.J = self.effort / self.effort_scale
 
     def T_guess_value(self) -> float:
         return getattr(self, "_T_guess", None) or (self.task.horizon or 1.0)
@@ -509,26 +526,19 @@ class Transcription:
         lbx, ubx = np.full(n, -np.inf), np.full(n, np.inf)
         Cl = np.full((sp.n_ctrl, dim), -np.inf)
         Cu = np.full((sp.n_ctrl, dim), np.inf)
-        if task.goal != "hop" and task.rest_at_ends:
+        if not self.goal.periodic_law and task.rest_at_ends:
             fixed = [0, 1, 2] + ([N, N + 1, N + 2] if self.kind == "cartesian" else [])
             value = task.start if self.kind == "cartesian" else np.array([task.circle[3]])
             for i in fixed:
                 Cl[i], Cu[i] = value, value
         lbx[:self.n_c] = Cl.ravel(order="F")
         ubx[:self.n_c] = Cu.ravel(order="F")
-        if task.goal != "hop":
-            q0 = initial_state(task)[list(self.layout.keep)]
-            lbx[self.n_c:self.n_c + nq] = q0
-            ubx[self.n_c:self.n_c + nq] = q0
-        else:
-            k = self.n_c + self.layout.index("omega_z")
-            lbx[k] = ubx[k] = task.scene.omega[2]
+        self.goal.bound_first_node(self, lbx[self.n_c:self.n_c + nq],
+                                   ubx[self.n_c:self.n_c + nq])
         if self.free_T:
-            lbx[-1] = 1e-3 if task.goal != "reorient" else 0.05 * task.horizon
+            lbx[-1] = self.goal.shortest(task)
             if task.horizon is not None:
                 ubx[-1] = task.horizon
-            if "horizon" in self.relax.names:
-                ubx[-1] = np.inf
         self.lbx, self.ubx = lbx, ubx
 
     # ---- packing ---------------------------------------------------------------------
@@ -552,7 +562,7 @@ class Transcription:
     def gap_value(self, q, cl, s, T):
         """(h, v_n) at state q with the law piece cl at local s (numbers)."""
         u = self.U(cl, s, T)
-        h, vn = self.gap(ca.DM(q), u, self._s_of(ca.DM(q)), ca.DM(self.p))
+        h, vn = self.gap(ca.DM(q), u, self.s_of(ca.DM(q)), ca.DM(self.p))
         return float(h), float(vn)
 
     def rk4_nodes(self, ctrl, q0, T):
@@ -565,7 +575,7 @@ class Transcription:
         return np.array(Q).T
 
 
-def initial_state(task: Task) -> np.ndarray:
+def initial_state(task) -> np.ndarray:
     """The general-layout state at t = 0 from the scene's initial conditions."""
     sc = task.scene
     return np.r_[sc.com, sc.com_velocity, sc.omega, np.asarray(sc.A0).ravel()]
