@@ -30,6 +30,7 @@ class Layout:
                 raise ValueError(f"{model}: the part {name} is not contiguous")
             self.parts[name] = slice(k, k + len(names))
         self.indices = {name: self.labels.index(label) for name, label in indices.items()}
+        self._plans: dict = {}
         for name, where in {**self.parts, **self.indices}.items():
             setattr(self, name, where)
 
@@ -39,16 +40,29 @@ class Layout:
     def assemble(self, **parts) -> np.ndarray:
         """States from their parts (``com=..., omega=...``: rows, or one state), every
         state covered once."""
+        plan = self._plans.get(tuple(parts))
+        if plan is None:
+            plan = self._plans[tuple(parts)] = self._plan(tuple(parts))
+        if plan and all(np.ndim(parts[name]) == 1 for name in plan):
+            return np.concatenate([np.asarray(parts[name], dtype=float) for name in plan])
         n = {np.shape(v)[0] for v in parts.values() if np.ndim(v) == 2}
         out = np.empty((*n, self.nq)) if n else np.empty(self.nq)
-        covered = np.zeros(self.nq, dtype=int)
         for name, value in parts.items():
-            where = getattr(self, name)
-            out[..., where] = value
-            covered[where] += 1
-        if not np.all(covered == 1):
-            raise ValueError(f"{self.model}: {dict(parts).keys()} do not cover the state once")
+            out[..., getattr(self, name)] = value
         return out
+
+    def _plan(self, names: tuple) -> tuple:
+        """The parts in the order they tile the state (for one state made by one
+        concatenation), or () when they are not all slices; ValueError unless they cover
+        every state once."""
+        covered = np.zeros(self.nq, dtype=int)
+        for name in names:
+            covered[getattr(self, name)] += 1
+        if not np.all(covered == 1):
+            raise ValueError(f"{self.model}: {names} do not cover the state once")
+        if not all(name in self.parts for name in names):
+            return ()
+        return tuple(sorted(names, key=lambda name: self.parts[name].start))
 
     def __repr__(self) -> str:
         return f"Layout({self.model}, {self.nq} states)"
