@@ -17,6 +17,19 @@ from __future__ import annotations
 import numpy as np
 
 
+def _is_row(value) -> bool:
+    """One state's part: a 1-D array, or a list or tuple of numbers (np.ndim, asked of a
+    list, builds an array first)."""
+    if isinstance(value, np.ndarray):
+        return value.ndim == 1
+    return isinstance(value, (list, tuple)) and not (
+        value and isinstance(value[0], (list, tuple, np.ndarray)))
+
+
+def _as_list(value):
+    return value.tolist() if isinstance(value, np.ndarray) else value
+
+
 class Layout:
     """A model's state labels and named parts: ``layout.omega`` is a slice,
     ``layout.Z`` an index (``None`` where the model has no such part); ``nq`` states."""
@@ -43,8 +56,13 @@ class Layout:
         plan = self._plans.get(tuple(parts))
         if plan is None:
             plan = self._plans[tuple(parts)] = self._plan(tuple(parts))
-        if plan and all(np.ndim(parts[name]) == 1 for name in plan):
-            return np.concatenate([np.asarray(parts[name], dtype=float) for name in plan])
+        if plan and all(_is_row(parts[name]) for name in plan):
+            # one list, one array (the parts' own arrays as lists: half a concatenation)
+            row = []
+            for name in plan:
+                row += _as_list(parts[name])
+            if len(row) == self.nq:             # (a part of the wrong size: numpy says so)
+                return np.array(row, dtype=float)
         n = {np.shape(v)[0] for v in parts.values() if np.ndim(v) == 2}
         out = np.empty((*n, self.nq)) if n else np.empty(self.nq)
         for name, value in parts.items():
