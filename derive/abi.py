@@ -11,6 +11,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from . import shapes
+
 
 @dataclass(frozen=True)
 class Name:
@@ -57,9 +59,11 @@ PARAMETERS = _names(
     ("J_z", "... about Oz"),
     ("g", "gravity"),
     ("e", "restitution coefficient of the plane"),
-    ("axis_a", "semi-axis of the shape along Ox (the radius for a sphere)"),
-    ("axis_b", "semi-axis along Oy"),
-    ("axis_c", "semi-axis along Oz"),
+    ("shape", "the surface: CRT_SHAPE_<name>, its place in derive/shapes.py"),
+    ("size_a", "the shape's size numbers in the order of its fields (derive/shapes.py): a "
+               "sphere's radius; an ellipsoid's semi-axes along Ox, Oy, Oz"),
+    ("size_b", "..."),
+    ("size_c", "..."),
     ("center_x", "centre of the shape in body axes"),
     ("center_y", "..."),
     ("center_z", "..."),
@@ -115,7 +119,8 @@ STATUSES = (
                                 "CRT_MIN_EVENTS events (nothing is done: call again with "
                                 "larger ones)"),
     Status("bad_options", -21, "an option breaks its rule: crt_bad_option names it"),
-    Status("bad_parameters", -22, "a parameter is not finite: crt_bad_parameter names it"),
+    Status("bad_parameters", -22, "a parameter is not finite, or shape is no CRT_SHAPE_*: "
+                                  "crt_bad_parameter names it"),
     Status("bad_law", -23, "crt_set_law_* refused the law (malformed), or crt_init found "
                            "no law set"),
     Status("bad_control", -24, "the controller's law is refused (its knots, or x or x' "
@@ -260,4 +265,5 @@ def c_context() -> dict:
             "event_columns": EVENT_COLUMNS, "min_rows": MIN_ROWS, "min_events": MIN_EVENTS,
             "counts": COUNTS, "call_reasons": CALL_REASONS, "control_faults": CONTROL_FAULTS,
             "ctl_max_knots": CTL_MAX_KNOTS, "push_columns": PUSH_COLUMNS,
-            "log_columns": LOG_COLUMNS}
+            "log_columns": LOG_COLUMNS,
+            "shapes": [shapes.of(name) for name in shapes.SHAPE_NAMES]}

@@ -9,6 +9,8 @@ import argparse
 import sys
 from typing import Sequence
 
+from . import shapes
+
 
 class UsageError(Exception):
     """Bad input from the user: printed as one line, exit status 2."""
@@ -300,7 +302,12 @@ def _simulate_sweep(args, start: float) -> int:
 
 # ---- scene --------------------------------------------------------------------------
 def cmd_scene(args: argparse.Namespace) -> int:
-    from .scene import SceneError, load_scene, template
+    from .scene import SceneError, load_scene, schema_table, template
+    if args.action == "schema":
+        if args.file:
+            raise UsageError("scene schema: takes no file (it prints the README's table)")
+        print(schema_table())
+        return 0
     if args.action == "new":
         if args.file:
             raise UsageError("scene new: takes no file (it prints a template: redirect it)")
@@ -489,11 +496,14 @@ def build_parser() -> argparse.ArgumentParser:
                    "'.[cluster]'); many variants per task")
     p.set_defaults(func=cmd_simulate)
 
-    p = sub.add_parser("scene", help="scene files: a commented template, or a check")
-    p.add_argument("action", choices=["new", "check"], help="new: print a template with "
-                   "every field; check: validate a file and say which model would run it")
+    p = sub.add_parser("scene", help="scene files: a commented template, a check, the "
+                                     "schema table")
+    p.add_argument("action", choices=["new", "check", "schema"], help="new: print a "
+                   "template with every field; check: validate a file and say which model "
+                   "would run it; schema: print the README's schema table (after a change "
+                   "to derive/shapes.py or the schema)")
     p.add_argument("file", nargs="?", help="check: the scene file")
-    p.add_argument("--shape", choices=["sphere", "ellipsoid", "none"], default="sphere",
+    p.add_argument("--shape", choices=[*shapes.SHAPE_NAMES, shapes.NONE], default="sphere",
                    help="new: the body's shape (default sphere)")
     p.set_defaults(func=cmd_scene)
 

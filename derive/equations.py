@@ -11,6 +11,7 @@ from typing import Callable
 import sympy as sp
 
 from . import notation as nt
+from . import shapes
 
 
 @dataclass(frozen=True)
@@ -157,8 +158,8 @@ def _e1_16() -> Derived:
 
 def _surface(kind: str) -> Callable[[], Derived]:
     def build() -> Derived:
-        from .surfaces import SHAPES
-        lp = SHAPES[kind]()
+        from .surfaces import lowest_point
+        lp = lowest_point(kind)
         return Derived(f"S.{kind}", f"lowest point S of a {kind} (not in the catalogue)",
                        _vec_rel(list(nt.OS), lp.point)
                        + _vec_rel(list(nt.OS_rate), lp.rate))
@@ -170,7 +171,7 @@ BUILDERS: dict[str, Callable[[], Derived]] = {
     "E1.6": _e1_6, "E1.7": _e1_7, "E1.8": _e1_8, "E1.8a": _e1_8a, "E1.9": _e1_9,
     "E1.10": _e1_10, "E1.11": _e1_11, "E1.12": _e1_12, "E1.13": _e1_13,
     "E1.14": _e1_14, "E1.15": _e1_15, "E1.16": _e1_16,
-    "S.sphere": _surface("sphere"), "S.ellipsoid": _surface("ellipsoid"),
+    **{f"S.{name}": _surface(name) for name in shapes.SHAPE_NAMES},
 }
 
 

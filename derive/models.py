@@ -29,7 +29,7 @@ from . import notation as nt
 from .impact import K_SYMBOL, V_N_MINUS, height, impact_map, lever
 from .kinematics import poisson_equations
 from .momentum import (MU_OP, flight_dynamics_euler, flight_dynamics_euler_scaled)
-from . import surfaces
+from . import shapes, surfaces
 
 
 @dataclass(frozen=True)
@@ -245,20 +245,25 @@ def gap(model: str) -> FunctionSpec:
         definitions=MASS_DEFINITIONS)
 
 
+def _size_input(shape: str) -> Vector:
+    """The size numbers a shape's functions read (derive.shapes): one field keeps its
+    name (``radius``, ``semi_axes``), several are ``size``."""
+    sh = shapes.of(shape)
+    labels = tuple(lb for s in sh.sizes for lb in s.names(s.labels))
+    name = sh.sizes[0].key if len(sh.sizes) == 1 else "size"
+    return Vector(name, surfaces.shape_symbols(sh), labels)
+
+
 @lru_cache(maxsize=None)
 def lowest_point(shape: str) -> FunctionSpec:
-    """``lowest_point_<shape>(n, center, radius|semi_axes) -> s``."""
-    lp = surfaces.SHAPES[shape]().point
+    """``lowest_point_<shape>(n, center, size) -> s`` (size: derive.shapes)."""
+    lp = surfaces.lowest_point(shape).point
     center = Vector("center", tuple(surfaces.center), ("c_x", "c_y", "c_z"))
-    if shape == "sphere":
-        size = Vector("radius", (surfaces.radius,), ("R",))
-    else:
-        size = Vector("semi_axes", tuple(surfaces.semi_axes), ("a", "b", "c"))
     return FunctionSpec(
         name=f"lowest_point_{shape}",
         doc=f"Lowest point S of a {shape} (centre anywhere in the body) for the vertical "
             "n, body axes.",
-        inputs=(Vector("n", tuple(nt.n), ("a31", "a32", "a33")), center, size),
+        inputs=(Vector("n", tuple(nt.n), ("a31", "a32", "a33")), center, _size_input(shape)),
         outputs=(Vector("s", tuple(lp), S_LABELS),))
 
 
@@ -298,9 +303,9 @@ def contact_rhs(model: str) -> FunctionSpec:
 
 @lru_cache(maxsize=None)
 def lowest_point_rate(shape: str) -> FunctionSpec:
-    """``lowest_point_rate_<shape>(n, omega, radius|semi_axes) -> sdot`` (the centre
+    """``lowest_point_rate_<shape>(n, omega, size) -> sdot`` (the centre
     does not move in the body, so it does not enter)."""
-    rate = surfaces.SHAPES[shape]().rate
+    rate = surfaces.lowest_point(shape).rate
     base = lowest_point(shape)
     n_vec, _, size = base.inputs
     return FunctionSpec(
@@ -471,8 +476,8 @@ def all_specs() -> list[FunctionSpec]:
     specs += [impact(mdl) for mdl in ("general", "vertical")]
     specs += [gap(mdl) for mdl in ("general", "vertical")]
     specs += [contact_rhs(mdl) for mdl in ("general", "vertical")]
-    specs += [lowest_point(shape) for shape in ("sphere", "ellipsoid")]
-    specs += [lowest_point_rate(shape) for shape in ("sphere", "ellipsoid")]
+    specs += [lowest_point(shape) for shape in shapes.SHAPE_NAMES]
+    specs += [lowest_point_rate(shape) for shape in shapes.SHAPE_NAMES]
     specs += momentum_specs()
     return specs
 

@@ -1,25 +1,64 @@
 """The lowest point S of the carrier's surface as a function of the vertical ``n``.
 
-The surface is an ellipsoid ``s = c + D u``, ``|u| = 1``, with ``D = diag(a, b, c)``
-(semi-axes along the body axes) and centre ``c`` anywhere in the body; a sphere is the
-case ``a = b = c = radius``.  S minimises the height ``(n, s)`` over the surface; the
-stationary points of the Lagrangian ``(n, c + D u) - lambda (|u|^2 - 1)`` are found here
-and the lower one is kept.  Its rate ``ds/dt = (ds/dn) dn/dt`` is what persistent contact
-needs.
+Every surface is the convex shape of :mod:`derive.shapes`, written there once as its
+support map; here SymPy evaluates it: ``OS = c + support(-n)`` (the point of the surface
+farthest along ``-n``, ``c`` the shape's centre in body axes), and its rate
+``d(OS)/dt = (d OS/d n) dn/dt`` along Poisson's equations, which persistent contact
+needs.  A kink of the support map (a capsule's ``sign``) is differentiated away from it
+(:class:`sign`: no DiracDelta), where S lies on one face.
+
+The ellipsoid's S is checked in the tests against the stationary points of the
+Lagrangian ``(n, c + D u) - lambda (|u|^2 - 1)`` (the form this module derived before
+shapes were written as support maps).
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
 from functools import lru_cache
+from types import SimpleNamespace
 
 import sympy as sp
 
-from .notation import n as n_body
+from . import shapes
 from .kinematics import poisson_equations
+from .notation import n as n_body
+
+class sign(sp.sign):  # noqa: N801 (named as SymPy's, so that every printer prints it so)
+    """SymPy's ``sign`` with derivative zero: a support map's kink (a capsule's jump from
+    one end to the other) is differentiated away from it, where S lies on one face, and
+    no DiracDelta reaches the emitted code.  Every printer finds it by its name, and the
+    CasADi translation by its base."""
+
+    def _eval_derivative(self, x):
+        return sp.S.Zero
+
+
+class Abs(sp.Abs):
+    """SymPy's ``Abs`` whose derivative is the :class:`sign` above (no DiracDelta in a
+    derivative of any order)."""
+
+    def _eval_derivative(self, x):
+        arg = self.args[0]
+        return sign(arg) * sp.diff(arg, x)
+
+
+SYMPY = SimpleNamespace(sqrt=sp.sqrt, abs=Abs, sign=sign)
 
 center = sp.Matrix(sp.symbols("c_x c_y c_z", real=True))
-semi_axes = sp.Matrix(sp.symbols("s_a s_b s_c", positive=True))
-radius = sp.Symbol("R", positive=True)
+
+
+def size_symbols(size: shapes.Size) -> tuple:
+    """The derivation's symbols of one size field (positive numbers)."""
+    return tuple(sp.Symbol(name, positive=True) for name in size.names(size.symbols))
+
+
+def shape_symbols(shape: shapes.Shape) -> tuple:
+    return tuple(s for size in shape.sizes for s in size_symbols(size))
+
+
+# the sizes the paper's shapes read (derive.equations names them)
+radius = size_symbols(shapes.RADIUS)[0]
+semi_axes = sp.Matrix(size_symbols(shapes.SEMI_AXES))
 
 
 @dataclass(frozen=True)
@@ -28,46 +67,22 @@ class LowestPoint:
     rate: sp.Matrix     # d(OS)/dt along Poisson's equations (in terms of n and omega)
 
 
-def _lowest_point(n: sp.Matrix, c: sp.Matrix, axes: sp.Matrix) -> sp.Matrix:
-    u = sp.Matrix(sp.symbols("u_1:4", real=True))
-    lam = sp.Symbol("lambda", real=True)
-    D = sp.diag(*axes)
-    lagrangian = (n.T * (c + D * u))[0] - lam * ((u.T * u)[0] - 1)
-    equations = [sp.diff(lagrangian, v) for v in (*u, lam)]
-    candidates = sp.solve(equations, [*u, lam], dict=True)
-    if len(candidates) != 2:
-        raise AssertionError(f"expected two stationary points, found {len(candidates)}")
-    points = [c + D * sp.Matrix([sol[v] for v in u]) for sol in candidates]
-    # the lower of the two, decided at a sample direction (the sign does not depend on n)
-    sample = {n[0]: sp.Rational(1, 3), n[1]: sp.Rational(-2, 3), n[2]: sp.Rational(2, 3),
-              **{v: 1 for v in axes}, **{v: 0 for v in c}}
-    heights = [sp.nsimplify((n.T * p)[0].xreplace(sample)) for p in points]
-    lower = points[0] if heights[0] < heights[1] else points[1]
-    return lower.applyfunc(sp.simplify)
-
-
-def _with_rate(point: sp.Matrix, simplify: bool = False) -> LowestPoint:
+@lru_cache(maxsize=None)
+def lowest_point(name: str) -> LowestPoint:
+    """S of the registered shape ``name`` and its rate."""
+    shape = shapes.of(name)
+    d = tuple(-v for v in n_body)
+    point = center + sp.Matrix(shape.support(d, shape_symbols(shape), SYMPY))
     ndot = poisson_equations()[2, :].T
     rate = point.jacobian(n_body) * ndot
     # for a sphere, (n, n') = 0 collapses the rate to -R n'/|n| (simplify finds it)
-    rate = rate.applyfunc(sp.simplify if simplify else sp.factor_terms)
+    rate = rate.applyfunc(sp.simplify if shape.simplify_rate else sp.factor_terms)
     return LowestPoint(point=point, rate=rate)
 
 
-@lru_cache(maxsize=None)
-def ellipsoid() -> LowestPoint:
-    return _with_rate(_lowest_point(n_body, center, semi_axes))
-
-
-@lru_cache(maxsize=None)
 def sphere() -> LowestPoint:
-    """The ellipsoid with equal semi-axes: ``c - R n/|n|`` (``|n| = 1`` exactly, but
-    keeping the norm makes S insensitive to round-off drift of the direction cosines)."""
-    point = ellipsoid().point.xreplace({v: radius for v in semi_axes})
-    # sqrt(R^2 (n, n)) = R |n| for R > 0: factor the radicand so SymPy sees it
-    point = point.replace(lambda e: e.is_Pow and e.exp.is_Rational and e.exp.q == 2,
-                          lambda e: sp.Pow(sp.factor(e.base), e.exp))
-    return _with_rate(point, simplify=True)
+    return lowest_point("sphere")
 
 
-SHAPES = {"sphere": sphere, "ellipsoid": ellipsoid}
+def ellipsoid() -> LowestPoint:
+    return lowest_point("ellipsoid")

@@ -24,7 +24,7 @@ import numpy as np
 import pytest
 
 from derive.paths import GENERATED
-from derive import abi
+from derive import abi, shapes
 from derive.runtime.build import DP, IP, library
 from derive.runtime.driver import Session, prepare
 from derive.scene import SceneError
@@ -334,6 +334,19 @@ def test_each_nonfinite_parameter_is_named(value):
         prm[k] = value
         assert r.init(prm=prm) == S["bad_parameters"], name
         assert (r.c.crt_bad_parameter(r.s), r.c.crt_bad_option(r.s)) == (k, -1), name
+
+
+@pytest.mark.parametrize("code", [-1.0, 0.5, float(len(shapes.SHAPES)), 1e9])
+def test_a_shape_code_that_names_no_surface_is_a_bad_parameter(code):
+    r = Raw(_scene())
+    assert r.set_law() == S["ok"]
+    prm = np.array(r.prep.parameters)
+    prm[abi.PRM["shape"]] = code
+    assert r.init(prm=prm) == S["bad_parameters"]
+    assert r.c.crt_bad_parameter(r.s) == abi.PRM["shape"]
+    for ok in range(len(shapes.SHAPES)):              # every registered code is taken
+        prm[abi.PRM["shape"]] = float(ok)
+        assert r.init(prm=prm) == S["ok"]
 
 
 def test_a_nonfinite_initial_state_is_nonfinite():

@@ -142,7 +142,7 @@ class Scipy:
         self.max_impacts = max_impacts
         self.label = f"scipy {method}" + (" (C RHS)" if rhs == "c" else "")
         s = self.scene
-        shape = "sphere" if s.shape == "sphere" else "ellipsoid"
+        shape = s.shape
         if rhs == "c":
             from ..clib import load_generated
             funcs = load_generated()
@@ -151,7 +151,7 @@ class Scipy:
         else:
             fns = Functions(compile_spec(flight_rhs("general")), compile_spec(gap("general")),
                             compile_spec(impact("general")), compile_spec(lowest_point(shape)))
-        self.size = [s.size[0]] if s.shape == "sphere" else list(s.size)
+        self.size = list(s.size)
         self.law = s.law.jets
         self.grid = grid_of(s, dt)
         self.hybrid = Hybrid(fns, self.u, s.p, contact=s.contact_possible, e=s.e,
@@ -191,9 +191,9 @@ class Casadi:
         rhs = build_function(flight_rhs("general"))
         self.gap_f = build_function(gap("general"))
         self.imp_f = build_function(impact("general"))
-        shape = "sphere" if s.shape == "sphere" else "ellipsoid"
+        shape = s.shape
         self.lp_f = build_function(lowest_point(shape))
-        self.size = [s.size[0]] if s.shape == "sphere" else list(s.size)
+        self.size = list(s.size)
         x = ca.SX.sym("x", 18)
         prm = ca.SX.sym("prm", 2)                       # segment start and length
         tau = ca.SX.sym("tau")

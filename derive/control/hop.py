@@ -35,7 +35,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from .. import layout
+from .. import layout, shapes
 from ..runtime.driver import Session, options, prepare
 from ..runtime.loop import STOP, CController, Loop, Segments, hermite
 from ..scene import Scene, SceneError
@@ -392,7 +392,8 @@ class MirrorLaw:
         if kappa0 is None:
             kappa0 = (1.0 - scene.e) / (1.0 + scene.e)
         self.nu = scene.m / (scene.m + scene.M)
-        self.R = scene.size[0] - scene.center[2]   # O above S for the axis vertical
+        self.R = -shapes.of(scene.shape).lowest((0.0, 0.0, 1.0), scene.center,
+                                                scene.size)[2]   # O above S, axis vertical
         self.g, self.period = scene.g, period
         self.E_star = scene.g * apex
         self.kappa0, self.kappa1, self.layout = kappa0, kappa1, layout_

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import layout
+from .. import layout, shapes
 
 
 def chart(closed, path) -> Path:
@@ -51,7 +51,8 @@ def chart(closed, path) -> Path:
         ax.legend(fontsize=8)
     else:
         ax = axes[0]
-        R = res.scene.size[0] if res.scene.size else 0.0
+        R = -shapes.of(res.scene.shape).lowest((0.0, 0.0, 1.0), res.scene.center,
+                                               res.scene.size)[2] if res.scene.size else 0.0
         Z = res.general[:, layout.GENERAL.Z] if res.general is not None else \
             res.model_q[:, layout.of(res.model).Z]
         tops = [(b, Z[(res.t > a) & (res.t < b)].max() - R) for a, b in zip(imp[:-1], imp[1:])]

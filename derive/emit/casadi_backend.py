@@ -16,7 +16,8 @@ from .linalg import SOLVERS, solve_values, solver_for
 
 _FUNCTIONS = {sp.sin: ca.sin, sp.cos: ca.cos, sp.tan: ca.tan, sp.exp: ca.exp,
               sp.log: ca.log, sp.sinh: ca.sinh, sp.cosh: ca.cosh, sp.tanh: ca.tanh,
-              sp.asin: ca.asin, sp.acos: ca.acos, sp.atan: ca.atan, sp.Abs: ca.fabs}
+              sp.asin: ca.asin, sp.acos: ca.acos, sp.atan: ca.atan, sp.Abs: ca.fabs,
+              sp.sign: ca.sign}
 
 
 class Translator:
@@ -65,9 +66,10 @@ class Translator:
             if exp == sp.Rational(-1, 2):
                 return 1 / ca.sqrt(base)
             return base ** self(exp)
-        fn = _FUNCTIONS.get(expr.func)
-        if fn is not None:
-            return fn(*[self(a) for a in expr.args])
+        for cls in type(expr).__mro__:            # (derive.surfaces' sign is SymPy's)
+            fn = _FUNCTIONS.get(cls)
+            if fn is not None:
+                return fn(*[self(a) for a in expr.args])
         raise NotImplementedError(f"no CasADi translation for {expr.func}")
 
 

@@ -30,7 +30,7 @@ from functools import lru_cache
 
 from .. import friction_models
 from .. import models as dm
-from .. import abi, layout
+from .. import abi, layout, shapes
 from ..runtime import tableaus as T
 from . import sincos
 from .c_backend import body
@@ -67,30 +67,31 @@ class RuntimeModel:
         return self.kind in ("general", "vertical", "attitude")
 
     def specs(self) -> list:
-        contact = ["lowest_point_ellipsoid", "lowest_point_rate_ellipsoid"]
+        # S and its rate for every shape of derive/shapes.py (model_shape picks one by
+        # prm[CRT_P_shape])
+        surface = [f(name) for name in shapes.SHAPE_NAMES
+                   for f in (dm.lowest_point, dm.lowest_point_rate)]
         momentum = [dm.lie_stage(), dm.lie_point(), dm.fixed_kinetic_moment(), dm.exp_map()]
         if self.kind in ("general", "vertical"):
             # the general model applies the closed loop's pushes: an impulse at a body
             # point (derive/friction_models.py's impulse map at S, with S that point)
             push = [friction_models.apply_impulse()] if self.kind == "general" else []
             return [dm.flight_rhs(self.kind), dm.gap(self.kind), dm.impact(self.kind),
-                    dm.runtime_contact(self.kind), dm.lowest_point("ellipsoid"),
-                    dm.lowest_point_rate("ellipsoid"), *momentum, dm.flight_parabola(),
-                    *push]
+                    dm.runtime_contact(self.kind), *surface, *momentum,
+                    dm.flight_parabola(), *push]
         if self.kind == "attitude":
             return [dm.flight_rhs("attitude"), *momentum]
         if self.kind == "translational":
             return [dm.gap("vertical"), dm.impact("vertical"), dm.runtime_contact("vertical"),
-                    dm.lowest_point("ellipsoid"), dm.lowest_point_rate("ellipsoid")]
+                    *surface]
         if self.kind == "planar":
             return [dm.gap("vertical"), dm.impact("vertical"), dm.runtime_contact("vertical"),
-                    *dm.planar_functions(), dm.lowest_point("ellipsoid"),
-                    dm.lowest_point_rate("ellipsoid")]
+                    *dm.planar_functions(), *surface]
         if self.kind == "axisymmetric":
             return [dm.axisymmetric_rates()]
         if self.kind == "variational":
             return [dm.flight_rhs("vertical"), dm.flight_jacobian("vertical")]
-        raise ValueError(contact)
+        raise ValueError(self.kind)
 
 
 MODELS = (
@@ -175,7 +176,10 @@ def render_model(m: RuntimeModel) -> str:
                                 if m.kind in ("translational", "planar", "variational")
                                 else []),
            "z_index": m.z_index, "zd_index": m.zd_index, "normalize": m.normalize,
-           "summary": m.summary, "functions": functions, "lie": m.lie}
+           "summary": m.summary, "functions": functions, "lie": m.lie,
+           # each shape's size as its functions read it (one number by value)
+           "shapes": [(name, "p[CRT_P_size_a]" if shapes.of(name).size_count == 1
+                       else "p + CRT_P_size_a") for name in shapes.SHAPE_NAMES]}
     return env.get_template("runtime/model.c.jinja").render(**ctx)
 
 

@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 from scipy.interpolate import CubicSpline
 
-from .. import layout
+from .. import layout, shapes
 from ..scene import toml
 from . import cemit
 from .goals import goal_of
@@ -92,11 +92,8 @@ def scene_document(task: Task, law: Law, initial: dict, duration: float) -> dict
     strings from the whitelists are written (the task's name is not copied)."""
     sc = task.scene
     body = {"mass": sc.M, "inertia": list(sc.J), "shape": sc.shape}
-    if sc.shape == "sphere":
-        body["radius"] = sc.size[0]
-    elif sc.shape == "ellipsoid":
-        body["semi_axes"] = list(sc.size)
-    if sc.shape != "none":
+    if sc.shape != shapes.NONE:
+        body.update(shapes.fields_of(shapes.of(sc.shape), sc.size))
         body["center"] = list(sc.center)
     doc = {"name": f"planned-{task.goal}", "body": body,
            "point": {"mass": sc.m, "table": "law.csv", "ends": law.ends}}

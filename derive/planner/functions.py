@@ -12,6 +12,7 @@ import casadi as ca
 import numpy as np
 
 from .. import models as dm
+from .. import shapes
 from ..emit.casadi_backend import build_function
 from ..emit.render import GENERATED
 
@@ -24,8 +25,8 @@ SPECS = {
     "general_gap": lambda: dm.gap("general"),
     "vertical_gap": lambda: dm.gap("vertical"),
     "general_kinetic_moment": lambda: dm.kinetic_moment("general"),
-    "lowest_point_sphere": lambda: dm.lowest_point("sphere"),
-    "lowest_point_ellipsoid": lambda: dm.lowest_point("ellipsoid"),
+    **{f"lowest_point_{name}": (lambda name=name: dm.lowest_point(name))
+       for name in shapes.SHAPE_NAMES},
 }
 
 

@@ -165,7 +165,7 @@ class Land(Goal):
             CS, _ = load("lever")(tr.layout.full(qN), uN, tr.s_of(qN), ca.DM(tr.p))
             A = tr.layout.A_of(qN)
             add("d = CS x n = 0 at touchdown (CS vertical)", ca.mtimes(A[0:2, :], CS)
-                / task.scene.size[0], 0, 0, "at_touchdown")
+                / task.scene.body_size, 0, 0, "at_touchdown")
 
     def guess(self, tr) -> np.ndarray:
         return land_guess(tr)

@@ -69,7 +69,7 @@ def write_gif(result, mo: Motion, path: Path) -> Path:
     st = interpolate(mo, s, times)
     view = drawing.view_for(mo.r_C)
     xlim, ylim, _ = drawing.scene_extent(s, mo)
-    D, real = drawing.body_semi_axes(s)
+    _, _, real = drawing.body_surface(s)
 
     fig = Figure(figsize=SIZE, dpi=DPI)
     canvas = FigureCanvasAgg(fig)

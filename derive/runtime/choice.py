@@ -21,7 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .. import abi, layout
+from .. import abi, layout, shapes
 from .geometry import kinetic_moment, lowest_point_numeric, momentum_frame, rotation_x, rotation_z
 from ..scene import Scene, SceneError
 
@@ -111,7 +111,7 @@ def length_scale(scene: Scene) -> float:
     """The largest |CS| = |OS - nu OP|: the surface's reach from O plus the point's."""
     if not scene.size:
         return 0.0
-    reach = math.hypot(*scene.center) + max(scene.size)
+    reach = math.hypot(*scene.center) + shapes.of(scene.shape).reach(scene.size)
     return reach + scene.nu * scene.law_summary.max_radius
 
 
@@ -147,7 +147,7 @@ def start(scene: Scene, kind: str) -> Start:
 
 _P = abi.PRM
 _P_BODY = (_P["M"], _P["m"], _P["J_x"], _P["J_y"], _P["J_z"], _P["g"], _P["e"])
-_P_SHAPE = (_P["axis_a"], _P["axis_b"], _P["axis_c"], _P["center_x"], _P["center_y"],
+_P_SHAPE = (_P["size_a"], _P["size_b"], _P["size_c"], _P["center_x"], _P["center_y"],
             _P["center_z"])
 
 
@@ -157,9 +157,9 @@ def parameters(scene: Scene, constants: dict) -> np.ndarray:
     prm = [0.0] * len(abi.PARAMETERS)
     for k, x in zip(_P_BODY, (scene.M, scene.m, *scene.J, scene.g, scene.e)):
         prm[k] = x
-    if scene.size:
-        axes = (scene.size[0],) * 3 if scene.shape == "sphere" else scene.size
-        for k, x in zip(_P_SHAPE, (*axes, *scene.center)):
+    if scene.size:                     # (the sizes in their slots, then the centre)
+        prm[_P["shape"]] = float(shapes.SHAPE_NAMES.index(scene.shape))
+        for k, x in zip(_P_SHAPE, (*scene.size, 0.0, 0.0, 0.0)[:3] + tuple(scene.center)):
             prm[k] = x
     for name, value in constants.items():
         if not name.startswith("_"):

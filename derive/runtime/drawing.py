@@ -2,14 +2,16 @@
 principal sections as seen in it, its shadow on the plane, and the plane itself.
 
 Everything is projected here with NumPy into screen coordinates, so matplotlib draws
-plain 2-D lines and polygons (fast, and the body keeps its true shape: the outline of an
-ellipsoid is computed, not sampled from a mesh).
+plain 2-D lines and polygons (fast, and the body keeps its true shape: its outline is
+made of the surface's support points, not sampled from a mesh).
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
 
 import numpy as np
+
+from .. import shapes
 
 AXIS_COLOURS = ("#d62728", "#2ca02c", "#1f77b4")      # body x, y, z
 PLANE_COLOUR = "#dfe7ef"
@@ -42,18 +44,23 @@ def drawn_rows(t: np.ndarray, *series: np.ndarray, bins: int = DRAWN_BINS) -> np
     return np.unique(np.concatenate(keep))
 
 
-def body_semi_axes(scene) -> tuple[np.ndarray, bool]:
-    """Semi-axes of the surface along the body axes, and whether the shape is real; a body
-    without a shape is drawn as its equivalent ellipsoid of inertia (the uniform solid
-    ellipsoid of mass M with the moments J: a_x^2 = 5 (J_y + J_z - J_x) / (2 M), ...)."""
-    if scene.shape == "sphere":
-        return np.full(3, scene.size[0]), True
-    if scene.shape == "ellipsoid":
-        return np.asarray(scene.size, dtype=float), True
+def body_surface(scene) -> tuple:
+    """The surface drawn for the body: (its Shape of derive/shapes.py, its size numbers,
+    whether the shape is real).  A body without a shape is drawn as its equivalent
+    ellipsoid of inertia (the uniform solid ellipsoid of mass M with the moments J:
+    a_x^2 = 5 (J_y + J_z - J_x) / (2 M), ...)."""
+    if scene.shape in shapes.SHAPES:
+        return shapes.of(scene.shape), tuple(scene.size), True
     Jx, Jy, Jz = scene.J
     sq = 2.5 / scene.M * np.array([Jy + Jz - Jx, Jx + Jz - Jy, Jx + Jy - Jz])
     axes = np.sqrt(np.maximum(sq, 0.0))
-    return np.maximum(axes, 0.02 * axes.max()), False
+    return shapes.of("ellipsoid"), tuple(np.maximum(axes, 0.02 * axes.max())), False
+
+
+def body_reach(scene) -> float:
+    """The largest distance of the drawn surface from its centre."""
+    shape, size, _ = body_surface(scene)
+    return float(shape.reach(size))
 
 
 @dataclass
@@ -97,44 +104,39 @@ _CIRCLE = np.linspace(0.0, 2.0 * np.pi, 73)
 _UNIT = np.column_stack([np.cos(_CIRCLE), np.sin(_CIRCLE)])
 
 
-def ellipse_outline(view: View, centre: np.ndarray, shape: np.ndarray) -> np.ndarray:
-    """Screen outline of the ellipsoid {centre + L u : |u| <= 1}, ``shape = L L^T``."""
-    P = view.P
-    S2 = P @ shape @ P.T
-    L = np.linalg.cholesky(S2 + 1e-300 * np.eye(2))
-    return view(centre)[None, :] + _UNIT @ L.T
-
-
 def body_pictures(view: View, scene, r_O: np.ndarray, A: np.ndarray) -> dict:
     """Screen coordinates of the body at one pose: ``outline`` (closed), ``shadow`` on the
     plane Z = 0 (closed), the three principal sections split into their ``front`` and
     ``back`` halves (NaN-separated), the ``axes`` (3 segments O -> beyond the surface),
-    and the ``centre`` of the shape."""
-    D, _ = body_semi_axes(scene)
+    and the ``centre`` of the shape.  Every curve is made of support points (the shape's
+    points farthest along a direction, derive/shapes.py): the outline of directions in the
+    screen plane (an orthographic view's silhouette), the shadow of horizontal ones, a
+    principal section of directions in the body plane of two axes (seen where that
+    direction, the surface's normal there, faces the viewer)."""
+    shape, size, _ = body_surface(scene)
     c = r_O + A @ np.asarray(scene.center, dtype=float)
-    shape = A @ np.diag(D ** 2) @ A.T
-    out = {"centre": view(c), "outline": ellipse_outline(view, c, shape)}
-    # shadow: the vertical projection of the ellipsoid onto Z = 0 (a flat ellipse)
-    L2 = np.linalg.cholesky(shape[:2, :2] + 1e-300 * np.eye(2))
-    ring = np.column_stack([c[0] + _UNIT @ L2[0], c[1] + _UNIT @ L2[1], np.zeros(len(_UNIT))])
+
+    def surface(d_fixed):                     # support points (fixed axes) of directions
+        return c + shape.support_rows(d_fixed @ A, size) @ A.T
+
+    out = {"centre": view(c), "outline": view(surface(_UNIT @ view.P))}
+    horizontal = np.column_stack([_UNIT, np.zeros(len(_UNIT))])
+    ring = surface(horizontal)
+    ring[:, 2] = 0.0
     out["shadow"] = view(ring)
-    # principal sections: c + A D (cos e_i + sin e_j); visible where the outward normal
-    # D^-2 (body point) faces the viewer
     towards_body = A.T @ view.towards
     front, back = [], []
     for i, j in ((1, 2), (2, 0), (0, 1)):
         u = np.zeros((len(_CIRCLE), 3))
         u[:, i], u[:, j] = _UNIT[:, 0], _UNIT[:, 1]
-        body = u * D
-        normal = u / D
-        screen = view(c + body @ A.T)
-        seen = normal @ towards_body >= 0.0
+        screen = view(c + shape.support_rows(u, size) @ A.T)
+        seen = u @ towards_body >= 0.0
         f, b = screen.copy(), screen.copy()
         f[~seen], b[seen] = np.nan, np.nan
         front.append(np.vstack([f, [np.nan, np.nan]]))
         back.append(np.vstack([b, [np.nan, np.nan]]))
     out["front"], out["back"] = np.vstack(front), np.vstack(back)
-    tips = r_O + (1.3 * D.max() * A).T          # rows: the three axis ends
+    tips = r_O + (1.3 * shape.reach(size) * A).T          # rows: the three axis ends
     out["axes"] = np.stack([np.vstack([view(r_O), view(tip)]) for tip in tips])
     out["axis_depth"] = (tips - r_O) @ view.towards
     return out
@@ -164,17 +166,14 @@ def plane_pictures(view: View, xlim: tuple, ylim: tuple) -> tuple[np.ndarray, li
 
 def lowest_points(scene, r_O: np.ndarray, A: np.ndarray) -> np.ndarray:
     """Positions (fixed axes) of the lowest point S for poses along rows."""
-    D, _ = body_semi_axes(scene)
-    n = A[:, 2, :]                                   # the vertical in body axes
-    D2n = D ** 2 * n
-    s = np.asarray(scene.center) - D2n / np.sqrt(np.einsum("ij,ij->i", n, D2n))[:, None]
+    shape, size, _ = body_surface(scene)
+    s = shape.lowest_rows(A[:, 2, :], scene.center, size)     # n: the vertical, body axes
     return r_O + np.einsum("nij,nj->ni", A, s)
 
 
 def scene_extent(scene, mo) -> tuple[tuple, tuple, float]:
     """The plane's rectangle (x, y limits) around the motion, and the body's reach."""
-    D, _ = body_semi_axes(scene)
-    reach = float(np.linalg.norm(scene.center)) + float(D.max()) * 1.3
+    reach = float(np.linalg.norm(scene.center)) + body_reach(scene) * 1.3
     pts = np.vstack([mo.r_O, mo.r_P])
     lo, hi = pts[:, :2].min(axis=0) - reach, pts[:, :2].max(axis=0) + reach
     span = max(hi - lo)

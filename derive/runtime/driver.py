@@ -274,6 +274,15 @@ class Session:
                                           ctypes.byref(a))
         return dq, N.value, a.value
 
+    def gap(self, t: float, q) -> tuple[float, float]:
+        """(h, v_n): the height of S above the plane and its rate at (t, q) (after
+        ``init``)."""
+        q = np.ascontiguousarray(q, dtype=float)
+        h, v_n = ctypes.c_double(0.0), ctypes.c_double(0.0)
+        self.library.lib.crt_eval_gap(self.handle, float(t), q.ctypes.data_as(DP),
+                                      ctypes.byref(h), ctypes.byref(v_n))
+        return h.value, v_n.value
+
     def contact_rows(self, t, Q) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(dq/dt, N, a_free) of persistent contact along rows, in one call into C (after
         ``init``)."""

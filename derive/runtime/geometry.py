@@ -3,17 +3,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from .. import layout
+from .. import layout, shapes
 
 
 def lowest_point_numeric(scene, n) -> np.ndarray:
-    """OS for the vertical ``n`` (body axes): the ellipsoid's support point, a sphere
-    being the equal-axes case (the same formula as derive.surfaces)."""
-    n = np.asarray(n, dtype=float)
-    c = np.asarray(scene.center, dtype=float)
-    axes = np.full(3, scene.size[0]) if scene.shape == "sphere" else np.asarray(scene.size)
-    D2n = axes ** 2 * n
-    return c - D2n / np.sqrt(n @ D2n)
+    """OS for the vertical ``n`` (body axes; rows or one): the support point of ``-n`` on
+    the scene's shape (derive/shapes.py, the map derive.surfaces derives from)."""
+    return shapes.of(scene.shape).lowest_rows(n, scene.center, scene.size)
 
 
 def rotation_z(angle):
@@ -67,9 +63,6 @@ def kinetic_moment(scene, omega, jets) -> np.ndarray:
 def heights(scene, t, Z, n) -> np.ndarray:
     """Height of the lowest point S above the plane along rows (Z_C and the vertical n in
     body axes given per row)."""
-    c = np.asarray(scene.center, dtype=float)
-    axes = np.full(3, scene.size[0]) if scene.shape == "sphere" else np.asarray(scene.size)
-    D2n = axes ** 2 * n
-    s = c - D2n / np.sqrt(np.einsum("ij,ij->i", n, D2n))[:, None]
+    s = lowest_point_numeric(scene, n)
     r = scene.law.jets(t)[list(layout.JET_R)].T
     return Z + np.einsum("ij,ij->i", n, s - scene.nu * r)

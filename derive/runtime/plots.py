@@ -157,7 +157,7 @@ def motion_panel(ax, result, mo: Motion) -> None:
     s = result.scene
     view = drawing.view_for(mo.r_C)
     xlim, ylim, _ = drawing.scene_extent(s, mo)
-    D, real = drawing.body_semi_axes(s)
+    _, _, real = drawing.body_surface(s)
     labels = []
     if s.plane:
         poly, grid = drawing.plane_pictures(view, xlim, ylim)
@@ -178,7 +178,7 @@ def motion_panel(ax, result, mo: Motion) -> None:
     # side) so that the times can be placed by their size in the panel's own units
     cand = np.unique(np.searchsorted(mo.t, np.linspace(mo.t[0], mo.t[-1], 60))
                      .clip(0, len(mo.t) - 1))
-    R = float(D.max())         # the outline lies within R of the shape's centre
+    R = drawing.body_reach(s)  # the outline lies within R of the shape's centre
     centres = view(mo.r_O[cand] + mo.A[cand] @ np.asarray(s.center, dtype=float))
     bodies = np.hstack([centres - R, centres + R])
     O = view(mo.r_O[cand])     # the axes reach 1.3 R from O (drawing.body_pictures)

@@ -2,6 +2,7 @@
 equal to them), the commented template of ``derive scene new`` and the built-in scene."""
 from __future__ import annotations
 
+from .. import shapes
 from . import rules
 from . import toml
 from .schema import (CONTROL_FIELDS, DISTURBANCE_FIELDS, PLAN_FIELDS, REQUIRED, SCENE_FIELDS,
@@ -48,10 +49,11 @@ def template(shape: str = "sphere") -> str:
     lines = ["# A scene for `derive simulate` (every key; defaults where not required).",
              "# Schema: README.md, section 'Scene schema'."]
     table = None
-    skip = {"sphere": {"semi_axes"}, "ellipsoid": {"radius"}, "none": {"radius", "semi_axes"}}
+    mine = {s.key for s in shapes.of(shape).sizes} if shape in shapes.SHAPES else set()
+    skip = {size.key for size, _ in shapes.size_fields()} - mine   # others' sizes
     for f in SCENE_FIELDS:
         if f.table in ("stability", "control", "disturbance") or \
-                f.key in skip.get(shape, set()):
+                (f.table == "body" and f.key in skip):
             continue
         if f.table != table:
             table = f.table

@@ -22,11 +22,12 @@ from typing import Any, Callable
 
 import numpy as np
 
-from .. import layout
+from .. import layout, shapes
 
 from . import law as lawmod
 from . import table as tablemod
 from .errors import SceneError
+from .scene import body_size
 from .law import CoordinateError, LawError, LawSummary
 from .schema import FIELDS, MAX_ROWS, MIN_DURATION, REQUIRED, as_rotation
 
@@ -79,9 +80,8 @@ class Draft:
 
     @property
     def body_size(self) -> float:
-        if self.size:
-            return float(max(self.size))
-        return math.sqrt(max(self.v["[body].inertia"]) / self.v["[body].mass"])
+        return body_size(self.v["[body].shape"], self.size, self.v["[body].inertia"],
+                         self.v["[body].mass"])
 
 
 @dataclass(frozen=True)
@@ -126,26 +126,21 @@ def _inertia(d: Draft) -> None:
 
 def _shape(d: Draft) -> None:
     v = d.v
-    shape = v["[body].shape"]
-    if shape == "sphere":
-        if v["[body].semi_axes"] is not None:
-            raise SceneError("[body].semi_axes", "belongs to an ellipsoid; a sphere has radius")
-        if v["[body].radius"] is None:
-            raise SceneError("[body].radius", 'is required for shape = "sphere"')
-        size: tuple = (v["[body].radius"],)
-    elif shape == "ellipsoid":
-        if v["[body].radius"] is not None:
-            raise SceneError("[body].radius", "belongs to a sphere; an ellipsoid has semi_axes")
-        if v["[body].semi_axes"] is None:
-            raise SceneError("[body].semi_axes", 'is required for shape = "ellipsoid"')
-        size = v["[body].semi_axes"]
-    else:
-        for key in ("radius", "semi_axes"):
-            if v[f"[body].{key}"] is not None:
-                raise SceneError(f"[body].{key}", "a body of shape 'none' has no size")
-        size = ()
+    name = v["[body].shape"]
+    shape = shapes.SHAPES.get(name)
+    mine = {s.key for s in shape.sizes} if shape else set()
+    for size, names in shapes.size_fields():
+        if size.key in mine:
+            if v[f"[body].{size.key}"] is None:
+                raise SceneError(f"[body].{size.key}", f'is required for shape = "{name}"')
+        elif v[f"[body].{size.key}"] is not None:
+            has = (f"a {name} has " + ", ".join(s.key for s in shape.sizes)) if shape \
+                else "a body of shape 'none' has no size"
+            raise SceneError(f"[body].{size.key}",
+                             f"belongs to {' and '.join(names)}; {has}")
+    size = shapes.size_of(shape, {k: v[f"[body].{k}"] for k in mine}) if shape else ()
     center = v["[body].center"]
-    if size and math.sqrt(sum(c * c for c in center)) > 100 * max(size):
+    if size and math.sqrt(sum(c * c for c in center)) > 100 * shape.reach(size):
         raise SceneError("[body].center", "is more than 100 sizes away from O")
     d.size, d.center = size, center
 
@@ -299,8 +294,10 @@ STATIC_RULES = (
     Rule("", _required),
     Rule("[body].inertia: each moment at most the sum of the other two (a real mass "
          "distribution), the smallest at least 1e-9 of the largest", _inertia),
-    Rule("[body]: radius for a sphere, semi_axes for an ellipsoid, neither for none; the "
-         "centre within 100 sizes of O", _shape),
+    Rule("[body]: the size fields of its shape and no others (" + "; ".join(
+        f"{' and '.join(s.key for s in sh.sizes)} for {sh.name}"
+        for sh in shapes.SHAPES.values()) + "; nothing for none); the centre within 100 "
+         "sizes of O", _shape),
     Rule("[point]: exactly one of law, table, samples; ends only with a table or samples",
          _law_source, law=True),
     Rule("[run]: a duration that a step resolves and that is not lost in the start time; "
@@ -355,16 +352,11 @@ def point_position(law, t0: float) -> tuple:
 
 
 def start_height(shape: str, size: tuple, center: tuple, nu: float, A0, com, r) -> float:
-    """The height of S above the plane at the start: S = center - D^2 n / |D n| on the
-    ellipsoid (or sphere), n the vertical in body axes, C at ``com``, P at ``r``."""
-    n0, n1, n2 = A0[2].tolist()
-    a, b, c = (size[0],) * 3 if shape == "sphere" else size
-    d0, d1, d2 = a * a * n0, b * b * n1, c * c * n2          # D^2 n
-    root = math.sqrt(n0 * d0 + n1 * d1 + n2 * d2)
-    c0, c1, c2 = center
-    r0, r1, r2 = r
-    return com[2] + n0 * (c0 - d0 / root - nu * r0) + n1 * (c1 - d1 / root - nu * r1) \
-        + n2 * (c2 - d2 / root - nu * r2)
+    """The height of S above the plane at the start: S the support point of -n on the
+    shape (derive/shapes.py), n the vertical in body axes, C at ``com``, P at ``r``."""
+    n = A0[2].tolist()
+    s = shapes.of(shape).lowest(n, center, size)
+    return com[2] + sum(n[k] * (s[k] - nu * r[k]) for k in range(3))
 
 
 def _refuse_below(h: float, body_size: float) -> None:

@@ -9,7 +9,16 @@ from typing import Any
 
 import numpy as np
 
+from .. import shapes
 from .law import LawSummary
+
+
+def body_size(shape: str, size: tuple, J, M: float) -> float:
+    """The length a scene's tolerances and rules scale by: the shape's reach, or
+    sqrt(J_max/M) for a body with no shape."""
+    if size:
+        return float(shapes.of(shape).reach(size))
+    return math.sqrt(max(J) / M)
 
 
 @dataclass(frozen=True)
@@ -62,7 +71,7 @@ class Scene:
     M: float
     J: tuple                   # J_x, J_y, J_z
     shape: str                 # sphere | ellipsoid | none
-    size: tuple                # (radius,) or semi-axes
+    size: tuple                # the shape's size numbers (derive/shapes.py)
     center: tuple
     m: float
     law: Any                   # law.Program or table.TableLaw; None for a scene read
@@ -135,10 +144,9 @@ class Scene:
 
     @property
     def body_size(self) -> float:
-        """The shape's largest semi-axis, or sqrt(J_max/M) for a body with no shape."""
-        if self.size:
-            return float(max(self.size))
-        return math.sqrt(max(self.J) / self.M)
+        """The shape's reach (its farthest point from its centre: a sphere's radius, an
+        ellipsoid's largest semi-axis), or sqrt(J_max/M) for a body with no shape."""
+        return body_size(self.shape, self.size, self.J, self.M)
 
     def jets(self, ts) -> np.ndarray:
         """The point law at ``ts``: (9, N) x, x', x'', y, y', y'', z, z', z''."""

@@ -21,6 +21,7 @@ from typing import Any
 
 import numpy as np
 
+from .. import shapes
 from .errors import SceneError, type_name
 
 
@@ -90,11 +91,12 @@ SCENE_FIELDS = (
       "the carrier; each at most the sum of the other two", 0, MAX_MASS, True, size=3,
       example=[0.10, 0.12, 0.14]),
     F("body", "shape", "choice", REQUIRED, "the surface that meets the plane (none: no "
-      "contact possible)", choices=("sphere", "ellipsoid", "none"), example="sphere"),
-    F("body", "radius", "number", None, "sphere radius", 0, MAX_LENGTH, True,
-      example=0.5, when='shape = "sphere"'),
-    F("body", "semi_axes", "vector", None, "ellipsoid semi-axes along the body axes", 0,
-      MAX_LENGTH, True, size=3, example=[0.5, 0.4, 0.3], when='shape = "ellipsoid"'),
+      "contact possible)", choices=(*shapes.SHAPE_NAMES, shapes.NONE), example="sphere"),
+    *(F("body", size.key, "number" if size.count == 1 else "vector", None,
+        f"{', '.join(names)} {size.doc}", 0, MAX_LENGTH, True,
+        size=size.count if size.count > 1 else 0, example=size.example,
+        when="shape = " + " or ".join(f'"{n}"' for n in names))
+      for size, names in shapes.size_fields()),
     F("body", "center", "vector", [0.0, 0.0, 0.0], "centre of the shape in body axes",
       -MAX_LENGTH, MAX_LENGTH, size=3),
     F("point", "mass", "number", REQUIRED, "m, mass of the point", 0, MAX_MASS, True,

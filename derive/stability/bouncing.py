@@ -48,7 +48,7 @@ import casadi as ca
 import numpy as np
 import sympy as sp
 
-from .. import layout
+from .. import layout, shapes
 from .. import notation as nt
 from ..runtime.driver import Session, prepare
 from ..scene import Scene, SceneError, load_scene
@@ -215,19 +215,21 @@ def _unpack(x, t, hybrid: HybridMap) -> np.ndarray:
     return q
 
 
-@lru_cache(maxsize=1)
-def _generic() -> ca.Function:
+@lru_cache(maxsize=None)
+def _generic(shape: str) -> ca.Function:
     """The vertical model's gap, impact map and flight RHS as one CasADi function of
-    (q, u, p, e, centre, semi-axes) with their Jacobians in q and u, built from the
-    generated ``.casadi`` functions (the derivation, generic in every number)."""
+    (q, u, p, e, centre, size) with their Jacobians in q and u, built from the generated
+    ``.casadi`` functions (the derivation, generic in every number) for the surface
+    ``shape`` of derive/shapes.py."""
     from ..paths import GENERATED
 
     def load(name):
         return ca.Function.load(str(GENERATED / "casadi" / f"{name}.casadi"))
     gap, impact, rhs = load("vertical_gap"), load("vertical_impact"), load("vertical_flight_rhs")
-    lowest = load("lowest_point_ellipsoid")
+    lowest = load(f"lowest_point_{shape}")
     q, u, p = ca.SX.sym("q", V.nq), ca.SX.sym("u", 9), ca.SX.sym("p", 6)
-    e, c, ax = ca.SX.sym("e"), ca.SX.sym("c", 3), ca.SX.sym("ax", 3)
+    e, c = ca.SX.sym("e"), ca.SX.sym("c", 3)
+    ax = ca.SX.sym("size", shapes.of(shape).size_count)
     sv = lowest(q[V.n], c, ax)
     h = gap(q, u, sv, p)[0]
     q_plus = impact(q, u, sv, p, e)[0]
@@ -247,9 +249,8 @@ def _evaluate(hybrid: HybridMap, t: float, q) -> dict:
     """Gap, impact map, RHS and their derivatives in q and t at (t, q) for the scene."""
     sc = hybrid.scene
     u = sc.law.point(t)
-    axes = (sc.size[0],) * 3 if sc.shape == "sphere" else sc.size
-    out = _generic()(np.asarray(q, dtype=float), u, np.array(sc.p), sc.e,
-                     np.array(sc.center), np.array(axes))
+    out = _generic(sc.shape)(np.asarray(q, dtype=float), u, np.array(sc.p), sc.e,
+                             np.array(sc.center), np.array(sc.size))
     h, dh_q, dh_u, qp, dqp_q, dqp_u, f = (np.array(v.full()) for v in out)
     du_dt = np.r_[u[3:9], 0.0, 0.0, 0.0]        # (x', ..., z'', third derivatives unused)
     return {"h": float(h.ravel()[0]), "h_q": dh_q.ravel(), "h_t": float((dh_u @ du_dt).ravel()[0]),
@@ -292,6 +293,17 @@ def saltation_of_functions(fns: dict, t: float, q_minus) -> np.ndarray:
     return Dg + np.outer(f_plus - Dg @ f_minus - g_t.ravel(), grad_h) / denom
 
 
+def _about_z(scene: Scene) -> bool:
+    """The shape is symmetric about the body z axis: its support map turns with a turn
+    about z (checked on directions that no shape of a lesser symmetry passes)."""
+    shape = shapes.of(scene.shape)
+    d = np.random.default_rng(0).normal(size=(16, 3))
+    turn = np.array([[math.cos(0.7), -math.sin(0.7), 0.0], [math.sin(0.7), math.cos(0.7), 0.0],
+                     [0.0, 0.0, 1.0]])
+    S, S_turned = shape.support_rows(d, scene.size), shape.support_rows(d @ turn.T, scene.size)
+    return bool(np.allclose(S_turned, S @ turn.T, rtol=0, atol=1e-12 * scene.body_size))
+
+
 def reference5(scene: Scene) -> dict:
     """The amplitude a, frequency W and spin of a scene of reference [5], checked: J_x =
     J_y, x = y = 0, z = a sin(W t) (a, W > 0), a shape symmetric about Oz and centred on
@@ -312,8 +324,7 @@ def reference5(scene: Scene) -> dict:
     if not ok:
         raise SceneError("[point].law[2]", "must be a*sin(W*t) with numbers a, W > 0 "
                                            f"(got {scene.law_text[2]!r})")
-    if scene.center[0] or scene.center[1] or (scene.shape == "ellipsoid"
-                                              and scene.size[0] != scene.size[1]):
+    if scene.center[0] or scene.center[1] or not _about_z(scene):
         raise SceneError("[body]", "the shape must be symmetric about Oz and centred on it")
     if not np.allclose(scene.A0[2], (0.0, 0.0, 1.0), atol=1e-12):
         raise SceneError("[initial]", "the symmetry axis must start vertical (body z up)")

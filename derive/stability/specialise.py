@@ -14,7 +14,7 @@ import sympy as sp
 
 from .. import models as dm
 from .. import notation as nt
-from .. import surfaces
+from .. import shapes, surfaces
 from ..scene import Scene
 
 T_VEC = dm.Vector("t", (nt.t,), ("t",))
@@ -55,12 +55,10 @@ def shape_subs(scene: Scene) -> dict:
     """OS and its rate as expressions in n (and omega) for the scene's shape."""
     if scene.shape == "none":
         return {}
-    lp = surfaces.SHAPES[scene.shape]()
+    lp = surfaces.lowest_point(scene.shape)
     geo = dict(zip(surfaces.center, (_float(c) for c in scene.center)))
-    if scene.shape == "sphere":
-        geo[surfaces.radius] = _float(scene.size[0])
-    else:
-        geo.update(zip(surfaces.semi_axes, (_float(a) for a in scene.size)))
+    geo.update(zip(surfaces.shape_symbols(shapes.of(scene.shape)),
+                   (_float(a) for a in scene.size)))
     subs = dict(zip(nt.OS, lp.point.xreplace(geo)))
     subs.update(zip(nt.OS_rate, lp.rate.xreplace(geo)))
     return subs

@@ -41,20 +41,27 @@ enum crt_parameter {
   CRT_P_J_z = 4,  /* ... about Oz */
   CRT_P_g = 5,  /* gravity */
   CRT_P_e = 6,  /* restitution coefficient of the plane */
-  CRT_P_axis_a = 7,  /* semi-axis of the shape along Ox (the radius for a sphere) */
-  CRT_P_axis_b = 8,  /* semi-axis along Oy */
-  CRT_P_axis_c = 9,  /* semi-axis along Oz */
-  CRT_P_center_x = 10,  /* centre of the shape in body axes */
-  CRT_P_center_y = 11,  /* ... */
-  CRT_P_center_z = 12,  /* ... */
-  CRT_P_n0_x = 13,  /* translational and planar models: the vertical n in body axes at the start */
-  CRT_P_n0_y = 14,  /* ... */
-  CRT_P_n0_z = 15,  /* ... */
-  CRT_P_K = 16,  /* axisymmetric model: |K|, constant in flight */
-  CRT_P_omega_z0 = 17,  /* axisymmetric model: omega_z, constant in flight (E3.6) */
-  CRT_P_COUNT = 18
+  CRT_P_shape = 7,  /* the surface: CRT_SHAPE_<name>, its place in derive/shapes.py */
+  CRT_P_size_a = 8,  /* the shape's size numbers in the order of its fields (derive/shapes.py): a sphere's radius; an ellipsoid's semi-axes along Ox, Oy, Oz */
+  CRT_P_size_b = 9,  /* ... */
+  CRT_P_size_c = 10,  /* ... */
+  CRT_P_center_x = 11,  /* centre of the shape in body axes */
+  CRT_P_center_y = 12,  /* ... */
+  CRT_P_center_z = 13,  /* ... */
+  CRT_P_n0_x = 14,  /* translational and planar models: the vertical n in body axes at the start */
+  CRT_P_n0_y = 15,  /* ... */
+  CRT_P_n0_z = 16,  /* ... */
+  CRT_P_K = 17,  /* axisymmetric model: |K|, constant in flight */
+  CRT_P_omega_z0 = 18,  /* axisymmetric model: omega_z, constant in flight (E3.6) */
+  CRT_P_COUNT = 19
 };
 
+/* Values of prm[CRT_P_shape]: the surfaces of derive/shapes.py, in their order. */
+enum crt_shape {
+  CRT_SHAPE_SPHERE = 0,  /* a sphere of the given radius */
+  CRT_SHAPE_ELLIPSOID = 1,  /* an ellipsoid with its semi-axes along the body axes */
+  CRT_SHAPE_COUNT = 2
+};
 /* Values of opt[CRT_OPT_METHOD]. */
 enum crt_method {
   CRT_RK4 = 0,  /* classical Runge-Kutta, fixed step, cubic Hermite dense output */
@@ -83,7 +90,7 @@ enum crt_status {
   CRT_PENETRATION = -4,  /* S went below the plane and the event could not be located */
   CRT_BAD_ARGUMENT = -20,  /* an output buffer is smaller than CRT_MIN_ROWS rows or CRT_MIN_EVENTS events (nothing is done: call again with larger ones) */
   CRT_BAD_OPTIONS = -21,  /* an option breaks its rule: crt_bad_option names it */
-  CRT_BAD_PARAMETERS = -22,  /* a parameter is not finite: crt_bad_parameter names it */
+  CRT_BAD_PARAMETERS = -22,  /* a parameter is not finite, or shape is no CRT_SHAPE_*: crt_bad_parameter names it */
   CRT_BAD_LAW = -23,  /* crt_set_law_* refused the law (malformed), or crt_init found no law set */
   CRT_BAD_CONTROL = -24   /* the controller's law is refused (its knots, or x or x' not continuous at its start): crt_control_fault says why */
 };
@@ -249,7 +256,7 @@ const char *crt_option_name(int i)
 
 const char *crt_parameter_name(int i)
 {
-  static const char names[18][9] = {
+  static const char names[19][9] = {
     "M",
     "m",
     "J_x",
@@ -257,9 +264,10 @@ const char *crt_parameter_name(int i)
     "J_z",
     "g",
     "e",
-    "axis_a",
-    "axis_b",
-    "axis_c",
+    "shape",
+    "size_a",
+    "size_b",
+    "size_c",
     "center_x",
     "center_y",
     "center_z",
@@ -269,7 +277,7 @@ const char *crt_parameter_name(int i)
     "K",
     "omega_z0"
   };
-  return (i >= 0 && i < 18) ? names[i] : "";
+  return (i >= 0 && i < 19) ? names[i] : "";
 }
 
 const char *crt_method_name(int i)

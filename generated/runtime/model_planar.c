@@ -247,6 +247,24 @@ static void planar_lever_z(const double *q, const double *u, const double *s, co
   d_z[0] = (-nu*u[0] + s[0])*a32 - (-nu*u[1] + s[1])*a31;
 }
 
+/* Lowest point S of a sphere (centre anywhere in the body) for the vertical n, body axes. (14 ops) */
+static void lowest_point_sphere(const double *n, const double *center, double radius, double *restrict s)
+{
+  const double c0 = radius/sqrt(n[0]*n[0] + n[1]*n[1] + n[2]*n[2]);
+  s[0] = -c0*n[0] + center[0];
+  s[1] = -c0*n[1] + center[1];
+  s[2] = -c0*n[2] + center[2];
+}
+
+/* Rate of the lowest point S of a sphere in body axes as the body turns (Poisson's equations for n). (20 ops) */
+static void lowest_point_rate_sphere(const double *n, const double *omega, double radius, double *restrict sdot)
+{
+  const double c0 = radius/sqrt(n[0]*n[0] + n[1]*n[1] + n[2]*n[2]);
+  sdot[0] = c0*(-n[1]*omega[2] + n[2]*omega[1]);
+  sdot[1] = c0*(n[0]*omega[2] - n[2]*omega[0]);
+  sdot[2] = c0*(-n[0]*omega[1] + n[1]*omega[0]);
+}
+
 /* Lowest point S of a ellipsoid (centre anywhere in the body) for the vertical n, body axes. (23 ops) */
 static void lowest_point_ellipsoid(const double *n, const double *center, const double *semi_axes, double *restrict s)
 {
@@ -287,10 +305,23 @@ static void lowest_point_rate_ellipsoid(const double *n, const double *omega, co
 }
 
 /* ---- the model: what the runtime (crt_core.h) calls ------------------------------------ */
-/* S for the vertical n (a sphere is the ellipsoid with equal semi-axes) */
+/* S for the vertical n on the scene's surface, prm[CRT_P_shape] (derive/shapes.py) */
 static void model_shape(const double *p, const double *n, double *s)
 {
-  lowest_point_ellipsoid(n, p + CRT_P_center_x, p + CRT_P_axis_a, s);
+  switch ((int)p[CRT_P_shape]) {
+  default: lowest_point_sphere(n, p + CRT_P_center_x, p[CRT_P_size_a], s); break;
+  case CRT_SHAPE_ELLIPSOID: lowest_point_ellipsoid(n, p + CRT_P_center_x, p + CRT_P_size_a, s); break;
+  }
+}
+
+/* its rate as the body turns (the centre is fixed in the body) */
+static void model_shape_rate(const double *p, const double *n, const double *omega,
+                             double *sdot)
+{
+  switch ((int)p[CRT_P_shape]) {
+  default: lowest_point_rate_sphere(n, omega, p[CRT_P_size_a], sdot); break;
+  case CRT_SHAPE_ELLIPSOID: lowest_point_rate_ellipsoid(n, omega, p + CRT_P_size_a, sdot); break;
+  }
 }
 
 /* the vertical model's state: omega = (0, 0, omega_z(kappa)) (E4.2) and n = n0 Rz(phi) */
@@ -350,7 +381,7 @@ static void model_contact(const double *p, const double *u, const double *q, dou
   double qv[QV_COUNT], dqv[QV_COUNT], s[3], sdot[3], d_z;
   model_vertical_state(p, u, q, qv);
   model_shape(p, qv + QV_N, s);
-  lowest_point_rate_ellipsoid(qv + QV_N, qv + QV_OMEGA, p + CRT_P_axis_a, sdot);
+  model_shape_rate(p, qv + QV_N, qv + QV_OMEGA, sdot);
   vertical_contact_rhs_free(qv, u, s, sdot, p, dqv, N, a_free);
   planar_lever_z(qv, u, s, p, &d_z);
   dq[Q_Z] = dqv[QV_Z];

@@ -270,6 +270,24 @@ static void vertical_contact_rhs_free(const double *q, const double *u, const do
   a_free[0] = c48;
 }
 
+/* Lowest point S of a sphere (centre anywhere in the body) for the vertical n, body axes. (14 ops) */
+static void lowest_point_sphere(const double *n, const double *center, double radius, double *restrict s)
+{
+  const double c0 = radius/sqrt(n[0]*n[0] + n[1]*n[1] + n[2]*n[2]);
+  s[0] = -c0*n[0] + center[0];
+  s[1] = -c0*n[1] + center[1];
+  s[2] = -c0*n[2] + center[2];
+}
+
+/* Rate of the lowest point S of a sphere in body axes as the body turns (Poisson's equations for n). (20 ops) */
+static void lowest_point_rate_sphere(const double *n, const double *omega, double radius, double *restrict sdot)
+{
+  const double c0 = radius/sqrt(n[0]*n[0] + n[1]*n[1] + n[2]*n[2]);
+  sdot[0] = c0*(-n[1]*omega[2] + n[2]*omega[1]);
+  sdot[1] = c0*(n[0]*omega[2] - n[2]*omega[0]);
+  sdot[2] = c0*(-n[0]*omega[1] + n[1]*omega[0]);
+}
+
 /* Lowest point S of a ellipsoid (centre anywhere in the body) for the vertical n, body axes. (23 ops) */
 static void lowest_point_ellipsoid(const double *n, const double *center, const double *semi_axes, double *restrict s)
 {
@@ -566,10 +584,23 @@ static void flight_parabola(const double *c, double tau, const double *p, double
 }
 
 /* ---- the model: what the runtime (crt_core.h) calls ------------------------------------ */
-/* S for the vertical n (a sphere is the ellipsoid with equal semi-axes) */
+/* S for the vertical n on the scene's surface, prm[CRT_P_shape] (derive/shapes.py) */
 static void model_shape(const double *p, const double *n, double *s)
 {
-  lowest_point_ellipsoid(n, p + CRT_P_center_x, p + CRT_P_axis_a, s);
+  switch ((int)p[CRT_P_shape]) {
+  default: lowest_point_sphere(n, p + CRT_P_center_x, p[CRT_P_size_a], s); break;
+  case CRT_SHAPE_ELLIPSOID: lowest_point_ellipsoid(n, p + CRT_P_center_x, p + CRT_P_size_a, s); break;
+  }
+}
+
+/* its rate as the body turns (the centre is fixed in the body) */
+static void model_shape_rate(const double *p, const double *n, const double *omega,
+                             double *sdot)
+{
+  switch ((int)p[CRT_P_shape]) {
+  default: lowest_point_rate_sphere(n, omega, p[CRT_P_size_a], sdot); break;
+  case CRT_SHAPE_ELLIPSOID: lowest_point_rate_ellipsoid(n, omega, p + CRT_P_size_a, sdot); break;
+  }
 }
 
 static void model_rhs(const double *p, const double *u, const double *q, double *dq)
@@ -605,7 +636,7 @@ static void model_contact(const double *p, const double *u, const double *q, dou
 {
   double s[3], sdot[3];
   model_shape(p, q + Q_N, s);
-  lowest_point_rate_ellipsoid(q + Q_N, q + Q_OMEGA, p + CRT_P_axis_a, sdot);
+  model_shape_rate(p, q + Q_N, q + Q_OMEGA, sdot);
   vertical_contact_rhs_free(q, u, s, sdot, p, dq, N, a_free);
 }
 

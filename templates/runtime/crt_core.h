@@ -41,8 +41,8 @@
  *                           the session is as it was (call again with larger buffers)
  *   CRT_BAD_OPTIONS    -21  crt_init: an option breaks its rule (crt_abi.h);
  *                           crt_bad_option(s) gives its index CRT_OPT_*
- *   CRT_BAD_PARAMETERS -22  crt_init: a parameter is not finite; crt_bad_parameter(s)
- *                           gives its index CRT_P_*
+ *   CRT_BAD_PARAMETERS -22  crt_init: a parameter is not finite, or shape is no
+ *                           CRT_SHAPE_*; crt_bad_parameter(s) gives its index CRT_P_*
  *   CRT_BAD_LAW        -23  crt_set_law_*: the law is malformed (the session then has no
  *                           law); crt_init: no law is set
  *   CRT_BAD_CONTROL    -24  crt_advance: the controller's law is refused (knots, or x or x'
@@ -814,12 +814,16 @@ static int crt_option_fault(const double *opt)
   return -1;
 }
 
-/* The first parameter that is not finite, or -1. */
+/* The first parameter that is not finite, or the shape when it names no surface
+   (CRT_SHAPE_*), or -1. */
 static int crt_parameter_fault(const double *prm)
 {
   int i;
   for (i = 0; i < CRT_P_COUNT; ++i)
     if (!(prm[i] - prm[i] == 0.0)) return i;   /* NaN or infinite */
+  if (!(prm[CRT_P_shape] >= 0.0 && prm[CRT_P_shape] < CRT_SHAPE_COUNT
+        && prm[CRT_P_shape] == (double)(int)prm[CRT_P_shape]))
+    return CRT_P_shape;
   return -1;
 }
 
@@ -829,7 +833,8 @@ static int crt_parameter_fault(const double *prm)
    same code until the next crt_init):
      CRT_BAD_LAW          no law is set, or the last crt_set_law_* refused its law;
      CRT_BAD_OPTIONS      an option breaks its rule: crt_bad_option(s) is its index;
-     CRT_BAD_PARAMETERS   a parameter is not finite: crt_bad_parameter(s) is its index;
+     CRT_BAD_PARAMETERS   a parameter is not finite, or shape is no CRT_SHAPE_*:
+                          crt_bad_parameter(s) is its index;
      CRT_NONFINITE        q0, or the right-hand side at (t0, q0), is not finite. */
 int crt_init(crt_session *s, const double *opt, const double *prm, double t0, const double *q0)
 {
@@ -936,6 +941,19 @@ void crt_eval_contact(crt_session *s, double t, const double *q, double *dq, dou
   *N = 0.0;
   *a_free = 0.0;
   (void)s;
+#endif
+}
+
+/* the height h of S above the plane and its rate v_n at (t, q): what the event search
+   follows (models with a plane; else h = v_n = 0) */
+void crt_eval_gap(crt_session *s, double t, const double *q, double *h, double *v_n)
+{
+#if MODEL_HAS_PLANE
+  model_gap(s->prm, crt_u(s, t), q, h, v_n);
+#else
+  (void)s; (void)t; (void)q;
+  *h = 0.0;
+  *v_n = 0.0;
 #endif
 }
 

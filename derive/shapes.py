@@ -1,0 +1,183 @@
+"""The carrier's surfaces, each written once, as its support map.
+
+A convex surface is given by its *support map*: for a direction ``d`` (body axes, any
+length), the point of the surface farthest along ``d``, measured from the shape's centre
+``[body].center``.  Its dot product with ``d`` is the support function ``h(d)``.  The lowest
+point S on the plane is the support point of ``-n``, ``n`` the vertical in body axes:
+``OS = center + support(-n)``.
+
+Each :class:`Shape` writes its support map as a function of the direction's components,
+its size numbers and ``ops`` (``sqrt``, ``abs``, ``sign``).  The same function is
+evaluated three ways: by SymPy (:mod:`derive.surfaces`, with SymPy's ``ops``: the
+derivation of S and of its rate, emitted as ``lowest_point_<shape>`` and
+``lowest_point_rate_<shape>`` into the standalone C, the CasADi functions and the
+runtime), by NumPy on rows of directions (pictures, the runtime's reasons for a model)
+and by ``math`` on one direction (the scene rules: S above the plane at the start).  No
+SymPy is imported here: the runtime reads this module.
+
+Adding a shape is one :func:`register` call at the end of this file, then ``derive
+emit`` (see the README, "Regenerating for a changed model").  The order of ``SHAPES`` is
+the code the runtime reads in ``prm[CRT_P_shape]``: append, never insert.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from types import SimpleNamespace
+from typing import Callable
+
+import numpy as np
+
+MAX_SIZE_NUMBERS = 3       # the runtime's parameter slots size_a, size_b, size_c
+
+
+@dataclass(frozen=True)
+class Size:
+    """A ``[body]`` field that sizes shapes: a positive number (``count = 1``) or a
+    vector of ``count`` positive numbers, each at most the schema's MAX_LENGTH.
+    ``symbols``: the derivation's names of its numbers, ``labels``: the emitted code's
+    (both default to the key, numbered for a vector)."""
+    key: str
+    doc: str
+    count: int = 1
+    example: object = None
+    symbols: tuple = ()
+    labels: tuple = ()
+
+    def names(self, given: tuple) -> tuple:
+        if given:
+            return given
+        return (self.key,) if self.count == 1 else tuple(f"{self.key}_{i}"
+                                                          for i in range(self.count))
+
+
+@dataclass(frozen=True)
+class Shape:
+    """A convex surface.  ``support(d, size, ops)``: the support point (three
+    components) relative to the centre for the direction ``d = (dx, dy, dz)`` (not
+    necessarily unit; componentwise NumPy arrays, floats or SymPy expressions), ``size``
+    the numbers of ``sizes`` in order; ``reach(size)``: the largest distance of the
+    surface from its centre.  ``simplify_rate``: let SymPy simplify S's rate (worth it
+    only for short expressions: the sphere's collapses to ``-R n'/|n|``)."""
+    name: str
+    doc: str
+    sizes: tuple[Size, ...]
+    support: Callable
+    reach: Callable
+    simplify_rate: bool = False
+
+    @property
+    def code(self) -> int:
+        """The number the runtime reads in ``prm[CRT_P_shape]``."""
+        return SHAPE_NAMES.index(self.name)
+
+    @property
+    def size_count(self) -> int:
+        return sum(s.count for s in self.sizes)
+
+    def support_rows(self, d, size) -> np.ndarray:
+        """Support points (..., 3) for directions ``d`` (..., 3), NumPy."""
+        d = np.asarray(d, dtype=float)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            out = self.support((d[..., 0], d[..., 1], d[..., 2]), tuple(size), NUMPY)
+        return np.stack(np.broadcast_arrays(*out), axis=-1)
+
+    def lowest(self, n, center, size) -> tuple:
+        """OS (body axes) for one vertical ``n``, in floats (``math``)."""
+        s = self.support((-n[0], -n[1], -n[2]), tuple(size), MATH)
+        return (center[0] + s[0], center[1] + s[1], center[2] + s[2])
+
+    def lowest_rows(self, n, center, size) -> np.ndarray:
+        """OS (body axes) for verticals ``n`` (..., 3), NumPy."""
+        return np.asarray(center, dtype=float) + self.support_rows(-np.asarray(n, dtype=float),
+                                                                   size)
+
+
+def _sign(x):
+    return (x > 0) - (x < 0)
+
+
+NUMPY = SimpleNamespace(sqrt=np.sqrt, abs=np.abs, sign=np.sign)
+MATH = SimpleNamespace(sqrt=math.sqrt, abs=abs, sign=_sign)
+
+SHAPES: dict[str, Shape] = {}
+SHAPE_NAMES: list[str] = []
+NONE = "none"              # a body without a surface: no contact
+
+
+def register(shape: Shape) -> Shape:
+    """Add a shape (its code is its place in the order of registration)."""
+    if shape.name in SHAPES or shape.name == NONE or not shape.name.isidentifier():
+        raise ValueError(f"shape {shape.name!r}: a new identifier, not 'none'")
+    if not 1 <= shape.size_count <= MAX_SIZE_NUMBERS:
+        raise ValueError(f"shape {shape.name!r}: 1 to {MAX_SIZE_NUMBERS} size numbers "
+                         "(the runtime's parameter slots)")
+    for s in shape.sizes:
+        for other in SHAPES.values():
+            for t in other.sizes:
+                if t.key == s.key and t != s:
+                    raise ValueError(f"shape {shape.name!r}: [body].{s.key} is declared "
+                                     f"differently by {other.name!r}: share its Size")
+    SHAPES[shape.name] = shape
+    SHAPE_NAMES.append(shape.name)
+    return shape
+
+
+def of(name: str) -> Shape:
+    return SHAPES[name]
+
+
+def size_fields() -> list[tuple[Size, tuple[str, ...]]]:
+    """Every size field once, with the shapes that read it (the scene schema's rows)."""
+    out: dict[str, tuple[Size, list]] = {}
+    for shape in SHAPES.values():
+        for s in shape.sizes:
+            out.setdefault(s.key, (s, []))[1].append(shape.name)
+    return [(s, tuple(names)) for s, names in out.values()]
+
+
+def size_of(shape: Shape, values: dict) -> tuple:
+    """The shape's size numbers from its fields' values (``{key: value}``)."""
+    out: list = []
+    for s in shape.sizes:
+        v = values[s.key]
+        out += list(v) if s.count > 1 else [v]
+    return tuple(float(x) for x in out)
+
+
+def fields_of(shape: Shape, size) -> dict:
+    """The shape's fields (``{key: value}``) from its size numbers (size_of's inverse)."""
+    out, k = {}, 0
+    for s in shape.sizes:
+        part = [float(x) for x in size[k:k + s.count]]
+        out[s.key] = part if s.count > 1 else part[0]
+        k += s.count
+    return out
+
+
+# ---- the shapes ------------------------------------------------------------------------
+RADIUS = Size("radius", "radius", example=0.5, symbols=("R",), labels=("R",))
+SEMI_AXES = Size("semi_axes", "semi-axes along the body axes", 3, example=[0.5, 0.4, 0.3],
+                 symbols=("s_a", "s_b", "s_c"), labels=("a", "b", "c"))
+
+
+def _sphere(d, size, ops):
+    (R,) = size
+    x, y, z = d
+    k = R / ops.sqrt(x * x + y * y + z * z)
+    return (k * x, k * y, k * z)
+
+
+def _ellipsoid(d, size, ops):
+    """The point D^2 d / |D d| of the surface {D u : |u| = 1}, D = diag(a, b, c)."""
+    a, b, c = size
+    x, y, z = d
+    ax, by, cz = a * a * x, b * b * y, c * c * z
+    k = ops.sqrt(x * ax + y * by + z * cz)
+    return (ax / k, by / k, cz / k)
+
+
+register(Shape("sphere", "a sphere of the given radius", (RADIUS,), _sphere,
+               reach=lambda size: size[0], simplify_rate=True))
+register(Shape("ellipsoid", "an ellipsoid with its semi-axes along the body axes",
+               (SEMI_AXES,), _ellipsoid, reach=lambda size: max(size)))

@@ -1,0 +1,113 @@
+"""The README's guide "Regenerating for a changed model", followed in a scratch copy:
+the capsule of the guide appended to derive/shapes.py, ``derive emit``, and a tilted
+capsule carrying a fixed point dropped on the plane.  Its first impact is checked against
+the closed form of a rigid body struck at its lowest point (the runtime, compiled from
+the regenerated C into an empty cache, must pick the new surface up by itself)."""
+import json
+import os
+import shutil
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+
+# what the scratch copy runs: the drop, and the closed form computed without derive
+DROP = textwrap.dedent('''
+    import json, math
+    import numpy as np
+    import derive
+    from derive import abi, layout
+
+    R, L, M, m, e, g = 0.1, 0.3, 1.0, 0.25, 0.7, 9.81
+    J = np.array([0.05, 0.06, 0.02])
+    r_P = np.array([0.08, 0.0, 0.05])            # the point, fixed in the body
+    theta = 0.6                                  # the tilt about the fixed x axis
+    A0 = np.array([[1, 0, 0], [0, math.cos(theta), -math.sin(theta)],
+                   [0, math.sin(theta), math.cos(theta)]])    # body -> fixed
+    Z_C = 1.0
+    res = derive.simulate({
+        "name": "capsule-drop",
+        "body": {"mass": M, "inertia": J.tolist(), "shape": "capsule", "radius": R,
+                 "half_length": L},
+        "point": {"mass": m, "law": [repr(float(x)) for x in r_P]},
+        "plane": {"restitution": e},
+        "initial": {"com": [0.0, 0.0, Z_C], "matrix": A0.tolist()},
+        "run": {"duration": 0.6, "rtol": 1e-12, "atol": 1e-14}})
+
+    # the closed form: the body falls without turning until S, the end of the segment
+    # below plus R along -n, touches; then a rigid body struck there (Newton's e)
+    nu, mt = m / (M + m), M + m
+    n = A0[2]                                    # the vertical in body axes
+    S = R * -n / np.linalg.norm(n) + L * np.sign(-n[2]) * np.array([0.0, 0.0, 1.0])
+    CS = A0 @ (S - nu * r_P)                     # C -> S, fixed axes
+    t_hit = math.sqrt(2 * (Z_C + CS[2]) / g)
+    v_minus = -g * t_hit
+    a, b = -nu * r_P, (1 - nu) * r_P             # O and P from C, body axes
+    I_C = np.diag(J) + M * (a @ a * np.eye(3) - np.outer(a, a)) \\
+        + m * (b @ b * np.eye(3) - np.outer(b, b))
+    I_w = A0 @ I_C @ A0.T
+    arm = np.cross(CS, [0.0, 0.0, 1.0])
+    impulse = -(1 + e) * v_minus / (1 / mt + arm @ np.linalg.solve(I_w, arm))
+
+    t_imp, I, vm, vp = res.impacts[0]
+    after = np.flatnonzero(res.row_kind == abi.index(abi.ROW_KINDS, "after_event"))[0]
+    q = res.q[after]
+    print(json.dumps({
+        "model": res.model,
+        "t": [t_imp, t_hit], "I": [I, impulse], "v_minus": [vm, v_minus],
+        "v_plus": [vp, -e * v_minus],
+        "omega": [q[layout.GENERAL.omega].tolist(),
+                  (A0.T @ np.linalg.solve(I_w, arm * impulse)).tolist()],
+        "V_C": [q[layout.GENERAL.com_velocity].tolist(),
+                [0.0, 0.0, v_minus + impulse / mt]]}))
+''')
+
+
+def _guide_block() -> str:
+    text = (ROOT / "README.md").read_text(encoding="utf-8")
+    after = text.split("<!-- shape-example -->\n", 1)[1]
+    return after.split("```python\n", 1)[1].split("```", 1)[0]
+
+
+def _scratch(tmp_path: Path) -> Path:
+    root = tmp_path / "copy"
+    ignore = shutil.ignore_patterns("__pycache__", "*.pyc")
+    for name in ("derive", "templates", "generated"):
+        shutil.copytree(ROOT / name, root / name, ignore=ignore)
+    shutil.copy(ROOT / "pyproject.toml", root)
+    return root
+
+
+def _run(root: Path, cache: Path, *args) -> subprocess.CompletedProcess:
+    env = {**os.environ, "PYTHONPATH": str(root), "DERIVE_CACHE": str(cache)}
+    return subprocess.run([sys.executable, *args], cwd=root, env=env, capture_output=True,
+                          text=True, timeout=600)
+
+
+def test_a_shape_added_as_the_readme_says_reaches_a_correct_impact(tmp_path):
+    root = _scratch(tmp_path)
+    with open(root / "derive" / "shapes.py", "a", encoding="utf-8") as f:
+        f.write("\n\n" + _guide_block())
+    emit = _run(root, tmp_path / "cache", "-m", "derive", "emit")
+    assert emit.returncode == 0, emit.stderr[-3000:]
+    for name in ("c/lowest_point_capsule.c", "c/lowest_point_rate_capsule.c",
+                 "casadi/lowest_point_capsule.casadi"):
+        assert (root / "generated" / name).is_file(), name
+    assert "CRT_SHAPE_CAPSULE" in (root / "generated/runtime/crt_abi.h").read_text()
+    assert "DiracDelta" not in (root / "generated/c/jac_lowest_point_capsule.c").read_text()
+    # the copy's derive is the one that runs (not the checkout's)
+    where = _run(root, tmp_path / "cache", "-c", "import derive; print(derive.__file__)")
+    assert where.stdout.strip().startswith(str(root)), where.stdout
+    drop = _run(root, tmp_path / "cache", "-c", DROP)
+    assert drop.returncode == 0, drop.stderr[-3000:]
+    got = json.loads(drop.stdout.strip().splitlines()[-1])
+    assert got["model"] == "general"
+    for key in ("t", "I", "v_minus", "v_plus", "omega", "V_C"):
+        ours, closed = (np.asarray(x, dtype=float) for x in got[key])
+        assert np.allclose(ours, closed, rtol=1e-12, atol=1e-12), (key, ours, closed)
+    assert any((tmp_path / "cache").glob("*/crt_general.so"))   # built from the new C
+

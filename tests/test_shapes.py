@@ -1,0 +1,133 @@
+"""derive/shapes.py: every registered surface's support map, checked three ways.
+
+* It is a support map: S(d) is as far along d as any other point S(d') of the surface
+  (the property that makes -n's support point the lowest point), for random sizes and
+  directions;
+* the NumPy, ``math`` and SymPy evaluations of the one written map agree, and so does
+  the C the runtime compiled (the gap it reports at a pose, against the height of S
+  computed here);
+* the derived rate of S is the rate of S along Poisson's equations (a central difference
+  of the numbers against the derivative SymPy took, kinks included);
+* the ellipsoid's S is the lower stationary point of the Lagrangian
+  (n, c + D u) - lambda (|u|^2 - 1): the form derived before surfaces were support maps.
+"""
+import math
+
+import numpy as np
+import pytest
+import sympy as sp
+
+from derive import abi, shapes, surfaces
+from derive import notation as nt
+from derive.kinematics import poisson_equations
+from derive.runtime.driver import Session, library, prepare
+
+NAMES = list(shapes.SHAPE_NAMES)
+
+
+def _sizes(shape, rng, n):
+    return rng.uniform(0.05, 2.0, size=(n, shape.size_count))
+
+
+def _directions(rng, n):
+    d = rng.normal(size=(n, 3))
+    return d * rng.uniform(0.1, 10.0, size=(n, 1))      # not unit: any length
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_support_point_is_farthest_along_its_direction(name):
+    shape, rng = shapes.of(name), np.random.default_rng(1)
+    for size in _sizes(shape, rng, 50):
+        d = _directions(rng, 400)
+        S = shape.support_rows(d, size)
+        along = np.einsum("ij,kj->ik", d, S)           # d_i . S(d_k)
+        own = np.diag(along)
+        assert np.all(own[:, None] >= along - 1e-12 * np.abs(along).max()), name
+        assert np.linalg.norm(S, axis=1).max() <= shape.reach(size) * (1 + 1e-12)
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_numpy_math_and_sympy_evaluations_agree(name):
+    shape, rng = shapes.of(name), np.random.default_rng(2)
+    syms = surfaces.shape_symbols(shape)
+    lp = surfaces.lowest_point(name)
+    f = sp.lambdify([nt.n, surfaces.center, syms], lp.point, "numpy")
+    for size in _sizes(shape, rng, 30):
+        n, c = _directions(rng, 1)[0], rng.normal(size=3)
+        rows = shape.lowest_rows(n[None, :], c, size)[0]
+        one = np.array(shape.lowest(n.tolist(), c.tolist(), tuple(size)))
+        sym = np.array(f(n, c, size), dtype=float).ravel()
+        assert np.allclose(rows, one, rtol=0, atol=1e-13 * (1 + np.abs(one).max()))
+        assert np.allclose(sym, one, rtol=0, atol=1e-12 * (1 + np.abs(one).max()))
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_rate_of_S_is_its_derivative_along_poissons_equations(name):
+    shape, rng = shapes.of(name), np.random.default_rng(3)
+    syms = surfaces.shape_symbols(shape)
+    lp = surfaces.lowest_point(name)
+    rate = sp.lambdify([nt.n, nt.omega, syms], lp.rate, "numpy")
+    ndot = sp.lambdify([nt.n, nt.omega], poisson_equations()[2, :].T, "numpy")
+    h = 1e-6
+    for size in _sizes(shape, rng, 40):
+        n = _directions(rng, 1)[0]
+        n /= np.linalg.norm(n)
+        w = rng.normal(size=3)
+        v = np.array(ndot(n, w), dtype=float).ravel()
+        c = np.zeros(3)
+        fd = (shape.lowest_rows(n + h * v, c, size) - shape.lowest_rows(n - h * v, c, size)) \
+            / (2 * h)
+        got = np.array(rate(n, w, size), dtype=float).ravel()
+        assert np.allclose(got, fd, rtol=1e-6, atol=1e-6 * shape.reach(size)), name
+
+
+def test_the_ellipsoid_is_the_lagrangians_lower_stationary_point():
+    n, c, D = sp.Matrix(nt.n), surfaces.center, sp.diag(*surfaces.semi_axes)
+    u = sp.Matrix(sp.symbols("u_1:4", real=True))
+    lam = sp.Symbol("lambda", real=True)
+    lagrangian = (n.T * (c + D * u))[0] - lam * ((u.T * u)[0] - 1)
+    sols = sp.solve([sp.diff(lagrangian, v) for v in (*u, lam)], [*u, lam], dict=True)
+    assert len(sols) == 2
+    points = [c + D * sp.Matrix([s[v] for v in u]) for s in sols]
+    ours = surfaces.lowest_point("ellipsoid").point
+    rng = np.random.default_rng(4)
+    for _ in range(20):
+        vals = {**dict(zip(nt.n, rng.normal(size=3))), **dict(zip(c, rng.normal(size=3))),
+                **dict(zip(surfaces.semi_axes, rng.uniform(0.1, 2, size=3)))}
+        heights = [float((n.T * p)[0].xreplace(vals)) for p in points]
+        lower = points[int(np.argmin(heights))]
+        assert np.allclose([float(x.xreplace(vals)) for x in lower],
+                           [float(x.xreplace(vals)) for x in ours], atol=1e-12)
+
+
+def _scene(name, size, rng):
+    shape = shapes.of(name)
+    q = rng.normal(size=4)
+    return {"body": {"mass": 1.0, "inertia": [0.1, 0.12, 0.14], "shape": name,
+                     **shapes.fields_of(shape, size),
+                     "center": list(rng.uniform(-0.1, 0.1, size=3))},
+            "point": {"mass": 0.3, "law": ["0.1*sin(t)", "0.05", "0.02*cos(2*t)"]},
+            "plane": {"restitution": 0.8},
+            "initial": {"com": [0.0, 0.0, 5.0], "quaternion": list(q / np.linalg.norm(q)),
+                        "omega": [0.3, -0.2, 0.5]},
+            "run": {"duration": 0.1}}
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_the_compiled_runtime_reads_the_same_surface(name):
+    """The gap h the general model's C computes (model_shape picks the surface by
+    prm[CRT_P_shape]) against the height of S from derive/shapes.py."""
+    shape, rng = shapes.of(name), np.random.default_rng(5)
+    session = Session(library("general"), chunk=64)
+    for size in _sizes(shape, rng, 10):
+        prep = prepare(_scene(name, tuple(size), rng))
+        assert prep.kind == "general"
+        assert prep.parameters[abi.PRM["shape"]] == shape.code
+        session.set_law(prep.scene.law)
+        session.init(prep.options, prep.parameters, 0.0, prep.start.q0)
+        sc = prep.scene
+        r = prep.scene.law.point(0.0)[:3]
+        h_here = sc.com[2] + sum(a * (s - sc.nu * x) for a, s, x in
+                                 zip(sc.A0[2], shape.lowest(sc.A0[2], sc.center, sc.size), r))
+        h_c, _ = session.gap(0.0, prep.start.q0)
+        assert math.isclose(h_c, h_here, rel_tol=0, abs_tol=1e-12 * sc.com[2]), name
