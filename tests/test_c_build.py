@@ -231,9 +231,16 @@ def test_cmake_add_subdirectory(tmp_path):
     build = tmp_path / "build"
     configure = subprocess.run(
         [CMAKE, "-S", str(HERE / "c"), "-B", str(build), f"-DCARRIER_SOURCE_DIR={GENERATED}",
-         "-DCMAKE_BUILD_TYPE=Release", "-DCMAKE_C_FLAGS=-Werror"],
+         "-DCMAKE_BUILD_TYPE=Release", "-DCMAKE_C_FLAGS=-Werror",
+         "-DCMAKE_EXPORT_COMPILE_COMMANDS=ON"],
         capture_output=True, text=True)
     assert configure.returncode == 0, configure.stdout[-3000:] + configure.stderr[-3000:]
+    # what the embedding guide says: added with add_subdirectory, the header folder is
+    # an ordinary one (-I), so the project's own warnings check carrier.h
+    import json
+    commands = json.loads((build / "compile_commands.json").read_text())
+    embed = next(c["command"] for c in commands if c["file"].endswith("embed.cpp"))
+    assert f"-I{GENERATED / 'c'}" in embed and "-isystem" not in embed, embed
     make = subprocess.run([CMAKE, "--build", str(build), "--parallel", "2"],
                           capture_output=True, text=True)
     assert make.returncode == 0, make.stdout[-3000:] + make.stderr[-3000:]

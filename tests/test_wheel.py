@@ -148,8 +148,13 @@ def test_cpp_embedding_against_the_emitted_folder(installed, tmp_path):
     _run([CMAKE, "--install", lib_build, "--prefix", prefix])
     assert (prefix / "include" / "carrier.h").is_file()
     _run([CMAKE, "-S", ROOT / "tests" / "c", "-B", app_build, f"-DCMAKE_PREFIX_PATH={prefix}",
-          "-DCMAKE_BUILD_TYPE=Release"])
+          "-DCMAKE_BUILD_TYPE=Release", "-DCMAKE_EXPORT_COMPILE_COMMANDS=ON"])
     _run([CMAKE, "--build", app_build])
+    # what the embedding guide says: an imported target's header folder is a system one
+    import json
+    commands = json.loads((app_build / "compile_commands.json").read_text())
+    embed = next(c["command"] for c in commands if c["file"].endswith("embed.cpp"))
+    assert f"-isystem {prefix / 'include'}" in embed, embed
     env_run = {k: v for k, v in os.environ.items() if k != "LD_LIBRARY_PATH"}
     run = _run([app_build / "embed"], env=env_run, timeout=120)
     print(run.stdout)
