@@ -56,3 +56,32 @@ def test_readme_python_examples_run(tmp_path, monkeypatch, capsys):
     for code in blocks:
         exec(compile(code, "README.md", "exec"), {"__name__": "readme"})
     assert "done" in capsys.readouterr().out
+
+
+def test_readme_layout_names_every_module_of_derive():
+    """The README's layout of derive/ names every module and package there is, and none
+    that is gone."""
+    import re
+    text = (ROOT / "README.md").read_text(encoding="utf-8")
+    layout = text.split("`derive/`, in the order data flows:", 1)[1]
+    first = [row.split("|")[1] for row in layout.splitlines()
+             if row.startswith("| `")]                        # the module column
+    named = {n for cell in first for n in re.findall(r"`([a-z_]+)/?`", cell)}
+    have = {p.stem for p in (ROOT / "derive").glob("*.py")
+            if p.stem not in ("__init__", "__main__")}
+    have |= {p.name for p in (ROOT / "derive").iterdir()
+             if p.is_dir() and (p / "__init__.py").is_file()}
+    assert not have - named, f"not in the README's layout: {sorted(have - named)}"
+    assert not named - have, f"in the README's layout but not in derive/: {sorted(named - have)}"
+
+
+def test_readme_links_to_its_own_sections_resolve():
+    """Every ](#anchor) of the README names a heading (GitHub's slugs: lower case,
+    punctuation dropped, spaces to hyphens)."""
+    import re
+    text = (ROOT / "README.md").read_text(encoding="utf-8")
+    body = re.sub(r"```.*?```", "", text, flags=re.S)
+    slugs = {re.sub(r"[^\w\- ]", "", h.strip().lower()).replace(" ", "-")
+             for h in re.findall(r"^#{1,4} (.+)$", body, re.M)}
+    links = set(re.findall(r"\]\(#([^)]+)\)", text))
+    assert links and not links - slugs, sorted(links - slugs)
