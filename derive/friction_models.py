@@ -222,6 +222,13 @@ def numpy_function(name: str):
     return compile_spec(next(s for s in friction_specs() if s.name == name))
 
 
+def runtime_specs() -> list[FunctionSpec]:
+    """What the rough model's runtime calls (templates/runtime/model.c.jinja, crt_friction.h
+    and the Darboux-Keller step of crt_rk_steps.h)."""
+    return [delassus(), contact_velocity(), impulse_slip_rate(), impulse_stick_rate(),
+            impulse_resliding(), apply_impulse(), sliding_rhs(), sticking_rhs()]
+
+
 def friction_specs() -> list[FunctionSpec]:
     return [delassus(), contact_velocity(), impulse_slip_rate(), impulse_stick_rate(),
             impulse_resliding(), apply_impulse(), sliding_rhs(), sticking_rhs()]

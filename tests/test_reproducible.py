@@ -67,7 +67,8 @@ def test_the_plain_runtime_headers_are_copied_byte_for_byte(monkeypatch, tmp_pat
     monkeypatch.setattr(runtime_backend, "render_model", lambda m: "")   # not needed here
     files = runtime_backend.render_runtime()
     plain = sorted(p.name for p in (TEMPLATES / "runtime").glob("*.h"))
-    assert plain == ["crt_core.h", "crt_integrators.h", "crt_law.h", "crt_lie.h"]
+    assert plain == ["crt_core.h", "crt_friction.h", "crt_friction_state.h", "crt_integrators.h",
+                     "crt_law.h", "crt_lie.h"]
     for name in plain:
         source = (TEMPLATES / "runtime" / name).read_bytes()
         assert files[f"runtime/{name}"].encode("utf-8") == source

@@ -63,15 +63,30 @@ class RuntimeModel:
     def lie(self) -> bool:
         """The momentum form applies (crt_lie.h): the model carries omega and the
         attitude, or only omega in free flight."""
-        return self.kind in ("general", "vertical", "attitude")
+        return self.kind in ("general", "vertical", "attitude", "rough")
+
+    @property
+    def friction(self) -> bool:
+        """Coulomb friction at S (crt_friction.h): the general state with the rough
+        plane's functions (derive/friction_models.py)."""
+        return self.kind == "rough"
+
+    @property
+    def base(self) -> str:
+        """The model whose derived functions it calls (the rough model: general's)."""
+        return "general" if self.kind == "rough" else self.kind
 
     def specs(self) -> list:
         contact = ["lowest_point_ellipsoid", "lowest_point_rate_ellipsoid"]
         momentum = [dm.lie_stage(), dm.lie_point(), dm.fixed_kinetic_moment(), dm.exp_map()]
-        if self.kind in ("general", "vertical"):
-            return [dm.flight_rhs(self.kind), dm.gap(self.kind), dm.impact(self.kind),
-                    dm.runtime_contact(self.kind), dm.lowest_point("ellipsoid"),
+        if self.kind in ("general", "vertical", "rough"):
+            base = [dm.flight_rhs(self.base), dm.gap(self.base), dm.impact(self.base),
+                    dm.runtime_contact(self.base), dm.lowest_point("ellipsoid"),
                     dm.lowest_point_rate("ellipsoid"), *momentum, dm.flight_parabola()]
+            if self.friction:
+                from .. import friction_models
+                base += friction_models.runtime_specs()
+            return base
         if self.kind == "attitude":
             return [dm.flight_rhs("attitude"), *momentum]
         if self.kind == "translational":
@@ -91,6 +106,9 @@ class RuntimeModel:
 MODELS = (
     RuntimeModel("general", True, "matrix",
                  "E1.2, E1.7, E1.8 in flight; impacts (E1.10-E1.16); persistent contact."),
+    RuntimeModel("rough", True, "matrix",
+                 "the general model on a rough plane: Coulomb friction at S in impacts "
+                 "(Darboux-Keller) and in sliding and sticking contact (derive/friction.py)."),
     RuntimeModel("vertical", True, "vector",
                  "the general model without the horizontal motion of C and the heading."),
     RuntimeModel("attitude", False, "none", "E1.7 alone: free flight, omega only."),
@@ -164,7 +182,8 @@ def render_model(m: RuntimeModel) -> str:
         b = body(spec)
         functions.append({"name": spec.name, "doc": spec.doc, **b})
     ctx = {"template": "templates/runtime/model.c.jinja", "versions": versions(),
-           "kind": m.kind, "nq": len(m.labels), "labels": m.labels, "plane": m.plane,
+           "kind": m.kind, "base": m.base, "friction": m.friction, "nq": len(m.labels),
+           "labels": m.labels, "plane": m.plane,
            "offsets": _offsets(m.layout),
            "vertical_offsets": (_offsets(layout.VERTICAL) + [("COUNT", layout.VERTICAL.nq)]
                                 if m.kind in ("translational", "planar", "variational")
