@@ -550,6 +550,7 @@ static void crt_rough_scales(crt_session *s, double t)
   s->fr.v_eps = 1e3 * CRT_EPS * s->fr.v_scale;
   s->fr.v_arm = crt_max(10.0 * (s->opt[CRT_OPT_ATOL] + s->opt[CRT_OPT_RTOL] * s->fr.v_scale),
                         s->fr.v_eps);
+  s->fr.v_freeze = crt_max(sqrt(s->opt[CRT_OPT_RTOL]) * s->fr.v_scale, s->fr.v_arm);
 }
 
 /* an event row with the friction columns (abi.EVENT_COLUMNS) */
@@ -578,11 +579,14 @@ static void crt_rough_event(crt_out *o, double t, int kind, double value, double
    v_t/|v_t|, continued through zero along the reference s->fr.dir (so that the stop of the
    slip is a sign change of v_t . dir); restarting from rest: the reference itself, fixed,
    until the slip is resolved along it (v_t/|v_t| of a slip at round-off would turn the
-   friction at random and chatter) */
+   friction at random and chatter).  Below v_freeze = sqrt(rtol) times the slip's scale the
+   reference too: the slip's direction damps a deviation at the rate |a_t|/|v_t|, which no
+   explicit step survives as the slip passes 0; the direction converges there (as a power
+   of |v_t|), so the error is of the order of rtol. */
 static void crt_rough_dir(const crt_session *s, const double *v, double *dir)
 {
   const double rho = sqrt(v[0] * v[0] + v[1] * v[1]);
-  if (s->fr.armed && rho > 0.0) {
+  if (s->fr.armed && rho > s->fr.v_freeze) {
     const double sg = v[0] * s->fr.dir[0] + v[1] * s->fr.dir[1] < 0.0 ? -1.0 : 1.0;
     dir[0] = sg * v[0] / rho; dir[1] = sg * v[1] / rho;
   } else {
@@ -820,7 +824,7 @@ static void crt_rough_after_step(crt_session *s)
     double rho;
     model_contact_velocity(s->prm, crt_u(s, t), s->q, v);
     rho = sqrt(v[0] * v[0] + v[1] * v[1]);
-    if (s->fr.armed ? rho > 0.0
+    if (s->fr.armed ? rho > s->fr.v_freeze
                     : rho > s->fr.v_arm && v[0] * s->fr.dir[0] + v[1] * s->fr.dir[1] > 0.0) {
       s->fr.dir[0] = v[0] / rho; s->fr.dir[1] = v[1] / rho;
       s->fr.armed = 1;

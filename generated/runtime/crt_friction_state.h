@@ -26,6 +26,7 @@ typedef struct {
                                  reaches 0" (v_t . dir = 0) is searched */
   double v_eps;               /* slips below this are round-off (set entering a mode) */
   double v_arm;               /* slips above this are resolved by the integrator */
+  double v_freeze;            /* below this the friction keeps the reference direction */
   double v_scale;             /* the slip's scale there (the event function's unit) */
 } crt_friction;
 
