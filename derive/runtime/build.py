@@ -96,8 +96,9 @@ class Library:
         if self.has_friction:       # crt_friction.h's functions
             for name, res, args in (
                     ("crt_contact_mode", c.c_int, [c.c_void_p]),
+                    ("crt_set_contact_mode", c.c_int, [c.c_void_p, c.c_int, DP]),
                     ("crt_eval_rough_rows", None, [c.c_void_p, c.c_int, DP, DP, IP, DP, DP,
-                                                   DP]),
+                                                   DP, DP]),
                     ("crt_eval_delassus", None, [c.c_void_p, c.c_double, DP, DP, DP]),
                     ("crt_eval_impact", c.c_int, [c.c_void_p, DP, DP, DP])):
                 fn = getattr(lib, name)

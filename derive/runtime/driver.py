@@ -220,6 +220,35 @@ class Session:
         return Raw(t, q, kinds, ev, dict(zip(STAT_NAMES, self._stats[:])),
                    dict(zip(SUMMARY_NAMES, self._summ.tolist())), abi.status_name(status))
 
+    def run_in_contact(self, t0: float, duration: float, q0, opt, prm, mode: int,
+                       direction=(1.0, 0.0)) -> Raw:
+        """The rough model: a run that starts in contact (crt_set_contact_mode: ``mode``
+        an index of abi.MODES, sliding along ``direction`` or sticking), its rows and
+        events (the energy balance resamples short contact phases with it)."""
+        lib = self.library.lib
+        self.init(opt, prm, t0, q0)
+        d = np.ascontiguousarray(direction, dtype=float)
+        status = lib.crt_set_contact_mode(self.handle, int(mode), d.ctypes.data_as(DP))
+        if status != _S["ok"]:
+            raise ValueError(f"crt_set_contact_mode: {abi.status_name(status)}")
+        tp, qp, kp, ep = self._out
+        n_ref, ne_ref, _ = self._refs
+        ts, qs, ks, evs = [], [], [], []
+        status = _S["paused"]
+        while status == _S["paused"]:
+            status = lib.crt_advance(self.handle, t0 + duration, tp, qp, kp, self.chunk, n_ref,
+                                     ep, self.chunk, ne_ref)
+            n, ne = self._n.value, self._ne.value
+            ts.append(self.t_buf[:n].copy())
+            qs.append(self.q_buf[:n].copy())
+            ks.append(self.k_buf[:n].copy())
+            evs.append(self.ev_buf[:ne].copy())
+        lib.crt_stats(self.handle, self._stats)
+        lib.crt_summary(self.handle, self._in[3])
+        return Raw(np.concatenate(ts), np.concatenate(qs), np.concatenate(ks),
+                   np.concatenate(evs), dict(zip(STAT_NAMES, self._stats[:])),
+                   dict(zip(SUMMARY_NAMES, self._summ.tolist())), abi.status_name(status))
+
     def run_many(self, t0, t_end, q0, opt, prm) -> dict:
         """Many runs of the session's law in one call into C (crt_run_many), keeping per
         run what a parameter study reads.  ``t0``, ``t_end``: (n,); ``q0``, ``opt``,
@@ -270,19 +299,23 @@ class Session:
                                                N.ctypes.data_as(DP), a.ctypes.data_as(DP))
         return dq, N, a
 
-    def rough_rows(self, t, Q, modes) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def rough_rows(self, t, Q, modes, directions=None) -> tuple[np.ndarray, np.ndarray,
+                                                                 np.ndarray]:
         """The rough model's contact along rows in the given modes (abi.MODES indices:
-        sliding along the slip, sticking; any other mode: flight): (dq/dt, the reaction R
-        at S in fixed axes, the velocity of S), in one call into C (after ``init``)."""
+        sliding along ``directions`` (rows of 2; zero rows, or None: along the slip),
+        sticking; any other mode: flight): (dq/dt, the reaction R at S in fixed axes, the
+        velocity of S), in one call into C (after ``init``)."""
         t = np.ascontiguousarray(t, dtype=float)
         Q = np.ascontiguousarray(Q, dtype=float)
         modes = np.ascontiguousarray(modes, dtype=np.intc)
         n = len(t)
+        d = np.zeros((n, 2)) if directions is None else \
+            np.ascontiguousarray(directions, dtype=float)
         dq, R, v = np.zeros_like(Q), np.zeros((n, 3)), np.zeros((n, 3))
         self.library.lib.crt_eval_rough_rows(self.handle, n, t.ctypes.data_as(DP),
                                              Q.ctypes.data_as(DP), modes.ctypes.data_as(IP),
-                                             dq.ctypes.data_as(DP), R.ctypes.data_as(DP),
-                                             v.ctypes.data_as(DP))
+                                             d.ctypes.data_as(DP), dq.ctypes.data_as(DP),
+                                             R.ctypes.data_as(DP), v.ctypes.data_as(DP))
         return dq, R, v
 
     def delassus(self, t: float, q) -> tuple[np.ndarray, np.ndarray]:

@@ -199,6 +199,29 @@ def drive_power_in_contact(result, mo: Motion, a: int, b: int) -> np.ndarray | N
     return np.einsum("ij,ij->i", F, v)
 
 
+def sliding_directions(result, a: int, b: int) -> np.ndarray:
+    """The friction's direction (its opposite) on rows [a, b) of one contact phase: the
+    slip's where it is resolved, else the nearest resolved one of the phase (below
+    sqrt(rtol) of the speeds the runtime slides along the slip's last direction as it
+    stops, and along its first as it starts: crt_friction.h, v_freeze; a slip located at
+    its stop can have passed 0 by the event's tolerance and point backwards); zero rows
+    where there is none (the runtime's own reference then: see crt_eval_rough_rows)."""
+    v = result.slip[a:b]
+    speed = np.hypot(v[:, 0], v[:, 1])
+    scale = float(np.max(np.abs(result.model_q[a:b, G.com_velocity]))) + 1.0
+    good = speed > 10.0 * np.sqrt(result.scene.rtol) * scale
+    out = np.zeros((b - a, 2))
+    if not good.any():
+        return out
+    idx = np.flatnonzero(good)
+    nearest = idx[np.clip(np.searchsorted(idx, np.arange(b - a)), 0, len(idx) - 1)]
+    before = idx[np.clip(np.searchsorted(idx, np.arange(b - a)) - 1, 0, len(idx) - 1)]
+    pick = np.where(np.abs(before - np.arange(b - a)) < np.abs(nearest - np.arange(b - a)),
+                    before, nearest)
+    out[:] = v[pick] / speed[pick][:, None]
+    return out
+
+
 def rough_contact_power(result, mo: Motion, a: int, b: int) -> tuple[np.ndarray, np.ndarray]:
     """The rough model on rows [a, b) of a contact phase: the drive's power (as in
     :func:`drive_power_in_contact`, the force of the carrier on P gaining m/(m+M) A^T R)
@@ -206,7 +229,8 @@ def rough_contact_power(result, mo: Motion, a: int, b: int) -> tuple[np.ndarray,
     or sticking equations in each row's mode."""
     s = result.scene
     q = result.model_q[a:b]
-    dq, R, v_S = result.session.rough_rows(result.t[a:b], q, result.modes[a:b])
+    dq, R, v_S = result.session.rough_rows(result.t[a:b], q, result.modes[a:b],
+                                           sliding_directions(result, a, b))
     wd = dq[:, G.omega]
     r, v, w = mo.r[a:b], mo.v_r[a:b], mo.omega[a:b]
     rel = mo.a_r[a:b] + 2.0 * np.cross(w, v) + np.cross(wd, r) + np.cross(w, np.cross(w, r))
@@ -436,16 +460,25 @@ def _resampled(result, a: int, b: int):
     opt[o["time_scale"]] = span
     opt[o["hmax"]] = min(opt[o["hmax"]], span / 4.0)
     opt[o["max_events"]] = 1
-    raw = result.session.run(t0, span, result.model_q[a], opt,
-                             choice.parameters(s, result.start.constants))
+    prm = choice.parameters(s, result.start.constants)
+    mode = int(result.modes[a]) if result.model == "rough" else 0
+    if mode >= 2:       # a rough contact phase: resumed in its mode
+        v = result.slip[a] if np.hypot(*result.slip[a]) > 0 else result.slip[b - 1]
+        raw = result.session.run_in_contact(t0, span, result.model_q[a], opt, prm, mode,
+                                            v if np.hypot(*v) > 0 else (1.0, 0.0))
+    else:
+        raw = result.session.run(t0, span, result.model_q[a], opt, prm)
     eps = 1e-9 * max(abs(t1), 1.0)
     if len(raw.events) and raw.events[0, 0] < t1 - eps:
         return None
     inside = (raw.t > t0 + eps) & (raw.t < t1 - eps) & (raw.kinds == 0)
     t = np.concatenate([[t0], raw.t[inside], [t1]])
     q = np.concatenate([result.model_q[a:a + 1], raw.q[inside], result.model_q[b - 1:b]])
-    return replace(result, t=t, model_q=q, row_kind=np.zeros(len(t), dtype=np.intc),
-                   event_rows=np.zeros((0, raw.events.shape[1])), rates=None)
+    sub = replace(result, t=t, model_q=q, row_kind=np.zeros(len(t), dtype=np.intc),
+                  event_rows=np.zeros((0, raw.events.shape[1])), rates=None)
+    if mode >= 2:
+        sub.__dict__["modes"] = np.full(len(t), mode)       # (no events to read it from)
+    return sub
 
 
 def _phase_work(result, mo: Motion, a: int, b: int, state: str, p: np.ndarray,
@@ -498,9 +531,15 @@ def energy_balance(result, mo: Motion) -> dict | None:
             drive_flight += _phase_work(result, mo, a, b, state, power[a:b], budget)
             continue
         if rough:
-            p, pf = rough_contact_power(result, mo, a, b)
-            drive_contact += _integrate_pieces(s, mo.t[a:b], p)
-            friction_contact += _integrate_pieces(s, mo.t[a:b], pf)
+            fine, fm, fa, fb = result, mo, a, b
+            if b - a < QUADRATURE_POINTS and budget[0] > 0:
+                budget[0] -= 1
+                sub = _resampled(result, a, b)
+                if sub is not None:
+                    fine, fm, fa, fb = sub, motion(sub), 0, len(sub.t)
+            p, pf = rough_contact_power(fine, fm, fa, fb)
+            drive_contact += _integrate_pieces(s, fm.t[fa:fb], p)
+            friction_contact += _integrate_pieces(s, fm.t[fa:fb], pf)
             continue
         p = drive_power_in_contact(result, mo, a, b)
         if p is None:

@@ -580,9 +580,9 @@ static void crt_rough_event(crt_out *o, double t, int kind, double value, double
    slip is a sign change of v_t . dir); restarting from rest: the reference itself, fixed,
    until the slip is resolved along it (v_t/|v_t| of a slip at round-off would turn the
    friction at random and chatter).  Below v_freeze = sqrt(rtol) times the slip's scale the
-   reference too: the slip's direction damps a deviation at the rate |a_t|/|v_t|, which no
-   explicit step survives as the slip passes 0; the direction converges there (as a power
-   of |v_t|), so the error is of the order of rtol. */
+   reference too, which follows the slip at the end of every step: the slip's direction
+   damps a deviation at the rate |a_t|/|v_t|, which no explicit step survives as the slip
+   passes 0; a step there lags the friction's direction by its own turn of the slip. */
 static void crt_rough_dir(const crt_session *s, const double *v, double *dir)
 {
   const double rho = sqrt(v[0] * v[0] + v[1] * v[1]);
@@ -647,21 +647,98 @@ static double crt_rough_event_value(crt_session *s, double t, const double *y)
 }
 
 /* sliding needs k_f = W_ZZ - mu_f (W_Zt, dir) > 0 (derive/friction.py: sliding_contact),
-   else N is not determined (Painleve): status painleve; returns 0 then */
-static int crt_rough_consistent(crt_session *s, double t)
+   else N is not determined (Painleve); and as k_f falls to 0 with a_free < 0, N = -a_free/
+   k_f grows without bound (the sliding motion ends in a jam, which the rigid model can only
+   resolve by an impact) and the steps underflow: so k_f <= 1e-6 W_ZZ, or k_f <= 1e-2 W_ZZ
+   with N (when known, else pass 0) above 100 times the weight, ends the run with status
+   painleve; returns 0 then */
+static int crt_rough_consistent(crt_session *s, double t, double N)
 {
   double w6[6], v[3], dir[2], k_f;
   model_delassus(s->prm, crt_u(s, t), s->q, w6, v);
   crt_rough_dir(s, v, dir);
   k_f = w6[5] - s->prm[CRT_P_friction] * (w6[2] * dir[0] + w6[4] * dir[1]);
-  if (k_f > 0.0) return 1;
+  if (k_f > 1e-6 * w6[5] && !(k_f <= 1e-2 * w6[5] && N > 1e2 * crt_rough_force_scale(s)))
+    return 1;
   s->status = CRT_PAINLEVE;
   return 0;
 }
 
+/* sigma = (cos th, sin th) x a_t(sigma) and (sigma, a_t(sigma)) for crt_rough_onset
+   (NaN where k_f <= 0 or N <= 0: no sliding along sigma) */
+static void crt_rough_onset_at(const double *w6, const double *R, double WR_n, double mu,
+                               double th, double *g, double *along)
+{
+  const double c = cos(th), s = sin(th);
+  const double k_f = w6[5] - mu * (w6[2] * c + w6[4] * s);
+  const double N = WR_n / k_f;
+  /* the impulse-like vector N (e_Z - mu sigma) - R, and a_t = W_t. of it */
+  const double x = -N * mu * c - R[0], y = -N * mu * s - R[1], z = N - R[2];
+  const double ax = w6[0] * x + w6[1] * y + w6[2] * z;
+  const double ay = w6[1] * x + w6[3] * y + w6[4] * z;
+  if (!(k_f > 0.0 && N > 0.0)) { *g = NAN; *along = NAN; return; }
+  *g = c * ay - s * ax;
+  *along = c * ax + s * ay;
+}
+
+/* The direction a slip takes from rest where sticking would need R (fixed axes) outside
+   the cone, R_Z > 0: the contact analogue of an impact's re-sliding ray.  S sliding along
+   sigma from rest feels R(sigma) = N (e_Z - mu_f sigma) with N from dv_n/dt = 0; as
+   dv_S/dt = a_free + W R with a_free = -W R (the sticking reaction makes it 0),
+   a(sigma) = W (N(sigma) (e_Z - mu_f sigma) - R), N(sigma) = (W R)_Z/k_f(sigma),
+   k_f(sigma) = W_ZZ - mu_f (W_Zt, sigma).  The slip keeps its direction where
+   a_t(sigma) = c sigma, c > 0: the zeros of sigma x a_t(sigma) on a scan of 72 angles
+   where k_f > 0 and N > 0 (refined by bisection) with (sigma, a_t) > 0 there (near such a
+   ray |a_t| is small and turns fast with sigma: a direction off it by a degree can start
+   a slip that the friction then turns back); a stable one (sigma x a_t falls through 0:
+   the slip's direction, which the friction then follows, turns back to it) nearest
+   -R_t/|R_t| (the friction's direction continued) in dir, else any nearest.  Returns 0 (dir = -R_t/|R_t|)
+   when there is none. */
+static int crt_rough_onset(const crt_session *s, const double *w6, const double *R,
+                           double *dir)
+{
+  const double mu = s->prm[CRT_P_friction];
+  const double WR_n = w6[2] * R[0] + w6[4] * R[1] + w6[5] * R[2];
+  const double rt = sqrt(R[0] * R[0] + R[1] * R[1]);
+  const double d0[2] = {-R[0] / rt, -R[1] / rt};
+  double best = -2.0, g_prev = 0.0, th_prev = 0.0, score;
+  int k, ok_prev = 0, found = 0;
+  dir[0] = d0[0]; dir[1] = d0[1];
+  for (k = 0; k <= 72; ++k) {
+    const double th = 6.283185307179586 * (double)k / 72.0;
+    double g, along, sg[2];
+    int ok, it;
+    crt_rough_onset_at(w6, R, WR_n, mu, th, &g, &along);
+    ok = g == g;                           /* k_f > 0 and N > 0 there */
+    if (k > 0 && ok && ok_prev && (g > 0.0) != (g_prev > 0.0)) {
+      double a = th_prev, b = th, ga = g_prev, gm, al = 0.0;
+      for (it = 0; it < 60; ++it) {
+        const double c = 0.5 * (a + b);
+        double gc;
+        crt_rough_onset_at(w6, R, WR_n, mu, c, &gc, &al);
+        if ((gc > 0.0) == (ga > 0.0)) { a = c; ga = gc; } else b = c;
+      }
+      crt_rough_onset_at(w6, R, WR_n, mu, 0.5 * (a + b), &gm, &al);
+      sg[0] = cos(0.5 * (a + b)); sg[1] = sin(0.5 * (a + b));
+      /* a stable ray first (g falls through 0: a slip turned off it turns back), then the
+         nearest to -R_t/|R_t| */
+      score = (g < g_prev ? 4.0 : 0.0) + sg[0] * d0[0] + sg[1] * d0[1];
+      if (al > 0.0 && score > best) {
+        best = score;
+        dir[0] = sg[0]; dir[1] = sg[1];
+        found = 1;
+      }
+    }
+    g_prev = g; th_prev = th; ok_prev = ok;
+  }
+  return found;
+}
+
 /* S on the plane with its slip at round-off, at (t, s->q): the slip set to 0 (in V_C); then
    CRT_MODE_STICKING when the sticking reaction R is inside the cone, CRT_MODE_FLIGHT when
-   R_Z <= 0, else CRT_MODE_SLIDING from rest along -R_t/|R_t| (the mode is set) */
+   R_Z <= 0, else CRT_MODE_SLIDING from rest along the direction the slip takes
+   (crt_rough_onset; the mode is set), or CRT_MODE_FLIGHT where no direction can slide and
+   S leaves the plane unpushed, or status painleve where it cannot */
 static int crt_rough_at_rest(crt_session *s, double t, double *R)
 {
   const double *u = crt_u(s, t);
@@ -677,9 +754,22 @@ static int crt_rough_at_rest(crt_session *s, double t, double *R)
     return CRT_MODE_STICKING;
   }
   s->fr.mode = CRT_MODE_SLIDING;
-  s->fr.dir[0] = -R[0] / rt;
-  s->fr.dir[1] = -R[1] / rt;
   s->fr.armed = 0;
+  {
+    double w6[6], vv[3];
+    model_delassus(s->prm, u, s->q, w6, vv);
+    if (!crt_rough_onset(s, w6, R, s->fr.dir)) {
+      /* no direction found that slides with N > 0, k_f > 0 and a growing slip (the cone
+         barely violated leaves the slip's rate at round-off): if S leaves the plane
+         without a reaction (a_free_n = -(W R)_Z > 0) it lifts off; else -R_t/|R_t| where
+         k_f > 0 there; else neither sticking, sliding nor flight is consistent
+         (Painleve: only an impulse could resolve it) */
+      const double k_f = w6[5] - s->prm[CRT_P_friction] * (w6[2] * s->fr.dir[0]
+                                                         + w6[4] * s->fr.dir[1]);
+      if (w6[2] * R[0] + w6[4] * R[1] + w6[5] * R[2] < 0.0) return CRT_MODE_FLIGHT;
+      if (!(k_f > 0.0)) s->status = CRT_PAINLEVE;
+    }
+  }
   return CRT_MODE_SLIDING;
 }
 
@@ -708,15 +798,18 @@ static void crt_rough_enter_contact(crt_session *s, crt_out *o, double t, double
   } else {
     mode = crt_rough_at_rest(s, t, R);
     if (mode == CRT_MODE_FLIGHT) {
-      /* not pressed after all: sliding with N <= 0, which lifts off at the next step */
-      s->fr.mode = mode = CRT_MODE_SLIDING;
-      s->fr.dir[0] = 1.0; s->fr.dir[1] = 0.0; s->fr.armed = 0;
+      /* not pressed onto the plane after all: S touched it (a graze), and flies on */
+      s->phase = CRT_FLIGHT;
+      s->last_flight = 0.0;
+      crt_rough_event(o, t, CRT_EV_GRAZE, 0.0, v_cut, 0.0, 0.0, CRT_MODE_FLIGHT, 0);
+      ++s->stat[CRT_STAT_GRAZES];
+      return;
     }
   }
   if (mode == CRT_MODE_STICKING) N = R[2];
   else {
     crt_rough_sliding(s, t, s->q, dq, &N, v);
-    if (N > 0.0) crt_rough_consistent(s, t);
+    if (N > 0.0) crt_rough_consistent(s, t, 0.0);
   }
   if (N < s->summary[CRT_SUMMARY_MIN_NORMAL]) s->summary[CRT_SUMMARY_MIN_NORMAL] = N;
   crt_rough_event(o, t, CRT_EV_CONTACT, N, v_cut, 0.0, t_accumulation, mode, 0);
@@ -774,7 +867,7 @@ static void crt_rough_transition(crt_session *s, crt_out *o, double t)
     ++s->stat[CRT_STAT_SLIPS];
     crt_rough_mark(s, o, t, CRT_EV_SLIP, rt / (s->prm[CRT_P_friction] * R[2]), 0.0,
                    CRT_MODE_SLIDING);
-    crt_rough_consistent(s, t);
+    crt_rough_consistent(s, t, 0.0);
   } else {
     double N, before;
     int mode;
@@ -800,7 +893,7 @@ static void crt_rough_transition(crt_session *s, crt_out *o, double t)
     }
     ++s->stat[CRT_STAT_REVERSALS];
     crt_rough_mark(s, o, t, CRT_EV_REVERSAL, R[2], before, mode);
-    crt_rough_consistent(s, t);
+    crt_rough_consistent(s, t, 0.0);
   }
 }
 
@@ -824,14 +917,14 @@ static void crt_rough_after_step(crt_session *s)
     double rho;
     model_contact_velocity(s->prm, crt_u(s, t), s->q, v);
     rho = sqrt(v[0] * v[0] + v[1] * v[1]);
-    if (s->fr.armed ? rho > s->fr.v_freeze
+    if (s->fr.armed ? rho > s->fr.v_eps
                     : rho > s->fr.v_arm && v[0] * s->fr.dir[0] + v[1] * s->fr.dir[1] > 0.0) {
       s->fr.dir[0] = v[0] / rho; s->fr.dir[1] = v[1] / rho;
       s->fr.armed = 1;
     }
     crt_rough_sliding(s, t, s->q, dq, &normal, v);
     ratio = 1.0;
-    crt_rough_consistent(s, t);
+    crt_rough_consistent(s, t, normal);
   }
   if (normal < s->summary[CRT_SUMMARY_MIN_NORMAL]) s->summary[CRT_SUMMARY_MIN_NORMAL] = normal;
   if (ratio > s->summary[CRT_SUMMARY_MAX_FRICTION_RATIO])
@@ -846,12 +939,14 @@ int crt_contact_mode(const crt_session *s)
   return s->phase == CRT_FLIGHT ? CRT_MODE_FLIGHT : s->fr.mode;
 }
 
-/* Along n rows (t[k], q[k*NQ..]) in the modes mode[k] (enum crt_mode; sliding along the
-   slip's direction, or (1, 0) where the slip is 0; CRT_MODE_STICKING; any other: flight):
-   dq/dt into dq[k*NQ..], the reaction at S R[3k..] (fixed axes; 0 in flight) and the
-   velocity of S v_S[3k..]. */
+/* Along n rows (t[k], q[k*NQ..]) in the modes mode[k] (enum crt_mode; CRT_MODE_SLIDING
+   along dir[2k..] (fixed axes, normalised here), or where that is 0 along the slip, or
+   (1, 0) where the slip is 0 too; CRT_MODE_STICKING; any other: flight): dq/dt into
+   dq[k*NQ..], the reaction at S R[3k..] (fixed axes; 0 in flight) and the velocity of S
+   v_S[3k..]. */
 void crt_eval_rough_rows(crt_session *s, int n, const double *t, const double *q,
-                         const int *mode, double *dq, double *R, double *v_S)
+                         const int *mode, const double *dir_in, double *dq, double *R,
+                         double *v_S)
 {
   const double mu = s->prm[CRT_P_friction];
   int k;
@@ -862,10 +957,15 @@ void crt_eval_rough_rows(crt_session *s, int n, const double *t, const double *q
     if (mode[k] == CRT_MODE_STICKING) {
       model_sticking(s->prm, u, qk, dqk, Rk);
     } else if (mode[k] == CRT_MODE_SLIDING) {
+      const double *d = dir_in + 2L * k;
+      const double given = sqrt(d[0] * d[0] + d[1] * d[1]);
       const double rho = sqrt(vk[0] * vk[0] + vk[1] * vk[1]);
       double dir[2], N, v_t[2], a_t[2];
-      dir[0] = rho > 0.0 ? vk[0] / rho : 1.0;
-      dir[1] = rho > 0.0 ? vk[1] / rho : 0.0;
+      if (given > 0.0) { dir[0] = d[0] / given; dir[1] = d[1] / given; }
+      else {
+        dir[0] = rho > 0.0 ? vk[0] / rho : 1.0;
+        dir[1] = rho > 0.0 ? vk[1] / rho : 0.0;
+      }
       model_sliding(s->prm, u, qk, mu, dir, dqk, &N, v_t, a_t);
       Rk[0] = -mu * N * dir[0]; Rk[1] = -mu * N * dir[1]; Rk[2] = N;
     } else {
@@ -873,6 +973,40 @@ void crt_eval_rough_rows(crt_session *s, int n, const double *t, const double *q
       Rk[0] = Rk[1] = Rk[2] = 0.0;
     }
   }
+}
+
+/* After crt_init (CRT_OK): start the run in contact instead of flight, S held on the
+   plane (h = 0 and v_n = 0 are made so), in the mode CRT_MODE_STICKING (the slip is set to
+   0) or CRT_MODE_SLIDING along dir[2] (fixed axes; normalised; the slip's own direction
+   once it is resolved).  For a run that resumes a contact phase (the energy balance's
+   finer rows of a short phase).  Returns CRT_OK, or CRT_BAD_ARGUMENT for another mode or
+   a zero dir (the session is then unchanged). */
+int crt_set_contact_mode(crt_session *s, int mode, const double *dir)
+{
+  double v[3];
+  if (s->status != CRT_OK) return s->status;
+  if (mode != CRT_MODE_SLIDING && mode != CRT_MODE_STICKING) return CRT_BAD_ARGUMENT;
+  if (mode == CRT_MODE_SLIDING && !(dir[0] * dir[0] + dir[1] * dir[1] > 0.0))
+    return CRT_BAD_ARGUMENT;
+  crt_project(s, s->t, s->q, 1);
+  s->phase = CRT_CONTACT;
+  crt_rough_scales(s, s->t);
+  s->fr.mode = mode;
+  model_contact_velocity(s->prm, crt_u(s, s->t), s->q, v);
+  if (mode == CRT_MODE_STICKING) {
+    s->q[Q_COM_VELOCITY] -= v[0];
+    s->q[Q_COM_VELOCITY + 1] -= v[1];
+  } else {
+    const double r = sqrt(dir[0] * dir[0] + dir[1] * dir[1]);
+    s->fr.dir[0] = dir[0] / r; s->fr.dir[1] = dir[1] / r;
+    s->fr.armed = sqrt(v[0] * v[0] + v[1] * v[1]) > s->fr.v_arm;
+  }
+  s->last_event_t = s->t;
+  crt_changed(s);
+  s->g_valid = 0;
+  crt_rhs(s, s->t, s->q, s->f);
+  s->f_valid = 1;
+  return CRT_OK;
 }
 
 /* The Delassus matrix W (upper triangle w6[6], fixed axes) and the velocity of S v_S[3] at
