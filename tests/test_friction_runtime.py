@@ -381,3 +381,30 @@ def test_the_rattleback_reverses_its_spin():
     print(times)
     assert times[-3.0] < 2.5
     assert times[3.0] > 5.0
+
+
+# ---- the README's examples -------------------------------------------------------------------
+def _example(name):
+    from importlib import resources
+    return str(resources.files("derive.scene") / "examples" / f"{name}.toml")
+
+
+def test_the_examples_do_what_the_readme_says():
+    """The spherical robot sticks after a few milliseconds and rolls forward (more than 2 m
+    in 8 s); the hopper's first impact sticks inside, and it lifts off, lands, slides and
+    sticks again.  Both: friction's work negative, the balance closed."""
+    from derive.runtime.motion import energy_balance, motion
+    robot = simulate(_example("spherical-robot"))
+    assert robot.status == "done" and robot.model == "rough"
+    stick = next(ev for ev in robot.events if ev["kind"] == "stick")
+    assert stick["t"] < 0.02 and set(robot.modes[robot.t > stick["t"]]) == {3}
+    assert robot.q[-1][0] > 2.0
+    hopper = simulate(_example("hopper"))
+    kinds = [ev["kind"] for ev in hopper.events]
+    first = next(ev for ev in hopper.events if ev["kind"] == "impact")
+    assert first["stage"] == "stick" and first["P_X"] < 0.0
+    assert {"liftoff", "stick", "slip"} <= set(kinds) and kinds.count("impact") >= 3
+    for res in (robot, hopper):
+        balance = energy_balance(res, motion(res))
+        assert balance["work_of_friction"] < 0.0
+        assert abs(balance["residual"]) < 1e-8 * abs(balance["start"])

@@ -267,20 +267,25 @@ static int crt_dk_ray_near(const crt_dk *k, double rho, double *theta, double to
    direction is within rtol of the ray it converges to (4: y[1] set to the ray, which the
    caller follows at constant rates; crt_dk_ray_near), or -1 when the steps underflow or p
    passes p_max (a jam; or in s, the slip not decreasing).  x and y are left at the stop;
-   k->p follows p; scale[2] is the velocities' scale. */
+   k->p follows p; scale[2] is the velocities' scale (the direction's, scale[1], is set
+   from it step by step). */
 static int crt_dk_integrate(crt_dk *k, int log_rho, double *x, double *y, double x_end,
-                            double rho_stop, double rtol, const double *scale, double h,
+                            double rho_stop, double rtol, const double *scale_in, double h,
                             double p_max)
 {
-  double f[CRT_DK_N], y1[CRT_DK_N], f1[CRT_DK_N];
+  double f[CRT_DK_N], y1[CRT_DK_N], f1[CRT_DK_N], scale[CRT_DK_N];
   const double dir = x_end >= *x ? 1.0 : -1.0;
   double h_old = 0.0, err_old = 0.0;
   int it, i, rejected = 0;
+  for (i = 0; i < CRT_DK_N; ++i) scale[i] = scale_in[i];
   crt_dk_rate(k->w6, k->mu, log_rho, *x, y, f);
   h = dir * fabs(h);
   for (it = 0; it < 100000; ++it) {
     double norm, frac = HUGE_VAL, y_ev[CRT_DK_N] = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0};
     int which, hit = -1, last = 0;
+    /* the direction's error moves v by rho times it: its scale is the velocities' over
+       rho (at the step's start; rho falls along the stop's approach) */
+    scale[1] = scale[2] / crt_max(log_rho ? exp(*x) : fabs(y[0]), rho_stop);
     if ((log_rho ? y[0] : *x) > p_max || !(fabs(h) > 1e-14 * crt_max(fabs(*x), 1e-300)))
       return -1;
     if (dir * (*x + h - x_end) >= 0.0) { h = x_end - *x; last = 1; }
