@@ -1,9 +1,10 @@
 """The rough plane's functions (:mod:`derive.friction`) as FunctionSpecs for the emitters.
 
-Not part of ``derive emit`` yet (the runtime that will call them is being reorganised):
-:func:`friction_specs` lists them, and the tests render them to C and CasADi the same
-way ``emit`` does and compare both with the NumPy evaluation and an independent
-Newton–Euler formulation (``tests/test_friction_newton_euler.py``).
+``derive emit`` renders :func:`runtime_specs` into the rough model's runtime
+(``generated/runtime/model_rough.c``; ``templates/runtime/crt_friction.h`` calls them);
+the tests render :func:`friction_specs` to C and CasADi the same way and compare both with
+the NumPy evaluation and an independent Newton–Euler formulation
+(``tests/test_friction_newton_euler.py``).
 
 All for the ``general`` state (the slip of S needs the horizontal velocity of C and the
 whole attitude, which the ``vertical`` model leaves out).  ``W`` is passed as its upper

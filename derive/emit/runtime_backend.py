@@ -9,6 +9,8 @@ headers.  Those are plain C, kept in ``templates/runtime/*.h`` and copied verbat
 * ``crt_integrators.h``: RK4, DOPRI5, DOP853 with dense output, and their dispatch;
 * ``crt_lie.h``: the Lie-group methods of the momentum form (K and C's parabola constant
   in flight, the attitude on SO(3)) and the dispatch between methods;
+* ``crt_friction_state.h``, ``crt_friction.h``: Coulomb friction at S (the rough model):
+  Darboux-Keller impacts, sliding and sticking contact and their transitions;
 * ``crt_core.h``: sessions, events, impacts, contact, output, the public API (its
   comments are the runtime's manual);
 
