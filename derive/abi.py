@@ -72,6 +72,19 @@ PARAMETERS = _names(
     ("n0_z", "..."),
     ("K", "axisymmetric model: |K|, constant in flight"),
     ("omega_z0", "axisymmetric model: omega_z, constant in flight (E3.6)"),
+    ("friction", "rough model: mu_f, Coulomb's friction coefficient at S (>= 0)"),
+    ("restitution_model", "rough model: how an impact's restitution ends (enum "
+                          "crt_restitution: energetic, poisson or newton)"),
+)
+
+# Values of prm[CRT_P_restitution_model] (derive/friction.py: darboux_keller's
+# terminations).  With mu_f = 0 the three agree (X1.1), and the smooth models apply E1.13.
+RESTITUTION_MODELS = _names(
+    ("energetic", "Stronge: the normal impulse's work in restitution is -e^2 times that in "
+                  "compression; never gains energy"),
+    ("poisson", "the normal impulse of restitution is e times that of compression"),
+    ("newton", "v_n+ = -e v_n-; only where it is energy-consistent (mu_f |W_tn| = 0 at the "
+               "impact), else the run stops with restitution_refused"),
 )
 
 METHODS = _names(
@@ -115,6 +128,10 @@ STATUSES = (
     Status("step_underflow", -2, "the step size fell below 1e-14 of the time scale"),
     Status("nonfinite", -3, "the state or the right-hand side became NaN or infinite"),
     Status("penetration", -4, "S went below the plane and the event could not be located"),
+    Status("painleve", -5, "sliding friction leaves no consistent normal reaction (Painleve: "
+                           "dv_n/dp <= 0 in an impact, or k_f <= 0 while sliding)"),
+    Status("restitution_refused", -6, "restitution_model newton at an impact where it is not "
+                                      "energy-consistent (mu_f |W_tn| > 0)"),
     Status("bad_argument", -20, "an output buffer is smaller than CRT_MIN_ROWS rows or "
                                 "CRT_MIN_EVENTS events (nothing is done: call again with "
                                 "larger ones)"),
@@ -142,6 +159,15 @@ PHASES = _names(
     ("contact", "S held on the plane by the reaction N >= 0"),
 )
 
+# The contact mode, a finer phase: what column "mode" of an event row says comes after the
+# event (friction models; the smooth models leave it 0), and what crt_contact_mode gives.
+MODES = _names(
+    ("flight", "S above the plane"),
+    ("smooth", "S on the plane, no friction"),
+    ("sliding", "S on the plane, slipping: R = N (e_Z - mu_f dir)"),
+    ("sticking", "S on the plane at rest: R inside the friction cone"),
+)
+
 EVENT_KINDS = _names(
     ("none", "(unused)"),
     ("impact", "S hit the plane with v_n < 0: the impact map applied"),
@@ -149,6 +175,10 @@ EVENT_KINDS = _names(
     ("liftoff", "N reached 0: S leaves the plane"),
     ("graze", "S touched the plane without approaching it"),
     ("push", "an impulsive push of the disturbances (value: |P|)"),
+    ("stick", "the slip of S reached 0 with the reaction inside the cone: S sticks"),
+    ("slip", "the sticking reaction left the friction cone: S starts to slip"),
+    ("reversal", "the slip reached 0 and the cone cannot hold S: it slips again, along "
+                 "-R_t"),
 )
 
 STATS = _names(
@@ -164,6 +194,9 @@ STATS = _names(
     ("controller_calls", "calls of the controller (crt_control.h)"),
     ("law_changes", "laws the controller set"),
     ("pushes", "pushes applied"),
+    ("sticks", "stick events (slip to stick in contact)"),
+    ("slips", "slip events (stick to slip in contact)"),
+    ("reversals", "reversal events (the slip reached 0 and restarted)"),
 )
 
 ROW_KINDS = _names(
@@ -177,6 +210,8 @@ SUMMARY = _names(
     ("min_height", "lowest height of S at the ends of steps and at events, in flight"),
     ("min_normal", "smallest reaction N seen in contact (inf if never in contact)"),
     ("t_min_height", "when the lowest height was seen"),
+    ("max_friction_ratio", "friction models: the largest |R_t|/(mu_f R_Z) at the ends of "
+                           "contact steps (at most 1: the cone holds; 1 while sliding)"),
 )
 
 # Law kinds and opcodes of the interpreter (derive/runtime/law.py compiles to these).
@@ -243,7 +278,14 @@ PRM = {entry.name: k for k, entry in enumerate(PARAMETERS)}
 OP = {entry.name: k for k, entry in enumerate(OPCODES)}
 
 
-EVENT_COLUMNS = ("t", "kind", "value", "v_minus", "v_plus", "t_accumulation")
+# The columns of an event row.  The first six for every model; the rest are the friction
+# models' (zero otherwise): the mode after the event (MODES), the tangential impulse of an
+# impact, the slip of S (X, Y) before and after, the work of the normal impulse and of
+# friction in an impact (E_n, E_t), and what happened inside it: 0 S slipped to the end
+# (or did not slip), 1 the slip stopped and S stuck, 2 it stopped and S re-slid.
+EVENT_COLUMNS = ("t", "kind", "value", "v_minus", "v_plus", "t_accumulation", "mode", "P_X",
+                 "P_Y", "slip_X_minus", "slip_Y_minus", "slip_X_plus", "slip_Y_plus",
+                 "work_normal", "work_friction", "stage")
 
 # What crt_count(CRT_COUNT_<NAME>) reports, with the value abi.py expects.
 COUNTS = (
@@ -259,7 +301,8 @@ COUNTS = (
 def c_context() -> dict:
     """What ``templates/runtime/crt_abi.h.jinja`` renders."""
     return {"options": OPTIONS, "parameters": PARAMETERS, "methods": METHODS,
-            "statuses": STATUSES, "phases": PHASES, "event_kinds": EVENT_KINDS,
+            "statuses": STATUSES, "phases": PHASES, "modes": MODES,
+            "restitution_models": RESTITUTION_MODELS, "event_kinds": EVENT_KINDS,
             "stats": STATS, "row_kinds": ROW_KINDS, "summary": SUMMARY,
             "law_kinds": LAW_KINDS, "opcodes": OPCODES, "law_max_nodes": LAW_MAX_NODES,
             "event_columns": EVENT_COLUMNS, "min_rows": MIN_ROWS, "min_events": MIN_EVENTS,

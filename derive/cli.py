@@ -216,6 +216,10 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     print(f"  {scene.method}, {info['steps']} steps ({info['rejected']} rejected), "
           f"{info['rhs_evaluations']} RHS evaluations, {info['impacts']} impacts, "
           f"{info['contacts']} contact phases, {info['liftoffs']} lift-offs")
+    if result.rough:
+        print(f"  friction mu_f = {scene.friction:g} ({scene.restitution_model}): "
+              f"{info['sticks']} sticks, {info['slips']} slips, {info['reversals']} reversals "
+              "in contact")
     if scene.contact_possible:
         mh, mn = result.min_height, result.min_normal
         print(f"  lowest height of S {mh:.3g} m" +

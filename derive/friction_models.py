@@ -1,9 +1,10 @@
 """The rough plane's functions (:mod:`derive.friction`) as FunctionSpecs for the emitters.
 
-Not part of ``derive emit`` yet (the runtime that will call them is being reorganised):
-:func:`friction_specs` lists them, and the tests render them to C and CasADi the same
-way ``emit`` does and compare both with the NumPy evaluation and an independent
-Newton–Euler formulation (``tests/test_friction_newton_euler.py``).
+``derive emit`` renders :func:`runtime_specs` into the rough model's runtime
+(``generated/runtime/model_rough.c``; ``templates/runtime/crt_friction.h`` calls them);
+the tests render :func:`friction_specs` to C and CasADi the same way and compare both with
+the NumPy evaluation and an independent Newton–Euler formulation
+(``tests/test_friction_newton_euler.py``).
 
 All for the ``general`` state (the slip of S needs the horizontal velocity of C and the
 whole attitude, which the ``vertical`` model leaves out).  ``W`` is passed as its upper
@@ -220,6 +221,13 @@ def numpy_function(name: str):
     ``name``, compiled once."""
     from .emit.numpy_backend import compile_spec
     return compile_spec(next(s for s in friction_specs() if s.name == name))
+
+
+def runtime_specs() -> list[FunctionSpec]:
+    """What the rough model's runtime calls (templates/runtime/model.c.jinja, crt_friction.h
+    and the Darboux-Keller step of crt_rk_steps.h)."""
+    return [delassus(), contact_velocity(), impulse_slip_rate(), impulse_stick_rate(),
+            impulse_resliding(), apply_impulse(), sliding_rhs(), sticking_rhs()]
 
 
 def friction_specs() -> list[FunctionSpec]:

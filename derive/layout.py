@@ -109,6 +109,9 @@ VARIATIONAL = Layout("variational", VERTICAL.labels + _PHI,
                      {"omega": _OMEGA, "n": _N, "Phi": _PHI}, {"Z": "Z_C", "Zd": "Z_C'"})
 LAYOUTS = {lay.model: lay for lay in (GENERAL, VERTICAL, ATTITUDE, TRANSLATIONAL, PLANAR,
                                       AXISYMMETRIC, VARIATIONAL)}
+# the rough model (Coulomb friction at S) runs the general state
+ROUGH = GENERAL
+LAYOUTS["rough"] = ROUGH
 
 
 def of(model: str) -> Layout:

@@ -258,10 +258,11 @@ def test_verify_robustness_exit_status(capped, status, monkeypatch, capsys):
             return doc
         monkeypatch.setattr(robustness, "random_scene", capped_scene)
     got, out = _verdict(["verify", "robustness", "-n", "2", "--workers", "1", "--duration",
-                         "1", "--seed", "3"], capsys)
+                         "1", "--seed", "3", "--plane", "smooth"], capsys)
     assert got == status
     assert ("0 wrong statuses or invariants (2): FAIL" in out) == capped
-    assert all(f"#{k} status: ended with max_steps" in out for k in range(2)) == capped
+    assert all(f"#{k} (smooth) status: ended with max_steps" in out
+               for k in range(2)) == capped
 
 
 def test_bench_sim_leaves_out_a_variant_short_of_the_target_and_names_it():

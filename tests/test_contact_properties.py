@@ -22,6 +22,21 @@ from derive.runtime.driver import simulate
 from derive.scene import builtin_doc
 
 
+@pytest.mark.parametrize("block", range(4))
+def test_random_rough_scenes_hold_every_property(block):
+    """The rough plane (derive verify robustness --plane rough): besides the properties
+    above, the friction cone in every contact row, friction's work never positive, no
+    energy gain beyond the point's drive (runtime.motion.energy_balance), and a painleve
+    stop only where mu_f |W_tn| >= W_ZZ."""
+    bad = []
+    for k in range(25):
+        index = 25 * block + k
+        outcome = rb.run_one((index, 20261122 + 500_009 + index, 12.0, "rough"))
+        if outcome.verdict not in ("ok", "painleve"):
+            bad.append(f"#{index}: {outcome.verdict} {outcome.detail}")
+    assert not bad, "\n".join(bad)
+
+
 @pytest.mark.parametrize("block", range(6))
 def test_random_bouncing_scenes_hold_every_property(block):
     bad = []

@@ -68,8 +68,9 @@ def test_the_plain_runtime_headers_are_copied_byte_for_byte(monkeypatch, tmp_pat
     files = runtime_backend.render_runtime()
     plain = sorted(p.name for pattern in ("*.h", "*.c")
                    for p in (TEMPLATES / "runtime").glob(pattern))
-    assert plain == ["crt_call.h", "crt_control.h", "crt_core.h", "crt_hop.c", "crt_hop.h",
-                     "crt_integrators.h", "crt_law.h", "crt_lie.h"]
+    assert plain == ["crt_call.h", "crt_control.h", "crt_core.h", "crt_friction.h",
+                     "crt_friction_state.h", "crt_hop.c", "crt_hop.h", "crt_integrators.h",
+                     "crt_law.h", "crt_lie.h"]
     for name in plain:
         source = (TEMPLATES / "runtime" / name).read_bytes()
         assert files[f"runtime/{name}"].encode("utf-8") == source

@@ -6,7 +6,9 @@ crt_set_law_*/crt_init/crt_advance with tiny buffers (so the pause/resume path r
 then crt_run_many (twice the same run: equal counters and final rows) and crt_run (the
 same as the loop), under AddressSanitizer and UndefinedBehaviorSanitizer, for a scene
 with impacts and resting contact, one with a tabulated law, and one without a plane,
-with every method.
+with every method; and the rough model (crt_friction.h) on a scene whose frictional
+impacts accumulate into contact that sticks, slips and lifts off, and on one that sticks,
+slips and reverses while the point drives it.
 """
 from __future__ import annotations
 
@@ -156,6 +158,19 @@ def _spinning(**run):
     return doc
 
 
+def _rough_spinning():
+    doc = _spinning()
+    doc["plane"]["friction"] = 0.4           # stick in impacts, contact, slip, lift-off
+    return doc
+
+
+def _rough_stick_slip():
+    doc = ball(e=0.0, z0=0.5, law=("0.3*sin(14*t)", "0", "0"), duration=1.0, rtol=1e-9,
+               atol=1e-11)
+    doc["plane"]["friction"] = 0.05          # reversals, sticks and slips in contact
+    return doc
+
+
 SCENES = {
     "bouncing": lambda: scene_dict(run={"duration": 2.0}),
     "contact": lambda: ball(e=0.0, z0=0.5, law=("0", "0", "0.3*sin(20*t)"), duration=0.5,
@@ -168,6 +183,8 @@ SCENES = {
     "vertical": lambda: _spinning(model="vertical", outputs=["omega", "impacts"]),
     "attitude": lambda: scene_dict(plane=None, run={"duration": 1.0, "model": "attitude",
                                                     "outputs": ["omega"]}),
+    "rough": _rough_spinning,
+    "rough_stick_slip": _rough_stick_slip,
 }
 
 
@@ -206,7 +223,7 @@ def test_runtime_clean_under_sanitizers(name, method, sanitized):
     assert "runtime error" not in run.stderr
 
 
-@pytest.mark.parametrize("kind", ["general", "vertical", "attitude", "translational",
+@pytest.mark.parametrize("kind", ["general", "rough", "vertical", "attitude", "translational",
                                   "planar", "axisymmetric", "variational"])
 def test_runtime_has_no_writable_statics_and_needs_only_libm(kind, tmp_path):
     obj = tmp_path / "model.o"
@@ -217,7 +234,7 @@ def test_runtime_has_no_writable_statics_and_needs_only_libm(kind, tmp_path):
     writable = [line for line in out.splitlines() if len(line.split()) == 3
                 and line.split()[1] in "BbDdGgSs"]
     assert undefined <= {"sqrt", "pow", "sin", "cos", "sincos", "exp", "log", "tan", "atan",
-                         "asin", "acos", "sinh", "cosh", "tanh", "fmod"}, undefined
+                         "atan2", "asin", "acos", "sinh", "cosh", "tanh", "fmod"}, undefined
     assert not writable, writable
 
 
@@ -225,7 +242,7 @@ CXX = shutil.which("c++") or shutil.which("g++")
 
 
 @pytest.mark.skipif(CXX is None, reason="no C++ compiler")
-@pytest.mark.parametrize("kind", ["general", "vertical", "translational", "planar"])
+@pytest.mark.parametrize("kind", ["general", "rough", "vertical", "translational", "planar"])
 def test_runtime_headers_are_valid_cpp(kind):
     """The runtime's headers are C that is also C++ (a controller may include a model's
     file in C++; only the derived functions' C99 ``restrict`` needs the compiler's own

@@ -46,6 +46,14 @@ COMMANDS = (
                 Arg.of("--quick", action="store_true", help="the scenes only (no CLI, batch "
                        "and first-build measurements)"),
             )),
+    Command("rough", "what a rough plane costs: rough runs against their smooth twins (the "
+            "C run and end to end, target <= 2x) and work-precision against a SciPy route "
+            "with the same laws", "derive.bench.rough", (
+                Arg.of("--repeats", type=REPEATS, default=3,
+                       help="timing repetitions (min taken)"),
+                Arg.of("--quick", action="store_true", help="the cost against the smooth "
+                       "plane only (no work-precision)"),
+            )),
     Command("law", "the point law interpreted against compiled: ns per evaluation, compile "
             "time, share of a run", "derive.bench.law", (
                 Arg.of("--repeats", type=REPEATS, default=7,

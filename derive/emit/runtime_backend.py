@@ -9,6 +9,8 @@ headers.  Those are plain C, kept in ``templates/runtime/*.h`` and copied verbat
 * ``crt_integrators.h``: RK4, DOPRI5, DOP853 with dense output, and their dispatch;
 * ``crt_lie.h``: the Lie-group methods of the momentum form (K and C's parabola constant
   in flight, the attitude on SO(3)) and the dispatch between methods;
+* ``crt_friction_state.h``, ``crt_friction.h``: Coulomb friction at S (the rough model):
+  Darboux-Keller impacts, sliding and sticking contact and their transitions;
 * ``crt_core.h``: sessions, events, impacts, contact, output, the public API (its
   comments are the runtime's manual);
 
@@ -64,7 +66,18 @@ class RuntimeModel:
     def lie(self) -> bool:
         """The momentum form applies (crt_lie.h): the model carries omega and the
         attitude, or only omega in free flight."""
-        return self.kind in ("general", "vertical", "attitude")
+        return self.kind in ("general", "vertical", "attitude", "rough")
+
+    @property
+    def friction(self) -> bool:
+        """Coulomb friction at S (crt_friction.h): the general state with the rough
+        plane's functions (derive/friction_models.py)."""
+        return self.kind == "rough"
+
+    @property
+    def base(self) -> str:
+        """The model whose derived functions it calls (the rough model: general's)."""
+        return "general" if self.kind == "rough" else self.kind
 
     def specs(self) -> list:
         # S and its rate for every shape of derive/shapes.py (model_shape picks one by
@@ -72,13 +85,18 @@ class RuntimeModel:
         surface = [f(name) for name in shapes.SHAPE_NAMES
                    for f in (dm.lowest_point, dm.lowest_point_rate)]
         momentum = [dm.lie_stage(), dm.lie_point(), dm.fixed_kinetic_moment(), dm.exp_map()]
-        if self.kind in ("general", "vertical"):
-            # the general model applies the closed loop's pushes: an impulse at a body
-            # point (derive/friction_models.py's impulse map at S, with S that point)
-            push = [friction_models.apply_impulse()] if self.kind == "general" else []
-            return [dm.flight_rhs(self.kind), dm.gap(self.kind), dm.impact(self.kind),
-                    dm.runtime_contact(self.kind), *surface, *momentum,
-                    dm.flight_parabola(), *push]
+        if self.kind in ("general", "vertical", "rough"):
+            base = [dm.flight_rhs(self.base), dm.gap(self.base), dm.impact(self.base),
+                    dm.runtime_contact(self.base), *surface, *momentum,
+                    dm.flight_parabola()]
+            # the rough plane's functions (derive/friction_models.py); the general state
+            # also applies the closed loop's pushes: an impulse at a body point (the
+            # impulse map at S, with S that point), which the rough model has already
+            if self.friction:
+                base += friction_models.runtime_specs()
+            elif self.kind == "general":
+                base.append(friction_models.apply_impulse())
+            return base
         if self.kind == "attitude":
             return [dm.flight_rhs("attitude"), *momentum]
         if self.kind == "translational":
@@ -97,6 +115,9 @@ class RuntimeModel:
 MODELS = (
     RuntimeModel("general", True, "matrix",
                  "E1.2, E1.7, E1.8 in flight; impacts (E1.10-E1.16); persistent contact."),
+    RuntimeModel("rough", True, "matrix",
+                 "the general model on a rough plane: Coulomb friction at S in impacts "
+                 "(Darboux-Keller) and in sliding and sticking contact (derive/friction.py)."),
     RuntimeModel("vertical", True, "vector",
                  "the general model without the horizontal motion of C and the heading."),
     RuntimeModel("attitude", False, "none", "E1.7 alone: free flight, omega only."),
@@ -170,7 +191,8 @@ def render_model(m: RuntimeModel) -> str:
         b = body(spec)
         functions.append({"name": spec.name, "doc": spec.doc, **b})
     ctx = {"template": "templates/runtime/model.c.jinja", "versions": versions(),
-           "kind": m.kind, "nq": len(m.labels), "labels": m.labels, "plane": m.plane,
+           "kind": m.kind, "base": m.base, "friction": m.friction, "nq": len(m.labels),
+           "labels": m.labels, "plane": m.plane,
            "offsets": _offsets(m.layout),
            "vertical_offsets": (_offsets(layout.VERTICAL) + [("COUNT", layout.VERTICAL.nq)]
                                 if m.kind in ("translational", "planar", "variational")

@@ -17,8 +17,8 @@ from pathlib import Path
 from ..cbuild import build_shared, runtime_flags
 from .. import abi
 
-KINDS = ("general", "vertical", "attitude", "translational", "planar", "axisymmetric",
-         "variational")
+KINDS = ("general", "rough", "vertical", "attitude", "translational", "planar",
+         "axisymmetric", "variational")
 
 DP = ctypes.POINTER(ctypes.c_double)
 IP = ctypes.POINTER(ctypes.c_int)
@@ -33,7 +33,7 @@ def runtime_dir() -> Path:
 # includes all of them)
 HEADERS = ("crt_abi.h", "crt_constants.h", "crt_law.h", "crt_integrators.h",
            "crt_rk_steps.h", "crt_lie.h", "crt_lie_steps.h", "crt_call.h", "crt_control.h",
-           "crt_core.h")
+           "crt_core.h", "crt_friction_state.h", "crt_friction.h")
 
 
 def sources(kind: str) -> dict[str, bytes]:
@@ -57,7 +57,8 @@ class Library:
         c = ctypes
         for name, res, args in (
                 ("crt_sizeof", c.c_int, []), ("crt_nq", c.c_int, []),
-                ("crt_has_plane", c.c_int, []), ("crt_model_name", c.c_char_p, []),
+                ("crt_has_plane", c.c_int, []), ("crt_has_friction", c.c_int, []),
+                ("crt_model_name", c.c_char_p, []),
                 ("crt_count", c.c_int, [c.c_int]),
                 ("crt_state_name", c.c_char_p, [c.c_int]),
                 ("crt_set_law_program", c.c_int, [c.c_void_p, c.c_int, c.c_int, IP, DP,
@@ -100,6 +101,17 @@ class Library:
                      "opcode"):
             fn = getattr(lib, f"crt_{name}_name")
             fn.restype, fn.argtypes = c.c_char_p, [c.c_int]
+        self.has_friction = bool(lib.crt_has_friction())
+        if self.has_friction:       # crt_friction.h's functions
+            for name, res, args in (
+                    ("crt_contact_mode", c.c_int, [c.c_void_p]),
+                    ("crt_set_contact_mode", c.c_int, [c.c_void_p, c.c_int, DP]),
+                    ("crt_eval_rough_rows", None, [c.c_void_p, c.c_int, DP, DP, IP, DP, DP,
+                                                   DP, DP]),
+                    ("crt_eval_delassus", None, [c.c_void_p, c.c_double, DP, DP, DP]),
+                    ("crt_eval_impact", c.c_int, [c.c_void_p, DP, DP, DP])):
+                fn = getattr(lib, name)
+                fn.restype, fn.argtypes = res, args
         self.lib = lib
         self.nq = lib.crt_nq()
         self.session_size = lib.crt_sizeof()

@@ -10,7 +10,10 @@ chooses one and fills its numbers:
 * ``axisymmetric`` (psi, phi): free flight, J_x = J_y, x = y = 0 (E3.14);
 * ``attitude`` (omega): free flight and only omega or momentum asked;
 * ``vertical`` (Z_C, Z_C', omega, n): contact possible, the pose not asked;
-* ``general`` (18 states) otherwise.
+* ``general`` (18 states) otherwise;
+* ``rough`` (the 18 general states, Coulomb friction at S: crt_friction.h) whenever
+  contact is possible and ``[plane].friction > 0``: the slip of S needs the horizontal
+  velocity of C and the whole attitude, which the smaller models leave out.
 
 The conditions read the law's program (``is_zero``) and its samples; nothing symbolic.
 """
@@ -78,6 +81,9 @@ def _axisymmetric_reason(scene: Scene) -> str | None:
 
 def candidates(scene: Scene) -> list:
     wants = set(scene.outputs)
+    if scene.rough:
+        return [("rough", f"the plane has friction (mu_f = {scene.friction:g}): the slip of "
+                          "S needs the horizontal velocity of C and the whole attitude")]
     out = []
     for kind, reason in (("translational", _translational_reason),
                          ("planar", _planar_reason), ("axisymmetric", _axisymmetric_reason)):
@@ -124,10 +130,10 @@ class Start:
 
 def start(scene: Scene, kind: str) -> Start:
     A0 = scene.A0
-    if kind in ("general", "vertical", "attitude"):
+    if kind in ("general", "rough", "vertical", "attitude"):
         q = G.assemble(com=scene.com, com_velocity=scene.com_velocity, omega=scene.omega,
                        A=A0.reshape(-1))
-        return Start(q if kind == "general" else
+        return Start(q if kind in ("general", "rough") else
                      layout.vertical_of_general(q) if kind == "vertical" else q[G.omega], {})
     n0 = {"n0_x": A0[2][0], "n0_y": A0[2][1], "n0_z": A0[2][2]}
     if kind == "translational":
@@ -147,6 +153,7 @@ def start(scene: Scene, kind: str) -> Start:
 
 _P = abi.PRM
 _P_BODY = (_P["M"], _P["m"], _P["J_x"], _P["J_y"], _P["J_z"], _P["g"], _P["e"])
+_RESTITUTION = {name: float(k) for k, name in enumerate(abi.names(abi.RESTITUTION_MODELS))}
 _P_SHAPE = (_P["size_a"], _P["size_b"], _P["size_c"], _P["center_x"], _P["center_y"],
             _P["center_z"])
 
@@ -157,6 +164,9 @@ def parameters(scene: Scene, constants: dict) -> np.ndarray:
     prm = [0.0] * len(abi.PARAMETERS)
     for k, x in zip(_P_BODY, (scene.M, scene.m, *scene.J, scene.g, scene.e)):
         prm[k] = x
+    if scene.friction:
+        prm[_P["friction"]] = scene.friction
+        prm[_P["restitution_model"]] = _RESTITUTION[scene.restitution_model]
     if scene.size:                     # (the sizes in their slots, then the centre)
         prm[_P["shape"]] = float(shapes.SHAPE_NAMES.index(scene.shape))
         for k, x in zip(_P_SHAPE, (*scene.size, 0.0, 0.0, 0.0)[:3] + tuple(scene.center)):
@@ -178,7 +188,7 @@ def omega_of(scene: Scene, kind: str, st: Start, t, Q, rates=None) -> np.ndarray
     """omega in body axes along the rows; ``rates`` (dq/dt of the rows, from the library)
     for the models whose omega is a rate (planar: phi', axisymmetric: psi')."""
     n = len(t)
-    if kind in ("general", "vertical", "attitude"):
+    if kind in ("general", "rough", "vertical", "attitude"):
         return Q[:, layout.of(kind).omega]
     if kind == "translational":
         return np.zeros((n, 3))
@@ -197,7 +207,7 @@ def to_general(scene: Scene, kind: str, st: Start, t, Q, omega) -> np.ndarray | 
     """The rows in the general layout (None for models that cannot give the pose)."""
     n = len(t)
     A0 = scene.A0
-    if kind == "general":
+    if kind in ("general", "rough"):
         return Q
     if kind in ("vertical", "attitude"):
         return None
@@ -229,7 +239,7 @@ def _general_rows(X, Y, Z, VX, VY, VZ, omega, A) -> np.ndarray:
 
 def height_of_c(scene: Scene, kind: str, t: float, q) -> float:
     """Z_C at time t from one state of a model (NaN for the attitude model)."""
-    if kind in ("general", "vertical", "translational", "planar"):
+    if kind in ("general", "rough", "vertical", "translational", "planar"):
         return float(q[layout.of(kind).Z])
     if kind == "axisymmetric":                # free flight: C on its parabola
         dt = t - scene.t0

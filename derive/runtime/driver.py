@@ -24,6 +24,11 @@ from ..scene import Scene, load as _load
 
 _S = abi.STATUS                 # return codes by name (abi.status_name: the reverse)
 EVENT_KINDS = abi.names(abi.EVENT_KINDS)
+MODES = abi.names(abi.MODES)
+_COL = {name: k for k, name in enumerate(abi.EVENT_COLUMNS)}
+# the friction columns of an event row, by the name Result.events gives them
+_FRICTION_COLUMNS = ("P_X", "P_Y", "slip_X_minus", "slip_Y_minus", "slip_X_plus",
+                     "slip_Y_plus", "work_normal", "work_friction")
 STAT_NAMES = abi.names(abi.STATS)
 SUMMARY_NAMES = abi.names(abi.SUMMARY)
 ROW_KINDS = abi.names(abi.ROW_KINDS)
@@ -235,6 +240,35 @@ class Session:
         return Raw(t, q, kinds, ev, dict(zip(STAT_NAMES, self._stats[:])),
                    dict(zip(SUMMARY_NAMES, self._summ.tolist())), abi.status_name(status))
 
+    def run_in_contact(self, t0: float, duration: float, q0, opt, prm, mode: int,
+                       direction=(1.0, 0.0)) -> Raw:
+        """The rough model: a run that starts in contact (crt_set_contact_mode: ``mode``
+        an index of abi.MODES, sliding along ``direction`` or sticking), its rows and
+        events (the energy balance resamples short contact phases with it)."""
+        lib = self.library.lib
+        self.init(opt, prm, t0, q0)
+        d = np.ascontiguousarray(direction, dtype=float)
+        status = lib.crt_set_contact_mode(self.handle, int(mode), d.ctypes.data_as(DP))
+        if status != _S["ok"]:
+            raise ValueError(f"crt_set_contact_mode: {abi.status_name(status)}")
+        tp, qp, kp, ep = self._out
+        n_ref, ne_ref, _ = self._refs
+        ts, qs, ks, evs = [], [], [], []
+        status = _S["paused"]
+        while status == _S["paused"]:
+            status = lib.crt_advance(self.handle, t0 + duration, tp, qp, kp, self.chunk, n_ref,
+                                     ep, self.chunk, ne_ref)
+            n, ne = self._n.value, self._ne.value
+            ts.append(self.t_buf[:n].copy())
+            qs.append(self.q_buf[:n].copy())
+            ks.append(self.k_buf[:n].copy())
+            evs.append(self.ev_buf[:ne].copy())
+        lib.crt_stats(self.handle, self._stats)
+        lib.crt_summary(self.handle, self._in[3])
+        return Raw(np.concatenate(ts), np.concatenate(qs), np.concatenate(ks),
+                   np.concatenate(evs), dict(zip(STAT_NAMES, self._stats[:])),
+                   dict(zip(SUMMARY_NAMES, self._summ.tolist())), abi.status_name(status))
+
     def run_many(self, t0, t_end, q0, opt, prm) -> dict:
         """Many runs of the session's law in one call into C (crt_run_many), keeping per
         run what a parameter study reads.  ``t0``, ``t_end``: (n,); ``q0``, ``opt``,
@@ -293,6 +327,50 @@ class Session:
                                                Q.ctypes.data_as(DP), dq.ctypes.data_as(DP),
                                                N.ctypes.data_as(DP), a.ctypes.data_as(DP))
         return dq, N, a
+
+    def rough_rows(self, t, Q, modes, directions=None) -> tuple[np.ndarray, np.ndarray,
+                                                                 np.ndarray]:
+        """The rough model's contact along rows in the given modes (abi.MODES indices:
+        sliding along ``directions`` (rows of 2; zero rows, or None: along the slip),
+        sticking; any other mode: flight): (dq/dt, the reaction R at S in fixed axes, the
+        velocity of S), in one call into C (after ``init``)."""
+        t = np.ascontiguousarray(t, dtype=float)
+        Q = np.ascontiguousarray(Q, dtype=float)
+        modes = np.ascontiguousarray(modes, dtype=np.intc)
+        n = len(t)
+        d = np.zeros((n, 2)) if directions is None else \
+            np.ascontiguousarray(directions, dtype=float)
+        dq, R, v = np.zeros_like(Q), np.zeros((n, 3)), np.zeros((n, 3))
+        self.library.lib.crt_eval_rough_rows(self.handle, n, t.ctypes.data_as(DP),
+                                             Q.ctypes.data_as(DP), modes.ctypes.data_as(IP),
+                                             d.ctypes.data_as(DP), dq.ctypes.data_as(DP),
+                                             R.ctypes.data_as(DP), v.ctypes.data_as(DP))
+        return dq, R, v
+
+    def delassus(self, t: float, q) -> tuple[np.ndarray, np.ndarray]:
+        """The rough model's Delassus matrix W (3x3, fixed axes) and the velocity of S at
+        (t, q) (after ``init``)."""
+        q = np.ascontiguousarray(q, dtype=float)
+        w6, v = np.zeros(6), np.zeros(3)
+        self.library.lib.crt_eval_delassus(self.handle, float(t), q.ctypes.data_as(DP),
+                                           w6.ctypes.data_as(DP), v.ctypes.data_as(DP))
+        a, b, c, d, e, f = w6
+        return np.array([[a, b, c], [b, d, e], [c, e, f]]), v
+
+    def impact(self, W, v0) -> tuple[str, dict]:
+        """The rough model's Darboux-Keller impact for a Delassus matrix W (3x3) and a
+        velocity of S v0 with the session's parameters (after ``init``): its status and
+        ``impulse`` (3), ``v_plus`` (3), ``work_normal``, ``work_friction``, ``stage``."""
+        W = np.asarray(W, dtype=float)
+        w6 = np.ascontiguousarray([W[0, 0], W[0, 1], W[0, 2], W[1, 1], W[1, 2], W[2, 2]])
+        v0 = np.ascontiguousarray(v0, dtype=float)
+        out = np.zeros(9)
+        status = self.library.lib.crt_eval_impact(self.handle, w6.ctypes.data_as(DP),
+                                                  v0.ctypes.data_as(DP),
+                                                  out.ctypes.data_as(DP))
+        return abi.status_name(status), {"impulse": out[:3], "v_plus": out[3:6],
+                                         "work_normal": out[6], "work_friction": out[7],
+                                         "stage": int(out[8])}
 
     def rhs_rows(self, t, Q) -> np.ndarray:
         """The flight right-hand side along rows (after ``init``)."""
@@ -433,14 +511,65 @@ class Result:
             out["momentum"] = self.momentum
         return out
 
+    @property
+    def rough(self) -> bool:
+        """The run has Coulomb friction at S (the rough model)."""
+        return self.model == "rough"
+
     @cached_property
     def events(self) -> list:
+        """One dict per event: t, kind, value, v_minus, v_plus (t_accumulation for a
+        contact).  The rough model adds ``mode`` (the contact mode after it: flight,
+        sliding, sticking), and for impacts the tangential impulse P_X, P_Y, the slip of S
+        before and after, the work of the normal impulse and of friction, and ``stage``
+        (what happened inside: slip, stick, reslide); for stick, slip and reversal,
+        v_minus and v_plus are the slip speed before and after and value the normal
+        reaction (stick, reversal) or |R_t|/(mu_f R_Z) (slip)."""
         cols = abi.EVENT_COLUMNS
-        return [{"t": float(r[0]), "kind": EVENT_KINDS[int(r[1])], "value": float(r[2]),
-                 "v_minus": float(r[3]), "v_plus": float(r[4]),
-                 **({cols[5]: float(r[5])} if int(r[1]) == abi.index(abi.EVENT_KINDS,
-                                                                     "contact") else {})}
-                for r in self.event_rows]
+        contact = abi.index(abi.EVENT_KINDS, "contact")
+        impact = abi.index(abi.EVENT_KINDS, "impact")
+        out = []
+        for r in self.event_rows:
+            kind = int(r[1])
+            ev = {"t": float(r[0]), "kind": EVENT_KINDS[kind], "value": float(r[2]),
+                  "v_minus": float(r[3]), "v_plus": float(r[4]),
+                  **({cols[5]: float(r[5])} if kind == contact else {})}
+            if self.rough:
+                ev["mode"] = MODES[int(r[_COL["mode"]])]
+                if kind == impact:
+                    ev.update({c: float(r[_COL[c]]) for c in _FRICTION_COLUMNS})
+                    ev["stage"] = ("slip", "stick", "reslide")[int(r[_COL["stage"]])]
+            out.append(ev)
+        return out
+
+    @cached_property
+    def modes(self) -> np.ndarray:
+        """The contact mode of every row (indices into abi.MODES: 0 flight, 1 smooth
+        contact, 2 sliding, 3 sticking), from the events (motion.contact_modes)."""
+        from .motion import contact_modes
+        return contact_modes(self)
+
+    @cached_property
+    def slip(self) -> np.ndarray | None:
+        """The rough model: the slip velocity of S (v_X, v_Y, fixed axes) on every row,
+        from the runtime's general_contact_velocity; None for the other models."""
+        if not self.rough:
+            return None
+        _, _, v = self.session.rough_rows(self.t, self.model_q, np.zeros(len(self.t)))
+        return v[:, :2]
+
+    IMPACT_FRICTION_COLUMNS = ("P_X", "P_Y", "slip_X_minus", "slip_Y_minus", "slip_X_plus",
+                               "slip_Y_plus", "work_normal", "work_friction", "stage")
+
+    @cached_property
+    def impacts_friction(self) -> np.ndarray:
+        """The rough model: per impact the columns of ``IMPACT_FRICTION_COLUMNS`` (stage: 0
+        slip to the end, 1 stick, 2 re-slide); (0, 9) otherwise."""
+        rows = self.event_rows
+        if not self.rough or not len(rows):
+            return np.zeros((0, len(self.IMPACT_FRICTION_COLUMNS)))
+        sel = rows[:, 1] == abi.index(abi.EVENT_KINDS, "impact")
+        return rows[sel][:, [_COL[c] for c in self.IMPACT_FRICTION_COLUMNS]]
 
     @cached_property
     def impacts(self) -> np.ndarray:

@@ -32,6 +32,15 @@ work (S does not move normally) and the drive's power gains the term ``m N/(m+M)
 V_r)``, with ``omega'`` and N from the runtime's contact equations; for the models
 without omega in their state (translational, planar) the change over a contact phase is
 reported as it is, not split.
+
+On a rough plane (the ``rough`` model) the reaction R at S has a tangential part.  An
+impact changes the energy by the work of its normal impulse ``E_n = int v_Z dp`` and of
+its tangential impulse ``E_t = int (v_t, dP_t) <= 0`` (Darboux-Keller, the runtime's
+numbers) plus the drive's impulsive work; in contact the drive's power has
+``m/(m+M) (A^T R, V_r)`` for the normal term, and friction does the work ``(R, v_S)``
+(``-mu_f N |v_t|`` while sliding, 0 while sticking), with R, omega' and v_S from the
+runtime's contact equations (``Session.rough_rows``).  ``work_of_friction``, the sum over
+impacts and contact, is never positive.
 """
 from __future__ import annotations
 
@@ -168,7 +177,8 @@ def drive_power_in_flight(scene, mo: Motion) -> np.ndarray:
     return scene.mu * np.einsum("ij,ij->i", rel, v)
 
 
-_OMEGA_RATE = {"general": (slice(6, 9), slice(15, 18)), "vertical": (slice(2, 5), slice(5, 8))}
+_OMEGA_RATE = {"general": (G.omega, G.n), "rough": (G.omega, G.n),
+               "vertical": (layout.VERTICAL.omega, layout.VERTICAL.n)}
 
 
 def drive_power_in_contact(result, mo: Motion, a: int, b: int) -> np.ndarray | None:
@@ -187,6 +197,46 @@ def drive_power_in_contact(result, mo: Motion, a: int, b: int) -> np.ndarray | N
     rel = mo.a_r[a:b] + 2.0 * np.cross(w, v) + np.cross(wd, r) + np.cross(w, np.cross(w, r))
     F = s.mu * rel + (s.m / (s.m + s.M)) * N[:, None] * q[:, n_at]
     return np.einsum("ij,ij->i", F, v)
+
+
+def sliding_directions(result, a: int, b: int) -> np.ndarray:
+    """The friction's direction (its opposite) on rows [a, b) of one contact phase: the
+    slip's where it is resolved, else the nearest resolved one of the phase (below
+    sqrt(rtol) of the speeds the runtime slides along the slip's last direction as it
+    stops, and along its first as it starts: crt_friction.h, v_freeze; a slip located at
+    its stop can have passed 0 by the event's tolerance and point backwards); zero rows
+    where there is none (the runtime's own reference then: see crt_eval_rough_rows)."""
+    v = result.slip[a:b]
+    speed = np.hypot(v[:, 0], v[:, 1])
+    scale = float(np.max(np.abs(result.model_q[a:b, G.com_velocity]))) + 1.0
+    good = speed > 10.0 * np.sqrt(result.scene.rtol) * scale
+    out = np.zeros((b - a, 2))
+    if not good.any():
+        return out
+    idx = np.flatnonzero(good)
+    nearest = idx[np.clip(np.searchsorted(idx, np.arange(b - a)), 0, len(idx) - 1)]
+    before = idx[np.clip(np.searchsorted(idx, np.arange(b - a)) - 1, 0, len(idx) - 1)]
+    pick = np.where(np.abs(before - np.arange(b - a)) < np.abs(nearest - np.arange(b - a)),
+                    before, nearest)
+    out[:] = v[pick] / speed[pick][:, None]
+    return out
+
+
+def rough_contact_power(result, mo: Motion, a: int, b: int) -> tuple[np.ndarray, np.ndarray]:
+    """The rough model on rows [a, b) of a contact phase: the drive's power (as in
+    :func:`drive_power_in_contact`, the force of the carrier on P gaining m/(m+M) A^T R)
+    and the power of friction (R, v_S), with omega', R and v_S from the runtime's sliding
+    or sticking equations in each row's mode."""
+    s = result.scene
+    q = result.model_q[a:b]
+    dq, R, v_S = result.session.rough_rows(result.t[a:b], q, result.modes[a:b],
+                                           sliding_directions(result, a, b))
+    wd = dq[:, G.omega]
+    r, v, w = mo.r[a:b], mo.v_r[a:b], mo.omega[a:b]
+    rel = mo.a_r[a:b] + 2.0 * np.cross(w, v) + np.cross(wd, r) + np.cross(w, np.cross(w, r))
+    A = q[:, G.A].reshape(-1, 3, 3)
+    F = s.mu * rel + (s.m / (s.m + s.M)) * np.einsum("nij,ni->nj", A, R)
+    return np.einsum("ij,ij->i", F, v), np.einsum("ij,ij->i", R, v_S)
 
 
 def integrate(t: np.ndarray, f: np.ndarray, points: int = 6) -> float:
@@ -238,6 +288,43 @@ def event_rows(result) -> list[tuple[int, dict]]:
 def impact_rows(result) -> np.ndarray:
     """Indices of the ``before`` rows of the impacts."""
     return np.array([i for i, ev in event_rows(result) if ev["kind"] == "impact"], dtype=int)
+
+
+_MODE = {name: k for k, name in enumerate(abi.names(abi.MODES))}
+
+
+def _mode_after(ev: dict, mode: int) -> int:
+    """The contact mode after an event (the rough model says it; the smooth ones by the
+    kind: contact starts it, lift-off ends it)."""
+    if "mode" in ev:
+        return _MODE[ev["mode"]]
+    if ev["kind"] == "contact":
+        return _MODE["smooth"]
+    if ev["kind"] == "liftoff":
+        return _MODE["flight"]
+    return mode
+
+
+def contact_modes(result) -> np.ndarray:
+    """The contact mode of every row (indices into abi.MODES): a step row has the mode
+    after the last event at or before its time; the ``before`` row of an event the mode
+    before the events at its time, the ``after`` row the mode after them."""
+    t = result.t
+    events = result.events
+    out = np.zeros(len(t), dtype=int)
+    if not events:
+        return out
+    times = np.array([ev["t"] for ev in events])
+    after, mode = [], _MODE["flight"]
+    for ev in events:
+        mode = _mode_after(ev, mode)
+        after.append(mode)
+    after = np.array([_MODE["flight"]] + after)
+    before_rows = result.row_kind == 1
+    k = np.searchsorted(times, t, side="right")
+    k_before = np.searchsorted(times, t, side="left")
+    out[:] = after[np.where(before_rows, k_before, k)]
+    return out
 
 
 def contact_intervals(result) -> list[tuple[float, float]]:
@@ -373,16 +460,25 @@ def _resampled(result, a: int, b: int):
     opt[o["time_scale"]] = span
     opt[o["hmax"]] = min(opt[o["hmax"]], span / 4.0)
     opt[o["max_events"]] = 1
-    raw = result.session.run(t0, span, result.model_q[a], opt,
-                             choice.parameters(s, result.start.constants))
+    prm = choice.parameters(s, result.start.constants)
+    mode = int(result.modes[a]) if result.model == "rough" else 0
+    if mode >= 2:       # a rough contact phase: resumed in its mode
+        v = result.slip[a] if np.hypot(*result.slip[a]) > 0 else result.slip[b - 1]
+        raw = result.session.run_in_contact(t0, span, result.model_q[a], opt, prm, mode,
+                                            v if np.hypot(*v) > 0 else (1.0, 0.0))
+    else:
+        raw = result.session.run(t0, span, result.model_q[a], opt, prm)
     eps = 1e-9 * max(abs(t1), 1.0)
     if len(raw.events) and raw.events[0, 0] < t1 - eps:
         return None
     inside = (raw.t > t0 + eps) & (raw.t < t1 - eps) & (raw.kinds == 0)
     t = np.concatenate([[t0], raw.t[inside], [t1]])
     q = np.concatenate([result.model_q[a:a + 1], raw.q[inside], result.model_q[b - 1:b]])
-    return replace(result, t=t, model_q=q, row_kind=np.zeros(len(t), dtype=np.intc),
-                   event_rows=np.zeros((0, raw.events.shape[1])), rates=None)
+    sub = replace(result, t=t, model_q=q, row_kind=np.zeros(len(t), dtype=np.intc),
+                  event_rows=np.zeros((0, raw.events.shape[1])), rates=None)
+    if mode >= 2:
+        sub.__dict__["modes"] = np.full(len(t), mode)       # (no events to read it from)
+    return sub
 
 
 def _phase_work(result, mo: Motion, a: int, b: int, state: str, p: np.ndarray,
@@ -413,12 +509,17 @@ def energy_balance(result, mo: Motion) -> dict | None:
     E = mo.T + mo.U
     V_P = point_velocity_body(s, mo)
     jumps = {"impact": 0.0, "contact": 0.0, "liftoff": 0.0, "graze": 0.0, "event": 0.0}
-    restitution = drive_impacts = 0.0
+    restitution = drive_impacts = friction_impacts = friction_contact = 0.0
+    rough = result.model == "rough"
     for i, ev in event_rows(result):
         kind = ev["kind"]
         jumps[kind] = jumps.get(kind, 0.0) + float(E[i + 1] - E[i])
         if kind == "impact":
-            restitution += 0.5 * ev["value"] * (ev["v_minus"] + ev["v_plus"])
+            if rough:       # the work of the impulse, normal and tangential (Darboux-Keller)
+                restitution += ev["work_normal"]
+                friction_impacts += ev["work_friction"]
+            else:
+                restitution += 0.5 * ev["value"] * (ev["v_minus"] + ev["v_plus"])
             if V_P is not None:
                 drive_impacts += s.m * float(np.dot(V_P[i + 1] - V_P[i], mo.v_r[i]))
     power = drive_power_in_flight(s, mo)
@@ -428,6 +529,17 @@ def energy_balance(result, mo: Motion) -> dict | None:
     for a, b, state in phases(result):
         if state == "flight":
             drive_flight += _phase_work(result, mo, a, b, state, power[a:b], budget)
+            continue
+        if rough:
+            fine, fm, fa, fb = result, mo, a, b
+            if b - a < QUADRATURE_POINTS and budget[0] > 0:
+                budget[0] -= 1
+                sub = _resampled(result, a, b)
+                if sub is not None:
+                    fine, fm, fa, fb = sub, motion(sub), 0, len(sub.t)
+            p, pf = rough_contact_power(fine, fm, fa, fb)
+            drive_contact += _integrate_pieces(s, fm.t[fa:fb], p)
+            friction_contact += _integrate_pieces(s, fm.t[fa:fb], pf)
             continue
         p = drive_power_in_contact(result, mo, a, b)
         if p is None:
@@ -449,6 +561,10 @@ def energy_balance(result, mo: Motion) -> dict | None:
         "at_other_events": sum(v for k, v in jumps.items() if k != "impact"),
         "quadrature_rows": int(len(mo.t)),
     }
+    if rough:
+        out.update({"friction_at_impacts": friction_impacts,
+                    "friction_in_contact": friction_contact,
+                    "work_of_friction": friction_impacts + friction_contact})
     out["residual"] = (E1 - E0 - out["at_impacts"] - drive_flight - drive_contact - contact
-                       - out["at_other_events"])
+                       - friction_contact - out["at_other_events"])
     return out

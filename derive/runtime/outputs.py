@@ -8,6 +8,12 @@ event (impact, contact, lift-off, graze) are in ``events.csv``, with the same co
 after two text columns ``event`` and ``side`` (before, after); ``impacts.csv`` has one row
 per impact (t, I, v_n_minus, v_n_plus).  Column names are plain identifiers (``dX_C`` for
 X_C'), so ``numpy.genfromtxt(..., names=True)`` and pandas keep them.
+
+On a rough plane (the ``rough`` model) the trajectory gains the slip of S (``slip_X,
+slip_Y, slip_speed``) and the contact ``mode`` (0 flight, 2 sliding, 3 sticking:
+abi.MODES), and each impact its tangential impulse, the slip before and after, the work
+of its normal impulse and of friction, and ``stage`` (0 S slipped to the end, 1 it
+stuck, 2 it re-slid).
 """
 from __future__ import annotations
 
@@ -75,13 +81,27 @@ def summary(result: Result, mo: Motion | None = None) -> dict:
                        "output_dt": s.output_dt if s.output_dt > 0 else None},
         "contact": {"min_height_of_S": _finite(result.min_height),
                     "t_min_height": _finite(result.summary["t_min_height"]),
-                    "min_normal_force_in_contact": _finite(result.min_normal)},
+                    "min_normal_force_in_contact": _finite(result.min_normal),
+                    **(_friction_summary(result) if result.rough else {})},
         "energy": energy,
         "invariants": invariant_drift(result),
         "timings_s": dict(result.timings),
         "machine": {"processor": platform.processor() or platform.machine(),
                     "cpus": os.cpu_count()},
     }
+
+
+def _friction_summary(result: Result) -> dict:
+    """The rough model's contact numbers: mu_f, the restitution law, the largest |R_t|/(mu_f
+    R_Z) at the ends of contact steps (at most 1: the cone held), the time sliding and
+    sticking."""
+    t, modes = result.t, result.modes
+    dt = np.diff(t)
+    mid = modes[:-1]
+    return {"friction": result.scene.friction,
+            "restitution_model": result.scene.restitution_model,
+            "max_friction_ratio": float(result.summary["max_friction_ratio"]),
+            "time_sliding": float(dt[mid == 2].sum()), "time_sticking": float(dt[mid == 3].sum())}
 
 
 def plain(label: str) -> str:
@@ -146,7 +166,22 @@ def trajectory_table(result: Result, mo: Motion | None = None) -> tuple[list, np
     if mo.h is not None:
         header.append("h")
         cols.append(mo.h[:, None])
+    if result.slip is not None:
+        header += ["slip_X", "slip_Y", "slip_speed", "mode"]
+        cols += [result.slip, np.hypot(*result.slip.T)[:, None],
+                 result.modes[:, None].astype(float)]
     return header, np.hstack(cols)
+
+
+def impact_table(result: Result) -> tuple[list, np.ndarray]:
+    """impacts.csv: t, I, v_n_minus, v_n_plus; the rough model adds P_X, P_Y (the tangential
+    impulse), the slip of S before and after, the work of the normal impulse and of
+    friction, and stage."""
+    header = ["t", "I", "v_n_minus", "v_n_plus"]
+    if not result.rough:
+        return header, result.impacts
+    return header + list(result.IMPACT_FRICTION_COLUMNS), \
+        np.hstack([result.impacts, result.impacts_friction])
 
 
 def split_rows(result: Result) -> tuple[np.ndarray, np.ndarray]:
@@ -182,18 +217,18 @@ def write_tables(result: Result, mo: Motion, out: Path, fmt: str = "csv",
     header, table = trajectory_table(result, mo)
     steps, events = split_rows(result)
     labels = event_labels(result, events)
-    imp_header = ["t", "I", "v_n_minus", "v_n_plus"]
+    imp_header, imp = impact_table(result)
     if fmt == "csv":
         paths = [out / name for name in TABLE_FILES["csv"]]
         write_csv(paths[0], header, table, progress=progress, select=steps)
         write_csv(paths[1], header, table[events], labels)
-        write_csv(paths[2], imp_header, result.impacts)
+        write_csv(paths[2], imp_header, imp)
         return paths
     if fmt == "npz":
         arrays = {f"trajectory/{h}": table[steps, k] for k, h in enumerate(header)}
         arrays.update({f"events/{h}": table[events, k] for k, h in enumerate(header)})
         arrays.update({f"events/{k}": np.array(v, dtype=str) for k, v in labels.items()})
-        arrays.update({f"impacts/{h}": result.impacts[:, k] for k, h in enumerate(imp_header)})
+        arrays.update({f"impacts/{h}": imp[:, k] for k, h in enumerate(imp_header)})
         path = out / TABLE_FILES["npz"][0]
         np.savez_compressed(path, **arrays)
         return [path]

@@ -1,7 +1,8 @@
 """``overview.png``: one figure of a run — the motion in space (the body drawn at a few
 instants, the traces of C and P, the impacts), and against time the height of S, the
 attitude, omega, the energy of the carrier and of the point, the impulses and the drift
-of |K| between impacts (E1.9).
+of |K| between impacts (E1.9); on a rough plane also the slip speed of S with the contact
+modes shaded, and the contact mode with the impacts' tangential impulses.
 
 Drawn on a bare :class:`matplotlib.figure.Figure` with the Agg canvas (no pyplot, no
 backend selection); legends sit outside the axes so they never hide a curve.
@@ -239,6 +240,49 @@ def motion_panel(ax, result, mo: Motion) -> None:
     _labels_below(ax, labels)
 
 
+MODE_COLOURS = {2: "#fdd0a2", 3: "#c7e9c0"}      # sliding, sticking
+
+
+def _mode_spans(ax, t, modes) -> None:
+    """The sliding and sticking stretches shaded."""
+    edges = np.flatnonzero(np.diff(modes)) + 1
+    starts = np.concatenate([[0], edges])
+    ends = np.concatenate([edges, [len(t) - 1]])
+    for a, b in zip(starts, ends):
+        colour = MODE_COLOURS.get(int(modes[a]))
+        if colour is not None and t[b] > t[a]:
+            ax.axvspan(t[a], t[b], color=colour, lw=0, zorder=0)
+
+
+def friction_panels(ax_slip, ax_mode, result) -> None:
+    """The rough model: the slip speed of S (sliding and sticking shaded) and the contact
+    mode with the impacts' tangential impulses."""
+    t, modes = result.t, result.modes
+    speed = np.hypot(*result.slip.T)
+    i = drawing.drawn_rows(t, speed)
+    ax_slip.plot(t[i], speed[i], lw=1, color="C3")
+    _mode_spans(ax_slip, t, modes)
+    ax_slip.set_ylabel("|v_t| [m/s]", fontsize=9)
+    ax_slip.set_title(f"slip speed of S (mu_f = {result.scene.friction:g})", **_TITLE)
+    _labels(ax_slip, [("slip speed", "C3"), ("sliding", "#e6550d"), ("sticking", "#41ab5d")])
+    ax_slip.set_xlim(t[0], t[-1])
+    ax_mode.step(t, modes, where="post", lw=1, color="k")
+    ax_mode.set_yticks([0, 2, 3])
+    ax_mode.set_yticklabels(["flight", "sliding", "sticking"], fontsize=8)
+    ax_mode.set_ylim(-0.3, 3.3)
+    imp = result.impacts_friction
+    if len(imp):
+        tw = ax_mode.twinx()
+        pt = np.hypot(imp[:, 0], imp[:, 1])
+        tw.vlines(result.impacts[:, 0], 0.0, pt, color="C0", lw=1.2)
+        tw.plot(result.impacts[:, 0], pt, "o", color="C0", ms=3)
+        tw.set_ylim(0.0, 1.1 * max(pt.max(), 1e-300))
+        tw.tick_params(labelsize=8)
+        tw.set_ylabel("|P_t| [N s]", fontsize=9, color="C0")
+    ax_mode.set_title("contact mode; impacts' tangential impulses |P_t|", **_TITLE)
+    ax_mode.set_xlim(t[0], t[-1])
+
+
 def overview(result, mo: Motion, path: Path, dpi: int = 80, steps=None) -> Path:
     """``result`` and ``mo``: the rows to draw; ``steps``: the run at its own rows (the
     ends of steps), for the drift of |K|, which the dense output's interpolation error
@@ -250,14 +294,16 @@ def overview(result, mo: Motion, path: Path, dpi: int = 80, steps=None) -> Path:
     t = result.t
     imp = result.impacts
     has_motion = mo.r_O is not None
-    rows = 4 if has_motion else 3
-    height = 2.7 * 3 + (4.6 if has_motion else 0.0) + 1.0
+    rough = result.slip is not None
+    n_rows = 4 if rough else 3
+    rows = n_rows + (1 if has_motion else 0)
+    height = 2.7 * n_rows + (4.6 if has_motion else 0.0) + 1.0
     fig = Figure(figsize=(12.0, height))
     FigureCanvasAgg(fig)
     # fixed margins (a layout engine measures every label: seconds on a busy machine);
     # the gap between the columns holds the left column's legends
     gs = fig.add_gridspec(rows, 2, height_ratios=([4.6 / 2.7] if has_motion else [])
-                          + [1, 1, 1], left=0.06, right=0.87, top=1 - 0.8 / height,
+                          + [1] * n_rows, left=0.06, right=0.87, top=1 - 0.8 / height,
                           bottom=0.45 / height, wspace=0.45, hspace=0.42)
     n_contact = len(contact_intervals(result))
     phases_text = (f", {n_contact} contact phase" + ("s" if n_contact > 1 else "")
@@ -269,12 +315,14 @@ def overview(result, mo: Motion, path: Path, dpi: int = 80, steps=None) -> Path:
         motion_panel(fig.add_subplot(gs[0, 0]), result, mo)
         side_panel(fig.add_subplot(gs[0, 1]), result, mo)
     r0 = 1 if has_motion else 0
-    panels = [fig.add_subplot(gs[r0 + i // 2, i % 2]) for i in range(6)]
+    panels = [fig.add_subplot(gs[r0 + i // 2, i % 2]) for i in range(2 * n_rows)]
     for ax in panels:
         ax.tick_params(labelsize=8)
         ax.grid(True, lw=0.4, color="0.9")
-    for ax in panels[4:]:
+    for ax in panels[-2:]:
         ax.set_xlabel("t [s]", fontsize=9)
+    if rough:
+        friction_panels(panels[6], panels[7], result)
 
     ax = panels[0]
     if mo.h is not None:

@@ -77,6 +77,7 @@ def static_part(v: dict, given: set, origin: str = "scene", base: Path | None = 
     fields = dict(name=v["name"], M=v["[body].mass"], J=v["[body].inertia"],
                   shape=v["[body].shape"], size=d.size, center=d.center, m=v["[point].mass"],
                   law=d.law, law_text=d.law_text, plane=d.plane, e=d.e, t0=d.t0,
+                  friction=d.friction, restitution_model=d.restitution_model,
                   duration=d.duration if with_law else 0.0,
                   method=run("method"), rtol=run("rtol"), atol=run("atol"), g=run("g"),
                   outputs=run("outputs"), max_events=run("max_events"),

@@ -50,6 +50,8 @@ class Draft:
     center: tuple = (0.0, 0.0, 0.0)
     plane: bool = False
     e: float = 1.0
+    friction: float = 0.0
+    restitution_model: str = "energetic"
     t0: float = 0.0
     duration: float = 0.0
     law: Any = None
@@ -108,6 +110,9 @@ def _required(d: Draft) -> None:
         raise SceneError(f.where, "is required" + (f" ({f.rule})" if f.choices else ""))
     d.plane = "plane" in v["__tables__"]
     d.e = v["[plane].restitution"] if d.plane else 1.0
+    d.friction = v.get("[plane].friction", 0.0) if d.plane else 0.0
+    d.restitution_model = v.get("[plane].restitution_model", "energetic") if d.plane \
+        else "energetic"
     d.t0 = v["[initial].time"]
 
 

@@ -103,6 +103,8 @@ class Scene:
     control: Control | None = None
     disturbance: Disturbance | None = None
     doc_source: Any = field(default=None, compare=False, repr=False)   # see Scene.doc
+    friction: float = 0.0      # mu_f at S ([plane].friction)
+    restitution_model: str = "energetic"
 
     @classmethod
     def of_fields(cls, base: dict | None = None, **values) -> "Scene":
@@ -129,6 +131,11 @@ class Scene:
     @property
     def contact_possible(self) -> bool:
         return self.plane and self.shape != "none"
+
+    @property
+    def rough(self) -> bool:
+        """Contact is possible and the plane has friction (the rough model)."""
+        return self.contact_possible and self.friction > 0.0
 
     @property
     def mu(self) -> float:

@@ -114,8 +114,17 @@ SCENE_FIELDS = (
       choices=("periodic", "rest", "free"), when="table or samples"),
     F("point", "max_distance", "number", None, "how far P may go from O (default: 10 body "
       "sizes)", 0, MAX_LENGTH, True),
-    F("plane", "restitution", "number", REQUIRED, "e of Newton's law v_n+ = -e v_n- (E1.13)",
-      0, 1, example=0.9, when="[plane] given (absent: free flight)"),
+    F("plane", "restitution", "number", REQUIRED, "e of Newton's law v_n+ = -e v_n- (E1.13); "
+      "with friction, e of restitution_model", 0, 1, example=0.9,
+      when="[plane] given (absent: free flight)"),
+    F("plane", "friction", "number", 0.0, "mu_f, Coulomb's coefficient of friction at S (0: "
+      "the paper's smooth plane; > 0: the rough model, see the README)", 0, 100),
+    F("plane", "restitution_model", "choice", "energetic", "how a frictional impact's "
+      "restitution ends: energetic (Stronge: the normal impulse's work in restitution is "
+      "-e^2 times that in compression; never gains energy), poisson (normal impulses in the "
+      "ratio e), newton (v_n+ = -e v_n-; energy-consistent only where mu_f |W_tn| = 0, and "
+      "elsewhere the run stops with restitution_refused); with friction = 0 all three are "
+      "E1.13", choices=("energetic", "poisson", "newton")),
     F("initial", "time", "number", 0.0, "t0", -1e9, 1e9),
     F("initial", "com", "vector", [0.0, 0.0, 0.0], "X_C, Y_C, Z_C", -1e9, 1e9, size=3,
       example=[0.0, 0.0, 1.5]),
@@ -145,7 +154,7 @@ SCENE_FIELDS = (
     F("run", "keep_orthonormal", "bool", False, "project the attitude onto the rotations "
       "after every step"),
     F("run", "model", "choice", "auto", "the model (auto: the smallest that answers the "
-      "scene)", choices=("auto", "general", "vertical", "attitude", "translational",
+      "scene)", choices=("auto", "general", "rough", "vertical", "attitude", "translational",
                          "planar", "axisymmetric")),
     F("run", "zeno_dt", "number", 1e-9, "accumulating impacts: enter contact when the "
       "remaining flights sum to less than zeno_dt x duration", 0, 1, True),

@@ -46,10 +46,14 @@ COMMANDS = (
                 Arg.of("--no-simulate", dest="simulate", action="store_false",
                        help="API cases: validation only, accepted scenes not run"),
             )),
-    Command("robustness", "random valid bouncing scenes through the runtime: falls, "
-            "statuses, invariants, cost", "derive.verify.robustness", (
+    Command("robustness", "random valid bouncing scenes through the runtime, on the smooth "
+            "and the rough plane: falls, statuses, invariants, the friction cone, energy, "
+            "cost", "derive.verify.robustness", (
                 Arg.of("-n", "--cases", dest="n", type=CASES, default=10_000,
-                       help="number of scenes (default 10000)"),
+                       help="number of scenes on each plane (default 10000)"),
+                Arg.of("--plane", choices=["smooth", "rough", "both"], default="both",
+                       help="the smooth plane's scenes, the rough plane's (friction; up to "
+                            "20 s each), or both (default)"),
                 Arg.of("--seed", type=int, default=11, help="the generator's seed"),
                 Arg.of("--duration", dest="max_duration", type=positive_float, metavar="SECONDS",
                        default=60.0, help="longest scene duration in s (default 60)"),

@@ -95,6 +95,37 @@ def random_scene(rng: np.random.Generator, max_duration: float = 60.0,
     }
 
 
+def random_rough_scene(rng: np.random.Generator, max_duration: float = 20.0,
+                       method: str | None = None) -> dict:
+    """A random valid scene on a rough plane: :func:`random_scene`'s bodies, laws and
+    starts, with mu_f from 0.05 to 1.5 (a fifth of them above 1), the restitution law
+    energetic or poisson, restitution in {0, 0.1, 0.5, 0.9} or random (mostly low: the
+    impacts accumulate into sliding and sticking), and a third of them starting on the
+    plane, sliding and spinning."""
+    doc = random_scene(rng, max_duration, method)
+    mu = rng.uniform(1.0, 1.5) if rng.random() < 0.2 else rng.uniform(0.05, 1.0)
+    e = float(rng.choice((0.0, 0.1, 0.5, 0.9))) if rng.random() < 0.7 \
+        else float(rng.uniform(0, 1))
+    doc["plane"] = {"restitution": e, "friction": float(mu),
+                    "restitution_model": str(rng.choice(("energetic", "poisson")))}
+    if rng.random() < 0.33:
+        # resting on the plane: S at the plane's height (1e-9 above it), moving
+        # horizontally and spinning
+        from ..scene.law import compile_law
+        from ..scene.rules import rotation_from_quaternion
+        radius = doc["body"].get("radius")
+        axes = np.array([radius] * 3 if radius else doc["body"]["semi_axes"])
+        A = rotation_from_quaternion(doc["initial"]["quaternion"])
+        D2n = axes ** 2 * A[2]
+        s = np.asarray(doc["body"]["center"]) - D2n / math.sqrt(float(A[2] @ D2n))
+        M, m = doc["body"]["mass"], doc["point"]["mass"]
+        r = compile_law(tuple(doc["point"]["law"])).point(0.0)[:3]
+        doc["initial"]["com"][2] = float(-(A @ (s - m / (M + m) * np.asarray(r)))[2]) + 1e-9
+        doc["initial"]["com_velocity"][2] = 0.0
+    doc["run"]["duration"] = float(min(doc["run"]["duration"], max_duration))
+    return doc
+
+
 def with_rk4_step(doc: dict, rng) -> dict:
     """RK4 has no error control: give it a step that resolves fast spins (a user of RK4
     chooses its step; the default is for slow scenes)."""

@@ -11,7 +11,10 @@
   refusal), outside-files (anything created outside it), fuzzer-error.
 * :func:`judge_run`: a random valid bouncing scene's run: ``ok``, or ``status``,
   ``nan``, ``fell``, ``orthonormality``, ``integral`` (|K| not constant in a flight,
-  E1.9).
+  E1.9); on a rough plane also ``painleve`` (an honest stop: sliding friction can leave
+  no consistent reaction there), ``cone`` (a contact row's reaction outside the friction
+  cone) and ``energy`` (friction doing positive work, or the energy gaining more than the
+  point's drive gave).
 * :func:`classify`: a hard scene's run against its reference: ``correct``, ``wrong``,
   ``missed events``, ``fell through the plane`` or a named status.
 """
@@ -169,6 +172,8 @@ ROUNDING = 1e-12          # the Lie methods: orthonormality and |K| in flight at
 def judge_run(result, size: float) -> tuple[str, str]:
     """The verdict on one run: ``ok`` or what is wrong."""
     scene = result.scene
+    if result.rough and result.status == "painleve":
+        return _judge_painleve(result)
     if result.status != "done":
         return "status", f"ended with {result.status} at t = {result.t[-1]:.6g}"
     if abs(result.t[-1] - (scene.t0 + scene.duration)) > 1e-9 * max(1.0, scene.duration):
@@ -209,6 +214,76 @@ def judge_run(result, size: float) -> tuple[str, str]:
             worst = max(worst, float(np.max(np.abs(K[a:b] - K[a])) / K[a]))
     if worst > (ROUNDING if lie else 1e-4):
         return "integral", f"|K| drifts by {worst:.2e} within a flight"
+    if result.rough:
+        return judge_rough(result)
+    return "ok", ""
+
+
+# the rough plane: the cone to the tolerance's share of the weight (the rows at a
+# transition are where the event function crosses 0, located to the tolerance); energy to
+# this fraction of the largest energy of the run (the balance's residual is the
+# integrator's: 1e-9 of E on smooth scenes at these tolerances, up to 1e-7 in long sticking
+# phases at rtol 1e-7)
+CONE_SLACK = 100.0
+ENERGY_SLACK = 1e-6
+
+
+def _judge_painleve(result) -> tuple[str, str]:
+    """An honest painleve: at the last row sliding friction can make k_f = W_ZZ - mu_f
+    (W_Zt, dir) vanish for some direction, mu_f |W_tn| >= W_ZZ (to 1%: the runtime stops
+    where k_f falls below 1e-2 W_ZZ with N beyond 100 weights)."""
+    W, _ = result.session.delassus(result.t[-1], result.model_q[-1])
+    ratio = result.scene.friction * math.hypot(W[0, 2], W[1, 2]) / W[2, 2]
+    if ratio >= 0.99:
+        return "painleve", f"at t = {result.t[-1]:.6g}: mu_f |W_tn|/W_ZZ = {ratio:.3f}"
+    return "status", (f"painleve at t = {result.t[-1]:.6g} where mu_f |W_tn|/W_ZZ = "
+                      f"{ratio:.3f} < 1: no direction makes k_f vanish")
+
+
+def judge_rough(result) -> tuple[str, str]:
+    """The friction cone in every contact row, R_Z >= 0 and |R_t| <= mu_f R_Z (sticking:
+    the reaction of the sticking equations; sliding, where the slip is resolved, the
+    sliding one along it; where it is not, the runtime slides along a reference direction
+    these rows do not record, and its own least N at the steps' ends stands for them),
+    friction's work never positive, and no energy gain beyond the drive's work
+    (runtime.motion.energy_balance)."""
+    from ..runtime.motion import energy_balance, motion
+    s = result.scene
+    F = (s.M + s.m) * max(s.g, 1.0)
+    # RK4 has no error control: its step, the user's, need not resolve a contact phase (a
+    # step can cross the place where sliding friction leaves no consistent reaction, k_f
+    # = 0, and come out with a reaction of the wrong sign): the cone is not judged there
+    rk4 = s.method == "rk4"
+    slack = max(1e-9, CONE_SLACK * s.rtol) * F
+    if not rk4 and result.min_normal < -slack:
+        return "cone", f"the runtime's least normal reaction in contact: {result.min_normal:.3g} N"
+    rows = np.flatnonzero(result.modes >= 2) if not rk4 else np.zeros(0, dtype=int)
+    if len(rows):
+        _, R, v = result.session.rough_rows(result.t[rows], result.model_q[rows],
+                                            result.modes[rows])
+        speed = np.hypot(v[:, 0], v[:, 1])
+        v_scale = float(np.max(np.abs(result.model_q[:, 3:6]))) + 1.0    # V_C
+        # below sqrt(rtol) of the speeds the runtime keeps the friction's last direction
+        # (crt_friction.h, v_freeze): there v_t/|v_t| is not the runtime's direction
+        keep = (result.modes[rows] == 3) | (speed > 10.0 * math.sqrt(s.rtol) * v_scale)
+        R, rows = R[keep], rows[keep]
+    if len(rows):
+        excess = np.hypot(R[:, 0], R[:, 1]) - s.friction * R[:, 2]
+        k = int(np.argmax(excess))
+        if excess[k] > slack or R[:, 2].min() < -slack:
+            return "cone", (f"|R_t| - mu_f R_Z = {excess[k]:.3g} N, R_Z = {R[k, 2]:.3g} N at "
+                            f"t = {result.t[rows[k]]:.6g} (mode {result.modes[rows[k]]})")
+    mo = motion(result)
+    balance = energy_balance(result, mo)
+    scale = max(float(np.max(np.abs(mo.E))), float(np.max(mo.T)), 1e-300)
+    drive = (balance["drive_work_in_flight"] + balance["drive_work_in_contact"]
+             + (balance["drive_work_at_impacts"] or 0.0))
+    gain = balance["change"] - drive
+    if balance["work_of_friction"] > ENERGY_SLACK * scale:
+        return "energy", f"friction did {balance['work_of_friction']:.3g} J of positive work"
+    if gain > ENERGY_SLACK * scale:
+        return "energy", (f"the energy gained {gain:.3g} J beyond the drive's work "
+                          f"({gain / scale:.1e} of E)")
     return "ok", ""
 
 

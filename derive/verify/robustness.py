@@ -1,14 +1,20 @@
 """``derive verify robustness``: thousands of random valid bouncing scenes through the
-runtime.
+runtime, on the smooth plane and on a rough one.
 
-Scenes from :func:`derive.verify.generators.random_scene` (RK4 given a step that
-resolves fast spins); each run is judged by :func:`derive.verify.judges.judge_run`:
-status ``done`` with the end time reached, the lowest height of S above -1e-9 of the
-body's size, no NaN, A orthonormal, and |K| constant within each flight (E1.9); for the
-Lie-group methods (``lie``, ``lie5``, ``lie8``) both to round-off (1e-12) in flight,
-whatever the tolerance.  The goal: no falls, no wrong status or invariant, no valid scene
-refused, no run past 10x the median cost per simulated second.
-``tests/test_contact_properties.py`` runs a seeded subset in CI.
+Scenes from :func:`derive.verify.generators.random_scene` (smooth) and
+:func:`~derive.verify.generators.random_rough_scene` (mu_f 0.05 to 1.5, energetic or
+poisson restitution, a third starting on the plane, sliding and spinning; up to 20 s);
+RK4 is given a step that resolves fast spins.  Each run is judged by
+:func:`derive.verify.judges.judge_run`: status ``done`` with the end time reached, the
+lowest height of S above -1e-9 of the body's size, no NaN, A orthonormal, and |K|
+constant within each flight (E1.9); for the Lie-group methods (``lie``, ``lie5``,
+``lie8``) both to round-off (1e-12) in flight, whatever the tolerance.  On the rough
+plane also: the friction cone in every contact row, friction's work never positive, no
+energy gain beyond the point's drive, and a ``painleve`` stop only where sliding friction
+can make k_f vanish (an honest status, counted apart).  The goal: no falls, no wrong
+status or invariant, no valid scene refused, no run past 10x the median cost per
+simulated second (each plane's own median).  ``tests/test_contact_properties.py`` runs a
+seeded subset in CI.
 """
 from __future__ import annotations
 
@@ -21,7 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..commands import Target
-from .generators import random_scene, with_rk4_step
+from .generators import random_rough_scene, random_scene, with_rk4_step
 from .judges import judge_run
 
 
@@ -36,41 +42,59 @@ class Outcome:
     size: float
     duration: float = 1.0
     detail: str = ""
+    plane: str = "smooth"     # smooth or rough
+
+
+ROUGH_MAX_DURATION = 20.0    # rough scenes: their contact phases cost more per second
 
 
 def run_one(args) -> Outcome:
-    """Scene ``index`` from the generator seeded with ``seed``: parsed, run and judged."""
-    index, seed, max_duration = args
+    """Scene ``index`` from the generator seeded with ``seed``: parsed, run and judged
+    (``plane``, a fourth item: smooth or rough)."""
+    index, seed, max_duration, *rest = args
+    plane = rest[0] if rest else "smooth"
     from ..runtime.driver import simulate
     from ..scene import SceneError, parse_scene
     rng = np.random.default_rng(seed)
-    doc = with_rk4_step(random_scene(rng, max_duration), rng)
+    doc = with_rk4_step(random_scene(rng, max_duration) if plane == "smooth" else
+                        random_rough_scene(rng, min(max_duration, ROUGH_MAX_DURATION)), rng)
     size = max(doc["body"].get("semi_axes", [doc["body"].get("radius", 0.0)]))
     start = time.perf_counter()
     try:
         scene = parse_scene(doc, "random")
     except SceneError as exc:
         return Outcome(index, "refused", "", 0.0, math.nan, size, doc["run"]["duration"],
-                       str(exc))
+                       str(exc), plane)
     result = simulate(scene)
     seconds = time.perf_counter() - start
     verdict, detail = judge_run(result, size)
     import collections
     kinds = collections.Counter(e["kind"] for e in result.events)
     detail = detail or (f"{doc['run']['method']}, {kinds.get('impact', 0)} impacts, "
-                        f"{kinds.get('contact', 0)} contacts, {result.stats['steps']} steps")
+                        f"{kinds.get('contact', 0)} contacts, {result.stats['steps']} steps"
+                        + (f", mu_f {scene.friction:.3g}: {kinds.get('stick', 0)} sticks, "
+                           f"{kinds.get('slip', 0)} slips, {kinds.get('reversal', 0)} "
+                           "reversals" if plane == "rough" else ""))
     return Outcome(index, verdict, result.status, seconds, result.min_height, size,
-                   scene.duration, detail)
+                   scene.duration, detail, plane)
+
+
+PLANES = ("smooth", "rough", "both")
 
 
 def run(n: int = 10_000, seed: int = 11, max_duration: float = 60.0,
-        workers: int | None = None, progress=None) -> list[Outcome]:
-    """n random scenes (scene k from the seed ``seed * 1000003 + k``), ``workers``
-    forked processes at once (default: every core)."""
-    tasks = [(k, seed * 1_000_003 + k, max_duration) for k in range(n)]
+        workers: int | None = None, plane: str = "both", progress=None) -> list[Outcome]:
+    """n random scenes on each plane asked (``plane``: smooth, rough or both; smooth scene
+    k from the seed ``seed * 1000003 + k``, rough scene k from ``seed * 1000003 + 500009 +
+    k``), ``workers`` forked processes at once (default: every core)."""
+    planes = ("smooth", "rough") if plane == "both" else (plane,)
+    tasks = [(k, seed * 1_000_003 + (500_009 if p == "rough" else 0) + k, max_duration, p)
+             for p in planes for k in range(n)]
+    n = len(tasks)
     workers = workers or os.cpu_count() or 1
     from ..runtime.build import library
-    library("general")                  # built (or loaded) once, before the workers fork
+    for kind in ("general", "rough"):   # built (or loaded) once, before the workers fork
+        library(kind)
     out = []
     if workers == 1:
         for task in tasks:
@@ -89,17 +113,23 @@ def run(n: int = 10_000, seed: int = 11, max_duration: float = 60.0,
 
 
 def _cost(outcomes: list[Outcome]) -> tuple[list[Outcome], float, list[Outcome]]:
-    """(the runs, their median seconds per simulated second, the runs past 10x it):
-    durations differ by 60x, so the cost is per simulated second."""
+    """(the runs, their median seconds per simulated second, the runs past 10x their
+    plane's median): durations differ by 60x, so the cost is per simulated second."""
     ran = [o for o in outcomes if o.verdict != "refused"]
     med = float(np.median([o.seconds / o.duration for o in ran])) if ran else 0.0
-    return ran, med, [o for o in ran if o.seconds / o.duration > 10 * med]
+    slow = []
+    for plane in ("smooth", "rough"):
+        mine = [o for o in ran if o.plane == plane]
+        if mine:
+            m = float(np.median([o.seconds / o.duration for o in mine]))
+            slow += [o for o in mine if o.seconds / o.duration > 10 * m]
+    return ran, med, slow
 
 
 def targets(outcomes: list[Outcome]) -> list[Target]:
     from collections import Counter
     counts = Counter(o.verdict for o in outcomes)
-    wrong = sum(v for k, v in counts.items() if k not in ("ok", "refused", "fell"))
+    wrong = sum(v for k, v in counts.items() if k not in ("ok", "refused", "fell", "painleve"))
     slow = _cost(outcomes)[2]
     return [Target(f"0 falls ({counts['fell']})", counts["fell"] == 0),
             Target(f"0 wrong statuses or invariants ({wrong})", wrong == 0),
@@ -113,19 +143,26 @@ def passed(outcomes: list[Outcome]) -> bool:
 
 def report(outcomes: list[Outcome]) -> str:
     from collections import Counter
-    counts = Counter(o.verdict for o in outcomes)
     ran, med, slow = _cost(outcomes)
     times = np.array([o.seconds for o in ran]) if ran else np.zeros(1)
-    lines = [f"{len(outcomes)} random bouncing scenes: " +
-             ", ".join(f"{k} {v}" for k, v in sorted(counts.items())),
+    lines = []
+    for plane in ("smooth", "rough"):
+        mine = Counter(o.verdict for o in outcomes if o.plane == plane)
+        if mine:
+            lines.append(f"{sum(mine.values())} random bouncing scenes on the {plane} plane: "
+                         + ", ".join(f"{k} {v}" for k, v in sorted(mine.items()))
+                         + (" (painleve: honest stops where mu_f |W_tn| >= W_ZZ)"
+                            if mine.get("painleve") else ""))
+    lines += [
              f"time per scene: median {1e3 * np.median(times):.1f} ms, max "
              f"{1e3 * times.max():.1f} ms; per simulated second: median {1e3 * med:.2f} ms, "
              f"{len(slow)} past 10x the median"]
-    bad = [o for o in outcomes if o.verdict != "ok"]
+    bad = [o for o in outcomes if o.verdict not in ("ok", "painleve")]
     for o in bad[:20]:
-        lines.append(f"  #{o.index} {o.verdict}: {o.detail}")
+        lines.append(f"  #{o.index} ({o.plane}) {o.verdict}: {o.detail}")
     for o in sorted(ran, key=lambda o: -o.seconds / o.duration)[:5]:
-        lines.append(f"  slowest #{o.index}: {1e3 * o.seconds:.1f} ms for {o.duration:.3g} s "
+        lines.append(f"  slowest #{o.index} ({o.plane}): {1e3 * o.seconds:.1f} ms for "
+                     f"{o.duration:.3g} s "
                      f"({o.status}; {o.detail or 'ok'})")
     lines.append("goal: " + "; ".join(str(t) for t in targets(outcomes)))
     return "\n".join(lines)

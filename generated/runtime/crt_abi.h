@@ -53,7 +53,9 @@ enum crt_parameter {
   CRT_P_n0_z = 16,  /* ... */
   CRT_P_K = 17,  /* axisymmetric model: |K|, constant in flight */
   CRT_P_omega_z0 = 18,  /* axisymmetric model: omega_z, constant in flight (E3.6) */
-  CRT_P_COUNT = 19
+  CRT_P_friction = 19,  /* rough model: mu_f, Coulomb's friction coefficient at S (>= 0) */
+  CRT_P_restitution_model = 20,  /* rough model: how an impact's restitution ends (enum crt_restitution: energetic, poisson or newton) */
+  CRT_P_COUNT = 21
 };
 
 /* Values of prm[CRT_P_shape]: the surfaces of derive/shapes.py, in their order. */
@@ -88,6 +90,8 @@ enum crt_status {
   CRT_STEP_UNDERFLOW = -2,  /* the step size fell below 1e-14 of the time scale */
   CRT_NONFINITE = -3,  /* the state or the right-hand side became NaN or infinite */
   CRT_PENETRATION = -4,  /* S went below the plane and the event could not be located */
+  CRT_PAINLEVE = -5,  /* sliding friction leaves no consistent normal reaction (Painleve: dv_n/dp <= 0 in an impact, or k_f <= 0 while sliding) */
+  CRT_RESTITUTION_REFUSED = -6,  /* restitution_model newton at an impact where it is not energy-consistent (mu_f |W_tn| > 0) */
   CRT_BAD_ARGUMENT = -20,  /* an output buffer is smaller than CRT_MIN_ROWS rows or CRT_MIN_EVENTS events (nothing is done: call again with larger ones) */
   CRT_BAD_OPTIONS = -21,  /* an option breaks its rule: crt_bad_option names it */
   CRT_BAD_PARAMETERS = -22,  /* a parameter is not finite, or shape is no CRT_SHAPE_*: crt_bad_parameter names it */
@@ -102,7 +106,24 @@ enum crt_phase_kind {
   CRT_PHASE_COUNT = 2
 };
 
-/* Column 1 of the event rows written by crt_advance: t, kind, value, v_n-, v_n+. */
+/* Contact modes (column "mode" of the event rows, crt_contact_mode). */
+enum crt_mode {
+  CRT_MODE_FLIGHT = 0,  /* S above the plane */
+  CRT_MODE_SMOOTH = 1,  /* S on the plane, no friction */
+  CRT_MODE_SLIDING = 2,  /* S on the plane, slipping: R = N (e_Z - mu_f dir) */
+  CRT_MODE_STICKING = 3,  /* S on the plane at rest: R inside the friction cone */
+  CRT_MODE_COUNT = 4
+};
+
+/* Values of prm[CRT_P_restitution_model] (friction models). */
+enum crt_restitution {
+  CRT_RESTITUTION_ENERGETIC = 0,  /* Stronge: the normal impulse's work in restitution is -e^2 times that in compression; never gains energy */
+  CRT_RESTITUTION_POISSON = 1,  /* the normal impulse of restitution is e times that of compression */
+  CRT_RESTITUTION_NEWTON = 2,  /* v_n+ = -e v_n-; only where it is energy-consistent (mu_f |W_tn| = 0 at the impact), else the run stops with restitution_refused */
+  CRT_RESTITUTION_COUNT = 3
+};
+
+/* Column 1 of the event rows written by crt_advance (CRT_EVENT_COLUMNS below). */
 enum crt_event_kind {
   CRT_EV_NONE = 0,  /* (unused) */
   CRT_EV_IMPACT = 1,  /* S hit the plane with v_n < 0: the impact map applied */
@@ -110,7 +131,10 @@ enum crt_event_kind {
   CRT_EV_LIFTOFF = 3,  /* N reached 0: S leaves the plane */
   CRT_EV_GRAZE = 4,  /* S touched the plane without approaching it */
   CRT_EV_PUSH = 5,  /* an impulsive push of the disturbances (value: |P|) */
-  CRT_EV_COUNT = 6
+  CRT_EV_STICK = 6,  /* the slip of S reached 0 with the reaction inside the cone: S sticks */
+  CRT_EV_SLIP = 7,  /* the sticking reaction left the friction cone: S starts to slip */
+  CRT_EV_REVERSAL = 8,  /* the slip reached 0 and the cone cannot hold S: it slips again, along -R_t */
+  CRT_EV_COUNT = 9
 };
 
 /* Counters read with crt_stats (long[CRT_STAT_COUNT]). */
@@ -127,7 +151,10 @@ enum crt_stat {
   CRT_STAT_CONTROLLER_CALLS = 9,  /* calls of the controller (crt_control.h) */
   CRT_STAT_LAW_CHANGES = 10,  /* laws the controller set */
   CRT_STAT_PUSHES = 11,  /* pushes applied */
-  CRT_STAT_COUNT = 12
+  CRT_STAT_STICKS = 12,  /* stick events (slip to stick in contact) */
+  CRT_STAT_SLIPS = 13,  /* slip events (stick to slip in contact) */
+  CRT_STAT_REVERSALS = 14,  /* reversal events (the slip reached 0 and restarted) */
+  CRT_STAT_COUNT = 15
 };
 
 /* The kind of each output row. */
@@ -143,7 +170,8 @@ enum crt_summary_value {
   CRT_SUMMARY_MIN_HEIGHT = 0,  /* lowest height of S at the ends of steps and at events, in flight */
   CRT_SUMMARY_MIN_NORMAL = 1,  /* smallest reaction N seen in contact (inf if never in contact) */
   CRT_SUMMARY_T_MIN_HEIGHT = 2,  /* when the lowest height was seen */
-  CRT_SUMMARY_COUNT = 3
+  CRT_SUMMARY_MAX_FRICTION_RATIO = 3,  /* friction models: the largest |R_t|/(mu_f R_Z) at the ends of contact steps (at most 1: the cone holds; 1 while sliding) */
+  CRT_SUMMARY_COUNT = 4
 };
 
 /* How the point law is given (crt_set_law_program, crt_set_law_table). */
@@ -185,7 +213,7 @@ enum crt_opcode {
 };
 
 #define CRT_LAW_MAX_NODES 1024
-#define CRT_EVENT_COLUMNS 6  /* t, kind, value, v_minus, v_plus, t_accumulation */
+#define CRT_EVENT_COLUMNS 16  /* t, kind, value, v_minus, v_plus, t_accumulation, mode, P_X, P_Y, slip_X_minus, slip_Y_minus, slip_X_plus, slip_Y_plus, work_normal, work_friction, stage */
 /* The smallest output buffers crt_advance takes: smaller ones are refused with
    CRT_BAD_ARGUMENT (a step needs room for its rows and an event's). */
 #define CRT_MIN_ROWS 8
@@ -256,7 +284,7 @@ const char *crt_option_name(int i)
 
 const char *crt_parameter_name(int i)
 {
-  static const char names[19][9] = {
+  static const char names[21][18] = {
     "M",
     "m",
     "J_x",
@@ -275,9 +303,11 @@ const char *crt_parameter_name(int i)
     "n0_y",
     "n0_z",
     "K",
-    "omega_z0"
+    "omega_z0",
+    "friction",
+    "restitution_model"
   };
-  return (i >= 0 && i < 19) ? names[i] : "";
+  return (i >= 0 && i < 21) ? names[i] : "";
 }
 
 const char *crt_method_name(int i)
@@ -306,6 +336,8 @@ const char *crt_status_name(int code)
     case CRT_STEP_UNDERFLOW: return "step_underflow";
     case CRT_NONFINITE: return "nonfinite";
     case CRT_PENETRATION: return "penetration";
+    case CRT_PAINLEVE: return "painleve";
+    case CRT_RESTITUTION_REFUSED: return "restitution_refused";
     case CRT_BAD_ARGUMENT: return "bad_argument";
     case CRT_BAD_OPTIONS: return "bad_options";
     case CRT_BAD_PARAMETERS: return "bad_parameters";
@@ -317,20 +349,23 @@ const char *crt_status_name(int code)
 
 const char *crt_event_name(int i)
 {
-  static const char names[6][8] = {
+  static const char names[9][9] = {
     "none",
     "impact",
     "contact",
     "liftoff",
     "graze",
-    "push"
+    "push",
+    "stick",
+    "slip",
+    "reversal"
   };
-  return (i >= 0 && i < 6) ? names[i] : "";
+  return (i >= 0 && i < 9) ? names[i] : "";
 }
 
 const char *crt_stat_name(int i)
 {
-  static const char names[12][27] = {
+  static const char names[15][27] = {
     "steps",
     "rejected",
     "rhs_evaluations",
@@ -342,19 +377,23 @@ const char *crt_stat_name(int i)
     "law_evaluations",
     "controller_calls",
     "law_changes",
-    "pushes"
+    "pushes",
+    "sticks",
+    "slips",
+    "reversals"
   };
-  return (i >= 0 && i < 12) ? names[i] : "";
+  return (i >= 0 && i < 15) ? names[i] : "";
 }
 
 const char *crt_summary_name(int i)
 {
-  static const char names[3][13] = {
+  static const char names[4][19] = {
     "min_height",
     "min_normal",
-    "t_min_height"
+    "t_min_height",
+    "max_friction_ratio"
   };
-  return (i >= 0 && i < 3) ? names[i] : "";
+  return (i >= 0 && i < 4) ? names[i] : "";
 }
 
 const char *crt_opcode_name(int i)

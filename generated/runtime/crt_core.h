@@ -36,6 +36,11 @@
  *                           at t0; crt_advance: even after steps cut down to the minimum)
  *   CRT_PENETRATION     -4  crt_advance: S below the plane by more than h_pen and no
  *                           shorter step avoids it (the contact guarantees below)
+ *   CRT_PAINLEVE        -5  crt_advance, friction models: sliding friction leaves no
+ *                           consistent normal reaction (dv_n/dp <= 0 in an impact, or
+ *                           k_f <= 0 while sliding: crt_friction.h)
+ *   CRT_RESTITUTION_REFUSED -6  crt_advance, friction models: restitution_model newton at
+ *                           an impact where it is not energy-consistent
  *   CRT_BAD_ARGUMENT   -20  crt_advance, crt_run, crt_run_many: cap < CRT_MIN_ROWS or
  *                           ev_cap < CRT_MIN_EVENTS.  Nothing is done, nothing written:
  *                           the session is as it was (call again with larger buffers)
@@ -62,6 +67,11 @@
  *   model_gap(p, u, q, h, v_n)               height of S and its rate (E1.14)
  *   model_impact(p, e, u, q, q_plus, I)      impact map (E1.10-E1.16), restitution e
  *   model_contact(p, u, q, dq, N, a_free)    persistent contact: S held on the plane
+ * and, when MODEL_FRICTION (Coulomb friction at S; crt_friction.h, which documents them):
+ *   model_delassus, model_contact_velocity, model_apply_impulse, model_sliding,
+ *   model_sticking, and the emitted impulse_slip_rate, impulse_stick_rate,
+ *   impulse_resliding.  crt_friction.h is called from eleven hooks in this file, each
+ *   marked "friction hook N"; a model without friction compiles none of them.
  * p: the parameters (crt_parameter), u: the point law at t (crt_law.h).
  *
  * Contact guarantees (issue 11; tests/test_contact_properties.py checks them over random
@@ -87,6 +97,10 @@
 #define CRT_EPS 2.220446049250313e-16     /* double precision unit round-off x 2 */
 #define CRT_MAX_DENSE 7
 #define CRT_MAX_SUB 32                    /* sub-intervals of the event search per step */
+
+#if MODEL_FRICTION
+#include "crt_friction_state.h"           /* friction hook 1: the type of s->fr */
+#endif
 
 typedef struct {
   double t0, h;
@@ -150,7 +164,16 @@ typedef struct {
 #if MODEL_LIE
   crt_lie lie;
 #endif
+#if MODEL_FRICTION
+  crt_friction fr;                        /* friction hook 2: the contact mode */
+#endif
 } crt_session;
+
+#if MODEL_FRICTION
+/* friction hook 2 (continued): what crt_rhs and crt_event_value call (crt_friction.h) */
+static void crt_rough_rhs(crt_session *s, double t, const double *q, double *dq);
+static double crt_rough_event_value(crt_session *s, double t, const double *y);
+#endif
 
 /* ---- small helpers ---------------------------------------------------------------------- */
 static int crt_finite(const double *y)
@@ -185,7 +208,12 @@ static void crt_rhs(crt_session *s, double t, const double *q, double *dq)
 {
   const double *u = crt_u(s, t);
   ++s->stat[CRT_STAT_RHS_EVALUATIONS];
-#if MODEL_HAS_PLANE
+#if MODEL_FRICTION
+  if (s->phase == CRT_CONTACT) {          /* friction hook 3: sliding or sticking */
+    crt_rough_rhs(s, t, q, dq);
+    return;
+  }
+#elif MODEL_HAS_PLANE
   if (s->phase == CRT_CONTACT) {
     double N, a_free;
     model_contact(s->prm, u, q, dq, &N, &a_free);
@@ -248,9 +276,11 @@ static void crt_event(crt_out *o, double t, int kind, double value, double a, do
                       double extra)
 {
   double *row;
+  int i;
   if (o->ev_n >= o->ev_cap) return;
   row = o->ev + (long)CRT_EVENT_COLUMNS * o->ev_n;
   row[0] = t; row[1] = (double)kind; row[2] = value; row[3] = a; row[4] = b; row[5] = extra;
+  for (i = 6; i < CRT_EVENT_COLUMNS; ++i) row[i] = 0.0;   /* the friction models' columns */
   ++o->ev_n;
 }
 
@@ -321,10 +351,15 @@ static double crt_event_value(crt_session *s, double t, const double *y, double 
     crt_gap(s, t, y, &h, deriv);
     return h;
   } else {
+#if MODEL_FRICTION
+    *deriv = 0.0;                         /* friction hook 4: the transitions' events */
+    return crt_rough_event_value(s, t, y);
+#else
     double N, a_free;
     crt_contact_state(s, t, y, &N, &a_free);
     *deriv = 0.0;
     return N;
+#endif
   }
 }
 
@@ -490,13 +525,20 @@ static void crt_lift_off(crt_session *s, crt_out *o, double t, double N)
 static int crt_events_exhausted(crt_session *s)
 {
   const double n = (double)(s->stat[CRT_STAT_IMPACTS] + s->stat[CRT_STAT_CONTACTS]
-                            + s->stat[CRT_STAT_LIFTOFFS] + s->stat[CRT_STAT_GRAZES]);
+                            + s->stat[CRT_STAT_LIFTOFFS] + s->stat[CRT_STAT_GRAZES]
+                            + s->stat[CRT_STAT_STICKS] + s->stat[CRT_STAT_SLIPS]
+                            + s->stat[CRT_STAT_REVERSALS]);
+  if (s->status < 0) return 1;            /* an event refused (friction: painleve, ...) */
   if (n >= s->opt[CRT_OPT_MAX_EVENTS]) {
     s->status = CRT_MAX_EVENTS;
     return 1;
   }
   return 0;
 }
+
+#if MODEL_FRICTION
+#include "crt_friction.h"                 /* friction hook 5: the friction code */
+#endif
 
 /* Enter persistent contact at (t, s->q): S put on the plane, and its normal velocity
    v_cut (what the remaining hops would have carried) removed by a plastic impulse at S,
@@ -508,6 +550,10 @@ static void crt_enter_contact(crt_session *s, crt_out *o, double t, double v_cut
 {
   double N, a_free, q_plastic[NQ], impulse;
   int i;
+#if MODEL_FRICTION
+  crt_rough_enter_contact(s, o, t, v_cut, t_accumulation);   /* friction hook 6 */
+  return;
+#endif
   crt_project(s, t, s->q, 0);
   model_impact(s->prm, 0.0, crt_u(s, t), s->q, q_plastic, &impulse);
   for (i = 0; i < NQ; ++i) s->q[i] = q_plastic[i];
@@ -537,9 +583,17 @@ static void crt_collide(crt_session *s, crt_out *o, double t, const double *q)
   h_res = crt_height_resolution(s, s->q);
   if (v_n < -crt_speed_noise(s, t, s->q)) {
     double q_plus[NQ], impulse, gap2, v_plus;
+#if MODEL_FRICTION
+    crt_dk_result dk;                     /* friction hook 7: Darboux-Keller's impact */
+    if (!crt_rough_impact(s, t, q_plus, &dk)) return;
+    impulse = dk.P[2];
+    crt_gap(s, t, q_plus, &gap2, &v_plus);
+    crt_rough_event(o, t, CRT_EV_IMPACT, impulse, v_n, v_plus, 0.0, CRT_MODE_FLIGHT, &dk);
+#else
     model_impact(s->prm, s->prm[CRT_P_e], crt_u(s, t), s->q, q_plus, &impulse);
     crt_gap(s, t, q_plus, &gap2, &v_plus);
     crt_event(o, t, CRT_EV_IMPACT, impulse, v_n, v_plus, 0.0);
+#endif
     ++s->stat[CRT_STAT_IMPACTS];
     for (i = 0; i < NQ; ++i) s->q[i] = q_plus[i];
     crt_contact_state(s, t, s->q, &N, &a_free);
@@ -636,10 +690,16 @@ static enum crt_handled crt_handle_event(crt_session *s, crt_out *o, double ta, 
     crt_changed(s);
     s->g_valid = 0;
   } else {
-    double N, a_free;
     for (it = 0; it < NQ; ++it) s->q[it] = q_ev[it];
-    crt_contact_state(s, t_ev, s->q, &N, &a_free);
-    crt_lift_off(s, o, t_ev, N);
+#if MODEL_FRICTION
+    crt_rough_transition(s, o, t_ev);     /* friction hook 8: lift-off, stick, slip, ... */
+#else
+    {
+      double N, a_free;
+      crt_contact_state(s, t_ev, s->q, &N, &a_free);
+      crt_lift_off(s, o, t_ev, N);
+    }
+#endif
   }
   s->t = t_ev;
   return crt_events_exhausted(s) ? CRT_HANDLED_STOP : CRT_HANDLED_GO_ON;
@@ -684,6 +744,9 @@ int crt_nq(void) { return NQ; }
 
 /* 1 when the model has the plane (impacts, contact), else 0 */
 int crt_has_plane(void) { return MODEL_HAS_PLANE; }
+
+/* 1 when the model has Coulomb friction at S (crt_friction.h), else 0 */
+int crt_has_friction(void) { return MODEL_FRICTION; }
 
 const char *crt_model_name(void) { return MODEL_NAME; }
 
@@ -815,15 +878,20 @@ static int crt_option_fault(const double *opt)
 }
 
 /* The first parameter that is not finite, or the shape when it names no surface
-   (CRT_SHAPE_*), or -1. */
+   (CRT_SHAPE_*), a negative friction coefficient or a restitution model that names
+   none (CRT_RESTITUTION_*); or -1. */
 static int crt_parameter_fault(const double *prm)
 {
+  const double law = prm[CRT_P_restitution_model];
   int i;
   for (i = 0; i < CRT_P_COUNT; ++i)
     if (!(prm[i] - prm[i] == 0.0)) return i;   /* NaN or infinite */
   if (!(prm[CRT_P_shape] >= 0.0 && prm[CRT_P_shape] < CRT_SHAPE_COUNT
         && prm[CRT_P_shape] == (double)(int)prm[CRT_P_shape]))
     return CRT_P_shape;
+  if (!(prm[CRT_P_friction] >= 0.0)) return CRT_P_friction;
+  if (!(law >= 0.0 && law < (double)CRT_RESTITUTION_COUNT && (double)(int)law == law))
+    return CRT_P_restitution_model;
   return -1;
 }
 
@@ -846,6 +914,7 @@ int crt_init(crt_session *s, const double *opt, const double *prm, double t0, co
   s->summary[CRT_SUMMARY_MIN_HEIGHT] = HUGE_VAL;
   s->summary[CRT_SUMMARY_MIN_NORMAL] = HUGE_VAL;
   s->summary[CRT_SUMMARY_T_MIN_HEIGHT] = t0;
+  s->summary[CRT_SUMMARY_MAX_FRICTION_RATIO] = 0.0;
   s->lw.valid = 0;
   s->t = t0;
   s->phase = CRT_FLIGHT;
@@ -1003,6 +1072,14 @@ static void crt_integrate(crt_session *s, double t_end, crt_out *o)
     if ((double)s->stat[CRT_STAT_STEPS] >= s->opt[CRT_OPT_MAX_STEPS]) { s->status = CRT_MAX_STEPS; break; }
 #if MODEL_HAS_PLANE
     if (s->plane && s->phase == CRT_CONTACT) {
+#if MODEL_FRICTION
+      /* friction hook 9: a transition due at the start of a step */
+      if (!(crt_rough_event_value(s, s->t, s->q) > 0.0)) {
+        crt_rough_transition(s, o, s->t);
+        if (crt_events_exhausted(s)) break;
+        continue;
+      }
+#else
       /* the reaction already non-positive at the start of a step: lift off now */
       double N, a_free;
       crt_contact_state(s, s->t, s->q, &N, &a_free);
@@ -1015,6 +1092,7 @@ static void crt_integrate(crt_session *s, double t_end, crt_out *o)
         }
         continue;
       }
+#endif
     }
     if (s->plane && s->phase == CRT_FLIGHT) {
       double g0 = s->g_start, d0 = s->d_start;
@@ -1121,12 +1199,21 @@ static void crt_integrate(crt_session *s, double t_end, crt_out *o)
     }
 #if MODEL_HAS_PLANE
     if (s->phase == CRT_CONTACT) {
-      double N, a_free;
       crt_project(s, s->t, s->q, 1);
-      crt_contact_state(s, s->t, s->q, &N, &a_free);
-      if (N < s->summary[CRT_SUMMARY_MIN_NORMAL]) s->summary[CRT_SUMMARY_MIN_NORMAL] = N;
+#if MODEL_FRICTION
+      crt_rough_after_step(s);            /* friction hook 10 */
+#else
+      {
+        double N, a_free;
+        crt_contact_state(s, s->t, s->q, &N, &a_free);
+        if (N < s->summary[CRT_SUMMARY_MIN_NORMAL]) s->summary[CRT_SUMMARY_MIN_NORMAL] = N;
+      }
+#endif
       crt_changed(s);
       s->g_valid = 0;
+#if MODEL_FRICTION
+      if (s->status < 0) break;           /* friction hook 11: painleve while sliding */
+#endif
     }
 #endif
     if (out_dt <= 0.0) crt_emit(o, s->t, s->q, CRT_ROW_STEP);

@@ -163,4 +163,66 @@ static void crt_dense_complete_classical(crt_session *s)
   }
 }
 
+#if MODEL_FRICTION
+/* One DOP853 step of Darboux-Keller's slip equations, the slip in polar coordinates
+   (crt_friction.h, crt_dk_rate: the independent variable x is the normal impulse p, or
+   s = ln rho when log_rho) from (x0, y0); y1 and f1 = dy/dx at x0 + h (FSAL: f0 is the
+   rate at y0).  Returns DOP853's error norm with the scales rtol (max(|y0|, |y1|) +
+   scale). */
+static double crt_dk_step(const double *w6, double mu, int log_rho, double x0, const double *y0,
+                          const double *f0, double h, double *y1, double *f1,
+                          const double *scale, double rtol)
+{
+  double k[12][CRT_DK_N], tmp[CRT_DK_N], err3 = 0.0, err5 = 0.0, denom;
+  int i;
+  for (i = 0; i < CRT_DK_N; ++i) k[0][i] = f0[i];
+  for (i = 0; i < CRT_DK_N; ++i)
+    tmp[i] = y0[i] + h * (0.05260015195876773 * k[0][i]);
+  crt_dk_rate(w6, mu, log_rho, x0 + 0.05260015195876773 * h, tmp, k[1]);
+  for (i = 0; i < CRT_DK_N; ++i)
+    tmp[i] = y0[i] + h * (0.0197250569845379 * k[0][i] + 0.0591751709536137 * k[1][i]);
+  crt_dk_rate(w6, mu, log_rho, x0 + 0.0789002279381516 * h, tmp, k[2]);
+  for (i = 0; i < CRT_DK_N; ++i)
+    tmp[i] = y0[i] + h * (0.02958758547680685 * k[0][i] + 0.08876275643042054 * k[2][i]);
+  crt_dk_rate(w6, mu, log_rho, x0 + 0.1183503419072274 * h, tmp, k[3]);
+  for (i = 0; i < CRT_DK_N; ++i)
+    tmp[i] = y0[i] + h * (0.2413651341592667 * k[0][i] + -0.8845494793282861 * k[2][i] + 0.924834003261792 * k[3][i]);
+  crt_dk_rate(w6, mu, log_rho, x0 + 0.2816496580927726 * h, tmp, k[4]);
+  for (i = 0; i < CRT_DK_N; ++i)
+    tmp[i] = y0[i] + h * (0.037037037037037035 * k[0][i] + 0.17082860872947386 * k[3][i] + 0.12546768756682242 * k[4][i]);
+  crt_dk_rate(w6, mu, log_rho, x0 + 0.3333333333333333 * h, tmp, k[5]);
+  for (i = 0; i < CRT_DK_N; ++i)
+    tmp[i] = y0[i] + h * (0.037109375 * k[0][i] + 0.17025221101954405 * k[3][i] + 0.06021653898045596 * k[4][i] + -0.017578125 * k[5][i]);
+  crt_dk_rate(w6, mu, log_rho, x0 + 0.25 * h, tmp, k[6]);
+  for (i = 0; i < CRT_DK_N; ++i)
+    tmp[i] = y0[i] + h * (0.03709200011850479 * k[0][i] + 0.17038392571223998 * k[3][i] + 0.10726203044637328 * k[4][i] + -0.015319437748624402 * k[5][i] + 0.008273789163814023 * k[6][i]);
+  crt_dk_rate(w6, mu, log_rho, x0 + 0.3076923076923077 * h, tmp, k[7]);
+  for (i = 0; i < CRT_DK_N; ++i)
+    tmp[i] = y0[i] + h * (0.6241109587160757 * k[0][i] + -3.3608926294469414 * k[3][i] + -0.868219346841726 * k[4][i] + 27.59209969944671 * k[5][i] + 20.154067550477894 * k[6][i] + -43.48988418106996 * k[7][i]);
+  crt_dk_rate(w6, mu, log_rho, x0 + 0.6512820512820513 * h, tmp, k[8]);
+  for (i = 0; i < CRT_DK_N; ++i)
+    tmp[i] = y0[i] + h * (0.47766253643826434 * k[0][i] + -2.4881146199716677 * k[3][i] + -0.590290826836843 * k[4][i] + 21.230051448181193 * k[5][i] + 15.279233632882423 * k[6][i] + -33.28821096898486 * k[7][i] + -0.020331201708508627 * k[8][i]);
+  crt_dk_rate(w6, mu, log_rho, x0 + 0.6 * h, tmp, k[9]);
+  for (i = 0; i < CRT_DK_N; ++i)
+    tmp[i] = y0[i] + h * (-0.9371424300859873 * k[0][i] + 5.186372428844064 * k[3][i] + 1.0914373489967295 * k[4][i] + -8.149787010746927 * k[5][i] + -18.52006565999696 * k[6][i] + 22.739487099350505 * k[7][i] + 2.4936055526796523 * k[8][i] + -3.0467644718982196 * k[9][i]);
+  crt_dk_rate(w6, mu, log_rho, x0 + 0.8571428571428571 * h, tmp, k[10]);
+  for (i = 0; i < CRT_DK_N; ++i)
+    tmp[i] = y0[i] + h * (2.273310147516538 * k[0][i] + -10.53449546673725 * k[3][i] + -2.0008720582248625 * k[4][i] + -17.9589318631188 * k[5][i] + 27.94888452941996 * k[6][i] + -2.8589982771350235 * k[7][i] + -8.87285693353063 * k[8][i] + 12.360567175794303 * k[9][i] + 0.6433927460157636 * k[10][i]);
+  crt_dk_rate(w6, mu, log_rho, x0 + 1.0 * h, tmp, k[11]);
+  for (i = 0; i < CRT_DK_N; ++i)
+    y1[i] = y0[i] + h * (0.054293734116568765 * k[0][i] + 4.450312892752409 * k[5][i] + 1.8915178993145003 * k[6][i] + -5.801203960010585 * k[7][i] + 0.3111643669578199 * k[8][i] + -0.1521609496625161 * k[9][i] + 0.20136540080403034 * k[10][i] + 0.04471061572777259 * k[11][i]);
+  crt_dk_rate(w6, mu, log_rho, x0 + h, y1, f1);
+  for (i = 0; i < CRT_DK_N; ++i) {
+    const double sc = rtol * (crt_max(fabs(y0[i]), fabs(y1[i])) + scale[i]);
+    const double e3 = (-0.18980075407240762 * k[0][i] + 4.450312892752409 * k[5][i] + 1.8915178993145003 * k[6][i] + -5.801203960010585 * k[7][i] + -0.4226823213237919 * k[8][i] + -0.1521609496625161 * k[9][i] + 0.20136540080403034 * k[10][i] + 0.02265179219836082 * k[11][i]) / sc;
+    const double e5 = (0.01312004499419488 * k[0][i] + -1.2251564463762044 * k[5][i] + -0.4957589496572502 * k[6][i] + 1.6643771824549864 * k[7][i] + -0.35032884874997366 * k[8][i] + 0.3341791187130175 * k[9][i] + 0.08192320648511571 * k[10][i] + -0.022355307863886294 * k[11][i]) / sc;
+    err3 += e3 * e3;
+    err5 += e5 * e5;
+  }
+  denom = err5 + 0.01 * err3;
+  if (denom <= 0.0) denom = 1.0;
+  return fabs(h) * err5 / sqrt(denom * CRT_DK_N);
+}
+#endif
+
 #endif /* CRT_RK_STEPS_H */

@@ -15,6 +15,7 @@
 #define MODEL_HAS_PLANE 0
 #define MODEL_LIE 1
 #define MODEL_PUSH 0
+#define MODEL_FRICTION 0
 
 /* State: omega_x, omega_y, omega_z
    where each quantity sits, from derive/layout.py (attitude) */

@@ -15,6 +15,7 @@
 #define MODEL_HAS_PLANE 0
 #define MODEL_LIE 0
 #define MODEL_PUSH 0
+#define MODEL_FRICTION 0
 
 /* State: psi, phi
    where each quantity sits, from derive/layout.py (axisymmetric) */

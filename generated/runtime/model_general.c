@@ -15,6 +15,7 @@
 #define MODEL_HAS_PLANE 1
 #define MODEL_LIE 1
 #define MODEL_PUSH 1
+#define MODEL_FRICTION 0
 
 /* State: X_C, Y_C, Z_C, X_C', Y_C', Z_C', omega_x, omega_y, omega_z, a11, a12, a13, a21, a22, a23, a31, a32, a33
    where each quantity sits, from derive/layout.py (general) */
