@@ -48,8 +48,12 @@
 #ifndef CRT_CONTROL_H
 #define CRT_CONTROL_H
 
-/* What the runtime hands a controller at each call. */
-typedef struct {
+/* What the runtime hands a controller at each call.  A controller's own header may
+   declare the same struct (tag crt_call, these members) under the same guard: a
+   generated controller's controller.h does, so that it compiles without the runtime. */
+#ifndef CRT_CALL_DEFINED
+#define CRT_CALL_DEFINED
+typedef struct crt_call {
   double t;                 /* the time of the call */
   int reason;               /* enum crt_call_reason */
   int event;                /* CRT_CALL_EVENT: the event's kind (enum crt_event_kind) */
@@ -58,6 +62,7 @@ typedef struct {
   const double *u;          /* the law at t: x, y, z, x', y', z', x'', y'', z'' */
   long k;                   /* the calls before this one */
 } crt_call;
+#endif
 
 typedef int (*crt_controller_fn)(void *ctx, const crt_call *call, int max_knots,
                                  int *n_knots, double *knots, double *coef);
