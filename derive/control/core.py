@@ -31,7 +31,7 @@ MODES = {
 }
 # the files a run writes, for clearing what an earlier run left
 OUTPUT_FILES = ("control.json", "trajectory.csv", "events.csv", "law.csv", "motion.gif")
-LAND_MARGIN = 0.2           # the default duration: the plan's horizon and a fifth more
+LAND_MARGIN = 0.2           # land's default duration: the plan's horizon and a fifth more
 DEFAULT_PERIOD = {"replan": 0.02, "mirror": 0.002, "hop": 0.0}
 
 
@@ -61,6 +61,16 @@ def control(task, progress: bool = False) -> "ControlResult":
     return mode_runner(task.scene.control.mode)(task, progress=progress)
 
 
+def default_duration(task, T_plan: float) -> float:
+    """[control].duration, else: land, the plan's touchdown and a fifth more (a push may
+    delay it); reorient, the plan's horizon (its goal's time, where the attitude is
+    measured)."""
+    ctl = task.scene.control
+    if ctl.duration is not None:
+        return float(ctl.duration)
+    return T_plan * (1 + LAND_MARGIN) if task.goal == "land" else T_plan
+
+
 def period_of(task) -> float:
     ctl = task.scene.control
     return float(ctl.period if ctl.period is not None else DEFAULT_PERIOD[ctl.mode])
@@ -81,6 +91,8 @@ def planned_doc(plan, duration: float) -> dict:
         extra = t_last + (duration - t_last) * np.arange(1, n + 1) / n
         u = plan.law.u(extra)
         rows = np.vstack([rows, np.column_stack([extra, u[0:3].T])])
+        if doc["point"].get("ends") == "periodic":     # held, not repeated
+            doc["point"]["ends"] = "rest" if plan.law.rest else "free"
     point = doc["point"]
     point.pop("table", None)
     point["samples"] = rows.tolist()

@@ -207,3 +207,44 @@ class DenseQP:
                     break
                 if not drop(k1):
                     return x, NOT_CONVEX, it
+
+
+class CDenseQP:
+    """The C solver (``templates/control/ctl_qp.h``) for one size, compiled with the
+    runtime's flags and loaded: ``solve`` as :meth:`DenseQP.solve` (for the checks and
+    ``derive bench control``; the controller includes the header itself)."""
+
+    def __init__(self, n: int, m: int, max_iter: int | None = None):
+        import ctypes
+        from ..cbuild import build_shared, runtime_flags
+        from ..emit.render import TEMPLATES
+        self.n, self.m = n, m
+        self.max_iter = max_iter or 4 * (n + m) + 20
+        shim = (f"#define CTL_QP_N {n}\n#define CTL_QP_M {m}\n#include \"ctl_qp.h\"\n"
+                "int ctl_qp_shim(ctl_qp *q, const double *H, const double *g, "
+                "const double *A, const double *lba, const double *uba, const double *lbx, "
+                "const double *ubx, double *x, int max_iter, int *iterations)\n{\n"
+                "  const int r = ctl_qp_solve(q, H, g, A, lba, uba, lbx, ubx, x, max_iter);\n"
+                "  *iterations = q->iterations;\n  return r;\n}\n"
+                "int ctl_qp_shim_size(void) { return (int)sizeof(ctl_qp); }\n")
+        header = (TEMPLATES / "control" / "ctl_qp.h").read_text(encoding="utf-8")
+        path = build_shared({"shim.c": shim, "ctl_qp.h": header}, flags=runtime_flags(),
+                            name="qpshim")
+        self.lib = ctypes.CDLL(str(path))
+        self.mem = ctypes.create_string_buffer(self.lib.ctl_qp_shim_size() + 64)
+        self._dp = ctypes.POINTER(ctypes.c_double)
+        self._int = ctypes.c_int(0)
+
+    def solve(self, H, g, A, lba, uba, lbx, ubx):
+        """(x, status, iterations); H and A as matrices (passed column-major)."""
+        import ctypes
+        n, m = self.n, self.m
+        arrs = [np.ascontiguousarray(np.asarray(H, dtype=float).reshape(n, n).ravel("F")),
+                np.ascontiguousarray(g, dtype=float),
+                np.ascontiguousarray(np.asarray(A, dtype=float).reshape(m, n).ravel("F")),
+                *(np.ascontiguousarray(v, dtype=float) for v in (lba, uba, lbx, ubx))]
+        x = np.zeros(n)
+        status = self.lib.ctl_qp_shim(self.mem, *(a.ctypes.data_as(self._dp) for a in arrs),
+                                      x.ctypes.data_as(self._dp), self.max_iter,
+                                      ctypes.byref(self._int))
+        return x, int(status), int(self._int.value)

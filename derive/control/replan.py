@@ -62,6 +62,7 @@ LM_RELATIVE = 1e-4     # the Levenberg-Marquardt term: this times the largest of
 T_MIN = 1e-3           # land: the horizon is at least this (s)
 V_N_MAX = -0.05        # land: v_n / v_ref at touchdown at most this (S approaches)
 FREEZE_PERIODS = 1.5   # no re-plan when less than this many periods remain
+MAX_QP_ITER = 120      # see max_qp_iter
 PIECE_OPTIONS = {"max_num_dir": 1}   # the pieces' reverse derivative one direction at
 #                                       a time: a third less C, as fast
 
@@ -351,12 +352,43 @@ class Problem:
         return np.r_[u[0:3], u[3:6], T_s, np.asarray(q_model)[self.keep]]
 
 
+def ms_solver(problem: Problem, tol: float = 1e-12, max_iter: int = 500):
+    """IPOPT on the multiple-shooting form of the problem (the Hessian of one piece,
+    mapped; expanded to SX)."""
+    import casadi as ca
+    return ca.nlpsol("replan_ms", "ipopt", problem.functions["nlp_ms"],
+                     {"ipopt.print_level": 0, "print_time": False, "ipopt.sb": "yes",
+                      "ipopt.tol": tol, "ipopt.max_iter": max_iter, "expand": True})
+
+
+def ms_solve(problem: Problem, solver, w: np.ndarray, p: np.ndarray, T_fixed):
+    """Solve the multiple-shooting form from w (the states by the motion w gives from
+    p's q): (w, IPOPT's status, iterations)."""
+    N = problem.N
+    C = w[:-1].reshape(problem.nc, 3, order="F")
+    Q = [p[7:]]
+    for k in range(N):
+        Q.append(np.array(problem.functions["piece"](Q[-1], C[k:k + 4].ravel(order="F"),
+                                                     w[-1])).ravel())
+    x0 = np.r_[w, np.concatenate(Q)]
+    nlp = problem.functions["nlp_ms"]
+    lbw, ubw = problem.bounds(T_fixed)
+    nx = nlp["x"].shape[0]
+    lbx = np.r_[lbw, np.full(nx - problem.nw, -np.inf)]
+    ubx = np.r_[ubw, np.full(nx - problem.nw, np.inf)]
+    n_extra = nlp["g"].shape[0] - problem.ng
+    lbg = np.r_[problem.lbg, np.zeros(n_extra)]
+    ubg = np.r_[problem.ubg, np.zeros(n_extra)]
+    sol = solver(x0=x0, p=p, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
+    st = solver.stats()
+    return np.array(sol["x"]).ravel()[:problem.nw], st["return_status"], int(st["iter_count"])
+
+
 def initial_solution(problem: Problem, plan, q0: np.ndarray, u0: np.ndarray,
                      t0: float = 0.0):
     """The problem at the start solved to convergence by IPOPT (multiple shooting), from
     the offline plan's law (its jets on the problem's knots) and the motion it gives:
     (w, IPOPT's status, iterations)."""
-    import casadi as ca
     law = plan.law
     T = law.T if problem.land else law.T - t0
     N = problem.N
@@ -365,27 +397,8 @@ def initial_solution(problem: Problem, plan, q0: np.ndarray, u0: np.ndarray,
     uu = law.u(t)
     jets = np.stack([uu[0:3].T, uu[3:6].T, uu[6:9].T], axis=1)
     w0 = np.r_[ctrl_from_jets(jets, h).ravel(order="F"), T]
-    p = problem.params(u0, T, q0)
-    C = w0[:-1].reshape(problem.nc, 3, order="F")
-    Q = [p[7:]]
-    for k in range(N):
-        Q.append(np.array(problem.functions["piece"](Q[-1], C[k:k + 4].ravel(order="F"),
-                                                     T)).ravel())
-    x0 = np.r_[w0, np.concatenate(Q)]
-    nlp = problem.functions["nlp_ms"]
-    S = ca.nlpsol("replan0", "ipopt", nlp,
-                  {"ipopt.print_level": 0, "print_time": False, "ipopt.sb": "yes",
-                   "ipopt.tol": 1e-12, "ipopt.max_iter": 500})
-    lbw, ubw = problem.bounds(None if problem.land else T)
-    nx = nlp["x"].shape[0]
-    lbx = np.r_[lbw, np.full(nx - problem.nw, -np.inf)]
-    ubx = np.r_[ubw, np.full(nx - problem.nw, np.inf)]
-    n_extra = nlp["g"].shape[0] - problem.ng
-    lbg = np.r_[problem.lbg, np.zeros(n_extra)]
-    ubg = np.r_[problem.ubg, np.zeros(n_extra)]
-    sol = S(x0=x0, p=p, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg)
-    st = S.stats()
-    return np.array(sol["x"]).ravel()[:problem.nw], st["return_status"], int(st["iter_count"])
+    return ms_solve(problem, ms_solver(problem), w0, problem.params(u0, T, q0),
+                    None if problem.land else T)
 
 
 # ---- the Python route ------------------------------------------------------------------------
@@ -394,6 +407,7 @@ class Stats:
     calls: int = 0
     replans: int = 0
     failures: int = 0
+    solve_t: list = field(default_factory=list)
     solve_s: list = field(default_factory=list)
     laws: list = field(default_factory=list)     # (t, Segments) of every re-plan
 
@@ -407,7 +421,7 @@ class PyReplan:
         self.problem, self.iterations = problem, iterations
         self.w0, self.t0, self.T_end, self.period = np.array(w0), t0, T_end, period
         self.keep_laws = keep_laws
-        self.qp = DenseQP(problem.nw, problem.ng)
+        self.qp = DenseQP(problem.nw, problem.ng, MAX_QP_ITER)
         self.reset()
 
     def reset(self):
@@ -437,6 +451,7 @@ class PyReplan:
         start = time.perf_counter()
         w = self.step(call.t, call.q, call.u, T)
         self.stats.solve_s.append(time.perf_counter() - start)
+        self.stats.solve_t.append(call.t)
         if w is None:
             self.stats.failures += 1
             return None
@@ -464,26 +479,21 @@ class PyReplan:
 
 
 class IpoptReplan(PyReplan):
-    """Every sample solved to convergence by IPOPT in-process, from the shifted previous
-    solution (the latency peer of the generated controller)."""
+    """Every sample solved to convergence by IPOPT in-process (multiple shooting, from
+    the shifted previous solution): the latency peer of the generated controller."""
 
     def __init__(self, *args, **kwargs):
-        import casadi as ca
         super().__init__(*args, **kwargs)
-        self.solver = ca.nlpsol("replan", "ipopt", self.problem.functions["nlp"],
-                                {"ipopt.print_level": 0, "print_time": False,
-                                 "ipopt.sb": "yes", "ipopt.tol": 1e-8,
-                                 "ipopt.max_iter": 200})
+        self.solver = ms_solver(self.problem, tol=1e-8, max_iter=200)
 
     def step(self, t, q, u, T):
         pr = self.problem
         w = shift(self.w, self.t_prev, t, T)
-        lbx, ubx = pr.bounds(None if pr.land else T)
-        sol = self.solver(x0=w, p=pr.params(u, T, q), lbx=lbx, ubx=ubx, lbg=pr.lbg,
-                          ubg=pr.ubg)
-        if not self.solver.stats()["success"]:
+        w, status, _ = ms_solve(pr, self.solver, w, pr.params(u, T, q),
+                                None if pr.land else T)
+        if status not in ("Solve_Succeeded", "Solved_To_Acceptable_Level"):
             return None
-        return np.array(sol["x"]).ravel()
+        return w
 
 
 # ---- the C controller ---------------------------------------------------------------------
@@ -556,7 +566,11 @@ def freeze(period: float) -> float:
 
 
 def max_qp_iter(problem: Problem) -> int:
-    return 4 * (problem.nw + problem.ng) + 20
+    """The QP's iteration limit: a solved QP of the land example took 27 iterations at the
+    median and 78 at most (1138 QPs of 40 disturbed runs); those without a solution ran
+    135 to 263 before saying so.  At 120 the latency's tail is bounded and no solvable
+    QP of that sweep is cut short."""
+    return MAX_QP_ITER
 
 
 class Compiled:
@@ -605,6 +619,26 @@ class Compiled:
         if timed:
             return CController(self.address, ctypes.pointer(self.timed), keep=(self,))
         return CController(self.raw_address, self.inner, keep=(self,))
+
+    def call(self, controller, call):
+        """Call the compiled controller (its raw function, ``controller`` from
+        ``controller(timed=False)``) on a :class:`~derive.runtime.loop.Call` from Python:
+        the law it returns (Segments) or None (for checks against the Python route)."""
+        from ..runtime.loop import (CONTROLLER_FN, MAX_KNOTS, REASONS, CallStruct)
+        DP = ctypes.POINTER(ctypes.c_double)
+        q = np.ascontiguousarray(call.q, dtype=float)
+        u = np.ascontiguousarray(call.u, dtype=float)
+        cs = CallStruct(call.t, REASONS.index(call.reason), 0, len(q), q.ctypes.data_as(DP),
+                        u.ctypes.data_as(DP), call.k)
+        knots, coef = np.zeros(MAX_KNOTS), np.zeros((MAX_KNOTS - 1) * 12)
+        n = ctypes.c_int(0)
+        fn = CONTROLLER_FN(self.raw_address)
+        r = fn(controller.ctx, ctypes.byref(cs), MAX_KNOTS, ctypes.byref(n),
+               knots.ctypes.data_as(DP), coef.ctypes.data_as(DP))
+        if r != 1:
+            return None
+        k = n.value
+        return Segments(knots[:k].copy(), coef[:(k - 1) * 12].reshape(k - 1, 3, 4).copy())
 
     def times(self) -> np.ndarray:
         """(t, seconds) of the calls that ran the solver in the last run."""
@@ -673,28 +707,82 @@ def initial_state_of(task) -> np.ndarray:
                       A=np.asarray(sc.A0).ravel())
 
 
-def run(task, progress: bool = False):
-    """``derive control`` for mode = "replan": the offline plan, the re-planning problem
-    and its solution at the start, the C controller (compiled, cached), the closed loop
-    on the disturbed plant and the plan played open loop on the same plant."""
+@dataclass
+class Setup:
+    """Everything a closed loop of one task needs, made once: the offline plan, the
+    problem, its solution at the start, the C sources (and the compiled controller, on
+    first use), the planned scene for the plant.  ``derive control``, the tests and
+    ``derive bench control`` run many plants from one."""
+    task: object
+    plan: object
+    problem: Problem
+    w0: np.ndarray
+    t0: float
+    period: float
+    duration: float
+    doc: dict
+    sources: dict
+    seconds: dict
+    start: dict
+    _compiled: object = None
+
+    @property
+    def T_plan(self) -> float:
+        return self.plan.law.T
+
+    @property
+    def compiled(self) -> "Compiled":
+        if self._compiled is None:
+            tick = time.perf_counter()
+            self._compiled = Compiled(self.sources)
+            self.seconds["c_build"] = time.perf_counter() - tick
+        return self._compiled
+
+    def python(self, iterations: int | None = None, keep_laws: bool = False) -> PyReplan:
+        return PyReplan(self.problem, self.w0, self.t0, self.T_plan, self.period,
+                        iterations or self.task.scene.control.iterations, keep_laws)
+
+    def ipopt(self, keep_laws: bool = False) -> IpoptReplan:
+        return IpoptReplan(self.problem, self.w0, self.t0, self.T_plan, self.period,
+                           keep_laws=keep_laws)
+
+    def plant(self, disturbance):
+        """The plant's prepared scene for a disturbance (None: the model itself)."""
+        from .core import plant_of
+        return plant_of(self.doc, disturbance)
+
+    def closed(self, prep, disturbance, controller):
+        """A closed-loop run: (Result with the realised law as its scene's law, the law)."""
+        from dataclasses import replace
+        from ..runtime.driver import run_prepared
+        from ..runtime.loop import realised_law
+        from .plant import loop as make_loop
+        scene = replace(prep.scene, disturbance=disturbance)
+        lp = make_loop(controller, scene, self.period)
+        result = run_prepared(prep, loop=lp)
+        law = realised_law(lp.law_rows(), "the closed loop's realised law")
+        result.scene = replace(result.scene, law=law, law_text=())
+        return result, law
+
+    def open(self, prep, disturbance):
+        from .core import open_loop
+        return open_loop(prep, disturbance)
+
+
+def setup(task, progress: bool = False) -> Setup:
+    """The offline part of mode = "replan" (see :class:`Setup`)."""
     from .. import plan as make_plan
-    from ..runtime.driver import run_prepared
-    from ..runtime.loop import realised_law
-    from . import plots
-    from .core import (LAND_MARGIN, ControlResult, disturbance_dict, measure_run,
-                       open_loop, percentiles_ms, period_of, planned_doc, plant_of)
-    from .plant import loop as make_loop
+    from .core import default_duration, period_of, planned_doc
     start = time.perf_counter()
     check_task(task)
     ctl = task.scene.control
-    dist = task.scene.disturbance
     period = period_of(task)
     pl = make_plan(task, progress=progress)
     if not pl.ok:
         raise ControlError(f"the offline plan failed: {pl.message}")
     t0, T_plan = 0.0, pl.law.T
-    duration = ctl.duration if ctl.duration is not None else T_plan * (1 + LAND_MARGIN)
-    t_seconds = {"plan": time.perf_counter() - start}
+    duration = default_duration(task, T_plan)
+    seconds = {"plan": time.perf_counter() - start}
     tick = time.perf_counter()
     problem = Problem(task, ctl.intervals)
     q0 = initial_state_of(task)
@@ -702,35 +790,44 @@ def run(task, progress: bool = False):
     if status not in ("Solve_Succeeded", "Solved_To_Acceptable_Level"):
         raise ControlError(f"the re-planning problem at the start: IPOPT stopped with "
                            f"{status}")
-    t_seconds["problem_and_start"] = time.perf_counter() - tick
+    seconds["problem_and_start"] = time.perf_counter() - tick
     sources = render(problem, w0, t0, T_plan, period, ctl.iterations)
     sources["CMakeLists.txt"] = CMAKE
-    prep = plant_of(planned_doc(pl, duration), dist)
-    scene = prep.scene if dist is None else _with(prep.scene, dist)
-    tick = time.perf_counter()
+    return Setup(task, pl, problem, w0, t0, period, duration, planned_doc(pl, duration),
+                 sources, seconds, {"ipopt_status": status, "iterations": its,
+                                    "horizon": float(w0[-1])})
+
+
+def run(task, progress: bool = False, setup_: Setup | None = None):
+    """``derive control`` for mode = "replan": the offline plan, the re-planning problem
+    and its solution at the start, the C controller (compiled, cached), the closed loop
+    on the disturbed plant and the plan played open loop on the same plant (``setup_``:
+    one made before for this task)."""
+    from . import plots
+    from .core import ControlResult, disturbance_dict, measure_run, percentiles_ms
+    start = time.perf_counter()
+    su = setup_ or setup(task, progress)
+    ctl = task.scene.control
+    dist = task.scene.disturbance
+    prep = su.plant(dist)
     if ctl.solver == "sqp":
-        compiled = Compiled(sources)
-        t_seconds["c_build"] = time.perf_counter() - tick
+        compiled = su.compiled
         controller, what = compiled.controller(), "the generated C controller"
     else:
-        controller = IpoptReplan(problem, w0, t0, T_plan, period, keep_laws=True)
+        controller = su.ipopt(keep_laws=True)
         what = "IPOPT in-process, to convergence every sample"
-    lp = make_loop(controller, scene, period)
     tick = time.perf_counter()
-    closed = run_prepared(prep, loop=lp)
-    t_seconds["closed_loop"] = time.perf_counter() - tick
-    law = realised_law(lp.law_rows(), "the closed loop's realised law")
-    closed.scene = _law_replaced(closed.scene, law)
+    closed, law = su.closed(prep, dist, controller)
+    su.seconds["closed_loop"] = time.perf_counter() - tick
     if ctl.solver == "sqp":
         times, laws, cstats = compiled.times(), compiled.laws(), compiled.stats()
     else:
         st = controller.stats
-        times = np.column_stack([[t for t, _ in st.laws] + [np.nan] * (len(st.solve_s)
-                                 - len(st.laws)), st.solve_s]) if st.solve_s else \
-            np.zeros((0, 2))
+        times = np.column_stack([st.solve_t, st.solve_s]).reshape(-1, 2)
         laws = st.laws
         cstats = {"calls": st.calls, "replans": st.replans, "failures": st.failures}
-    opened = open_loop(prep, dist)
+    opened = su.open(prep, dist)
+    pl = su.plan
     summary = {
         "mode": "replan", "goal": task.goal,
         "closed_loop": measure_run(task, pl, closed, law, "runtime, closed loop"),
@@ -739,27 +836,25 @@ def run(task, progress: bool = False):
         "solve_ms": percentiles_ms(times[:, 1]),
         "solver": {"kind": ctl.solver, "what": what,
                    "qp": "dense dual active set (Goldfarb-Idnani), derive/control/qp.py",
-                   "iterations_per_sample": ctl.iterations, "intervals": problem.N,
-                   "variables": problem.nw, "constraints": problem.ng, "period": period,
-                   "freeze_below_horizon": freeze(period),
-                   "start": {"ipopt_status": status, "iterations": its,
-                             "horizon": float(w0[-1])}},
+                   "iterations_per_sample": ctl.iterations, "intervals": su.problem.N,
+                   "variables": su.problem.nw, "constraints": su.problem.ng,
+                   "period": su.period, "freeze_below_horizon": freeze(su.period),
+                   "start": su.start},
         "controller": {k: int(v) for k, v in cstats.items()},
         "disturbance": disturbance_dict(dist),
-        "plan": {"status": pl.status, "horizon": T_plan,
+        "plan": {"status": pl.status, "horizon": su.T_plan,
                  "achieved_runtime": pl.summary["achieved"].get("runtime")},
-        "duration": duration,
+        "duration": su.duration,
     }
-    t_seconds["total"] = time.perf_counter() - start
-    summary["seconds"] = t_seconds
-    goal_time = T_plan
+    su.seconds["total"] = time.perf_counter() - start
+    summary["seconds"] = su.seconds
     figures = [
         ("disturbance.png", lambda p: plots.disturbance(p, task, closed, opened, dist,
-                                                        goal_time)),
+                                                        su.T_plan)),
         ("replans.png", lambda p: plots.replans(p, laws, law, pl.law)),
         ("solve_times.png", lambda p: plots.solve_times(p, times, what)),
     ]
-    return ControlResult(task, "replan", summary, closed, opened, law, sources, figures)
+    return ControlResult(task, "replan", summary, closed, opened, law, su.sources, figures)
 
 
 def _with(scene, dist):
