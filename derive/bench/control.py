@@ -65,6 +65,24 @@ def upright_error_deg(result, target) -> float:
     return math.degrees(math.atan2(s, 0.5 * (np.trace(R) - 1.0)))
 
 
+class _Quiet:
+    """stdout of the C libraries (qpOASES prints its licence banner) to /dev/null."""
+
+    def __enter__(self):
+        import os
+        import sys
+        sys.stdout.flush()
+        self.saved = os.dup(1)
+        self.null = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(self.null, 1)
+
+    def __exit__(self, *exc):
+        import os
+        os.dup2(self.saved, 1)
+        os.close(self.saved)
+        os.close(self.null)
+
+
 def _qrqp_against_ours(su, qps: list) -> dict:
     """The QP alone on the same data: ours in C (ctl_qp.h, timed through its shim)
     against CasADi's qrqp and qpOASES in-process."""
@@ -137,8 +155,9 @@ def run(n: int = 1000, ipopt_runs: int = 3, progress=lambda m: None) -> dict:
             return solve(*args)
         py.qp.solve = keep
         su.closed(prep, dist, py)
-    progress("the QP alone: ours against qrqp")
-    qp = _qrqp_against_ours(su, qps)
+    progress("the QP alone: ours against qrqp and qpOASES")
+    with _Quiet():
+        qp = _qrqp_against_ours(su, qps)
     ipopt = np.array(ipopt) * 1e3
     closed_err, open_err = np.array(closed_err), np.array(open_err)
     return {"n": n, "horizon": T, "intervals": su.problem.N, "period": su.period,
