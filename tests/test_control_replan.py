@@ -158,11 +158,12 @@ def test_c_controller_returns_the_python_routes_law(su):
     """A disturbed closed loop (mass, inertia, a push, noise) run by the C controller;
     at every call the Python route (the same CasADi function in-process, the NumPy QP)
     is called with the same call and returns the same law: x and x' over the law's whole
-    horizon to 1e-12 of their largest magnitude (measured: about 2e-14 and 1e-13).
-    x'' to 1e-11: it is a second difference of the control points over h^2 (h = T/30),
-    which magnifies their difference (about 20 ulp: the QP's sums run in another order
-    in NumPy's BLAS than in the C, and its conditioning, about 1e5, carries that to
-    the solution) by 4/h^2 against their scale: measured about 3e-12."""
+    horizon to 1e-12 of their largest magnitude (measured: 4e-14 and 7e-14 on this run;
+    2e-14 and 1e-13 on others).  x'' to 1e-11: it is a second difference of the control
+    points over h^2 (h = T/30), which magnifies their difference (some ulp: the QP's sums
+    run in another order in NumPy's BLAS than in the C, and its conditioning, about 1e5,
+    carries that to the solution) by 4/h^2 against their scale: measured 1.3e-12 to
+    3e-12."""
     comp = su.compiled
     c_ctl = comp.controller(timed=False)
     py = su.python()
