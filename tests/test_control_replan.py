@@ -342,7 +342,7 @@ def test_cmake_embedding(out_dir, tmp_path):
     build = tmp_path / "build"
     conf = subprocess.run([CMAKE, "-S", str(ROOT / "tests" / "c" / "replan"), "-B",
                            str(build), f"-DCARRIER_SOURCE_DIR={ROOT / 'generated'}",
-                           f"-DCONTROLLER_DIR={out_dir}", "-DCMAKE_BUILD_TYPE=Release"],
+                           f"-DCONTROLLER_DIR={out_dir}", "-DCMAKE_BUILD_TYPE=Debug"],
                           capture_output=True, text=True)
     assert conf.returncode == 0, conf.stdout[-3000:] + conf.stderr[-3000:]
     make = subprocess.run([CMAKE, "--build", str(build), "--parallel", "2"],

@@ -49,7 +49,9 @@ def mode_runner(mode: str):
     module, name = MODES[mode]
     try:
         mod = importlib.import_module(module)
-    except ModuleNotFoundError:
+    except ModuleNotFoundError as exc:
+        if exc.name != module:              # a module it imports is missing: a real error
+            raise
         raise SceneError("[control].mode", f"{mode} is not available in this version") \
             from None
     return getattr(mod, name)
