@@ -5,7 +5,8 @@
 parsed :class:`~derive.scene.Scene`) and returns a
 :class:`~derive.runtime.driver.Result`; ``derive.simulate_many(scene, variants)`` runs
 many variants of one scene for parameter studies; ``derive.plan(task)`` plans the
-point's motion (:mod:`derive.planner`).  Importing ``derive`` loads neither
+point's motion (:mod:`derive.planner`); ``derive.control(task)`` closes the loop
+around it on a disturbed plant (:mod:`derive.control`).  Importing ``derive`` loads neither
 SymPy nor CasADi: the runtime is precompiled C.
 """
 from __future__ import annotations
@@ -30,4 +31,11 @@ def plan(task, **kwargs):
     return _plan(task, **kwargs)
 
 
-__all__ = ["simulate", "simulate_many", "plan"]
+def control(task, **kwargs):
+    """Close the loop of a control task (a plan task with [control] and [disturbance]);
+    see :func:`derive.control.core.control` (CasADi loads on the first call)."""
+    from .control.core import control as _control
+    return _control(task, **kwargs)
+
+
+__all__ = ["simulate", "simulate_many", "plan", "control"]

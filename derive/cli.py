@@ -554,6 +554,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     from .planner.cli import add_parser as _add_plan_parser
     _add_plan_parser(sub)
+    from .control.cli import add_parser as _add_control_parser
+    _add_control_parser(sub)
     return parser
 
 

@@ -14,6 +14,7 @@ import json
 import math
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -250,3 +251,20 @@ def test_a_closed_loop_in_c_is_clean_under_sanitizers(unstable, tmp_path):
     assert not [ln for ln in nm if len(ln.split()) == 3 and ln.split()[1] in "BbDdGgSs"]
     assert {ln.split()[1] for ln in nm if ln.split()[:1] == ["U"]} <= {"sin", "cos", "sincos",
                                                                      "fmod"}
+
+
+def test_derive_control_refuses_hop_and_mirror_and_says_where_they_run(tmp_path, capsys):
+    """hop and mirror close the loop around a scene's gait: derive control (a planned
+    task) refuses them in one line naming [control].mode and pointing at derive
+    simulate; nothing is written."""
+    from derive.cli import main
+    task = (Path(__file__).resolve().parents[1] / "derive" / "planner" / "examples" /
+            "land.toml").read_text()
+    for mode in ("hop", "mirror"):
+        path = tmp_path / f"{mode}.toml"
+        path.write_text(task + f'\n[control]\nmode = "{mode}"\n')
+        out = tmp_path / f"out-{mode}"
+        assert main(["control", str(path), "-o", str(out)]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and "[control].mode" in err[0] and "derive simulate" in err[0]
+        assert not out.exists()

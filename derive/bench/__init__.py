@@ -79,6 +79,14 @@ COMMANDS = (
                 Arg.of("--repeats", type=REPEATS, default=5,
                        help="timing repetitions (min taken)"),
             )),
+    Command("control", "the re-planning controller: re-plan latency of the generated C "
+            "(IPOPT in-process and qrqp beside it) and landing under seeded disturbances, "
+            "closed against open loop", "derive.bench.control", (
+                Arg.of("-n", type=count(1, 100_000), default=1000,
+                       help="seeded disturbances (default 1000)"),
+                Arg.of("--ipopt-runs", dest="ipopt_runs", type=count(1, 100), default=3,
+                       help="closed-loop runs solved by IPOPT every sample (default 3)"),
+            )),
 )
 
 

@@ -191,6 +191,10 @@ class Session:
             return self._run(t0, duration, q0, opt, prm, progress, loop)
         finally:                              # the loop's memory is Python's: let go of it
             self.library.lib.crt_set_control(self.handle, None)
+            # the session's law is now the controller's last (in that memory): the next
+            # run sets its law again, even the same object (else it would run on that
+            # stale law, and a loop closed then would start from it)
+            self._law_key = None
 
     def _run(self, t0, duration, q0, opt, prm, progress, loop) -> Raw:
         lib = self.library.lib

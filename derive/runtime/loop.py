@@ -97,9 +97,20 @@ def hermite_law(t, x, v) -> Segments:
     return Segments(t, coef)
 
 
+def _address(ctx) -> int:
+    """The address a controller's memory is at: an int is one; a ctypes pointer points
+    to it; any other ctypes object (a Structure, a buffer) is it."""
+    if isinstance(ctx, int):
+        return ctx
+    if isinstance(ctx, ctypes._Pointer):
+        return ctypes.cast(ctx, ctypes.c_void_p).value
+    return ctypes.addressof(ctx)
+
+
 class CController:
     """A controller compiled to C: the address of its ``crt_controller_fn`` and its memory
-    (``ctx``: a ctypes object (a Structure, a buffer) or an address, the function's state;
+    (``ctx``: a ctypes object (a Structure, a buffer), a pointer to one or an address, the
+    function's state;
     ``keep``: what must stay alive while it runs)."""
 
     def __init__(self, address: int, ctx, keep=()):
@@ -168,8 +179,7 @@ class Loop:
         else:
             self._fn = self._python_fn()
             fn, ctx = ctypes.cast(self._fn, ctypes.c_void_p), None
-        ctx_p = None if ctx is None else ctypes.c_void_p(
-            ctx if isinstance(ctx, int) else ctypes.addressof(ctx))
+        ctx_p = None if ctx is None else ctypes.c_void_p(_address(ctx))
         status = lib.crt_control_setup(self.handle, fn, ctx_p, float(self.period),
                                        self._noise.ctypes.data_as(DP), float(self.seed),
                                        self.pushes.ctypes.data_as(DP), len(self.pushes),

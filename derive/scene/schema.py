@@ -236,11 +236,13 @@ CONTROL_FIELDS = (
       4, 200),
     F("control", "iterations", "integer", 1, "replan: SQP iterations per sample (1: a "
       "real-time iteration)", 1, 100),
-    F("control", "solver", "choice", "sqp", "replan: the generated C solver (sqp: CasADi's "
-      "sqpmethod with qrqp) or ipopt (in-process, for comparison)",
+    F("control", "solver", "choice", "sqp", "replan: sqp, the generated C controller "
+      "(Gauss-Newton SQP: CasADi's code of the QP's data, a dense dual active-set QP), or "
+      "ipopt (in-process, converged every sample, for comparison)",
       choices=("sqp", "ipopt")),
-    F("control", "duration", "number", None, "how long the loop runs (default: the plan's "
-      "horizon and a fifth more, or two seconds)", 0, MAX_DURATION, True),
+    F("control", "duration", "number", None, "how long the loop runs (default: land, the "
+      "plan's touchdown and a fifth more; reorient, the plan's horizon; else two seconds)",
+      0, MAX_DURATION, True),
 )
 
 # ``[disturbance]``: the plant that differs from the model, seeded and recorded

@@ -14,8 +14,12 @@
 extern "C" {
 #endif
 
-/* What the runtime hands a controller at each call. */
-typedef struct {
+/* What the runtime hands a controller at each call.  A controller's own header may
+   declare the same struct (tag crt_call, these members) under the same guard: a
+   generated controller's controller.h does, so that it compiles without the runtime. */
+#ifndef CRT_CALL_DEFINED
+#define CRT_CALL_DEFINED
+typedef struct crt_call {
   double t;                 /* the time of the call */
   int reason;               /* 0 start, 1 sample, 2 event (enum crt_call_reason) */
   int event;                /* a call at an event: its kind (enum crt_event_kind) */
@@ -24,6 +28,7 @@ typedef struct {
   const double *u;          /* the law at t: x, y, z, x', y', z', x'', y'', z'' */
   long k;                   /* the calls before this one */
 } crt_call;
+#endif
 
 /* A controller: reads call, returns 0 (the law goes on), 1 (a new law from call->t:
    n_knots knots (2 to max_knots), knots[0] = call->t, coef[(n_knots - 1) * 12] the cubic

@@ -1,0 +1,394 @@
+"""In-flight re-planning (derive/control/replan.py, templates/control/): each check
+compares with something computed another way.
+
+* the QP solver (C and NumPy) against qpOASES on random strictly convex QPs;
+* the generated QP data against CasADi's evaluation of the same function and against
+  central differences of the constraints;
+* the C controller against the Python route, call by call, in a disturbed closed loop
+  (the same law to 1e-12);
+* a closed loop replayed by the runtime with its realised law as a table and the same
+  pushes: the same trajectory;
+* a seeded handful of disturbed landings: closed loop upright within 2 deg where the plan
+  played open loop on the same plants is not; a reorientation by the Python route;
+* the C: C99 and C++ under -Werror, no heap, no writable static data, and the C++
+  embedding program (tests/c/replan/) under ASan and UBSan.
+
+The 1000-disturbance sweep and the latency targets are `derive bench control`.
+One controller is set up and compiled per module (the plan, the problem's solution at
+the start: about 10 s, the C build cached by hash).
+"""
+from __future__ import annotations
+
+import ctypes
+import shutil
+import subprocess
+import sys
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from derive.bench.control import disturbance, upright_error_deg
+from derive.control.core import load_control_task
+from derive.control.qp import CDenseQP, DenseQP, INFEASIBLE, SOLVED
+from derive.control.replan import setup
+
+ROOT = Path(__file__).resolve().parents[1]
+TASK = ROOT / "derive" / "control" / "examples" / "land_push.toml"
+CC = shutil.which("cc") or shutil.which("gcc")
+CXX = shutil.which("c++") or shutil.which("g++")
+CMAKE = shutil.which("cmake")
+STRICT = ["-Wall", "-Wextra", "-Wpedantic", "-Werror"]
+
+
+@pytest.fixture(scope="module")
+def su():
+    return setup(load_control_task(TASK))
+
+
+@pytest.fixture(scope="module")
+def out_dir(su, tmp_path_factory):
+    out = tmp_path_factory.mktemp("controller")
+    for name, text in su.sources.items():
+        (out / name).write_text(text, encoding="utf-8")
+    return out
+
+
+# ---- the QP ----------------------------------------------------------------------------
+def _random_qp(rng, n, m, feasible=True):
+    M = rng.normal(size=(n, n))
+    H = M @ M.T + 0.1 * np.eye(n)
+    g, A = rng.normal(size=n), rng.normal(size=(m, n))
+    x0 = rng.normal(size=n)
+    ax = A @ x0
+    lba, uba = ax - rng.uniform(0, 1, m), ax + rng.uniform(0, 1, m)
+    eq = rng.uniform(size=m) < 0.2
+    lba[eq] = uba[eq] = ax[eq]
+    lba[rng.uniform(size=m) < 0.2] = -np.inf
+    uba[rng.uniform(size=m) < 0.2] = np.inf
+    lbx, ubx = x0 - rng.uniform(0, 2, n), x0 + rng.uniform(0, 2, n)
+    ubx[rng.uniform(size=n) < 0.3] = np.inf
+    if not feasible and m:                  # a row that no x in the bounds can meet
+        lbx[:], ubx[:] = x0 - 0.1, x0 + 0.1
+        lba[0] = uba[0] = ax[0] + 10.0 * (1.0 + np.abs(A[0]).sum())
+    return H, g, A, lba, uba, lbx, ubx
+
+
+def test_qp_against_qpoases():
+    """Random strictly convex QPs (equalities, one- and two-sided rows, bounds; some
+    infeasible): the NumPy and the C solver against qpOASES."""
+    import casadi as ca
+    rng = np.random.default_rng(7)
+    n, m = 12, 9
+    c_qp = CDenseQP(n, m)
+    py_qp = DenseQP(n, m)
+    S = ca.conic("q", "qpoases", {"h": ca.Sparsity.dense(n, n), "a": ca.Sparsity.dense(m, n)},
+                 {"printLevel": "none", "error_on_fail": False})
+    worst, infeasible = 0.0, 0
+    for trial in range(150):
+        feasible = trial % 10 != 9
+        qp = _random_qp(rng, n, m, feasible)
+        sol = S(h=qp[0], g=qp[1], a=qp[2], lba=qp[3], uba=qp[4], lbx=qp[5], ubx=qp[6])
+        x_ref = np.array(sol["x"]).ravel()
+        for solver in (py_qp, c_qp):
+            x, status, _ = solver.solve(*qp)
+            if not feasible:
+                assert status == INFEASIBLE and not S.stats()["success"], trial
+                infeasible += 1
+                continue
+            assert status == SOLVED and S.stats()["success"], trial
+            worst = max(worst, float(np.max(np.abs(x - x_ref)) / (1 + np.max(np.abs(x_ref)))))
+    print(f"QP: worst relative difference from qpOASES {worst:.1e}; infeasible detected "
+          f"{infeasible}")
+    assert worst < 1e-9
+
+
+# ---- the QP's data ----------------------------------------------------------------------
+def test_qp_data_c_and_casadi_and_differences(su):
+    """The generated ctl_qp_data (compiled) against CasADi's evaluation of the same
+    function, and its constraint Jacobian against central differences."""
+    import casadi as ca
+    pr = su.problem
+    f = pr.qp_data
+    lib = ctypes.CDLL(str(su.compiled.path))
+    DP = ctypes.POINTER(ctypes.c_double)
+    rng = np.random.default_rng(3)
+    G = ca.Function("G", [pr.functions["nlp"]["x"], pr.functions["nlp"]["p"]],
+                    [pr.functions["nlp"]["g"]])
+    worst_c, worst_fd = 0.0, 0.0
+    for _ in range(3):
+        w = su.w0 + 1e-3 * rng.normal(size=pr.nw)
+        p = pr.params(np.r_[1e-2 * rng.normal(size=6), 0, 0, 0], w[-1], _q0(su))
+        ref = [np.array(v) for v in f(w, p)]
+        outs = [np.zeros(f.nnz_out(i)) for i in range(f.n_out())]
+        ins = [np.ascontiguousarray(w), np.ascontiguousarray(p)]
+        arg = (DP * f.sz_arg())(*[a.ctypes.data_as(DP) for a in ins])
+        res = (DP * f.sz_res())(*[o.ctypes.data_as(DP) for o in outs])
+        iw = np.zeros(f.sz_iw() + 1, dtype=np.int64)
+        cw = np.zeros(f.sz_w() + 1)
+        assert lib.ctl_qp_data(arg, res, iw.ctypes.data_as(ctypes.c_void_p),
+                               cw.ctypes.data_as(DP), 0) == 0
+        for o, r in zip(outs, ref):
+            r = r.ravel(order="F")
+            fin = np.isfinite(r)
+            worst_c = max(worst_c, float(np.max(np.abs(o[fin] - r[fin]))
+                                         / (1 + np.max(np.abs(r[fin])))))
+        A = ref[2]
+        h = 1e-6
+        for j in rng.choice(pr.nw, 12, replace=False):
+            e = np.zeros(pr.nw)
+            e[j] = h
+            fd = (np.array(G(w + e, p)).ravel() - np.array(G(w - e, p)).ravel()) / (2 * h)
+            worst_fd = max(worst_fd, float(np.max(np.abs(fd - A[:, j]))
+                                           / (1 + np.max(np.abs(A[:, j])))))
+    print(f"qp_data: C against CasADi {worst_c:.1e}, Jacobian against central differences "
+          f"{worst_fd:.1e}")
+    assert worst_c < 1e-12
+    assert worst_fd < 1e-6
+
+
+def _q0(su):
+    from derive.control.replan import initial_state_of
+    return initial_state_of(su.task)
+
+
+# ---- the C controller and the Python route -----------------------------------------------
+def test_c_controller_returns_the_python_routes_law(su):
+    """A disturbed closed loop (mass, inertia, a push, noise) run by the C controller;
+    at every call the Python route (the same CasADi function in-process, the NumPy QP)
+    is called with the same call and returns the same law: x and x' over the law's whole
+    horizon to 1e-12 of their largest magnitude (measured: 4e-14 and 7e-14 on this run;
+    2e-14 and 1e-13 on others).  x'' to 1e-11: it is a second difference of the control
+    points over h^2 (h = T/30), which magnifies their difference (some ulp: the QP's sums
+    run in another order in NumPy's BLAS than in the C, and its conditioning, about 1e5,
+    carries that to the solution) by 4/h^2 against their scale: measured 1.3e-12 to
+    3e-12."""
+    comp = su.compiled
+    c_ctl = comp.controller(timed=False)
+    py = su.python()
+    dist = disturbance(3, su.T_plan, su.task.scene.size[0])
+    worst = {"x": 0.0, "x'": 0.0, "x''": 0.0}
+    laws = [0]
+
+    def tee(call):
+        seg_c = comp.call(c_ctl, call)
+        seg_p = py(call)
+        assert (seg_c is None) == (seg_p is None), call.t
+        if seg_c is None:
+            return None
+        laws[0] += 1
+        assert np.max(np.abs(seg_c.knots - seg_p.knots)) <= 1e-15 * (1 + abs(call.t))
+        ts = np.linspace(seg_p.knots[0], seg_p.knots[-2], 400)
+        uc = np.array([seg_c.at(t) for t in ts])
+        up = np.array([seg_p.at(t) for t in ts])
+        for k, name in enumerate(worst):
+            part = slice(3 * k, 3 * k + 3)
+            scale = max(np.max(np.abs(up[:, part])), 1e-3)
+            worst[name] = max(worst[name], float(np.max(np.abs(uc[:, part] - up[:, part]))
+                                                 / scale))
+        return seg_c
+    su.closed(su.plant(dist), dist, tee)
+    print(f"C against Python, {laws[0]} laws: " + ", ".join(f"{k} {v:.1e}"
+                                                         for k, v in worst.items()))
+    assert laws[0] > 20
+    assert worst["x"] <= 1e-12 and worst["x'"] <= 1e-12
+    assert worst["x''"] <= 1e-11
+
+
+def test_closed_loop_replayed_with_its_realised_law(su):
+    """The closed loop's realised law as a table, run open loop on the same plant with
+    the same pushes (and the same sample stops): the same trajectory, to the runs'
+    integration tolerance (rtol 1e-12).  The replay takes other steps: its table holds
+    the next law from each sample on, whose x'' differs (x'' may jump at a sample), and
+    a step ending on that knot reads it at its last stage."""
+    from derive.runtime.driver import prepare, run_prepared
+    from derive.control.plant import loop
+    dist = disturbance(5, su.T_plan, su.task.scene.size[0])
+    prep = su.plant(dist)
+    closed, law = su.closed(prep, dist, su.compiled.controller())
+    scene = replace(prep.scene, law=law, law_text=(), disturbance=dist)
+    replay = run_prepared(prepare(scene), loop=loop(lambda call: None, scene, su.period))
+    assert replay.status == closed.status and replay.t[-1] == closed.t[-1]
+
+    def impact(r):
+        t = [e["t"] for e in r.events if e["kind"] == "impact"][0]
+        k = np.flatnonzero((r.row_kind == 1) & (r.t == t))[0]
+        return t, r.q[k]
+    (t_c, q_c), (t_r, q_r) = impact(closed), impact(replay)
+    common = np.intersect1d(closed.t[closed.t < t_c], replay.t)
+    dq = np.max(np.abs(closed.q[np.searchsorted(closed.t, common)]
+                       - replay.q[np.searchsorted(replay.t, common)]))
+    print(f"replay: touchdown {t_r - t_c:.1e} s apart, the state before it "
+          f"{np.max(np.abs(q_r - q_c)):.1e}, the {len(common)} rows at common times before "
+          f"it {dq:.1e}")
+    assert abs(t_r - t_c) < 1e-12
+    assert np.max(np.abs(q_r - q_c)) < 1e-10 and dq < 1e-10 and len(common) > 25
+
+
+def test_seeded_landings_upright_closed_not_open(su):
+    """Five of the benchmark's seeded disturbances: the closed loop lands within 2 deg of
+    upright; the plan played open loop on the same plants does worse every time."""
+    comp = su.compiled
+    rows = []
+    for k in range(5):
+        dist = disturbance(k, su.T_plan, su.task.scene.size[0])
+        prep = su.plant(dist)
+        closed, _ = su.closed(prep, dist, comp.controller())
+        opened = su.open(prep, dist)
+        rows.append((upright_error_deg(closed, su.task.target),
+                     upright_error_deg(opened, su.task.target)))
+    print("closed, open (deg): " + "; ".join(f"{c:.3f}, {o:.2f}" for c, o in rows))
+    assert all(c < 2.0 for c, _ in rows)
+    assert all(c < o for c, o in rows)
+
+
+def test_session_runs_its_own_law_after_a_closed_loop(su):
+    """A closed loop, then the plan played on the same prepared plant: the same as the
+    plan played on a fresh one (the session must not keep the controller's last law)."""
+    dist = disturbance(1, su.T_plan, su.task.scene.size[0])
+    prep = su.plant(dist)
+    su.closed(prep, dist, su.compiled.controller())
+    after = su.open(prep, dist)
+    fresh = su.open(su.plant(dist), dist)
+    assert np.array_equal(after.q, fresh.q)
+
+
+def test_reorientation_python_route(tmp_path):
+    """Reorient (no plane, T fixed): the Python route on a plant with other moments of
+    inertia and a push ends nearer the target than the plan played open loop."""
+    src = (ROOT / "derive" / "planner" / "examples" / "reorient.toml").read_text()
+    src = src.replace("intervals = 16", "") + (
+        "\n[control]\nmode = \"replan\"\nintervals = 12\nperiod = 0.1\n\n[disturbance]\n"
+        "inertia_factor = [1.1, 0.9, 1.1]\n"
+        "pushes = [ { time = 0.5, impulse = [0.0, 0.03, 0.0], at = [0.1, 0.0, 0.0] } ]\n")
+    path = tmp_path / "reorient.toml"
+    path.write_text(src)
+    s2 = setup(load_control_task(path))
+    dist = s2.task.scene.disturbance
+    prep = s2.plant(dist)
+    closed, _ = s2.closed(prep, dist, s2.python())
+    opened = s2.open(prep, dist)
+    from derive.planner.resim import rotation_angle
+    from derive.layout import GENERAL
+
+    def err(res):
+        return rotation_angle(s2.task.target, res.q[-1, GENERAL.A].reshape(3, 3))
+    print(f"reorient: closed {err(closed):.2e} rad, open {err(opened):.2e} rad")
+    assert err(closed) < 0.05 * err(opened)
+
+
+# ---- the C -------------------------------------------------------------------------------
+@pytest.mark.skipif(CC is None or CXX is None, reason="no C or C++ compiler")
+def test_controller_c_is_clean_c99_and_cpp_no_heap_no_statics(out_dir, tmp_path):
+    for src in ("controller.c", "controller_data.c"):
+        for cmd in ([CC, "-std=c99"], [CXX, "-x", "c++", "-std=c++17"]):
+            obj = tmp_path / (src + ".o")
+            proc = subprocess.run([*cmd, *STRICT, "-O0", "-I", str(out_dir), "-c",
+                                   str(out_dir / src), "-o", str(obj)],
+                                  capture_output=True, text=True)
+            assert proc.returncode == 0, (cmd, src, proc.stderr[-3000:])
+        nm = subprocess.run(["nm", str(tmp_path / (src + ".o"))], capture_output=True,
+                            text=True, check=True).stdout
+        undefined, writable = set(), []
+        for line in nm.splitlines():
+            parts = line.split()
+            if len(parts) == 2 and parts[0] == "U":
+                undefined.add(parts[1])
+            elif len(parts) == 3 and parts[1] in "BbDdGgSs":
+                writable.append(parts[2])
+        assert not writable, (src, writable)
+        heap = {s for s in undefined if any(k in s for k in ("malloc", "calloc", "realloc",
+                                                            "free", "new", "delete"))}
+        assert not heap, (src, heap)
+
+
+@pytest.mark.skipif(CC is None or CXX is None, reason="no C or C++ compiler")
+def test_cpp_embedding_under_asan_and_ubsan(out_dir, tmp_path):
+    """tests/c/replan/embed_replan.cpp (the controller in a C++ program's own loop, the
+    plant on the generated RHS) built with every source under ASan and UBSan: clean,
+    and the body lands upright."""
+    gen = ROOT / "generated" / "c"
+    san = ["-fsanitize=address,undefined", "-fno-sanitize-recover=all",
+           "-fno-omit-frame-pointer"]
+    objs = []
+    jobs = [([CXX, "-std=c++17", *STRICT, "-O1", "-g"], ROOT / "tests" / "c" / "replan"
+             / "embed_replan.cpp"),
+            ([CC, "-std=c99", *STRICT, "-O1", "-g"], out_dir / "controller.c"),
+            ([CC, "-std=c99", "-O0"], out_dir / "controller_data.c")]
+    jobs += [([CC, "-std=c99", *STRICT, "-O1"], gen / f"{name}.c")
+             for name in ("general_flight_rhs", "general_gap", "lowest_point_sphere")]
+    for cmd, src in jobs:
+        obj = tmp_path / (src.stem + ".o")
+        proc = subprocess.run([*cmd, *san, "-I", str(out_dir), "-I", str(gen), "-c",
+                               str(src), "-o", str(obj)], capture_output=True, text=True)
+        assert proc.returncode == 0, (src.name, proc.stderr[-3000:])
+        objs.append(str(obj))
+    exe = tmp_path / "embed_replan"
+    link = subprocess.run([CXX, *san, *objs, "-lm", "-o", str(exe)], capture_output=True,
+                          text=True)
+    assert link.returncode == 0, link.stderr[-3000:]
+    run = subprocess.run([str(exe)], capture_output=True, text=True, timeout=300)
+    print(run.stdout)
+    assert run.returncode == 0, run.stdout + run.stderr
+    assert "runtime error" not in run.stderr and "AddressSanitizer" not in run.stderr
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(CMAKE is None or CXX is None, reason="no cmake or no C++ compiler")
+def test_cmake_embedding(out_dir, tmp_path):
+    """tests/c/replan/CMakeLists.txt: the output folder's CMake project and generated/
+    added to a C++ program (the README's embedding guide), built and run."""
+    build = tmp_path / "build"
+    conf = subprocess.run([CMAKE, "-S", str(ROOT / "tests" / "c" / "replan"), "-B",
+                           str(build), f"-DCARRIER_SOURCE_DIR={ROOT / 'generated'}",
+                           f"-DCONTROLLER_DIR={out_dir}", "-DCMAKE_BUILD_TYPE=Debug"],
+                          capture_output=True, text=True)
+    assert conf.returncode == 0, conf.stdout[-3000:] + conf.stderr[-3000:]
+    make = subprocess.run([CMAKE, "--build", str(build), "--parallel", "2"],
+                          capture_output=True, text=True)
+    assert make.returncode == 0, make.stdout[-3000:] + make.stderr[-3000:]
+    run = subprocess.run([str(build / "embed_replan")], capture_output=True, text=True,
+                         timeout=120)
+    print(run.stdout)
+    assert run.returncode == 0, run.stdout + run.stderr
+
+
+# ---- the command ---------------------------------------------------------------------------
+def test_control_writes_the_plans_keys_for_both_loops(su, tmp_path):
+    """derive.control's pipeline (on the module's set-up): control.json holds closed_loop
+    and open_loop with plan.json's achieved.runtime keys, solve_ms, solver; the files."""
+    from derive.control.replan import run
+    result = run(su.task, setup_=su)
+    written = {p.name for p in result.write(tmp_path, animation=False)}
+    assert {"control.json", "trajectory.csv", "events.csv", "law.csv", "controller.c",
+            "controller.h", "ctl_qp.h", "controller_data.c", "CMakeLists.txt",
+            "disturbance.png", "replans.png", "solve_times.png"} <= written
+    s = result.summary
+    keys = set(su.plan.summary.achieved["runtime"])
+    assert keys <= set(s["closed_loop"]) and keys <= set(s["open_loop"])
+    assert set(s["solve_ms"]) >= {"median", "p99", "max"}
+    assert s["closed_loop"]["attitude_error_rad"] < s["open_loop"]["attitude_error_rad"]
+    assert s["solver"]["kind"] == "sqp"
+
+
+@pytest.mark.parametrize("change, field", [
+    (lambda t: t.replace('[control]\nmode = "replan"', '[controls]\nmode = "replan"'),
+     "[controls]"),
+    (lambda t: t.split("[control]")[0], "[control]"),
+    (lambda t: t.replace("period = 0.02", "period = -1"), "[control].period"),
+    (lambda t: t.replace("mass_factor = 1.1", "mass_factor = -2"),
+     "[disturbance].mass_factor"),
+    (lambda t: (ROOT / "derive" / "planner" / "examples" / "hop.toml").read_text()
+     + '\n[control]\nmode = "replan"\n', "[control].mode"),
+])
+def test_bad_input_one_line_exit_2_nothing_written(tmp_path, change, field):
+    task = tmp_path / "task.toml"
+    task.write_text(change(TASK.read_text()))
+    out = tmp_path / "out"
+    proc = subprocess.run([sys.executable, "-m", "derive", "control", str(task), "-o",
+                           str(out)], capture_output=True, text=True, cwd=ROOT)
+    assert proc.returncode == 2, proc.stderr
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and field in lines[0], proc.stderr
+    assert not out.exists()
