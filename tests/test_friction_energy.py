@@ -10,7 +10,8 @@ against plain time-stepping.
 * The event-driven integration agrees with first-order time-stepping in ``p`` that
   treats slip, stick and re-sliding in each step by Coulomb's cone (no events).
 
-The default run takes a hundred random states; ``@pytest.mark.slow`` sweeps thousands.
+The reference integrator's sweep takes a hundred random states; thousands go through the
+runtime's own impact (crt_eval_impact), which is held to the reference elsewhere.
 """
 from __future__ import annotations
 
@@ -75,11 +76,56 @@ def test_without_a_drive_the_kinetic_energy_never_grows():
         assert T1 - T0 <= 1e-12 * T0
 
 
-@pytest.mark.slow
-def test_energy_sweep_thousands():
-    seen = _energy_sweep(3000, 17, ("energetic", "poisson"))
-    assert seen.get("re-slide", 0) and seen.get("stick", 0), seen
+def test_energy_sweep_thousands_through_the_runtime():
+    """The same balance over 3000 random states under both laws, through the impact the
+    runtime runs (crt_eval_impact, the C Darboux-Keller integration that
+    tests/test_friction_runtime.py holds to the reference integrator above): the works
+    it reports are never positive (energetic: the normal impulse's too), and the two
+    bodies' kinetic energy after its impulse (derive/friction_models.py's impulse map)
+    changes by exactly those works plus the drive's.  Slip, stick and re-sliding all
+    occur (the reference integrator's sweep of these thousands took a minute)."""
+    from derive import abi
+    from derive.runtime.driver import Session, library, prepare
+    prep = prepare({"body": {"mass": 1.0, "inertia": [0.004] * 3, "shape": "sphere",
+                             "radius": 0.1},
+                    "point": {"mass": 0.2, "law": ["0", "0", "0"]},
+                    "plane": {"restitution": 0.5, "friction": 0.3},
+                    "initial": {"com": [0.0, 0.0, 0.5]}, "run": {"duration": 1.0}})
+    assert prep.kind == "rough"
+    session = Session(library("rough"), chunk=16)
+    session.set_law(prep.scene.law)
+    delassus = numpy_function("general_delassus")
+    apply_impulse = numpy_function("general_apply_impulse")
+    rng = np.random.default_rng(17)
+    seen: dict = {}
+    for c in cases(3000, seed=17):
+        q = _approaching(c, rng)
+        w6, v0 = delassus(q, c.u, c.s, c.p)
+        mu, e = rng.uniform(0.0, 2.0), rng.uniform(0.0, 1.0)
+        for law, restitution in enumerate(("energetic", "poisson")):
+            prm = prep.parameters.copy()
+            prm[abi.PRM["friction"]], prm[abi.PRM["e"]] = mu, e
+            prm[abi.PRM["restitution_model"]] = law
+            session.init(prep.options, prm, prep.scene.t0, prep.start.q0)
+            status, out = session.impact(dk.full(w6), v0)
+            if status == "painleve":
+                seen["jam"] = seen.get("jam", 0) + 1
+                continue
+            assert status == "ok", status
+            scale = float(np.abs(v0).max() ** 2 / w6[5])
+            work = out["work_normal"] + out["work_friction"]
+            assert out["work_friction"] <= 1e-12 * scale
+            if restitution == "energetic":
+                assert out["work_normal"] <= 1e-12 * scale
+            (q_plus,) = apply_impulse(q, c.u, c.s, c.p, out["impulse"])
+            T0 = ne.kinetic_energy(q, c.u, c.p)
+            T1 = ne.kinetic_energy(q_plus, c.u, c.p)
+            drive = ne.drive_work(q, c.u, c.s, c.p, out["impulse"])
+            assert T1 - T0 - drive == pytest.approx(work, abs=1e-9 * max(T0, scale))
+            kind = ("slip", "stick", "re-slide")[out["stage"]]
+            seen[kind] = seen.get(kind, 0) + 1
     print(seen)
+    assert seen.get("slip", 0) and seen.get("stick", 0) and seen.get("re-slide", 0), seen
 
 
 def _step_cases(n, seed):
