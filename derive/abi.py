@@ -132,6 +132,9 @@ STATUSES = (
                            "dv_n/dp <= 0 in an impact, or k_f <= 0 while sliding)"),
     Status("restitution_refused", -6, "restitution_model newton at an impact where it is not "
                                       "energy-consistent (mu_f |W_tn| > 0)"),
+    Status("surface_jump", -7, "in contact, the lowest point S jumped (a surface that is not "
+                               "strictly convex, e.g. a capsule whose axis passes the "
+                               "horizontal): the one-point contact cannot hold it"),
     Status("bad_argument", -20, "an output buffer is smaller than CRT_MIN_ROWS rows or "
                                 "CRT_MIN_EVENTS events (nothing is done: call again with "
                                 "larger ones)"),

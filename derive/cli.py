@@ -57,13 +57,14 @@ def cmd_prove(args: argparse.Namespace) -> int:
                              f"(section filter {args.section or 'all'})")
         entries = [e for e in entries if e.id in args.id]
     start = time.perf_counter()
-    outcomes = []
+    outcomes, clipped = [], False
     width = max(len(e.id) for e in entries) if entries else 4
     print(f"{'ID':<{width}}  {'status':<8} {'seconds':>8}  detail")
     for entry in entries:
         outcome = registry.run(entry.id)
         outcomes.append(outcome)
-        detail = outcome.detail.splitlines()[0][:90] if outcome.detail else ""
+        detail = _clip(outcome.detail, 90)
+        clipped = clipped or detail != (outcome.detail or "")
         print(f"{entry.id:<{width}}  {outcome.status:<8} {outcome.seconds:8.2f}  {detail}",
               flush=True)
     total = time.perf_counter() - start
@@ -79,11 +80,22 @@ def cmd_prove(args: argparse.Namespace) -> int:
               for s in ("pass", "erratum", "fail", "error", "missing")}
     summary = ", ".join(f"{v} {k}" for k, v in counts.items() if v)
     print(f"\n{len(outcomes)} IDs in {total:.1f} s: {summary}")
+    if clipped and not args.report:
+        print("details cut at '…' are whole in the report: derive prove --report DIR")
     if args.report:
         from paper_checks.report import write_report
         paths = write_report(args.report, entries, outcomes)
         print("report: " + ", ".join(str(p) for p in paths))
     return 1 if bad else 0
+
+
+def _clip(text: str | None, width: int) -> str:
+    """The first line of `text`, ending in '…' where it is cut (at a line or at `width`)."""
+    lines = (text or "").splitlines() or [""]
+    first = lines[0]
+    if len(first) > width:
+        return first[:width - 1] + "…"
+    return first + (" …" if len(lines) > 1 else "")
 
 
 # ---- emit -------------------------------------------------------------------------
@@ -180,6 +192,10 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     if args.scheduler and args.workers is not None:
         raise UsageError("--scheduler: the cluster's workers run the sweep; --workers "
                          "(local threads) does not go with it")
+    if args.workers is not None and not args.sweep:
+        raise UsageError("--workers: runs the variants of a sweep, so it goes only with --sweep")
+    if args.workers is not None and args.workers < 1:
+        raise UsageError(f"--workers: must be >= 1 (got {args.workers})")
     _check_output_folder(args.output)
     if args.sweep:
         return _simulate_sweep(args, start)
@@ -437,6 +453,17 @@ def _section(text: str) -> int:
 
 
 class _Parser(argparse.ArgumentParser):
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self.set_defaults(_parser=self)      # the deepest (sub)command parsed wins
+
+    def parse_args(self, args=None, namespace=None):
+        # an unknown option is reported by the command it was given to, with its usage
+        parsed, extras = self.parse_known_args(args, namespace)
+        if extras:
+            parsed._parser.error("unrecognized arguments: " + " ".join(extras))
+        return parsed
+
     def error(self, message: str):  # argparse's own errors: exit 2, one line
         self.print_usage(sys.stderr)
         print(f"{self.prog}: error: {message}", file=sys.stderr)

@@ -222,13 +222,21 @@ GLOSSARY = {
     "w_x": "w = J^-1 d, found by solving J w = d (never by inversion)",
     "J w": "the product of J (E1.5) and w", "d": "the vector d of E1.10",
     "omega_x+": "omega just after the impact (omega on the right: just before)",
-    "R": "sphere radius", "s_a": "(s_a, s_b, s_c): ellipsoid semi-axes along the body axes",
     "c_x": "(c_x, c_y, c_z): centre of the surface in body axes",
     "|n|": "sqrt(a31^2 + a32^2 + a33^2) (= 1; kept so that S tolerates round-off)",
     "D": "sqrt(s_a^2 a31^2 + s_b^2 a32^2 + s_c^2 a33^2)",
 }
 
+# the surfaces' size symbols, from derive/shapes.py (a shape added there is named too)
+for _size, _shapes in shapes.size_fields():
+    _names = _size.names(_size.symbols)
+    GLOSSARY[_names[0]] = (f"({', '.join(_names)}): " if len(_names) > 1 else "") + \
+        f"{_size.doc} ({', '.join(_shapes)}: [body].{_size.key})"
+
 _ALIASES = {}
+for _size, _shapes in shapes.size_fields():
+    for _name in _size.names(_size.symbols)[1:]:
+        _ALIASES[_name] = _size.names(_size.symbols)[0]
 for _group in (("x", "y", "z"), ("x'", "y'", "z'"), ("x''", "y''", "z''"),
                ("omega_x", "omega_y", "omega_z"), ("omega_x'", "omega_y'", "omega_z'"),
                ("X_C", "Y_C", "Z_C"), ("X_O", "Y_O", "Z_O"), ("Q_X", "Q_Y", "Q_Z"),
@@ -236,7 +244,7 @@ for _group in (("x", "y", "z"), ("x'", "y'", "z'"), ("x''", "y''", "z''"),
                ("K_x", "K_y", "K_z"), ("K_x'", "K_y'", "K_z'"), ("d_x", "d_y", "d_z"),
                ("CS_x", "CS_y", "CS_z"), ("x_*", "y_*", "z_*"), ("x_*'", "y_*'", "z_*'"),
                ("w_x", "w_y", "w_z"), ("omega_x+", "omega_y+", "omega_z+"),
-               ("s_a", "s_b", "s_c"), ("c_x", "c_y", "c_z"), ("J_x", "J_y", "J_z"),
+               ("c_x", "c_y", "c_z"), ("J_x", "J_y", "J_z"),
                ("(K - J omega)_x", "(K - J omega)_y", "(K - J omega)_z")):
     for _name in _group:
         _ALIASES[_name] = _group[0]

@@ -28,7 +28,7 @@ def _escape(text: str) -> str:
 
 
 def _cell(text: str) -> str:
-    return text.replace("|", "\\|")
+    return text.replace("|", "\\|").replace("\n", "<br>")
 
 
 def write_report(out_dir, entries, outcomes) -> list[Path]:

@@ -385,6 +385,21 @@ def test_a_scheduler_needs_a_sweep_and_no_workers(tmp_path, args, rule):
     assert len(proc.stderr.strip().splitlines()) == 1 and not (tmp_path / "o").exists()
 
 
+@pytest.mark.parametrize("args, rule", [
+    (["--workers", "2"], "goes only with --sweep"),
+    (["--sweep", "plane.restitution=0.3,0.6", "--workers", "0"], "must be >= 1 (got 0)"),
+    (["--sweep", "plane.restitution=0.3,0.6", "--workers", "-3"], "must be >= 1 (got -3)"),
+])
+def test_workers_are_checked(tmp_path, args, rule):
+    """--workers counts a sweep's local threads: without --sweep, or below 1, it is refused
+    in one line (exit 2, nothing written)."""
+    proc = subprocess.run([sys.executable, "-m", "derive", "simulate", "-q", *args, "-o",
+                           str(tmp_path / "o")], capture_output=True, text=True)
+    assert proc.returncode == 2, proc.stderr
+    assert "--workers" in proc.stderr and rule in proc.stderr, proc.stderr
+    assert len(proc.stderr.strip().splitlines()) == 1 and not (tmp_path / "o").exists()
+
+
 @pytest.fixture(scope="module")
 def dask_cluster():
     """A local Dask cluster of two single-threaded worker processes, with a scheduler

@@ -284,3 +284,18 @@ def test_bench_sim_leaves_out_a_variant_short_of_the_target_and_names_it():
     text = sim._scene_targets(sc)[-1]
     assert "3 of 4 variants" in text.what and "median 1100x" in text.what
     assert "variant 2: SciPy short of the target" in text.what and text.ok
+
+
+@pytest.mark.parametrize("argv, prog", [
+    (["simulate", "--bogus"], "derive simulate"),
+    (["bench", "sim", "--bogus"], "derive bench sim"),
+    (["verify", "fuzz", "--bogus"], "derive verify fuzz"),
+])
+def test_an_unknown_option_is_reported_by_its_command(argv, prog, capsys):
+    """An option a subcommand does not have is refused by that subcommand, with its own
+    usage (not the top level's list of commands), exit 2."""
+    with pytest.raises(SystemExit) as info:
+        main(argv)
+    assert info.value.code == 2
+    err = capsys.readouterr().err
+    assert f"usage: {prog} " in err and f"{prog}: error: unrecognized arguments: --bogus" in err

@@ -268,3 +268,8 @@ def test_derive_control_refuses_hop_and_mirror_and_says_where_they_run(tmp_path,
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and "[control].mode" in err[0] and "derive simulate" in err[0]
         assert not out.exists()
+    # the hop example itself is a scene (no [plan]): told the same, not "[plan] required"
+    scene = Path(__file__).resolve().parents[1] / "derive" / "control" / "examples" / "hop.toml"
+    assert main(["control", str(scene), "-o", str(tmp_path / "out-scene")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "[control].mode: hop closes the loop around a scene's gait" in err

@@ -108,6 +108,29 @@ def test_singular_points_are_found_from_the_expression(text, t_sing):
     assert abs(sing.t - t_sing) < 1e-9
 
 
+@pytest.mark.parametrize("text,t0,t1,t_sing", [
+    ("0.01/cos(t)", 0.0, 3.0, math.pi / 2), ("0.01/sin(t + 1)", 0.0, 3.0, math.pi - 1),
+    ("1/sin(t)", 0.5, 3.5, math.pi), ("0.01/cos(3*t)", 0.5, 3.5, math.pi / 6),
+    ("0.1/sin(2*t - 1)", 1.0, 4.0, (1 + math.pi) / 2), ("0.01/sin(-t + 5)", 0.0, 3.0, 5 - math.pi),
+    ("0.01/sin(t/10 + 0.5)", 20.0, 40.0, 10 * (math.pi - 0.5)),
+])
+def test_a_harmonic_divisor_is_singular_where_it_vanishes(text, t0, t1, t_sing):
+    """A harmonic (A sin(w t + p), one node of the program) is enclosed over a box of t
+    by the sine of its argument's box, not by [-A, A]: a division by it is proved
+    regular away from its zeros and refused at the first one, named to 1e-9 (it had been
+    refused at the run's start however far its zero)."""
+    sing = find_singularity(parse_law(text), t0, t1)
+    assert sing is not None and abs(sing.t - t_sing) < 1e-9, sing
+
+
+@pytest.mark.parametrize("text,t0,t1", [
+    ("0.01/cos(t)", 0.0, 1.5), ("0.01/sin(t + 1)", 0.0, 2.0), ("0.01/sin(t/10 + 0.5)", 0.0, 10.0),
+    ("1/sin(t)", 0.5, 3.0), ("0.01/cos(3*t)", -0.5, 0.5), ("1/(2*cos(t) - 3)", 0.0, 30.0),
+])
+def test_a_harmonic_divisor_away_from_its_zeros_is_proved_regular(text, t0, t1):
+    assert find_singularity(parse_law(text), t0, t1) is None
+
+
 @pytest.mark.parametrize("text", ["1/(1 + t^2)", "sqrt(2 + sin(t))", "log(2 + cos(3*t))",
                                   "0.1*tan(0.4*t)", "asin(0.5*sin(t))", "t^3 - 2*t",
                                   "exp(-t)*cos(5*t)", "2^t"])

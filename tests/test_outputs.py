@@ -392,3 +392,34 @@ def test_the_times_written_beside_the_bodies_overlap_nothing(tmp_path, monkeypat
             if m != k:
                 assert not box.overlaps(boxes[m]), (times[k].get_text(), times[m].get_text())
                 assert not box.overlaps(bodies[m]), (times[k].get_text(), m)
+
+
+def test_no_scale_text_sits_on_a_title_and_no_panel_is_left_empty(tmp_path, monkeypatch):
+    """The spherical robot's overview.png: the height of S (1e-11 m) and the tangential
+    impulses (1e-5 N s) had their scale written above the axes, over the titles; the
+    scale now sits in the axis label.  Its |K| panel (E1.9 holds in flight, and the robot
+    flies 1.6e-6 s of 8 s) drew empty log axes; it now says why it is empty."""
+    from importlib import resources
+
+    from matplotlib.figure import Figure
+    saved, save = [], Figure.savefig
+
+    def keep(self, *args, **kwargs):
+        saved.append(self)
+        return save(self, *args, **kwargs)
+    monkeypatch.setattr(Figure, "savefig", keep)
+    robot = str(resources.files("derive.scene") / "examples" / "spherical-robot.toml")
+    write_all(derive.simulate(robot), tmp_path, plot=True, animation=False)
+    fig = saved[0]
+    renderer = fig.canvas.get_renderer()
+    labels = []
+    for ax in fig.axes:
+        offset = ax.yaxis.get_offset_text()
+        if offset.get_visible() and offset.get_text():
+            assert not offset.get_window_extent(renderer).overlaps(
+                ax.title.get_window_extent(renderer)), (ax.get_title(), offset.get_text())
+        labels.append(ax.get_ylabel())
+    assert any("(ticks x 1e-11)" in label for label in labels), labels
+    assert any("(ticks x 1e-5)" in label for label in labels), labels
+    drift = next(ax for ax in fig.axes if "(E1.9)" in ax.get_title())
+    assert any("this run flies 1.6e-06 s of 8 s" in t.get_text() for t in drift.texts)

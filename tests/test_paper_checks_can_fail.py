@@ -105,3 +105,21 @@ def test_x1_1_catches_friction_in_the_wrong_lever(monkeypatch):
     _patched(monkeypatch, "sliding_contact",
              lever=sc.lever + nt.cross(CS, nt.a.T * sp.Matrix([1, 0, 0])) / 1000)
     assert run("X1.1").status == "fail"
+
+
+def test_prove_marks_a_cut_detail_and_the_report_keeps_it_whole(tmp_path, monkeypatch,
+                                                                capsys):
+    """The table shows one line of each detail: a longer or multi-line detail ends in '…'
+    and the run says where the whole text is; the report carries it whole."""
+    from derive.cli import main
+    from paper_checks import catalogue, registry
+    first = catalogue.entries()[0].id
+    long = "x" * 120 + "\nsecond line"
+    monkeypatch.setattr(registry, "run", lambda i: registry.Outcome(i, "pass", 0.0, long))
+    assert main(["prove", "--id", first]) == 0
+    out = capsys.readouterr().out
+    row = next(line for line in out.splitlines() if line.startswith(first))
+    assert row.endswith("x…") and "x" * 90 not in row
+    assert "--report DIR" in out
+    assert main(["prove", "--id", first, "--report", str(tmp_path)]) == 0
+    assert "x" * 120 + "<br>second line" in (tmp_path / "prove.md").read_text()

@@ -559,7 +559,7 @@ def test_api_is_silent(capfd):
     assert captured.out == "" and captured.err == ""
 
 
-def test_infeasible_names_the_blocking_limit(reorient):
+def test_infeasible_names_the_blocking_limit(reorient, tmp_path, monkeypatch, capsys):
     """With max_acceleration far below what the reorientation needs, the plan is
     infeasible and names max_acceleration; the acceleration it reports as needed is the
     one of the example's plan, where the limit is inactive (solved independently)."""
@@ -572,6 +572,18 @@ def test_infeasible_names_the_blocking_limit(reorient):
     need = result.summary.blocking["needed"]
     assert result.summary.blocking["limit"] == "max_acceleration"
     assert abs(need - reorient.summary["law"]["max_acceleration"]) < 1e-4 * need
+    # the CLI says it once: stdout reports the run, stderr the diagnosis
+    import argparse
+
+    from derive.planner import cli, core
+    task = tmp_path / "task.toml"
+    task.write_text((EXAMPLES / "reorient.toml").read_text())
+    monkeypatch.setattr(core, "plan", lambda task, progress: result)
+    args = argparse.Namespace(task=str(task), output=str(tmp_path / "o"), quiet=True)
+    assert cli.run(args) == 1
+    out, err = capsys.readouterr()
+    assert (out + err).count(result.message) == 1
+    assert err.strip() == f"derive plan: {result.message}" and "diagnosis:" in out
 
 
 # ---- the diagnosis of an infeasible task, and loose bounds --------------------------------

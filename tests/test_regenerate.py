@@ -67,6 +67,28 @@ DROP = textwrap.dedent('''
 ''')
 
 
+# a capsule that falls nearly flat, comes into contact on one end and tips over: when its
+# axis passes the horizontal, S jumps to the other end, which the one-point contact
+# cannot follow; the run says so instead of wiping out that end's velocity (which gained
+# energy: the capsule cartwheeled end over end with status done)
+TIP = textwrap.dedent('''
+    import math
+    import numpy as np
+    import derive
+
+    theta = math.pi / 2 - 0.05
+    A0 = np.array([[1, 0, 0], [0, math.cos(theta), -math.sin(theta)],
+                   [0, math.sin(theta), math.cos(theta)]])
+    res = derive.simulate({
+        "body": {"mass": 1.0, "inertia": [0.05, 0.05, 0.01], "shape": "capsule",
+                 "radius": 0.1, "half_length": 0.3},
+        "point": {"mass": 0.1, "law": ["0", "0", "0"]}, "plane": {"restitution": 0.5},
+        "initial": {"com": [0.0, 0.0, 0.5], "matrix": A0.tolist()},
+        "run": {"duration": 3.0}})
+    print(res.status, sum(e["kind"] == "contact" for e in res.events))
+''')
+
+
 def _guide_block() -> str:
     text = (ROOT / "README.md").read_text(encoding="utf-8")
     after = text.split("<!-- shape-example -->\n", 1)[1]
@@ -110,4 +132,8 @@ def test_a_shape_added_as_the_readme_says_reaches_a_correct_impact(tmp_path):
         ours, closed = (np.asarray(x, dtype=float) for x in got[key])
         assert np.allclose(ours, closed, rtol=1e-12, atol=1e-12), (key, ours, closed)
     assert any((tmp_path / "cache").glob("*/crt_general.so"))   # built from the new C
+    tip = _run(root, tmp_path / "cache", "-c", TIP)
+    assert tip.returncode == 0, tip.stderr[-3000:]
+    status, contacts = tip.stdout.split()[-2:]
+    assert (status, contacts) == ("surface_jump", "1"), tip.stdout
 

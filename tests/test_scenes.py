@@ -114,6 +114,17 @@ def test_cli_missing_and_malformed_files(tmp_path):
     assert "Traceback" not in proc.stderr
 
 
+def test_a_scene_read_from_a_pipe_and_a_folder_refused(tmp_path):
+    """derive scene check <(...) and /dev/stdin read the pipe (it is not a regular file);
+    a folder is refused as one, not as a missing file."""
+    proc = subprocess.run([sys.executable, "-m", "derive", "scene", "check", "/dev/stdin"],
+                          input=DEFAULT_SCENE, capture_output=True, text=True)
+    assert proc.returncode == 0 and "valid" in proc.stdout, proc.stderr
+    proc = subprocess.run([sys.executable, "-m", "derive", "scene", "check", str(tmp_path)],
+                          capture_output=True, text=True)
+    assert proc.returncode == 2 and "is a folder, not a scene file" in proc.stderr
+
+
 def test_cli_default_scene_writes_everything(tmp_path):
     out = tmp_path / "out"
     proc = subprocess.run([sys.executable, "-m", "derive", "simulate", "-o", str(out), "-q"],

@@ -131,3 +131,22 @@ def test_the_compiled_runtime_reads_the_same_surface(name):
                                  zip(sc.A0[2], shape.lowest(sc.A0[2], sc.center, sc.size), r))
         h_c, _ = session.gap(0.0, prep.start.q0)
         assert math.isclose(h_c, h_here, rel_tol=0, abs_tol=1e-12 * sc.com[2]), name
+
+
+@pytest.mark.parametrize("shape, stray, message", [
+    ('shape = "ellipsoid"\nsemi_axes = [0.1, 0.1, 0.1]', "radius = 0.2",
+     "[body].radius: belongs to sphere; an ellipsoid has semi_axes"),
+    ('shape = "sphere"\nradius = 0.2', "semi_axes = [0.1, 0.1, 0.1]",
+     "[body].semi_axes: belongs to ellipsoid; a sphere has radius"),
+])
+def test_a_size_of_another_shape_is_named_with_its_owner(shape, stray, message):
+    """A size key of another shape is refused naming the shape it belongs to and the keys
+    this shape has (with the article English wants)."""
+    import tomllib
+
+    from derive.scene import SceneError, parse_scene
+    doc = tomllib.loads(f'[body]\nmass = 1.0\ninertia = [0.1, 0.1, 0.1]\n{shape}\n{stray}\n'
+                        '[point]\nmass = 0.1\nlaw = ["0", "0", "0"]\n')
+    with pytest.raises(SceneError) as info:
+        parse_scene(doc, "x")
+    assert str(info.value) == message

@@ -35,14 +35,44 @@ LAND_MARGIN = 0.2           # land's default duration: the plan's horizon and a 
 DEFAULT_PERIOD = {"replan": 0.02, "mirror": 0.002, "hop": 0.0}
 
 
+SCENE_MODES = ("hop", "mirror")      # closed around a scene's own gait: derive simulate
+
+
+def _scene_mode_message(mode: str) -> str:
+    return (f"{mode} closes the loop around a scene's gait, not a planned task: run the "
+            "scene with `derive simulate` (derive/control/examples/hop.toml, mirror.toml)")
+
+
 def load_control_task(task):
-    """A plan task that carries ``[control]`` (SceneError otherwise)."""
+    """A plan task that carries ``[control]`` (SceneError otherwise; a scene of mode hop
+    or mirror, which has no [plan], is told where it runs)."""
     from ..planner.task import load_task
-    task = load_task(task)
+    try:
+        task = load_task(task)
+    except SceneError as exc:
+        mode = _mode_of(task)
+        if mode in SCENE_MODES and "[plan]" in str(exc):
+            raise SceneError("[control].mode", _scene_mode_message(mode)) from None
+        raise
     if task.scene.control is None:
-        raise SceneError("[control]", "is required (derive control closes a loop: give "
-                                      "mode = \"replan\", \"hop\" or \"mirror\")")
+        raise SceneError("[control]", "is required (derive control closes a loop around "
+                                      "a planned task: give mode = \"replan\")")
     return task
+
+
+def _mode_of(task) -> str | None:
+    """[control].mode of a task given as a path or a dict, if it can be read."""
+    try:
+        if isinstance(task, dict):
+            doc = task
+        else:
+            import tomllib
+            from ..scene.parse import read_file
+            doc = tomllib.loads(read_file(task, "task"))
+        mode = doc.get("control", {}).get("mode")
+        return mode if isinstance(mode, str) else None
+    except Exception:                     # the load's own error is the one to report
+        return None
 
 
 def mode_runner(mode: str):
@@ -60,9 +90,7 @@ def mode_runner(mode: str):
 def scene_mode(task, progress: bool = False):
     """hop and mirror close the loop around a scene's own gait (derive.control.closed),
     not around a plan: say where they run."""
-    raise SceneError("[control].mode", f"{task.scene.control.mode} closes the loop around "
-                     "a scene's gait, not a planned task: run the scene with `derive "
-                     "simulate` (derive/control/examples/hop.toml, mirror.toml)")
+    raise SceneError("[control].mode", _scene_mode_message(task.scene.control.mode))
 
 
 def control(task, progress: bool = False) -> "ControlResult":

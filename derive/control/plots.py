@@ -1,7 +1,8 @@
 """The pictures of a closed loop, where people would rather look than read.
 
 ``control.png`` (hop and mirror modes, :func:`chart`): per-hop feedback's deviation from
-the orbit at every impact (log scale) beside the decay the design predicts, the gait
+the orbit at every impact (log scale) beside what the design's linear map (A - B K)
+predicts, one hop ahead of each reading and hop after hop from the push on, the gait
 amplitude the controller set for each hop, and the point's realised law z(t) over the
 design's gait, pushes marked; the mirror law's apex of every hop against the target, and
 the realised law.  Re-planning (:func:`disturbance`, :func:`replans`,
@@ -164,11 +165,25 @@ def chart(closed, path) -> Path:
         ax.semilogy(t, np.maximum(dev, 1e-17), "o-", ms=3,
                     label="read at each impact (with the noise)")
         lam = float(max(abs(d.closed_loop)))
+        closed_map = d.A - d.B @ d.K               # the linear map the design predicts with
+        states = [np.asarray(h[1], dtype=float) for h in hist]
+
+        def size(s):
+            return np.hypot(orbit.gait.W * s[0], s[1] / orbit.v)
+        if len(states) > 1:                        # each hop from the one read before it
+            ax.semilogy(t[1:], [max(size(closed_map @ s), 1e-17) for s in states[:-1]], "x",
+                        color="0.35", ms=5, label="predicted one hop ahead: (A - B K) s")
+        after = [k for k in range(len(t)) if pushes and t[k] > pushes[0]]
+        k0 = after[0] if after else (int(np.argmax(dev)) if len(dev) else 0)
+        if len(dev) and dev[k0] > 0:              # from the push on, the design's forecast
+            s, forecast = states[k0], []
+            for _ in range(len(t) - k0):
+                forecast.append(max(size(s), 1e-17))
+                s = closed_map @ s
+            ax.semilogy(t[k0:], forecast, "--", color="0.5",
+                        label=f"forecast from t = {t[k0]:.3g} s: (A - B K)^k s, "
+                              f"|lambda| = {lam:.3g}")
         if len(dev) and np.max(dev) > 0:
-            k0 = int(np.argmax(dev))                # from the largest: after a push
-            k = np.arange(len(t) - k0)
-            ax.semilogy(t[k0:], dev[k0] * lam ** k, "--", color="0.5",
-                        label=f"predicted decay |lambda|^k = {lam:.3g}^k")
             ax.set_ylim(max(1e-9, 0.3 * float(np.min(dev[dev > 0]))), 3 * float(np.max(dev)))
         ax.set_ylabel("deviation from the orbit\n(phase rad, velocity rel.)")
         ax.set_title(f"per-hop feedback ({d.gain}): open-loop |rho| up to "

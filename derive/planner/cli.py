@@ -29,7 +29,7 @@ def run(args) -> int:
     task = load_task(args.task)               # SceneError: bad input, nothing written
     result = plan(task, progress=not args.quiet)
     written = result.write(args.output)
-    for line in report_lines(result):
+    for line in report_lines(result, message=False):     # the message goes to stderr once
         print(line)
     print(f"  wrote {', '.join(p.name for p in written)} to {args.output}")
     if not result.ok:
@@ -38,8 +38,9 @@ def run(args) -> int:
     return 0
 
 
-def report_lines(result) -> list[str]:
-    """The lines the CLI prints about a plan (from its summary)."""
+def report_lines(result, message: bool = True) -> list[str]:
+    """The lines the CLI prints about a plan (from its summary); `message`: with the
+    message of a plan that failed (the CLI prints it once, to stderr)."""
     from .goals import goal_of
     s = result.summary
     sv = s.solver
@@ -49,7 +50,8 @@ def report_lines(result) -> list[str]:
              f"{sv.constraints} constraints), NLP build {sv.nlp_build_seconds:.2f} s, "
              f"total {s.total_seconds:.1f} s"]
     if not result.ok:
-        lines.append(f"  {s.message}")
+        if message:
+            lines.append(f"  {s.message}")
         if s.blocking and "seconds" in s.blocking:
             b = s.blocking
             lines.append(f"  diagnosis: {b['runs']} IPOPT runs, {b['iterations']} "

@@ -24,6 +24,27 @@ from .motion import Motion, contact_intervals, impact_rows, phases
 _TITLE = {"fontsize": 10, "y": 1.0, "pad": 4}
 
 
+def scale_into_labels(fig) -> None:
+    """Move each y axis' scale and offset ("1e-11", "+1.55e-1" above the axis, where they
+    collide with the title) into the axis label: "height of S [m] (ticks x 1e-11)".  The
+    ticks are those of the limits already set, so nothing is drawn twice."""
+    from matplotlib.ticker import ScalarFormatter
+    for ax in fig.axes:
+        if getattr(ax, "name", "") != "rectilinear":
+            continue
+        axis = ax.yaxis
+        fmt = axis.get_major_formatter()
+        if not isinstance(fmt, ScalarFormatter):
+            continue
+        fmt.set_locs(axis.get_majorticklocs())
+        offset = fmt.get_offset().replace("\u2212", "-")
+        if offset:
+            axis.offsetText.set_visible(False)
+            label = axis.get_label_text()
+            scale = offset if offset[0] in "+-" else f"x {offset}"
+            axis.set_label_text(f"{label} (ticks {scale})".strip())
+
+
 def _labels(ax, entries) -> None:
     """A legend without its cost: coloured names stacked in the right margin, outside the
     axes (never over a curve)."""
@@ -412,8 +433,10 @@ def overview(result, mo: Motion, path: Path, dpi: int = 80, steps=None) -> Path:
     ax = panels[5]
     steps = steps if steps is not None else result
     K, tK = steps.momentum["K_norm"], steps.t
-    worst, drawn = 0.0, False
+    worst, drawn, in_flight = 0.0, False, 0.0
     for a, b, state in phases(steps):
+        if state == "flight":
+            in_flight += float(tK[b - 1] - tK[a])
         if state == "flight" and b - a > 2 and K[a] > 0:
             drift = np.abs(K[a + 1:b] - K[a]) / K[a]
             worst = max(worst, float(drift.max()))
@@ -428,7 +451,14 @@ def overview(result, mo: Motion, path: Path, dpi: int = 80, steps=None) -> Path:
         ax.yaxis.set_minor_locator(NullLocator())
         ax.yaxis.set_major_locator(LogLocator(numticks=6))
         ax.yaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:.0e}"))
-    else:
+    span = float(t[-1] - t[0])
+    if in_flight < 0.01 * span:     # nothing to see: say why rather than draw empty axes
+        note = (f"E1.9 holds in flight; this run flies {in_flight:.2g} s of {span:.3g} s"
+                if in_flight > 0 else "E1.9 holds in flight; this run never flies")
+        ax.text(0.5, 0.5, note, ha="center", va="center", transform=ax.transAxes, fontsize=9)
+        ax.set_yticks([])
+        ax.set_yticks([], minor=True)
+    elif not drawn:
         ax.text(0.5, 0.5, "K = 0 in every flight", ha="center", va="center",
                 transform=ax.transAxes)
     ax.set_ylabel("relative drift", fontsize=9)
@@ -438,5 +468,6 @@ def overview(result, mo: Motion, path: Path, dpi: int = 80, steps=None) -> Path:
 
     for ax in panels[:4]:
         ax.set_xlim(t[0], t[-1])
+    scale_into_labels(fig)
     fig.savefig(path, dpi=dpi)
     return path

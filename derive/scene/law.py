@@ -976,6 +976,8 @@ def parse_law(text: str) -> Program:
 
 # ---- the whole run: interval arithmetic --------------------------------------------------
 MAX_BOXES = 512
+# a harmonic node's enclosure over a box of t: the sine's of its argument's box
+_SINE = {"hsin": _iv_sine(0.0), "hcos": _iv_sine(_HALF_PI)}
 
 
 @dataclass(frozen=True)
@@ -1032,9 +1034,12 @@ def find_singularity(p: Program, t0: float, t1: float) -> Singularity | None:
                 if op.shape == "t":
                     box[k] = (lo_t, hi_t)
                     continue
-                if op.shape == "harmonic":                 # bounded, entire
-                    amp = abs(p.consts[a])
-                    box[k] = (np.full(n, -amp), np.full(n, amp))
+                if op.shape == "harmonic":      # A sin(w t + p) (cos: p + pi/2) on the box
+                    A, w, ph = p.consts[a:a + 3]
+                    arg = (w * lo_t + ph, w * hi_t + ph) if w >= 0 else \
+                        (w * hi_t + ph, w * lo_t + ph)
+                    s_lo, s_hi, _ = _SINE[name](arg, None, 0.0)
+                    box[k] = (A * s_lo, A * s_hi) if A >= 0 else (A * s_hi, A * s_lo)
                     continue
                 lo, hi, flag = op.interval(box[a], box[b] if op.reads_b else None,
                                            p.consts[b] if op.shape == "power" else 0.0)

@@ -48,16 +48,26 @@ def read_document(source, origin: str = "scene", what: str = "scene") -> tuple[d
 
 
 def read_file(path, what: str = "scene") -> str:
-    """A scene's or a task's text, refused cleanly when it cannot be."""
+    """A scene's or a task's text, refused cleanly when it cannot be: a file, or a pipe
+    (``<(...)``, ``/dev/stdin``: read up to the size limit)."""
     path = Path(path)
-    if not path.is_file():
-        raise SceneError(str(path)[:200], f"no such {what} file")
-    if path.stat().st_size > MAX_BYTES:
-        raise SceneError(str(path)[:200], "is larger than 16 MB")
+    where = str(path)[:200]
+    if path.is_dir():
+        raise SceneError(where, f"is a folder, not a {what} file")
+    if not path.exists():
+        raise SceneError(where, f"no such {what} file")
     try:
-        return path.read_text(encoding="utf-8")
+        if path.is_file():
+            if path.stat().st_size > MAX_BYTES:
+                raise SceneError(where, "is larger than 16 MB")
+            return path.read_text(encoding="utf-8")
+        with open(path, "rb") as f:                  # a pipe: its size is known at the end
+            data = f.read(MAX_BYTES + 1)
+        if len(data) > MAX_BYTES:
+            raise SceneError(where, "is larger than 16 MB")
+        return data.decode("utf-8")
     except (OSError, UnicodeDecodeError) as exc:
-        raise SceneError(str(path)[:200], f"cannot be read ({type(exc).__name__})") from None
+        raise SceneError(where, f"cannot be read ({type(exc).__name__})") from None
 
 
 # ---- the two parts -----------------------------------------------------------------------

@@ -41,6 +41,9 @@
  *                           k_f <= 0 while sliding: crt_friction.h)
  *   CRT_RESTITUTION_REFUSED -6  crt_advance, friction models: restitution_model newton at
  *                           an impact where it is not energy-consistent
+ *   CRT_SURFACE_JUMP    -7  crt_advance: in contact, the lowest point S jumped (a
+ *                           surface that is not strictly convex, as a capsule whose axis
+ *                           passes the horizontal: the one-point contact cannot hold it)
  *   CRT_BAD_ARGUMENT   -20  crt_advance, crt_run, crt_run_many: cap < CRT_MIN_ROWS or
  *                           ev_cap < CRT_MIN_EVENTS.  Nothing is done, nothing written:
  *                           the session is as it was (call again with larger buffers)
@@ -329,6 +332,19 @@ static void crt_track_height(crt_session *s, double t, double h)
     s->summary[CRT_SUMMARY_MIN_HEIGHT] = h;
     s->summary[CRT_SUMMARY_T_MIN_HEIGHT] = t;
   }
+}
+
+/* After a step in contact, v_n at S is the integration's drift, a tolerance's worth.  A
+   v_n of a sizeable fraction of sqrt(g L) + |Z_C'| (L the largest |CS|) is no drift: S
+   has jumped to another point of the surface (one that is not strictly convex), whose
+   velocity the projection would wipe out without an impact, gaining energy.  1 if so. */
+static int crt_surface_jumped(crt_session *s, double t, const double *q)
+{
+  double h, v_n;
+  const double scale = sqrt(fabs(s->prm[CRT_P_g]) * s->opt[CRT_OPT_LENGTH_SCALE])
+                       + fabs(q[MODEL_ZD]);
+  crt_gap(s, t, q, &h, &v_n);
+  return fabs(v_n) > crt_max(1e-3, 10.0 * s->opt[CRT_OPT_RTOL]) * scale;
 }
 
 /* S onto the plane: h and v_n are affine in Z_C and Z_C' with unit coefficients */
@@ -1199,6 +1215,7 @@ static void crt_integrate(crt_session *s, double t_end, crt_out *o)
     }
 #if MODEL_HAS_PLANE
     if (s->phase == CRT_CONTACT) {
+      if (crt_surface_jumped(s, s->t, s->q)) { s->status = CRT_SURFACE_JUMP; break; }
       crt_project(s, s->t, s->q, 1);
 #if MODEL_FRICTION
       crt_rough_after_step(s);            /* friction hook 10 */
