@@ -178,8 +178,12 @@ def _check_output_folder(folder) -> None:
                 break
 
 
+def _count(n: int, noun: str) -> str:
+    return f"{n} {noun}" + ("" if n == 1 else "s")
+
+
 def _workers(n: int) -> str:
-    return f"{n} worker" if n == 1 else f"{n} workers"
+    return _count(n, "worker")
 
 
 def cmd_simulate(args: argparse.Namespace) -> int:
@@ -230,12 +234,13 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     if closed is not None:
         print(f"  closed loop ({closed.describe()})")
     print(f"  {scene.method}, {info['steps']} steps ({info['rejected']} rejected), "
-          f"{info['rhs_evaluations']} RHS evaluations, {info['impacts']} impacts, "
-          f"{info['contacts']} contact phases, {info['liftoffs']} lift-offs")
+          f"{info['rhs_evaluations']} RHS evaluations, {_count(info['impacts'], 'impact')}, "
+          f"{_count(info['contacts'], 'contact phase')}, "
+          f"{_count(info['liftoffs'], 'lift-off')}")
     if result.rough:
         print(f"  friction mu_f = {scene.friction:g} ({scene.restitution_model}): "
-              f"{info['sticks']} sticks, {info['slips']} slips, {info['reversals']} reversals "
-              "in contact")
+              f"{_count(info['sticks'], 'stick')}, {_count(info['slips'], 'slip')}, "
+              f"{_count(info['reversals'], 'reversal')} in contact")
     if scene.contact_possible:
         mh, mn = result.min_height, result.min_normal
         print(f"  lowest height of S {mh:.3g} m" +
@@ -253,7 +258,6 @@ def cmd_simulate(args: argparse.Namespace) -> int:
 
 def _simulate_sweep(args, start: float) -> int:
     """``--sweep``: every combination of the swept values, through simulate_many."""
-    import json
     import time
     from pathlib import Path
     from .runtime import batch
@@ -284,11 +288,12 @@ def _simulate_sweep(args, start: float) -> int:
     for r in out.rows:
         key = r.get("status", "refused")
         statuses[key] = statuses.get(key, 0) + 1
-    (folder / "sweep.json").write_text(json.dumps(
+    from .json_text import dumps
+    (folder / "sweep.json").write_text(dumps(
         {"scene": origin, "sweep": {k: list(v) for k, v in grid.items()},
          "variants": len(out.rows), "statuses": statuses, "seconds": out.seconds,
-         "executor": out.executor, "workers": out.workers, "tasks": out.tasks},
-        indent=2, allow_nan=False) + "\n", encoding="utf-8")
+         "executor": out.executor, "workers": out.workers, "tasks": out.tasks}),
+        encoding="utf-8")
     written = ["sweep.csv", "sweep.json"]
     if not args.no_plots and len(grid) <= 2:
         from .runtime.sweep_plot import sweep_plot

@@ -261,8 +261,8 @@ def lowest_point(shape: str) -> FunctionSpec:
     center = Vector("center", tuple(surfaces.center), ("c_x", "c_y", "c_z"))
     return FunctionSpec(
         name=f"lowest_point_{shape}",
-        doc=f"Lowest point S of a {shape} (centre anywhere in the body) for the vertical "
-            "n, body axes.",
+        doc=f"Lowest point S of {shapes.with_article(shape)} (centre anywhere in the body) "
+            "for the vertical n, body axes.",
         inputs=(Vector("n", tuple(nt.n), ("a31", "a32", "a33")), center, _size_input(shape)),
         outputs=(Vector("s", tuple(lp), S_LABELS),))
 
@@ -310,8 +310,8 @@ def lowest_point_rate(shape: str) -> FunctionSpec:
     n_vec, _, size = base.inputs
     return FunctionSpec(
         name=f"lowest_point_rate_{shape}",
-        doc=f"Rate of the lowest point S of a {shape} in body axes as the body turns "
-            "(Poisson's equations for n).",
+        doc=f"Rate of the lowest point S of {shapes.with_article(shape)} in body axes as the "
+            "body turns (Poisson's equations for n).",
         inputs=(n_vec, Vector("omega", tuple(nt.omega), ("omega_x", "omega_y", "omega_z")),
                 size),
         outputs=(Vector("sdot", tuple(rate), SDOT_LABELS),))

@@ -127,6 +127,11 @@ def of(name: str) -> Shape:
     return SHAPES[name]
 
 
+def with_article(name: str) -> str:
+    """"a sphere", "an ellipsoid": a shape's name in running text."""
+    return ("an " if name[:1] in "aeiou" else "a ") + name
+
+
 def size_fields() -> list[tuple[Size, tuple[str, ...]]]:
     """Every size field once, with the shapes that read it (the scene schema's rows)."""
     out: dict[str, tuple[Size, list]] = {}

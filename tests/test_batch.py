@@ -144,6 +144,8 @@ def test_cli_sweep_writes_one_row_per_variant(tmp_path):
     assert proc.returncode == 0, proc.stderr
     lines = (out / "sweep.csv").read_text().splitlines()
     assert len(lines) == 1 + 8
+    # the axes as typed (they had been sorted: body_mass first)
+    assert lines[0].startswith("plane_restitution,body_mass,error,"), lines[0]
     info = json.loads((out / "sweep.json").read_text())
     assert info["variants"] == 8 and info["statuses"] == {"done": 8}
     assert (out / "sweep.png").is_file()

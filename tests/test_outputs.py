@@ -423,3 +423,21 @@ def test_no_scale_text_sits_on_a_title_and_no_panel_is_left_empty(tmp_path, monk
     assert any("(ticks x 1e-5)" in label for label in labels), labels
     drift = next(ax for ax in fig.axes if "(E1.9)" in ax.get_title())
     assert any("this run flies 1.6e-06 s of 8 s" in t.get_text() for t in drift.texts)
+
+
+def test_json_outputs_are_strict_json():
+    """summary.json, plan.json, control.json, sweep.json, ...: one writer, strict JSON (a
+    trial found `"continuity_with_exact_flow": NaN` in plan.json, which JSON parsers other
+    than Python's refuse): NaN and infinities are null, NumPy values plain."""
+    import json as std_json
+
+    from derive import json_text
+    text = json_text.dumps({"a": float("nan"), "b": [1.0, float("inf"), np.float64(2.5)],
+                            "c": np.array([[1.0, np.nan]]), "d": (np.int64(3), True),
+                            "e": {"f": -float("inf")}})
+    def refuse(token):
+        raise ValueError(token)
+    assert std_json.loads(text, parse_constant=refuse) == {
+        "a": None, "b": [1.0, None, 2.5], "c": [[1.0, None]], "d": [3, True],
+        "e": {"f": None}}
+    assert text.endswith("}\n")

@@ -654,6 +654,26 @@ def test_diagnosis_of_the_trial_task_names_the_region():
     _solves_with(doc, radius=1.01 * b["needed"])
 
 
+def test_a_limit_left_unexamined_says_what_is_known_of_it():
+    """The trial's task at max_acceleration = 20: the region blocks it, and the budget may
+    run out before max_acceleration is examined.  A second trial read "max_acceleration
+    not examined" as a verdict on the acceleration, though the region's own plan kept
+    |OP''| <= 20; the finding now says so, and that raising the region alone suffices,
+    which is checked by planning the task with the region 1 % above its need."""
+    doc = ellipsoid_landing(0.06, 20.0)
+    result = make_plan(doc, runtime=False)
+    assert result.status == "infeasible" and result.summary.blocking["limit"] == "region"
+    region = _finding(result.summary, "region")
+    acc = _finding(result.summary, "max_acceleration")
+    assert region["plan_needs"]["max_acceleration"] <= 20.0 * (1 + 1e-6)
+    if acc["verdict"] == "not examined":
+        assert acc["text"].startswith("raising region alone unblocks it: that plan keeps "
+                                      "max_acceleration (|OP''| up to 20 m/s^2, limit 20)")
+    assert acc["text"] in result.message and result.message.count("max_acceleration") >= 1
+    s = _solves_with(doc, radius=1.01 * region["needed"])
+    assert s["law"]["max_acceleration"] <= 20.0 * (1 + 1e-6)
+
+
 def test_diagnosis_names_the_horizon_with_the_free_fall_time():
     """A sphere dropped without spin, asked to land as it is with P at rest at O, within
     half the time it takes: the horizon blocks it, and the time the plan takes is the

@@ -431,9 +431,11 @@ def test_unknown_keys_are_named_in_the_table_form_with_the_nearest_one():
     assert "known: mass, inertia" in info.value.rule and "[run]" not in info.value.rule
 
 
-def test_an_empty_file_says_so(tmp_path):
+@pytest.mark.parametrize("text", ["\n  \n", "# my scene, to be written\n\n# [body]\n"])
+def test_an_empty_file_says_so(tmp_path, text):
+    """Blank, or comments only (a second trial's file said only `[body]: is required`)."""
     path = tmp_path / "empty.toml"
-    path.write_text("\n  \n")
+    path.write_text(text)
     with pytest.raises(SceneError, match="is empty: a scene needs at least"):
         load_scene(path)
 

@@ -27,9 +27,10 @@ from pathlib import Path
 import numpy as np
 
 from ..commands import Target
+from ..control.replan import MEDIAN_TARGET_MS as MEDIAN_MS
+from ..control.replan import P99_TARGET_MS as P99_MS
 
 TASK = Path(__file__).resolve().parents[1] / "control" / "examples" / "land_push.toml"
-MEDIAN_MS, P99_MS = 5.0, 10.0
 UPRIGHT_DEG, RATE = 2.0, 0.95
 FACTOR = 0.15                 # M, m, J each by a factor uniform in 1 +- this
 PUSH_MAX = 0.05               # N s

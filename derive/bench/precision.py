@@ -18,7 +18,6 @@ drift of |K|, of the inertial K and of the orthonormality of A over 10^4 periods
 from __future__ import annotations
 
 import copy
-import json
 import math
 import platform
 import time
@@ -27,7 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import reference
+from .. import json_text, reference
 from ..commands import Target
 from ..scene import DEFAULT_SCENE, parse_scene
 from .routes import Casadi, Run, Runtime, Scipy, errors
@@ -459,7 +458,7 @@ def run(out_dir, quick: bool = False, repeats: int = 5, periods: int = 10_000,
                                        "status": d["status"]}
                                for label, d in data.items()}
     summary["points"] = [asdict(p) for p in all_points]
-    (out / "precision.json").write_text(json.dumps(summary, indent=1, default=float) + "\n",
+    (out / "precision.json").write_text(json_text.dumps(summary, indent=1),
                                         encoding="utf-8")
     summary["output"] = str(out)
     return summary

@@ -10,7 +10,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from .. import layout
+from .. import json_text, layout
 from ..runtime.driver import Result, prepare, run_prepared
 from ..runtime.loop import realised_law
 from ..scene import Scene, SceneError, load_scene
@@ -34,7 +34,6 @@ class ClosedLoop:
     def files(self, plot: bool = True) -> dict:
         """law.csv (the realised law: t and u on its knots and a fine grid), control.json
         and (``plot``) control.png, written with the run's own outputs."""
-        import json
         law = self.law
         t = np.unique(np.r_[law.knots, np.linspace(law.t_first, law.t_last, 2001)])
         u = layout.u_of_jets(law.jets(t))
@@ -42,7 +41,7 @@ class ClosedLoop:
         rows = "\n".join(",".join(repr(float(v)) for v in (tt, *u[:, k]))
                          for k, tt in enumerate(t))
         out = {"law.csv": ",".join(cols) + "\n" + rows + "\n",
-               "control.json": json.dumps(self.summary(), indent=2) + "\n"}
+               "control.json": json_text.dumps(self.summary())}
         if plot:
             from .plots import chart
             out["control.png"] = lambda path: chart(self, path)

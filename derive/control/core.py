@@ -12,7 +12,6 @@ applied), measuring a run in the plan's own terms (the keys of plan.json's
 from __future__ import annotations
 
 import importlib
-import json
 import math
 import shutil
 import tempfile
@@ -277,19 +276,5 @@ class ControlResult:
 
 
 def summary_json(summary: dict) -> str:
-    def default(o):
-        if isinstance(o, np.ndarray):
-            return o.tolist()
-        if isinstance(o, (np.floating, np.integer)):
-            return o.item()
-        raise TypeError(type(o))
-
-    def clean(o):
-        if isinstance(o, float) and not math.isfinite(o):
-            return None
-        if isinstance(o, dict):
-            return {k: clean(v) for k, v in o.items()}
-        if isinstance(o, (list, tuple)):
-            return [clean(v) for v in o]
-        return o
-    return json.dumps(clean(summary), indent=2, default=default) + "\n"
+    from ..json_text import dumps
+    return dumps(summary)

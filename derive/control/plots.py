@@ -67,7 +67,11 @@ def disturbance(path: Path, task, closed, open_, dist, goal_time: float) -> Path
         for p in (dist.pushes if dist else ()):
             ax.axvline(p[0], color="tab:red", ls="--", lw=1)
         ax.axvline(goal_time, color="k", ls=":", lw=0.8)
+        ax.axvspan(goal_time, ax.get_xlim()[1], color="0.92", lw=0, zorder=0)
         ax.grid(alpha=0.3)
+    ax2.annotate("after the goal:\nnot controlled", (1.0, 1.0), xycoords="axes fraction",
+                 xytext=(-3, -4), textcoords="offset points", ha="right", va="top",
+                 color="0.35", fontsize=8)
     for p in (dist.pushes if dist else ()):
         ax1.annotate(f"push {np.linalg.norm(p[1:4]):.3g} N s", (p[0], 1.0),
                      xycoords=("data", "axes fraction"), xytext=(3, -10),
@@ -83,7 +87,7 @@ def disturbance(path: Path, task, closed, open_, dist, goal_time: float) -> Path
         if any(dist.noise):
             parts.append("noise std: omega {:.3g} rad/s, attitude {:.3g} rad, C {:.3g} m, "
                          "C' {:.3g} m/s".format(*dist.noise))
-    ax1.set_title("the disturbance: " + ("; ".join(parts) if parts else "none") +
+    ax1.set_title("the disturbance: " + (";\n".join(parts) if parts else "none") +
                   "\n(dotted: touchdown or the plan's end)", **{**_TITLE, "fontsize": 9})
     fig.tight_layout()
     fig.savefig(path)
@@ -122,7 +126,7 @@ def replans(path: Path, laws: list, realised, plan_law) -> Path:
     return path
 
 
-def solve_times(path: Path, times: np.ndarray, what: str, target_ms: float = 5.0) -> Path:
+def solve_times(path: Path, times: np.ndarray, what: str, target_ms: float) -> Path:
     """The solve time of every call that ran the solver, its median and p99."""
     fig = _figure(8.0, 3.4)
     ax = fig.add_subplot(1, 1, 1)
@@ -137,7 +141,14 @@ def solve_times(path: Path, times: np.ndarray, what: str, target_ms: float = 5.0
                         "data"), xytext=(-4, 3), textcoords="offset points", ha="right",
                         fontsize=8, color="tab:blue")
     ax.axhline(target_ms, color="tab:red", ls=":", lw=1)
+    ax.annotate(f"median target {target_ms:g} ms", (0.0, target_ms),
+                xycoords=("axes fraction", "data"), xytext=(4, -10), textcoords="offset points",
+                fontsize=8, color="tab:red")
     ax.set_yscale("log")
+    from matplotlib.ticker import FuncFormatter      # plain numbers, not 4x10^0
+    ax.yaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+    ax.yaxis.set_minor_formatter(FuncFormatter(
+        lambda v, _: f"{v:g}" if f"{v:.0e}"[0] in "25" else ""))
     ax.set_xlabel("t (s)")
     ax.set_ylabel("solve (ms)")
     ax.set_title(f"solve time per sample: {what}", **_TITLE)

@@ -56,7 +56,13 @@ def approach(session, limits, run, w0, label: str) -> list:
         res = run(start.w if start else w0, limits.replace(max_acceleration=bound),
                   lam=(start.lam_g, start.lam_x) if start else None,
                   label=f"{label} (max_acceleration {bound:.4g})")
-        runs.append((res, f"max_acceleration {bound:.6g} (continuation to {amax:.6g})"))
+        stage = (f"max_acceleration {bound:.6g} (continuation to {amax:.6g})" if start or
+                 not tighter else
+                 f"max_acceleration {bound:.6g} (the first stage of a continuation to "
+                 f"{amax:.6g}: the working bound {working:.6g} halved "
+                 f"{'once' if tighter == 1 else f'{tighter} times'}, as the stage above "
+                 f"did not converge)")
+        runs.append((res, stage))
         if not res.success and start is None and tighter < TIGHTER:
             tighter += 1                        # the first stage: a tighter working bound
             bound /= 2.0

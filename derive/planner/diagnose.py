@@ -89,6 +89,7 @@ class Finding:
     smallest: float | None = None   # the smallest value a plan was found with
     reached: dict = field(default_factory=dict)    # not alone: how far the others came
     text: str = ""
+    plan_needs: dict = field(default_factory=dict)  # blocks: what its plan asks of each limit
 
 
 @dataclass
@@ -214,9 +215,7 @@ def _diagnose(session, run, failed) -> Diagnosis:
             found = _examine(session, run, n, binding, limits, need, raised, free, start,
                              evidence)
         except Spent:
-            findings.append(Finding(n, "not examined", limits.value(n),
-                                    text=f"{n} not examined (the diagnosis's {BUDGET} "
-                                         "iterations are spent)"))
+            findings.append(_unexamined(n, limits.value(n), findings))
             continue
         if isinstance(found, Diagnosis):
             return found
@@ -227,6 +226,21 @@ def _diagnose(session, run, failed) -> Diagnosis:
                                 text=f"no single limit unblocks it; with {listed} raised "
                                      f"the plan needs {together}"))
     return _report(findings)
+
+
+def _unexamined(n: str, value: float, findings: list) -> Finding:
+    """The finding of a limit the budget left unexamined; what is known of it: whether
+    the plan of a limit found to block keeps it (then raising that one alone suffices)."""
+    spent = f"the diagnosis's {BUDGET} iterations are spent"
+    for f in findings:
+        kept = f.plan_needs.get(n) if f.verdict == "blocks" else None
+        if kept is not None and kept <= value * (1 + 1e-6):
+            return Finding(n, "not examined", value,
+                           text=f"raising {f.limit} alone unblocks it: that plan keeps "
+                                f"{n} ({quantity(n, kept)}, {limit_text(n, value)}); "
+                                f"whether raising {n} alone would also unblock it was not "
+                                f"examined ({spent})")
+    return Finding(n, "not examined", value, text=f"{n} not examined ({spent})")
 
 
 def _examine(session, run, n, binding, limits, need, raised, free, start, evidence):
@@ -261,7 +275,8 @@ def _examine(session, run, n, binding, limits, need, raised, free, start, eviden
         smallest = reached[n]
         if smallest < got * (1 - 1e-3):
             text += f"; IPOPT found plans down to {quantity(n, smallest)}"
-    return Finding(n, "blocks", limits.value(n), got, smallest=smallest, text=text)
+    return Finding(n, "blocks", limits.value(n), got, smallest=smallest, text=text,
+                   plan_needs=dict(tr.limit_values(res.w)))
 
 
 def violation(res) -> float:

@@ -11,11 +11,11 @@ the goal object (:mod:`derive.planner.goals`) and the diagnosis
 """
 from __future__ import annotations
 
-import json
 import math
 from dataclasses import asdict, dataclass, field
 
-import numpy as np
+
+from .. import json_text
 
 
 @dataclass
@@ -104,12 +104,4 @@ class Summary:
         return out
 
     def to_json(self) -> str:
-        return json.dumps(self.to_dict(), indent=2, default=_plain) + "\n"
-
-
-def _plain(o):
-    if isinstance(o, np.ndarray):
-        return o.tolist()
-    if isinstance(o, (np.floating, np.integer)):
-        return o.item()
-    raise TypeError(type(o))
+        return json_text.dumps(self.to_dict())

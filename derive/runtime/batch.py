@@ -96,15 +96,20 @@ class Batch:
                 return np.ma.MaskedArray([0.0 if v is None else float(v) for v in values],
                                          mask=[v is None for v in values])
             return _objects(values)
-        fields = sorted({k for v in self.variants for k in v})
+        fields = self._fields()
         raise BatchError("column", f"{name!r} is not a column (columns: "
                                    f"{', '.join(['error', *SUMMARY_COLUMNS, *fields])})")
+
+    def _fields(self) -> list:
+        """The fields the variants override, in the order they were given (a sweep's
+        axes as typed)."""
+        return list(dict.fromkeys(k for v in self.variants for k in v))
 
     def to_csv(self, path) -> None:
         """One row per variant: the fields it overrides, ``error``, then the summary
         columns; a value a row does not have (a refused variant's counts, the error of
         one that ran) is an empty cell."""
-        names = sorted({k for v in self.variants for k in v})
+        names = self._fields()
         cols = list(names) + ["error", *SUMMARY_COLUMNS]
         with open(path, "w", encoding="utf-8") as fh:
             fh.write(",".join(c.replace(".", "_").replace("[", "_").replace("]", "")

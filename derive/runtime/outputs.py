@@ -17,7 +17,6 @@ stuck, 2 it re-slid).
 """
 from __future__ import annotations
 
-import json
 import os
 import platform
 import shutil
@@ -27,7 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import layout
+from .. import json_text, layout
 
 from .driver import Result
 from .motion import Motion, energy_balance, event_rows, for_pictures, motion, phases
@@ -296,6 +295,6 @@ def _write_all(result: Result, out: Path, plot: bool, animation: bool,
         timings["animation_s"] = time.perf_counter() - start
     info["timings_s"]["outputs"] = timings
     result.timings["outputs"] = timings
-    (out / SUMMARY_FILE).write_text(json.dumps(info, indent=2) + "\n", encoding="utf-8")
+    (out / SUMMARY_FILE).write_text(json_text.dumps(info), encoding="utf-8")
     written.append(out / SUMMARY_FILE)
     return written

@@ -45,6 +45,10 @@ def scale_into_labels(fig) -> None:
             axis.set_label_text(f"{label} (ticks {scale})".strip())
 
 
+def _count(n: int, noun: str) -> str:
+    return f"{n} {noun}" + ("" if n == 1 else "s")
+
+
 def _labels(ax, entries) -> None:
     """A legend without its cost: coloured names stacked in the right margin, outside the
     axes (never over a curve)."""
@@ -330,7 +334,7 @@ def overview(result, mo: Motion, path: Path, dpi: int = 80, steps=None) -> Path:
     phases_text = (f", {n_contact} contact phase" + ("s" if n_contact > 1 else "")
                    if n_contact else "")
     fig.suptitle(f"{s.name}: {result.model} model, {s.method}, {result.status}; "
-                 f"{len(imp)} impacts{phases_text}", fontsize=12, y=1 - 0.15 / height,
+                 f"{_count(len(imp), 'impact')}{phases_text}", fontsize=12, y=1 - 0.15 / height,
                  va="top")
     if has_motion:
         motion_panel(fig.add_subplot(gs[0, 0]), result, mo)
@@ -349,7 +353,8 @@ def overview(result, mo: Motion, path: Path, dpi: int = 80, steps=None) -> Path:
     if mo.h is not None:
         i = drawing.drawn_rows(t, mo.h)
         ax.plot(t[i], mo.h[i], lw=1, color="C0")
-        ax.axhline(0.0, color="k", lw=0.8)
+        if s.plane:
+            ax.axhline(0.0, color="k", lw=0.8)
         _impact_lines(ax, imp)
         spans = contact_intervals(result)
         for c0, c1 in spans:
@@ -358,8 +363,12 @@ def overview(result, mo: Motion, path: Path, dpi: int = 80, steps=None) -> Path:
             _labels(ax, [("in contact", "#41ab5d")])
         ax.set_ylabel("height of S [m]", fontsize=9)
         mh = result.summary.get("t_min_height", np.nan)
-        ax.set_title(f"height of the lowest point S (min {result.min_height:.3g} m"
-                     + (f" at t = {mh:.3g} s)" if np.isfinite(mh) else ")"), **_TITLE)
+        if not s.plane:
+            ax.set_title("height of the lowest point S (no plane: nothing to touch)",
+                         **_TITLE)
+        else:
+            ax.set_title(f"height of the lowest point S (min {result.min_height:.3g} m"
+                         + (f" at t = {mh:.3g} s)" if np.isfinite(mh) else ")"), **_TITLE)
     elif mo.r_O is not None:
         i = drawing.drawn_rows(t, mo.r_P[:, 2], mo.r_O[:, 2], mo.r_C[:, 2])
         for pts, colour, name in ((mo.r_P, "#ff7f0e", "Z_P"), (mo.r_O, "#3182bd", "Z_O"),
@@ -428,7 +437,7 @@ def overview(result, mo: Motion, path: Path, dpi: int = 80, steps=None) -> Path:
         ax.text(0.5, 0.5, "no impacts", ha="center", va="center", transform=ax.transAxes)
     ax.set_xlim(t[0], t[-1])
     ax.set_ylabel("impulse I [N s]", fontsize=9)
-    ax.set_title(f"impulses ({len(imp)} impacts)", **_TITLE)
+    ax.set_title(f"impulses ({_count(len(imp), 'impact')})", **_TITLE)
 
     ax = panels[5]
     steps = steps if steps is not None else result
@@ -462,7 +471,7 @@ def overview(result, mo: Motion, path: Path, dpi: int = 80, steps=None) -> Path:
         ax.text(0.5, 0.5, "K = 0 in every flight", ha="center", va="center",
                 transform=ax.transAxes)
     ax.set_ylabel("relative drift", fontsize=9)
-    ax.set_title(f"| |K| - |K| at phase start | / |K| (E1.9), max {worst:.1e}"
+    ax.set_title(f"| |K| - |K| at phase start | / |K| in flight (E1.9), max {worst:.1e}"
                  + (" (at the steps' ends)" if steps is not result else ""), **_TITLE)
     ax.set_xlim(t[0], t[-1])
 

@@ -30,9 +30,10 @@ def read_document(source, origin: str = "scene", what: str = "scene") -> tuple[d
     if isinstance(source, str):
         if len(source) > MAX_BYTES:
             raise SceneError(origin, "is larger than 16 MB")
+        empty = SceneError(origin, f"is empty: a {what} needs at least [body] and [point] "
+                                   "(`derive scene new` prints one)")
         if not source.strip():
-            raise SceneError(origin, f"is empty: a {what} needs at least [body] and "
-                                     "[point] (`derive scene new` prints one)")
+            raise empty
         try:
             doc = tomllib.loads(source)
         except tomllib.TOMLDecodeError as exc:
@@ -41,6 +42,8 @@ def read_document(source, origin: str = "scene", what: str = "scene") -> tuple[d
             raise SceneError(origin, "is nested too deeply") from None
         except ValueError as exc:       # e.g. an integer of more than 4300 digits
             raise SceneError(origin, f"is not valid TOML ({str(exc)[:120]})") from None
+        if not doc:                     # comments and blank lines only
+            raise empty
         return doc, True
     if isinstance(source, dict):
         return source, False

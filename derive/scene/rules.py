@@ -139,9 +139,8 @@ def _shape(d: Draft) -> None:
             if v[f"[body].{size.key}"] is None:
                 raise SceneError(f"[body].{size.key}", f'is required for shape = "{name}"')
         elif v[f"[body].{size.key}"] is not None:
-            article = "an" if name[:1] in "aeiou" else "a"
-            has = (f"{article} {name} has " + ", ".join(s.key for s in shape.sizes)) if shape \
-                else "a body of shape 'none' has no size"
+            has = (f"{shapes.with_article(name)} has " + ", ".join(s.key for s in shape.sizes)
+                   if shape else "a body of shape 'none' has no size")
             raise SceneError(f"[body].{size.key}",
                              f"belongs to {' and '.join(names)}; {has}")
     size = shapes.size_of(shape, {k: v[f"[body].{k}"] for k in mine}) if shape else ()

@@ -3,11 +3,12 @@ the unstable regions outlined, as PNG plus the data (CSV per point, JSON for the
 from __future__ import annotations
 
 import csv
-import json
 import textwrap
 from pathlib import Path
 
 import numpy as np
+
+from .. import json_text
 
 from .families import FamilyError, family
 from .sweep import Sweep
@@ -74,7 +75,7 @@ def write(sw: Sweep, folder: str | Path, plot: bool = True) -> list[Path]:
             for i, xv in enumerate(sw.x.values):
                 w.writerow([repr(float(xv)), repr(float(yv)), repr(float(sw.max_modulus[j, i])),
                             repr(float(sw.drift[j, i])), VERDICTS[cat[j, i]]])
-    paths[1].write_text(json.dumps(summary(sw), indent=2) + "\n", encoding="utf-8")
+    paths[1].write_text(json_text.dumps(summary(sw)), encoding="utf-8")
     if plot:
         paths.append(draw(sw, out / f"{stem}.png"))
     return paths

@@ -344,7 +344,7 @@ void lowest_point_sphere_incref(void);
 void lowest_point_sphere_decref(void);
 #endif
 
-/* lowest_point_ellipsoid(n[3], center[3], semi_axes[3]) -> (s[3]): Lowest point S of a ellipsoid (centre anywhere in the body) for the vertical n, body axes. */
+/* lowest_point_ellipsoid(n[3], center[3], semi_axes[3]) -> (s[3]): Lowest point S of an ellipsoid (centre anywhere in the body) for the vertical n, body axes. */
 void carrier_lowest_point_ellipsoid(const double *n, const double *center, const double *semi_axes, double *CARRIER_RESTRICT s);
 #ifndef CARRIER_NO_CASADI_ABI
 int lowest_point_ellipsoid(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
@@ -380,7 +380,7 @@ void lowest_point_rate_sphere_incref(void);
 void lowest_point_rate_sphere_decref(void);
 #endif
 
-/* lowest_point_rate_ellipsoid(n[3], omega[3], semi_axes[3]) -> (sdot[3]): Rate of the lowest point S of a ellipsoid in body axes as the body turns (Poisson's equations for n). */
+/* lowest_point_rate_ellipsoid(n[3], omega[3], semi_axes[3]) -> (sdot[3]): Rate of the lowest point S of an ellipsoid in body axes as the body turns (Poisson's equations for n). */
 void carrier_lowest_point_rate_ellipsoid(const double *n, const double *omega, const double *semi_axes, double *CARRIER_RESTRICT sdot);
 #ifndef CARRIER_NO_CASADI_ABI
 int lowest_point_rate_ellipsoid(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);

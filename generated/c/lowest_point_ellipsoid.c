@@ -11,7 +11,7 @@
 #include "carrier.h"
 
 /*
- * Lowest point S of a ellipsoid (centre anywhere in the body) for the vertical n, body axes.
+ * Lowest point S of an ellipsoid (centre anywhere in the body) for the vertical n, body axes.
  * in  n         [3]: a31, a32, a33
  * in  center    [3]: c_x, c_y, c_z
  * in  semi_axes [3]: a, b, c

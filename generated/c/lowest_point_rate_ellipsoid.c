@@ -11,7 +11,7 @@
 #include "carrier.h"
 
 /*
- * Rate of the lowest point S of a ellipsoid in body axes as the body turns (Poisson's equations for n).
+ * Rate of the lowest point S of an ellipsoid in body axes as the body turns (Poisson's equations for n).
  * in  n         [3]: a31, a32, a33
  * in  omega     [3]: omega_x, omega_y, omega_z
  * in  semi_axes [3]: a, b, c

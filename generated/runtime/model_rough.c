@@ -350,7 +350,7 @@ static void lowest_point_rate_sphere(const double *n, const double *omega, doubl
   sdot[2] = c0*(-n[0]*omega[1] + n[1]*omega[0]);
 }
 
-/* Lowest point S of a ellipsoid (centre anywhere in the body) for the vertical n, body axes. (23 ops) */
+/* Lowest point S of an ellipsoid (centre anywhere in the body) for the vertical n, body axes. (23 ops) */
 static void lowest_point_ellipsoid(const double *n, const double *center, const double *semi_axes, double *restrict s)
 {
   const double c0 = semi_axes[0]*semi_axes[0];
@@ -362,7 +362,7 @@ static void lowest_point_ellipsoid(const double *n, const double *center, const 
   s[2] = -c2*c3*n[2] + center[2];
 }
 
-/* Rate of the lowest point S of a ellipsoid in body axes as the body turns (Poisson's equations for n). (59 ops) */
+/* Rate of the lowest point S of an ellipsoid in body axes as the body turns (Poisson's equations for n). (59 ops) */
 static void lowest_point_rate_ellipsoid(const double *n, const double *omega, const double *semi_axes, double *restrict sdot)
 {
   const double c0 = semi_axes[0]*semi_axes[0];
