@@ -15,6 +15,7 @@ velocity of S, the tangential impulse, the work of the normal impulse and of fri
 * ``general_delassus(q, u, s, p) -> (W, v_S)``: W from three solves with J, and v_S.
 * ``general_contact_velocity(q, u, s, p) -> v_S``: the velocity of S (fixed axes).
 * ``impulse_slip_rate(y, W, mu_f) -> dy``: dy/dp while S slips (``v_t != 0``).
+* ``impulse_slip_direction_rate(sigma, W, mu_f) -> dv``: dv/dp along a unit slip direction.
 * ``impulse_stick_rate(y, W, mu_f) -> (dy, tau, margin)``: dy/dp while S sticks;
   ``margin = mu_f^2 - |tau|^2 >= 0`` iff stick is possible.
 * ``impulse_resliding(W, mu_f, c) -> (sigma, f, df_dc)``: the ray ``sigma(c)`` and
@@ -108,6 +109,19 @@ def impulse_slip_rate() -> FunctionSpec:
         inputs=(_y(), _W(), _mu()),
         outputs=(Vector("dy", dy, tuple(f"d({lb})/dp" for lb in Y_LABELS)),),
         definitions=definitions)
+
+
+@lru_cache(maxsize=None)
+def impulse_slip_direction_rate() -> FunctionSpec:
+    """``impulse_slip_direction_rate(sigma, W, mu_f) -> dv``: the slip's rates along a
+    unit direction (the polar form of the slip stage and its rays)."""
+    dk = fr.darboux_keller()
+    return FunctionSpec(
+        name="impulse_slip_direction_rate",
+        doc="Darboux-Keller rate dv/dp = W (e_Z - mu_f sigma) of the velocity of S while it "
+            "slips along the unit direction sigma (derive.friction).",
+        inputs=(Vector("sigma", tuple(fr.SIGMA), ("sigma_X", "sigma_Y")), _W(), _mu()),
+        outputs=(Vector("dv", tuple(dk.slip_rate), ("d(v_X)/dp", "d(v_Y)/dp", "d(v_Z)/dp")),))
 
 
 @lru_cache(maxsize=None)
@@ -225,11 +239,14 @@ def numpy_function(name: str):
 
 def runtime_specs() -> list[FunctionSpec]:
     """What the rough model's runtime calls (templates/runtime/model.c.jinja, crt_friction.h
-    and the Darboux-Keller step of crt_rk_steps.h)."""
-    return [delassus(), contact_velocity(), impulse_slip_rate(), impulse_stick_rate(),
-            impulse_resliding(), apply_impulse(), sliding_rhs(), sticking_rhs()]
+    and the Darboux-Keller step of crt_rk_steps.h; the slip stage in polar form reads
+    impulse_slip_direction_rate, not impulse_slip_rate)."""
+    return [delassus(), contact_velocity(), impulse_slip_direction_rate(),
+            impulse_stick_rate(), impulse_resliding(), apply_impulse(), sliding_rhs(),
+            sticking_rhs()]
 
 
 def friction_specs() -> list[FunctionSpec]:
-    return [delassus(), contact_velocity(), impulse_slip_rate(), impulse_stick_rate(),
-            impulse_resliding(), apply_impulse(), sliding_rhs(), sticking_rhs()]
+    return [delassus(), contact_velocity(), impulse_slip_rate(), impulse_slip_direction_rate(),
+            impulse_stick_rate(), impulse_resliding(), apply_impulse(), sliding_rhs(),
+            sticking_rhs()]

@@ -58,13 +58,16 @@ class Shape:
     necessarily unit; componentwise NumPy arrays, floats or SymPy expressions), ``size``
     the numbers of ``sizes`` in order; ``reach(size)``: the largest distance of the
     surface from its centre.  ``simplify_rate``: let SymPy simplify S's rate (worth it
-    only for short expressions: the sphere's collapses to ``-R n'/|n|``)."""
+    only for short expressions: the sphere's collapses to ``-R n'/|n|``).
+    ``strictly_convex``: S moves continuously as the body turns (no flat parts); a shape
+    not declared so is watched in contact for S jumping (status ``surface_jump``)."""
     name: str
     doc: str
     sizes: tuple[Size, ...]
     support: Callable
     reach: Callable
     simplify_rate: bool = False
+    strictly_convex: bool = False
 
     @property
     def code(self) -> int:
@@ -183,6 +186,6 @@ def _ellipsoid(d, size, ops):
 
 
 register(Shape("sphere", "a sphere of the given radius", (RADIUS,), _sphere,
-               reach=lambda size: size[0], simplify_rate=True))
+               reach=lambda size: size[0], simplify_rate=True, strictly_convex=True))
 register(Shape("ellipsoid", "an ellipsoid with its semi-axes along the body axes",
-               (SEMI_AXES,), _ellipsoid, reach=lambda size: max(size)))
+               (SEMI_AXES,), _ellipsoid, reach=lambda size: max(size), strictly_convex=True))

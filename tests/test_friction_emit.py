@@ -70,7 +70,7 @@ def inputs(spec, c, rng) -> list:
                "W": dk.upper(W), "c": rng.uniform(0.0, 3.0, 1),
                "y": np.r_[rng.normal(size=3), rng.normal(size=4)]}
     th = rng.uniform(-np.pi, np.pi)
-    by_name["dir"] = np.array([np.cos(th), np.sin(th)])
+    by_name["dir"] = by_name["sigma"] = np.array([np.cos(th), np.sin(th)])
     return [by_name[v.name] for v in spec.inputs]
 
 

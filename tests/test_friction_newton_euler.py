@@ -87,6 +87,9 @@ def test_impulse_rates_slip_and_stick(f):
         sig = v_S[:2] / np.linalg.norm(v_S[:2])
         assert rel_err(dy[3:5], -mu * sig) < 1e-14
         assert dy[5] == y[2] and dy[6] == pytest.approx(-mu * np.linalg.norm(v_S[:2]), rel=1e-14)
+        # the same rate along the unit direction (the runtime's polar slip stage)
+        (dv,) = f["impulse_slip_direction_rate"](sig, w6, [mu])
+        assert rel_err(dv, want) < TOL
         # stick
         y[0:2] = 0.0
         dy, tau, margin = f["impulse_stick_rate"](y, w6, [mu])

@@ -201,7 +201,9 @@ def render_model(m: RuntimeModel) -> str:
            "summary": m.summary, "functions": functions, "lie": m.lie,
            # each shape's size as its functions read it (one number by value)
            "shapes": [(name, "p[CRT_P_size_a]" if shapes.of(name).size_count == 1
-                       else "p + CRT_P_size_a") for name in shapes.SHAPE_NAMES]}
+                       else "p + CRT_P_size_a") for name in shapes.SHAPE_NAMES],
+           "may_jump": [name for name in shapes.SHAPE_NAMES
+                        if not shapes.of(name).strictly_convex]}
     return env.get_template("runtime/model.c.jinja").render(**ctx)
 
 

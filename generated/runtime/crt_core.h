@@ -70,9 +70,10 @@
  *   model_gap(p, u, q, h, v_n)               height of S and its rate (E1.14)
  *   model_impact(p, e, u, q, q_plus, I)      impact map (E1.10-E1.16), restitution e
  *   model_contact(p, u, q, dq, N, a_free)    persistent contact: S held on the plane
+ *   model_surface_may_jump(p)                1 for a surface not strictly convex
  * and, when MODEL_FRICTION (Coulomb friction at S; crt_friction.h, which documents them):
  *   model_delassus, model_contact_velocity, model_apply_impulse, model_sliding,
- *   model_sticking, and the emitted impulse_slip_rate, impulse_stick_rate,
+ *   model_sticking, and the emitted impulse_slip_direction_rate, impulse_stick_rate,
  *   impulse_resliding.  crt_friction.h is called from eleven hooks in this file, each
  *   marked "friction hook N"; a model without friction compiles none of them.
  * p: the parameters (crt_parameter), u: the point law at t (crt_law.h).
@@ -337,7 +338,9 @@ static void crt_track_height(crt_session *s, double t, double h)
 /* After a step in contact, v_n at S is the integration's drift, a tolerance's worth.  A
    v_n of a sizeable fraction of sqrt(g L) + |Z_C'| (L the largest |CS|) is no drift: S
    has jumped to another point of the surface (one that is not strictly convex), whose
-   velocity the projection would wipe out without an impact, gaining energy.  1 if so. */
+   velocity the projection would wipe out without an impact, gaining energy.  1 if so.
+   Asked only of surfaces that may jump (model_surface_may_jump: a fixed-step RK4 run on a
+   sphere can drift by more in a step of fast sliding, and there S cannot jump). */
 static int crt_surface_jumped(crt_session *s, double t, const double *q)
 {
   double h, v_n;
@@ -1215,7 +1218,10 @@ static void crt_integrate(crt_session *s, double t_end, crt_out *o)
     }
 #if MODEL_HAS_PLANE
     if (s->phase == CRT_CONTACT) {
-      if (crt_surface_jumped(s, s->t, s->q)) { s->status = CRT_SURFACE_JUMP; break; }
+      if (model_surface_may_jump(s->prm) && crt_surface_jumped(s, s->t, s->q)) {
+        s->status = CRT_SURFACE_JUMP;
+        break;
+      }
       crt_project(s, s->t, s->q, 1);
 #if MODEL_FRICTION
       crt_rough_after_step(s);            /* friction hook 10 */

@@ -315,6 +315,14 @@ static void model_shape(const double *p, const double *n, double *s)
   }
 }
 
+/* 1 for a surface whose S can jump as the body turns (not strictly convex: the runtime
+   watches it in contact, crt_surface_jumped), 0 for a strictly convex one */
+static int model_surface_may_jump(const double *p)
+{
+  (void)p;
+  return 0;
+}
+
 /* its rate as the body turns (the centre is fixed in the body) */
 static void model_shape_rate(const double *p, const double *n, const double *omega,
                              double *sdot)

@@ -792,28 +792,20 @@ static void general_contact_velocity(const double *q, const double *u, const dou
   v_S[2] = Z_C_d + a31*c0 + a32*c1 + a33*c2 - a33*c7 - a31*c5 - a32*c6;
 }
 
-/* Darboux-Keller rate dy/dp in the normal impulse p while S slips (|v_t| > 0): dv/dp = W (e_Z - mu_f v_t/|v_t|) (derive.friction). (26 ops) */
-static void impulse_slip_rate(const double *y, const double *W, double mu_f, double *restrict dy)
+/* Darboux-Keller rate dv/dp = W (e_Z - mu_f sigma) of the velocity of S while it slips along the unit direction sigma (derive.friction). (14 ops) */
+static void impulse_slip_direction_rate(const double *sigma, const double *W, double mu_f, double *restrict dv)
 {
-  const double rho_t = sqrt(y[1]*y[1] + y[0]*y[0]);
-  const double c0 = 1.0/rho_t;
-  const double sigma_X = c0*y[0];
-  const double sigma_Y = c0*y[1];
-  const double c1 = mu_f*sigma_X;
-  const double c2 = mu_f*sigma_Y;
+  const double c0 = mu_f*sigma[0];
+  const double c1 = mu_f*sigma[1];
   const double W_XX = ((const volatile double *)W)[0];
   const double W_XY = ((const volatile double *)W)[1];
   const double W_XZ = ((const volatile double *)W)[2];
   const double W_YY = ((const volatile double *)W)[3];
   const double W_YZ = ((const volatile double *)W)[4];
   const double W_ZZ = ((const volatile double *)W)[5];
-  dy[0] = W_XZ - c1*W_XX - c2*W_XY;
-  dy[1] = W_YZ - c1*W_XY - c2*W_YY;
-  dy[2] = W_ZZ - c1*W_XZ - c2*W_YZ;
-  dy[3] = -c1;
-  dy[4] = -c2;
-  dy[5] = y[2];
-  dy[6] = -mu_f*rho_t;
+  dv[0] = W_XZ - c0*W_XX - c1*W_XY;
+  dv[1] = W_YZ - c0*W_XY - c1*W_YY;
+  dv[2] = W_ZZ - c0*W_XZ - c1*W_YZ;
 }
 
 /* Darboux-Keller rate dy/dp while S sticks (v_t = 0): the tangential impulse rate tau = z_t/z_Z with W z = e_Z keeps v_t = 0; stick is possible iff margin = mu_f^2 - |tau|^2 >= 0 (derive.friction). (36 ops) */
@@ -1369,6 +1361,14 @@ static void model_shape(const double *p, const double *n, double *s)
   default: lowest_point_sphere(n, p + CRT_P_center_x, p[CRT_P_size_a], s); break;
   case CRT_SHAPE_ELLIPSOID: lowest_point_ellipsoid(n, p + CRT_P_center_x, p + CRT_P_size_a, s); break;
   }
+}
+
+/* 1 for a surface whose S can jump as the body turns (not strictly convex: the runtime
+   watches it in contact, crt_surface_jumped), 0 for a strictly convex one */
+static int model_surface_may_jump(const double *p)
+{
+  (void)p;
+  return 0;
 }
 
 /* its rate as the body turns (the centre is fixed in the body) */

@@ -13,7 +13,8 @@
  * An impulse P at S changes the velocity of S by W P, W the Delassus matrix (fixed axes,
  * model_delassus: three solves with J).  An impact is integrated in the normal impulse p
  * (Darboux-Keller), y = (v_X, v_Y, v_Z, P_X, P_Y, E_n, E_t):
- *   slip (v_t != 0): dv/dp = W (e_Z - mu_f sigma), sigma = v_t/|v_t|   (impulse_slip_rate)
+ *   slip (v_t != 0): dv/dp = W (e_Z - mu_f sigma), sigma = v_t/|v_t|
+ *                                                   (impulse_slip_direction_rate)
  *   stick (v_t = 0, |tau| <= mu_f): dP_t/dp = tau keeps v_t = 0          (impulse_stick_rate)
  *   re-slide (v_t = 0, |tau| > mu_f): along the ray sigma(c), |sigma(c)| = 1 (impulse_resliding)
  * W is constant during an impact, so stick and re-sliding last to its end at constant
@@ -145,8 +146,8 @@ static int crt_dk_constant(crt_dk *k, const double *dv, const double *dPt, doubl
   return CRT_OK;
 }
 
-/* The slip stage's rates, the slip in polar coordinates: the emitted impulse_slip_rate at
-   the unit slip sigma = (cos theta, sin theta) gives dv/dp = W (e_Z - mu_f sigma) and
+/* The slip stage's rates, the slip in polar coordinates: the emitted
+   impulse_slip_direction_rate at the unit slip sigma = (cos theta, sin theta) gives dv/dp = W (e_Z - mu_f sigma) and
    dP_t/dp = -mu_f sigma, and rho' = (sigma, dv_t/dp), theta' = (sigma x dv_t/dp)/rho,
    E_t' = -mu_f rho.  In the impulse (log_rho = 0): y = (rho, theta, v_Z, P_X, P_Y, E_n,
    E_t) along p; rho crosses 0 smoothly (theta stays continuous), where the Cartesian slip
@@ -158,25 +159,22 @@ static int crt_dk_constant(crt_dk *k, const double *dv, const double *dPt, doubl
 static void crt_dk_rate(const double *w6, double mu, int log_rho, double x, const double *y,
                         double *dy)
 {
-  double yu[CRT_DK_N], du[CRT_DK_N], c, s, rho, rho_p, dp;
-  int i;
-  crt_sincos(y[1], &s, &c);
-  yu[0] = c; yu[1] = s;
-  for (i = 2; i < CRT_DK_N; ++i) yu[i] = y[i];
-  impulse_slip_rate(yu, w6, mu, du);
-  rho_p = c * du[0] + s * du[1];
+  double sg[2], du[3], rho, rho_p, dp;
+  crt_sincos(y[1], &sg[1], &sg[0]);
+  impulse_slip_direction_rate(sg, w6, mu, du);
+  rho_p = sg[0] * du[0] + sg[1] * du[1];
   if (!log_rho) {
     rho = y[0];
     dy[0] = rho_p;
-    dy[1] = rho != 0.0 ? (c * du[1] - s * du[0]) / rho : 0.0;
+    dy[1] = rho != 0.0 ? (sg[0] * du[1] - sg[1] * du[0]) / rho : 0.0;
     dp = 1.0;
   } else {
     rho = exp(x);
     dp = rho_p < 0.0 ? rho / rho_p : NAN;
     dy[0] = dp;
-    dy[1] = (c * du[1] - s * du[0]) / rho_p;
+    dy[1] = (sg[0] * du[1] - sg[1] * du[0]) / rho_p;
   }
-  dy[2] = du[2] * dp; dy[3] = du[3] * dp; dy[4] = du[4] * dp;
+  dy[2] = du[2] * dp; dy[3] = -mu * sg[0] * dp; dy[4] = -mu * sg[1] * dp;
   dy[5] = y[2] * dp;
   dy[6] = -mu * rho * dp;
 }
@@ -223,15 +221,25 @@ static double crt_dk_root(const crt_dk *k, int which, int log_rho, double x0, co
 /* The turn of the slip's direction per unit of ln rho, F(theta) = (sigma x r_t)/(sigma .
    r_t) with r_t = dv_t/dp along sigma = (cos theta, sin theta): the direction obeys the
    autonomous d theta/d ln rho = F(theta) wherever rho' = (sigma . r_t) != 0, so F = 0 on
-   the rays of the slip equations (directions the slip keeps); rho_p: rho' there. */
-static double crt_dk_turn(const crt_dk *k, double theta, double *rho_p)
+   the rays of the slip equations (directions the slip keeps); rho_p: rho' there; dF: F'
+   (r_t is affine in sigma, r_t = W_tn - mu_f W_tt sigma, so its derivative along theta is
+   r_t(sigma_perp) - W_tn, sigma_perp = (-sin theta, cos theta)). */
+static double crt_dk_turn(const crt_dk *k, double theta, double *rho_p, double *dF)
 {
-  double yu[CRT_DK_N] = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0}, du[CRT_DK_N], c, s;
-  crt_sincos(theta, &s, &c);
-  yu[0] = c; yu[1] = s;
-  impulse_slip_rate(yu, k->w6, k->mu, du);
-  *rho_p = c * du[0] + s * du[1];
-  return (c * du[1] - s * du[0]) / *rho_p;
+  double sg[2], sp[2], r[3], rq[3], cross, dot, dr[2];
+  crt_sincos(theta, &sg[1], &sg[0]);
+  sp[0] = -sg[1]; sp[1] = sg[0];
+  impulse_slip_direction_rate(sg, k->w6, k->mu, r);
+  impulse_slip_direction_rate(sp, k->w6, k->mu, rq);
+  dr[0] = rq[0] - k->w6[2]; dr[1] = rq[1] - k->w6[4];      /* W_tn = (W_XZ, W_YZ) */
+  cross = sg[0] * r[1] - sg[1] * r[0];
+  dot = sg[0] * r[0] + sg[1] * r[1];
+  *rho_p = dot;
+  /* d(cross) = sigma_perp x r + sigma x r';  d(dot) = sigma_perp . r + sigma . r' */
+  *dF = ((sp[0] * r[1] - sp[1] * r[0] + sg[0] * dr[1] - sg[1] * dr[0]) * dot
+         - cross * (sp[0] * r[0] + sp[1] * r[1] + sg[0] * dr[0] + sg[1] * dr[1]))
+        / (dot * dot);
+  return cross / dot;
 }
 
 /* The slip decreasing at speed rho along *theta near the ray it converges to: Newton on
@@ -243,18 +251,14 @@ static int crt_dk_ray_near(const crt_dk *k, double rho, double *theta, double to
   double th = *theta, F = 1.0, dF = 0.0, rp;
   int it;
   for (it = 0; it < 12; ++it) {
-    const double eps = 1e-7;
-    double step, F2, rp2;
-    F = crt_dk_turn(k, th, &rp);
-    F2 = crt_dk_turn(k, th + eps, &rp2);
-    if (!(rp < 0.0 && rp2 < 0.0)) return 0;
-    dF = (F2 - F) / eps;
-    if (!(dF > 0.0)) return 0;
+    double step;
+    F = crt_dk_turn(k, th, &rp, &dF);
+    if (!(rp < 0.0) || !(dF > 0.0)) return 0;
     step = -F / dF;
     th += step;
     if (fabs(step) <= 1e-14) break;
   }
-  F = crt_dk_turn(k, th, &rp);
+  F = crt_dk_turn(k, th, &rp, &dF);
   if (!(rp < 0.0) || !(fabs(F) <= 1e-12 * crt_max(1.0, dF))) return 0;
   if (!(rho * fabs(th - *theta) <= tol)) return 0;
   *theta = th;
@@ -266,12 +270,14 @@ static int crt_dk_ray_near(const crt_dk *k, double rho, double *theta, double to
    at rho_stop, 1 compression ends, 2 restitution ends), at x_end (3), in s where the
    direction is within rtol of the ray it converges to (4: y[1] set to the ray, which the
    caller follows at constant rates; crt_dk_ray_near), or -1 when the steps underflow or p
-   passes p_max (a jam; or in s, the slip not decreasing).  x and y are left at the stop;
+   passes p_max (a jam; or in s, the slip not decreasing).  A slip below rho_stop but above
+   rho_soft at a step's end stops there, without its root (a switch of variables needs no
+   exact point; HUGE_VAL: always the root).  x and y are left at the stop;
    k->p follows p; scale[2] is the velocities' scale (the direction's, scale[1], is set
    from it step by step). */
 static int crt_dk_integrate(crt_dk *k, int log_rho, double *x, double *y, double x_end,
-                            double rho_stop, double rtol, const double *scale_in, double h,
-                            double p_max)
+                            double rho_stop, double rho_soft, double rtol,
+                            const double *scale_in, double h, double p_max)
 {
   double f[CRT_DK_N], y1[CRT_DK_N], f1[CRT_DK_N], scale[CRT_DK_N];
   const double dir = x_end >= *x ? 1.0 : -1.0;
@@ -302,7 +308,13 @@ static int crt_dk_integrate(crt_dk *k, int log_rho, double *x, double *y, double
       g0 = crt_dk_event(k, which, log_rho, *x, y, rho_stop);
       g1 = crt_dk_event(k, which, log_rho, *x + h, y1, rho_stop);
       if (!(g0 > 0.0 && g1 <= 0.0)) continue;
-      at = crt_dk_root(k, which, log_rho, *x, y, f, h, g0, g1, rho_stop, scale, rtol, y_at);
+      if (which == 0 && y1[0] > rho_soft) {     /* the step's end will do */
+        at = 1.0;
+        for (i = 0; i < CRT_DK_N; ++i) y_at[i] = y1[i];
+      } else {
+        at = crt_dk_root(k, which, log_rho, *x, y, f, h, g0, g1, rho_stop, scale, rtol,
+                         y_at);
+      }
       if (at < frac) {
         frac = at; hit = which;
         for (i = 0; i < CRT_DK_N; ++i) y_ev[i] = y_at[i];
@@ -357,27 +369,29 @@ static void crt_dk_from_log(double *x, double *y)
    end of the impact. */
 static int crt_dk_ray_stretch(crt_dk *k, double rho, double theta)
 {
-  const double *w6 = k->w6, mu = k->mu;
+  const double mu = k->mu;
   const double sg[2] = {cos(theta), sin(theta)};
-  const double dv[3] = {w6[2] - mu * (w6[0] * sg[0] + w6[1] * sg[1]),
-                        w6[4] - mu * (w6[1] * sg[0] + w6[3] * sg[1]),
-                        w6[5] - mu * (w6[2] * sg[0] + w6[4] * sg[1])};
   const double dPt[2] = {-mu * sg[0], -mu * sg[1]};
-  const double c = sg[0] * dv[0] + sg[1] * dv[1];
-  const int status = crt_dk_constant(k, dv, dPt, rho, c, c < 0.0 ? rho / -c : HUGE_VAL);
+  double dv[3], c;
+  int status;
+  impulse_slip_direction_rate(sg, k->w6, mu, dv);
+  c = sg[0] * dv[0] + sg[1] * dv[1];
+  status = crt_dk_constant(k, dv, dPt, rho, c, c < 0.0 ? rho / -c : HUGE_VAL);
   if (status == CRT_OK && !k->done) { k->y[0] = 0.0; k->y[1] = 0.0; }
   return status;
 }
 
 /* The slip stage, until the slip stops (returns CRT_OK with k->done == 0 and v_t = 0), or
-   the impact ends (k->done), or CRT_PAINLEVE.  In the impulse p down to rho = 1e-2 of the
-   velocities' scale; then in s = ln rho down to rho = delta = rtol times that scale
+   the impact ends (k->done), or CRT_PAINLEVE.  In the impulse p down to rho = 1e-1 of the
+   velocities' scale (the end of the step that passes it: the switch needs no exact point;
+   a decade of rho costs several steps in p and about one in s, which is why the switch
+   is early); then in s = ln rho down to rho = delta = rtol times that scale
    (falling back to p where the slip stops decreasing); the last stretch to 0 at the rates
    there (an error of the order of delta in v, as in derive/darboux_keller.py).
    Compression ending on the way sets v_Z = 0 and goes on (with e = 0 the impact ends). */
 static int crt_dk_slip(crt_dk *k, double rtol, double s_v, double s_p)
 {
-  const double delta = rtol * s_v, rho_switch = 1e-2 * s_v;
+  const double delta = rtol * s_v, rho_switch = 1e-1 * s_v;
   const double p_max = 1e6 * (1.0 + k->e) * s_p;    /* a jam beyond this */
   const double scale_p[CRT_DK_N] = {s_v, 1.0, s_v, s_p, s_p, s_v * s_p, s_v * s_p};
   const double scale_s[CRT_DK_N] = {s_p, 1.0, s_v, s_p, s_p, s_v * s_p, s_v * s_p};
@@ -389,8 +403,8 @@ static int crt_dk_slip(crt_dk *k, double rtol, double s_v, double s_p)
   for (;;) {
     hit = -2;                              /* -2: no stop yet */
     if (use_log && y[0] > rho_switch) {
-      hit = crt_dk_integrate(k, 0, &x, y, HUGE_VAL, rho_switch, rtol, scale_p, 0.05 * s_p,
-                             p_max);
+      hit = crt_dk_integrate(k, 0, &x, y, HUGE_VAL, rho_switch, 1e2 * delta, rtol, scale_p,
+                             0.05 * s_p, p_max);
       if (hit == 0) hit = -2;              /* at the switch */
     }
     if (hit == -2 && use_log && crt_dk_ray_near(k, y[0], &y[1], rtol * s_v)) hit = 4;
@@ -398,7 +412,8 @@ static int crt_dk_slip(crt_dk *k, double rtol, double s_v, double s_p)
       crt_dk_rate(k->w6, k->mu, 0, x, y, f);
       if (f[0] < 0.0 && y[0] > delta) {
         crt_dk_to_log(&x, y);
-        hit = crt_dk_integrate(k, 1, &x, y, log(delta), delta, rtol, scale_s, 0.5, p_max);
+        hit = crt_dk_integrate(k, 1, &x, y, log(delta), delta, HUGE_VAL, rtol, scale_s, 0.5,
+                               p_max);
         crt_dk_from_log(&x, y);
         if (hit == 3) hit = 0;             /* the slip at delta */
       }
@@ -408,7 +423,8 @@ static int crt_dk_slip(crt_dk *k, double rtol, double s_v, double s_p)
       }
     }
     if (hit == -2)
-      hit = crt_dk_integrate(k, 0, &x, y, HUGE_VAL, delta, rtol, scale_p, 1e-3 * s_p, p_max);
+      hit = crt_dk_integrate(k, 0, &x, y, HUGE_VAL, delta, HUGE_VAL, rtol, scale_p, 1e-3 * s_p,
+                             p_max);
     if (hit == -1) break;
     if (hit == 4) {
       /* a ray: to the stop of the slip at constant rates (crt_dk_ray_stretch) */
@@ -493,9 +509,9 @@ static int crt_dk_impact(const double *w6, const double *v0, double mu, double e
       /* the slip's direction is a ray of the slip equations when the tangential rate
          W_tn - mu_f W_tt sigma is parallel to sigma: constant rates, else DOPRI5 */
       const double sg[2] = {v0[0] / rho0, v0[1] / rho0};
-      const double rt[2] = {w6[2] - mu * (w6[0] * sg[0] + w6[1] * sg[1]),
-                            w6[4] - mu * (w6[1] * sg[0] + w6[3] * sg[1])};
-      const double cross = sg[0] * rt[1] - sg[1] * rt[0];
+      double rt[3], cross;
+      impulse_slip_direction_rate(sg, w6, mu, rt);
+      cross = sg[0] * rt[1] - sg[1] * rt[0];
       const double size = fabs(rt[0]) + fabs(rt[1]) + mu * w_max;
       if (fabs(cross) <= 1e-14 * size) {
         status = crt_dk_ray_stretch(&k, rho0, atan2(sg[1], sg[0]));
@@ -514,10 +530,9 @@ static int crt_dk_impact(const double *w6, const double *v0, double mu, double e
         status = crt_dk_constant(&k, dv, tau, 0.0, 0.0, HUGE_VAL);
       } else {
         double sigma[2], c = crt_dk_ray(w6, mu, sigma);
-        const double dv[3] = {w6[2] - mu * (w6[0] * sigma[0] + w6[1] * sigma[1]),
-                              w6[4] - mu * (w6[1] * sigma[0] + w6[3] * sigma[1]),
-                              w6[5] - mu * (w6[2] * sigma[0] + w6[4] * sigma[1])};
         const double dPt[2] = {-mu * sigma[0], -mu * sigma[1]};
+        double dv[3];
+        impulse_slip_direction_rate(sigma, w6, mu, dv);
         r->stage = 2;
         status = crt_dk_constant(&k, dv, dPt, 0.0, c, HUGE_VAL);
       }
