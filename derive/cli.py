@@ -78,7 +78,9 @@ def cmd_prove(args: argparse.Namespace) -> int:
     bad = [o for o in outcomes if o.status not in ("pass", "erratum")]
     counts = {s: sum(o.status == s for o in outcomes)
               for s in ("pass", "erratum", "fail", "error", "missing")}
-    summary = ", ".join(f"{v} {k}" for k, v in counts.items() if v)
+    plural = {"erratum": "errata", "error": "errors"}
+    summary = ", ".join(f"{v} {plural.get(k, k) if v > 1 else k}"
+                        for k, v in counts.items() if v)
     print(f"\n{len(outcomes)} IDs in {total:.1f} s: {summary}")
     if clipped and not args.report:
         print("details cut at '…' are whole in the report: derive prove --report DIR")
@@ -411,7 +413,7 @@ def cmd_chart(args: argparse.Namespace) -> int:
           f"{c['stable_linear']} linearly stable, {c['critical_jordan']} critical with a "
           f"Jordan block at rho = 1" +
           (f", {c['no_body']} with no body" if c["no_body"] else "") +
-          f"; {result.seconds:.1f} s on {result.executor} ({_workers(result.workers)})")
+          f"; {result.seconds:.2g} s on {result.executor} ({_workers(result.workers)})")
     print("wrote " + ", ".join(str(p) for p in paths))
     return 0
 
@@ -479,6 +481,12 @@ def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="derive", description=(
         "Dynamics of a rigid body carrying a moving material point and bouncing on a "
         "plane (Markeev 2012): derive, prove, emit, simulate, measure."))
+    from importlib.metadata import PackageNotFoundError, version
+    try:
+        release = version("markeev-carrier")
+    except PackageNotFoundError:             # a checkout that is not installed
+        release = "unknown (not installed)"
+    parser.add_argument("--version", action="version", version=f"derive {release}")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
 
     p = sub.add_parser("equations", help="print the derived equations with their IDs")
@@ -559,8 +567,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_stability)
 
     p = sub.add_parser("chart", help="stability charts: sweep two parameters of a family")
-    p.add_argument("what", choices=["stability"], help="stability: max |rho| of the "
-                   "stationary rotations of a family over a grid")
+    p.add_argument("what", choices=["stability"], help="stability: max |rho| of a "
+                   "family's periodic motions (stationary rotations or bouncing) over a grid")
     p.add_argument("--family", default="C4.1", help="C4.1 (default), C4.2 or C4.3 "
                    "(stationary rotations), or bounce (periodic bouncing of reference [5])")
     p.add_argument("--x", help="x axis, name=lo:hi:n (default a=0:0.8:41; bounce: "

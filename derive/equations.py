@@ -36,7 +36,8 @@ def _e1_1() -> Derived:
     return Derived("E1.1", "momentum theorems in flight (starting point)",
                    _vec_rel([sp.Derivative(sp.Function(q)(nt.t), nt.t) for q in Qs],
                             -(nt.m + nt.M) * nt.g * nt.E_Z)
-                   + tuple((sp.Symbol(f"dK_{c}/dt"), 0) for c in "xyz"),
+                   + tuple((sp.Derivative(sp.Function(f"K_{c}")(nt.t), nt.t), 0)
+                           for c in "XYZ"),
                    where=_vec_rel(list(Qs), (nt.m + nt.M) * nt.V_C),
                    note="Q = M V_O + m V_P reduces to (m+M) V_C (checked while deriving)")
 
@@ -205,6 +206,8 @@ GLOSSARY = {
     "X_O": "(X_O, Y_O, Z_O): the carrier's centre of mass O, fixed axes",
     "Q_X": "Q = (Q_X, Q_Y, Q_Z): momentum of the system, fixed axes",
     "Q_X'": "rate of Q_X",
+    "K_X": "(K_X, K_Y, K_Z): angular momentum about C, fixed axes",
+    "K_X'": "rate of K_X",
     "K_x": "K = (K_x, K_y, K_z): angular momentum about C, body axes",
     "K_x'": "rate of the body component K_x (the relative derivative)",
     "J_11": "J_ij: entries of J = dK/d omega (E1.5), the inertia at O of the carrier plus "
@@ -240,7 +243,7 @@ for _size, _shapes in shapes.size_fields():
 for _group in (("x", "y", "z"), ("x'", "y'", "z'"), ("x''", "y''", "z''"),
                ("omega_x", "omega_y", "omega_z"), ("omega_x'", "omega_y'", "omega_z'"),
                ("X_C", "Y_C", "Z_C"), ("X_O", "Y_O", "Z_O"), ("Q_X", "Q_Y", "Q_Z"),
-               ("Q_X'", "Q_Y'", "Q_Z'"),
+               ("Q_X'", "Q_Y'", "Q_Z'"), ("K_X", "K_Y", "K_Z"), ("K_X'", "K_Y'", "K_Z'"),
                ("K_x", "K_y", "K_z"), ("K_x'", "K_y'", "K_z'"), ("d_x", "d_y", "d_z"),
                ("CS_x", "CS_y", "CS_z"), ("x_*", "y_*", "z_*"), ("x_*'", "y_*'", "z_*'"),
                ("w_x", "w_y", "w_z"), ("omega_x+", "omega_y+", "omega_z+"),
@@ -280,7 +283,7 @@ def undefined_symbols(entry: Derived) -> list[str]:
     out = []
     for name in _printed_names(entry):
         key = _ALIASES.get(name, name)
-        if key not in GLOSSARY and not name.startswith(("K_x^2", "dK_")):
+        if key not in GLOSSARY and not name.startswith("K_x^2"):
             out.append(name)
     return out
 
@@ -469,9 +472,21 @@ def render_text(entry: Derived, symbols: bool = True) -> str:
     return "\n".join(lines)
 
 
+def _dotted(expr):
+    """d/dt of a function of t named like Q_X as the symbol \\dot{Q}_{X} (E1.7's style,
+    not \\frac{d}{dt} Q_X(t))."""
+    swap = {}
+    for d in sp.sympify(expr).atoms(sp.Derivative):
+        f = d.expr
+        if isinstance(f, sp.core.function.AppliedUndef) and d.variables == (nt.t,):
+            base, _, sub = f.func.__name__.partition("_")
+            swap[d] = sp.Symbol(rf"\dot{{{base}}}" + (f"_{{{sub}}}" if sub else ""))
+    return sp.sympify(expr).xreplace(swap) if swap else expr
+
+
 def render_latex(entry: Derived) -> str:
     def tex(expr) -> str:
-        return sp.latex(expr, symbol_names=nt.LATEX_NAMES)
+        return sp.latex(_dotted(expr), symbol_names=nt.LATEX_NAMES)
     lines = [f"% {entry.id}: {entry.title}", r"\begin{align}"]
     rows = [f"  {tex(lhs)} &= {tex(rhs)}" for lhs, rhs in entry.relations]
     lines.append(" \\\\\n".join(rows))

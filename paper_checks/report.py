@@ -19,12 +19,23 @@ def _tex(expr) -> str:
     return sp.latex(expr, symbol_names=LATEX_NAMES)
 
 
+def _escape_plain(text: str) -> str:
+    out = []
+    for ch in text:
+        out.append({"\\": r"\textbackslash{}", "&": r"\&", "%": r"\%", "_": r"\_",
+                    "#": r"\#", "^": r"\textasciicircum{}", "~": r"\textasciitilde{}",
+                    "$": r"\$", "{": r"\{", "}": r"\}"}.get(ch, ch))
+    return "".join(out)
+
+
 def _escape(text: str) -> str:
-    for a, b in (("\\", r"\textbackslash{}"), ("&", r"\&"), ("%", r"\%"), ("_", r"\_"),
-                 ("#", r"\#"), ("^", r"\^{}"), ("~", r"\~{}"), ("$", r"\$"),
-                 ("{", r"\{"), ("}", r"\}")):
-        text = text.replace(a, b)
-    return text
+    """Text of CLAIMS.md and of the checks for LaTeX: its specials escaped, and its
+    Markdown `code` spans set in \\texttt."""
+    parts = text.split("`")
+    if len(parts) % 2 == 0:                  # an unpaired backtick: no code spans
+        return _escape_plain(text)
+    return "".join(_escape_plain(p) if k % 2 == 0 else rf"\texttt{{{_escape_plain(p)}}}"
+                   for k, p in enumerate(parts))
 
 
 def _cell(text: str) -> str:
@@ -63,10 +74,12 @@ def write_report(out_dir, entries, outcomes) -> list[Path]:
 
     tex = [r"\documentclass{article}", r"\usepackage{amsmath,longtable}",
            r"\begin{document}", r"\section*{Checks of Markeev (2012)}",
-           r"\begin{longtable}{llrp{7cm}}", r"ID & status & s & claim \\ \hline"]
+           r"\begin{longtable}{llrp{5.5cm}p{5.5cm}}",
+           r"ID & status & s & claim & detail \\ \hline"]
     for e in entries:
         o = by_id[e.id]
-        tex.append(f"{e.id} & {o.status} & {o.seconds:.2f} & {_escape(e.what)} \\\\")
+        tex.append(f"{e.id} & {o.status} & {o.seconds:.2f} & {_escape(e.what)} & "
+                   f"{_escape((o.detail or '').replace(chr(10), ' '))} \\\\")
     tex.append(r"\end{longtable}")
     tex.append(r"\subsection*{Errata}")
     if errata:

@@ -441,3 +441,39 @@ def test_json_outputs_are_strict_json():
         "a": None, "b": [1.0, None, 2.5], "c": [[1.0, None]], "d": [3, True],
         "e": {"f": None}}
     assert text.endswith("}\n")
+
+
+def test_events_csv_has_every_event_of_the_api_with_its_modes(tmp_path):
+    """A second trial found the hopper's events.csv without its 5 contact events (each
+    begins at an impact, and the runtime records one pair of rows for both), and the
+    impact's `after` row in sticking while Result.events says flight.  Now: two rows per
+    event of Result.events, in its order, the kinds alike; on the rough plane an after
+    row's mode is the event's, a before row's the previous event's; mode and stage are
+    written as integer codes."""
+    import csv
+    from importlib import resources
+
+    from derive import abi
+    hopper = derive.simulate(str(resources.files("derive.scene") / "examples" / "hopper.toml"))
+    write_all(hopper, tmp_path, plot=False)
+    rows = list(csv.DictReader(open(tmp_path / "events.csv", encoding="utf-8")))
+    assert len(rows) == 2 * len(hopper.events)
+    assert [r["event"] for r in rows[::2]] == [ev["kind"] for ev in hopper.events]
+    assert [r["side"] for r in rows[:2]] == ["before", "after"]
+    assert sum(ev["kind"] == "contact" for ev in hopper.events) == 5
+    for k, ev in enumerate(hopper.events):
+        assert float(rows[2 * k]["t"]) == float(rows[2 * k + 1]["t"]) == ev["t"]
+        assert rows[2 * k + 1]["mode"] == str(abi.index(abi.MODES, ev["mode"]))
+        if k:
+            assert rows[2 * k]["mode"] == str(abi.index(abi.MODES, hopper.events[k - 1]["mode"]))
+    stages = [line.rsplit(",", 1)[1] for line in
+              (tmp_path / "impacts.csv").read_text().splitlines()[1:]]
+    assert stages and set(stages) <= {"0", "1", "2"}
+    # the smooth plane: a contact that begins at an impact has its rows too
+    doc = builtin_doc()
+    doc["plane"]["restitution"] = 0.0
+    smooth = derive.simulate(doc)
+    write_all(smooth, tmp_path / "smooth", plot=False)
+    rows = list(csv.DictReader(open(tmp_path / "smooth" / "events.csv", encoding="utf-8")))
+    assert [r["event"] for r in rows[::2]] == [ev["kind"] for ev in smooth.events]
+    assert "contact" in [ev["kind"] for ev in smooth.events]

@@ -123,3 +123,12 @@ def test_prove_marks_a_cut_detail_and_the_report_keeps_it_whole(tmp_path, monkey
     assert "--report DIR" in out
     assert main(["prove", "--id", first, "--report", str(tmp_path)]) == 0
     assert "x" * 120 + "<br>second line" in (tmp_path / "prove.md").read_text()
+
+
+def test_the_latex_report_sets_code_spans_and_escapes_specials():
+    """prove.tex had CLAIMS.md's Markdown backticks and a tilde accent (\\~{}) where the
+    claim reads `dK~/dt`: code spans are now \\texttt, specials escaped."""
+    from paper_checks.report import _escape
+    assert _escape("the rate `dK~/dt = 0` of K_x, 5% & #1") == (
+        r"the rate \texttt{dK\textasciitilde{}/dt = 0} of K\_x, 5\% \& \#1")
+    assert _escape("an odd ` backtick") == "an odd ` backtick"

@@ -190,3 +190,28 @@ def test_an_axis_is_the_decimal_grid_typed(tmp_path):
                                     encoding="utf-8")))
     assert sorted({r["a"] for r in rows}, key=float) == [f"0.{k}" if k else "0.0"
                                                          for k in range(8)]
+
+
+def test_the_unstable_outline_follows_the_cells():
+    """The outline of the unstable region is drawn along the edges of its cells (a second
+    trial saw a contour through the points cut across cells, take in six stable points
+    and stay open at the chart's edges): every segment separates an unstable cell from a
+    stable one or from the chart's edge, and it is closed (each corner is met an even
+    number of times)."""
+    from collections import Counter
+
+    from derive.stability.chart import _cell_edges, _outline
+    ex, ey = _cell_edges([0.0, 0.1, 0.2, 0.3]), _cell_edges([0.08, 0.1, 0.12, 0.14, 0.16])
+    assert np.allclose(ex, [-0.05, 0.05, 0.15, 0.25, 0.35])
+    rng = np.random.default_rng(3)
+    for _ in range(200):
+        mask = rng.random((5, 4)) < 0.4
+        segs = _outline(mask, ex, ey)
+        padded = np.pad(mask, 1)
+        # perimeter: unstable cells' sides that face a stable cell or the edge
+        sides = sum(int(not padded[j + 1 + dj, i + 1 + di])
+                    for j, i in zip(*np.nonzero(mask))
+                    for dj, di in ((0, 1), (0, -1), (1, 0), (-1, 0)))
+        assert len(segs) == sides
+        ends = Counter(p for seg in segs for p in seg)
+        assert all(n % 2 == 0 for n in ends.values())

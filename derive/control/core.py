@@ -206,7 +206,7 @@ def percentiles_ms(seconds) -> dict:
 
 
 # ---- the result and its files ----------------------------------------------------------------
-@dataclass
+@dataclass(repr=False)
 class ControlResult:
     """A closed loop and its open-loop comparison.  ``summary`` is control.json;
     ``closed``/``open`` the runtime's results (``closed.scene`` carries the realised law);
@@ -220,6 +220,12 @@ class ControlResult:
     law: object = None
     sources: dict = field(default_factory=dict)
     figures: list = field(default_factory=list)
+
+    def __repr__(self) -> str:                 # (the fields hold whole runs)
+        closed = self.summary.get("closed_loop", {})
+        return (f"<ControlResult {self.mode}: closed loop "
+                + ", ".join(f"{k} {v:.3g}" for k, v in closed.items()
+                            if isinstance(v, float))[:160] + ">")
 
     def write(self, out, animation: bool = True) -> list[Path]:
         """control.json, the closed loop's trajectory.csv and events.csv, law.csv (the

@@ -35,7 +35,7 @@ from .task import Task, load_task
 from .transcribe import ACC, POS
 
 
-@dataclass
+@dataclass(repr=False)
 class Plan:
     task: Task
     status: str                      # solved | infeasible | failed
@@ -51,6 +51,11 @@ class Plan:
     @property
     def ok(self) -> bool:
         return self.status == "solved"
+
+    def __repr__(self) -> str:                 # (the fields hold whole trajectories)
+        what = (f"{self.law.spline.n} pieces over {self.law.T:.6g} s"
+                if self.ok and self.law is not None else self.message[:120])
+        return f"<Plan {self.summary.goal}: {self.status}; {what}>"
 
     def write(self, out) -> list[Path]:
         """Write law.csv, scene.toml, plan.json, law.c, law.h and the plots to ``out``."""

@@ -112,17 +112,22 @@ def plain(label: str) -> str:
 CSV_CHUNK = 8192           # rows formatted at a time (memory stays bounded on long runs)
 
 
+CODE_COLUMNS = frozenset({"mode", "stage"})   # integer codes (abi.MODES; slip, stick, reslide)
+
+
 def write_csv(path: Path, header: list, rows: np.ndarray, text: dict | None = None,
               progress=None, select: np.ndarray | None = None) -> None:
-    """Numbers as Python's shortest repr (they read back bit for bit); ``text`` columns
-    (name -> list of strings) go first; ``select``: the indices of the rows to write (no
-    copy of a big table).  About a microsecond a number: ``progress`` (a fraction done)
-    is told after each chunk of rows."""
+    """Numbers as Python's shortest repr (they read back bit for bit), the codes of
+    :data:`CODE_COLUMNS` as integers; ``text`` columns (name -> list of strings) go first;
+    ``select``: the indices of the rows to write (no copy of a big table).  About a
+    microsecond a number: ``progress`` (a fraction done) is told after each chunk of
+    rows."""
     text = text or {}
     rows = np.asarray(rows, dtype=float)
     n = len(rows) if select is None else len(select)
-    line = ",".join(["%s"] * len(text) + ["%r"] * (rows.shape[1] if rows.ndim == 2 else 0)) \
-        + "\n"
+    line = ",".join(["%s"] * len(text) + ["%d" if h in CODE_COLUMNS else "%r"
+                                          for h in header[:rows.shape[1]]]
+                    if rows.ndim == 2 else ["%s"] * len(text)) + "\n"
     lead = list(zip(*text.values())) if text else None
     with open(path, "w", encoding="utf-8") as fh:
         fh.write(",".join([*text, *header]) + "\n")
@@ -190,13 +195,43 @@ def split_rows(result: Result) -> tuple[np.ndarray, np.ndarray]:
     return np.flatnonzero(kinds == 0), np.flatnonzero(kinds != 0)
 
 
-def event_labels(result: Result, rows: np.ndarray) -> dict:
-    """The ``event`` (impact, liftoff, ...) and ``side`` (before, after) of event rows."""
-    kind = {}
-    for i, ev in event_rows(result):
-        kind[i] = kind[i + 1] = ev["kind"]
-    return {"event": [kind.get(int(i), "event") for i in rows],
-            "side": ["before" if result.row_kind[i] == 1 else "after" for i in rows]}
+def event_table(result: Result, header: list, table: np.ndarray) -> tuple[np.ndarray, dict]:
+    """The rows of events.csv, two per event of ``Result.events`` in its order (the state
+    just before and just after), with their ``event`` and ``side`` labels.  An event with
+    no rows of its own (a contact that begins at an impact: the runtime records one pair)
+    is given the state after the event it shares the instant with, twice.  On the rough
+    plane an ``after`` row's ``mode`` is the event's own (what follows it, as in
+    ``Result.events``: flight after an impact that a contact then follows at once), and
+    a ``before`` row's the previous event's."""
+    pairs = {id(ev): i for i, ev in event_rows(result)}
+    picked, kinds, sides, modes = [], [], [], []
+    last_after = None
+    for ev in result.events:
+        i = pairs.get(id(ev))
+        before, after = (i, i + 1) if i is not None else (last_after, last_after)
+        if before is None:                   # (no row at all: nothing to show)
+            continue
+        picked += [before, after]
+        kinds += [ev["kind"], ev["kind"]]
+        sides += ["before", "after"]
+        modes.append(ev.get("mode"))
+        last_after = after
+    for i, ev in event_rows(result):         # pairs the events list does not name
+        if ev["kind"] == "event":
+            picked += [i, i + 1]
+            kinds += ["event", "event"]
+            sides += ["before", "after"]
+            modes.append(None)
+    rows = table[np.array(picked, dtype=int)] if picked else table[:0].copy()
+    if result.rough and picked:
+        from .. import abi
+        col = header.index("mode")
+        for k, mode in enumerate(modes):
+            if mode is not None:             # after: the event's; before: the last one's
+                rows[2 * k + 1, col] = abi.index(abi.MODES, mode)
+                if k + 1 < len(modes) and kinds[2 * k + 2] != "event":
+                    rows[2 * k + 2, col] = abi.index(abi.MODES, mode)
+    return rows, {"event": kinds, "side": sides}
 
 
 TABLE_FILES = {"csv": ("trajectory.csv", "events.csv", "impacts.csv"), "npz": ("run.npz",)}
@@ -214,18 +249,18 @@ def write_tables(result: Result, mo: Motion, out: Path, fmt: str = "csv",
     """trajectory, events and impacts as CSV (default) or one ``.npz`` of named arrays;
     ``progress`` (a fraction done) follows the trajectory's CSV."""
     header, table = trajectory_table(result, mo)
-    steps, events = split_rows(result)
-    labels = event_labels(result, events)
+    steps, _ = split_rows(result)
+    event_rows_, labels = event_table(result, header, table)
     imp_header, imp = impact_table(result)
     if fmt == "csv":
         paths = [out / name for name in TABLE_FILES["csv"]]
         write_csv(paths[0], header, table, progress=progress, select=steps)
-        write_csv(paths[1], header, table[events], labels)
+        write_csv(paths[1], header, event_rows_, labels)
         write_csv(paths[2], imp_header, imp)
         return paths
     if fmt == "npz":
         arrays = {f"trajectory/{h}": table[steps, k] for k, h in enumerate(header)}
-        arrays.update({f"events/{h}": table[events, k] for k, h in enumerate(header)})
+        arrays.update({f"events/{h}": event_rows_[:, k] for k, h in enumerate(header)})
         arrays.update({f"events/{k}": np.array(v, dtype=str) for k, v in labels.items()})
         arrays.update({f"impacts/{h}": imp[:, k] for k, h in enumerate(imp_header)})
         path = out / TABLE_FILES["npz"][0]

@@ -81,6 +81,32 @@ def write(sw: Sweep, folder: str | Path, plot: bool = True) -> list[Path]:
     return paths
 
 
+def _cell_edges(values) -> np.ndarray:
+    """The edges of the cells drawn around grid values (pcolormesh's "nearest")."""
+    v = np.asarray(values, dtype=float)
+    if len(v) == 1:
+        return np.array([v[0] - 0.5, v[0] + 0.5])
+    mid = 0.5 * (v[1:] + v[:-1])
+    return np.concatenate([[v[0] - (mid[0] - v[0])], mid, [v[-1] + (v[-1] - mid[-1])]])
+
+
+def _outline(mask: np.ndarray, ex: np.ndarray, ey: np.ndarray) -> list:
+    """The segments between cells in ``mask`` (rows along y, columns along x) and cells
+    outside it or the chart's edge."""
+    ny, nx = mask.shape
+    segs = []
+    for j, i in zip(*np.nonzero(mask)):
+        if i == 0 or not mask[j, i - 1]:
+            segs.append([(ex[i], ey[j]), (ex[i], ey[j + 1])])
+        if i == nx - 1 or not mask[j, i + 1]:
+            segs.append([(ex[i + 1], ey[j]), (ex[i + 1], ey[j + 1])])
+        if j == 0 or not mask[j - 1, i]:
+            segs.append([(ex[i], ey[j]), (ex[i + 1], ey[j])])
+        if j == ny - 1 or not mask[j + 1, i]:
+            segs.append([(ex[i], ey[j + 1]), (ex[i + 1], ey[j + 1])])
+    return segs
+
+
 def draw(sw: Sweep, path: Path) -> Path:
     import matplotlib
     matplotlib.use("Agg")
@@ -99,12 +125,19 @@ def draw(sw: Sweep, path: Path) -> Path:
     bar = fig.colorbar(mesh, ax=ax, label="max |rho| (monodromy over one period)")
     bar.ax.yaxis.set_major_formatter(FormatStrFormatter("%.3g"))
     bar.ax.yaxis.set_minor_formatter(FormatStrFormatter("%.3g"))
-    if np.nanmax(sw.max_modulus, initial=0.0) > 1 + sw.tol and \
-            np.nanmin(sw.max_modulus, initial=2.0) <= 1 + sw.tol:
-        ax.contour(X, Y, np.nan_to_num(sw.max_modulus, nan=1.0), levels=[1 + sw.tol],
-                   colors="tab:cyan", linewidths=1.4)
+    ex, ey = _cell_edges(sw.x.values), _cell_edges(sw.y.values)
+    unstable = np.nan_to_num(sw.max_modulus, nan=0.0) > 1 + sw.tol
+    if np.any(unstable):
+        # the outline of the unstable cells as drawn (a contour through the points would
+        # cut across cells, and stay open at the chart's edges)
+        from matplotlib.collections import LineCollection
+        ax.add_collection(LineCollection(_outline(unstable, ex, ey), colors="tab:cyan",
+                                         linewidths=1.4))
     if np.any(sw.jordan > 0.5):
-        ax.contourf(X, Y, sw.jordan, levels=[0.5, 1.5], colors="none", hatches=["...."])
+        from matplotlib.patches import Rectangle
+        for j, i in zip(*np.nonzero(sw.jordan > 0.5)):
+            ax.add_patch(Rectangle((ex[i], ey[j]), ex[i + 1] - ex[i], ey[j + 1] - ey[j],
+                                   fill=False, hatch="....", lw=0.0))
     if fam.name == "bounce" and {sw.x.name, sw.y.name} == {"e", "Gamma"}:
         # the closed forms of the ball on a vibrating table: where the n-orbit appears
         # and where it doubles its period (derive/stability/bouncing.py)
