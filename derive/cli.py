@@ -471,7 +471,15 @@ class _Parser(argparse.ArgumentParser):
             parsed._parser.error("unrecognized arguments: " + " ".join(extras))
         return parsed
 
+    def parse_known_args(self, args=None, namespace=None):
+        self._given = list(sys.argv[1:] if args is None else args)   # for error()
+        return super().parse_known_args(args, namespace)
+
     def error(self, message: str):  # argparse's own errors: exit 2, one line
+        unknown = [a.split("=", 1)[0] for a in getattr(self, "_given", [])
+                   if a.startswith("--") and a.split("=", 1)[0] not in self._option_string_actions]
+        if unknown and "unrecognized arguments" not in message:
+            message += f" (and {', '.join(unknown)} is not an option of {self.prog})"
         self.print_usage(sys.stderr)
         print(f"{self.prog}: error: {message}", file=sys.stderr)
         raise SystemExit(2)

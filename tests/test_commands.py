@@ -299,3 +299,13 @@ def test_an_unknown_option_is_reported_by_its_command(argv, prog, capsys):
     assert info.value.code == 2
     err = capsys.readouterr().err
     assert f"usage: {prog} " in err and f"{prog}: error: unrecognized arguments: --bogus" in err
+
+
+def test_an_unknown_option_is_named_beside_a_missing_argument(capsys):
+    """`derive plan --bogus` stopped at the missing TASK and never named --bogus."""
+    with pytest.raises(SystemExit) as info:
+        main(["plan", "--bogus"])
+    assert info.value.code == 2
+    err = capsys.readouterr().err
+    assert ("derive plan: error: the following arguments are required: task (and --bogus "
+            "is not an option of derive plan)") in err
