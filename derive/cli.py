@@ -412,7 +412,8 @@ def cmd_chart(args: argparse.Namespace) -> int:
     print(f"{args.family}: {x} against {y}: {c['points']} points, {c['unstable']} unstable, "
           f"{c['stable_linear']} linearly stable, {c['critical_jordan']} critical with a "
           f"Jordan block at rho = 1" +
-          (f", {c['no_body']} with no body" if c["no_body"] else "") +
+          (f", {c['no_body']} with {chart.missing_name(args.family)}" if c["no_body"]
+           else "") +
           f"; {result.seconds:.2g} s on {result.executor} ({_workers(result.workers)})")
     print("wrote " + ", ".join(str(p) for p in paths))
     return 0

@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from derive import layout
 from derive.control import hop as H
 from derive.control.closed import simulate_closed
 from derive.runtime.driver import prepare, run_prepared
@@ -173,6 +174,34 @@ def test_the_c_controller_writes_the_python_routes_law_to_the_bit(unstable):
     del dataclasses
 
 
+def test_where_impacts_stop_the_gait_goes_on_bounded_in_both_routes(unstable):
+    """A trial's hop controller set the law only at impacts, three gait periods at a time;
+    where the impacts stopped (the body came to rest on the plane) the law's last cubic
+    went on, z reaching -36 m, and the run still said done.  With a sample every gait
+    period the controller (Python and C alike, to the bit) goes on with the gait before
+    its law ends: the law covers the run and stays within the gait's amplitude."""
+    from derive.runtime.loop import realised_law
+    hm, d = unstable
+    doc = bouncing.bouncing_scene(a=UNSTABLE)
+    doc["plane"]["restitution"] = 0.0                 # it lands and rests: no more impacts
+    doc["run"]["duration"] = 2.0
+    prep = prepare(parse_scene(doc))
+    g = d.orbit.gait
+    loops = [Loop(H.HopController(d), period=g.period),
+             Loop(H.c_controller(d), period=g.period)]
+    runs = [run_prepared(prep, loop=lp) for lp in loops]
+    assert runs[0].status == runs[1].status == "done"
+    assert np.array_equal(loops[0].law_rows(), loops[1].law_rows())
+    assert np.array_equal(runs[0].q, runs[1].q)
+    impacts = len(runs[0].impacts)
+    assert runs[0].stats["law_changes"] > impacts + 1       # laws set where no impact came
+    law = realised_law(loops[0].law_rows())
+    t_end = prep.scene.t0 + prep.scene.duration
+    assert law.knots[-1] >= t_end
+    z = law.jets(np.linspace(law.t_first, t_end, 4001))[layout.JET_R[2]]
+    assert np.max(np.abs(z)) <= 1.5 * g.a * (1 + 1e-9)
+
+
 C_LOOP = """
 #include "model_vertical.c"
 #include "crt_hop.c"
@@ -187,7 +216,7 @@ int main(void)
   crt_session s;
   crt_control c;
   crt_hop_params P = {{%(K)s}, %(t_star)s, %(v_star)s, %(a)s, %(W)s, %(T)s, %(tb)s, %(h)s,
-                      0.5, %(n)s, %(zd)s, %(a)s};
+                      0.5, %(n)s, %(zd)s, %(a)s, -HUGE_VAL};
   double t[16], q[16 * NQ], ev[8 * CRT_EVENT_COLUMNS], log[512 * CRT_LOG_COLUMNS];
   int kind[16], n, n_ev, status, rows = 0, logged = 0;
   if (%(set_law)s != CRT_OK) return 3;

@@ -452,3 +452,16 @@ def test_overrides_name_fields_in_the_table_form_and_suggest_the_nearest():
     with pytest.raises(SceneError) as info:
         derive.simulate_many(doc(), [{"initial.omaga": [0.0, 0.0, 1.0]}])
     assert "did you mean 'initial.omega'?" in str(info.value)
+
+
+def test_a_task_given_as_a_scene_is_pointed_to_the_planner():
+    """`derive simulate land.toml` (a task) had answered "[plan]: is not a known key; did
+    you mean 'plane'?"."""
+    import tomllib
+    from importlib import resources
+    doc = tomllib.loads((resources.files("derive.planner") / "examples" / "land.toml")
+                        .read_text())
+    with pytest.raises(SceneError) as info:
+        parse_scene(doc)
+    assert info.value.where == "[plan]" and "derive plan" in info.value.rule
+    assert "did you mean" not in str(info.value)

@@ -170,6 +170,20 @@ def test_bounce_chart_agrees_with_the_table_closed_forms():
     assert checked >= 15
 
 
+def test_the_bounce_chart_calls_its_grey_points_no_orbit(tmp_path):
+    """A trial read "no body" in the bounce chart's CSV and summary for points below the
+    existence threshold, where the figure said "no orbit"."""
+    import csv
+
+    from derive.stability import chart
+    sw = sweep.run("bounce", sweep.parse_axis("e=0.2:0.8:3", "bounce", "--x"),
+                   sweep.parse_axis("Gamma=0.5:2:3", "bounce", "--y"), workers=1,
+                   progress=False)
+    paths = chart.write(sw, tmp_path, plot=False)
+    verdicts = [r["verdict"] for r in csv.DictReader(open(paths[0], encoding="utf-8"))]
+    assert "no orbit" in verdicts and "no body" not in verdicts
+
+
 def test_an_axis_is_the_decimal_grid_typed(tmp_path):
     """--x e=0.1:0.9:17 charts e = 0.3, not np.linspace's 0.30000000000000004, in the
     points run and in the CSV: each value the float nearest to lo + k (hi - lo)/(n - 1),

@@ -107,7 +107,9 @@ def simulate_closed(scene, progress=None) -> ClosedLoop:
             gait, orbit = hm.gait, None
         design = hop.design(hm, gait, ctl.gain, ctl.state_weight, ctl.input_weight, orbit)
         controller = hop.HopController(design, L)
-        period = 0.0
+        # a sample every gait period: where no impact comes (resting contact, a long
+        # flight) the controller goes on with the gait before its law ends
+        period = ctl.period or design.orbit.gait.period
         target = {"apex_height": hop.orbit_apex(hm, design.orbit), "W": gait.W, "a": gait.a}
     else:
         apex = ctl.apex_height if ctl.apex_height is not None else \
@@ -125,4 +127,10 @@ def simulate_closed(scene, progress=None) -> ClosedLoop:
     res = run_prepared(prep, loop=loop, progress=progress)
     res.timings = {"design_s": t_design, "prepare_s": t_prepare, **res.timings,
                    "library_build_s": prep.library.build_seconds}
+    # the outputs (P, the energy balance) read the law the loop ran, not the scene's
+    res.scene = replace(res.scene, law=realised_law(loop.law_rows(), "the closed loop's "
+                                                    "realised law"), law_text=())
+    res.why = ("the closed loop's pushes need the general model" if pushes else
+               "the pose is asked" if model == "general" else
+               "the closed loop runs the vertical model (P on the axis, no pushes)")
     return ClosedLoop(res, ctl.mode, controller, design, loop.law_rows(), target)

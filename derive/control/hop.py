@@ -337,6 +337,7 @@ class HopController:
         self.design, self.layout, self.limit = design, layout_, limit
         self.gait = design.orbit.gait
         self.a_prev = self.gait.a
+        self.law_end = -np.inf             # the end of the law it set last
         self.history: list = []            # (t, s, delta) of every impact
 
     def deviation(self, t: float, q) -> np.ndarray:
@@ -346,12 +347,24 @@ class HopController:
         return np.array([dt, q[self.layout.Zd] - orbit.v, self.a_prev - g.a])
 
     def __call__(self, call):
+        law = self._decide(call)
+        if law is not None:
+            self.law_end = float(law.knots[-1])
+        return law
+
+    def _decide(self, call):
         g = self.gait
         if call.reason == "start":
             self.a_prev = g.a
             return blend_law(call.t, call.u, g, g, g.period)
         if call.reason != "event" or call.event != "impact":
-            return None
+            # no impact for a while (resting contact, a long flight): within a period of
+            # the law's end the gait goes on from the law in use (beyond its last knot the
+            # last cubic would go on, unbounded)
+            if call.t < self.law_end - g.period:
+                return None
+            held = Gait(self.a_prev, g.W)
+            return blend_law(call.t, call.u, held, held, g.period)
         s = self.deviation(call.t, call.q)
         delta = float(-(self.design.K @ s)[0])
         delta = max(-self.limit * g.a, min(self.limit * g.a, delta))
@@ -465,7 +478,8 @@ class _HopParams(ctypes.Structure):
                 ("v_star", ctypes.c_double), ("a_star", ctypes.c_double),
                 ("W", ctypes.c_double), ("T", ctypes.c_double), ("tb", ctypes.c_double),
                 ("h", ctypes.c_double), ("limit", ctypes.c_double), ("n", ctypes.c_int),
-                ("zd", ctypes.c_int), ("a_prev", ctypes.c_double)]
+                ("zd", ctypes.c_int), ("a_prev", ctypes.c_double),
+                ("law_end", ctypes.c_double)]
 
 
 @lru_cache(maxsize=1)
@@ -496,6 +510,6 @@ def c_controller(design: Design, layout_: layout.Layout = layout.VERTICAL,
     T = g.period
     params = _HopParams((ctypes.c_double * 3)(*design.K.ravel()), orbit.t, orbit.v, g.a,
                         g.W, T, BLEND * T, T / KNOTS_PER_PERIOD, limit,
-                        int(round(SPAN * KNOTS_PER_PERIOD)), layout_.Zd, g.a)
+                        int(round(SPAN * KNOTS_PER_PERIOD)), layout_.Zd, g.a, -np.inf)
     address = ctypes.cast(lib.crt_hop_controller, ctypes.c_void_p).value
     return CController(address, params, keep=(lib,))

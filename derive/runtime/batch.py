@@ -58,10 +58,11 @@ TEXT_COLUMNS = ("error", "status", "model")
 COUNT_COLUMNS = ("impacts", "contacts", "liftoffs", "steps", "rhs_evaluations")
 
 
-@dataclass
+@dataclass(repr=False)
 class Batch:
     """The variants and what each gave (one row per variant, in order).  A refused
     variant's row holds only ``error``; a row that ran has no ``error``."""
+
     variants: list
     rows: list                       # dicts of SUMMARY_COLUMNS (or errors)
     results: list = field(default_factory=list)      # keep = "result"
@@ -72,6 +73,12 @@ class Batch:
     connect_s: float | None = None   # seconds connecting to a Dask scheduler
     ready_s: list = field(default_factory=list)   # per task: readying the runtime library
     task_s: list = field(default_factory=list)    # per task: seconds in its worker
+
+    def __repr__(self) -> str:               # (the rows and results can be thousands)
+        refused = sum("error" in r for r in self.rows)
+        return (f"<Batch of {len(self.rows)} variants ({refused} refused) in "
+                f"{self.seconds:.3g} s on {self.executor} ({self.workers} worker"
+                + ("s)>" if self.workers != 1 else ")>"))
 
     def column(self, name: str) -> np.ndarray:
         """One value per variant.  Text (``status``, ``model``, ``error``): an object

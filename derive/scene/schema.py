@@ -520,6 +520,10 @@ class Schema:
         if not doc.keys() <= self._top:
             key = sorted(str(k) for k in doc if k not in self._top)[0]
             where = f"[{key[:40]}]" if isinstance(doc.get(key), dict) else key[:40]
+            if key == "plan" and self.what == "scene":    # a task given as a scene
+                raise SceneError(where, "belongs to a task, not a scene: plan it with "
+                                        "`derive plan`, or close the loop around it with "
+                                        "`derive control` ([control] mode replan)")
             raise SceneError(where, unknown_key(key, self.top_keys))
         out = dict(self.defaults())
         given: set = set()

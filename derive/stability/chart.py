@@ -17,6 +17,12 @@ from .sweep import Sweep
 VERDICTS = ("linearly stable", "critical, Jordan block at 1", "unstable", "no body")
 
 
+def missing_name(family_name: str) -> str:
+    """What a grey point lacks: a body with those moments, or (the bounce family) an
+    orbit, below the existence threshold."""
+    return "no orbit" if family_name == "bounce" else "no body"
+
+
 def categories(sw: Sweep) -> np.ndarray:
     """Index into VERDICTS per point."""
     out = np.zeros(sw.max_modulus.shape, dtype=int)
@@ -74,7 +80,8 @@ def write(sw: Sweep, folder: str | Path, plot: bool = True) -> list[Path]:
         for j, yv in enumerate(sw.y.values):
             for i, xv in enumerate(sw.x.values):
                 w.writerow([repr(float(xv)), repr(float(yv)), repr(float(sw.max_modulus[j, i])),
-                            repr(float(sw.drift[j, i])), VERDICTS[cat[j, i]]])
+                            repr(float(sw.drift[j, i])),
+                            missing_name(sw.family) if cat[j, i] == 3 else VERDICTS[cat[j, i]]])
     paths[1].write_text(json_text.dumps(summary(sw)), encoding="utf-8")
     if plot:
         paths.append(draw(sw, out / f"{stem}.png"))
@@ -165,7 +172,7 @@ def draw(sw: Sweep, path: Path) -> Path:
             f"   linearly stable: {c['stable_linear']}"
             + (f"\ncritical with a Jordan block at rho = 1 (dotted): {c['critical_jordan']}"
                if c["critical_jordan"] else "")
-            + (f"   no {'orbit' if fam.name == 'bounce' else 'body'} (grey): {c['no_body']}"
+            + (f"   {missing_name(fam.name)} (grey): {c['no_body']}"
                if c["no_body"] else ""),
             transform=ax.transAxes, fontsize=8, va="bottom",
             bbox={"facecolor": "white", "alpha": 0.8, "edgecolor": "none"})

@@ -92,12 +92,24 @@ int crt_hop_controller(void *ctx, const crt_call *call, int max_knots, int *n_kn
 {
   crt_hop_params *P = (crt_hop_params *)ctx;
   double s[3], delta, a_new, r;
+  int set;
   if (call->reason == 0) {
     P->a_prev = P->a_star;
-    return crt_hop_blend(P, call->t, call->u, P->a_star, P->a_star, max_knots, n_knots,
-                         knots, coef);
+    set = crt_hop_blend(P, call->t, call->u, P->a_star, P->a_star, max_knots, n_knots,
+                        knots, coef);
+    if (set > 0) P->law_end = knots[*n_knots - 1];
+    return set;
   }
-  if (call->reason != 2 || call->event != 1) return 0;      /* impacts only */
+  if (call->reason != 2 || call->event != 1) {
+    /* no impact for a while (resting contact, a long flight): within a period of the
+       law's end the gait goes on from the law in use (beyond its last knot the last
+       cubic would go on, unbounded) */
+    if (call->t < P->law_end - P->T) return 0;
+    set = crt_hop_blend(P, call->t, call->u, P->a_prev, P->a_prev, max_knots, n_knots,
+                        knots, coef);
+    if (set > 0) P->law_end = knots[*n_knots - 1];
+    return set;
+  }
   r = fmod(call->t - P->t_star + 0.5 * P->T, P->T);
   if (r < 0.0) r += P->T;
   s[0] = r - 0.5 * P->T;
@@ -109,5 +121,7 @@ int crt_hop_controller(void *ctx, const crt_call *call, int max_knots, int *n_kn
   a_new = P->a_star + delta;
   r = P->a_prev;
   P->a_prev = a_new;
-  return crt_hop_blend(P, call->t, call->u, r, a_new, max_knots, n_knots, knots, coef);
+  set = crt_hop_blend(P, call->t, call->u, r, a_new, max_knots, n_knots, knots, coef);
+  if (set > 0) P->law_end = knots[*n_knots - 1];
+  return set;
 }

@@ -31,6 +31,7 @@ typedef struct {
   int n;                    /* pieces of a law (n + 1 knots: at most the caller's max) */
   int zd;                   /* where Z_C' sits in the plant model's state */
   double a_prev;            /* the gait of the hop before (the controller's state) */
+  double law_end;           /* the end of the law it set last (its state; -HUGE_VAL) */
 } crt_hop_params;
 
 /* sizeof(crt_hop_params): a binding checks its own layout against it */
