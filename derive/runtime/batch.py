@@ -345,9 +345,9 @@ def simulate_many(scene, variants, workers: int | None = None, scheduler: str | 
         sc = load_scene(scene)
         base, origin = sc.doc, Path(scene).parent
     items = list(enumerate(expand(variants)))
-    for _, v in items:
+    for k, v in items:                  # a field that does not exist fails the study
         for name in v:
-            overrides.target(name, "variant")
+            overrides.target(name, f"variant {k}")
     if chunk is not None and (isinstance(chunk, bool) or not isinstance(chunk, int)
                               or chunk < 1):
         raise BatchError("chunk", f"must be a whole number >= 1 (got {chunk!r})")
