@@ -73,9 +73,10 @@ def disturbance(path: Path, task, closed, open_, dist, goal_time: float) -> Path
                  xytext=(-3, -4), textcoords="offset points", ha="right", va="top",
                  color="0.35", fontsize=8)
     for p in (dist.pushes if dist else ()):
-        ax1.annotate(f"push {np.linalg.norm(p[1:4]):.3g} N s", (p[0], 1.0),
-                     xycoords=("data", "axes fraction"), xytext=(3, -10),
-                     textcoords="offset points", color="tab:red", fontsize=8)
+        ax1.annotate(f"push {np.linalg.norm(p[1:4]):.3g} N s", (p[0], 0.0),
+                     xycoords=("data", "axes fraction"), xytext=(3, 4),
+                     textcoords="offset points", color="tab:red", fontsize=8)  # (not under
+        # the legend, which sits in the upper left)
     ax1.set_ylabel("angle to the target (deg)")
     ax2.set_ylabel("|omega| (rad/s)")
     ax2.set_xlabel("t (s)")
