@@ -240,7 +240,8 @@ def cmd_simulate(args: argparse.Namespace) -> int:
           f"{_count(info['contacts'], 'contact phase')}, "
           f"{_count(info['liftoffs'], 'lift-off')}")
     if result.rough:
-        print(f"  friction mu_f = {scene.friction:g} ({scene.restitution_model}): "
+        print(f"  friction mu_f = {scene.friction:g} ({scene.restitution_model}; no drilling "
+              f"friction or rolling resistance): "
               f"{_count(info['sticks'], 'stick')}, {_count(info['slips'], 'slip')}, "
               f"{_count(info['reversals'], 'reversal')} in contact")
     if scene.contact_possible:

@@ -392,3 +392,17 @@ def test_bad_input_one_line_exit_2_nothing_written(tmp_path, change, field):
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1 and field in lines[0], proc.stderr
     assert not out.exists()
+
+
+def test_the_cli_counts_the_qps_without_a_solution():
+    """A trial's landing had 3 QPs without a solution that only control.json told."""
+    from types import SimpleNamespace
+
+    from derive.control.cli import report_lines
+    summary = {"mode": "replan", "goal": "land", "solver": {"what": "the generated C"},
+               "controller": {"calls": 38, "failures": 3}}
+    lines = report_lines(SimpleNamespace(summary=summary, task=None))
+    assert "  3 of 38 calls found no solution to their QP (the law in use went on)" in lines
+    summary["controller"]["failures"] = 0
+    assert not any("no solution" in line for line in report_lines(
+        SimpleNamespace(summary=summary, task=None)))

@@ -55,6 +55,10 @@ def report_lines(result) -> list[str]:
     if ms.get("samples"):
         lines.append(f"  solve per sample: median {ms['median']:.3f} ms, p99 {ms['p99']:.3f} "
                      f"ms, max {ms['max']:.3f} ms ({ms['samples']} samples)")
+    ctl = s.get("controller") or {}
+    if ctl.get("failures"):
+        lines.append(f"  {ctl['failures']} of {ctl.get('calls', '?')} calls found no solution "
+                     "to their QP (the law in use went on)")
     for key, name in (("closed_loop", "closed loop"), ("open_loop", "open loop")):
         if key in s:
             lines.append(f"  {name}: {_achieved(result.task, s[key])}")
