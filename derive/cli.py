@@ -10,6 +10,7 @@ import sys
 from typing import Sequence
 
 from . import shapes
+from .progress import count
 
 
 class UsageError(Exception):
@@ -180,12 +181,8 @@ def _check_output_folder(folder) -> None:
                 break
 
 
-def _count(n: int, noun: str) -> str:
-    return f"{n} {noun}" + ("" if n == 1 else "s")
-
-
 def _workers(n: int) -> str:
-    return _count(n, "worker")
+    return count(n, "worker")
 
 
 def cmd_simulate(args: argparse.Namespace) -> int:
@@ -236,14 +233,14 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     if closed is not None:
         print(f"  closed loop ({closed.describe()})")
     print(f"  {scene.method}, {info['steps']} steps ({info['rejected']} rejected), "
-          f"{info['rhs_evaluations']} RHS evaluations, {_count(info['impacts'], 'impact')}, "
-          f"{_count(info['contacts'], 'contact phase')}, "
-          f"{_count(info['liftoffs'], 'lift-off')}")
+          f"{info['rhs_evaluations']} RHS evaluations, {count(info['impacts'], 'impact')}, "
+          f"{count(info['contacts'], 'contact phase')}, "
+          f"{count(info['liftoffs'], 'lift-off')}")
     if result.rough:
         print(f"  friction mu_f = {scene.friction:g} ({scene.restitution_model}; no drilling "
               f"friction or rolling resistance): "
-              f"{_count(info['sticks'], 'stick')}, {_count(info['slips'], 'slip')}, "
-              f"{_count(info['reversals'], 'reversal')} in contact")
+              f"{count(info['sticks'], 'stick')}, {count(info['slips'], 'slip')}, "
+              f"{count(info['reversals'], 'reversal')} in contact")
     if scene.contact_possible:
         mh, mn = result.min_height, result.min_normal
         print(f"  lowest height of S {mh:.3g} m" +

@@ -1,10 +1,16 @@
 """A progress bar on stderr for long work (simulations, sweeps), shown only when the
 work takes longer than ``delay`` seconds.  On a terminal it redraws one line; otherwise
-(a log file, CI) it writes a plain line at most every 10 % and no carriage returns."""
+(a log file, CI) it writes a plain line at most every 10 % and no carriage returns.
+Also :func:`count`, the counts in the lines and titles that report work."""
 from __future__ import annotations
 
 import sys
 import time
+
+
+def count(n: int, noun: str) -> str:
+    """"1 impact", "2 impacts" (nouns that take an s)."""
+    return f"{n} {noun}" + ("" if n == 1 else "s")
 
 
 class Bar:

@@ -27,6 +27,7 @@ import numpy as np
 
 from .. import parallel
 from .. import abi
+from ..progress import count
 from . import choice
 from .driver import Prepared, prepare, run_prepared, session_for
 from ..scene import Scene, SceneError, build_scene, load_scene, overrides, parse_scene
@@ -77,8 +78,7 @@ class Batch:
     def __repr__(self) -> str:               # (the rows and results can be thousands)
         refused = sum("error" in r for r in self.rows)
         return (f"<Batch of {len(self.rows)} variants ({refused} refused) in "
-                f"{self.seconds:.3g} s on {self.executor} ({self.workers} worker"
-                + ("s)>" if self.workers != 1 else ")>"))
+                f"{self.seconds:.3g} s on {self.executor} ({count(self.workers, 'worker')})>")
 
     def column(self, name: str) -> np.ndarray:
         """One value per variant.  Text (``status``, ``model``, ``error``): an object

@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import layout
+from ..progress import count
 
 from . import drawing
 from .motion import Motion, contact_intervals, impact_rows, phases
@@ -43,10 +44,6 @@ def scale_into_labels(fig) -> None:
             label = axis.get_label_text()
             scale = offset if offset[0] in "+-" else f"x {offset}"
             axis.set_label_text(f"{label} (ticks {scale})".strip())
-
-
-def _count(n: int, noun: str) -> str:
-    return f"{n} {noun}" + ("" if n == 1 else "s")
 
 
 def _labels(ax, entries) -> None:
@@ -331,10 +328,9 @@ def overview(result, mo: Motion, path: Path, dpi: int = 80, steps=None) -> Path:
                           + [1] * n_rows, left=0.06, right=0.87, top=1 - 0.8 / height,
                           bottom=0.45 / height, wspace=0.45, hspace=0.42)
     n_contact = len(contact_intervals(result))
-    phases_text = (f", {n_contact} contact phase" + ("s" if n_contact > 1 else "")
-                   if n_contact else "")
+    phases_text = f", {count(n_contact, 'contact phase')}" if n_contact else ""
     fig.suptitle(f"{s.name}: {result.model} model, {s.method}, {result.status}; "
-                 f"{_count(len(imp), 'impact')}{phases_text}", fontsize=12, y=1 - 0.15 / height,
+                 f"{count(len(imp), 'impact')}{phases_text}", fontsize=12, y=1 - 0.15 / height,
                  va="top")
     if has_motion:
         motion_panel(fig.add_subplot(gs[0, 0]), result, mo)
@@ -437,7 +433,7 @@ def overview(result, mo: Motion, path: Path, dpi: int = 80, steps=None) -> Path:
         ax.text(0.5, 0.5, "no impacts", ha="center", va="center", transform=ax.transAxes)
     ax.set_xlim(t[0], t[-1])
     ax.set_ylabel("impulse I [N s]", fontsize=9)
-    ax.set_title(f"impulses ({_count(len(imp), 'impact')})", **_TITLE)
+    ax.set_title(f"impulses ({count(len(imp), 'impact')})", **_TITLE)
 
     ax = panels[5]
     steps = steps if steps is not None else result
