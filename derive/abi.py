@@ -75,6 +75,9 @@ PARAMETERS = _names(
     ("friction", "rough model: mu_f, Coulomb's friction coefficient at S (>= 0)"),
     ("restitution_model", "rough model: how an impact's restitution ends (enum "
                           "crt_restitution: energetic, poisson or newton)"),
+    ("spin_friction", "rough model: mu_s, a length: |T_Z| <= mu_s N in contact (0: none)"),
+    ("rolling_resistance", "rough model: mu_r, a length: |(T_X, T_Y)| <= mu_r N in contact "
+                           "(0: none)"),
 )
 
 # Values of prm[CRT_P_restitution_model] (derive/friction.py: darboux_keller's
@@ -182,6 +185,14 @@ EVENT_KINDS = _names(
     ("slip", "the sticking reaction left the friction cone: S starts to slip"),
     ("reversal", "the slip reached 0 and the cone cannot hold S: it slips again, along "
                  "-R_t"),
+    ("spin_stop", "the spin about the vertical reached 0 and the drilling couple holds it "
+                  "(value: |T_Z|/(mu_s N))"),
+    ("spin_start", "the drilling couple reached mu_s N (or cannot hold the spin it stopped): "
+                   "the body spins from rest against it (value: |T_Z|/(mu_s N))"),
+    ("roll_stop", "the rolling (the horizontal angular velocity) reached 0 and the rolling "
+                  "resistance holds it (value: |T_t|/(mu_r N))"),
+    ("roll_start", "the rolling resistance reached mu_r N (or cannot hold the rolling it "
+                   "stopped): the body rolls from rest against it (value: |T_t|/(mu_r N))"),
 )
 
 STATS = _names(
@@ -200,6 +211,8 @@ STATS = _names(
     ("sticks", "stick events (slip to stick in contact)"),
     ("slips", "slip events (stick to slip in contact)"),
     ("reversals", "reversal events (the slip reached 0 and restarted)"),
+    ("couple_stops", "spin_stop and roll_stop events"),
+    ("couple_starts", "spin_start and roll_start events"),
 )
 
 ROW_KINDS = _names(
@@ -285,10 +298,13 @@ OP = {entry.name: k for k, entry in enumerate(OPCODES)}
 # models' (zero otherwise): the mode after the event (MODES), the tangential impulse of an
 # impact, the slip of S (X, Y) before and after, the work of the normal impulse and of
 # friction in an impact (E_n, E_t), and what happened inside it: 0 S slipped to the end
-# (or did not slip), 1 the slip stopped and S stuck, 2 it stopped and S re-slid.
+# (or did not slip), 1 the slip stopped and S stuck, 2 it stopped and S re-slid; and
+# in contact the couples' channels held after the event (COUPLE_BITS: spin friction's
+# and rolling resistance's; 0 without them).
 EVENT_COLUMNS = ("t", "kind", "value", "v_minus", "v_plus", "t_accumulation", "mode", "P_X",
                  "P_Y", "slip_X_minus", "slip_Y_minus", "slip_X_plus", "slip_Y_plus",
-                 "work_normal", "work_friction", "stage")
+                 "work_normal", "work_friction", "stage", "couples")
+COUPLE_BITS = (("spin", 1), ("roll", 2))
 
 # What crt_count(CRT_COUNT_<NAME>) reports, with the value abi.py expects.
 COUNTS = (

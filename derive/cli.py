@@ -237,10 +237,17 @@ def cmd_simulate(args: argparse.Namespace) -> int:
           f"{count(info['contacts'], 'contact phase')}, "
           f"{count(info['liftoffs'], 'lift-off')}")
     if result.rough:
-        print(f"  friction mu_f = {scene.friction:g} ({scene.restitution_model}; no drilling "
-              f"friction or rolling resistance): "
+        if result.couples_on:
+            couples = (f"spin friction mu_s = {scene.spin_friction:g} m, rolling resistance "
+                       f"mu_r = {scene.rolling_resistance:g} m")
+        else:
+            couples = "no spin friction or rolling resistance"
+        print(f"  friction mu_f = {scene.friction:g} ({scene.restitution_model}; {couples}): "
               f"{count(info['sticks'], 'stick')}, {count(info['slips'], 'slip')}, "
               f"{count(info['reversals'], 'reversal')} in contact")
+        if result.couples_on:
+            print(f"  couples: {count(info['couple_stops'], 'stop')} (spin or rolling held "
+                  f"at 0), {count(info['couple_starts'], 'start')} from rest")
     if scene.contact_possible:
         mh, mn = result.min_height, result.min_normal
         print(f"  lowest height of S {mh:.3g} m" +

@@ -361,3 +361,61 @@ def sliding_contact() -> SlidingContact:
     return SlidingContact(reaction=R, acc_C=acc_C, omega_dot=omega_dot, lever=arm,
                           a_free=a_free, k_f=k_f, normal_force=normal,
                           slip_acceleration=acc[:2, 0], forcing=fd.forcing)
+
+
+# ---- spin friction and rolling resistance: the contact's whole wrench ------------------------
+T_VEC = sp.Matrix(sp.symbols("T_X T_Y T_Z", real=True))     # a couple on the body, fixed axes
+# J YT_k = a_k: the unknowns of the solves for a couple about the fixed axis k
+YT = tuple(sp.Matrix(sp.symbols(f"yt{k}_x yt{k}_y yt{k}_z", real=True)) for k in (1, 2, 3))
+OMEGA_DOT_W = sp.Matrix(sp.symbols("omega_x'w omega_y'w omega_z'w", real=True))
+WRENCH = sp.Matrix([*R_VEC, *T_VEC])
+WRENCH_LABELS = ("R_X", "R_Y", "R_Z", "T_X", "T_Y", "T_Z")
+RATE_LABELS = ("v_X", "v_Y", "v_Z", "Omega_X", "Omega_Y", "Omega_Z")
+
+
+@dataclass(frozen=True)
+class ContactWrench:
+    """The contact's reaction as a wrench at S: the force ``R`` and a couple ``T`` (fixed
+    axes), which spin (drilling) friction and rolling resistance exert (a contact patch's
+    moment about S: ``|T_Z| <= mu_s N``, ``|(T_X, T_Y)| <= mu_r N``, mu_s and mu_r lengths).
+    The contact's velocities ``u = (v_S, Omega)`` (the velocity of S and the body's angular
+    velocity ``Omega = A omega``, fixed axes) change as ``du/dt = a_free + G (R, T)``."""
+    velocity: sp.Matrix        # u = (v_S, A omega)
+    matrix: sp.Matrix          # G, 6x6, in the unknowns Y_k and YT_k; G[:3, :3] = W
+    a_free: sp.Matrix          # du/dt with no reaction (in omega'_0)
+    rhs: tuple                 # CS x a_k (J Y_k = ...), then a_k (J YT_k = ...)
+    acc_C: sp.Matrix           # R/(m+M) - g e_Z
+    moment: sp.Matrix          # CS x A^T R + A^T T: J omega' = f + moment
+
+
+@lru_cache(maxsize=None)
+def contact_wrench() -> ContactWrench:
+    """``dK/dt = CS x A^T R + A^T T`` (a couple adds its own moment, in body axes), so
+    ``omega' = omega'_0 + sum R_k Y_k + sum T_k YT_k`` with ``J YT_k = a_k``; ``Omega' =
+    A omega'`` (``A' omega = 0`` by E1.8, checked), and ``dv_S/dt`` is
+    :func:`acceleration_of_S` with that ``omega'``.  Sticking contact is the case T = 0
+    (its G block is W, checked)."""
+    dl = delassus()
+    CS, _ = lever()
+    axes = tuple(_axis_in_body(k) for k in range(3))
+    moment = nt.cross(CS, nt.a.T * R_VEC) + nt.a.T * T_VEC
+    for k in range(3):
+        if not all(_zero(c) for c in moment.diff(T_VEC[k]) - axes[k]):
+            raise AssertionError("the moment of the couple T_k is not a_k")
+    omega_dot = (OMEGA_DOT_0 + sum((R_VEC[k] * Y[k] for k in range(3)), sp.zeros(3, 1))
+                 + sum((T_VEC[k] * YT[k] for k in range(3)), sp.zeros(3, 1)))
+    acc, acc_C = _with_reaction(R_VEC, omega_dot)
+    poisson = poisson_equations()
+    a_dot = sp.Matrix(3, 3, lambda i, j: poisson[i, j])
+    if not all(_zero(c) for c in a_dot * nt.omega):
+        raise AssertionError("A' omega is not 0")
+    rates = sp.Matrix([*acc, *(nt.a * omega_dot)]).applyfunc(sp.expand)
+    G = rates.jacobian(WRENCH)
+    a_free = rates.xreplace({w: 0 for w in WRENCH})
+    if not all(_zero(c) for c in rates - a_free - G * WRENCH):
+        raise AssertionError("du/dt is not affine in the wrench")
+    if not all(_zero(c) for c in G[:3, :3] - dl.matrix):
+        raise AssertionError("the force block of G differs from the Delassus matrix")
+    velocity = sp.Matrix([*velocity_of_S(), *(nt.a * nt.omega)])
+    return ContactWrench(velocity=velocity, matrix=G, a_free=a_free, rhs=(*dl.rhs, *axes),
+                         acc_C=acc_C, moment=moment)

@@ -26,6 +26,12 @@ velocity of S, the tangential impulse, the work of the normal impulse and of fri
   contact along the unit horizontal ``dir``.
 * ``general_sticking_rhs(q, u, s, sdot, p) -> (dq, R)``: sticking contact and its
   reaction R.
+* ``general_contact_wrench(q, u, s, sdot, p) -> (G, a_free, u)``: with spin friction or
+  rolling resistance, the contact's velocities ``u = (v_S, A omega)`` change as
+  ``du/dt = a_free + G (R, T)`` under the wrench (R, T) at S (G's upper triangle, row
+  by row); the runtime solves for the modes' unknowns on these numbers.
+* ``general_wrench_rhs(q, u, s, p, w) -> dq``: the rates under a given wrench
+  ``w = (R, T)`` at S.
 """
 from __future__ import annotations
 
@@ -229,6 +235,54 @@ def sticking_rhs() -> FunctionSpec:
         definitions=MASS_DEFINITIONS)
 
 
+def _upper6(matrix: sp.Matrix) -> tuple:
+    return tuple(matrix[i, j] for i in range(6) for j in range(i, 6))
+
+
+G_LABELS = tuple(f"G_{i}{j}" for i in range(6) for j in range(i, 6))
+
+
+@lru_cache(maxsize=None)
+def contact_wrench() -> FunctionSpec:
+    """``general_contact_wrench(q, u, s, sdot, p) -> (G, a_free, u_c)``."""
+    cw = fr.contact_wrench()
+    fd = flight_dynamics_structured()
+    return FunctionSpec(
+        name="general_contact_wrench",
+        doc="The contact as a wrench (R, T) at S (derive.friction.contact_wrench): the "
+            "velocity of S and the angular velocity (fixed axes), u, change as du/dt = "
+            "a_free + G (R, T); G's upper triangle row by row, a_free and u (u_c).",
+        inputs=(_q(MODEL), _u(), _s(), Vector("sdot", SDOT, SDOT_LABELS), _p()),
+        outputs=(Vector("G", _upper6(cw.matrix), G_LABELS),
+                 Vector("a_free", tuple(cw.a_free), tuple(f"d({lb})/dt" for lb in
+                                                          fr.RATE_LABELS)),
+                 Vector("u_c", tuple(cw.velocity), fr.RATE_LABELS)),
+        solves=(LinearSolve(matrix=fd.mass_matrix, rhs=(fd.forcing, *cw.rhs),
+                            unknowns=(fr.OMEGA_DOT_0, *fr.Y, *fr.YT)),),
+        definitions=MASS_DEFINITIONS)
+
+
+@lru_cache(maxsize=None)
+def wrench_rhs() -> FunctionSpec:
+    """``general_wrench_rhs(q, u, s, p, w) -> dq``."""
+    cw = fr.contact_wrench()
+    fd = flight_dynamics_structured()
+    rates = _rates(MODEL)
+    rates.update(dict(zip(nt.V_C, cw.acc_C)))
+    rates.update(dict(zip(nt.omega, fr.OMEGA_DOT_W)))
+    return FunctionSpec(
+        name="general_wrench_rhs",
+        doc="Contact under a given wrench w = (R, T) at S (fixed axes): dq/dt with "
+            "V_C' = R/(m+M) - g e_Z and J omega' = f + CS x A^T R + A^T T "
+            "(derive.friction.contact_wrench).",
+        inputs=(_q(MODEL), _u(), _s(), _p(), Vector("w", tuple(fr.WRENCH),
+                                                     fr.WRENCH_LABELS)),
+        outputs=(_dq(rates),),
+        solves=(LinearSolve(matrix=fd.mass_matrix, rhs=(fd.forcing + cw.moment,),
+                            unknowns=(fr.OMEGA_DOT_W,)),),
+        definitions=MASS_DEFINITIONS)
+
+
 @lru_cache(maxsize=None)
 def numpy_function(name: str):
     """The NumPy evaluation (derive.emit.numpy_backend) of the friction function
@@ -243,10 +297,10 @@ def runtime_specs() -> list[FunctionSpec]:
     impulse_slip_direction_rate, not impulse_slip_rate)."""
     return [delassus(), contact_velocity(), impulse_slip_direction_rate(),
             impulse_stick_rate(), impulse_resliding(), apply_impulse(), sliding_rhs(),
-            sticking_rhs()]
+            sticking_rhs(), contact_wrench(), wrench_rhs()]
 
 
 def friction_specs() -> list[FunctionSpec]:
     return [delassus(), contact_velocity(), impulse_slip_rate(), impulse_slip_direction_rate(),
             impulse_stick_rate(), impulse_resliding(), apply_impulse(), sliding_rhs(),
-            sticking_rhs()]
+            sticking_rhs(), contact_wrench(), wrench_rhs()]

@@ -257,3 +257,15 @@ def impact_by_small_steps(Wm, v0, mu, e, steps_per_unit=4000):
         if Ec is not None and En >= (1.0 - e * e) * Ec:
             return P, v
     raise RuntimeError("no end")
+
+
+def under_wrench(q, u, s, sdot, params, R, T):
+    """A contact wrench at S given (fixed axes): the force R at S and a couple T (spin
+    friction and rolling resistance), which adds A^T T to the carrier's Euler equation.
+    Returns (dq, a_S fixed, the angular acceleration in fixed axes A w')."""
+    A = np.asarray(q, float)[9:18].reshape(3, 3)
+    K, Kr, b, Sa, c = _rows(q, u, s, sdot, params)
+    rhs = b - Kr @ (A.T @ np.asarray(R, float))
+    rhs[6:9] += A.T @ np.asarray(T, float)
+    x = np.linalg.solve(K, rhs)
+    return _finish(q, u, params, x), A @ (Sa @ x + c), A @ x[3:6]

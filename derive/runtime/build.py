@@ -108,7 +108,10 @@ class Library:
                     ("crt_set_contact_mode", c.c_int, [c.c_void_p, c.c_int, DP]),
                     ("crt_eval_rough_rows", None, [c.c_void_p, c.c_int, DP, DP, IP, DP, DP,
                                                    DP, DP]),
+                    ("crt_eval_wrench_rows", None, [c.c_void_p, c.c_int, DP, DP, IP, DP, IP,
+                                                    DP, DP, DP, DP]),
                     ("crt_eval_delassus", None, [c.c_void_p, c.c_double, DP, DP, DP]),
+                    ("crt_eval_contact_wrench", None, [c.c_void_p, c.c_double, DP, DP, DP, DP]),
                     ("crt_eval_impact", c.c_int, [c.c_void_p, DP, DP, DP])):
                 fn = getattr(lib, name)
                 fn.restype, fn.argtypes = res, args

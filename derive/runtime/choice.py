@@ -167,6 +167,8 @@ def parameters(scene: Scene, constants: dict) -> np.ndarray:
     if scene.friction:
         prm[_P["friction"]] = scene.friction
         prm[_P["restitution_model"]] = _RESTITUTION[scene.restitution_model]
+        prm[_P["spin_friction"]] = scene.spin_friction
+        prm[_P["rolling_resistance"]] = scene.rolling_resistance
     if scene.size:                     # (the sizes in their slots, then the centre)
         prm[_P["shape"]] = float(shapes.SHAPE_NAMES.index(scene.shape))
         for k, x in zip(_P_SHAPE, (*scene.size, 0.0, 0.0, 0.0)[:3] + tuple(scene.center)):

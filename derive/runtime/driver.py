@@ -351,6 +351,39 @@ class Session:
                                              R.ctypes.data_as(DP), v.ctypes.data_as(DP))
         return dq, R, v
 
+    def wrench_rows(self, t, Q, modes, directions, couples, couple_directions) -> tuple[
+            np.ndarray, np.ndarray, np.ndarray]:
+        """As :meth:`rough_rows` with spin friction or rolling resistance: ``couples``
+        the held channels of each row (abi.COUPLE_BITS) and ``couple_directions`` rows of
+        3 (the spin's sign, the rolling's direction; zero rows: along the angular
+        velocity): (dq/dt, the wrench (R, T) at S, (v_S, A omega)), fixed axes."""
+        t = np.ascontiguousarray(t, dtype=float)
+        Q = np.ascontiguousarray(Q, dtype=float)
+        modes = np.ascontiguousarray(modes, dtype=np.intc)
+        couples = np.ascontiguousarray(couples, dtype=np.intc)
+        d = np.ascontiguousarray(directions, dtype=float)
+        cd = np.ascontiguousarray(couple_directions, dtype=float)
+        n = len(t)
+        dq, w, u = np.zeros_like(Q), np.zeros((n, 6)), np.zeros((n, 6))
+        self.library.lib.crt_eval_wrench_rows(
+            self.handle, n, t.ctypes.data_as(DP), Q.ctypes.data_as(DP),
+            modes.ctypes.data_as(IP), d.ctypes.data_as(DP), couples.ctypes.data_as(IP),
+            cd.ctypes.data_as(DP), dq.ctypes.data_as(DP), w.ctypes.data_as(DP),
+            u.ctypes.data_as(DP))
+        return dq, w, u
+
+    def contact_wrench(self, t: float, q) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The rough model's contact as a wrench at (t, q): G (6x6), a_free and
+        u = (v_S, A omega), fixed axes: du/dt = a_free + G (R, T) (after ``init``)."""
+        q = np.ascontiguousarray(q, dtype=float)
+        g21, a, u = np.zeros(21), np.zeros(6), np.zeros(6)
+        self.library.lib.crt_eval_contact_wrench(self.handle, float(t), q.ctypes.data_as(DP),
+                                                 g21.ctypes.data_as(DP), a.ctypes.data_as(DP),
+                                                 u.ctypes.data_as(DP))
+        G = np.zeros((6, 6))
+        G[np.triu_indices(6)] = g21
+        return G + np.triu(G, 1).T, a, u
+
     def delassus(self, t: float, q) -> tuple[np.ndarray, np.ndarray]:
         """The rough model's Delassus matrix W (3x3, fixed axes) and the velocity of S at
         (t, q) (after ``init``)."""
@@ -543,8 +576,23 @@ class Result:
                 if kind == impact:
                     ev.update({c: float(r[_COL[c]]) for c in _FRICTION_COLUMNS})
                     ev["stage"] = ("slip", "stick", "reslide")[int(r[_COL["stage"]])]
+                if self.couples_on:
+                    ev["couples"] = int(r[_COL["couples"]])
             out.append(ev)
         return out
+
+    @property
+    def couples_on(self) -> bool:
+        """The rough model with spin friction or rolling resistance."""
+        return self.rough and (self.scene.spin_friction > 0.0
+                               or self.scene.rolling_resistance > 0.0)
+
+    @cached_property
+    def couples(self) -> np.ndarray:
+        """The couples' channels held on every row (bits abi.COUPLE_BITS: 1 the spin, 2 the
+        rolling; 0 in flight and without couples), from the events as :attr:`modes`."""
+        from .motion import contact_couples
+        return contact_couples(self)
 
     @cached_property
     def modes(self) -> np.ndarray:

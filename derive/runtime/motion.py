@@ -49,6 +49,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import abi, layout
+from .choice import length_scale
 
 G = layout.GENERAL
 
@@ -206,18 +207,22 @@ def sliding_directions(result, a: int, b: int) -> np.ndarray:
     stops, and along its first as it starts: crt_friction.h, v_freeze; a slip located at
     its stop can have passed 0 by the event's tolerance and point backwards); zero rows
     where there is none (the runtime's own reference then: see crt_eval_rough_rows)."""
-    v = result.slip[a:b]
-    speed = np.hypot(v[:, 0], v[:, 1])
     scale = float(np.max(np.abs(result.model_q[a:b, G.com_velocity]))) + 1.0
-    good = speed > 10.0 * np.sqrt(result.scene.rtol) * scale
-    out = np.zeros((b - a, 2))
+    return resolved_directions(result.slip[a:b], scale, result.scene.rtol)
+
+
+def resolved_directions(v: np.ndarray, scale: float, rtol: float) -> np.ndarray:
+    """Rows of v (n x k) made unit where |v| > 10 sqrt(rtol) scale, elsewhere the
+    nearest such row's (see :func:`sliding_directions`); zero rows where there is none."""
+    speed = np.hypot(v[:, 0], v[:, 1]) if v.shape[1] == 2 else np.abs(v[:, 0])
+    good = speed > 10.0 * np.sqrt(rtol) * scale
+    out = np.zeros(v.shape)
     if not good.any():
         return out
-    idx = np.flatnonzero(good)
-    nearest = idx[np.clip(np.searchsorted(idx, np.arange(b - a)), 0, len(idx) - 1)]
-    before = idx[np.clip(np.searchsorted(idx, np.arange(b - a)) - 1, 0, len(idx) - 1)]
-    pick = np.where(np.abs(before - np.arange(b - a)) < np.abs(nearest - np.arange(b - a)),
-                    before, nearest)
+    idx, rows = np.flatnonzero(good), np.arange(len(v))
+    nearest = idx[np.clip(np.searchsorted(idx, rows), 0, len(idx) - 1)]
+    before = idx[np.clip(np.searchsorted(idx, rows) - 1, 0, len(idx) - 1)]
+    pick = np.where(np.abs(before - rows) < np.abs(nearest - rows), before, nearest)
     out[:] = v[pick] / speed[pick][:, None]
     return out
 
@@ -229,14 +234,27 @@ def rough_contact_power(result, mo: Motion, a: int, b: int) -> tuple[np.ndarray,
     or sticking equations in each row's mode."""
     s = result.scene
     q = result.model_q[a:b]
-    dq, R, v_S = result.session.rough_rows(result.t[a:b], q, result.modes[a:b],
-                                           sliding_directions(result, a, b))
+    if result.couples_on:        # the couple's power (T, Omega) joins the friction's
+        A = q[:, G.A].reshape(-1, 3, 3)
+        Om = np.einsum("nij,nj->ni", A, q[:, G.omega])
+        scale = (float(np.max(np.abs(q[:, G.com_velocity]))) + 1.0) / length_scale(s)
+        cdir = np.c_[resolved_directions(Om[:, 2:], scale, s.rtol),
+                     resolved_directions(Om[:, :2], scale, s.rtol)]
+        dq, w, u = result.session.wrench_rows(result.t[a:b], q, result.modes[a:b],
+                                              sliding_directions(result, a, b),
+                                              result.couples[a:b], cdir)
+        R, v_S = w[:, :3], u[:, :3]
+        friction = np.einsum("ij,ij->i", w, u)
+    else:
+        dq, R, v_S = result.session.rough_rows(result.t[a:b], q, result.modes[a:b],
+                                               sliding_directions(result, a, b))
+        friction = np.einsum("ij,ij->i", R, v_S)
     wd = dq[:, G.omega]
     r, v, w = mo.r[a:b], mo.v_r[a:b], mo.omega[a:b]
     rel = mo.a_r[a:b] + 2.0 * np.cross(w, v) + np.cross(wd, r) + np.cross(w, np.cross(w, r))
     A = q[:, G.A].reshape(-1, 3, 3)
     F = s.mu * rel + (s.m / (s.m + s.M)) * np.einsum("nij,ni->nj", A, R)
-    return np.einsum("ij,ij->i", F, v), np.einsum("ij,ij->i", R, v_S)
+    return np.einsum("ij,ij->i", F, v), friction
 
 
 def integrate(t: np.ndarray, f: np.ndarray, points: int = 6) -> float:
@@ -274,8 +292,11 @@ def event_rows(result) -> list[tuple[int, dict]]:
         ti = result.t[i]
         while start < len(events) and events[start]["t"] < ti - 1e-9 * scale:
             start += 1
-        near = [k for k in range(start, len(events))
-                if not used[k] and abs(events[k]["t"] - ti) <= 1e-9 * scale]
+        near, k = [], start          # (the events are in time order: stop past ti)
+        while k < len(events) and events[k]["t"] <= ti + 1e-9 * scale:
+            if not used[k] and abs(events[k]["t"] - ti) <= 1e-9 * scale:
+                near.append(k)
+            k += 1
         if not near:
             out.append((int(i), {"t": float(ti), "kind": "event"}))
             continue
@@ -324,6 +345,23 @@ def contact_modes(result) -> np.ndarray:
     k = np.searchsorted(times, t, side="right")
     k_before = np.searchsorted(times, t, side="left")
     out[:] = after[np.where(before_rows, k_before, k)]
+    return out
+
+
+def contact_couples(result) -> np.ndarray:
+    """The couples' channels held on every row (abi.COUPLE_BITS), as
+    :func:`contact_modes` reads the modes: the event column ``couples`` after each event
+    (0 after one that leaves contact)."""
+    t = result.t
+    out = np.zeros(len(t), dtype=int)
+    if not result.couples_on or not result.events:
+        return out
+    times = np.array([ev["t"] for ev in result.events])
+    after = np.array([0] + [ev["couples"] if ev.get("mode") not in (None, "flight") else 0
+                            for ev in result.events])
+    k = np.searchsorted(times, t, side="right")
+    k_before = np.searchsorted(times, t, side="left")
+    out[:] = after[np.where(result.row_kind == 1, k_before, k)]
     return out
 
 
@@ -478,6 +516,7 @@ def _resampled(result, a: int, b: int):
                   event_rows=np.zeros((0, raw.events.shape[1])), rates=None)
     if mode >= 2:
         sub.__dict__["modes"] = np.full(len(t), mode)       # (no events to read it from)
+        sub.__dict__["couples"] = np.full(len(t), int(result.couples[a]))
     return sub
 
 

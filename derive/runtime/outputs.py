@@ -93,14 +93,21 @@ def summary(result: Result, mo: Motion | None = None) -> dict:
 def _friction_summary(result: Result) -> dict:
     """The rough model's contact numbers: mu_f, the restitution law, the largest |R_t|/(mu_f
     R_Z) at the ends of contact steps (at most 1: the cone held), the time sliding and
-    sticking."""
+    sticking; with couples mu_s, mu_r and the time the spin and the rolling are held."""
     t, modes = result.t, result.modes
     dt = np.diff(t)
     mid = modes[:-1]
-    return {"friction": result.scene.friction,
-            "restitution_model": result.scene.restitution_model,
-            "max_friction_ratio": float(result.summary["max_friction_ratio"]),
-            "time_sliding": float(dt[mid == 2].sum()), "time_sticking": float(dt[mid == 3].sum())}
+    out = {"friction": result.scene.friction,
+           "restitution_model": result.scene.restitution_model,
+           "max_friction_ratio": float(result.summary["max_friction_ratio"]),
+           "time_sliding": float(dt[mid == 2].sum()), "time_sticking": float(dt[mid == 3].sum())}
+    if result.couples_on:          # and the couples: their lengths, the time each is held
+        held = result.couples[:-1]
+        out.update({"spin_friction": result.scene.spin_friction,
+                    "rolling_resistance": result.scene.rolling_resistance,
+                    "time_spin_held": float(dt[(mid >= 2) & ((held & 1) != 0)].sum()),
+                    "time_rolling_held": float(dt[(mid >= 2) & ((held & 2) != 0)].sum())})
+    return out
 
 
 def plain(label: str) -> str:

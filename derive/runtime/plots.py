@@ -278,7 +278,8 @@ def _mode_spans(ax, t, modes) -> None:
 
 def friction_panels(ax_slip, ax_mode, result) -> None:
     """The rough model: the slip speed of S (sliding and sticking shaded) and the contact
-    mode with the impacts' tangential impulses."""
+    mode with the impacts' tangential impulses (and, with couples, where the spin and the
+    rolling are held)."""
     t, modes = result.t, result.modes
     speed = np.hypot(*result.slip.T)
     i = drawing.drawn_rows(t, speed)
@@ -289,8 +290,16 @@ def friction_panels(ax_slip, ax_mode, result) -> None:
     _labels(ax_slip, [("slip speed", "C3"), ("sliding", "#e6550d"), ("sticking", "#41ab5d")])
     ax_slip.set_xlim(t[0], t[-1])
     ax_mode.step(t, modes, where="post", lw=1, color="k")
-    ax_mode.set_yticks([0, 2, 3])
-    ax_mode.set_yticklabels(["flight", "sliding", "sticking"], fontsize=8)
+    ticks, names = [0, 2, 3], ["flight", "sliding", "sticking"]
+    if result.couples_on:          # the couples' channels held: a bar each while held
+        for bit, level, name, colour in ((1, 1.25, "spin held", "C4"),
+                                         (2, 0.75, "rolling held", "C2")):
+            held = ((result.couples & bit) != 0) & (modes >= 2)
+            ax_mode.step(t, np.where(held, level, np.nan), where="post", lw=3, color=colour)
+            ticks.append(level)
+            names.append(name)
+    ax_mode.set_yticks(ticks)
+    ax_mode.set_yticklabels(names, fontsize=8)
     ax_mode.set_ylim(-0.3, 3.3)
     imp = result.impacts_friction
     if len(imp):
@@ -301,7 +310,8 @@ def friction_panels(ax_slip, ax_mode, result) -> None:
         tw.set_ylim(0.0, 1.1 * max(pt.max(), 1e-300))
         tw.tick_params(labelsize=8)
         tw.set_ylabel("|P_t| [N s]", fontsize=9, color="C0")
-    ax_mode.set_title("contact mode; impacts' tangential impulses |P_t|", **_TITLE)
+    ax_mode.set_title("contact mode" + ("; couples held" if result.couples_on else "")
+                      + "; impacts' tangential impulses |P_t|", **_TITLE)
     ax_mode.set_xlim(t[0], t[-1])
 
 

@@ -91,6 +91,7 @@ def static_part(v: dict, given: set, origin: str = "scene", base: Path | None = 
                   shape=v["[body].shape"], size=d.size, center=d.center, m=v["[point].mass"],
                   law=d.law, law_text=d.law_text, plane=d.plane, e=d.e, t0=d.t0,
                   friction=d.friction, restitution_model=d.restitution_model,
+                  spin_friction=d.spin_friction, rolling_resistance=d.rolling_resistance,
                   duration=d.duration if with_law else 0.0,
                   method=run("method"), rtol=run("rtol"), atol=run("atol"), g=run("g"),
                   outputs=run("outputs"), max_events=run("max_events"),

@@ -52,6 +52,8 @@ class Draft:
     e: float = 1.0
     friction: float = 0.0
     restitution_model: str = "energetic"
+    spin_friction: float = 0.0
+    rolling_resistance: float = 0.0
     t0: float = 0.0
     duration: float = 0.0
     law: Any = None
@@ -113,6 +115,12 @@ def _required(d: Draft) -> None:
     d.friction = v.get("[plane].friction", 0.0) if d.plane else 0.0
     d.restitution_model = v.get("[plane].restitution_model", "energetic") if d.plane \
         else "energetic"
+    for key in ("spin_friction", "rolling_resistance"):
+        value = v.get(f"[plane].{key}", 0.0) if d.plane else 0.0
+        if value > 0.0 and not d.friction > 0.0:
+            raise SceneError(f"[plane].{key}", "needs [plane].friction > 0 (the couple acts "
+                                               "in the rough model's contact)")
+        setattr(d, key, value)
     d.t0 = v["[initial].time"]
 
 

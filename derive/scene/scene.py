@@ -105,6 +105,8 @@ class Scene:
     doc_source: Any = field(default=None, compare=False, repr=False)   # see Scene.doc
     friction: float = 0.0      # mu_f at S ([plane].friction)
     restitution_model: str = "energetic"
+    spin_friction: float = 0.0       # mu_s, a length ([plane].spin_friction)
+    rolling_resistance: float = 0.0  # mu_r, a length ([plane].rolling_resistance)
 
     @classmethod
     def of_fields(cls, base: dict | None = None, **values) -> "Scene":

@@ -125,6 +125,13 @@ SCENE_FIELDS = (
       "ratio e), newton (v_n+ = -e v_n-; energy-consistent only where mu_f |W_tn| = 0, and "
       "elsewhere the run stops with restitution_refused); with friction = 0 all three are "
       "E1.13", choices=("energetic", "poisson", "newton")),
+    F("plane", "spin_friction", "number", 0.0, "mu_s, a length: drilling friction, a couple "
+      "about the vertical at S with |T_Z| <= mu_s N that opposes the spin (a contact "
+      "patch's; 0: none).  In contact only, with friction > 0", 0, MAX_LENGTH),
+    F("plane", "rolling_resistance", "number", 0.0, "mu_r, a length: rolling resistance, a "
+      "couple about the horizontal at S with |(T_X, T_Y)| <= mu_r N that opposes the "
+      "rolling (a flat face of half-width mu_r that must not tip; 0: none).  In contact "
+      "only, with friction > 0", 0, MAX_LENGTH),
     F("initial", "time", "number", 0.0, "t0", -1e9, 1e9),
     F("initial", "com", "vector", [0.0, 0.0, 0.0], "X_C, Y_C, Z_C", -1e9, 1e9, size=3,
       example=[0.0, 0.0, 1.5]),

@@ -51,9 +51,11 @@ COMMANDS = (
             "cost", "derive.verify.robustness", (
                 Arg.of("-n", "--cases", dest="n", type=CASES, default=10_000,
                        help="number of scenes on each plane (default 10000)"),
-                Arg.of("--plane", choices=["smooth", "rough", "both"], default="both",
+                Arg.of("--plane", choices=["smooth", "rough", "couples", "both"],
+                       default="both",
                        help="the smooth plane's scenes, the rough plane's (friction; up to "
-                            "20 s each), or both (default)"),
+                            "20 s each), the rough plane's with spin friction and rolling "
+                            "resistance (couples), or smooth and rough (both, default)"),
                 Arg.of("--seed", type=int, default=11, help="the generator's seed"),
                 Arg.of("--duration", dest="max_duration", type=positive_float, metavar="SECONDS",
                        default=60.0, help="longest scene duration in s (default 60)"),

@@ -96,12 +96,13 @@ def random_scene(rng: np.random.Generator, max_duration: float = 60.0,
 
 
 def random_rough_scene(rng: np.random.Generator, max_duration: float = 20.0,
-                       method: str | None = None) -> dict:
+                       method: str | None = None, couples: bool = False) -> dict:
     """A random valid scene on a rough plane: :func:`random_scene`'s bodies, laws and
     starts, with mu_f from 0.05 to 1.5 (a fifth of them above 1), the restitution law
     energetic or poisson, restitution in {0, 0.1, 0.5, 0.9} or random (mostly low: the
     impacts accumulate into sliding and sticking), and a third of them starting on the
-    plane, sliding and spinning."""
+    plane, sliding and spinning.  ``couples``: also spin friction and rolling resistance,
+    each up to 30% of the body's size (one of them 0 in a third of the scenes)."""
     doc = random_scene(rng, max_duration, method)
     mu = rng.uniform(1.0, 1.5) if rng.random() < 0.2 else rng.uniform(0.05, 1.0)
     e = float(rng.choice((0.0, 0.1, 0.5, 0.9))) if rng.random() < 0.7 \
@@ -123,6 +124,12 @@ def random_rough_scene(rng: np.random.Generator, max_duration: float = 20.0,
         doc["initial"]["com"][2] = float(-(A @ (s - m / (M + m) * np.asarray(r)))[2]) + 1e-9
         doc["initial"]["com_velocity"][2] = 0.0
     doc["run"]["duration"] = float(min(doc["run"]["duration"], max_duration))
+    if couples:
+        size = doc["body"].get("radius") or max(doc["body"]["semi_axes"])
+        mu_s, mu_r = rng.uniform(0.0, 0.3, 2) * size
+        which = rng.random()
+        doc["plane"]["spin_friction"] = float(mu_s) if which > 1 / 6 else 0.0
+        doc["plane"]["rolling_resistance"] = float(mu_r) if which < 5 / 6 else 0.0
     return doc
 
 

@@ -228,16 +228,79 @@ CONE_SLACK = 100.0
 ENERGY_SLACK = 1e-6
 
 
+def _couples_painleve_ratio(result) -> float:
+    """With couples: the largest share of G_ZZ that the reactions proportional to N can
+    take from N's coefficient k at the last row, over every choice of held and turning
+    channels and directions (the slip's and the rolling's on 72 angles each, the spin's
+    two signs); 1 or more where some choice makes k vanish."""
+    s = result.scene
+    G, _, _ = result.session.contact_wrench(result.t[-1], result.model_q[-1])
+    angles = np.linspace(0.0, 2.0 * math.pi, 72, endpoint=False)
+    circle = np.c_[np.cos(angles), np.sin(angles)]
+    worst = 0.0
+    for slip_held in (False, True):
+        for spin in ((None, 1.0, -1.0) if s.spin_friction > 0 else (0.0,)):
+            for roll_held in ((False, True) if s.rolling_resistance > 0 else (True,)):
+                held = ([0, 1] if slip_held else []) + ([5] if spin is None else []) \
+                    + ([3, 4] if roll_held else [])
+                for sl in (circle[:1] if slip_held else circle):
+                    for rl in (circle[:1] if roll_held else circle):
+                        b = np.zeros(6)
+                        b[2] = 1.0
+                        if not slip_held:
+                            b[:2] = -s.friction * sl
+                        if spin is not None:
+                            b[5] = -s.spin_friction * spin
+                        if not roll_held:
+                            b[3:5] = -s.rolling_resistance * rl
+                        Gb = G @ b
+                        k = Gb[2]
+                        if held:
+                            H = G[np.ix_(held, held)]
+                            k -= G[2, held] @ np.linalg.solve(H, Gb[held])
+                        worst = max(worst, 1.0 - k / G[2, 2])
+    return worst
+
+
 def _judge_painleve(result) -> tuple[str, str]:
     """An honest painleve: at the last row sliding friction can make k_f = W_ZZ - mu_f
     (W_Zt, dir) vanish for some direction, mu_f |W_tn| >= W_ZZ (to 1%: the runtime stops
     where k_f falls below 1e-2 W_ZZ with N beyond 100 weights)."""
     W, _ = result.session.delassus(result.t[-1], result.model_q[-1])
     ratio = result.scene.friction * math.hypot(W[0, 2], W[1, 2]) / W[2, 2]
+    if result.couples_on:
+        ratio = max(ratio, _couples_painleve_ratio(result))
+    what = "1 - k/W_ZZ at worst (with the couples)" if result.couples_on \
+        else "mu_f |W_tn|/W_ZZ"
     if ratio >= 0.99:
-        return "painleve", f"at t = {result.t[-1]:.6g}: mu_f |W_tn|/W_ZZ = {ratio:.3f}"
-    return "status", (f"painleve at t = {result.t[-1]:.6g} where mu_f |W_tn|/W_ZZ = "
+        return "painleve", f"at t = {result.t[-1]:.6g}: {what} = {ratio:.3f}"
+    return "status", (f"painleve at t = {result.t[-1]:.6g} where {what} = "
                       f"{ratio:.3f} < 1: no direction makes k_f vanish")
+
+
+def _couple_rows(result, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """With couples, the wrench (R, T) and (v_S, A omega) of contact rows, and which rows
+    have every channel known: held, or turning with its angular velocity resolved (as
+    the slip's: below that the runtime turns it along a reference these rows do not
+    record, and the other unknowns depend on it)."""
+    from ..runtime.choice import length_scale
+    s = result.scene
+    _, w, u = result.session.wrench_rows(
+        result.t[rows], result.model_q[rows], result.modes[rows], np.zeros((len(rows), 2)),
+        result.couples[rows], np.zeros((len(rows), 3)))
+    w_scale = (float(np.max(np.abs(result.model_q[:, 3:6]))) + 1.0) / length_scale(s)
+    known = np.ones(len(rows), dtype=bool)
+    for bit, cols, mu in COUPLE_CHANNELS(s):
+        held = (result.couples[rows] & bit) != 0
+        known &= held | (np.linalg.norm(u[:, cols], axis=1)
+                         > 10.0 * math.sqrt(s.rtol) * w_scale)
+    return w, u, known
+
+
+def COUPLE_CHANNELS(s) -> list:
+    """(bit, columns of the wrench, bound) of the couples a scene has on."""
+    return [(bit, cols, mu) for bit, cols, mu in (
+        (1, [5], s.spin_friction), (2, [3, 4], s.rolling_resistance)) if mu > 0.0]
 
 
 def judge_rough(result) -> tuple[str, str]:
@@ -247,6 +310,7 @@ def judge_rough(result) -> tuple[str, str]:
     these rows do not record, and its own least N at the steps' ends stands for them),
     friction's work never positive, and no energy gain beyond the drive's work
     (runtime.motion.energy_balance)."""
+    from ..runtime.choice import length_scale
     from ..runtime.motion import energy_balance, motion
     s = result.scene
     F = (s.M + s.m) * max(s.g, 1.0)
@@ -259,14 +323,30 @@ def judge_rough(result) -> tuple[str, str]:
         return "cone", f"the runtime's least normal reaction in contact: {result.min_normal:.3g} N"
     rows = np.flatnonzero(result.modes >= 2) if not rk4 else np.zeros(0, dtype=int)
     if len(rows):
-        _, R, v = result.session.rough_rows(result.t[rows], result.model_q[rows],
-                                            result.modes[rows])
+        if result.couples_on:
+            w, u, known = _couple_rows(result, rows)
+            R, v = w[:, :3], u[:, :3]
+        else:
+            _, R, v = result.session.rough_rows(result.t[rows], result.model_q[rows],
+                                                result.modes[rows])
+            known = np.ones(len(rows), dtype=bool)
         speed = np.hypot(v[:, 0], v[:, 1])
         v_scale = float(np.max(np.abs(result.model_q[:, 3:6]))) + 1.0    # V_C
         # below sqrt(rtol) of the speeds the runtime keeps the friction's last direction
         # (crt_friction.h, v_freeze): there v_t/|v_t| is not the runtime's direction
-        keep = (result.modes[rows] == 3) | (speed > 10.0 * math.sqrt(s.rtol) * v_scale)
+        keep = known & ((result.modes[rows] == 3)
+                        | (speed > 10.0 * math.sqrt(s.rtol) * v_scale))
         R, rows = R[keep], rows[keep]
+        if result.couples_on:
+            # each couple inside its bound: |T_Z| <= mu_s N, |(T_X, T_Y)| <= mu_r N
+            w = w[keep]
+            for bit, cols, mu in COUPLE_CHANNELS(s):
+                excess = np.linalg.norm(w[:, cols], axis=1) - mu * w[:, 2]
+                k = int(np.argmax(excess)) if len(rows) else 0
+                if len(rows) and excess[k] > slack * length_scale(s):
+                    return "cone", (f"|T| - mu N = {excess[k]:.3g} N m (couple {bit}) at t "
+                                    f"= {result.t[rows[k]]:.6g} (row kind "
+                                    f"{result.row_kind[rows[k]]})")
     if len(rows):
         excess = np.hypot(R[:, 0], R[:, 1]) - s.friction * R[:, 2]
         k = int(np.argmax(excess))

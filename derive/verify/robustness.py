@@ -57,7 +57,8 @@ def run_one(args) -> Outcome:
     from ..scene import SceneError, parse_scene
     rng = np.random.default_rng(seed)
     doc = with_rk4_step(random_scene(rng, max_duration) if plane == "smooth" else
-                        random_rough_scene(rng, min(max_duration, ROUGH_MAX_DURATION)), rng)
+                        random_rough_scene(rng, min(max_duration, ROUGH_MAX_DURATION),
+                                           couples=plane == "couples"), rng)
     size = max(doc["body"].get("semi_axes", [doc["body"].get("radius", 0.0)]))
     start = time.perf_counter()
     try:
@@ -74,21 +75,24 @@ def run_one(args) -> Outcome:
                         f"{kinds.get('contact', 0)} contacts, {result.stats['steps']} steps"
                         + (f", mu_f {scene.friction:.3g}: {kinds.get('stick', 0)} sticks, "
                            f"{kinds.get('slip', 0)} slips, {kinds.get('reversal', 0)} "
-                           "reversals" if plane == "rough" else ""))
+                           "reversals" if plane != "smooth" else ""))
     return Outcome(index, verdict, result.status, seconds, result.min_height, size,
                    scene.duration, detail, plane)
 
 
-PLANES = ("smooth", "rough", "both")
+PLANES = ("smooth", "rough", "couples", "both")
+# the planes a run reports on, and their seeds' offsets
+PLANE_SEEDS = {"smooth": 0, "rough": 500_009, "couples": 700_001}
 
 
 def run(n: int = 10_000, seed: int = 11, max_duration: float = 60.0,
         workers: int | None = None, plane: str = "both", progress=None) -> list[Outcome]:
-    """n random scenes on each plane asked (``plane``: smooth, rough or both; smooth scene
-    k from the seed ``seed * 1000003 + k``, rough scene k from ``seed * 1000003 + 500009 +
-    k``), ``workers`` forked processes at once (default: every core)."""
+    """n random scenes on each plane asked (``plane``: smooth, rough, couples (rough with
+    spin friction and rolling resistance) or both (smooth and rough); scene k from the seed
+    ``seed * 1000003 + PLANE_SEEDS[plane] + k``), ``workers`` forked processes at once
+    (default: every core)."""
     planes = ("smooth", "rough") if plane == "both" else (plane,)
-    tasks = [(k, seed * 1_000_003 + (500_009 if p == "rough" else 0) + k, max_duration, p)
+    tasks = [(k, seed * 1_000_003 + PLANE_SEEDS[p] + k, max_duration, p)
              for p in planes for k in range(n)]
     n = len(tasks)
     workers = workers or os.cpu_count() or 1
@@ -118,7 +122,7 @@ def _cost(outcomes: list[Outcome]) -> tuple[list[Outcome], float, list[Outcome]]
     ran = [o for o in outcomes if o.verdict != "refused"]
     med = float(np.median([o.seconds / o.duration for o in ran])) if ran else 0.0
     slow = []
-    for plane in ("smooth", "rough"):
+    for plane in PLANE_SEEDS:
         mine = [o for o in ran if o.plane == plane]
         if mine:
             m = float(np.median([o.seconds / o.duration for o in mine]))
@@ -146,12 +150,15 @@ def report(outcomes: list[Outcome]) -> str:
     ran, med, slow = _cost(outcomes)
     times = np.array([o.seconds for o in ran]) if ran else np.zeros(1)
     lines = []
-    for plane in ("smooth", "rough"):
+    for plane in PLANE_SEEDS:
         mine = Counter(o.verdict for o in outcomes if o.plane == plane)
         if mine:
-            lines.append(f"{sum(mine.values())} random bouncing scenes on the {plane} plane: "
+            where = {"couples": "rough plane with spin friction and rolling resistance"}.get(
+                plane, f"{plane} plane")
+            lines.append(f"{sum(mine.values())} random bouncing scenes on the {where}: "
                          + ", ".join(f"{k} {v}" for k, v in sorted(mine.items()))
-                         + (" (painleve: honest stops where mu_f |W_tn| >= W_ZZ)"
+                         + (" (painleve: honest stops where sliding friction can make N's "
+                            "coefficient vanish)"
                             if mine.get("painleve") else ""))
     lines += [
              f"time per scene: median {1e3 * np.median(times):.1f} ms, max "

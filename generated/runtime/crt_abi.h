@@ -55,7 +55,9 @@ enum crt_parameter {
   CRT_P_omega_z0 = 18,  /* axisymmetric model: omega_z, constant in flight (E3.6) */
   CRT_P_friction = 19,  /* rough model: mu_f, Coulomb's friction coefficient at S (>= 0) */
   CRT_P_restitution_model = 20,  /* rough model: how an impact's restitution ends (enum crt_restitution: energetic, poisson or newton) */
-  CRT_P_COUNT = 21
+  CRT_P_spin_friction = 21,  /* rough model: mu_s, a length: |T_Z| <= mu_s N in contact (0: none) */
+  CRT_P_rolling_resistance = 22,  /* rough model: mu_r, a length: |(T_X, T_Y)| <= mu_r N in contact (0: none) */
+  CRT_P_COUNT = 23
 };
 
 /* Values of prm[CRT_P_shape]: the surfaces of derive/shapes.py, in their order. */
@@ -135,7 +137,11 @@ enum crt_event_kind {
   CRT_EV_STICK = 6,  /* the slip of S reached 0 with the reaction inside the cone: S sticks */
   CRT_EV_SLIP = 7,  /* the sticking reaction left the friction cone: S starts to slip */
   CRT_EV_REVERSAL = 8,  /* the slip reached 0 and the cone cannot hold S: it slips again, along -R_t */
-  CRT_EV_COUNT = 9
+  CRT_EV_SPIN_STOP = 9,  /* the spin about the vertical reached 0 and the drilling couple holds it (value: |T_Z|/(mu_s N)) */
+  CRT_EV_SPIN_START = 10,  /* the drilling couple reached mu_s N (or cannot hold the spin it stopped): the body spins from rest against it (value: |T_Z|/(mu_s N)) */
+  CRT_EV_ROLL_STOP = 11,  /* the rolling (the horizontal angular velocity) reached 0 and the rolling resistance holds it (value: |T_t|/(mu_r N)) */
+  CRT_EV_ROLL_START = 12,  /* the rolling resistance reached mu_r N (or cannot hold the rolling it stopped): the body rolls from rest against it (value: |T_t|/(mu_r N)) */
+  CRT_EV_COUNT = 13
 };
 
 /* Counters read with crt_stats (long[CRT_STAT_COUNT]). */
@@ -155,7 +161,9 @@ enum crt_stat {
   CRT_STAT_STICKS = 12,  /* stick events (slip to stick in contact) */
   CRT_STAT_SLIPS = 13,  /* slip events (stick to slip in contact) */
   CRT_STAT_REVERSALS = 14,  /* reversal events (the slip reached 0 and restarted) */
-  CRT_STAT_COUNT = 15
+  CRT_STAT_COUPLE_STOPS = 15,  /* spin_stop and roll_stop events */
+  CRT_STAT_COUPLE_STARTS = 16,  /* spin_start and roll_start events */
+  CRT_STAT_COUNT = 17
 };
 
 /* The kind of each output row. */
@@ -214,7 +222,7 @@ enum crt_opcode {
 };
 
 #define CRT_LAW_MAX_NODES 1024
-#define CRT_EVENT_COLUMNS 16  /* t, kind, value, v_minus, v_plus, t_accumulation, mode, P_X, P_Y, slip_X_minus, slip_Y_minus, slip_X_plus, slip_Y_plus, work_normal, work_friction, stage */
+#define CRT_EVENT_COLUMNS 17  /* t, kind, value, v_minus, v_plus, t_accumulation, mode, P_X, P_Y, slip_X_minus, slip_Y_minus, slip_X_plus, slip_Y_plus, work_normal, work_friction, stage, couples */
 /* The smallest output buffers crt_advance takes: smaller ones are refused with
    CRT_BAD_ARGUMENT (a step needs room for its rows and an event's). */
 #define CRT_MIN_ROWS 8
@@ -285,7 +293,7 @@ const char *crt_option_name(int i)
 
 const char *crt_parameter_name(int i)
 {
-  static const char names[21][18] = {
+  static const char names[23][19] = {
     "M",
     "m",
     "J_x",
@@ -306,9 +314,11 @@ const char *crt_parameter_name(int i)
     "K",
     "omega_z0",
     "friction",
-    "restitution_model"
+    "restitution_model",
+    "spin_friction",
+    "rolling_resistance"
   };
-  return (i >= 0 && i < 21) ? names[i] : "";
+  return (i >= 0 && i < 23) ? names[i] : "";
 }
 
 const char *crt_method_name(int i)
@@ -351,7 +361,7 @@ const char *crt_status_name(int code)
 
 const char *crt_event_name(int i)
 {
-  static const char names[9][9] = {
+  static const char names[13][11] = {
     "none",
     "impact",
     "contact",
@@ -360,14 +370,18 @@ const char *crt_event_name(int i)
     "push",
     "stick",
     "slip",
-    "reversal"
+    "reversal",
+    "spin_stop",
+    "spin_start",
+    "roll_stop",
+    "roll_start"
   };
-  return (i >= 0 && i < 9) ? names[i] : "";
+  return (i >= 0 && i < 13) ? names[i] : "";
 }
 
 const char *crt_stat_name(int i)
 {
-  static const char names[15][27] = {
+  static const char names[17][27] = {
     "steps",
     "rejected",
     "rhs_evaluations",
@@ -382,9 +396,11 @@ const char *crt_stat_name(int i)
     "pushes",
     "sticks",
     "slips",
-    "reversals"
+    "reversals",
+    "couple_stops",
+    "couple_starts"
   };
-  return (i >= 0 && i < 15) ? names[i] : "";
+  return (i >= 0 && i < 17) ? names[i] : "";
 }
 
 const char *crt_summary_name(int i)

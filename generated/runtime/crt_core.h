@@ -546,7 +546,8 @@ static int crt_events_exhausted(crt_session *s)
   const double n = (double)(s->stat[CRT_STAT_IMPACTS] + s->stat[CRT_STAT_CONTACTS]
                             + s->stat[CRT_STAT_LIFTOFFS] + s->stat[CRT_STAT_GRAZES]
                             + s->stat[CRT_STAT_STICKS] + s->stat[CRT_STAT_SLIPS]
-                            + s->stat[CRT_STAT_REVERSALS]);
+                            + s->stat[CRT_STAT_REVERSALS] + s->stat[CRT_STAT_COUPLE_STOPS]
+                            + s->stat[CRT_STAT_COUPLE_STARTS]);
   if (s->status < 0) return 1;            /* an event refused (friction: painleve, ...) */
   if (n >= s->opt[CRT_OPT_MAX_EVENTS]) {
     s->status = CRT_MAX_EVENTS;
@@ -607,7 +608,7 @@ static void crt_collide(crt_session *s, crt_out *o, double t, const double *q)
     if (!crt_rough_impact(s, t, q_plus, &dk)) return;
     impulse = dk.P[2];
     crt_gap(s, t, q_plus, &gap2, &v_plus);
-    crt_rough_event(o, t, CRT_EV_IMPACT, impulse, v_n, v_plus, 0.0, CRT_MODE_FLIGHT, &dk);
+    crt_rough_event(s, o, t, CRT_EV_IMPACT, impulse, v_n, v_plus, 0.0, CRT_MODE_FLIGHT, &dk);
 #else
     model_impact(s->prm, s->prm[CRT_P_e], crt_u(s, t), s->q, q_plus, &impulse);
     crt_gap(s, t, q_plus, &gap2, &v_plus);
@@ -909,6 +910,8 @@ static int crt_parameter_fault(const double *prm)
         && prm[CRT_P_shape] == (double)(int)prm[CRT_P_shape]))
     return CRT_P_shape;
   if (!(prm[CRT_P_friction] >= 0.0)) return CRT_P_friction;
+  if (!(prm[CRT_P_spin_friction] >= 0.0)) return CRT_P_spin_friction;
+  if (!(prm[CRT_P_rolling_resistance] >= 0.0)) return CRT_P_rolling_resistance;
   if (!(law >= 0.0 && law < (double)CRT_RESTITUTION_COUNT && (double)(int)law == law))
     return CRT_P_restitution_model;
   return -1;
@@ -961,6 +964,12 @@ int crt_init(crt_session *s, const double *opt, const double *prm, double t0, co
   if (s->bad_option >= 0) { s->status = CRT_BAD_OPTIONS; return s->status; }
   s->bad_parameter = crt_parameter_fault(s->prm);
   if (s->bad_parameter >= 0) { s->status = CRT_BAD_PARAMETERS; return s->status; }
+#if MODEL_FRICTION
+  s->fr.spin.on = s->prm[CRT_P_spin_friction] > 0.0;
+  s->fr.roll.on = s->prm[CRT_P_rolling_resistance] > 0.0;
+  s->fr.couples = s->fr.spin.on || s->fr.roll.on;
+  s->fr.spin.held = s->fr.roll.held = 0;
+#endif
   if (!crt_finite(s->q)) { s->status = CRT_NONFINITE; return s->status; }
   crt_rhs(s, s->t, s->q, s->f);
   if (!crt_finite(s->f)) { s->status = CRT_NONFINITE; return s->status; }

@@ -571,11 +571,17 @@ static void crt_rough_scales(crt_session *s, double t)
   s->fr.v_arm = crt_max(10.0 * (s->opt[CRT_OPT_ATOL] + s->opt[CRT_OPT_RTOL] * s->fr.v_scale),
                         s->fr.v_eps);
   s->fr.v_freeze = crt_max(sqrt(s->opt[CRT_OPT_RTOL]) * s->fr.v_scale, s->fr.v_arm);
+  /* the couples' channels: the same over the length scale */
+  s->fr.spin.w_scale = s->fr.roll.w_scale = s->fr.v_scale / L;
+  s->fr.spin.w_eps = s->fr.roll.w_eps = s->fr.v_eps / L;
+  s->fr.spin.w_arm = s->fr.roll.w_arm = s->fr.v_arm / L;
+  s->fr.spin.w_freeze = s->fr.roll.w_freeze = s->fr.v_freeze / L;
 }
 
 /* an event row with the friction columns (abi.EVENT_COLUMNS) */
-static void crt_rough_event(crt_out *o, double t, int kind, double value, double a, double b,
-                            double t_accumulation, int mode, const crt_dk_result *dk)
+static void crt_rough_event(const crt_session *s, crt_out *o, double t, int kind, double value,
+                            double a, double b, double t_accumulation, int mode,
+                            const crt_dk_result *dk)
 {
   double *row;
   int i;
@@ -591,6 +597,8 @@ static void crt_rough_event(crt_out *o, double t, int kind, double value, double
     row[13] = dk->work_n; row[14] = dk->work_t;
     row[15] = (double)dk->stage;
   }
+  if (mode != CRT_MODE_FLIGHT)
+    row[16] = (double)((s->fr.spin.on && s->fr.spin.held) + 2 * (s->fr.roll.on && s->fr.roll.held));
   ++o->ev_n;
 }
 
@@ -603,24 +611,267 @@ static void crt_rough_event(crt_out *o, double t, int kind, double value, double
    reference too, which follows the slip at the end of every step: the slip's direction
    damps a deviation at the rate |a_t|/|v_t|, which no explicit step survives as the slip
    passes 0; a step there lags the friction's direction by its own turn of the slip. */
+static void crt_follow_dir(int armed, double v_freeze, const double *ref, int dim,
+                           const double *v, double *dir)
+{
+  const double rho = dim == 2 ? sqrt(v[0] * v[0] + v[1] * v[1]) : fabs(v[0]);
+  if (armed && rho > v_freeze) {
+    const double sg = v[0] * ref[0] + (dim == 2 ? v[1] * ref[1] : 0.0) < 0.0 ? -1.0 : 1.0;
+    dir[0] = sg * v[0] / rho; dir[1] = dim == 2 ? sg * v[1] / rho : 0.0;
+  } else {
+    dir[0] = ref[0]; dir[1] = ref[1];
+  }
+}
+
 static void crt_rough_dir(const crt_session *s, const double *v, double *dir)
 {
-  const double rho = sqrt(v[0] * v[0] + v[1] * v[1]);
-  if (s->fr.armed && rho > s->fr.v_freeze) {
-    const double sg = v[0] * s->fr.dir[0] + v[1] * s->fr.dir[1] < 0.0 ? -1.0 : 1.0;
-    dir[0] = sg * v[0] / rho; dir[1] = sg * v[1] / rho;
-  } else {
-    dir[0] = s->fr.dir[0]; dir[1] = s->fr.dir[1];
-  }
+  crt_follow_dir(s->fr.armed, s->fr.v_freeze, s->fr.dir, 2, v, dir);
 }
 
 /* sliding: the slip along the reference over its scale, zero where the slip stops (armed)
    or where a slip restarting from rest turns back against the reference (v_t . dir =
-   -v_eps: the friction no longer opposes it) */
+   -v_eps: the friction no longer opposes it); a couple's channel the same in its units */
+static double crt_follow_value(int armed, double v_eps, double v_scale, const double *ref,
+                               int dim, const double *v)
+{
+  return (v[0] * ref[0] + (dim == 2 ? v[1] * ref[1] : 0.0) + (armed ? 0.0 : v_eps)) / v_scale;
+}
+
 static double crt_rough_slip_value(const crt_session *s, const double *v)
 {
-  return (v[0] * s->fr.dir[0] + v[1] * s->fr.dir[1] + (s->fr.armed ? 0.0 : s->fr.v_eps))
-         / s->fr.v_scale;
+  return crt_follow_value(s->fr.armed, s->fr.v_eps, s->fr.v_scale, s->fr.dir, 2, v);
+}
+
+/* ---- spin friction and rolling resistance: the contact as a wrench ---------------------- */
+/* With either on (s->fr.couples), the contact's reaction is a wrench w = (R, T) at S (fixed
+   axes); u = (v_S, Omega), Omega = A omega, changes as du/dt = a_free + G w
+   (model_contact_wrench, derive/friction.py: contact_wrench).  The couple's channels:
+   spin (c = 0) is Omega_Z with |T_Z| <= mu_s N, roll (c = 1) is (Omega_X, Omega_Y) with
+   |(T_X, T_Y)| <= mu_r N; each is held (its Omega 0, its couple an unknown) or turning
+   (its couple -mu N along its direction, followed as the slip's is: crt_follow_dir). */
+typedef struct {
+  double w[6];                /* (R, T) at S, fixed axes */
+  double u[6];                /* (v_S, Omega) */
+  double a[6];                /* du/dt = a_free + G w */
+  double N, k, g_zz;          /* N, its coefficient in dv_n/dt (k > 0 needed) and G_ZZ */
+} crt_wrench;
+
+static crt_channel *crt_couple(crt_session *s, int c)
+{
+  return c ? &s->fr.roll : &s->fr.spin;
+}
+
+static int crt_couple_first(int c) { return c ? 3 : 5; }
+static int crt_couple_dim(int c) { return c ? 2 : 1; }
+
+static double crt_couple_bound(const crt_session *s, int c)
+{
+  return s->prm[c ? CRT_P_rolling_resistance : CRT_P_spin_friction];
+}
+
+static double crt_norm_of(int dim, const double *v)
+{
+  return dim == 2 ? sqrt(v[0] * v[0] + v[1] * v[1]) : fabs(v[0]);
+}
+
+/* The wrench in the mode `mode` of the slip (sliding along dir, or along crt_rough_dir's
+   where dir is 0; sticking) and the channels' modes at (t, q), and dq/dt under it.  The
+   unknowns are the held components and N, the equations their rates and dv_n/dt, all 0:
+   Gaussian elimination in that order (the held block is a principal block of G, positive
+   definite: no pivoting), whose last pivot is N's coefficient k. */
+static void crt_rough_wrench(crt_session *s, double t, const double *q, int mode,
+                             const double *dir, double *dq, crt_wrench *o)
+{
+  const double *u = crt_u(s, t), mu = s->prm[CRT_P_friction];
+  double g21[21], a[6], G[6][6], b[6] = {0.0, 0.0, 1.0, 0.0, 0.0, 0.0}, K[7][7], r[7], x[7];
+  int idx[7], n = 0, i, j, k, c;
+  model_contact_wrench(s->prm, u, q, g21, a, o->u);
+  for (k = 0, i = 0; i < 6; ++i)
+    for (j = i; j < 6; ++j, ++k) G[i][j] = G[j][i] = g21[k];
+  if (mode == CRT_MODE_STICKING) { idx[n++] = 0; idx[n++] = 1; }
+  else {
+    double d[2];
+    if (dir != 0) { d[0] = dir[0]; d[1] = dir[1]; } else crt_rough_dir(s, o->u, d);
+    b[0] = -mu * d[0]; b[1] = -mu * d[1];
+  }
+  for (c = 0; c < 2; ++c) {
+    const crt_channel *ch = crt_couple(s, c);
+    const int first = crt_couple_first(c), dim = crt_couple_dim(c);
+    if (!ch->on) continue;
+    if (ch->held) {
+      for (i = 0; i < dim; ++i) idx[n++] = first + i;
+    } else {
+      double d[2];
+      crt_follow_dir(ch->armed, ch->w_freeze, ch->dir, dim, o->u + first, d);
+      for (i = 0; i < dim; ++i) b[first + i] = -crt_couple_bound(s, c) * d[i];
+    }
+  }
+  idx[n] = 2;
+  for (i = 0; i <= n; ++i) {
+    const int ri = idx[i];
+    double gb = 0.0;
+    for (j = 0; j < n; ++j) K[i][j] = G[ri][idx[j]];
+    for (k = 0; k < 6; ++k) gb += G[ri][k] * b[k];
+    K[i][n] = gb;
+    r[i] = -a[ri];
+  }
+  for (k = 0; k < n; ++k)
+    for (i = k + 1; i <= n; ++i) {
+      const double f = K[i][k] / K[k][k];
+      for (j = k; j <= n; ++j) K[i][j] -= f * K[k][j];
+      r[i] -= f * r[k];
+    }
+  for (i = n; i >= 0; --i) {
+    double acc = r[i];
+    for (j = i + 1; j <= n; ++j) acc -= K[i][j] * x[j];
+    x[i] = acc / K[i][i];
+  }
+  o->k = K[n][n];
+  o->g_zz = G[2][2];
+  o->N = x[n];
+  for (i = 0; i < 6; ++i) o->w[i] = x[n] * b[i];
+  for (i = 0; i < n; ++i) o->w[idx[i]] += x[i];
+  for (i = 0; i < 6; ++i) {
+    double acc = a[i];
+    for (j = 0; j < 6; ++j) acc += G[i][j] * o->w[j];
+    o->a[i] = acc;
+  }
+  model_wrench_rhs(s->prm, u, q, o->w, dq);
+}
+
+/* the least of the channels' event values: a held one's (mu N - |T_c|)/(mu F), a turning
+   one's crt_follow_value (HUGE_VAL without couples); *which: the channel that gives it */
+static double crt_couples_value(crt_session *s, const crt_wrench *w, int *which)
+{
+  const double F = crt_rough_force_scale(s);
+  double g = HUGE_VAL;
+  int c;
+  for (c = 0; c < 2; ++c) {
+    const crt_channel *ch = crt_couple(s, c);
+    const int first = crt_couple_first(c), dim = crt_couple_dim(c);
+    double gc;
+    if (!ch->on) continue;
+    if (ch->held) {
+      const double mu = crt_couple_bound(s, c);
+      gc = (mu * w->w[2] - crt_norm_of(dim, w->w + first)) / (mu * F);
+    } else {
+      gc = crt_follow_value(ch->armed, ch->w_eps, ch->w_scale, ch->dir, dim, w->u + first);
+      if (!ch->armed)          /* resolved: arm it (crt_couples_arm) */
+        gc = crt_min(gc, (2.0 * ch->w_arm - crt_norm_of(dim, w->u + first)) / ch->w_scale);
+    }
+    if (gc < g) { g = gc; *which = c; }
+  }
+  return g;
+}
+
+/* the slip's event value with couples: as crt_rough_event_value's without them */
+static double crt_wrench_slip_value(crt_session *s, const crt_wrench *w)
+{
+  const double F = crt_rough_force_scale(s);
+  double g;
+  if (s->fr.mode == CRT_MODE_STICKING)
+    return (s->prm[CRT_P_friction] * w->w[2] - sqrt(w->w[0] * w->w[0] + w->w[1] * w->w[1]))
+           / F;
+  g = crt_min(w->N / F, crt_rough_slip_value(s, w->u));
+  if (!s->fr.armed)            /* resolved: arm it (crt_couples_arm) */
+    g = crt_min(g, (2.0 * s->fr.v_arm - crt_norm_of(2, w->u)) / s->fr.v_scale);
+  return g;
+}
+
+/* With couples a slip or a channel restarting from rest is armed where it is resolved
+   (twice v_arm; an event of the event function), not at the end of the step: the
+   friction and the couples then follow their velocities from there on (a step frozen
+   along the reference while the slip turns would jump at its end, and a held couple
+   with it).  Returns 1 if one was armed. */
+static int crt_couples_arm(crt_session *s, const crt_wrench *w)
+{
+  int c, armed = 0;
+  if (s->fr.mode == CRT_MODE_SLIDING && !s->fr.armed) {
+    const double rho = crt_norm_of(2, w->u);
+    if (rho > s->fr.v_arm && w->u[0] * s->fr.dir[0] + w->u[1] * s->fr.dir[1] > 0.0) {
+      s->fr.dir[0] = w->u[0] / rho; s->fr.dir[1] = w->u[1] / rho;
+      s->fr.armed = armed = 1;
+    }
+  }
+  for (c = 0; c < 2; ++c) {
+    crt_channel *ch = crt_couple(s, c);
+    const int first = crt_couple_first(c), dim = crt_couple_dim(c);
+    const double *om = w->u + first, rho = crt_norm_of(dim, om);
+    if (!ch->on || ch->held || ch->armed) continue;
+    if (rho > ch->w_arm && om[0] * ch->dir[0] + (dim == 2 ? om[1] * ch->dir[1] : 0.0) > 0.0) {
+      ch->dir[0] = om[0] / rho; ch->dir[1] = dim == 2 ? om[1] / rho : 0.0;
+      ch->armed = armed = 1;
+    }
+  }
+  return armed;
+}
+
+/* Omega = A omega of the state q */
+static void crt_omega_fixed(const double *q, double *Om)
+{
+  int i, j;
+  for (i = 0; i < 3; ++i) {
+    double acc = 0.0;
+    for (j = 0; j < 3; ++j) acc += q[Q_A + 3 * i + j] * q[Q_OMEGA + j];
+    Om[i] = acc;
+  }
+}
+
+/* channel c's angular velocity set to 0 in q (the components of Omega along the fixed axes
+   of the channel removed from omega: the rows of A are those axes in body axes) */
+static void crt_couple_stop(double *q, int c)
+{
+  const int first = crt_couple_first(c) - 3, dim = crt_couple_dim(c);
+  double Om[3];
+  int i, j;
+  crt_omega_fixed(q, Om);
+  for (i = first; i < first + dim; ++i)
+    for (j = 0; j < 3; ++j) q[Q_OMEGA + j] -= Om[i] * q[Q_A + 3 * i + j];
+}
+
+/* the slip of S removed in V_C (v_S is affine in V_C with the unit matrix) */
+static void crt_rough_stop_slip(crt_session *s, double t, double *q)
+{
+  double v[3];
+  model_contact_velocity(s->prm, crt_u(s, t), q, v);
+  q[Q_COM_VELOCITY] -= v[0];
+  q[Q_COM_VELOCITY + 1] -= v[1];
+}
+
+/* entering a contact mode with couples: each channel turning along its angular velocity
+   where that is resolved (armed), else held with it set to 0 */
+static void crt_couples_enter(crt_session *s)
+{
+  int c;
+  for (c = 0; c < 2; ++c) {
+    crt_channel *ch = crt_couple(s, c);
+    const int first = crt_couple_first(c) - 3, dim = crt_couple_dim(c);
+    double Om[3], rho;
+    if (!ch->on) continue;
+    crt_omega_fixed(s->q, Om);
+    rho = crt_norm_of(dim, Om + first);
+    if (rho > ch->w_arm) {
+      ch->held = 0; ch->armed = 1;
+      ch->dir[0] = Om[first] / rho; ch->dir[1] = dim == 2 ? Om[first + 1] / rho : 0.0;
+    } else {
+      ch->held = 1;
+      crt_couple_stop(s->q, c);
+    }
+  }
+}
+
+/* a held channel whose couple is outside its bound turns from rest against it */
+static void crt_couples_release(crt_session *s, const crt_wrench *w)
+{
+  int c;
+  for (c = 0; c < 2; ++c) {
+    crt_channel *ch = crt_couple(s, c);
+    const int first = crt_couple_first(c), dim = crt_couple_dim(c);
+    const double Tn = crt_norm_of(dim, w->w + first);
+    if (!ch->on || !ch->held || !(Tn > crt_couple_bound(s, c) * w->N)) continue;
+    ch->held = 0; ch->armed = 0;
+    ch->dir[0] = -w->w[first] / Tn; ch->dir[1] = dim == 2 ? -w->w[first + 1] / Tn : 0.0;
+  }
 }
 
 /* sliding at (t, q): dq/dt, N and the velocity of S */
@@ -629,9 +880,29 @@ static void crt_rough_sliding(crt_session *s, double t, const double *q, double 
 {
   const double *u = crt_u(s, t);
   double dir[2], v_t[2], a_t[2];
+  if (s->fr.couples) {
+    crt_wrench w;
+    crt_rough_wrench(s, t, q, CRT_MODE_SLIDING, 0, dq, &w);
+    *N = w.N;
+    v[0] = w.u[0]; v[1] = w.u[1]; v[2] = w.u[2];
+    return;
+  }
   model_contact_velocity(s->prm, u, q, v);
   crt_rough_dir(s, v, dir);
   model_sliding(s->prm, u, q, s->prm[CRT_P_friction], dir, dq, N, v_t, a_t);
+}
+
+/* sticking at (t, q): dq/dt and the reaction R */
+static void crt_rough_sticking(crt_session *s, double t, const double *q, double *dq,
+                               double *R)
+{
+  if (s->fr.couples) {
+    crt_wrench w;
+    crt_rough_wrench(s, t, q, CRT_MODE_STICKING, 0, dq, &w);
+    R[0] = w.w[0]; R[1] = w.w[1]; R[2] = w.w[2];
+    return;
+  }
+  model_sticking(s->prm, crt_u(s, t), q, dq, R);
 }
 
 /* the right-hand side in contact (crt_rhs) */
@@ -639,7 +910,7 @@ static void crt_rough_rhs(crt_session *s, double t, const double *q, double *dq)
 {
   if (s->fr.mode == CRT_MODE_STICKING) {
     double R[3];
-    model_sticking(s->prm, crt_u(s, t), q, dq, R);
+    crt_rough_sticking(s, t, q, dq, R);
   } else {
     double N, v[3];
     crt_rough_sliding(s, t, q, dq, &N, v);
@@ -654,6 +925,15 @@ static double crt_rough_event_value(crt_session *s, double t, const double *y)
   double dq[NQ];
   const double F = crt_rough_force_scale(s);
   ++s->stat[CRT_STAT_EVENT_FUNCTION_EVALUATIONS];
+  if (s->fr.couples) {
+    /* with couples, also the channels' values (crt_couples_value) */
+    crt_wrench w;
+    double g;
+    int which = 0;
+    crt_rough_wrench(s, t, y, s->fr.mode, 0, dq, &w);
+    g = crt_wrench_slip_value(s, &w);
+    return crt_min(g, crt_couples_value(s, &w, &which));
+  }
   if (s->fr.mode == CRT_MODE_STICKING) {
     double R[3];
     model_sticking(s->prm, crt_u(s, t), y, dq, R);
@@ -675,9 +955,17 @@ static double crt_rough_event_value(crt_session *s, double t, const double *y)
 static int crt_rough_consistent(crt_session *s, double t, double N)
 {
   double w6[6], v[3], dir[2], k_f;
-  model_delassus(s->prm, crt_u(s, t), s->q, w6, v);
-  crt_rough_dir(s, v, dir);
-  k_f = w6[5] - s->prm[CRT_P_friction] * (w6[2] * dir[0] + w6[4] * dir[1]);
+  if (s->fr.couples) {            /* N's coefficient after the held channels' elimination */
+    double dq[NQ];
+    crt_wrench w;
+    crt_rough_wrench(s, t, s->q, CRT_MODE_SLIDING, 0, dq, &w);
+    k_f = w.k;
+    w6[5] = w.g_zz;
+  } else {
+    model_delassus(s->prm, crt_u(s, t), s->q, w6, v);
+    crt_rough_dir(s, v, dir);
+    k_f = w6[5] - s->prm[CRT_P_friction] * (w6[2] * dir[0] + w6[4] * dir[1]);
+  }
   if (k_f > 1e-6 * w6[5] && !(k_f <= 1e-2 * w6[5] && N > 1e2 * crt_rough_force_scale(s)))
     return 1;
   s->status = CRT_PAINLEVE;
@@ -714,11 +1002,40 @@ static void crt_rough_onset_at(const double *w6, const double *R, double WR_n, d
    the slip's direction, which the friction then follows, turns back to it) nearest
    -R_t/|R_t| (the friction's direction continued) in dir, else any nearest.  Returns 0 (dir = -R_t/|R_t|)
    when there is none. */
-static int crt_rough_onset(const crt_session *s, const double *w6, const double *R,
-                           double *dir)
+static void crt_onset_at_wrench(crt_session *s, double t, int which, double th, double *g,
+                                double *along)
 {
-  const double mu = s->prm[CRT_P_friction];
-  const double WR_n = w6[2] * R[0] + w6[4] * R[1] + w6[5] * R[2];
+  const double sg[2] = {cos(th), sin(th)};
+  const int first = which ? 3 : 0;
+  double dq[NQ];
+  crt_wrench w;
+  if (which == 0) {
+    crt_rough_wrench(s, t, s->q, CRT_MODE_SLIDING, sg, dq, &w);
+  } else {
+    const crt_channel keep = s->fr.roll;
+    s->fr.roll.held = 0; s->fr.roll.armed = 0;
+    s->fr.roll.dir[0] = sg[0]; s->fr.roll.dir[1] = sg[1];
+    crt_rough_wrench(s, t, s->q, s->fr.mode, 0, dq, &w);
+    s->fr.roll = keep;
+  }
+  if (!(w.k > 0.0 && w.N > 0.0)) { *g = NAN; *along = NAN; return; }
+  *g = sg[0] * w.a[first + 1] - sg[1] * w.a[first];
+  *along = sg[0] * w.a[first] + sg[1] * w.a[first + 1];
+}
+
+/* crt_rough_onset's function: without couples crt_rough_onset_at (W and R alone), with
+   them crt_onset_at_wrench (the slip, which = 0, or the rolling, which = 1) */
+static void crt_onset_eval(crt_session *s, double t, int which, const double *w6,
+                           const double *R, double WR_n, double th, double *g, double *along)
+{
+  if (s->fr.couples) crt_onset_at_wrench(s, t, which, th, g, along);
+  else crt_rough_onset_at(w6, R, WR_n, s->prm[CRT_P_friction], th, g, along);
+}
+
+static int crt_rough_onset(crt_session *s, double t, int which, const double *w6,
+                           const double *R, double *dir)
+{
+  const double WR_n = w6 != 0 ? w6[2] * R[0] + w6[4] * R[1] + w6[5] * R[2] : 0.0;
   const double rt = sqrt(R[0] * R[0] + R[1] * R[1]);
   const double d0[2] = {-R[0] / rt, -R[1] / rt};
   double best = -2.0, g_prev = 0.0, th_prev = 0.0, score;
@@ -728,17 +1045,17 @@ static int crt_rough_onset(const crt_session *s, const double *w6, const double 
     const double th = 6.283185307179586 * (double)k / 72.0;
     double g, along, sg[2];
     int ok, it;
-    crt_rough_onset_at(w6, R, WR_n, mu, th, &g, &along);
+    crt_onset_eval(s, t, which, w6, R, WR_n, th, &g, &along);
     ok = g == g;                           /* k_f > 0 and N > 0 there */
     if (k > 0 && ok && ok_prev && (g > 0.0) != (g_prev > 0.0)) {
       double a = th_prev, b = th, ga = g_prev, gm, al = 0.0;
       for (it = 0; it < 60; ++it) {
         const double c = 0.5 * (a + b);
         double gc;
-        crt_rough_onset_at(w6, R, WR_n, mu, c, &gc, &al);
+        crt_onset_eval(s, t, which, w6, R, WR_n, c, &gc, &al);
         if ((gc > 0.0) == (ga > 0.0)) { a = c; ga = gc; } else b = c;
       }
-      crt_rough_onset_at(w6, R, WR_n, mu, 0.5 * (a + b), &gm, &al);
+      crt_onset_eval(s, t, which, w6, R, WR_n, 0.5 * (a + b), &gm, &al);
       sg[0] = cos(0.5 * (a + b)); sg[1] = sin(0.5 * (a + b));
       /* a stable ray first (g falls through 0: a slip turned off it turns back), then the
          nearest to -R_t/|R_t| */
@@ -762,11 +1079,9 @@ static int crt_rough_onset(const crt_session *s, const double *w6, const double 
 static int crt_rough_at_rest(crt_session *s, double t, double *R)
 {
   const double *u = crt_u(s, t);
-  double v[3], dq[NQ], rt;
-  model_contact_velocity(s->prm, u, s->q, v);
-  s->q[Q_COM_VELOCITY] -= v[0];
-  s->q[Q_COM_VELOCITY + 1] -= v[1];
-  model_sticking(s->prm, u, s->q, dq, R);
+  double dq[NQ], rt;
+  crt_rough_stop_slip(s, t, s->q);
+  crt_rough_sticking(s, t, s->q, dq, R);
   if (!(R[2] > 0.0)) return CRT_MODE_FLIGHT;
   rt = sqrt(R[0] * R[0] + R[1] * R[1]);
   if (rt <= s->prm[CRT_P_friction] * R[2]) {
@@ -775,10 +1090,21 @@ static int crt_rough_at_rest(crt_session *s, double t, double *R)
   }
   s->fr.mode = CRT_MODE_SLIDING;
   s->fr.armed = 0;
+  if (s->fr.couples) {
+    /* from rest along the direction the slip takes (crt_rough_onset, here on the wrench's
+       equations; else -R_t/|R_t|): N > 0 slides, else S leaves the plane; k <= 0 is
+       Painleve's case */
+    crt_wrench w;
+    crt_rough_onset(s, t, 0, 0, R, s->fr.dir);
+    crt_rough_wrench(s, t, s->q, CRT_MODE_SLIDING, 0, dq, &w);
+    if (!(w.N > 0.0)) return CRT_MODE_FLIGHT;
+    if (!(w.k > 0.0)) s->status = CRT_PAINLEVE;
+    return CRT_MODE_SLIDING;
+  }
   {
     double w6[6], vv[3];
     model_delassus(s->prm, u, s->q, w6, vv);
-    if (!crt_rough_onset(s, w6, R, s->fr.dir)) {
+    if (!crt_rough_onset(s, t, 0, w6, R, s->fr.dir)) {
       /* no direction found that slides with N > 0, k_f > 0 and a growing slip (the cone
          barely violated leaves the slip's rate at round-off): if S leaves the plane
          without a reaction (a_free_n = -(W R)_Z > 0) it lifts off; else -R_t/|R_t| where
@@ -808,6 +1134,7 @@ static void crt_rough_enter_contact(crt_session *s, crt_out *o, double t, double
   crt_project(s, t, s->q, 1);
   s->phase = CRT_CONTACT;
   crt_rough_scales(s, t);
+  if (s->fr.couples) crt_couples_enter(s);
   model_contact_velocity(s->prm, crt_u(s, t), s->q, v);
   rho = sqrt(v[0] * v[0] + v[1] * v[1]);
   if (rho > s->fr.v_arm) {
@@ -821,10 +1148,15 @@ static void crt_rough_enter_contact(crt_session *s, crt_out *o, double t, double
       /* not pressed onto the plane after all: S touched it (a graze), and flies on */
       s->phase = CRT_FLIGHT;
       s->last_flight = 0.0;
-      crt_rough_event(o, t, CRT_EV_GRAZE, 0.0, v_cut, 0.0, 0.0, CRT_MODE_FLIGHT, 0);
+      crt_rough_event(s, o, t, CRT_EV_GRAZE, 0.0, v_cut, 0.0, 0.0, CRT_MODE_FLIGHT, 0);
       ++s->stat[CRT_STAT_GRAZES];
       return;
     }
+  }
+  if (s->fr.couples) {
+    crt_wrench w;
+    crt_rough_wrench(s, t, s->q, mode, 0, dq, &w);
+    crt_couples_release(s, &w);
   }
   if (mode == CRT_MODE_STICKING) N = R[2];
   else {
@@ -832,7 +1164,7 @@ static void crt_rough_enter_contact(crt_session *s, crt_out *o, double t, double
     if (N > 0.0) crt_rough_consistent(s, t, 0.0);
   }
   if (N < s->summary[CRT_SUMMARY_MIN_NORMAL]) s->summary[CRT_SUMMARY_MIN_NORMAL] = N;
-  crt_rough_event(o, t, CRT_EV_CONTACT, N, v_cut, 0.0, t_accumulation, mode, 0);
+  crt_rough_event(s, o, t, CRT_EV_CONTACT, N, v_cut, 0.0, t_accumulation, mode, 0);
   ++s->stat[CRT_STAT_CONTACTS];
 }
 
@@ -860,7 +1192,7 @@ static void crt_rough_mark(crt_session *s, crt_out *o, double t, int kind, doubl
   double v[3];
   s->last_event_t = t;
   model_contact_velocity(s->prm, crt_u(s, t), s->q, v);
-  crt_rough_event(o, t, kind, value, slip_before, sqrt(v[0] * v[0] + v[1] * v[1]), 0.0, mode,
+  crt_rough_event(s, o, t, kind, value, slip_before, sqrt(v[0] * v[0] + v[1] * v[1]), 0.0, mode,
                   0);
   crt_emit(o, t, s->q, CRT_ROW_AFTER_EVENT);
   crt_changed(s);
@@ -869,13 +1201,116 @@ static void crt_rough_mark(crt_session *s, crt_out *o, double t, int kind, doubl
 
 /* A transition in contact at (t, s->q), where the event function reached 0 (crt_handle_event
    and the start of a step): lift-off, stick, slip or reversal (the top of this file). */
+/* With couples, a slip or a rolling whose event "reached 0" fired while it had only turned
+   away from its reference (it passed by 0, it did not stop there: the slip still above
+   v_freeze, where the friction follows it, the rolling above twice its resolution) takes
+   its own direction as the new reference, with no event: the friction and the couple
+   follow it (stopping it would remove the speed across the reference).  Returns 1 if one
+   was re-aimed. */
+static int crt_couples_turned(crt_session *s, const crt_wrench *w)
+{
+  int c, turned = 0;
+  if (s->fr.mode == CRT_MODE_SLIDING && s->fr.armed && crt_rough_slip_value(s, w->u) <= 0.0) {
+    const double rho = crt_norm_of(2, w->u);
+    if (rho > s->fr.v_freeze) {      /* (below it the friction kept the reference) */
+      s->fr.dir[0] = w->u[0] / rho; s->fr.dir[1] = w->u[1] / rho;
+      turned = 1;
+    }
+  }
+  for (c = 1; c < 2; ++c) {      /* the rolling (the spin's one component cannot turn) */
+    crt_channel *ch = crt_couple(s, c);
+    const double *om = w->u + crt_couple_first(c), rho = crt_norm_of(2, om);
+    if (!ch->on || ch->held || !ch->armed
+        || crt_follow_value(1, 0.0, ch->w_scale, ch->dir, 2, om) > 0.0) continue;
+    if (rho > 2.0 * ch->w_arm) {
+      ch->dir[0] = om[0] / rho; ch->dir[1] = om[1] / rho;
+      turned = 1;
+    }
+  }
+  return turned;
+}
+
+/* With couples, after a transition: a slip or a rolling that restarted from rest and is
+   not armed yet is re-aimed along the direction it takes in the new modes (crt_rough_onset
+   from its reference; kept where none is found), so that it does not jump when armed. */
+static void crt_couples_reaim(crt_session *s, double t)
+{
+  if (s->fr.mode == CRT_MODE_SLIDING && !s->fr.armed) {
+    const double ref[3] = {-s->fr.dir[0], -s->fr.dir[1], 1.0};
+    crt_rough_onset(s, t, 0, 0, ref, s->fr.dir);
+  }
+  if (s->fr.roll.on && !s->fr.roll.held && !s->fr.roll.armed) {
+    const double ref[2] = {-s->fr.roll.dir[0], -s->fr.roll.dir[1]};
+    crt_rough_onset(s, t, 1, 0, ref, s->fr.roll.dir);
+  }
+}
+
+static void crt_couple_transition(crt_session *s, crt_out *o, double t, int c,
+                                  const crt_wrench *w)
+{
+  crt_channel *ch = crt_couple(s, c);
+  const int first = crt_couple_first(c), dim = crt_couple_dim(c);
+  const double mu = crt_couple_bound(s, c), before = crt_norm_of(dim, w->u + first);
+  double dq[NQ], Tn;
+  crt_wrench w2 = *w;
+  if (!(w->N > 0.0)) { crt_lift_off(s, o, t, w->N); return; }
+  crt_project(s, t, s->q, 1);
+  crt_emit(o, t, s->q, CRT_ROW_BEFORE_EVENT);
+  crt_rough_scales(s, t);
+  if (!ch->held) {
+    /* the channel's turning reached 0: held, if its couple stays inside the bound */
+    ch->held = 1;
+    crt_couple_stop(s->q, c);
+    if (s->fr.mode == CRT_MODE_STICKING) crt_rough_stop_slip(s, t, s->q);
+    crt_rough_wrench(s, t, s->q, s->fr.mode, 0, dq, &w2);
+    Tn = crt_norm_of(dim, w2.w + first);
+    if (Tn <= mu * w2.N) {
+      crt_couples_reaim(s, t);
+      ++s->stat[CRT_STAT_COUPLE_STOPS];
+      crt_rough_mark(s, o, t, c ? CRT_EV_ROLL_STOP : CRT_EV_SPIN_STOP, Tn / (mu * w2.N),
+                     before, s->fr.mode);
+      return;
+    }
+  }
+  /* the held couple reached its bound (or cannot hold the channel it just stopped): it
+     turns from rest against the couple */
+  Tn = crt_norm_of(dim, w2.w + first);
+  ch->held = 0; ch->armed = 0;
+  if (Tn > 0.0) {
+    ch->dir[0] = -w2.w[first] / Tn; ch->dir[1] = dim == 2 ? -w2.w[first + 1] / Tn : 0.0;
+    if (dim == 2) crt_rough_onset(s, t, 1, 0, w2.w + first, ch->dir);
+  }
+  if (s->fr.mode == CRT_MODE_SLIDING && !s->fr.armed) {
+    const double ref[3] = {-s->fr.dir[0], -s->fr.dir[1], 1.0};
+    crt_rough_onset(s, t, 0, 0, ref, s->fr.dir);
+  }
+  ++s->stat[CRT_STAT_COUPLE_STARTS];
+  crt_rough_mark(s, o, t, c ? CRT_EV_ROLL_START : CRT_EV_SPIN_START, Tn / (mu * w2.N), before,
+                 s->fr.mode);
+}
+
 static void crt_rough_transition(crt_session *s, crt_out *o, double t)
 {
   double dq[NQ], v[3], R[3];
   const double F = crt_rough_force_scale(s);
+  if (s->fr.couples) {
+    /* a channel's event first where its value is the least */
+    crt_wrench w;
+    int which = 0;
+    crt_rough_wrench(s, t, s->q, s->fr.mode, 0, dq, &w);
+    if (crt_couples_arm(s, &w) || crt_couples_turned(s, &w)) {
+      crt_changed(s);
+      s->g_valid = 0;
+      return;
+    }
+    if (crt_couples_value(s, &w, &which) < crt_wrench_slip_value(s, &w)) {
+      crt_couple_transition(s, o, t, which, &w);
+      return;
+    }
+  }
   if (s->fr.mode == CRT_MODE_STICKING) {
     double rt;
-    model_sticking(s->prm, crt_u(s, t), s->q, dq, R);
+    crt_rough_sticking(s, t, s->q, dq, R);
     rt = sqrt(R[0] * R[0] + R[1] * R[1]);
     if (!(R[2] > 0.0) || !(rt > 0.0)) { crt_lift_off(s, o, t, R[2]); return; }
     crt_project(s, t, s->q, 1);
@@ -884,6 +1319,7 @@ static void crt_rough_transition(crt_session *s, crt_out *o, double t)
     s->fr.mode = CRT_MODE_SLIDING;
     s->fr.dir[0] = -R[0] / rt; s->fr.dir[1] = -R[1] / rt;
     s->fr.armed = 0;
+    if (s->fr.couples) crt_rough_onset(s, t, 0, 0, R, s->fr.dir);
     ++s->stat[CRT_STAT_SLIPS];
     crt_rough_mark(s, o, t, CRT_EV_SLIP, rt / (s->prm[CRT_P_friction] * R[2]), 0.0,
                    CRT_MODE_SLIDING);
@@ -917,6 +1353,28 @@ static void crt_rough_transition(crt_session *s, crt_out *o, double t)
   }
 }
 
+/* After an accepted step with couples: a held channel's round-off removed, a turning one's
+   reference moved to its angular velocity and armed once that grows (as the slip's) */
+static void crt_couples_after_step(crt_session *s)
+{
+  int c;
+  for (c = 0; c < 2; ++c) {
+    crt_channel *ch = crt_couple(s, c);
+    const int first = crt_couple_first(c) - 3, dim = crt_couple_dim(c);
+    double Om[3], rho;
+    if (!ch->on) continue;
+    if (ch->held) { crt_couple_stop(s->q, c); continue; }
+    crt_omega_fixed(s->q, Om);
+    rho = crt_norm_of(dim, Om + first);
+    if (ch->armed ? rho > ch->w_eps
+                  : rho > ch->w_arm && Om[first] * ch->dir[0]
+                                       + (dim == 2 ? Om[first + 1] * ch->dir[1] : 0.0) > 0.0) {
+      ch->dir[0] = Om[first] / rho; ch->dir[1] = dim == 2 ? Om[first + 1] / rho : 0.0;
+      ch->armed = 1;
+    }
+  }
+}
+
 /* After an accepted step in contact (S already projected onto the plane): sticking, the
    slip's round-off removed; sliding, the reference direction moved to the slip's and the
    search armed once the slip grows; the summary's least normal reaction and largest
@@ -925,12 +1383,11 @@ static void crt_rough_after_step(crt_session *s)
 {
   const double t = s->t, mu = s->prm[CRT_P_friction];
   double dq[NQ], v[3], normal, ratio;
+  if (s->fr.couples) crt_couples_after_step(s);
   if (s->fr.mode == CRT_MODE_STICKING) {
     double R[3];
-    model_contact_velocity(s->prm, crt_u(s, t), s->q, v);
-    s->q[Q_COM_VELOCITY] -= v[0];
-    s->q[Q_COM_VELOCITY + 1] -= v[1];
-    model_sticking(s->prm, crt_u(s, t), s->q, dq, R);
+    crt_rough_stop_slip(s, t, s->q);
+    crt_rough_sticking(s, t, s->q, dq, R);
     normal = R[2];
     ratio = R[2] > 0.0 ? sqrt(R[0] * R[0] + R[1] * R[1]) / (mu * R[2]) : HUGE_VAL;
   } else {
@@ -995,6 +1452,53 @@ void crt_eval_rough_rows(crt_session *s, int n, const double *t, const double *q
   }
 }
 
+/* As crt_eval_rough_rows with spin friction or rolling resistance: each row's held channels
+   couples[k] (bit 1: the spin, bit 2: the rolling; the event column "couples") and the
+   turning channels' directions cdir[3k..] (the spin's sign, then the rolling's direction,
+   fixed axes; 0: along the angular velocity): dq/dt into dq[k*NQ..], the wrench at S
+   w[6k..] = (R, T) (fixed axes; 0 in flight) and u[6k..] = (v_S, A omega). */
+void crt_eval_wrench_rows(crt_session *s, int n, const double *t, const double *q,
+                          const int *mode, const double *dir_in, const int *couples,
+                          const double *cdir, double *dq, double *w, double *u6)
+{
+  const crt_channel keep[2] = {s->fr.spin, s->fr.roll};
+  int k, c, i;
+  for (k = 0; k < n; ++k) {
+    const double *qk = q + (long)k * NQ, *d = dir_in + 2L * k;
+    double *dqk = dq + (long)k * NQ, *wk = w + 6L * k, *uk = u6 + 6L * k, Om[3], dir[2];
+    crt_omega_fixed(qk, Om);
+    for (c = 0; c < 2; ++c) {
+      crt_channel *ch = crt_couple(s, c);
+      const int first = crt_couple_first(c) - 3, dim = crt_couple_dim(c);
+      const double *dc = cdir + 3L * k + c;
+      const double given = crt_norm_of(dim, dc), rho = crt_norm_of(dim, Om + first);
+      const double *from = given > 0.0 ? dc : Om + first;
+      const double r = given > 0.0 ? given : rho;
+      ch->held = (couples[k] >> c) & 1;
+      ch->armed = 0;
+      ch->dir[0] = r > 0.0 ? from[0] / r : 1.0;
+      ch->dir[1] = dim == 2 && r > 0.0 ? from[1] / r : 0.0;
+    }
+    if (mode[k] == CRT_MODE_STICKING || mode[k] == CRT_MODE_SLIDING) {
+      crt_wrench wr;
+      const double given = sqrt(d[0] * d[0] + d[1] * d[1]);
+      double v[3], rho;
+      model_contact_velocity(s->prm, crt_u(s, t[k]), qk, v);
+      rho = sqrt(v[0] * v[0] + v[1] * v[1]);
+      dir[0] = given > 0.0 ? d[0] / given : rho > 0.0 ? v[0] / rho : 1.0;
+      dir[1] = given > 0.0 ? d[1] / given : rho > 0.0 ? v[1] / rho : 0.0;
+      crt_rough_wrench(s, t[k], qk, mode[k], dir, dqk, &wr);
+      for (i = 0; i < 6; ++i) { wk[i] = wr.w[i]; uk[i] = wr.u[i]; }
+    } else {
+      model_rhs(s->prm, crt_u(s, t[k]), qk, dqk);
+      model_contact_velocity(s->prm, crt_u(s, t[k]), qk, uk);
+      for (i = 0; i < 3; ++i) { wk[i] = wk[3 + i] = 0.0; uk[3 + i] = Om[i]; }
+    }
+  }
+  s->fr.spin = keep[0];
+  s->fr.roll = keep[1];
+}
+
 /* After crt_init (CRT_OK): start the run in contact instead of flight, S held on the
    plane (h = 0 and v_n = 0 are made so), in the mode CRT_MODE_STICKING (the slip is set to
    0) or CRT_MODE_SLIDING along dir[2] (fixed axes; normalised; the slip's own direction
@@ -1011,6 +1515,7 @@ int crt_set_contact_mode(crt_session *s, int mode, const double *dir)
   crt_project(s, s->t, s->q, 1);
   s->phase = CRT_CONTACT;
   crt_rough_scales(s, s->t);
+  if (s->fr.couples) crt_couples_enter(s);
   s->fr.mode = mode;
   model_contact_velocity(s->prm, crt_u(s, s->t), s->q, v);
   if (mode == CRT_MODE_STICKING) {
@@ -1034,6 +1539,14 @@ int crt_set_contact_mode(crt_session *s, int mode, const double *dir)
 void crt_eval_delassus(crt_session *s, double t, const double *q, double *w6, double *v_S)
 {
   model_delassus(s->prm, crt_u(s, t), q, w6, v_S);
+}
+
+/* The contact as a wrench at (t, q): G's upper triangle g21[21] (row by row), a_free[6]
+   and u6[6] = (v_S, A omega), fixed axes (general_contact_wrench). */
+void crt_eval_contact_wrench(crt_session *s, double t, const double *q, double *g21,
+                             double *a_free, double *u6)
+{
+  model_contact_wrench(s->prm, crt_u(s, t), q, g21, a_free, u6);
 }
 
 /* Darboux-Keller's impact for W (w6[6]) and the velocity of S v0[3] (v0[2] < 0) with the

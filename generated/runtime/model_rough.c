@@ -1353,6 +1353,295 @@ static void general_sticking_rhs(const double *q, const double *u, const double 
   R[2] = s1_18;
 }
 
+/* The contact as a wrench (R, T) at S (derive.friction.contact_wrench): the velocity of S and the angular velocity (fixed axes), u, change as du/dt = a_free + G (R, T); G's upper triangle row by row, a_free and u (u_c). (1251 ops) */
+static void general_contact_wrench(const double *q, const double *u, const double *s, const double *sdot, const double *p, double *restrict G, double *restrict a_free, double *restrict u_c)
+{
+  const double c0 = 1.0/(p[0] + p[1]);
+  const double c1 = c0*p[1];
+  const double c2 = u[1]*u[1];
+  const double c3 = u[2]*u[2];
+  const double c5 = u[0]*u[0];
+  const double nu = c1;
+  const double mu = p[0]*nu;
+  const double c4 = mu*u[0];
+  const double c24 = nu*u[2];
+  const double c25 = -c24 + s[2];
+  const double c26 = nu*u[1];
+  const double c27 = -c26 + s[1];
+  const double c28 = nu*u[0];
+  const double c29 = -c28 + s[0];
+  const double c66 = nu*u[6];
+  const double c68 = nu*u[7];
+  const double c70 = nu*u[8];
+  const double c78 = 2.0*nu;
+  const double s0_0 = p[2] + mu*(c2 + c3);
+  const double s0_1 = -c4*u[1];
+  const double s0_2 = p[3] + mu*(c3 + c5);
+  const double s0_3 = -c4*u[2];
+  const double s0_4 = -mu*u[1]*u[2];
+  const double s0_5 = p[4] + mu*(c2 + c5);
+  const double s0_18 = -s0_4*s0_4 + s0_2*s0_5;
+  const double s0_19 = s0_3*s0_4 - s0_1*s0_5;
+  const double s0_20 = -s0_2*s0_3 + s0_1*s0_4;
+  const double s0_21 = -s0_3*s0_3 + s0_0*s0_5;
+  const double s0_22 = s0_1*s0_3 - s0_0*s0_4;
+  const double s0_23 = -s0_1*s0_1 + s0_0*s0_2;
+  const double s0_24 = 1.0/(s0_1*s0_19 + s0_0*s0_18 + s0_20*s0_3);
+  const double s0_25 = s0_18*s0_24;
+  const double s0_26 = s0_19*s0_24;
+  const double s0_27 = s0_20*s0_24;
+  const double s0_28 = s0_21*s0_24;
+  const double s0_29 = s0_22*s0_24;
+  const double s0_30 = s0_23*s0_24;
+  const double omega_z = ((const volatile double *)q)[8];
+  const double c6 = u[0]*omega_z;
+  const double omega_x = ((const volatile double *)q)[6];
+  const double c7 = u[2]*omega_x;
+  const double c8 = u[4] + c6 - c7;
+  const double omega_y = ((const volatile double *)q)[7];
+  const double c9 = u[2]*omega_y;
+  const double c10 = u[1]*omega_z;
+  const double c11 = u[3] + c9 - c10;
+  const double c13 = u[1]*omega_x;
+  const double c14 = u[0]*omega_y;
+  const double c15 = u[5] + c13 - c14;
+  const double c17 = u[4]*omega_x;
+  const double c18 = u[8] - u[3]*omega_y + c17;
+  const double c19 = u[3]*omega_z;
+  const double c20 = u[7] - u[5]*omega_x + c19;
+  const double c22 = u[5]*omega_y;
+  const double c23 = u[6] - u[4]*omega_z + c22;
+  const double a11 = ((const volatile double *)q)[9];
+  const double c30 = s[2]*a11;
+  const double a12 = ((const volatile double *)q)[10];
+  const double c31 = s[0]*a12;
+  const double a13 = ((const volatile double *)q)[11];
+  const double c32 = s[1]*a13;
+  const double c33 = s[1]*a11;
+  const double c34 = s[2]*a12;
+  const double c35 = s[0]*a13;
+  const double a21 = ((const volatile double *)q)[12];
+  const double c42 = s[2]*a21;
+  const double a22 = ((const volatile double *)q)[13];
+  const double c43 = s[0]*a22;
+  const double a23 = ((const volatile double *)q)[14];
+  const double c44 = s[1]*a23;
+  const double c45 = s[1]*a21;
+  const double c46 = s[2]*a22;
+  const double c47 = s[0]*a23;
+  const double a31 = ((const volatile double *)q)[15];
+  const double c54 = s[2]*a31;
+  const double a32 = ((const volatile double *)q)[16];
+  const double c55 = s[0]*a32;
+  const double a33 = ((const volatile double *)q)[17];
+  const double c56 = s[1]*a33;
+  const double c57 = s[1]*a31;
+  const double c58 = s[2]*a32;
+  const double c59 = s[0]*a33;
+  const double c67 = sdot[1]*omega_z;
+  const double c69 = sdot[2]*omega_x;
+  const double c71 = sdot[0]*omega_y;
+  const double c72 = omega_y*omega_y;
+  const double c73 = s[0]*a11;
+  const double c74 = omega_z*omega_z;
+  const double c75 = omega_x*omega_x;
+  const double c76 = s[1]*a12;
+  const double c77 = s[2]*a13;
+  const double c91 = s[0]*a21;
+  const double c92 = s[1]*a22;
+  const double c93 = s[2]*a23;
+  const double c94 = s[0]*a31;
+  const double c95 = s[1]*a32;
+  const double c96 = s[2]*a33;
+  const double c97 = -s[1]*omega_z + s[2]*omega_y;
+  const double c98 = s[0]*omega_z - s[2]*omega_x;
+  const double c99 = -s[0]*omega_y + s[1]*omega_x;
+  const double c12 = mu*(-u[1]*c11 + u[0]*c8) + p[4]*omega_z;
+  const double c16 = mu*(-u[0]*c15 + u[2]*c11) + p[3]*omega_y;
+  const double c21 = mu*(u[1]*c15 - u[2]*c8) + p[2]*omega_x;
+  const double c36 = c26*a11;
+  const double c37 = c24*a12;
+  const double c38 = c28*a13;
+  const double c39 = c24*a11;
+  const double c40 = c28*a12;
+  const double c41 = c26*a13;
+  const double c48 = c26*a21;
+  const double c49 = c24*a22;
+  const double c50 = c28*a23;
+  const double c51 = c24*a21;
+  const double c52 = c28*a22;
+  const double c53 = c26*a23;
+  const double c60 = c26*a31;
+  const double c61 = c24*a32;
+  const double c62 = c28*a33;
+  const double c63 = c24*a31;
+  const double c64 = c28*a32;
+  const double c65 = c26*a33;
+  const double c79 = nu*c13;
+  const double c80 = omega_y*c79;
+  const double c81 = nu*c7;
+  const double c82 = omega_z*c81;
+  const double c83 = nu*c14;
+  const double c84 = omega_x*c83;
+  const double c85 = nu*c9;
+  const double c86 = omega_z*c85;
+  const double c87 = nu*c6;
+  const double c88 = omega_x*c87;
+  const double c89 = nu*c10;
+  const double c90 = omega_y*c89;
+  const double c100 = nu*u[3] + c85 - c89;
+  const double c101 = nu*u[4] - c81 + c87;
+  const double c102 = nu*u[5] + c79 - c83;
+  const double s0_6 = -omega_y*c12 - mu*(-u[2]*c20 + u[1]*c18 - u[5]*c8 + u[4]*c15) + omega_z*c16;
+  const double s0_7 = omega_x*c12 - mu*(u[2]*c23 - u[0]*c18 + u[5]*c11 - u[3]*c15) - omega_z*c21;
+  const double s0_8 = -omega_x*c16 - mu*(-u[1]*c23 + u[0]*c20 + u[3]*c8 - u[4]*c11) + omega_y*c21;
+  const double s0_9 = c27*a13 - c25*a12;
+  const double s0_10 = -c29*a13 + c25*a11;
+  const double s0_11 = c29*a12 - c27*a11;
+  const double s0_12 = c27*a23 - c25*a22;
+  const double s0_13 = -c29*a23 + c25*a21;
+  const double s0_14 = c29*a22 - c27*a21;
+  const double s0_15 = c27*a33 - c25*a32;
+  const double s0_16 = -c29*a33 + c25*a31;
+  const double s0_17 = c29*a32 - c27*a31;
+  const double s0_31 = s0_26*s0_7 + s0_25*s0_6 + s0_27*s0_8;
+  const double s0_32 = s0_28*s0_7 + s0_26*s0_6 + s0_29*s0_8;
+  const double s0_33 = s0_29*s0_7 + s0_27*s0_6 + s0_30*s0_8;
+  const double s0_34 = s0_26*s0_10 + s0_25*s0_9 + s0_27*s0_11;
+  const double s0_35 = s0_28*s0_10 + s0_26*s0_9 + s0_29*s0_11;
+  const double s0_36 = s0_29*s0_10 + s0_27*s0_9 + s0_30*s0_11;
+  const double s0_37 = s0_26*s0_13 + s0_25*s0_12 + s0_27*s0_14;
+  const double s0_38 = s0_28*s0_13 + s0_26*s0_12 + s0_29*s0_14;
+  const double s0_39 = s0_29*s0_13 + s0_27*s0_12 + s0_30*s0_14;
+  const double s0_40 = s0_26*s0_16 + s0_25*s0_15 + s0_27*s0_17;
+  const double s0_41 = s0_28*s0_16 + s0_26*s0_15 + s0_29*s0_17;
+  const double s0_42 = s0_29*s0_16 + s0_27*s0_15 + s0_30*s0_17;
+  const double s0_43 = s0_26*a12 + s0_25*a11 + s0_27*a13;
+  const double s0_44 = s0_28*a12 + s0_26*a11 + s0_29*a13;
+  const double s0_45 = s0_29*a12 + s0_27*a11 + s0_30*a13;
+  const double s0_46 = s0_26*a22 + s0_25*a21 + s0_27*a23;
+  const double s0_47 = s0_28*a22 + s0_26*a21 + s0_29*a23;
+  const double s0_48 = s0_29*a22 + s0_27*a21 + s0_30*a23;
+  const double s0_49 = s0_26*a32 + s0_25*a31 + s0_27*a33;
+  const double s0_50 = s0_28*a32 + s0_26*a31 + s0_29*a33;
+  const double s0_51 = s0_29*a32 + s0_27*a31 + s0_30*a33;
+  const double X_C_d = ((const volatile double *)q)[3];
+  const double Y_C_d = ((const volatile double *)q)[4];
+  const double Z_C_d = ((const volatile double *)q)[5];
+  G[0] = c0 + c32*s0_34 - c34*s0_34 + c37*s0_34 - c41*s0_34 + c30*s0_35 - c35*s0_35 + c38*s0_35 - c39*s0_35 + c31*s0_36 - c33*s0_36 + c36*s0_36 - c40*s0_36;
+  G[1] = -c34*s0_37 + c32*s0_37 + c37*s0_37 - c41*s0_37 + c30*s0_38 - c35*s0_38 + c38*s0_38 - c39*s0_38 + c31*s0_39 - c33*s0_39 + c36*s0_39 - c40*s0_39;
+  G[2] = -c34*s0_40 + c32*s0_40 + c37*s0_40 - c41*s0_40 + c30*s0_41 - c35*s0_41 + c38*s0_41 - c39*s0_41 + c31*s0_42 - c33*s0_42 + c36*s0_42 - c40*s0_42;
+  G[3] = -c34*s0_43 + c32*s0_43 + c37*s0_43 - c41*s0_43 + c30*s0_44 - c35*s0_44 + c38*s0_44 - c39*s0_44 + c31*s0_45 - c33*s0_45 + c36*s0_45 - c40*s0_45;
+  G[4] = -c34*s0_46 + c32*s0_46 + c37*s0_46 - c41*s0_46 + c30*s0_47 - c35*s0_47 + c38*s0_47 - c39*s0_47 + c31*s0_48 - c33*s0_48 + c36*s0_48 - c40*s0_48;
+  G[5] = -c34*s0_49 + c32*s0_49 + c37*s0_49 - c41*s0_49 + c30*s0_50 - c35*s0_50 + c38*s0_50 - c39*s0_50 + c31*s0_51 - c33*s0_51 + c36*s0_51 - c40*s0_51;
+  G[6] = c0 + c44*s0_37 - c46*s0_37 + c49*s0_37 - c53*s0_37 + c42*s0_38 - c47*s0_38 + c50*s0_38 - c51*s0_38 + c43*s0_39 - c45*s0_39 + c48*s0_39 - c52*s0_39;
+  G[7] = -c46*s0_40 + c44*s0_40 + c49*s0_40 - c53*s0_40 + c42*s0_41 - c47*s0_41 + c50*s0_41 - c51*s0_41 + c43*s0_42 - c45*s0_42 + c48*s0_42 - c52*s0_42;
+  G[8] = -c46*s0_43 + c44*s0_43 + c49*s0_43 - c53*s0_43 + c42*s0_44 - c47*s0_44 + c50*s0_44 - c51*s0_44 + c43*s0_45 - c45*s0_45 + c48*s0_45 - c52*s0_45;
+  G[9] = -c46*s0_46 + c44*s0_46 + c49*s0_46 - c53*s0_46 + c42*s0_47 - c47*s0_47 + c50*s0_47 - c51*s0_47 + c43*s0_48 - c45*s0_48 + c48*s0_48 - c52*s0_48;
+  G[10] = -c46*s0_49 + c44*s0_49 + c49*s0_49 - c53*s0_49 + c42*s0_50 - c47*s0_50 + c50*s0_50 - c51*s0_50 + c43*s0_51 - c45*s0_51 + c48*s0_51 - c52*s0_51;
+  G[11] = c0 + c56*s0_40 - c58*s0_40 + c61*s0_40 - c65*s0_40 + c54*s0_41 - c59*s0_41 + c62*s0_41 - c63*s0_41 + c55*s0_42 - c57*s0_42 + c60*s0_42 - c64*s0_42;
+  G[12] = -c58*s0_43 + c56*s0_43 + c61*s0_43 - c65*s0_43 + c54*s0_44 - c59*s0_44 + c62*s0_44 - c63*s0_44 + c55*s0_45 - c57*s0_45 + c60*s0_45 - c64*s0_45;
+  G[13] = -c58*s0_46 + c56*s0_46 + c61*s0_46 - c65*s0_46 + c54*s0_47 - c59*s0_47 + c62*s0_47 - c63*s0_47 + c55*s0_48 - c57*s0_48 + c60*s0_48 - c64*s0_48;
+  G[14] = -c58*s0_49 + c56*s0_49 + c61*s0_49 - c65*s0_49 + c54*s0_50 - c59*s0_50 + c62*s0_50 - c63*s0_50 + c55*s0_51 - c57*s0_51 + c60*s0_51 - c64*s0_51;
+  G[15] = a12*s0_44 + a11*s0_43 + a13*s0_45;
+  G[16] = a12*s0_47 + a11*s0_46 + a13*s0_48;
+  G[17] = a12*s0_50 + a11*s0_49 + a13*s0_51;
+  G[18] = a22*s0_47 + a21*s0_46 + a23*s0_48;
+  G[19] = a22*s0_50 + a21*s0_49 + a23*s0_51;
+  G[20] = a32*s0_50 + a31*s0_49 + a33*s0_51;
+  a_free[0] = -c68*a12 - c66*a11 - c70*a13 + 2.0*nu*u[4]*a11*omega_z + sdot[2]*a11*omega_y + 2.0*nu*u[5]*a12*omega_x + sdot[0]*a12*omega_z + 2.0*nu*u[3]*a13*omega_y + sdot[1]*a13*omega_x - c78*a13*c17 - c78*a12*c19 - c78*a11*c22 - a11*c67 - a12*c69 - a13*c71 + nu*u[0]*a11*c72 + nu*u[2]*a13*c72 - c72*c73 - c73*c74 + nu*u[0]*a11*c74 + nu*u[1]*a12*c74 + nu*u[1]*a12*c75 + nu*u[2]*a13*c75 - c74*c76 - c75*c76 - c72*c77 - c75*c77 + s[1]*a11*omega_x*omega_y + s[2]*a11*omega_x*omega_z + s[0]*a12*omega_x*omega_y + s[2]*a12*omega_y*omega_z + s[0]*a13*omega_x*omega_z + s[1]*a13*omega_y*omega_z - a11*c82 - a11*c80 - a12*c84 - a12*c86 - a13*c88 - a13*c90 - c34*s0_31 - c41*s0_31 + nu*u[2]*a12*s0_31 + s[1]*a13*s0_31 - c35*s0_32 - c39*s0_32 + s[2]*a11*s0_32 + nu*u[0]*a13*s0_32 - c33*s0_33 - c40*s0_33 + nu*u[1]*a11*s0_33 + s[0]*a12*s0_33;
+  a_free[1] = -c68*a22 - c66*a21 - c70*a23 + 2.0*nu*u[4]*a21*omega_z + sdot[2]*a21*omega_y + 2.0*nu*u[5]*a22*omega_x + sdot[0]*a22*omega_z + 2.0*nu*u[3]*a23*omega_y + sdot[1]*a23*omega_x - c78*a23*c17 - c78*a22*c19 - c78*a21*c22 - a21*c67 - a22*c69 - a23*c71 + nu*u[0]*a21*c72 + nu*u[2]*a23*c72 + nu*u[0]*a21*c74 + nu*u[1]*a22*c74 + nu*u[1]*a22*c75 + nu*u[2]*a23*c75 - c72*c91 - c74*c91 - c74*c92 - c75*c92 - c72*c93 - c75*c93 + s[1]*a21*omega_x*omega_y + s[2]*a21*omega_x*omega_z + s[0]*a22*omega_x*omega_y + s[2]*a22*omega_y*omega_z + s[0]*a23*omega_x*omega_z + s[1]*a23*omega_y*omega_z - a21*c82 - a21*c80 - a22*c84 - a22*c86 - a23*c88 - a23*c90 - c46*s0_31 - c53*s0_31 + nu*u[2]*a22*s0_31 + s[1]*a23*s0_31 - c47*s0_32 - c51*s0_32 + s[2]*a21*s0_32 + nu*u[0]*a23*s0_32 - c45*s0_33 - c52*s0_33 + nu*u[1]*a21*s0_33 + s[0]*a22*s0_33;
+  a_free[2] = -c1*p[5] - p[0]*c0*p[5] - c66*a31 - c68*a32 - c70*a33 + 2.0*nu*u[4]*a31*omega_z + sdot[2]*a31*omega_y + 2.0*nu*u[5]*a32*omega_x + sdot[0]*a32*omega_z + 2.0*nu*u[3]*a33*omega_y + sdot[1]*a33*omega_x - c78*a33*c17 - c78*a32*c19 - c78*a31*c22 - a31*c67 - a32*c69 - a33*c71 + nu*u[0]*a31*c72 + nu*u[2]*a33*c72 + nu*u[0]*a31*c74 + nu*u[1]*a32*c74 + nu*u[1]*a32*c75 + nu*u[2]*a33*c75 - c72*c94 - c74*c94 - c74*c95 - c75*c95 - c72*c96 - c75*c96 + s[1]*a31*omega_x*omega_y + s[2]*a31*omega_x*omega_z + s[0]*a32*omega_x*omega_y + s[2]*a32*omega_y*omega_z + s[0]*a33*omega_x*omega_z + s[1]*a33*omega_y*omega_z - a31*c82 - a31*c80 - a32*c84 - a32*c86 - a33*c88 - a33*c90 - c58*s0_31 - c65*s0_31 + nu*u[2]*a32*s0_31 + s[1]*a33*s0_31 - c59*s0_32 - c63*s0_32 + s[2]*a31*s0_32 + nu*u[0]*a33*s0_32 - c57*s0_33 - c64*s0_33 + nu*u[1]*a31*s0_33 + s[0]*a32*s0_33;
+  a_free[3] = a12*s0_32 + a11*s0_31 + a13*s0_33;
+  a_free[4] = a22*s0_32 + a21*s0_31 + a23*s0_33;
+  a_free[5] = a32*s0_32 + a31*s0_31 + a33*s0_33;
+  u_c[0] = X_C_d + a11*c97 + a12*c98 + a13*c99 - a12*c101 - a13*c102 - a11*c100;
+  u_c[1] = Y_C_d + a21*c97 + a22*c98 + a23*c99 - a22*c101 - a23*c102 - a21*c100;
+  u_c[2] = Z_C_d + a31*c97 + a32*c98 + a33*c99 - a32*c101 - a33*c102 - a31*c100;
+  u_c[3] = a12*omega_y + a11*omega_x + a13*omega_z;
+  u_c[4] = a22*omega_y + a21*omega_x + a23*omega_z;
+  u_c[5] = a32*omega_y + a31*omega_x + a33*omega_z;
+}
+
+/* Contact under a given wrench w = (R, T) at S (fixed axes): dq/dt with V_C' = R/(m+M) - g e_Z and J omega' = f + CS x A^T R + A^T T (derive.friction.contact_wrench). (229 ops) */
+static void general_wrench_rhs(const double *q, const double *u, const double *s, const double *p, const double *w, double *restrict dq)
+{
+  const double c0 = 1.0/(p[0] + p[1]);
+  const double c1 = u[1]*u[1];
+  const double c2 = u[2]*u[2];
+  const double c4 = u[0]*u[0];
+  const double nu = c0*p[1];
+  const double mu = p[0]*nu;
+  const double c3 = mu*u[0];
+  const double c5 = -nu*u[1] + s[1];
+  const double c7 = -nu*u[2] + s[2];
+  const double c17 = -nu*u[0] + s[0];
+  const double s0_0 = p[2] + mu*(c1 + c2);
+  const double s0_1 = -c3*u[1];
+  const double s0_2 = p[3] + mu*(c2 + c4);
+  const double s0_3 = -c3*u[2];
+  const double s0_4 = -mu*u[1]*u[2];
+  const double s0_5 = p[4] + mu*(c1 + c4);
+  const double s0_9 = -s0_4*s0_4 + s0_2*s0_5;
+  const double s0_10 = s0_3*s0_4 - s0_1*s0_5;
+  const double s0_11 = -s0_2*s0_3 + s0_1*s0_4;
+  const double s0_12 = -s0_3*s0_3 + s0_0*s0_5;
+  const double s0_13 = s0_1*s0_3 - s0_0*s0_4;
+  const double s0_14 = -s0_1*s0_1 + s0_0*s0_2;
+  const double s0_15 = 1.0/(s0_1*s0_10 + s0_0*s0_9 + s0_11*s0_3);
+  const double a13 = ((const volatile double *)q)[11];
+  const double a23 = ((const volatile double *)q)[14];
+  const double a33 = ((const volatile double *)q)[17];
+  const double c6 = w[1]*a23 + w[0]*a13 + w[2]*a33;
+  const double a12 = ((const volatile double *)q)[10];
+  const double a22 = ((const volatile double *)q)[13];
+  const double a32 = ((const volatile double *)q)[16];
+  const double c8 = w[1]*a22 + w[0]*a12 + w[2]*a32;
+  const double omega_x = ((const volatile double *)q)[6];
+  const double omega_y = ((const volatile double *)q)[7];
+  const double c9 = u[5] + u[1]*omega_x - u[0]*omega_y;
+  const double omega_z = ((const volatile double *)q)[8];
+  const double c10 = u[3] + u[2]*omega_y - u[1]*omega_z;
+  const double c12 = u[4] - u[2]*omega_x + u[0]*omega_z;
+  const double c14 = u[8] + u[4]*omega_x - u[3]*omega_y;
+  const double c15 = u[7] - u[5]*omega_x + u[3]*omega_z;
+  const double a11 = ((const volatile double *)q)[9];
+  const double a21 = ((const volatile double *)q)[12];
+  const double a31 = ((const volatile double *)q)[15];
+  const double c16 = w[1]*a21 + w[0]*a11 + w[2]*a31;
+  const double c19 = u[6] + u[5]*omega_y - u[4]*omega_z;
+  const double c11 = mu*(u[2]*c10 - u[0]*c9) + p[3]*omega_y;
+  const double c13 = mu*(u[0]*c12 - u[1]*c10) + p[4]*omega_z;
+  const double c18 = mu*(-u[2]*c12 + u[1]*c9) + p[2]*omega_x;
+  const double s0_6 = w[4]*a21 + w[3]*a11 + w[5]*a31 + c5*c6 - c7*c8 - mu*(-u[5]*c12 + u[4]*c9 + u[1]*c14 - u[2]*c15) + omega_z*c11 - omega_y*c13;
+  const double s0_7 = w[4]*a22 + w[3]*a12 + w[5]*a32 - c17*c6 + c7*c16 - mu*(u[5]*c10 - u[3]*c9 - u[0]*c14 + u[2]*c19) + omega_x*c13 - omega_z*c18;
+  const double s0_8 = w[4]*a23 + w[3]*a13 + w[5]*a33 + c17*c8 - c5*c16 - mu*(u[3]*c12 - u[4]*c10 + u[0]*c15 - u[1]*c19) - omega_x*c11 + omega_y*c18;
+  const double s0_16 = s0_15*(s0_9*s0_6 + s0_10*s0_7 + s0_11*s0_8);
+  const double s0_17 = s0_15*(s0_12*s0_7 + s0_10*s0_6 + s0_13*s0_8);
+  const double s0_18 = s0_15*(s0_13*s0_7 + s0_11*s0_6 + s0_14*s0_8);
+  const double X_C_d = ((const volatile double *)q)[3];
+  const double Y_C_d = ((const volatile double *)q)[4];
+  const double Z_C_d = ((const volatile double *)q)[5];
+  dq[0] = X_C_d;
+  dq[1] = Y_C_d;
+  dq[2] = Z_C_d;
+  dq[3] = w[0]*c0;
+  dq[4] = w[1]*c0;
+  dq[5] = c0*(-p[0]*p[5] + w[2] - p[5]*p[1]);
+  dq[6] = s0_16;
+  dq[7] = s0_17;
+  dq[8] = s0_18;
+  dq[9] = -a13*omega_y + a12*omega_z;
+  dq[10] = a13*omega_x - a11*omega_z;
+  dq[11] = -a12*omega_x + a11*omega_y;
+  dq[12] = -a23*omega_y + a22*omega_z;
+  dq[13] = a23*omega_x - a21*omega_z;
+  dq[14] = -a22*omega_x + a21*omega_y;
+  dq[15] = -a33*omega_y + a32*omega_z;
+  dq[16] = a33*omega_x - a31*omega_z;
+  dq[17] = -a32*omega_x + a31*omega_y;
+}
+
 /* ---- the model: what the runtime (crt_core.h) calls ------------------------------------ */
 /* S for the vertical n on the scene's surface, prm[CRT_P_shape] (derive/shapes.py) */
 static void model_shape(const double *p, const double *n, double *s)
@@ -1464,6 +1753,25 @@ static void model_sticking(const double *p, const double *u, const double *q, do
   model_shape(p, q + Q_N, s);
   model_shape_rate(p, q + Q_N, q + Q_OMEGA, sdot);
   general_sticking_rhs(q, u, s, sdot, p, dq, R);
+}
+
+/* the contact as a wrench at S: G's upper triangle g21, a_free and u = (v_S, A omega) */
+static void model_contact_wrench(const double *p, const double *u, const double *q,
+                                 double *g21, double *a_free, double *u6)
+{
+  double s[3], sdot[3];
+  model_shape(p, q + Q_N, s);
+  model_shape_rate(p, q + Q_N, q + Q_OMEGA, sdot);
+  general_contact_wrench(q, u, s, sdot, p, g21, a_free, u6);
+}
+
+/* dq/dt under the wrench w = (R, T) at S (fixed axes) */
+static void model_wrench_rhs(const double *p, const double *u, const double *q,
+                             const double *w, double *dq)
+{
+  double s[3];
+  model_shape(p, q + Q_N, s);
+  general_wrench_rhs(q, u, s, p, w, dq);
 }
 
 /* an impulse P (fixed axes) at the body point r (body axes, from O): a push of the

@@ -16,6 +16,17 @@
 static void crt_dk_rate(const double *w6, double mu, int log_rho, double x, const double *y,
                         double *dy);
 
+/* A couple's channel (spin friction: 1 component, Omega_Z; rolling resistance: 2,
+   Omega_X and Omega_Y), with the slip's fields below in its own angular units. */
+typedef struct {
+  int on;                     /* its coefficient (mu_s or mu_r) is > 0 */
+  int held;                   /* its angular velocity held at 0 by a couple inside the bound */
+  double dir[2];              /* turning: the direction of reference (unit; spin: dir[0] is
+                                 +-1), as the slip's dir */
+  int armed;                  /* as the slip's */
+  double w_eps, w_arm, w_freeze, w_scale;   /* as v_eps, v_arm, v_freeze, v_scale */
+} crt_channel;
+
 typedef struct {
   int mode;                   /* in contact: CRT_MODE_SLIDING or CRT_MODE_STICKING */
   double dir[2];              /* sliding: the slip direction of reference (unit, fixed
@@ -28,6 +39,9 @@ typedef struct {
   double v_arm;               /* slips above this are resolved by the integrator */
   double v_freeze;            /* below this the friction keeps the reference direction */
   double v_scale;             /* the slip's scale there (the event function's unit) */
+  int couples;                /* spin friction or rolling resistance is on: the contact is
+                                 solved as a wrench (crt_rough_wrench) */
+  crt_channel spin, roll;
 } crt_friction;
 
 #endif /* CRT_FRICTION_STATE_H */
