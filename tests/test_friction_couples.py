@@ -148,19 +148,19 @@ def test_a_rolling_ball_decelerates_at_the_closed_form_rate(k):
 
 
 # ---- a body that cannot roll, sliding on the plane: Bardin and Panev's setting -------------
-def _foot(mu_r):
+def _foot(mu_r, mu=0.3, u0=0.0, duration=1.5):
     """A sphere of radius 0.1 whose rolling resistance and spin friction act as a flat
     foot of half-width mu_r; the point (m = 0.3) on the circle x = r cos(w t),
     z = r sin(w t) about O, with O at rest at the start."""
-    M, m, R, r, w, mu = 1.0, 0.3, 0.1, 0.05, 20.0, 0.3
+    M, m, R, r, w = 1.0, 0.3, 0.1, 0.05, 20.0
     doc = {"name": "foot", "body": {"mass": M, "inertia": [0.4 * M * R * R] * 3,
                                     "shape": "sphere", "radius": R},
            "point": {"mass": m, "law": [f"{r}*cos({w}*t)", "0", f"{r}*sin({w}*t)"]},
            "plane": {"restitution": 0.0, "friction": mu, "rolling_resistance": mu_r,
                      "spin_friction": mu_r},
            "initial": {"com": [m * r / (M + m), 0, R],
-                       "com_velocity": [0, 0, m * r * w / (M + m)]},
-           "run": {"duration": 1.5, "method": "dop853", "rtol": 1e-11, "atol": 1e-13,
+                       "com_velocity": [u0, 0, m * r * w / (M + m)]},
+           "run": {"duration": duration, "method": "dop853", "rtol": 1e-11, "atol": 1e-13,
                    "outputs": ["pose", "impacts"]}}
     return doc, (M, m, r, w, mu)
 
@@ -256,3 +256,47 @@ def test_a_couple_needs_friction_and_a_non_negative_length(key):
     doc["plane"][key] = -0.01
     with pytest.raises(SceneError, match=rf"\[plane\]\.{key}"):
         parse_scene(doc)
+
+
+# the kinds of events in one period of each periodic mode (the point's period 2 pi/w)
+MODES_OF_MOTION = {
+    0.1: ["reversal", "reversal"],                  # moves both ways, never rests
+    0.3: ["stick", "slip", "reversal"],             # rests once, reverses once
+    0.4: ["stick", "slip", "stick", "slip"],        # rests at both stops
+}
+
+
+@pytest.mark.parametrize("mu", sorted(MODES_OF_MOTION))
+def test_bardin_panevs_periodic_modes(mu):
+    """Bardin and Panev (2018, abstract): a periodic mode always exists, of one of three
+    types depending on the parameters, and from any initial velocity the body enters it
+    in finite time or approaches it.  Three kinds appear here as mu_f grows (no rest, one
+    rest, two rests per period); from the initial velocities -0.4, 0 and 0.4 m/s the last
+    period's events (kind and phase) are the same to 1e-7 of the period, and the runs
+    agree with the 1-D Coulomb model throughout.  With rests the first one resets the
+    motion (the mode is entered in finite time); without, it is approached (the phases
+    2e-5 of the period apart after 3 s, 6e-11 after 6 s)."""
+    w = 20.0
+    period = 2 * np.pi / w
+    duration = 6.0 if "stick" not in MODES_OF_MOTION[mu] else 3.0
+    last = []
+    for u0 in (-0.4, 0.0, 0.4):
+        doc, (M, m, r, w, _) = _foot(0.1, mu=mu, u0=u0, duration=duration)
+        res = simulate(doc)
+        assert res.status == "done"
+        kinds = [e["kind"] for e in res.events]
+        assert "roll_start" not in kinds and "spin_start" not in kinds
+        t0 = max(e["t"] for e in res.events if e["kind"] in ("roll_stop", "contact"))
+        i0 = int(np.searchsorted(res.t, t0, side="right"))
+        u = res.q[:, 3] - m / (M + m) * (-r * w * np.sin(w * res.t))
+        _, stops = _coulomb_1d(M, m, r, w, mu, t0, float(u[i0 - 1]), res.t[-1])
+        ends = [e["t"] for e in res.events if e["kind"] in ("stick", "reversal")]
+        assert len(ends) == len(stops) and np.abs(np.array(ends) - stops).max() < 1e-7
+        tail = [(e["kind"], e["t"]) for e in res.events
+                if e["t"] > duration - period and e["kind"] in ("stick", "slip", "reversal")]
+        phases = sorted(((t % period) / period, k) for k, t in tail)
+        assert sorted(k for _, k in phases) == sorted(MODES_OF_MOTION[mu]), phases
+        last.append(phases)
+    for other in last[1:]:
+        assert [k for _, k in other] == [k for _, k in last[0]]
+        assert np.abs(np.array([p for p, _ in other]) - [p for p, _ in last[0]]).max() < 1e-7

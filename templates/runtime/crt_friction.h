@@ -1202,19 +1202,25 @@ static void crt_rough_mark(crt_session *s, crt_out *o, double t, int kind, doubl
 /* A transition in contact at (t, s->q), where the event function reached 0 (crt_handle_event
    and the start of a step): lift-off, stick, slip or reversal (the top of this file). */
 /* With couples, a slip or a rolling whose event "reached 0" fired while it had only turned
-   away from its reference (it passed by 0, it did not stop there: the slip still above
-   v_freeze, where the friction follows it, the rolling above twice its resolution) takes
-   its own direction as the new reference, with no event: the friction and the couple
-   follow it (stopping it would remove the speed across the reference).  Returns 1 if one
-   was re-aimed. */
-static int crt_couples_turned(crt_session *s, const crt_wrench *w)
+   away from its reference (it passed by 0, it did not stop there: its speed still above
+   twice its resolution) takes its own direction as the new reference, with no event: the
+   friction and the couple follow it (stopping it would remove the speed across the
+   reference); the slip only where N stays positive with its coefficient.  Returns 1 if
+   one was re-aimed. */
+static int crt_couples_turned(crt_session *s, double t, const crt_wrench *w)
 {
   int c, turned = 0;
   if (s->fr.mode == CRT_MODE_SLIDING && s->fr.armed && crt_rough_slip_value(s, w->u) <= 0.0) {
-    const double rho = crt_norm_of(2, w->u);
-    if (rho > s->fr.v_freeze) {      /* (below it the friction kept the reference) */
+    const double rho = crt_norm_of(2, w->u), keep[2] = {s->fr.dir[0], s->fr.dir[1]};
+    if (rho > 2.0 * s->fr.v_arm) {
+      /* below v_freeze the friction kept the reference: turning it to the slip moves N,
+         which must stay positive with its coefficient */
+      double dq[NQ];
+      crt_wrench w2;
       s->fr.dir[0] = w->u[0] / rho; s->fr.dir[1] = w->u[1] / rho;
-      turned = 1;
+      crt_rough_wrench(s, t, s->q, CRT_MODE_SLIDING, 0, dq, &w2);
+      if (w2.N > 0.0 && w2.k > 1e-2 * w2.g_zz) turned = 1;
+      else { s->fr.dir[0] = keep[0]; s->fr.dir[1] = keep[1]; }
     }
   }
   for (c = 1; c < 2; ++c) {      /* the rolling (the spin's one component cannot turn) */
@@ -1298,7 +1304,7 @@ static void crt_rough_transition(crt_session *s, crt_out *o, double t)
     crt_wrench w;
     int which = 0;
     crt_rough_wrench(s, t, s->q, s->fr.mode, 0, dq, &w);
-    if (crt_couples_arm(s, &w) || crt_couples_turned(s, &w)) {
+    if (crt_couples_arm(s, &w) || crt_couples_turned(s, t, &w)) {
       crt_changed(s);
       s->g_valid = 0;
       return;
