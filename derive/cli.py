@@ -246,8 +246,15 @@ def cmd_simulate(args: argparse.Namespace) -> int:
               f"{count(info['sticks'], 'stick')}, {count(info['slips'], 'slip')}, "
               f"{count(info['reversals'], 'reversal')} in contact")
         if result.couples_on:
-            print(f"  couples: {count(info['couple_stops'], 'stop')} (spin or rolling held "
-                  f"at 0), {count(info['couple_starts'], 'start')} from rest")
+            kinds = [ev["kind"] for ev in result.events]
+            last = {name: next((ev["t"] for ev in reversed(result.events)
+                                if ev["kind"] == f"{name}_stop"), None)
+                    for name in ("spin", "roll")}
+            print("  couples: " + "; ".join(
+                f"{label} {count(kinds.count(f'{name}_stop'), 'stop')}, "
+                f"{count(kinds.count(f'{name}_start'), 'start')} from rest"
+                + (f" (last stop at t = {last[name]:.6g} s)" if last[name] is not None else "")
+                for name, label in (("spin", "spin"), ("roll", "rolling"))))
     if scene.contact_possible:
         mh, mn = result.min_height, result.min_normal
         print(f"  lowest height of S {mh:.3g} m" +
@@ -659,6 +666,16 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
         return 130
+    except RuntimeError as exc:          # BuildError: the compiler refused the runtime
+        from .cbuild import BuildError
+        if not isinstance(exc, BuildError):
+            raise
+        lines = str(exc).splitlines()
+        first = next((ln for ln in lines if "error" in ln), lines[-1] if lines else "")
+        print(f"derive {args.command}: {lines[0] if lines else 'build failed'} (first "
+              f"error: {first.strip()}); a bug in derive, not in the input: please "
+              "report it", file=sys.stderr)
+        return 1
     except BrokenPipeError:
         # the reader of our output went away (``| head``): stop quietly, as cat does
         import os

@@ -26,12 +26,17 @@ velocity of S, the tangential impulse, the work of the normal impulse and of fri
   contact along the unit horizontal ``dir``.
 * ``general_sticking_rhs(q, u, s, sdot, p) -> (dq, R)``: sticking contact and its
   reaction R.
-* ``general_contact_wrench(q, u, s, sdot, p) -> (G, a_free, u)``: with spin friction or
-  rolling resistance, the contact's velocities ``u = (v_S, A omega)`` change as
-  ``du/dt = a_free + G (R, T)`` under the wrench (R, T) at S (G's upper triangle, row
-  by row); the runtime solves for the modes' unknowns on these numbers.
+* ``general_contact_wrench(q, u, s, sdot, p) -> (G, a_free, u_c, omega_free,
+  omega_per_wrench)``: with spin friction or rolling resistance, the contact's
+  velocities ``u = (v_S, A omega)`` change as ``du/dt = a_free + G (R, T)`` under the
+  wrench (R, T) at S (G's upper triangle, row by row), and ``omega' = omega_free +
+  omega_per_wrench (R, T)`` (its 3x6 matrix column by column); the runtime solves for the
+  modes' unknowns on these numbers.
 * ``general_wrench_rhs(q, u, s, p, w) -> dq``: the rates under a given wrench
-  ``w = (R, T)`` at S.
+  ``w = (R, T)`` at S (a solve with J; for the checks).
+* ``general_wrench_rates(q, p, omega_dot, R) -> dq``: the same from omega', which the
+  runtime forms from ``general_contact_wrench``'s ``omega_free`` and
+  ``omega_per_wrench`` (no second solve).
 """
 from __future__ import annotations
 
@@ -256,7 +261,12 @@ def contact_wrench() -> FunctionSpec:
         outputs=(Vector("G", _upper6(cw.matrix), G_LABELS),
                  Vector("a_free", tuple(cw.a_free), tuple(f"d({lb})/dt" for lb in
                                                           fr.RATE_LABELS)),
-                 Vector("u_c", tuple(cw.velocity), fr.RATE_LABELS)),
+                 Vector("u_c", tuple(cw.velocity), fr.RATE_LABELS),
+                 Vector("omega_free", tuple(fr.OMEGA_DOT_0), ("omega_x'0", "omega_y'0",
+                                                              "omega_z'0")),
+                 Vector("omega_per_wrench", tuple(c for col in (*fr.Y, *fr.YT) for c in col),
+                        tuple(f"d(omega_{a}')/d{w}" for w in fr.WRENCH_LABELS
+                              for a in "xyz"))),
         solves=(LinearSolve(matrix=fd.mass_matrix, rhs=(fd.forcing, *cw.rhs),
                             unknowns=(fr.OMEGA_DOT_0, *fr.Y, *fr.YT)),),
         definitions=MASS_DEFINITIONS)
@@ -284,6 +294,25 @@ def wrench_rhs() -> FunctionSpec:
 
 
 @lru_cache(maxsize=None)
+def wrench_rates() -> FunctionSpec:
+    """``general_wrench_rates(q, p, omega_dot, R) -> dq``."""
+    cw = fr.contact_wrench()
+    rates = _rates(MODEL)
+    rates.update(dict(zip(nt.V_C, cw.acc_C)))
+    rates.update(dict(zip(nt.omega, fr.OMEGA_DOT_W)))
+    return FunctionSpec(
+        name="general_wrench_rates",
+        doc="Contact under a wrench whose omega' is known (omega'_0 + sum R_k Y_k + sum "
+            "T_k YT_k, from general_contact_wrench's omega_free and omega_per_wrench): dq/dt "
+            "with V_C' = R/(m+M) - g e_Z (derive.friction.contact_wrench); no solve.",
+        inputs=(_q(MODEL), _p(), Vector("omega_dot", tuple(fr.OMEGA_DOT_W),
+                                         ("omega_x'", "omega_y'", "omega_z'")),
+                Vector("R", tuple(fr.R_VEC), ("R_X", "R_Y", "R_Z"))),
+        outputs=(_dq(rates),),
+        definitions=MASS_DEFINITIONS)
+
+
+@lru_cache(maxsize=None)
 def numpy_function(name: str):
     """The NumPy evaluation (derive.emit.numpy_backend) of the friction function
     ``name``, compiled once."""
@@ -297,10 +326,10 @@ def runtime_specs() -> list[FunctionSpec]:
     impulse_slip_direction_rate, not impulse_slip_rate)."""
     return [delassus(), contact_velocity(), impulse_slip_direction_rate(),
             impulse_stick_rate(), impulse_resliding(), apply_impulse(), sliding_rhs(),
-            sticking_rhs(), contact_wrench(), wrench_rhs()]
+            sticking_rhs(), contact_wrench(), wrench_rates()]
 
 
 def friction_specs() -> list[FunctionSpec]:
     return [delassus(), contact_velocity(), impulse_slip_rate(), impulse_slip_direction_rate(),
             impulse_stick_rate(), impulse_resliding(), apply_impulse(), sliding_rhs(),
-            sticking_rhs(), contact_wrench(), wrench_rhs()]
+            sticking_rhs(), contact_wrench(), wrench_rhs(), wrench_rates()]

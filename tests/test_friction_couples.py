@@ -51,20 +51,26 @@ def _full(g21):
 
 
 def test_the_wrench_equations_are_newton_eulers():
-    """On 200 random states and wrenches: dq/dt under the wrench, and du/dt = a_free +
-    G (R, T) for u = (v_S, A omega), both as the Newton–Euler formulation gives them; G
+    """On 200 random states and wrenches: dq/dt under the wrench (by a solve, and by the
+    runtime's omega' = omega_free + omega_per_wrench (R, T) without one), and du/dt =
+    a_free + G (R, T) for u = (v_S, A omega), both as the Newton–Euler formulation gives
+    them; G
     is symmetric (its lower triangle, from the rates, equals the upper one emitted) and
     positive definite, and its force block is the Delassus matrix."""
     wrench_of = numpy_function("general_contact_wrench")
     rhs_of = numpy_function("general_wrench_rhs")
+    rates_of = numpy_function("general_wrench_rates")
     delassus = numpy_function("general_delassus")
     rng = np.random.default_rng(41)
     for _ in range(200):
         q, u, s, sdot, p = _random_state(rng)
-        g21, a_free, u6 = wrench_of(q, u, s, sdot, p)
+        g21, a_free, u6, w0, Yw = wrench_of(q, u, s, sdot, p)
         Gm = _full(g21)
         w = rng.normal(0, 5, 6)
         (dq,) = rhs_of(q, u, s, p, w)
+        # the runtime's route: omega' = w0 + Yw w, then the rates without a solve
+        (dq_rates,) = rates_of(q, p, w0 + Yw.reshape(6, 3).T @ w, w[:3])
+        assert np.abs(dq_rates - dq).max() < 1e-12 * (np.abs(dq).max() + 1)
         dq_ne, aS_ne, Wd_ne = ne.under_wrench(q, u, s, sdot, p, w[:3], w[3:])
         scale = np.abs(dq_ne).max() + 1.0
         assert np.abs(dq - dq_ne).max() < 1e-11 * scale
@@ -300,3 +306,39 @@ def test_bardin_panevs_periodic_modes(mu):
     for other in last[1:]:
         assert [k for _, k in other] == [k for _, k in last[0]]
         assert np.abs(np.array([p for p, _ in other]) - [p for p, _ in last[0]]).max() < 1e-7
+
+
+def test_the_cli_names_each_couples_stops_and_a_refused_build_in_one_line(tmp_path, capsys,
+                                                                        monkeypatch):
+    """`derive simulate` says which couple stopped and when (the spinning sphere above);
+    and a runtime the C compiler refuses (a bug in derive, not in the input) is one line
+    on stderr with exit status 1, not a traceback."""
+    import json
+
+    from derive.cbuild import BuildError
+    from derive.cli import main
+    from derive.runtime import driver
+    doc = sphere(1.0, 0.3, 0.4 * 1.3 * 0.01, 0.1, [0, 0, 0], [0, 0, 5.0], mu_s=0.01,
+                 duration=0.5)
+    from derive.scene import toml
+    path = tmp_path / "spin.toml"
+    path.write_text(toml.dumps(doc))
+    assert main(["simulate", str(path), "-o", str(tmp_path / "out"), "--no-plots"]) == 0
+    out = capsys.readouterr().out
+    t_star = 0.4 * 1.3 * 0.01 * 5.0 / (0.01 * 1.3 * G)
+    line = next(ln for ln in out.splitlines() if ln.strip().startswith("couples:"))
+    assert "spin 1 stop, 0 starts" in line and "rolling 0 stops" in line, line
+    assert f"{t_star:.4f}"[:5] in line, (line, t_star)
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())["contact"]
+    assert summary["spin_friction"] == 0.01 and summary["time_rolling_held"] == 0.0
+    header = (tmp_path / "out" / "trajectory.csv").read_text().splitlines()[0].split(",")
+    assert header[-1] == "couples"
+
+    def refused(kind):
+        raise BuildError("the C compiler rejected the generated code:\n"
+                         "x.c:1:2: error: something")
+    monkeypatch.setattr(driver, "session_for", refused)
+    assert main(["simulate", str(path), "-o", str(tmp_path / "out2")]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "first error: x.c:1:2: error: something" in err[0], err
+    assert "Traceback" not in err[0]

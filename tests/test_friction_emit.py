@@ -68,7 +68,8 @@ def inputs(spec, c, rng) -> list:
     by_name = {"q": c.q_general, "u": c.u, "s": c.s, "p": c.p, "sdot": rng.normal(size=3),
                "mu_f": rng.uniform(0.0, 1.2, 1), "P": rng.normal(size=3),
                "W": dk.upper(W), "c": rng.uniform(0.0, 3.0, 1),
-               "y": np.r_[rng.normal(size=3), rng.normal(size=4)], "w": rng.normal(size=6)}
+               "y": np.r_[rng.normal(size=3), rng.normal(size=4)], "w": rng.normal(size=6),
+               "omega_dot": rng.normal(size=3), "R": rng.normal(size=3)}
     th = rng.uniform(-np.pi, np.pi)
     by_name["dir"] = by_name["sigma"] = np.array([np.cos(th), np.sin(th)])
     return [by_name[v.name] for v in spec.inputs]

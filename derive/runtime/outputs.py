@@ -119,7 +119,8 @@ def plain(label: str) -> str:
 CSV_CHUNK = 8192           # rows formatted at a time (memory stays bounded on long runs)
 
 
-CODE_COLUMNS = frozenset({"mode", "stage"})   # integer codes (abi.MODES; slip, stick, reslide)
+# integer codes (abi.MODES; slip, stick, reslide; abi.COUPLE_BITS)
+CODE_COLUMNS = frozenset({"mode", "stage", "couples"})
 
 
 def write_csv(path: Path, header: list, rows: np.ndarray, text: dict | None = None,
@@ -181,6 +182,9 @@ def trajectory_table(result: Result, mo: Motion | None = None) -> tuple[list, np
         header += ["slip_X", "slip_Y", "slip_speed", "mode"]
         cols += [result.slip, np.hypot(*result.slip.T)[:, None],
                  result.modes[:, None].astype(float)]
+    if result.rough and result.couples_on:      # the couples held (1 spin, 2 rolling)
+        header.append("couples")
+        cols.append(result.couples[:, None].astype(float))
     return header, np.hstack(cols)
 
 

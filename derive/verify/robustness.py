@@ -27,6 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..commands import Target
+from ..progress import count
 from .generators import random_rough_scene, random_scene, with_rk4_step
 from .judges import judge_run
 
@@ -71,11 +72,19 @@ def run_one(args) -> Outcome:
     verdict, detail = judge_run(result, size)
     import collections
     kinds = collections.Counter(e["kind"] for e in result.events)
-    detail = detail or (f"{doc['run']['method']}, {kinds.get('impact', 0)} impacts, "
-                        f"{kinds.get('contact', 0)} contacts, {result.stats['steps']} steps"
-                        + (f", mu_f {scene.friction:.3g}: {kinds.get('stick', 0)} sticks, "
-                           f"{kinds.get('slip', 0)} slips, {kinds.get('reversal', 0)} "
-                           "reversals" if plane != "smooth" else ""))
+    detail = detail or (f"{doc['run']['method']}, {count(kinds.get('impact', 0), 'impact')}, "
+                        f"{count(kinds.get('contact', 0), 'contact')}, "
+                        f"{count(result.stats['steps'], 'step')}"
+                        + (f", mu_f {scene.friction:.3g}: "
+                           f"{count(kinds.get('stick', 0), 'stick')}, "
+                           f"{count(kinds.get('slip', 0), 'slip')}, "
+                           f"{count(kinds.get('reversal', 0), 'reversal')}"
+                           if plane != "smooth" else "")
+                        + (f"; mu_s {scene.spin_friction:.3g} m, mu_r "
+                           f"{scene.rolling_resistance:.3g} m: "
+                           f"{count(kinds['spin_stop'] + kinds['roll_stop'], 'couple stop')}, "
+                           f"{count(kinds['spin_start'] + kinds['roll_start'], 'couple start')}"
+                           if plane == "couples" else ""))
     return Outcome(index, verdict, result.status, seconds, result.min_height, size,
                    scene.duration, detail, plane)
 
@@ -167,9 +176,11 @@ def report(outcomes: list[Outcome]) -> str:
     bad = [o for o in outcomes if o.verdict not in ("ok", "painleve")]
     for o in bad[:20]:
         lines.append(f"  #{o.index} ({o.plane}) {o.verdict}: {o.detail}")
+    # the costliest per simulated second, marked where past 10x their plane's median
     for o in sorted(ran, key=lambda o: -o.seconds / o.duration)[:5]:
-        lines.append(f"  slowest #{o.index} ({o.plane}): {1e3 * o.seconds:.1f} ms for "
-                     f"{o.duration:.3g} s "
+        past = " past 10x" if o in slow else ""
+        lines.append(f"  slowest{past} #{o.index} ({o.plane} plane): {1e3 * o.seconds:.1f} ms "
+                     f"for {o.duration:.3g} s "
                      f"({o.status}; {o.detail or 'ok'})")
     lines.append("goal: " + "; ".join(str(t) for t in targets(outcomes)))
     return "\n".join(lines)

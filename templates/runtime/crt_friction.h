@@ -652,7 +652,7 @@ static double crt_rough_slip_value(const crt_session *s, const double *v)
 typedef struct {
   double w[6];                /* (R, T) at S, fixed axes */
   double u[6];                /* (v_S, Omega) */
-  double a[6];                /* du/dt = a_free + G w */
+  double a[6];                /* du/dt = a_free + G w (crt_wrench_rates_of_u) */
   double N, k, g_zz;          /* N, its coefficient in dv_n/dt (k > 0 needed) and G_ZZ */
 } crt_wrench;
 
@@ -675,19 +675,36 @@ static double crt_norm_of(int dim, const double *v)
 }
 
 /* The wrench in the mode `mode` of the slip (sliding along dir, or along crt_rough_dir's
-   where dir is 0; sticking) and the channels' modes at (t, q), and dq/dt under it.  The
+   where dir is 0; sticking) and the channels' modes at (t, q), and dq/dt under it (where
+   dq is not 0: the events and the mode decisions need the wrench alone).  The
    unknowns are the held components and N, the equations their rates and dv_n/dt, all 0:
    Gaussian elimination in that order (the held block is a principal block of G, positive
    definite: no pivoting), whose last pivot is N's coefficient k. */
-static void crt_rough_wrench(crt_session *s, double t, const double *q, int mode,
-                             const double *dir, double *dq, crt_wrench *o)
+typedef struct {
+  double G[6][6], a[6];       /* du/dt = a + G w */
+  double u[6];                /* (v_S, Omega) */
+  double w0[3], Yw[18];       /* omega' = w0 + Yw w (Yw column by column) */
+} crt_wrench_terms;
+
+/* the state's side of the wrench equations at (t, q) (model_contact_wrench) */
+static void crt_wrench_terms_at(crt_session *s, double t, const double *q,
+                                crt_wrench_terms *m)
 {
-  const double *u = crt_u(s, t), mu = s->prm[CRT_P_friction];
-  double g21[21], a[6], G[6][6], b[6] = {0.0, 0.0, 1.0, 0.0, 0.0, 0.0}, K[7][7], r[7], x[7];
-  int idx[7], n = 0, i, j, k, c;
-  model_contact_wrench(s->prm, u, q, g21, a, o->u);
+  double g21[21];
+  int i, j, k;
+  model_contact_wrench(s->prm, crt_u(s, t), q, g21, m->a, m->u, m->w0, m->Yw);
   for (k = 0, i = 0; i < 6; ++i)
-    for (j = i; j < 6; ++j, ++k) G[i][j] = G[j][i] = g21[k];
+    for (j = i; j < 6; ++j, ++k) m->G[i][j] = m->G[j][i] = g21[k];
+}
+
+/* the modes' side: the unknowns for the terms m (crt_rough_wrench without the rates) */
+static void crt_wrench_solve(crt_session *s, const crt_wrench_terms *m, int mode,
+                             const double *dir, crt_wrench *o)
+{
+  const double mu = s->prm[CRT_P_friction];
+  double b[6] = {0.0, 0.0, 1.0, 0.0, 0.0, 0.0}, K[7][7], r[7], x[7];
+  int idx[7], n = 0, i, j, k, c;
+  for (i = 0; i < 6; ++i) o->u[i] = m->u[i];
   if (mode == CRT_MODE_STICKING) { idx[n++] = 0; idx[n++] = 1; }
   else {
     double d[2];
@@ -710,10 +727,10 @@ static void crt_rough_wrench(crt_session *s, double t, const double *q, int mode
   for (i = 0; i <= n; ++i) {
     const int ri = idx[i];
     double gb = 0.0;
-    for (j = 0; j < n; ++j) K[i][j] = G[ri][idx[j]];
-    for (k = 0; k < 6; ++k) gb += G[ri][k] * b[k];
+    for (j = 0; j < n; ++j) K[i][j] = m->G[ri][idx[j]];
+    for (k = 0; k < 6; ++k) gb += m->G[ri][k] * b[k];
     K[i][n] = gb;
-    r[i] = -a[ri];
+    r[i] = -m->a[ri];
   }
   for (k = 0; k < n; ++k)
     for (i = k + 1; i <= n; ++i) {
@@ -727,16 +744,39 @@ static void crt_rough_wrench(crt_session *s, double t, const double *q, int mode
     x[i] = acc / K[i][i];
   }
   o->k = K[n][n];
-  o->g_zz = G[2][2];
+  o->g_zz = m->G[2][2];
   o->N = x[n];
   for (i = 0; i < 6; ++i) o->w[i] = x[n] * b[i];
   for (i = 0; i < n; ++i) o->w[idx[i]] += x[i];
+}
+
+/* du/dt = a + G w of a solved wrench (the onset's scan reads it) */
+static void crt_wrench_rates_of_u(const crt_wrench_terms *m, crt_wrench *o)
+{
+  int i, j;
   for (i = 0; i < 6; ++i) {
-    double acc = a[i];
-    for (j = 0; j < 6; ++j) acc += G[i][j] * o->w[j];
+    double acc = m->a[i];
+    for (j = 0; j < 6; ++j) acc += m->G[i][j] * o->w[j];
     o->a[i] = acc;
   }
-  model_wrench_rhs(s->prm, u, q, o->w, dq);
+}
+
+static void crt_rough_wrench(crt_session *s, double t, const double *q, int mode,
+                             const double *dir, double *dq, crt_wrench *o)
+{
+  crt_wrench_terms m;
+  crt_wrench_terms_at(s, t, q, &m);
+  crt_wrench_solve(s, &m, mode, dir, o);
+  if (dq != 0) {          /* omega' = w0 + Yw w, then the rates */
+    double wd[3];
+    int i, j;
+    for (i = 0; i < 3; ++i) {
+      double acc = m.w0[i];
+      for (j = 0; j < 6; ++j) acc += m.Yw[3 * j + i] * o->w[j];
+      wd[i] = acc;
+    }
+    model_wrench_rates(s->prm, q, wd, o->w, dq);
+  }
 }
 
 /* the least of the channels' event values: a held one's (mu N - |T_c|)/(mu F), a turning
@@ -930,7 +970,7 @@ static double crt_rough_event_value(crt_session *s, double t, const double *y)
     crt_wrench w;
     double g;
     int which = 0;
-    crt_rough_wrench(s, t, y, s->fr.mode, 0, dq, &w);
+    crt_rough_wrench(s, t, y, s->fr.mode, 0, 0, &w);
     g = crt_wrench_slip_value(s, &w);
     return crt_min(g, crt_couples_value(s, &w, &which));
   }
@@ -956,9 +996,8 @@ static int crt_rough_consistent(crt_session *s, double t, double N)
 {
   double w6[6], v[3], dir[2], k_f;
   if (s->fr.couples) {            /* N's coefficient after the held channels' elimination */
-    double dq[NQ];
     crt_wrench w;
-    crt_rough_wrench(s, t, s->q, CRT_MODE_SLIDING, 0, dq, &w);
+    crt_rough_wrench(s, t, s->q, CRT_MODE_SLIDING, 0, 0, &w);
     k_f = w.k;
     w6[5] = w.g_zz;
   } else {
@@ -1002,22 +1041,22 @@ static void crt_rough_onset_at(const double *w6, const double *R, double WR_n, d
    the slip's direction, which the friction then follows, turns back to it) nearest
    -R_t/|R_t| (the friction's direction continued) in dir, else any nearest.  Returns 0 (dir = -R_t/|R_t|)
    when there is none. */
-static void crt_onset_at_wrench(crt_session *s, double t, int which, double th, double *g,
-                                double *along)
+static void crt_onset_at_wrench(crt_session *s, const crt_wrench_terms *m, int which,
+                                double th, double *g, double *along)
 {
   const double sg[2] = {cos(th), sin(th)};
   const int first = which ? 3 : 0;
-  double dq[NQ];
   crt_wrench w;
   if (which == 0) {
-    crt_rough_wrench(s, t, s->q, CRT_MODE_SLIDING, sg, dq, &w);
+    crt_wrench_solve(s, m, CRT_MODE_SLIDING, sg, &w);
   } else {
     const crt_channel keep = s->fr.roll;
     s->fr.roll.held = 0; s->fr.roll.armed = 0;
     s->fr.roll.dir[0] = sg[0]; s->fr.roll.dir[1] = sg[1];
-    crt_rough_wrench(s, t, s->q, s->fr.mode, 0, dq, &w);
+    crt_wrench_solve(s, m, s->fr.mode, 0, &w);
     s->fr.roll = keep;
   }
+  crt_wrench_rates_of_u(m, &w);
   if (!(w.k > 0.0 && w.N > 0.0)) { *g = NAN; *along = NAN; return; }
   *g = sg[0] * w.a[first + 1] - sg[1] * w.a[first];
   *along = sg[0] * w.a[first] + sg[1] * w.a[first + 1];
@@ -1025,10 +1064,11 @@ static void crt_onset_at_wrench(crt_session *s, double t, int which, double th, 
 
 /* crt_rough_onset's function: without couples crt_rough_onset_at (W and R alone), with
    them crt_onset_at_wrench (the slip, which = 0, or the rolling, which = 1) */
-static void crt_onset_eval(crt_session *s, double t, int which, const double *w6,
-                           const double *R, double WR_n, double th, double *g, double *along)
+static void crt_onset_eval(crt_session *s, const crt_wrench_terms *m, int which,
+                           const double *w6, const double *R, double WR_n, double th,
+                           double *g, double *along)
 {
-  if (s->fr.couples) crt_onset_at_wrench(s, t, which, th, g, along);
+  if (s->fr.couples) crt_onset_at_wrench(s, m, which, th, g, along);
   else crt_rough_onset_at(w6, R, WR_n, s->prm[CRT_P_friction], th, g, along);
 }
 
@@ -1040,22 +1080,24 @@ static int crt_rough_onset(crt_session *s, double t, int which, const double *w6
   const double d0[2] = {-R[0] / rt, -R[1] / rt};
   double best = -2.0, g_prev = 0.0, th_prev = 0.0, score;
   int k, ok_prev = 0, found = 0;
+  crt_wrench_terms m;       /* with couples: the state's side, once for the scan */
+  if (s->fr.couples) crt_wrench_terms_at(s, t, s->q, &m);
   dir[0] = d0[0]; dir[1] = d0[1];
   for (k = 0; k <= 72; ++k) {
     const double th = 6.283185307179586 * (double)k / 72.0;
     double g, along, sg[2];
     int ok, it;
-    crt_onset_eval(s, t, which, w6, R, WR_n, th, &g, &along);
+    crt_onset_eval(s, &m, which, w6, R, WR_n, th, &g, &along);
     ok = g == g;                           /* k_f > 0 and N > 0 there */
     if (k > 0 && ok && ok_prev && (g > 0.0) != (g_prev > 0.0)) {
       double a = th_prev, b = th, ga = g_prev, gm, al = 0.0;
       for (it = 0; it < 60; ++it) {
         const double c = 0.5 * (a + b);
         double gc;
-        crt_onset_eval(s, t, which, w6, R, WR_n, c, &gc, &al);
+        crt_onset_eval(s, &m, which, w6, R, WR_n, c, &gc, &al);
         if ((gc > 0.0) == (ga > 0.0)) { a = c; ga = gc; } else b = c;
       }
-      crt_onset_eval(s, t, which, w6, R, WR_n, 0.5 * (a + b), &gm, &al);
+      crt_onset_eval(s, &m, which, w6, R, WR_n, 0.5 * (a + b), &gm, &al);
       sg[0] = cos(0.5 * (a + b)); sg[1] = sin(0.5 * (a + b));
       /* a stable ray first (g falls through 0: a slip turned off it turns back), then the
          nearest to -R_t/|R_t| */
@@ -1096,7 +1138,7 @@ static int crt_rough_at_rest(crt_session *s, double t, double *R)
        Painleve's case */
     crt_wrench w;
     crt_rough_onset(s, t, 0, 0, R, s->fr.dir);
-    crt_rough_wrench(s, t, s->q, CRT_MODE_SLIDING, 0, dq, &w);
+    crt_rough_wrench(s, t, s->q, CRT_MODE_SLIDING, 0, 0, &w);
     if (!(w.N > 0.0)) return CRT_MODE_FLIGHT;
     if (!(w.k > 0.0)) s->status = CRT_PAINLEVE;
     return CRT_MODE_SLIDING;
@@ -1155,7 +1197,7 @@ static void crt_rough_enter_contact(crt_session *s, crt_out *o, double t, double
   }
   if (s->fr.couples) {
     crt_wrench w;
-    crt_rough_wrench(s, t, s->q, mode, 0, dq, &w);
+    crt_rough_wrench(s, t, s->q, mode, 0, 0, &w);
     crt_couples_release(s, &w);
   }
   if (mode == CRT_MODE_STICKING) N = R[2];
@@ -1215,10 +1257,9 @@ static int crt_couples_turned(crt_session *s, double t, const crt_wrench *w)
     if (rho > 2.0 * s->fr.v_arm) {
       /* below v_freeze the friction kept the reference: turning it to the slip moves N,
          which must stay positive with its coefficient */
-      double dq[NQ];
       crt_wrench w2;
       s->fr.dir[0] = w->u[0] / rho; s->fr.dir[1] = w->u[1] / rho;
-      crt_rough_wrench(s, t, s->q, CRT_MODE_SLIDING, 0, dq, &w2);
+      crt_rough_wrench(s, t, s->q, CRT_MODE_SLIDING, 0, 0, &w2);
       if (w2.N > 0.0 && w2.k > 1e-2 * w2.g_zz) turned = 1;
       else { s->fr.dir[0] = keep[0]; s->fr.dir[1] = keep[1]; }
     }
@@ -1257,7 +1298,7 @@ static void crt_couple_transition(crt_session *s, crt_out *o, double t, int c,
   crt_channel *ch = crt_couple(s, c);
   const int first = crt_couple_first(c), dim = crt_couple_dim(c);
   const double mu = crt_couple_bound(s, c), before = crt_norm_of(dim, w->u + first);
-  double dq[NQ], Tn;
+  double Tn;
   crt_wrench w2 = *w;
   if (!(w->N > 0.0)) { crt_lift_off(s, o, t, w->N); return; }
   crt_project(s, t, s->q, 1);
@@ -1268,7 +1309,7 @@ static void crt_couple_transition(crt_session *s, crt_out *o, double t, int c,
     ch->held = 1;
     crt_couple_stop(s->q, c);
     if (s->fr.mode == CRT_MODE_STICKING) crt_rough_stop_slip(s, t, s->q);
-    crt_rough_wrench(s, t, s->q, s->fr.mode, 0, dq, &w2);
+    crt_rough_wrench(s, t, s->q, s->fr.mode, 0, 0, &w2);
     Tn = crt_norm_of(dim, w2.w + first);
     if (Tn <= mu * w2.N) {
       crt_couples_reaim(s, t);
@@ -1303,7 +1344,7 @@ static void crt_rough_transition(crt_session *s, crt_out *o, double t)
     /* a channel's event first where its value is the least */
     crt_wrench w;
     int which = 0;
-    crt_rough_wrench(s, t, s->q, s->fr.mode, 0, dq, &w);
+    crt_rough_wrench(s, t, s->q, s->fr.mode, 0, 0, &w);
     if (crt_couples_arm(s, &w) || crt_couples_turned(s, t, &w)) {
       crt_changed(s);
       s->g_valid = 0;
@@ -1552,7 +1593,8 @@ void crt_eval_delassus(crt_session *s, double t, const double *q, double *w6, do
 void crt_eval_contact_wrench(crt_session *s, double t, const double *q, double *g21,
                              double *a_free, double *u6)
 {
-  model_contact_wrench(s->prm, crt_u(s, t), q, g21, a_free, u6);
+  double w0[3], Yw[18];
+  model_contact_wrench(s->prm, crt_u(s, t), q, g21, a_free, u6, w0, Yw);
 }
 
 /* Darboux-Keller's impact for W (w6[6]) and the velocity of S v0[3] (v0[2] < 0) with the
