@@ -340,10 +340,12 @@ def judge_rough(result) -> tuple[str, str]:
         if result.couples_on:
             # each couple inside its bound: |T_Z| <= mu_s N, |(T_X, T_Y)| <= mu_r N
             w = w[keep]
+            # (the rows at a couple's transition are where its event function, scaled by
+            # mu F, crosses 0: located to 1e-6 of the bound at worst)
             for bit, cols, mu in COUPLE_CHANNELS(s):
                 excess = np.linalg.norm(w[:, cols], axis=1) - mu * w[:, 2]
                 k = int(np.argmax(excess)) if len(rows) else 0
-                if len(rows) and excess[k] > slack * length_scale(s):
+                if len(rows) and excess[k] > max(slack * length_scale(s), 1e-6 * mu * F):
                     return "cone", (f"|T| - mu N = {excess[k]:.3g} N m (couple {bit}) at t "
                                     f"= {result.t[rows[k]]:.6g} (row kind "
                                     f"{result.row_kind[rows[k]]})")

@@ -395,19 +395,27 @@ static double crt_event_value_dense(crt_session *s, double t, double *deriv)
 static double crt_root(crt_session *s, double a, double ga, double b, double gb, double tol)
 {
   double dummy;
-  int side = 0, it;
+  int side = 0, it, repeats = 0;
   for (it = 0; it < 200 && b - a > tol; ++it) {
     double c = (a * gb - b * ga) / (gb - ga);
     double gc;
     if (!(c > a && c < b)) c = 0.5 * (a + b);
+#if MODEL_FRICTION
+    /* friction hook 4b: with couples the event function is the least of values of
+       other scales (a kink where the least changes), which can stall the secant on one
+       side: there every third point is the middle */
+    if (s->fr.couples && repeats >= 2) c = 0.5 * (a + b);
+#endif
     if (c - a < 0.25 * tol) c = a + 0.5 * tol;
     if (b - c < 0.25 * tol) c = b - 0.5 * tol;
     gc = crt_event_value_dense(s, c, &dummy);
     if (gc > 0.0) {
       if (side == 1) { const double m = 1.0 - gc / ga; gb *= m > 0.0 ? m : 0.5; }
+      repeats = side == 1 ? repeats + 1 : 0;
       a = c; ga = gc; side = 1;
     } else {
       if (side == -1) { const double m = 1.0 - gc / gb; ga *= m > 0.0 ? m : 0.5; }
+      repeats = side == -1 ? repeats + 1 : 0;
       b = c; gb = gc; side = -1;
     }
   }
