@@ -293,7 +293,7 @@ def friction_panels(ax_slip, ax_mode, result) -> None:
     ticks, names = [0, 2, 3], ["flight", "sliding", "sticking"]
     if result.couples_on:          # the couples' channels held: a bar each while held
         for bit, level, name, colour in ((1, 1.25, "spin held", "C4"),
-                                         (2, 0.75, "rolling held", "C2")):
+                                         (2, 0.75, "rolling held", "C9")):
             held = ((result.couples & bit) != 0) & (modes >= 2)
             ax_mode.step(t, np.where(held, level, np.nan), where="post", lw=3, color=colour)
             ticks.append(level)
