@@ -371,7 +371,6 @@ def cmd_scene(args: argparse.Namespace) -> int:
 
 # ---- stability --------------------------------------------------------------------
 def cmd_stability(args: argparse.Namespace) -> int:
-    import json
     from dataclasses import replace
     from .scene import SceneError, load_scene, parse_scene
     from .stability import scenes, sweep
@@ -398,8 +397,9 @@ def cmd_stability(args: argparse.Namespace) -> int:
         raise UsageError(str(exc)) from None
     if values is not None:
         result["family"] = {"name": args.family, "parameters": dict(values)}
-    if args.json:
-        print(json.dumps(result, indent=2))
+    if args.json:                        # strict JSON: a NaN (no orbit) becomes null
+        from . import json_text
+        sys.stdout.write(json_text.dumps(result))
     else:
         print(scenes.text(result))
     return 0 if scenes.checks_hold(result) else 1

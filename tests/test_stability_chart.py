@@ -126,7 +126,10 @@ def test_cli_stability_scene_file_and_errors(tmp_path):
                      '[initial]\nomega = [0.0, 0.0, 2.0]\n[stability]\nlong_periods = 20\n')
     proc = _cli("stability", str(scene), "--json")
     assert proc.returncode == 0, proc.stderr
-    result = json.loads(proc.stdout)
+
+    def refuse(name):                    # strict JSON: no NaN or Infinity
+        raise ValueError(f"{name} in derive stability --json")
+    result = json.loads(proc.stdout, parse_constant=refuse)
     assert result["blocks"]["omega, n"]["verdict"].startswith("linearly stable")
     assert len(result["long_runs"]) == 3 and all(c["ok"] for c in result["checks"].values())
     assert "family" not in result
