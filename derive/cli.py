@@ -242,9 +242,12 @@ def cmd_simulate(args: argparse.Namespace) -> int:
                        f"mu_r = {scene.rolling_resistance:g} m")
         else:
             couples = "no spin friction or rolling resistance"
+        import numpy as np
+        dt, mid = np.diff(result.t), result.modes[:-1]
         print(f"  friction mu_f = {scene.friction:g} ({scene.restitution_model}; {couples}): "
               f"{count(info['sticks'], 'stick')}, {count(info['slips'], 'slip')}, "
-              f"{count(info['reversals'], 'reversal')} in contact")
+              f"{count(info['reversals'], 'reversal')} in contact; sticking "
+              f"{dt[mid == 3].sum():.4g} s, sliding {dt[mid == 2].sum():.4g} s")
         if result.couples_on:
             kinds = [ev["kind"] for ev in result.events]
             last = {name: next((ev["t"] for ev in reversed(result.events)
