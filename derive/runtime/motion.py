@@ -234,8 +234,8 @@ def rough_contact_power(result, mo: Motion, a: int, b: int) -> tuple[np.ndarray,
     or sticking equations in each row's mode."""
     s = result.scene
     q = result.model_q[a:b]
+    A = q[:, G.A].reshape(-1, 3, 3)
     if result.couples_on:        # the couple's power (T, Omega) joins the friction's
-        A = q[:, G.A].reshape(-1, 3, 3)
         Om = np.einsum("nij,nj->ni", A, q[:, G.omega])
         scale = (float(np.max(np.abs(q[:, G.com_velocity]))) + 1.0) / length_scale(s)
         cdir = np.c_[resolved_directions(Om[:, 2:], scale, s.rtol),
@@ -252,7 +252,6 @@ def rough_contact_power(result, mo: Motion, a: int, b: int) -> tuple[np.ndarray,
     wd = dq[:, G.omega]
     r, v, w = mo.r[a:b], mo.v_r[a:b], mo.omega[a:b]
     rel = mo.a_r[a:b] + 2.0 * np.cross(w, v) + np.cross(wd, r) + np.cross(w, np.cross(w, r))
-    A = q[:, G.A].reshape(-1, 3, 3)
     F = s.mu * rel + (s.m / (s.m + s.M)) * np.einsum("nij,ni->nj", A, R)
     return np.einsum("ij,ij->i", F, v), friction
 
@@ -340,29 +339,28 @@ def contact_modes(result) -> np.ndarray:
     for ev in events:
         mode = _mode_after(ev, mode)
         after.append(mode)
-    after = np.array([_MODE["flight"]] + after)
-    before_rows = result.row_kind == 1
-    k = np.searchsorted(times, t, side="right")
-    k_before = np.searchsorted(times, t, side="left")
-    out[:] = after[np.where(before_rows, k_before, k)]
-    return out
+    return _per_row(result, times, np.array([_MODE["flight"]] + after))
+
+
+def _per_row(result, times: np.ndarray, after: np.ndarray) -> np.ndarray:
+    """What holds on each row, from ``after`` (the value before the first event, then
+    after each event at ``times``): a step row has the value after the last event at or
+    before its time, a ``before`` row the value before the events at its time."""
+    k = np.searchsorted(times, result.t, side="right")
+    k_before = np.searchsorted(times, result.t, side="left")
+    return after[np.where(result.row_kind == 1, k_before, k)]
 
 
 def contact_couples(result) -> np.ndarray:
     """The couples' channels held on every row (abi.COUPLE_BITS), as
     :func:`contact_modes` reads the modes: the event column ``couples`` after each event
     (0 after one that leaves contact)."""
-    t = result.t
-    out = np.zeros(len(t), dtype=int)
     if not result.couples_on or not result.events:
-        return out
+        return np.zeros(len(result.t), dtype=int)
     times = np.array([ev["t"] for ev in result.events])
     after = np.array([0] + [ev["couples"] if ev.get("mode") not in (None, "flight") else 0
                             for ev in result.events])
-    k = np.searchsorted(times, t, side="right")
-    k_before = np.searchsorted(times, t, side="left")
-    out[:] = after[np.where(result.row_kind == 1, k_before, k)]
-    return out
+    return _per_row(result, times, after)
 
 
 def contact_intervals(result) -> list[tuple[float, float]]:

@@ -290,14 +290,14 @@ def _couple_rows(result, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.n
         result.couples[rows], np.zeros((len(rows), 3)))
     w_scale = (float(np.max(np.abs(result.model_q[:, 3:6]))) + 1.0) / length_scale(s)
     known = np.ones(len(rows), dtype=bool)
-    for bit, cols, mu in COUPLE_CHANNELS(s):
+    for bit, cols, mu in couple_channels(s):
         held = (result.couples[rows] & bit) != 0
         known &= held | (np.linalg.norm(u[:, cols], axis=1)
                          > 10.0 * math.sqrt(s.rtol) * w_scale)
     return w, u, known
 
 
-def COUPLE_CHANNELS(s) -> list:
+def couple_channels(s) -> list:
     """(bit, columns of the wrench, bound) of the couples a scene has on."""
     return [(bit, cols, mu) for bit, cols, mu in (
         (1, [5], s.spin_friction), (2, [3, 4], s.rolling_resistance)) if mu > 0.0]
@@ -342,7 +342,7 @@ def judge_rough(result) -> tuple[str, str]:
             w = w[keep]
             # (the rows at a couple's transition are where its event function, scaled by
             # mu F, crosses 0: located to 1e-6 of the bound at worst)
-            for bit, cols, mu in COUPLE_CHANNELS(s):
+            for bit, cols, mu in couple_channels(s):
                 excess = np.linalg.norm(w[:, cols], axis=1) - mu * w[:, 2]
                 k = int(np.argmax(excess)) if len(rows) else 0
                 if len(rows) and excess[k] > max(slack * length_scale(s), 1e-6 * mu * F):

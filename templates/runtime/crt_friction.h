@@ -674,6 +674,22 @@ static double crt_norm_of(int dim, const double *v)
   return dim == 2 ? sqrt(v[0] * v[0] + v[1] * v[1]) : fabs(v[0]);
 }
 
+/* The reference of a slip or a channel (ref, dim 2 or 1) moved to its velocity v and
+   armed: armed, where v is above eps; not yet, where v is resolved (above arm) along the
+   reference.  Returns 1 if it moved. */
+static int crt_follow_arm(int *armed, double *ref, int dim, const double *v, double eps,
+                          double arm)
+{
+  const double rho = crt_norm_of(dim, v);
+  if (*armed ? rho > eps
+             : rho > arm && v[0] * ref[0] + (dim == 2 ? v[1] * ref[1] : 0.0) > 0.0) {
+    ref[0] = v[0] / rho; ref[1] = dim == 2 ? v[1] / rho : 0.0;
+    *armed = 1;
+    return 1;
+  }
+  return 0;
+}
+
 /* The wrench in the mode `mode` of the slip (sliding along dir, or along crt_rough_dir's
    where dir is 0; sticking) and the channels' modes at (t, q), and dq/dt under it (where
    dq is not 0: the events and the mode decisions need the wrench alone).  The
@@ -826,22 +842,13 @@ static double crt_wrench_slip_value(crt_session *s, const crt_wrench *w)
 static int crt_couples_arm(crt_session *s, const crt_wrench *w)
 {
   int c, armed = 0;
-  if (s->fr.mode == CRT_MODE_SLIDING && !s->fr.armed) {
-    const double rho = crt_norm_of(2, w->u);
-    if (rho > s->fr.v_arm && w->u[0] * s->fr.dir[0] + w->u[1] * s->fr.dir[1] > 0.0) {
-      s->fr.dir[0] = w->u[0] / rho; s->fr.dir[1] = w->u[1] / rho;
-      s->fr.armed = armed = 1;
-    }
-  }
+  if (s->fr.mode == CRT_MODE_SLIDING && !s->fr.armed)
+    armed |= crt_follow_arm(&s->fr.armed, s->fr.dir, 2, w->u, s->fr.v_eps, s->fr.v_arm);
   for (c = 0; c < 2; ++c) {
     crt_channel *ch = crt_couple(s, c);
-    const int first = crt_couple_first(c), dim = crt_couple_dim(c);
-    const double *om = w->u + first, rho = crt_norm_of(dim, om);
-    if (!ch->on || ch->held || ch->armed) continue;
-    if (rho > ch->w_arm && om[0] * ch->dir[0] + (dim == 2 ? om[1] * ch->dir[1] : 0.0) > 0.0) {
-      ch->dir[0] = om[0] / rho; ch->dir[1] = dim == 2 ? om[1] / rho : 0.0;
-      ch->armed = armed = 1;
-    }
+    if (ch->on && !ch->held && !ch->armed)
+      armed |= crt_follow_arm(&ch->armed, ch->dir, crt_couple_dim(c),
+                              w->u + crt_couple_first(c), ch->w_eps, ch->w_arm);
   }
   return armed;
 }
@@ -1407,18 +1414,12 @@ static void crt_couples_after_step(crt_session *s)
   int c;
   for (c = 0; c < 2; ++c) {
     crt_channel *ch = crt_couple(s, c);
-    const int first = crt_couple_first(c) - 3, dim = crt_couple_dim(c);
-    double Om[3], rho;
+    double Om[3];
     if (!ch->on) continue;
     if (ch->held) { crt_couple_stop(s->q, c); continue; }
     crt_omega_fixed(s->q, Om);
-    rho = crt_norm_of(dim, Om + first);
-    if (ch->armed ? rho > ch->w_eps
-                  : rho > ch->w_arm && Om[first] * ch->dir[0]
-                                       + (dim == 2 ? Om[first + 1] * ch->dir[1] : 0.0) > 0.0) {
-      ch->dir[0] = Om[first] / rho; ch->dir[1] = dim == 2 ? Om[first + 1] / rho : 0.0;
-      ch->armed = 1;
-    }
+    crt_follow_arm(&ch->armed, ch->dir, crt_couple_dim(c), Om + crt_couple_first(c) - 3,
+                   ch->w_eps, ch->w_arm);
   }
 }
 
@@ -1438,6 +1439,8 @@ static void crt_rough_after_step(crt_session *s)
     normal = R[2];
     ratio = R[2] > 0.0 ? sqrt(R[0] * R[0] + R[1] * R[1]) / (mu * R[2]) : HUGE_VAL;
   } else {
+    /* (crt_follow_arm written out: the runtime's -ffp-contract=fast contracts the helper
+       differently, and without couples the run stays what it was, bit for bit) */
     double rho;
     model_contact_velocity(s->prm, crt_u(s, t), s->q, v);
     rho = sqrt(v[0] * v[0] + v[1] * v[1]);
