@@ -389,7 +389,8 @@ def cost_rows(doc: dict, repeats: int) -> dict:
     """The rough scene against its smooth twin (friction 0): the C run alone and
     derive.simulate end to end, best of repetitions."""
     import derive
-    from ..runtime.driver import prepare, run_prepared, session_for
+    from ..runtime.driver import prepare, run_prepared
+    from ..runtime.session import session_for
     out = {}
     for label, d, model in (("rough", doc, None), ("smooth, general model", _smooth(doc),
                                                     "general"),

@@ -34,7 +34,8 @@ from ..emit.numpy_backend import compile_spec
 from ..models import flight_rhs, gap, impact, lowest_point
 from .. import layout
 from ..runtime import choice, geometry
-from ..runtime.driver import Session, prepare, run_prepared
+from ..runtime.driver import prepare, run_prepared
+from ..runtime.session import Session
 from ..scene import Scene, parse_scene
 from ..scipy_hybrid import Functions, Hybrid, StopRun
 

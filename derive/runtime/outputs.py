@@ -29,7 +29,8 @@ import numpy as np
 from .. import json_text, layout
 
 from .driver import Result
-from .motion import Motion, energy_balance, event_rows, for_pictures, motion, phases
+from .events import event_rows, phases
+from .motion import Motion, energy_balance, for_pictures, motion
 
 
 def invariant_drift(result: Result) -> dict:

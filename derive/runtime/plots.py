@@ -17,7 +17,8 @@ from .. import layout
 from ..progress import count
 
 from . import drawing
-from .motion import Motion, contact_intervals, impact_rows, phases
+from .events import contact_intervals, impact_rows, phases
+from .motion import Motion
 
 
 # a title at a fixed height: matplotlib's automatic placement measures every tick label
