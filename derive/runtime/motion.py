@@ -387,7 +387,7 @@ def _resampled(result, a: int, b: int):
     eps = 1e-9 * max(abs(t1), 1.0)
     if len(raw.events) and raw.events[0, 0] < t1 - eps:
         return None
-    inside = (raw.t > t0 + eps) & (raw.t < t1 - eps) & (raw.kinds == 0)
+    inside = (raw.t > t0 + eps) & (raw.t < t1 - eps) & (raw.kinds == abi.ROW_KIND["step"])
     t = np.concatenate([[t0], raw.t[inside], [t1]])
     q = np.concatenate([result.model_q[a:a + 1], raw.q[inside], result.model_q[b - 1:b]])
     sub = replace(result, t=t, model_q=q, row_kind=np.zeros(len(t), dtype=np.intc),
