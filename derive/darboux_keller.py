@@ -59,7 +59,7 @@ class Impact:
 @lru_cache(maxsize=None)
 def _functions():
     from . import friction as fr
-    from .friction_models import numpy_function
+    from .emit.numpy_backend import numpy_function
     dk = fr.darboux_keller()
     W_args = list(fr.W_UPPER)
     slip = sp.lambdify([list(fr.SIGMA), W_args, fr.mu_f], list(dk.slip_rate), modules="numpy")

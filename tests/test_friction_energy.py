@@ -21,7 +21,7 @@ import pytest
 import newton_euler_friction as ne
 from cases import cases
 from derive import darboux_keller as dk
-from derive.friction_models import numpy_function
+from derive.emit.numpy_backend import numpy_function
 
 
 def _approaching(c, rng):

@@ -89,8 +89,7 @@ class ScipyRough:
     """
 
     def __init__(self, doc: dict, rtol: float, dt: float = GRID_DT, budget: int = 2000):
-        from ..emit.numpy_backend import compile_spec
-        from ..friction_models import numpy_function
+        from ..emit.numpy_backend import compile_spec, numpy_function
         from ..models import flight_rhs, gap, lowest_point, lowest_point_rate
         from ..runtime import choice
         from ..scene import parse_scene
