@@ -37,16 +37,16 @@ def cmd_equations(args: argparse.Namespace) -> int:
 # ---- prove ------------------------------------------------------------------------
 def _load_paper_checks():
     try:
-        from paper_checks import catalogue, registry
+        from paper_checks import catalogue, runner
     except ImportError as exc:
         raise UsageError("prove: the paper_checks/ folder is not importable from here "
                          f"({exc}); run from a checkout installed with pip install -e .")
-    return catalogue, registry
+    return catalogue, runner
 
 
 def cmd_prove(args: argparse.Namespace) -> int:
     import time
-    catalogue, registry = _load_paper_checks()
+    catalogue, runner = _load_paper_checks()
     entries = catalogue.entries()
     if args.section:
         entries = [e for e in entries if e.section in args.section]
@@ -62,7 +62,7 @@ def cmd_prove(args: argparse.Namespace) -> int:
     width = max(len(e.id) for e in entries) if entries else 4
     print(f"{'ID':<{width}}  {'status':<8} {'seconds':>8}  detail")
     for entry in entries:
-        outcome = registry.run(entry.id)
+        outcome = runner.run(entry.id)
         outcomes.append(outcome)
         detail = _clip(outcome.detail, 90)
         clipped = clipped or detail != (outcome.detail or "")
