@@ -4,7 +4,8 @@ energy of the carrier and of the point, and the energy balance of a run.
 Positions (fixed axes).  ``O_aO = O_aC - A m/(m+M) OP`` (E1.8a), ``O_aP = O_aO + A OP``.
 
 Kinetic energy.  From its definition for the two bodies, with ``V = A^T V_C`` (body axes),
-``u = V_r + omega x OP`` (the absolute rate of OP, body axes) and ``nu = m/(m+M)``:
+``u = V_r + omega x OP`` (the absolute rate of OP, body axes), ``nu = m/(m+M)`` and
+the paper's reduced mass ``mu = mM/(m+M)`` (``Scene.reduced_mass``):
 ``V_O = V - nu u`` and ``V_P = V + (1 - nu) u``, so
 
     T_carrier = 1/2 M |V_O|^2 + 1/2 (omega, J_O omega)      (J_O = diag(J_x, J_y, J_z))
@@ -132,7 +133,7 @@ def motion(result) -> Motion:
     r_O = r_P = T_c = T_p = T = U = None
     if v_C is not None:
         T = 0.5 * (s.m + s.M) * np.einsum("ij,ij->i", v_C, v_C) + rot \
-            + 0.5 * s.mu * np.einsum("ij,ij->i", u, u)
+            + 0.5 * s.reduced_mass * np.einsum("ij,ij->i", u, u)
         U = (s.m + s.M) * s.g * r_C[:, 2]
     if A is not None and r_C is not None:
         Ar = np.einsum("nij,nj->ni", A, r)
@@ -158,7 +159,7 @@ def point_velocity_body(scene, mo: Motion) -> np.ndarray | None:
 def omega_rate_in_flight(scene, mo: Motion) -> np.ndarray:
     """omega' along the rows from E1.7 (flight), solved with NumPy: independent of the C."""
     r, v, acc, w = mo.r, mo.v_r, mo.a_r, mo.omega
-    mu = scene.mu
+    mu = scene.reduced_mass
     J0 = np.asarray(scene.J, dtype=float)
     rr = np.einsum("ij,ij->i", r, r)
     J = np.zeros((len(r), 3, 3))
@@ -175,7 +176,7 @@ def drive_power_in_flight(scene, mo: Motion) -> np.ndarray:
     r, v, acc, w = mo.r, mo.v_r, mo.a_r, mo.omega
     wd = omega_rate_in_flight(scene, mo)
     rel = acc + 2.0 * np.cross(w, v) + np.cross(wd, r) + np.cross(w, np.cross(w, r))
-    return scene.mu * np.einsum("ij,ij->i", rel, v)
+    return scene.reduced_mass * np.einsum("ij,ij->i", rel, v)
 
 
 _OMEGA_RATE = {"general": (G.omega, G.n), "rough": (G.omega, G.n),
@@ -196,7 +197,7 @@ def drive_power_in_contact(result, mo: Motion, a: int, b: int) -> np.ndarray | N
     wd = dq[:, w_at]
     r, v, w = mo.r[a:b], mo.v_r[a:b], mo.omega[a:b]
     rel = mo.a_r[a:b] + 2.0 * np.cross(w, v) + np.cross(wd, r) + np.cross(w, np.cross(w, r))
-    F = s.mu * rel + (s.m / (s.m + s.M)) * N[:, None] * q[:, n_at]
+    F = s.reduced_mass * rel + (s.m / (s.m + s.M)) * N[:, None] * q[:, n_at]
     return np.einsum("ij,ij->i", F, v)
 
 
@@ -252,7 +253,7 @@ def rough_contact_power(result, mo: Motion, a: int, b: int) -> tuple[np.ndarray,
     wd = dq[:, G.omega]
     r, v, w = mo.r[a:b], mo.v_r[a:b], mo.omega[a:b]
     rel = mo.a_r[a:b] + 2.0 * np.cross(w, v) + np.cross(wd, r) + np.cross(w, np.cross(w, r))
-    F = s.mu * rel + (s.m / (s.m + s.M)) * np.einsum("nij,ni->nj", A, R)
+    F = s.reduced_mass * rel + (s.m / (s.m + s.M)) * np.einsum("nij,ni->nj", A, R)
     return np.einsum("ij,ij->i", F, v), friction
 
 
