@@ -292,6 +292,8 @@ def names(table: tuple) -> tuple:
 OPT = {entry.name: k for k, entry in enumerate(OPTIONS)}
 PRM = {entry.name: k for k, entry in enumerate(PARAMETERS)}
 OP = {entry.name: k for k, entry in enumerate(OPCODES)}
+MODE = {entry.name: k for k, entry in enumerate(MODES)}
+ROW_KIND = {entry.name: k for k, entry in enumerate(ROW_KINDS)}
 
 
 # The columns of an event row.  The first six for every model; the rest are the friction
@@ -305,6 +307,13 @@ EVENT_COLUMNS = ("t", "kind", "value", "v_minus", "v_plus", "t_accumulation", "m
                  "P_Y", "slip_X_minus", "slip_Y_minus", "slip_X_plus", "slip_Y_plus",
                  "work_normal", "work_friction", "stage", "couples")
 COUPLE_BITS = (("spin", 1), ("roll", 2))
+COUPLE_BIT = dict(COUPLE_BITS)
+# Column "stage" of an impact's event row: what happened inside the impact.
+IMPACT_STAGES = _names(
+    ("slip", "S slipped to the end of the impact (or never slipped)"),
+    ("stick", "the slip stopped and S stuck to the end"),
+    ("reslide", "the slip stopped and S slid again, along a new direction"),
+)
 
 # What crt_count(CRT_COUNT_<NAME>) reports, with the value abi.py expects.
 COUNTS = (

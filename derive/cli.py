@@ -37,16 +37,16 @@ def cmd_equations(args: argparse.Namespace) -> int:
 # ---- prove ------------------------------------------------------------------------
 def _load_paper_checks():
     try:
-        from paper_checks import catalogue, registry
+        from paper_checks import catalogue, runner
     except ImportError as exc:
         raise UsageError("prove: the paper_checks/ folder is not importable from here "
                          f"({exc}); run from a checkout installed with pip install -e .")
-    return catalogue, registry
+    return catalogue, runner
 
 
 def cmd_prove(args: argparse.Namespace) -> int:
     import time
-    catalogue, registry = _load_paper_checks()
+    catalogue, runner = _load_paper_checks()
     entries = catalogue.entries()
     if args.section:
         entries = [e for e in entries if e.section in args.section]
@@ -62,7 +62,7 @@ def cmd_prove(args: argparse.Namespace) -> int:
     width = max(len(e.id) for e in entries) if entries else 4
     print(f"{'ID':<{width}}  {'status':<8} {'seconds':>8}  detail")
     for entry in entries:
-        outcome = registry.run(entry.id)
+        outcome = runner.run(entry.id)
         outcomes.append(outcome)
         detail = _clip(outcome.detail, 90)
         clipped = clipped or detail != (outcome.detail or "")
@@ -185,10 +185,8 @@ def _workers(n: int) -> str:
     return count(n, "worker")
 
 
-def cmd_simulate(args: argparse.Namespace) -> int:
-    import time
-    start = time.perf_counter()
-    from .scene import SceneError, parse_scene
+def _check_simulate_options(args) -> None:
+    """The options of ``derive simulate`` that go together, and the output folder."""
     if args.scheduler and not args.sweep:
         raise UsageError("--scheduler: runs the variants of a sweep on a Dask cluster, "
                          "so it goes only with --sweep")
@@ -200,75 +198,54 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     if args.workers is not None and args.workers < 1:
         raise UsageError(f"--workers: must be >= 1 (got {args.workers})")
     _check_output_folder(args.output)
-    if args.sweep:
-        return _simulate_sweep(args, start)
-    closed = None
+
+
+def _run_scene(args):
+    """(the scene, its run, the closed loop or None): the loop closed where the scene has
+    ``[control]`` (derive.control.closed), else the open run."""
+    from .scene import SceneError, parse_scene
     try:
         doc, base, origin = _scene_doc(args)
         scene = parse_scene(doc, origin, base=base)
-        if scene.control is not None:         # the loop closed: derive.control.closed
+        if scene.control is not None:
             from .control.closed import simulate_closed
             closed = simulate_closed(scene)
-            result = closed.result
-        else:
-            from .runtime.driver import simulate
-            result = simulate(scene, progress=not args.quiet)
+            return scene, closed.result, closed
+        from .runtime.driver import simulate
+        return scene, simulate(scene, progress=not args.quiet), None
     except SceneError as exc:
         raise UsageError(str(exc)) from None
+
+
+def _write_run(args, result, closed) -> list:
+    """The output files of a run (derive.runtime.outputs), with a progress bar."""
     from .progress import Bar
     from .runtime.outputs import write_all
-    t_written = time.perf_counter()
     bar = Bar("writing the trajectory", enabled=not args.quiet)
     try:
-        written = write_all(result, args.output, plot=not args.no_plots,
-                            animation=not (args.no_animation or args.no_plots),
-                            fmt=args.format, progress=bar.update,
-                            extra=closed.files(plot=not args.no_plots)
-                            if closed is not None else None)
+        return write_all(result, args.output, plot=not args.no_plots,
+                         animation=not (args.no_animation or args.no_plots),
+                         fmt=args.format, progress=bar.update,
+                         extra=closed.files(plot=not args.no_plots)
+                         if closed is not None else None)
     finally:
         bar.close()
+
+
+def cmd_simulate(args: argparse.Namespace) -> int:
+    import time
+    start = time.perf_counter()
+    _check_simulate_options(args)
+    if args.sweep:
+        return _simulate_sweep(args, start)
+    scene, result, closed = _run_scene(args)
+    t_written = time.perf_counter()
+    written = _write_run(args, result, closed)
     t_done = time.perf_counter()
-    info = result.stats
-    print(f"{scene.name}: {result.status}; model {result.model} ({result.why})")
-    if closed is not None:
-        print(f"  closed loop ({closed.describe()})")
-    print(f"  {scene.method}, {info['steps']} steps ({info['rejected']} rejected), "
-          f"{info['rhs_evaluations']} RHS evaluations, {count(info['impacts'], 'impact')}, "
-          f"{count(info['contacts'], 'contact phase')}, "
-          f"{count(info['liftoffs'], 'lift-off')}")
-    if result.rough:
-        if result.couples_on:
-            couples = (f"spin friction mu_s = {scene.spin_friction:g} m, rolling resistance "
-                       f"mu_r = {scene.rolling_resistance:g} m")
-        else:
-            couples = "no spin friction or rolling resistance"
-        import numpy as np
-        dt, mid = np.diff(result.t), result.modes[:-1]
-        print(f"  friction mu_f = {scene.friction:g} ({scene.restitution_model}; {couples}): "
-              f"{count(info['sticks'], 'stick')}, {count(info['slips'], 'slip')}, "
-              f"{count(info['reversals'], 'reversal')} in contact; sticking "
-              f"{dt[mid == 3].sum():.4g} s, sliding {dt[mid == 2].sum():.4g} s")
-        if result.couples_on:
-            kinds = [ev["kind"] for ev in result.events]
-            last = {name: next((ev["t"] for ev in reversed(result.events)
-                                if ev["kind"] == f"{name}_stop"), None)
-                    for name in ("spin", "roll")}
-            print("  couples: " + "; ".join(
-                f"{label} {count(kinds.count(f'{name}_stop'), 'stop')}, "
-                f"{count(kinds.count(f'{name}_start'), 'start')} from rest"
-                + (f" (last stop at t = {last[name]:.6g} s)" if last[name] is not None else "")
-                for name, label in (("spin", "spin"), ("roll", "rolling"))))
-    if scene.contact_possible:
-        mh, mn = result.min_height, result.min_normal
-        print(f"  lowest height of S {mh:.3g} m" +
-              (f", smallest reaction in contact {mn:.4g} N" if mn < float("inf") else ""))
-    t = result.timings
-    build = f", library built in {t['library_build_s']:.2f} s (once per machine)" \
-        if t.get("load_s", 0.0) > 0.05 else ""
-    out_t = t.get("outputs", {})
-    parts = ", ".join(f"{name[:-2]} {sec:.2f} s" for name, sec in out_t.items())
-    print(f"  validate {1e3 * t['prepare_s']:.2f} ms, run {1e3 * t['run_s']:.2f} ms{build}, "
-          f"outputs {t_done - t_written:.2f} s ({parts}); {t_done - start:.2f} s in all")
+    from .runtime import report
+    loop = closed.describe() if closed is not None else None
+    print("\n".join(report.lines(scene, result, loop)))
+    print(report.timing_line(result, t_done - t_written, t_done - start))
     print(f"  wrote {', '.join(p.name for p in written)} to {args.output}")
     return 0 if result.status == "done" else 1
 

@@ -1,8 +1,8 @@
 """A frictional impact integrated numerically: Darboux–Keller in the normal impulse.
 
-The reference for the C runtime to come (NumPy and SciPy; the rates are the derived
-ones of :mod:`derive.friction`, evaluated through :mod:`derive.friction_models` and
-:mod:`derive.emit.numpy_backend`).
+The reference the C runtime's impacts are compared with (NumPy and SciPy; the rates are
+the derived ones of :mod:`derive.friction`, packaged by :mod:`derive.friction_models` and
+evaluated by :func:`derive.emit.numpy_backend.numpy_function`).
 
 During the impact the configuration is fixed, so the Delassus matrix W is a constant
 and the velocity of S is the state (``v = v_S``, fixed axes).  The normal impulse ``p``
@@ -59,7 +59,7 @@ class Impact:
 @lru_cache(maxsize=None)
 def _functions():
     from . import friction as fr
-    from .friction_models import numpy_function
+    from .emit.numpy_backend import numpy_function
     dk = fr.darboux_keller()
     W_args = list(fr.W_UPPER)
     slip = sp.lambdify([list(fr.SIGMA), W_args, fr.mu_f], list(dk.slip_rate), modules="numpy")

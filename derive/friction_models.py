@@ -312,14 +312,6 @@ def wrench_rates() -> FunctionSpec:
         definitions=MASS_DEFINITIONS)
 
 
-@lru_cache(maxsize=None)
-def numpy_function(name: str):
-    """The NumPy evaluation (derive.emit.numpy_backend) of the friction function
-    ``name``, compiled once."""
-    from .emit.numpy_backend import compile_spec
-    return compile_spec(next(s for s in friction_specs() if s.name == name))
-
-
 def runtime_specs() -> list[FunctionSpec]:
     """What the rough model's runtime calls (templates/runtime/model.c.jinja, crt_friction.h
     and the Darboux-Keller step of crt_rk_steps.h; the slip stage in polar form reads

@@ -105,7 +105,7 @@ _POOLS_LOCK = threading.Lock()
 
 def _threads(n: int) -> ThreadPoolExecutor:
     """A pool of n threads kept for the process's life: idle threads cost nothing, and
-    what each thread made (its runtime sessions, derive.runtime.driver.session_for)
+    what each thread made (its runtime sessions, derive.runtime.session.session_for)
     serves the next study too."""
     with _POOLS_LOCK:
         if n not in _POOLS:

@@ -1,7 +1,8 @@
 """Exact reference solutions of the paper, for tests and benchmarks.
 
 Each takes a free-flight :class:`~derive.scene.Scene` (or builds one) and times
-``t`` and returns the state in the ``general`` layout (N, 18):
+``t`` and returns the state in the ``general`` layout (N, 18); ``mu`` is the paper's
+reduced mass ``mM/(m+M)`` (``Scene.reduced_mass``):
 
 * :func:`free_parabola` — the centre of mass C in flight (E1.2), for any scene;
 * :func:`axisymmetric` — J_x = J_y, x = y = 0: theta constant and
@@ -70,7 +71,7 @@ def inverse_inertia_integral(scene: Scene, ts: np.ndarray, J: float) -> np.ndarr
     For z = a sin(W s + b): with theta = W s + b, A = J, B = mu a^2,
     ``int dtheta/(A + B sin^2 theta) = G(theta)/sqrt(A (A + B))``, G the continuous
     angle of (sqrt(A) cos theta, sqrt(A + B) sin theta)."""
-    mu = scene.mu
+    mu = scene.reduced_mass
     z = scene.law.sympy()[2]
     h = _harmonic(z)
     if h is not None:
@@ -95,7 +96,7 @@ def axisymmetric(scene: Scene, t) -> np.ndarray:
     ts = np.asarray(t, dtype=float)
     A0, w0 = scene.A0, np.asarray(scene.omega, dtype=float)
     z0 = float(sp.sympify(scene.law.sympy()[2]).subs(nt.t, scene.t0))
-    Jx, Jz, mu = scene.J[0], scene.J[2], scene.mu
+    Jx, Jz, mu = scene.J[0], scene.J[2], scene.reduced_mass
     K_body = np.array([(Jx + mu * z0 ** 2) * w0[0], (Jx + mu * z0 ** 2) * w0[1], Jz * w0[2]])
     K, R_K, psi0, theta0, phi0 = momentum_frame(A0 @ K_body, A0)  # E3.11: cos = J_z w_z0/K
     integral = inverse_inertia_integral(scene, ts, Jx)
@@ -116,7 +117,7 @@ def planar(scene: Scene, t) -> np.ndarray:
     if scene.law.sympy()[2] != 0 or scene.omega[0] != 0 or scene.omega[1] != 0:
         raise ValueError("planar reference: needs z = 0 and omega(0) along z")
     ts = np.asarray(t, dtype=float)
-    mu, Jz = scene.mu, scene.J[2]
+    mu, Jz = scene.reduced_mass, scene.J[2]
     x, y = scene.law.sympy()[0], scene.law.sympy()[1]
     xd, yd = sp.diff(x, nt.t), sp.diff(y, nt.t)
     # (4.2): [J_z + mu (x^2 + y^2)] omega_z + mu (x y' - y x') = kappa

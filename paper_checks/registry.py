@@ -1,9 +1,12 @@
-"""Registration of checks by catalogue ID and the outcome of running one."""
+"""Registration of checks by catalogue ID: ``@check("E1.7")`` files a check under its ID.
+
+The sections (``section1`` ... ``section4``, ``extensions``) import this module and
+register their checks; :mod:`paper_checks.runner` imports the sections and runs a check
+by its ID.  Nothing here imports a section.
+"""
 from __future__ import annotations
 
-import time
-import traceback
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Callable
 
 
@@ -17,16 +20,6 @@ class Erratum:
     printed: str
     correct: str
     consequence: str
-
-
-@dataclass
-class Outcome:
-    id: str
-    status: str                 # "pass", "erratum", "fail", "missing", "error"
-    seconds: float = 0.0
-    detail: str = ""
-    errata: list[Erratum] = field(default_factory=list)
-    shown: list = field(default_factory=list)    # (label, expression) for the report
 
 
 class Report:
@@ -56,27 +49,3 @@ def check(check_id: str):
         CHECKS[check_id] = fn
         return fn
     return register
-
-
-def load_all() -> dict[str, Callable[[Report], None]]:
-    from . import extensions, section1, section2, section3, section4  # noqa: F401  (registration)
-    return CHECKS
-
-
-def run(check_id: str) -> Outcome:
-    checks = load_all()
-    fn = checks.get(check_id)
-    if fn is None:
-        return Outcome(check_id, "missing", 0.0, "no check registered for this ID")
-    report = Report(check_id)
-    start = time.perf_counter()
-    try:
-        fn(report)
-    except CheckFailed as exc:
-        return Outcome(check_id, "fail", time.perf_counter() - start, str(exc))
-    except Exception as exc:  # a crash in a check is a failure, reported with its cause
-        tb = traceback.format_exception_only(type(exc), exc)[-1].strip()
-        return Outcome(check_id, "error", time.perf_counter() - start, tb)
-    status = "erratum" if report.errata else "pass"
-    return Outcome(check_id, status, time.perf_counter() - start, report.detail,
-                   report.errata, report.shown)

@@ -4,7 +4,7 @@ from __future__ import annotations
 import pytest
 
 from paper_checks.catalogue import entries
-from paper_checks.registry import run
+from paper_checks.runner import run
 
 IDS = [e.id for e in entries()]
 

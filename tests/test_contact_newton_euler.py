@@ -17,7 +17,8 @@ import pytest
 from scipy.integrate import solve_ivp
 from scipy.spatial.transform import Rotation
 
-from derive.runtime.driver import Session, prepare, simulate
+from derive.runtime.driver import prepare, simulate
+from derive.runtime.session import Session
 from newton_euler_contact import Body, gap, kinetic_moment_C, on_plane, solve
 
 G = 9.81

@@ -162,7 +162,7 @@ def test_the_noise_has_the_deviations_asked_and_is_the_seeds():
 def test_a_session_runs_open_loop_again_after_a_closed_loop():
     """A run leaves the session on the controller's buffers; the next open-loop run of
     the same law must read the law set before (it had read freed memory)."""
-    from derive.runtime.driver import session_for
+    from derive.runtime.session import session_for
     scene = _scene()
     prep = prepare(scene)
     first = run_prepared(prep)

@@ -25,7 +25,7 @@ from scipy.integrate import solve_ivp
 
 from cases import rotation_from_quaternion
 from derive import darboux_keller as dk
-from derive.friction_models import numpy_function
+from derive.emit.numpy_backend import numpy_function
 
 U0 = np.zeros(9)      # the point at rest at the centre
 

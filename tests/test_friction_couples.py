@@ -25,7 +25,7 @@ from scipy.integrate import solve_ivp
 
 import newton_euler_friction as ne
 from cases import rotation_from_quaternion
-from derive.friction_models import numpy_function
+from derive.emit.numpy_backend import numpy_function
 from derive.runtime.driver import simulate
 from derive.runtime.motion import energy_balance, motion
 from derive.scene import SceneError, parse_scene

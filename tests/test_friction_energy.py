@@ -21,7 +21,7 @@ import pytest
 import newton_euler_friction as ne
 from cases import cases
 from derive import darboux_keller as dk
-from derive.friction_models import numpy_function
+from derive.emit.numpy_backend import numpy_function
 
 
 def _approaching(c, rng):
@@ -85,7 +85,9 @@ def test_energy_sweep_thousands_through_the_runtime():
     changes by exactly those works plus the drive's.  Slip, stick and re-sliding all
     occur (the reference integrator's sweep of these thousands took a minute)."""
     from derive import abi
-    from derive.runtime.driver import Session, library, prepare
+    from derive.runtime.build import library
+    from derive.runtime.driver import prepare
+    from derive.runtime.session import Session
     prep = prepare({"body": {"mass": 1.0, "inertia": [0.004] * 3, "shape": "sphere",
                              "radius": 0.1},
                     "point": {"mass": 0.2, "law": ["0", "0", "0"]},

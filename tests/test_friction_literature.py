@@ -27,7 +27,7 @@ import numpy as np
 import pytest
 
 from derive import darboux_keller as dk
-from derive.friction_models import numpy_function
+from derive.emit.numpy_backend import numpy_function
 
 L = 0.5
 MASS = 1.0                 # m + M

@@ -17,6 +17,7 @@ import newton_euler_friction as ne
 from cases import cases, rel_err
 from derive import darboux_keller as dk
 from derive import friction_models as fm
+from derive.emit.numpy_backend import numpy_function
 
 N_STATES = 300
 TOL = 1e-11
@@ -24,7 +25,7 @@ TOL = 1e-11
 
 @pytest.fixture(scope="module")
 def f():
-    return {spec.name: fm.numpy_function(spec.name) for spec in fm.friction_specs()}
+    return {spec.name: numpy_function(spec.name) for spec in fm.friction_specs()}
 
 
 def _states(n, seed):

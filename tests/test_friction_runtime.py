@@ -28,7 +28,8 @@ import newton_euler_friction as ne
 from cases import rotation_from_quaternion
 from derive import darboux_keller as dk
 from derive.runtime.build import DP, library
-from derive.runtime.driver import Session, prepare, simulate
+from derive.runtime.driver import prepare, simulate
+from derive.runtime.session import Session
 
 G = 9.81
 

@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 import sympy as sp
 
-from derive.runtime.driver import Session, prepare
+from derive.runtime.driver import prepare
+from derive.runtime.session import Session
 from derive.scene.law import compile_law, find_singularity, parse_law
 from derive.scene import SceneError, builtin_doc, parse_scene
 

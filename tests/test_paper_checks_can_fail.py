@@ -5,7 +5,7 @@ import sympy as sp
 
 from derive import notation as nt
 from paper_checks import printed
-from paper_checks.registry import run
+from paper_checks.runner import run
 
 
 def test_a_sign_error_in_e1_7_is_caught(monkeypatch):
@@ -112,10 +112,10 @@ def test_prove_marks_a_cut_detail_and_the_report_keeps_it_whole(tmp_path, monkey
     """The table shows one line of each detail: a longer or multi-line detail ends in '…'
     and the run says where the whole text is; the report carries it whole."""
     from derive.cli import main
-    from paper_checks import catalogue, registry
+    from paper_checks import catalogue, runner
     first = catalogue.entries()[0].id
     long = "x" * 120 + "\nsecond line"
-    monkeypatch.setattr(registry, "run", lambda i: registry.Outcome(i, "pass", 0.0, long))
+    monkeypatch.setattr(runner, "run", lambda i: runner.Outcome(i, "pass", 0.0, long))
     assert main(["prove", "--id", first]) == 0
     out = capsys.readouterr().out
     row = next(line for line in out.splitlines() if line.startswith(first))

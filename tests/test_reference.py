@@ -61,7 +61,7 @@ def test_axisymmetric_closed_form_equals_quadrature():
     ts = np.linspace(0, 3, 31)
     closed = reference.inverse_inertia_integral(s, ts, s.J[0])
     from scipy.integrate import quad
-    numeric = [quad(lambda u: 1 / (s.J[0] + s.mu * (0.3 * math.sin(4 * u)) ** 2), 0, tk,
+    numeric = [quad(lambda u: 1 / (s.J[0] + s.reduced_mass * (0.3 * math.sin(4 * u)) ** 2), 0, tk,
                     epsabs=1e-14, epsrel=1e-13, limit=200)[0] for tk in ts]
     assert np.max(np.abs(closed - numeric)) < 1e-13
 

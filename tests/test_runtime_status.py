@@ -26,7 +26,8 @@ import pytest
 from derive.paths import GENERATED
 from derive import abi, shapes
 from derive.runtime.build import DP, IP, library
-from derive.runtime.driver import Session, prepare
+from derive.runtime.driver import prepare
+from derive.runtime.session import Session
 from derive.scene import SceneError
 
 from test_runtime import ball

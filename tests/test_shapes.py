@@ -20,7 +20,9 @@ import sympy as sp
 from derive import abi, shapes, surfaces
 from derive import notation as nt
 from derive.kinematics import poisson_equations
-from derive.runtime.driver import Session, library, prepare
+from derive.runtime.build import library
+from derive.runtime.driver import prepare
+from derive.runtime.session import Session
 
 NAMES = list(shapes.SHAPE_NAMES)
 

@@ -26,6 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .. import abi
 from ..commands import Target
 from ..control.replan import MEDIAN_TARGET_MS as MEDIAN_MS
 from ..control.replan import P99_TARGET_MS as P99_MS
@@ -61,7 +62,7 @@ def upright_error_deg(result, target) -> float:
     imp = [e["t"] for e in result.events if e["kind"] == "impact"]
     if not imp:
         return math.inf
-    i = np.flatnonzero((result.row_kind == 1) & (result.t == imp[0]))[0]
+    i = np.flatnonzero((result.row_kind == abi.ROW_KIND["before_event"]) & (result.t == imp[0]))[0]
     A = result.q[i, layout.GENERAL.A].reshape(3, 3)
     R = np.asarray(target).T @ A
     s = 0.5 * np.linalg.norm([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])

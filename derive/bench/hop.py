@@ -26,6 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .. import abi
 from ..commands import Target, all_pass
 
 HOPS = 30
@@ -49,7 +50,7 @@ def _run(hm, design, controller, dphi: float, dv: float, hops: int = HOPS,
     scene = dataclasses.replace(hm.scene, t0=float(x[0]), duration=(hops + 0.5) * T,
                                 com=(0.0, 0.0, q0[0]), com_velocity=(0.0, 0.0, q0[1]))
     res = run_prepared(prepare(scene), loop=Loop(controller, period=period))
-    rows = np.flatnonzero(res.row_kind == 2)
+    rows = np.flatnonzero(res.row_kind == abi.ROW_KIND["after_event"])
     dt = (res.t[rows] - orbit.t + 0.5 * T) % T - 0.5 * T
     dvr = (res.model_q[rows, 1] - orbit.v) / orbit.v
     imp, Z, R = res.impacts[:, 0], res.model_q[:, 0], hm.scene.size[0]

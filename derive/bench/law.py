@@ -142,7 +142,8 @@ def _fresh_build(source: str):
 
 
 def run(n: int = 200_000, repeats: int = 7, progress=lambda m: None) -> dict:
-    from ..runtime.driver import Session, prepare
+    from ..runtime.driver import prepare
+    from ..runtime.session import Session
     from ..scene import builtin_doc
     rows = []
     ts = np.linspace(0.0, 5.0, n)

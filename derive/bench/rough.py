@@ -89,8 +89,7 @@ class ScipyRough:
     """
 
     def __init__(self, doc: dict, rtol: float, dt: float = GRID_DT, budget: int = 2000):
-        from ..emit.numpy_backend import compile_spec
-        from ..friction_models import numpy_function
+        from ..emit.numpy_backend import compile_spec, numpy_function
         from ..models import flight_rhs, gap, lowest_point, lowest_point_rate
         from ..runtime import choice
         from ..scene import parse_scene
@@ -107,7 +106,7 @@ class ScipyRough:
         self.dl = numpy_function("general_delassus")
         self.axes = list(s.size)
         self.p = np.array(s.p)
-        self.mu, self.e = s.friction, s.e
+        self.mu_f, self.e = s.friction, s.e
         self.grid = grid_of(s, dt)
         self.q0 = choice.start(s, "general").q0
         self.F = (s.M + s.m) * max(s.g, 1.0)
@@ -131,7 +130,7 @@ class ScipyRough:
 
     def sliding(self, t, q, direction):
         s, sd = self.s_of(q)
-        dq, N, _, _ = self.slide(q, self.u(t), s, sd, self.p, [self.mu], direction)
+        dq, N, _, _ = self.slide(q, self.u(t), s, sd, self.p, [self.mu_f], direction)
         return dq, float(N[0])
 
     def sticking(self, t, q):
@@ -161,11 +160,11 @@ class ScipyRough:
 
         def at(th):
             sg = np.array([np.cos(th), np.sin(th)])
-            k_f = W[2, 2] - self.mu * W[2, :2] @ sg
+            k_f = W[2, 2] - self.mu_f * W[2, :2] @ sg
             N = WR[2] / k_f
             if not (k_f > 0 and N > 0):
                 return np.nan, np.nan
-            a_t = (W @ np.array([-N * self.mu * sg[0] - R[0], -N * self.mu * sg[1] - R[1],
+            a_t = (W @ np.array([-N * self.mu_f * sg[0] - R[0], -N * self.mu_f * sg[1] - R[1],
                                  N - R[2]]))[:2]
             return sg[0] * a_t[1] - sg[1] * a_t[0], sg @ a_t
         ths = np.linspace(0.0, 2 * np.pi, 73)
@@ -234,7 +233,7 @@ class ScipyRough:
                 _, vn = after_flight(t, q)
                 if vn < -1e-9 * v_scale:
                     s_, _ = self.s_of(q)
-                    imp = dk.impact(q.copy(), self.u(t), s_, self.p, self.mu, self.e,
+                    imp = dk.impact(q.copy(), self.u(t), s_, self.p, self.mu_f, self.e,
                                     s.restitution_model, rtol=max(self.rtol, 1e-12))
                     q = imp.q_plus
                     impacts.append(t)
@@ -271,7 +270,7 @@ class ScipyRough:
 
                 def cone(tt, qq):
                     R = self.sticking(tt, qq)[1]
-                    return (self.mu * R[2] - np.hypot(R[0], R[1])) / self.F
+                    return (self.mu_f * R[2] - np.hypot(R[0], R[1])) / self.F
                 cone.terminal, cone.direction = True, -1
                 sol = solve_ivp(f, (t, t_end), q, method="DOP853", rtol=self.rtol,
                                 atol=self.rtol * 1e-2, events=[cone], t_eval=grid)
@@ -355,7 +354,7 @@ class ScipyRough:
     def at_rest(self, t, q):
         q0 = self.project(t, q, slip_too=True)
         R = self.sticking(t, q0)[1]
-        if R[2] > 0 and np.hypot(R[0], R[1]) <= self.mu * R[2]:
+        if R[2] > 0 and np.hypot(R[0], R[1]) <= self.mu_f * R[2]:
             return "sticking", np.array([1.0, 0.0]), True
         if R[2] <= 0:
             return "flight", np.array([1.0, 0.0]), True
@@ -389,7 +388,8 @@ def cost_rows(doc: dict, repeats: int) -> dict:
     """The rough scene against its smooth twin (friction 0): the C run alone and
     derive.simulate end to end, best of repetitions."""
     import derive
-    from ..runtime.driver import prepare, run_prepared, session_for
+    from ..runtime.driver import prepare, run_prepared
+    from ..runtime.session import session_for
     out = {}
     for label, d, model in (("rough", doc, None), ("smooth, general model", _smooth(doc),
                                                     "general"),

@@ -32,9 +32,10 @@ from .. import notation as nt
 from ..emit.casadi_backend import Translator, build_function
 from ..emit.numpy_backend import compile_spec
 from ..models import flight_rhs, gap, impact, lowest_point
-from .. import layout
+from .. import abi, layout
 from ..runtime import choice, geometry
-from ..runtime.driver import Session, prepare, run_prepared
+from ..runtime.driver import prepare, run_prepared
+from ..runtime.session import Session
 from ..scene import Scene, parse_scene
 from ..scipy_hybrid import Functions, Hybrid, StopRun
 
@@ -114,7 +115,7 @@ class Runtime:
         res = run_prepared(self.prep, self.session)
         t, kinds, status, stats = res.t, res.row_kind, res.status, res.stats
         general = res.general
-        rows = kinds == 0
+        rows = kinds == abi.ROW_KIND["step"]
         tt, qq = t[rows], general[rows]
         idx = np.clip(np.searchsorted(tt, self.grid - 1e-12), 0, max(len(tt) - 1, 0))
         states = qq[idx] if len(tt) else np.empty((0, 18))

@@ -20,6 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .. import abi
 from ..scene import SceneError
 
 # mode -> (module, function): run(task, progress) -> ControlResult
@@ -169,9 +170,9 @@ def trajectory_of(result, law, source: str):
     impacts = []
     kinds = np.asarray(result.row_kind)
     imp = {round(float(e["t"]), 12): e for e in result.events if e["kind"] == "impact"}
-    for i in np.flatnonzero(kinds == 1):
+    for i in np.flatnonzero(kinds == abi.ROW_KIND["before_event"]):
         ev = imp.get(round(float(result.t[i]), 12))
-        if ev is not None and i + 1 < len(kinds) and kinds[i + 1] == 2:
+        if ev is not None and i + 1 < len(kinds) and kinds[i + 1] == abi.ROW_KIND["after_event"]:
             impacts.append({"t": float(result.t[i]), "I": ev["value"],
                             "v_minus": ev["v_minus"], "v_plus": ev["v_plus"],
                             "q_minus": result.q[i], "q_plus": result.q[i + 1],

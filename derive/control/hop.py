@@ -36,7 +36,8 @@ from functools import lru_cache
 import numpy as np
 
 from .. import layout, shapes
-from ..runtime.driver import Session, options, prepare
+from ..runtime.driver import options, prepare
+from ..runtime.session import Session
 from ..runtime.loop import STOP, CController, Loop, Segments, hermite
 from ..scene import Scene, SceneError
 from ..stability import bouncing

@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import layout, shapes
+from .. import abi, layout, shapes
 
 G = layout.GENERAL
 _TITLE = {"fontsize": 10, "y": 1.0, "pad": 4}
@@ -56,7 +56,7 @@ def disturbance(path: Path, task, closed, open_, dist, goal_time: float) -> Path
                               (closed, "tab:blue", "closed loop (re-planned)")):
         if res is None:
             continue
-        keep = res.row_kind == 0
+        keep = res.row_kind == abi.ROW_KIND["step"]
         t, q = res.t[keep], res.q[keep]
         ax1.plot(t, _angle_to(task.target, q), color=colour, lw=1.4, label=name)
         ax2.plot(t, np.linalg.norm(q[:, G.omega], axis=1), color=colour, lw=1.4)

@@ -6,11 +6,13 @@ benchmarks: the matrix and right-hand sides are lambdified, solved with
 """
 from __future__ import annotations
 
+from functools import lru_cache
 from typing import Callable
 
 import numpy as np
 import sympy as sp
 
+from ..friction_models import friction_specs
 from ..models import FunctionSpec
 
 
@@ -44,3 +46,10 @@ def compile_spec(spec: FunctionSpec) -> Callable[..., tuple]:
         return tuple(np.array(r, dtype=float) for r in result)
 
     return evaluate
+
+
+@lru_cache(maxsize=None)
+def numpy_function(name: str) -> Callable[..., tuple]:
+    """The NumPy evaluation of the friction function ``name``
+    (:func:`derive.friction_models.friction_specs`), compiled once."""
+    return compile_spec(next(s for s in friction_specs() if s.name == name))

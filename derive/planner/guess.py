@@ -76,7 +76,7 @@ def loops(tr: Transcription, phi: np.ndarray, at_rest_ends: bool = True):
     about the rotation vector phi (body axes)."""
     task = tr.task
     start, c, R = task.start, task.region_center, task.region_radius
-    mu = task.scene.M * task.scene.m / (task.scene.M + task.scene.m)
+    mu = task.scene.reduced_mass
     J = inertia_at(tr, start)
     area = -J @ phi / (2 * mu)
     a = float(np.linalg.norm(area))
@@ -130,7 +130,7 @@ def _attitude_guess(tr: Transcription, T: float, A_target, q0):
         r = np.array([cx + Rc * math.cos(a0), cy + Rc * math.sin(a0), 0.0])
         v = np.array([-Rc * math.sin(a0), Rc * math.cos(a0), 0.0])
         J = inertia_at(tr, r)
-        mu = task.scene.M * task.scene.m / (task.scene.M + task.scene.m)
+        mu = task.scene.reduced_mass
         rate = -np.linalg.solve(J, mu * np.cross(r, v))[2]
         dtheta = phi[2] / rate if abs(rate) > 1e-12 else 1.0
         if task.rest_at_ends:

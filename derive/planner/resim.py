@@ -28,6 +28,7 @@ from pathlib import Path
 import numpy as np
 from scipy.interpolate import CubicSpline
 
+from .. import abi
 from ..models import STATE_LABELS
 from ..scene import Scene, SceneError, load_scene
 from ..scipy_hybrid import Functions, Hybrid
@@ -156,9 +157,9 @@ def runtime_resimulate(scene_path) -> Trajectory | str:
         return "the runtime did not return the pose"
     impacts = []
     kinds = np.asarray(result.row_kind)
-    before = np.flatnonzero(kinds == 1)
+    before = np.flatnonzero(kinds == abi.ROW_KIND["before_event"])
     for i in before:
-        if i + 1 < len(kinds) and kinds[i + 1] == 2:
+        if i + 1 < len(kinds) and kinds[i + 1] == abi.ROW_KIND["after_event"]:
             ev = [e for e in result.events if e["kind"] == "impact"
                   and abs(e["t"] - result.t[i]) <= 1e-9 * max(1.0, abs(result.t[i]))]
             if ev:

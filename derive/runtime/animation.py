@@ -18,7 +18,8 @@ import numpy as np
 from .. import layout
 
 from . import drawing
-from .motion import Motion, impact_rows
+from .events import impact_rows
+from .motion import Motion
 
 FPS = 20
 MAX_FRAMES = 121

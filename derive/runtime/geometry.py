@@ -57,7 +57,7 @@ def kinetic_moment(scene, omega, jets) -> np.ndarray:
     J = np.asarray(scene.J, dtype=float)
     rr = np.einsum("ij,ij->i", r, r)[:, None]
     rw = np.einsum("ij,ij->i", r, omega)[:, None]
-    return J * omega + scene.mu * (rr * omega - r * rw + np.cross(r, v))
+    return J * omega + scene.reduced_mass * (rr * omega - r * rw + np.cross(r, v))
 
 
 def heights(scene, t, Z, n) -> np.ndarray:

@@ -4,7 +4,8 @@ energy of the carrier and of the point, and the energy balance of a run.
 Positions (fixed axes).  ``O_aO = O_aC - A m/(m+M) OP`` (E1.8a), ``O_aP = O_aO + A OP``.
 
 Kinetic energy.  From its definition for the two bodies, with ``V = A^T V_C`` (body axes),
-``u = V_r + omega x OP`` (the absolute rate of OP, body axes) and ``nu = m/(m+M)``:
+``u = V_r + omega x OP`` (the absolute rate of OP, body axes), ``nu = m/(m+M)`` and
+the paper's reduced mass ``mu = mM/(m+M)`` (``Scene.reduced_mass``):
 ``V_O = V - nu u`` and ``V_P = V + (1 - nu) u``, so
 
     T_carrier = 1/2 M |V_O|^2 + 1/2 (omega, J_O omega)      (J_O = diag(J_x, J_y, J_z))
@@ -44,12 +45,14 @@ impacts and contact, is never positive.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from .. import abi, layout
-from .choice import length_scale
+from . import choice
+from .driver import options, simulate
+from .events import event_rows, phases
 
 G = layout.GENERAL
 
@@ -113,8 +116,6 @@ def for_pictures(result):
     if (0 < s.output_dt <= fine) or len(result.t) >= PICTURE_SAMPLES \
             or result.status != "done":
         return result
-    from dataclasses import replace
-    from .driver import simulate
     return simulate(replace(s, output_dt=fine))
 
 
@@ -132,7 +133,7 @@ def motion(result) -> Motion:
     r_O = r_P = T_c = T_p = T = U = None
     if v_C is not None:
         T = 0.5 * (s.m + s.M) * np.einsum("ij,ij->i", v_C, v_C) + rot \
-            + 0.5 * s.mu * np.einsum("ij,ij->i", u, u)
+            + 0.5 * s.reduced_mass * np.einsum("ij,ij->i", u, u)
         U = (s.m + s.M) * s.g * r_C[:, 2]
     if A is not None and r_C is not None:
         Ar = np.einsum("nij,nj->ni", A, r)
@@ -158,7 +159,7 @@ def point_velocity_body(scene, mo: Motion) -> np.ndarray | None:
 def omega_rate_in_flight(scene, mo: Motion) -> np.ndarray:
     """omega' along the rows from E1.7 (flight), solved with NumPy: independent of the C."""
     r, v, acc, w = mo.r, mo.v_r, mo.a_r, mo.omega
-    mu = scene.mu
+    mu = scene.reduced_mass
     J0 = np.asarray(scene.J, dtype=float)
     rr = np.einsum("ij,ij->i", r, r)
     J = np.zeros((len(r), 3, 3))
@@ -175,7 +176,7 @@ def drive_power_in_flight(scene, mo: Motion) -> np.ndarray:
     r, v, acc, w = mo.r, mo.v_r, mo.a_r, mo.omega
     wd = omega_rate_in_flight(scene, mo)
     rel = acc + 2.0 * np.cross(w, v) + np.cross(wd, r) + np.cross(w, np.cross(w, r))
-    return scene.mu * np.einsum("ij,ij->i", rel, v)
+    return scene.reduced_mass * np.einsum("ij,ij->i", rel, v)
 
 
 _OMEGA_RATE = {"general": (G.omega, G.n), "rough": (G.omega, G.n),
@@ -196,7 +197,7 @@ def drive_power_in_contact(result, mo: Motion, a: int, b: int) -> np.ndarray | N
     wd = dq[:, w_at]
     r, v, w = mo.r[a:b], mo.v_r[a:b], mo.omega[a:b]
     rel = mo.a_r[a:b] + 2.0 * np.cross(w, v) + np.cross(wd, r) + np.cross(w, np.cross(w, r))
-    F = s.mu * rel + (s.m / (s.m + s.M)) * N[:, None] * q[:, n_at]
+    F = s.reduced_mass * rel + (s.m / (s.m + s.M)) * N[:, None] * q[:, n_at]
     return np.einsum("ij,ij->i", F, v)
 
 
@@ -237,7 +238,7 @@ def rough_contact_power(result, mo: Motion, a: int, b: int) -> tuple[np.ndarray,
     A = q[:, G.A].reshape(-1, 3, 3)
     if result.couples_on:        # the couple's power (T, Omega) joins the friction's
         Om = np.einsum("nij,nj->ni", A, q[:, G.omega])
-        scale = (float(np.max(np.abs(q[:, G.com_velocity]))) + 1.0) / length_scale(s)
+        scale = (float(np.max(np.abs(q[:, G.com_velocity]))) + 1.0) / choice.length_scale(s)
         cdir = np.c_[resolved_directions(Om[:, 2:], scale, s.rtol),
                      resolved_directions(Om[:, :2], scale, s.rtol)]
         dq, w, u = result.session.wrench_rows(result.t[a:b], q, result.modes[a:b],
@@ -252,7 +253,7 @@ def rough_contact_power(result, mo: Motion, a: int, b: int) -> tuple[np.ndarray,
     wd = dq[:, G.omega]
     r, v, w = mo.r[a:b], mo.v_r[a:b], mo.omega[a:b]
     rel = mo.a_r[a:b] + 2.0 * np.cross(w, v) + np.cross(wd, r) + np.cross(w, np.cross(w, r))
-    F = s.mu * rel + (s.m / (s.m + s.M)) * np.einsum("nij,ni->nj", A, R)
+    F = s.reduced_mass * rel + (s.m / (s.m + s.M)) * np.einsum("nij,ni->nj", A, R)
     return np.einsum("ij,ij->i", F, v), friction
 
 
@@ -278,124 +279,11 @@ def integrate(t: np.ndarray, f: np.ndarray, points: int = 6) -> float:
     return float(np.sum(h * np.einsum("ij,ij->i", weights, f[nodes])))
 
 
-def event_rows(result) -> list[tuple[int, dict]]:
-    """Each pair of rows around an event (the index of its ``before`` row; ``after`` is
-    the next) with its event.  Matched by time: a contact that begins at an impact has no
-    rows of its own (the impact's pair is the impact's)."""
-    befores = np.flatnonzero(result.row_kind == 1)
-    events = result.events
-    scale = max(abs(result.scene.duration), 1.0)
-    used = [False] * len(events)
-    out, start = [], 0
-    for i in befores:
-        ti = result.t[i]
-        while start < len(events) and events[start]["t"] < ti - 1e-9 * scale:
-            start += 1
-        near, k = [], start          # (the events are in time order: stop past ti)
-        while k < len(events) and events[k]["t"] <= ti + 1e-9 * scale:
-            if not used[k] and abs(events[k]["t"] - ti) <= 1e-9 * scale:
-                near.append(k)
-            k += 1
-        if not near:
-            out.append((int(i), {"t": float(ti), "kind": "event"}))
-            continue
-        k = next((k for k in near if events[k]["kind"] != "contact"), near[0])
-        used[k] = True
-        out.append((int(i), events[k]))
-    return out
-
-
-def impact_rows(result) -> np.ndarray:
-    """Indices of the ``before`` rows of the impacts."""
-    return np.array([i for i, ev in event_rows(result) if ev["kind"] == "impact"], dtype=int)
-
-
-_MODE = {name: k for k, name in enumerate(abi.names(abi.MODES))}
-
-
-def _mode_after(ev: dict, mode: int) -> int:
-    """The contact mode after an event (the rough model says it; the smooth ones by the
-    kind: contact starts it, lift-off ends it)."""
-    if "mode" in ev:
-        return _MODE[ev["mode"]]
-    if ev["kind"] == "contact":
-        return _MODE["smooth"]
-    if ev["kind"] == "liftoff":
-        return _MODE["flight"]
-    return mode
-
-
-def contact_modes(result) -> np.ndarray:
-    """The contact mode of every row (indices into abi.MODES): a step row has the mode
-    after the last event at or before its time; the ``before`` row of an event the mode
-    before the events at its time, the ``after`` row the mode after them."""
-    t = result.t
-    events = result.events
-    out = np.zeros(len(t), dtype=int)
-    if not events:
-        return out
-    times = np.array([ev["t"] for ev in events])
-    after, mode = [], _MODE["flight"]
-    for ev in events:
-        mode = _mode_after(ev, mode)
-        after.append(mode)
-    return _per_row(result, times, np.array([_MODE["flight"]] + after))
-
-
-def _per_row(result, times: np.ndarray, after: np.ndarray) -> np.ndarray:
-    """What holds on each row, from ``after`` (the value before the first event, then
-    after each event at ``times``): a step row has the value after the last event at or
-    before its time, a ``before`` row the value before the events at its time."""
-    k = np.searchsorted(times, result.t, side="right")
-    k_before = np.searchsorted(times, result.t, side="left")
-    return after[np.where(result.row_kind == 1, k_before, k)]
-
-
-def contact_couples(result) -> np.ndarray:
-    """The couples' channels held on every row (abi.COUPLE_BITS), as
-    :func:`contact_modes` reads the modes: the event column ``couples`` after each event
-    (0 after one that leaves contact)."""
-    if not result.couples_on or not result.events:
-        return np.zeros(len(result.t), dtype=int)
-    times = np.array([ev["t"] for ev in result.events])
-    after = np.array([0] + [ev["couples"] if ev.get("mode") not in (None, "flight") else 0
-                            for ev in result.events])
-    return _per_row(result, times, after)
-
-
-def contact_intervals(result) -> list[tuple[float, float]]:
-    """Times of persistent contact: from each ``contact`` event to the next lift-off."""
-    out, since = [], None
-    for ev in result.events:
-        if ev["kind"] == "contact" and since is None:
-            since = ev["t"]
-        elif ev["kind"] == "liftoff" and since is not None:
-            out.append((since, ev["t"]))
-            since = None
-    if since is not None:
-        out.append((since, float("inf")))
-    return out
-
-
-def phases(result) -> list[tuple[int, int, str]]:
-    """Row ranges [a, b) between events, each with its kind: ``flight`` or ``contact``."""
-    kinds = result.row_kind
-    bounds = [0] + [int(i) + 1 for i in np.flatnonzero(kinds == 1)] + [len(kinds)]
-    contact = contact_intervals(result)
-    out = []
-    for a, b in zip(bounds[:-1], bounds[1:]):
-        if b <= a:
-            continue
-        mid = 0.5 * (result.t[a] + result.t[b - 1])
-        state = "contact" if any(c0 <= mid <= c1 for c0, c1 in contact) else "flight"
-        out.append((a, b, state))
-    return out
-
-
 QUADRATURE_POINTS = 6      # the order of integrate's rule
 ROWS_PER_SCALE = 64        # balance rows per time scale of the motion (law and spin)
 MAX_BALANCE_ROWS = 200_000
 MAX_PHASE_RUNS = 2000      # short phases resampled one by one, at most
+_ROUGH_CONTACT = (abi.MODE["sliding"], abi.MODE["sticking"])   # the rough model's contact
 
 
 def _same_run(a, b) -> bool:
@@ -450,9 +338,6 @@ def for_balance(result, mo: Motion):
     second on the built-in scene) or a coarse ``output_dt`` would leave the quadrature's
     error, not the run's, in the residual.  One more run of the C with ``output_dt`` set:
     the steps and events are the run's own (checked); only where they are read differs."""
-    from dataclasses import replace
-
-    from .driver import simulate
     s = result.scene
     spin = float(np.max(np.linalg.norm(mo.omega, axis=1))) if len(mo.omega) else 0.0
     scale = min(s.law_summary.time_scale, 1.0 / spin if spin > 0 else np.inf, s.duration)
@@ -481,10 +366,6 @@ def _resampled(result, a: int, b: int):
     the C from row a's state to row b-1's time (the same integrator and settings), its
     rows strictly inside the phase and before any event of its own.  None when that run
     meets an event before the phase's end (its rows would not be the phase's)."""
-    from dataclasses import replace
-
-    from . import choice
-    from .driver import options
     s = result.scene
     t0, t1 = float(result.t[a]), float(result.t[b - 1])
     span = t1 - t0
@@ -497,8 +378,8 @@ def _resampled(result, a: int, b: int):
     opt[o["hmax"]] = min(opt[o["hmax"]], span / 4.0)
     opt[o["max_events"]] = 1
     prm = choice.parameters(s, result.start.constants)
-    mode = int(result.modes[a]) if result.model == "rough" else 0
-    if mode >= 2:       # a rough contact phase: resumed in its mode
+    mode = int(result.modes[a]) if result.model == "rough" else abi.MODE["flight"]
+    if mode in _ROUGH_CONTACT:       # a rough contact phase: resumed in its mode
         v = result.slip[a] if np.hypot(*result.slip[a]) > 0 else result.slip[b - 1]
         raw = result.session.run_in_contact(t0, span, result.model_q[a], opt, prm, mode,
                                             v if np.hypot(*v) > 0 else (1.0, 0.0))
@@ -507,12 +388,12 @@ def _resampled(result, a: int, b: int):
     eps = 1e-9 * max(abs(t1), 1.0)
     if len(raw.events) and raw.events[0, 0] < t1 - eps:
         return None
-    inside = (raw.t > t0 + eps) & (raw.t < t1 - eps) & (raw.kinds == 0)
+    inside = (raw.t > t0 + eps) & (raw.t < t1 - eps) & (raw.kinds == abi.ROW_KIND["step"])
     t = np.concatenate([[t0], raw.t[inside], [t1]])
     q = np.concatenate([result.model_q[a:a + 1], raw.q[inside], result.model_q[b - 1:b]])
     sub = replace(result, t=t, model_q=q, row_kind=np.zeros(len(t), dtype=np.intc),
                   event_rows=np.zeros((0, raw.events.shape[1])), rates=None)
-    if mode >= 2:
+    if mode in _ROUGH_CONTACT:
         sub.__dict__["modes"] = np.full(len(t), mode)       # (no events to read it from)
         sub.__dict__["couples"] = np.full(len(t), int(result.couples[a]))
     return sub

@@ -18,7 +18,6 @@ stuck, 2 it re-slid).
 from __future__ import annotations
 
 import os
-import platform
 import shutil
 import tempfile
 import time
@@ -26,88 +25,12 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import json_text, layout
+from .. import abi, json_text
 
 from .driver import Result
-from .motion import Motion, energy_balance, event_rows, for_pictures, motion, phases
-
-
-def invariant_drift(result: Result) -> dict:
-    """Relative drift of |K| within each flight phase (E1.9), and of A's orthonormality."""
-    out = {}
-    K = result.momentum["K_norm"]
-    worst = 0.0
-    for a, b, state in phases(result):
-        if state == "flight" and b - a > 1 and K[a] > 0:
-            worst = max(worst, float(np.max(np.abs(K[a:b] - K[a])) / K[a]))
-    out["K_norm_relative_drift_between_events"] = worst
-    if result.general is not None:
-        A = result.general[:, layout.GENERAL.A].reshape(-1, 3, 3)
-        err = np.abs(np.einsum("nij,nkj->nik", A, A) - np.eye(3)).max(axis=(1, 2))
-        out["orthonormality_error_max"] = float(err.max())
-    return out
-
-
-def _finite(x: float):
-    return float(x) if np.isfinite(x) else None
-
-
-def summary(result: Result, mo: Motion | None = None) -> dict:
-    """What a run did, in numbers; ``energy`` is the balance of
-    :func:`derive.runtime.motion.energy_balance` (in joules): ``end - start = at_impacts +
-    drive_work_in_flight + drive_work_in_contact (+ change_in_contact_not_split) +
-    at_other_events + residual``, and each
-    impact's jump is ``restitution_at_impacts`` (the sum of I (v_n- + v_n+)/2, zero for
-    e = 1) plus ``drive_work_at_impacts`` (the impulsive work of the point's drive, zero for
-    a point at rest in the body)."""
-    s = result.scene
-    mo = mo if mo is not None else motion(result)
-    steps, events = (np.flatnonzero(result.row_kind == 0),
-                     np.flatnonzero(result.row_kind != 0))
-    energy = energy_balance(result, mo)
-    return {
-        "scene": s.name,
-        "status": result.status,
-        "model": result.model,
-        "why": result.why,
-        "method": s.method, "rtol": s.rtol, "atol": s.atol,
-        "t0": s.t0, "t_end": float(result.t[-1]) if len(result.t) else s.t0,
-        "duration": s.duration,
-        "counts": {**result.stats, "rows": int(len(result.t)),
-                   "trajectory_rows": int(len(steps)), "event_rows": int(len(events)),
-                   "events": len(result.events)},
-        "trajectory": {"grid": "uniform" if s.output_dt > 0 else "solver steps",
-                       "output_dt": s.output_dt if s.output_dt > 0 else None},
-        "contact": {"min_height_of_S": _finite(result.min_height),
-                    "t_min_height": _finite(result.summary["t_min_height"]),
-                    "min_normal_force_in_contact": _finite(result.min_normal),
-                    **(_friction_summary(result) if result.rough else {})},
-        "energy": energy,
-        "invariants": invariant_drift(result),
-        "timings_s": dict(result.timings),
-        "machine": {"processor": platform.processor() or platform.machine(),
-                    "cpus": os.cpu_count()},
-    }
-
-
-def _friction_summary(result: Result) -> dict:
-    """The rough model's contact numbers: mu_f, the restitution law, the largest |R_t|/(mu_f
-    R_Z) at the ends of contact steps (at most 1: the cone held), the time sliding and
-    sticking; with couples mu_s, mu_r and the time the spin and the rolling are held."""
-    t, modes = result.t, result.modes
-    dt = np.diff(t)
-    mid = modes[:-1]
-    out = {"friction": result.scene.friction,
-           "restitution_model": result.scene.restitution_model,
-           "max_friction_ratio": float(result.summary["max_friction_ratio"]),
-           "time_sliding": float(dt[mid == 2].sum()), "time_sticking": float(dt[mid == 3].sum())}
-    if result.couples_on:          # and the couples: their lengths, the time each is held
-        held = result.couples[:-1]
-        out.update({"spin_friction": result.scene.spin_friction,
-                    "rolling_resistance": result.scene.rolling_resistance,
-                    "time_spin_held": float(dt[(mid >= 2) & ((held & 1) != 0)].sum()),
-                    "time_rolling_held": float(dt[(mid >= 2) & ((held & 2) != 0)].sum())})
-    return out
+from .events import event_rows
+from .motion import Motion, for_pictures, motion
+from .report import summary
 
 
 def plain(label: str) -> str:
@@ -119,7 +42,7 @@ def plain(label: str) -> str:
 CSV_CHUNK = 8192           # rows formatted at a time (memory stays bounded on long runs)
 
 
-# integer codes (abi.MODES; slip, stick, reslide; abi.COUPLE_BITS)
+# integer codes (abi.MODES, abi.IMPACT_STAGES, abi.COUPLE_BITS)
 CODE_COLUMNS = frozenset({"mode", "stage", "couples"})
 
 
@@ -203,7 +126,8 @@ def split_rows(result: Result) -> tuple[np.ndarray, np.ndarray]:
     """Indices of the trajectory rows (steps, or the output_dt grid) and of the event rows
     (the state just before and just after each event)."""
     kinds = result.row_kind
-    return np.flatnonzero(kinds == 0), np.flatnonzero(kinds != 0)
+    step = abi.ROW_KIND["step"]
+    return np.flatnonzero(kinds == step), np.flatnonzero(kinds != step)
 
 
 def event_table(result: Result, header: list, table: np.ndarray) -> tuple[np.ndarray, dict]:
@@ -235,13 +159,12 @@ def event_table(result: Result, header: list, table: np.ndarray) -> tuple[np.nda
             modes.append(None)
     rows = table[np.array(picked, dtype=int)] if picked else table[:0].copy()
     if result.rough and picked:
-        from .. import abi
         col = header.index("mode")
         for k, mode in enumerate(modes):
             if mode is not None:             # after: the event's; before: the last one's
-                rows[2 * k + 1, col] = abi.index(abi.MODES, mode)
+                rows[2 * k + 1, col] = abi.MODE[mode]
                 if k + 1 < len(modes) and kinds[2 * k + 2] != "event":
-                    rows[2 * k + 2, col] = abi.index(abi.MODES, mode)
+                    rows[2 * k + 2, col] = abi.MODE[mode]
     return rows, {"event": kinds, "side": sides}
 
 

@@ -13,11 +13,12 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import layout
+from .. import abi, layout
 from ..progress import count
 
 from . import drawing
-from .motion import Motion, contact_intervals, impact_rows, phases
+from .events import contact_intervals, impact_rows, phases
+from .motion import Motion
 
 
 # a title at a fixed height: matplotlib's automatic placement measures every tick label
@@ -262,7 +263,7 @@ def motion_panel(ax, result, mo: Motion) -> None:
     _labels_below(ax, labels)
 
 
-MODE_COLOURS = {2: "#fdd0a2", 3: "#c7e9c0"}      # sliding, sticking
+MODE_COLOURS = {abi.MODE["sliding"]: "#fdd0a2", abi.MODE["sticking"]: "#c7e9c0"}
 
 
 def _mode_spans(ax, t, modes) -> None:
@@ -290,11 +291,13 @@ def friction_panels(ax_slip, ax_mode, result) -> None:
     _labels(ax_slip, [("slip speed", "C3"), ("sliding", "#e6550d"), ("sticking", "#41ab5d")])
     ax_slip.set_xlim(t[0], t[-1])
     ax_mode.step(t, modes, where="post", lw=1, color="k")
-    ticks, names = [0, 2, 3], ["flight", "sliding", "sticking"]
+    names = ["flight", "sliding", "sticking"]
+    ticks = [abi.MODE[name] for name in names]
     if result.couples_on:          # the couples' channels held: a bar each while held
-        for bit, level, name, colour in ((1, 1.25, "spin held", "C4"),
-                                         (2, 0.75, "rolling held", "C9")):
-            held = ((result.couples & bit) != 0) & (modes >= 2)
+        touching = (modes == abi.MODE["sliding"]) | (modes == abi.MODE["sticking"])
+        for channel, level, name, colour in (("spin", 1.25, "spin held", "C4"),
+                                             ("roll", 0.75, "rolling held", "C9")):
+            held = ((result.couples & abi.COUPLE_BIT[channel]) != 0) & touching
             ax_mode.step(t, np.where(held, level, np.nan), where="post", lw=3, color=colour)
             ticks.append(level)
             names.append(name)

@@ -140,7 +140,8 @@ class Scene:
         return self.contact_possible and self.friction > 0.0
 
     @property
-    def mu(self) -> float:
+    def reduced_mass(self) -> float:
+        """mM/(m+M), the paper's mu (the friction coefficient is :attr:`friction`, mu_f)."""
         return self.M * self.m / (self.M + self.m)
 
     @property

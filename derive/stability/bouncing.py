@@ -50,7 +50,8 @@ import sympy as sp
 
 from .. import layout, shapes
 from .. import notation as nt
-from ..runtime.driver import Session, prepare
+from ..runtime.driver import prepare
+from ..runtime.session import Session
 from ..scene import Scene, SceneError, load_scene
 from .floquet import complex_pairs
 from .variational import Monodromy

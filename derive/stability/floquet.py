@@ -36,7 +36,7 @@ from .. import models as dm
 from .. import notation as nt
 from ..emit.casadi_backend import build_function
 from ..emit.numpy_backend import compile_spec
-from .. import layout
+from .. import abi, layout
 from ..runtime import choice
 from ..runtime.driver import simulate
 from ..scene import Scene, SceneError
@@ -282,7 +282,7 @@ def long_run(scene: Scene, T: float, periods: int, eps: float, seed: int = 0,
            "run": {"duration": periods * T, "method": "lie", "rtol": 1e-11, "atol": 1e-13,
                    "g": scene.g, "outputs": ["omega"], "output_dt": T, "model": "vertical"}}
     res = simulate(doc, progress=progress)
-    rows = res.row_kind == 0
+    rows = res.row_kind == abi.ROW_KIND["step"]
     Q = res.model_q[rows]
     base = np.r_[scene.omega, scene.A0[2]]
     both = _growth(np.max(np.abs(np.c_[Q[:, V.omega], Q[:, V.n]] - base), axis=1))

@@ -18,7 +18,8 @@ import numpy as np
 from .. import models as dm
 from ..runtime import choice
 from ..runtime.build import library
-from ..runtime.driver import Session, options
+from ..runtime.driver import options
+from ..runtime.session import Session
 from ..scene import Scene
 
 

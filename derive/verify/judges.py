@@ -27,7 +27,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..runtime.motion import contact_intervals, phases
+from ..runtime.events import contact_intervals, phases
 
 if TYPE_CHECKING:
     from ..bench.routes import Run
