@@ -477,3 +477,48 @@ def test_events_csv_has_every_event_of_the_api_with_its_modes(tmp_path):
     rows = list(csv.DictReader(open(tmp_path / "smooth" / "events.csv", encoding="utf-8")))
     assert [r["event"] for r in rows[::2]] == [ev["kind"] for ev in smooth.events]
     assert "contact" in [ev["kind"] for ev in smooth.events]
+
+
+def _overview_figure(source, tmp_path, monkeypatch):
+    from matplotlib.figure import Figure
+    saved, save = [], Figure.savefig
+
+    def keep(self, *args, **kwargs):
+        saved.append(self)
+        return save(self, *args, **kwargs)
+    monkeypatch.setattr(Figure, "savefig", keep)
+    write_all(derive.simulate(source), tmp_path, plot=True, animation=False)
+    return saved[0]
+
+
+def test_the_drift_panel_draws_an_exact_zero_at_round_off_not_as_a_spike(tmp_path,
+                                                                         monkeypatch):
+    """The built-in scene's |K| drift is exactly 0 at some steps' ends: a floor of 1e-17
+    on the log axis drew each as a spike six decades down, breaking the curve (a new
+    user's trial, issue 34).  Now an exact 0 sits at half an ulp of 1, the round-off of
+    the relative difference, drawn and labelled; the axis spans the data, with ticks."""
+    fig = _overview_figure(builtin_doc(), tmp_path, monkeypatch)
+    drift = next(ax for ax in fig.axes if "(E1.9)" in ax.get_title())
+    floor = np.finfo(float).eps / 2
+    curves = [ln.get_ydata() for ln in drift.get_lines() if ln.get_color() == "C0"]
+    assert curves and min(float(np.min(y)) for y in curves) == floor
+    lo, hi = drift.get_ylim()
+    assert floor / 2 < lo < floor and hi < 1e-13            # round-off, not a spike
+    assert any("round-off" in t.get_text() for t in drift.texts)
+    ticks = [v for v in drift.get_yticks() if lo <= v <= hi]
+    assert len(ticks) >= 2
+
+
+def test_a_body_dwarfed_by_its_path_is_also_drawn_enlarged(tmp_path, monkeypatch):
+    """The spherical robot rolls 3.3 m with a radius of 0.2 m: its 3-D panel drew it tiny
+    (issue 34); an inset now draws the last body drawn at its own scale.  The bouncing
+    ball's panel, where the body is large, has none."""
+    from importlib import resources
+    robot = str(resources.files("derive.scene") / "examples" / "spherical-robot.toml")
+    fig = _overview_figure(robot, tmp_path / "robot", monkeypatch)
+    insets = fig.axes[0].child_axes
+    assert len(insets) == 1 and "enlarged" in insets[0].get_title()
+    (x0, x1), (y0, y1) = insets[0].get_xlim(), insets[0].get_ylim()
+    assert abs((x1 - x0) - 2.8 * 0.2) < 0.05 and abs((y1 - y0) - (x1 - x0)) < 1e-12
+    fig = _overview_figure(builtin_doc(), tmp_path / "ball", monkeypatch)
+    assert not fig.axes[0].child_axes

@@ -703,3 +703,46 @@ def test_a_looser_acceleration_bound_is_never_worse():
     loose = _solves_with(doc, max_acceleration=1e6)
     assert loose["law"]["effort"] <= tight["law"]["effort"] * (1 + 1e-9)
     assert any("continuation" in r.get("stage", "") for r in loose["solver"]["solves"])
+
+
+def test_land_can_weigh_the_spin_the_touchdown_impact_leaves(tmp_path):
+    """A new user's landing touched down upright and then spun at 7.7 rad/s: the impact's
+    lever arm CS x n was not in the goal (issue 34).  land.toml with P free at the end:
+    unweighed, the impact leaves 18.9 rad/s; with spin_weight = 0.1 under 1 rad/s, the
+    attitude still met.  The spin after the impact is checked against an independent
+    Newton-Euler run of the written plan (its own impact of the two bodies)."""
+    doc = tomllib.loads((EXAMPLES / "land.toml").read_text())
+    doc["plan"]["rest_at_ends"] = False
+    spins = []
+    for weight in (None, 0.1):
+        if weight is not None:
+            doc["plan"]["spin_weight"] = weight
+        w = Written(make_plan(copy.deepcopy(doc)), tmp_path / str(weight))
+        s = w.summary
+        assert s["status"] == "solved"
+        reported = s["achieved"]["runtime"]["spin_after"]
+        _, _, impacts, _ = newton_euler_run(w, w.scene["run"]["duration"], max_impacts=1)
+        ne = float(np.linalg.norm(impacts[0]["after"][6:9]))
+        assert abs(reported - ne) < 1e-6 * max(ne, 1.0), (reported, ne)
+        assert s["achieved"]["runtime"]["attitude_error_rad"] < 1e-8
+        spins.append(ne)
+    assert spins[0] > 10.0 and spins[1] < 1.0, spins
+
+
+@pytest.mark.parametrize("goal", ["reorient", "hop"])
+def test_spin_weight_belongs_to_land(goal):
+    doc = tomllib.loads((EXAMPLES / f"{goal}.toml").read_text())
+    doc["plan"]["spin_weight"] = 1.0
+    with pytest.raises(SceneError, match=r"^\[plan\]\.spin_weight: belongs to goal = "
+                                         r"\"land\""):
+        load_task(doc)
+
+
+def test_the_replanning_controller_refuses_a_weight_it_does_not_weigh():
+    from derive.control.core import load_control_task
+    doc = tomllib.loads((EXAMPLES.parent.parent / "control" / "examples" / "land_push.toml")
+                        .read_text())
+    doc["plan"]["spin_weight"] = 1.0
+    with pytest.raises(SceneError, match=r"^\[plan\]\.spin_weight: is weighed by derive "
+                                         r"plan"):
+        load_control_task(doc)

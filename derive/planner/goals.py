@@ -79,6 +79,10 @@ class Goal:
     def end_constraints(self, tr, add) -> None:
         raise NotImplementedError
 
+    def objective_terms(self, tr):
+        """What the goal adds to the objective beside the effort (or the time)."""
+        return 0
+
     def bound_first_node(self, tr, lb, ub) -> None:
         """The first node is the task's initial state."""
         lb[:] = ub[:] = initial_state(tr.task)[list(tr.layout.keep)]
@@ -158,6 +162,7 @@ class Land(Goal):
 
     def end_constraints(self, tr, add) -> None:
         qN, uN = tr.touchdown(add)
+        tr.touchdown_state = (qN, uN)
         task = tr.task
         if task.at_touchdown == "attitude":
             add("target_matrix at touchdown", tr.attitude_error(qN), 0, 0, "target_matrix")
@@ -166,6 +171,15 @@ class Land(Goal):
             A = tr.layout.A_of(qN)
             add("d = CS x n = 0 at touchdown (CS vertical)", ca.mtimes(A[0:2, :], CS)
                 / task.scene.body_size, 0, 0, "at_touchdown")
+
+    def objective_terms(self, tr):
+        """``spin_weight |omega+|^2``: the spin the touchdown impact leaves."""
+        if not tr.task.spin_weight:
+            return 0
+        qN, uN = tr.touchdown_state
+        q_plus = tr.impact(qN, uN, tr.s_of(qN), ca.DM(tr.p), tr.task.scene.e)[0]
+        omega = [tr.layout.index(c) for c in OMEGA]
+        return tr.task.spin_weight * ca.sumsqr(q_plus[omega])
 
     def guess(self, tr) -> np.ndarray:
         return land_guess(tr)
@@ -184,8 +198,10 @@ class Land(Goal):
             return out
         first = traj.impacts[0]
         qm = first["q_minus"]
+        omega = _rows(OMEGA)
         out.update(touchdown_time=first["t"], touchdown_time_error=first["t"] - law.T,
-                   v_n_minus=first["v_minus"])
+                   v_n_minus=first["v_minus"],
+                   spin_after=float(np.linalg.norm(first["q_plus"][omega])))
         if task.at_touchdown == "attitude":
             out["attitude_error_rad"] = rotation_angle(task.target, attitude_of(qm))
         else:
@@ -195,7 +211,6 @@ class Land(Goal):
             p = [sc.M, sc.m, *sc.J, sc.g]
             _, d = load("lever")(qm, first["u"], s, p)
             out["d_norm"] = float(np.linalg.norm(np.array(d.full()).ravel()))
-            omega = _rows(OMEGA)
             out["omega_jump"] = float(np.linalg.norm(first["q_plus"][omega] - qm[omega]))
         return out
 
@@ -204,9 +219,11 @@ class Land(Goal):
             return m["error"]
         text = (f"touchdown at t = {m['touchdown_time']:.9g} s (planned "
                 f"{m['touchdown_time'] - m['touchdown_time_error']:.9g})")
+        spin = f", spin after the impact |omega+| = {m['spin_after']:.3g} rad/s"
         if "attitude_error_rad" in m:
-            return text + f", attitude error {m['attitude_error_rad']:.2e} rad"
-        return text + f", |d| = {m['d_norm']:.2e}, |omega+ - omega-| = {m['omega_jump']:.2e}"
+            return text + f", attitude error {m['attitude_error_rad']:.2e} rad" + spin
+        return (text + f", |d| = {m['d_norm']:.2e}, |omega+ - omega-| = {m['omega_jump']:.2e}"
+                + spin)
 
 
 class Hop(Goal):

@@ -29,6 +29,7 @@ class Task:
     horizon: float | None
     target: np.ndarray | None  # a_ij
     at_touchdown: str | None
+    spin_weight: float         # land: the weight of |omega+|^2 after the impact
     region_center: np.ndarray
     region_radius: float
     circle: tuple | None       # (c_x, c_y, R, start_angle)
@@ -113,6 +114,8 @@ def _attitude(p: _Plan) -> None:
                                                      "\"d_zero\"")
     elif p.has("at_touchdown"):
         raise SceneError("[plan].at_touchdown", "belongs to goal = \"land\"")
+    if p.goal != "land" and p.has("spin_weight"):
+        raise SceneError("[plan].spin_weight", "belongs to goal = \"land\"")
     if p.goal == "hop" and target is not None:
         raise SceneError("[plan].target_matrix", "a hop has no target attitude")
 
@@ -133,7 +136,8 @@ PLAN_RULES = (
     Rule("[plan]: region or circle, not both (circle not for hop); start inside the region, "
          "not with a circle", _where_p_moves),
     Rule("[plan].target_matrix: required for reorient and for land at_touchdown = "
-         "\"attitude\", absent for a hop; at_touchdown only for land", _attitude),
+         "\"attitude\", absent for a hop; at_touchdown and spin_weight only for land",
+         _attitude),
     Rule("[plan].apex_height: required for hop; apex_height and require_stable only for hop",
          _hop),
 )
@@ -172,7 +176,7 @@ def parse_task(source, origin: str = "task") -> Task:
     require_stable = p["require_stable"] if p["require_stable"] is not None else False
     rest = p["rest_at_ends"] if p["rest_at_ends"] is not None else p.goal != "hop"
     return Task(scene=scene, goal=p.goal, horizon=p["horizon"], target=p["target_matrix"],
-                at_touchdown=p.at_touchdown, region_center=p.center, region_radius=p.radius,
+                at_touchdown=p.at_touchdown, spin_weight=p["spin_weight"], region_center=p.center, region_radius=p.radius,
                 circle=p.circle, start=p.start, max_acceleration=p["max_acceleration"],
                 rest_at_ends=rest, objective=p["objective"], apex_height=p["apex_height"],
                 require_stable=require_stable, intervals=p["intervals"],

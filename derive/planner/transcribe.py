@@ -516,6 +516,7 @@ class Transcription:
             self.J = self.T / T_ref + 1e-6 * self.effort / self.effort_scale
         else:
             self.J = self.effort / self.effort_scale
+        self.J = self.J + self.goal.objective_terms(self)
 
     def T_guess_value(self) -> float:
         return getattr(self, "_T_guess", None) or (self.task.horizon or 1.0)

@@ -257,10 +257,41 @@ def motion_panel(ax, result, mo: Motion) -> None:
     ax.set_ylim(*panel_y)
     ax.set_aspect("equal")
     ax.set_axis_off()
+    if 2.0 * R < _SMALL_BODY * X:        # a long path: the body also drawn at its own scale
+        _body_inset(ax, view, s, mo, int(rows[-1]), R, real)
     note = "" if real else "\n(no surface: the body drawn as its equivalent ellipsoid of inertia)"
     ax.set_title(f"the motion, from azimuth {view.az:.0f}°, elevation {view.el:.0f}°"
                  f"{note}", **_TITLE)
     _labels_below(ax, labels)
+
+
+_SMALL_BODY = 0.12      # of the panel's width: a body drawn smaller also gets an inset
+
+
+def _body_inset(ax, view, s, mo, row: int, R: float, real: bool) -> None:
+    """The body at ``row`` enlarged in a corner of the motion panel, for a run whose path
+    dwarfs it (a robot rolling metres): the same view, axes and point P."""
+    from matplotlib.collections import LineCollection, PolyCollection
+    inset = ax.inset_axes([0.66, 0.0, 0.34, 0.34])
+    pic = drawing.body_pictures(view, s, mo.r_O[row], mo.A[row])
+    inset.add_collection(PolyCollection([pic["outline"]], facecolors="#9ecae1",
+                                        edgecolors="#3182bd", alpha=0.45, linewidths=1.0,
+                                        linestyles="-" if real else "--"))
+    inset.plot(pic["back"][:, 0], pic["back"][:, 1], color="#3182bd", lw=0.4, alpha=0.35)
+    inset.plot(pic["front"][:, 0], pic["front"][:, 1], color="#3182bd", lw=0.6, alpha=0.8)
+    inset.add_collection(LineCollection(list(pic["axes"]), colors=list(drawing.AXIS_COLOURS),
+                                        linewidths=1.5))
+    Pv = view(mo.r_P[row:row + 1])
+    inset.plot(Pv[:, 0], Pv[:, 1], "o", color="#ff7f0e", mec="k", mew=0.6, ms=5)
+    c = view(mo.r_O[row:row + 1] + mo.A[row] @ np.asarray(s.center, dtype=float))[0]
+    inset.set_xlim(c[0] - 1.4 * R, c[0] + 1.4 * R)
+    inset.set_ylim(c[1] - 1.4 * R, c[1] + 1.4 * R)
+    inset.set_aspect("equal")
+    inset.set_xticks([])
+    inset.set_yticks([])
+    for side in inset.spines.values():
+        side.set_color("0.7")
+    inset.set_title(f"{_time_text(mo.t[row])}, enlarged", fontsize=_TIME_FONT, pad=2)
 
 
 MODE_COLOURS = {abi.MODE["sliding"]: "#fdd0a2", abi.MODE["sticking"]: "#c7e9c0"}
@@ -452,22 +483,32 @@ def overview(result, mo: Motion, path: Path, dpi: int = 80, steps=None) -> Path:
     steps = steps if steps is not None else result
     K, tK = steps.momentum["K_norm"], steps.t
     worst, drawn, in_flight = 0.0, False, 0.0
+    # a relative difference of two doubles is resolved to half an ulp of 1: a drift of
+    # exactly 0 is drawn there (on a log axis 0 has no place, and a floor far below it
+    # drew every exact row as a spike down, breaking the curve into segments)
+    floor = float(np.finfo(float).eps) / 2
     for a, b, state in phases(steps):
         if state == "flight":
             in_flight += float(tK[b - 1] - tK[a])
         if state == "flight" and b - a > 2 and K[a] > 0:
             drift = np.abs(K[a + 1:b] - K[a]) / K[a]
             worst = max(worst, float(drift.max()))
-            drift = np.maximum(drift, 1e-17)
+            drift = np.maximum(drift, floor)
             i = drawing.drawn_rows(tK[a + 1:b], drift)
-            ax.plot(tK[a + 1:b][i], drift[i], lw=1, color="C0")
+            ax.plot(tK[a + 1:b][i], drift[i], lw=1, color="C0",
+                    marker="." if len(i) < 60 else None, ms=3)     # few steps: each shown
             drawn = True
     if drawn:
+        ax.axhline(floor, color="0.6", lw=0.8, ls=":")
+        ax.text(0.99, floor, "round-off (0 drawn here)", transform=ax.get_yaxis_transform(),
+                ha="right", va="bottom", fontsize=7, color="0.45")
         from matplotlib.ticker import FuncFormatter, LogLocator, NullLocator
         # a log axis' minor ticks and mathtext labels cost 0.4 s: plain labels, major only
         ax.set_yscale("log")
+        ax.set_ylim(floor / 1.5, max(worst, floor) * 3.0)
         ax.yaxis.set_minor_locator(NullLocator())
-        ax.yaxis.set_major_locator(LogLocator(numticks=6))
+        # ticks at 1, 2 and 5 of each decade: a drift at round-off spans less than one
+        ax.yaxis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0), numticks=6))
         ax.yaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:.0e}"))
     span = float(t[-1] - t[0])
     if in_flight < 0.01 * span:     # nothing to see: say why rather than draw empty axes

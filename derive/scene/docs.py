@@ -17,11 +17,19 @@ def _default(f) -> str:
     return f"`{toml.value(f.default)}`"
 
 
+def _modes(f) -> str:
+    """A [control] field's modes, as the table and the template say them."""
+    if not f.modes:
+        return ""
+    names = " or ".join(f'"{m}"' for m in f.modes)
+    return f" (read with mode = {names} only; refused with another)"
+
+
 def _rows(fields) -> list:
     rows = ["| field | type | default | rule | meaning |", "|---|---|---|---|---|"]
     for f in fields:
         kind = f"{f.kind}[{f.size}]" if f.size else f.kind
-        doc = f.doc + (f" ({f.when})" if f.when else "")
+        doc = f.doc + (f" ({f.when})" if f.when else "") + _modes(f)
         rows.append(f"| `{f.where}` | {kind} | {_default(f)} | {f.rule} | {doc} |")
         for s in f.fields:
             kind = f"{s.kind}[{s.size}]" if s.size else s.kind
@@ -64,7 +72,8 @@ def template(shape: str = "sphere") -> str:
             None if f.default is None or f.default is REQUIRED else f.default)
         if f.key == "shape":
             value = shape
-        note = f.doc + (f"; {f.rule}" if f.rule else "") + (f" ({f.when})" if f.when else "")
+        note = (f.doc + (f"; {f.rule}" if f.rule else "") + (f" ({f.when})" if f.when else "")
+                + _modes(f))
         if value is None or f.key in ("table", "samples", "matrix", "ends"):
             lines.append(f"# {f.key} = ...{' ' * 20}# {note}")
         else:

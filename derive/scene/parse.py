@@ -99,13 +99,21 @@ def static_part(v: dict, given: set, origin: str = "scene", base: Path | None = 
                   keep_orthonormal=run("keep_orthonormal"), model=run("model"),
                   zeno_dt=run("zeno_dt"), source=origin, stability=st,
                   law_summary=d.summary, max_distance=d.max_distance,
-                  control=_control(v), disturbance=_disturbance(v))
+                  control=_control(v, given), disturbance=_disturbance(v))
     return Static(fields, d)
 
 
-def _control(v: dict) -> Control | None:
+def _control(v: dict, given: set) -> Control | None:
+    """``[control]``; a field the mode does not read is refused (a key accepted and then
+    ignored would say a loop runs that does not)."""
     if "control" not in v["__tables__"]:
         return None
+    mode = v["[control].mode"]
+    for f in CONTROL_FIELDS:
+        if f.modes and f.where in given and mode not in f.modes:
+            modes = " or ".join(f'"{m}"' for m in f.modes)
+            raise SceneError(f.where, f'is read with mode = {modes} only, not with mode = '
+                                      f'"{mode}" (remove it, or change [control].mode)')
     return Control(**{f.key: v[f.where] for f in CONTROL_FIELDS})
 
 

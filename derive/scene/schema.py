@@ -49,6 +49,7 @@ class Field:
     example: Any = None        # what `derive scene new` writes (None: the default)
     when: str = ""             # the condition under which the field applies
     fields: tuple = ()         # a nested table's own fields (kind = "table")
+    modes: tuple = ()          # [control]: the modes that read the field (): every mode
 
     @cached_property
     def where(self) -> str:
@@ -188,6 +189,11 @@ PLAN_FIELDS = (
       "d_zero (d = CS x n = 0: the impact keeps omega, C2.4); default attitude when "
       "target_matrix is given, else d_zero", choices=("attitude", "d_zero"),
       when='goal = "land"'),
+    F("plan", "spin_weight", "number", 0.0, "land: the weight of |omega+|^2 just after the "
+      "touchdown impact (omega+ in rad/s) beside the effort, which the objective scales to 1 "
+      "at the initial guess; 0: not weighed, so the impact's lever arm CS x n may leave the "
+      "body spinning (at_touchdown = d_zero keeps omega instead)", 0, 1e9,
+      when='goal = "land"'),
     F("plan", "region", "table", None, "P stays in this ball (body axes)",
       when="one of region, circle", fields=(
           F("plan", "region.center", "vector", [0.0, 0.0, 0.0], "the ball's centre",
@@ -232,21 +238,25 @@ CONTROL_FIELDS = (
     F("control", "period", "number", None, "the sample period (replan default 0.02 s, "
       "mirror 0.002 s; hop acts at impacts)", 0, 10, True),
     F("control", "gain", "choice", "lqr", "hop: a discrete LQR gain, or deadbeat (both "
-      "multipliers of the controlled block placed at 0)", choices=("lqr", "deadbeat")),
+      "multipliers of the controlled block placed at 0)", choices=("lqr", "deadbeat"),
+      modes=("hop",)),
     F("control", "state_weight", "number", 1.0, "hop: the LQR's weight of the hop's "
-      "deviation (phase in rad, velocity in units of the orbit's)", 0, 1e9, True),
+      "deviation (phase in rad, velocity in units of the orbit's)", 0, 1e9, True,
+      modes=("hop",)),
     F("control", "input_weight", "number", 1.0, "hop: the LQR's weight of the law's "
-      "correction (relative to the gait's amplitude)", 0, 1e9, True),
+      "correction (relative to the gait's amplitude)", 0, 1e9, True, modes=("hop",)),
     F("control", "apex_height", "number", None, "hop: steer the apex of C to this height "
-      "above its impact height (the gait's frequency follows)", 0, MAX_LENGTH, True),
+      "above its impact height (the gait's frequency follows); mirror: the apex it "
+      "steers to (default: the scene's own periodic hop)", 0, MAX_LENGTH, True,
+      modes=("hop", "mirror")),
     F("control", "intervals", "integer", 30, "replan: intervals of the re-planned horizon",
-      4, 200),
+      4, 200, modes=("replan",)),
     F("control", "iterations", "integer", 1, "replan: SQP iterations per sample (1: a "
-      "real-time iteration)", 1, 100),
+      "real-time iteration)", 1, 100, modes=("replan",)),
     F("control", "solver", "choice", "sqp", "replan: sqp, the generated C controller "
       "(Gauss-Newton SQP: CasADi's code of the QP's data, a dense dual active-set QP), or "
       "ipopt (in-process, converged every sample, for comparison)",
-      choices=("sqp", "ipopt")),
+      choices=("sqp", "ipopt"), modes=("replan",)),
     F("control", "duration", "number", None, "how long the loop runs (default: land, the "
       "plan's touchdown and a fifth more; reorient, the plan's horizon; else two seconds)",
       0, MAX_DURATION, True),
@@ -302,13 +312,14 @@ def check_number(f: Field, value, where: str | None = None) -> float:
     if f.lo is not None:
         low_bad = x <= f.lo if f.lo_open else x < f.lo
         high_bad = f.hi is not None and x > f.hi
+        got = value if isinstance(value, int) else x      # echoed as typed: -1, not -1.0
         if (low_bad or high_bad) and f.hi is not None and f.hi <= 1.0:
-            raise SceneError(where, f"must be {f.rule} (got {x!r})")     # a fraction
+            raise SceneError(where, f"must be {f.rule} (got {got!r})")     # a fraction
         if low_bad:
             raise SceneError(where, f"must be {'>' if f.lo_open else '>='} {f.lo:g} "
-                                    f"(got {x!r})")
+                                    f"(got {got!r})")
         if high_bad:
-            raise SceneError(where, f"must be at most {f.hi:g} (got {x!r}): beyond any "
+            raise SceneError(where, f"must be at most {f.hi:g} (got {got!r}): beyond any "
                                     "physical scene this runtime is meant for")
     return x
 
@@ -373,7 +384,7 @@ def check_value(f: Field, value, where: str | None = None):
     if k == "integer":
         x = check_number(f, value, where)
         if x != int(x):
-            raise SceneError(where, f"must be an integer (got {x!r})")
+            raise SceneError(where, f"must be an integer (got {value!r})")
         return int(x)
     if k == "vector":
         return check_vector(f, value, where)
