@@ -176,7 +176,8 @@ def parse_task(source, origin: str = "task") -> Task:
     require_stable = p["require_stable"] if p["require_stable"] is not None else False
     rest = p["rest_at_ends"] if p["rest_at_ends"] is not None else p.goal != "hop"
     return Task(scene=scene, goal=p.goal, horizon=p["horizon"], target=p["target_matrix"],
-                at_touchdown=p.at_touchdown, spin_weight=p["spin_weight"], region_center=p.center, region_radius=p.radius,
+                at_touchdown=p.at_touchdown, spin_weight=p["spin_weight"],
+                region_center=p.center, region_radius=p.radius,
                 circle=p.circle, start=p.start, max_acceleration=p["max_acceleration"],
                 rest_at_ends=rest, objective=p["objective"], apex_height=p["apex_height"],
                 require_stable=require_stable, intervals=p["intervals"],
