@@ -13,9 +13,11 @@ from __future__ import annotations
 
 
 def simulate(scene, progress: bool = False):
-    """Simulate a scene; see :func:`derive.runtime.driver.simulate`."""
-    from .runtime.driver import simulate as _simulate
-    return _simulate(scene, progress=progress)
+    """Simulate a scene as its tables ask: in closed loop with ``[control]``, with the
+    pushes of a ``[disturbance]``, else the plain run (:func:`derive.runtime.driver.
+    simulate`); see :func:`derive.control.run.run_scene`."""
+    from .control.run import run_scene
+    return run_scene(scene, progress=progress)
 
 
 def simulate_many(scene, variants, **kwargs):

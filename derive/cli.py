@@ -201,18 +201,15 @@ def _check_simulate_options(args) -> None:
 
 
 def _run_scene(args):
-    """(the scene, its run, the closed loop or None): the loop closed where the scene has
-    ``[control]`` (derive.control.closed), else the open run."""
+    """(the scene, its run, the closed loop or None): the run its tables ask for
+    (derive.control.run: closed around [control], pushed by a [disturbance], or plain)."""
     from .scene import SceneError, parse_scene
     try:
         doc, base, origin = _scene_doc(args)
         scene = parse_scene(doc, origin, base=base)
-        if scene.control is not None:
-            from .control.closed import simulate_closed
-            closed = simulate_closed(scene)
-            return scene, closed.result, closed
-        from .runtime.driver import simulate
-        return scene, simulate(scene, progress=not args.quiet), None
+        from .control.run import run_scene
+        result = run_scene(scene, progress=not args.quiet)
+        return scene, result, result.loop
     except SceneError as exc:
         raise UsageError(str(exc)) from None
 

@@ -8,9 +8,9 @@ import sys
 import time
 
 
-def count(n: int, noun: str) -> str:
-    """"1 impact", "2 impacts" (nouns that take an s)."""
-    return f"{n} {noun}" + ("" if n == 1 else "s")
+def count(n: int, noun: str, plural: str | None = None) -> str:
+    """"1 impact", "2 impacts"; ``plural`` for a noun that does not take an s ("pushes")."""
+    return f"{n} {noun if n == 1 else plural or noun + 's'}"
 
 
 class Bar:

@@ -85,3 +85,79 @@ def test_messages_echo_numbers_as_typed(table, key, typed, shown):
         parse_scene(doc)
     assert str(err.value).startswith(f"[{table}].{key}: ") and str(err.value).endswith(shown), \
         str(err.value)
+
+
+def _robot() -> dict:
+    from importlib import resources
+    path = resources.files("derive.scene") / "examples" / "spherical-robot.toml"
+    return tomllib.loads(path.read_text(encoding="utf-8"))
+
+
+def test_a_push_without_control_acts_on_the_open_run():
+    """A 0.5 N s push at t = 2 s on the rolling robot, with no [control]: it had been
+    accepted and ignored (status done, counts.pushes = 0, the same steps as without it;
+    issue 34).  Now the open run applies it: one push event at its time, and C's
+    velocity jumps by P/(M + m) there (the theorem of momentum, integrated over the
+    impulse), the same through derive.simulate as through the CLI's entry."""
+    import numpy as np
+
+    import derive
+    doc = _robot()
+    plain = derive.simulate(copy.deepcopy(doc))
+    P = np.array([0.0, 0.5, 0.0])
+    doc["disturbance"] = {"pushes": [{"time": 2.0, "impulse": P.tolist(), "at": [0.0, 0.0, 0.1]}]}
+    res = derive.simulate(doc)
+    pushes = [ev for ev in res.events if ev["kind"] == "push"]
+    assert len(pushes) == 1 and pushes[0]["t"] == 2.0 and res.stats["pushes"] == 1
+    assert abs(pushes[0]["value"] - 0.5) < 1e-15
+    assert plain.stats["pushes"] == 0
+    V = res.general[:, 3:6]                                     # X_C', Y_C', Z_C'
+    at = np.flatnonzero(res.t == 2.0)           # before the push, after it (and the
+    M = doc["body"]["mass"] + doc["point"]["mass"]      # contact's rows that follow it)
+    assert np.max(np.abs((V[at[-1]] - V[at[0]]) - P / M)) < 1e-12
+    # pushed sideways, the robot leaves the line it rolls along without the push
+    assert abs(res.general[-1, 1] - plain.general[-1, 1]) > 0.1
+
+
+def test_derive_simulate_closes_a_scenes_loop_as_the_cli_does():
+    """derive.simulate(scene with [control]) had run the open scene and ignored the
+    table (only the CLI closed the loop); both now go through derive.control.run."""
+    import derive
+    res = derive.simulate(_example("hop"))
+    assert res.loop is not None and res.loop.mode == "hop"
+    assert res.stats["controller_calls"] > 0 and res.stats["pushes"] == 1
+
+
+@pytest.mark.parametrize("key, value, words", [
+    ("noise", {"omega": 0.1}, "is what a controller reads"),
+    ("mass_factor", 1.2, "write it in [body]"),
+    ("point_mass_factor", 1.2, "write it in [point]"),
+    ("inertia_factor", [1.0, 1.1, 1.0], "write it in [body]"),
+    ("restitution", 0.3, "write it in [plane]"),
+])
+def test_what_only_a_controller_reads_is_refused_without_control(tmp_path, key, value, words):
+    """Without [control] an open run has one body and nothing reads the noise: each such
+    key is refused by `derive scene check` and `derive simulate` (exit 2, one line,
+    nothing written); the pushes beside them would act."""
+    import subprocess
+    import sys
+
+    from derive.scene import toml
+    doc = _robot()
+    doc["disturbance"] = {key: value}
+    path = tmp_path / "scene.toml"
+    path.write_text(toml.dumps(doc), encoding="utf-8")
+    for cmd in (["scene", "check", str(path)], ["simulate", str(path), "-o",
+                                                 str(tmp_path / "out")]):
+        out = subprocess.run([sys.executable, "-m", "derive", *cmd], capture_output=True,
+                             text=True)
+        assert out.returncode == 2 and out.stderr.count("\n") == 1, out.stderr
+        assert f"[disturbance].{key}: " in out.stderr and words in out.stderr, out.stderr
+    assert not (tmp_path / "out").exists()
+
+
+def test_a_seed_without_noise_is_refused():
+    doc = _robot()
+    doc["disturbance"] = {"seed": 3, "pushes": [{"time": 1.0, "impulse": [0.1, 0.0, 0.0]}]}
+    with pytest.raises(SceneError, match=r"^\[disturbance\]\.seed: seeds the noise"):
+        parse_scene(doc)

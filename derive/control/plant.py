@@ -33,11 +33,12 @@ def plant_doc(doc: dict, disturbance: Disturbance | None) -> dict:
 
 def plant_scene(scene: Scene, origin: str = "plant") -> Scene:
     """The scene the plant runs: the model's scene with its disturbance applied (pushes
-    need the general model: it is forced when there are any)."""
+    need the impulse map of the general model, or of the rough one on a rough plane: it
+    is forced when there are any)."""
     dist = scene.disturbance
     doc = plant_doc(scene.doc, dist)
     if dist is not None and dist.pushes:
-        doc.setdefault("run", {})["model"] = "general"
+        doc.setdefault("run", {})["model"] = "rough" if scene.friction > 0 else "general"
     try:
         return parse_scene(doc, origin)
     except SceneError as exc:

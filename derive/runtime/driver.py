@@ -119,6 +119,7 @@ class Result:
     start: choice.Start
     rates: np.ndarray | None = field(repr=False, default=None)   # dq/dt rows (planar, axisym.)
     timings: dict = field(default_factory=dict)
+    loop: object = field(repr=False, default=None)   # a closed loop's ClosedLoop (control)
 
     @cached_property
     def session(self) -> Session:

@@ -117,6 +117,11 @@ def lines(scene, result, loop: str | None = None) -> list[str]:
                f"{info['rhs_evaluations']} RHS evaluations, {count(info['impacts'], 'impact')}, "
                f"{count(info['contacts'], 'contact phase')}, "
                f"{count(info['liftoffs'], 'lift-off')}")
+    pushes = [ev for ev in result.events if ev["kind"] == "push"]
+    if pushes:
+        out.append(f"  {count(len(pushes), 'push', 'pushes')} applied: " + ", ".join(
+            f"|P| = {ev['value']:.4g} N s at t = {ev['t']:.6g} s" for ev in pushes[:4])
+            + (", ..." if len(pushes) > 4 else ""))
     if result.rough:
         out += _friction_lines(scene, result)
     if scene.contact_possible:

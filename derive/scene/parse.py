@@ -99,7 +99,7 @@ def static_part(v: dict, given: set, origin: str = "scene", base: Path | None = 
                   keep_orthonormal=run("keep_orthonormal"), model=run("model"),
                   zeno_dt=run("zeno_dt"), source=origin, stability=st,
                   law_summary=d.summary, max_distance=d.max_distance,
-                  control=_control(v, given), disturbance=_disturbance(v))
+                  control=_control(v, given), disturbance=_disturbance(v, given))
     return Static(fields, d)
 
 
@@ -117,9 +117,33 @@ def _control(v: dict, given: set) -> Control | None:
     return Control(**{f.key: v[f.where] for f in CONTROL_FIELDS})
 
 
-def _disturbance(v: dict) -> Disturbance | None:
+# the [disturbance] keys only a closed loop reads, and why: without [control] each is
+# refused (derive.control.run applies the pushes of an open run)
+CONTROLLER_ONLY = {
+    "noise": "is what a controller reads, and without [control] nothing reads it",
+    "mass_factor": "scales the plant against the model a controller keeps; without "
+                   "[control] there is one body: write it in [body]",
+    "point_mass_factor": "scales the plant against the model a controller keeps; without "
+                         "[control] there is one body: write it in [point]",
+    "inertia_factor": "scales the plant against the model a controller keeps; without "
+                      "[control] there is one body: write it in [body]",
+    "restitution": "is the plant's against the model a controller keeps; without "
+                   "[control] write it in [plane]",
+}
+
+
+def _disturbance(v: dict, given: set) -> Disturbance | None:
+    """``[disturbance]``: its pushes act in every run (derive.control.run); the rest only
+    where a loop is closed."""
     if "disturbance" not in v["__tables__"]:
         return None
+    if "control" not in v["__tables__"]:
+        for key, why in CONTROLLER_ONLY.items():
+            if f"[disturbance].{key}" in given:
+                raise SceneError(f"[disturbance].{key}", why)
+    if "[disturbance].seed" in given and "[disturbance].noise" not in given:
+        raise SceneError("[disturbance].seed", "seeds the noise, and [disturbance] has no "
+                                               "noise table")
     got = {f.key: v[f.where] for f in DISTURBANCE_FIELDS}
     noise = got.pop("noise") or {}
     pushes = got.pop("pushes") or ()

@@ -262,26 +262,29 @@ CONTROL_FIELDS = (
       0, MAX_DURATION, True),
 )
 
-# ``[disturbance]``: the plant that differs from the model, seeded and recorded
+# ``[disturbance]``: the pushes (in every run), and with [control] the plant that differs
+# from the model and the noise on what the controller reads, seeded and recorded
 DISTURBANCE_FIELDS = (
-    F("disturbance", "seed", "integer", 0, "the seed of the noise", 0, 2 ** 53),
-    F("disturbance", "mass_factor", "number", 1.0, "the plant's M over the model's", 0, 100,
-      True),
-    F("disturbance", "point_mass_factor", "number", 1.0, "the plant's m over the model's", 0,
-      100, True),
+    F("disturbance", "seed", "integer", 0, "the seed of the noise (given without noise: "
+      "refused)", 0, 2 ** 53),
+    F("disturbance", "mass_factor", "number", 1.0, "the plant's M over the model's (with "
+      "[control] only: an open run has one body)", 0, 100, True),
+    F("disturbance", "point_mass_factor", "number", 1.0, "the plant's m over the model's "
+      "(with [control] only)", 0, 100, True),
     F("disturbance", "inertia_factor", "vector", [1.0, 1.0, 1.0], "the plant's J_x, J_y, "
-      "J_z over the model's", 0, 100, True, size=3),
+      "J_z over the model's (with [control] only)", 0, 100, True, size=3),
     F("disturbance", "restitution", "number", None, "the plant's e where it differs from "
-      "the model's", 0, 1),
+      "the model's (with [control] only)", 0, 1),
     F("disturbance", "noise", "table", None, "standard deviations of what the controller "
-      "reads", fields=(
+      "reads (with [control] only)", fields=(
           F("disturbance", "noise.omega", "number", 0.0, "of omega (rad/s)", 0, 1e3),
           F("disturbance", "noise.attitude", "number", 0.0, "of the attitude (rad, a "
             "rotation about each body axis)", 0, 1),
           F("disturbance", "noise.com", "number", 0.0, "of C's position (m)", 0, 1e3),
           F("disturbance", "noise.com_velocity", "number", 0.0, "of C's velocity (m/s)", 0,
             1e3))),
-    F("disturbance", "pushes", "tables", None, "impulsive pushes (general model)", fields=(
+    F("disturbance", "pushes", "tables", None, "impulsive pushes, in every run, with or "
+      "without [control] (the general model, or the rough one on a rough plane)", fields=(
         F("disturbance", "pushes.time", "number", REQUIRED, "when (s)", -1e9, 1e9),
         F("disturbance", "pushes.impulse", "vector", REQUIRED, "the impulse P in fixed axes "
           "(N s)", -1e6, 1e6, size=3),
