@@ -188,3 +188,55 @@ def moments_system() -> System:
 def one_point() -> dict:
     """The moments of the paper's one point (mass m on OP): ``{moment symbol: value}``."""
     return dict(zip(MOMENTS, point_share(nt.m).values))
+
+
+# ---- E1.7 of the moments, in Euler's form for the code --------------------------------------
+OC = sp.Matrix(sp.symbols("OC_x OC_y OC_z", real=True))     # s/(m + M), named in the code
+
+
+@dataclass(frozen=True)
+class FlightForm:
+    """``matrix omega' = forcing``, both reading the named :data:`OC` of ``definitions``."""
+    matrix: sp.Matrix
+    forcing: sp.Matrix
+    definitions: tuple         # ((symbol, value), ...)
+
+    def inline(self, expr):
+        return expr.xreplace(dict(self.definitions))
+
+
+@lru_cache(maxsize=None)
+def flight_form() -> FlightForm:
+    """The theorem of angular momentum applied to ``K = L - OC x U`` with ``L = J_O omega
+    + Theta omega + h`` and ``U = s' + omega x s`` (the absolute rate of s, body axes;
+    K_vector of :func:`moments_system`): E1.3 part by part, with ``OC' = s'/(m+M)`` and
+    ``U' = s'' + omega' x s + omega x s'``,
+
+        L' + omega x L - [OC' x U + OC x U' + omega x (OC x U)] = 0.
+
+    The terms in omega' are ``J_O omega' + Theta omega' - OC x (omega' x s) = J omega'``.
+    Of the rest, ``(m+M) OC' x U = s' x (omega x s)``, and by Jacobi's identity ``s' x
+    (omega x s) + omega x (s x s') = s x (omega x s')``, so with ``OC x (omega x s')`` the
+    three are ``2 OC x (omega x s') = 2 (OC.s') omega - 2 (OC.omega) s'``; and ``omega x
+    (OC x (omega x s)) = -(OC.omega) omega x s``.  So
+
+        J omega' = -omega x L - Theta' omega - h' + 2 (OC.s') omega
+                   - (OC.omega) (2 s' + omega x s) + OC x s''
+
+    (for one point: E1.7's Euler form of derive.momentum with mu = mM/(m+M)).  Checked
+    against E1.3 applied to K as it stands (derive.momentum.flight_dynamics_structured)."""
+    from .momentum import flight_dynamics_structured
+    S = moments_system()
+    w, s, sd, sdd = nt.omega, nt.s_m, nt.s_md, nt.s_mdd
+    J_O = sp.diag(nt.J_x, nt.J_y, nt.J_z)
+    L = J_O * w + nt.Theta * w + nt.h_m
+    forcing = (-nt.cross(w, L) - nt.Theta_d * w - nt.h_md + 2 * nt.dot(OC, sd) * w
+               - nt.dot(OC, w) * (2 * sd + nt.cross(w, s)) + nt.cross(OC, sdd))
+    matrix = J_O + nt.Theta - (nt.dot(OC, s) * sp.eye(3) - OC * s.T)
+    form = FlightForm(matrix=matrix, forcing=forcing,
+                      definitions=tuple(zip(OC, s / (nt.m + nt.M))))
+    fd = flight_dynamics_structured(S)
+    _same(form.inline(forcing), fd.forcing, "the forcing in Euler's form")
+    _same(form.inline(matrix), S.momentum.J, "the matrix")
+    _same(fd.mass_matrix, S.momentum.J, "the coefficient of omega'")
+    return form
