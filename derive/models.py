@@ -68,6 +68,7 @@ class FunctionSpec:
     outputs: tuple
     solves: tuple = ()
     definitions: tuple = ()   # ((symbol, expr), ...): named quantities computed first
+    jacobian: bool = True     # generated/c carries its jac_ (derive.jacobians)
 
     def inlined(self, expr):
         """``expr`` with the definitions substituted (for references that want one
