@@ -59,7 +59,8 @@ def check(check_id: str):
 
 
 def load_all() -> dict[str, Callable[[Report], None]]:
-    from . import extensions, section1, section2, section3, section4  # noqa: F401  (registration)
+    from . import (extensions, internal_motion, section1, section2, section3,  # noqa: F401
+                   section4)  # (registration)
     return CHECKS
 
 
