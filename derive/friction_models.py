@@ -51,7 +51,7 @@ from functools import lru_cache
 import sympy as sp
 
 from . import friction as fr
-from . import layout
+from . import layout, moments
 from . import notation as nt
 from .models import (MASS_DEFINITIONS, SDOT, SDOT_LABELS, STATE_LABELS, STATES, FunctionSpec,
                      LinearSolve, Vector, _p, _q, _rates, _s, _u)
@@ -67,7 +67,6 @@ def _family(family: str):
     if family == "general":
         return None, _u()
     if family == "moments":
-        from . import moments
         return (moments.moments_system(),
                 Vector("u", moments.MOMENTS, layout.MOMENTS_LABELS))
     raise ValueError(f"no family {family!r}: one of {FAMILIES}")

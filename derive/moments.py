@@ -38,6 +38,7 @@ import sympy as sp
 from . import layout
 from . import notation as nt
 from .kinematics import absolute_rate_in_body_axes
+from .momentum import flight_dynamics_structured
 from .system import AngularMomentum, System
 
 # ---- a point's and a rotor's symbols ----------------------------------------------------
@@ -225,7 +226,6 @@ def flight_form() -> FlightForm:
 
     (for one point: E1.7's Euler form of derive.momentum with mu = mM/(m+M)).  Checked
     against E1.3 applied to K as it stands (derive.momentum.flight_dynamics_structured)."""
-    from .momentum import flight_dynamics_structured
     S = moments_system()
     w, s, sd, sdd = nt.omega, nt.s_m, nt.s_md, nt.s_mdd
     J_O = sp.diag(nt.J_x, nt.J_y, nt.J_z)
