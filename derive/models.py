@@ -31,6 +31,7 @@ from . import notation as nt
 from .impact import K_SYMBOL, V_N_MINUS, height, impact_map, lever
 from .kinematics import poisson_equations
 from .momentum import (MU_OP, flight_dynamics_euler, flight_dynamics_euler_scaled)
+from .system import System
 from . import shapes, surfaces
 
 
@@ -162,7 +163,7 @@ class Family:
     derive/models_moments.py), the solve with J and the named quantities the solves and
     the other functions read.  ``prefix`` names the functions (None: by their model)."""
     prefix: str | None
-    system: object
+    system: System | None
     u: Vector
     solve: Callable            # (rhs, unknowns) -> LinearSolve with J
     definitions: tuple         # read with the solves
