@@ -13,7 +13,8 @@ from typing import Callable
 import numpy as np
 
 from .cbuild import build_shared, generated_sources
-from .models import FunctionSpec, all_specs
+from .models import FunctionSpec
+from .models_moments import emitted_specs
 
 DOUBLE_P = ctypes.POINTER(ctypes.c_double)
 
@@ -58,4 +59,4 @@ def generated_library(folder: Path | None = None, flags: tuple = ("-O2",)) -> Pa
 
 def load_generated(folder: Path | None = None) -> dict[str, Callable]:
     lib = ctypes.CDLL(str(generated_library(folder)))
-    return {spec.name: wrap(lib, spec) for spec in all_specs()}
+    return {spec.name: wrap(lib, spec) for spec in emitted_specs()}

@@ -23,14 +23,14 @@ would turn negative.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import lru_cache
 
 import sympy as sp
 
 from . import notation as nt
 from .impact import impact_map, lever
 from .kinematics import poisson_equations
-from .momentum import flight_dynamics_structured
+from .momentum import flight_dynamics_structured, per_system
+from .system import System
 
 A_FREE = sp.Symbol("a_free", real=True)     # dv_n/dt with N = 0
 
@@ -44,12 +44,14 @@ class ContactDynamics:
     omega_rhs: tuple         # (f, d): J omega' = f + N d
 
 
-@lru_cache(maxsize=None)
-def contact_dynamics() -> ContactDynamics:
-    im = impact_map()
+@per_system
+def contact_dynamics(system: System) -> ContactDynamics:
+    """For any :class:`~derive.system.System` (the paper's when called without one): the
+    rates of its internal motion enter through ``system.law_rates``."""
+    im = impact_map(system)
     v_n = im.normal_velocity
-    _, d = lever()
-    fd = flight_dynamics_structured()
+    _, d = lever(system)
+    fd = flight_dynamics_structured(system)
     # momentum theorems with N at S
     N = nt.N
     z_acc = sp.solve(sp.Eq((nt.m + nt.M) * nt.Z_Cdd, -(nt.m + nt.M) * nt.g + N), nt.Z_Cdd)[0]
@@ -58,8 +60,7 @@ def contact_dynamics() -> ContactDynamics:
     rates = {nt.Z_Cd: nt.Z_Cdd,
              **dict(zip(nt.omega, nt.omega_dot)),
              **{nt.a[2, j]: poisson[2, j] for j in range(3)},
-             nt.x: nt.xd, nt.y: nt.yd, nt.z: nt.zd,
-             nt.xd: nt.xdd, nt.yd: nt.ydd, nt.zd: nt.zdd,
+             **system.rates(),
              **dict(zip(nt.OS, nt.OS_rate))}
     v_n_rate = sum((sp.diff(v_n, s) * r for s, r in rates.items()), sp.Integer(0))
     c_z = sp.diff(v_n_rate, nt.Z_Cdd)

@@ -31,6 +31,7 @@ What is derived here:
 * :func:`sticking_contact`: S at rest on the plane, the three components of ``R`` from
   ``dv_S/dt = 0``; its coefficient matrix is the same W (checked while deriving).
 
+Each takes a :class:`~derive.system.System` (the paper's when called without one).
 ``derive/friction_models.py`` packages them as FunctionSpecs, ``derive/darboux_keller.py``
 integrates an impact numerically, ``paper_checks/extensions.py`` (X1.1) proves that
 ``mu_f = 0`` gives back E1.10–E1.16 and the smooth contact of :mod:`derive.contact`.
@@ -45,7 +46,8 @@ import sympy as sp
 from . import notation as nt
 from .impact import contact_point_velocity, impact_map, lever
 from .kinematics import poisson_equations
-from .momentum import angular_momentum, flight_dynamics_structured
+from .momentum import angular_momentum, flight_dynamics_structured, per_system
+from .system import System
 
 # ---- symbols ------------------------------------------------------------------------------
 mu_f = sp.Symbol("mu_f", nonnegative=True)          # Coulomb friction coefficient
@@ -86,12 +88,12 @@ def _axis_in_body(k: int) -> sp.Matrix:
 
 
 # ---- the velocity of S and its change under an impulse ---------------------------------------
-@lru_cache(maxsize=None)
-def velocity_of_S() -> sp.Matrix:
+@per_system
+def velocity_of_S(system: System) -> sp.Matrix:
     """Velocity of the body point S, fixed axes: ``V_C + A (omega x CS - nu V_r)``
     (:func:`derive.impact.contact_point_velocity`; its Z component is E1.14).  The
     horizontal components are the slip velocity ``v_t`` of S over the plane."""
-    return contact_point_velocity()
+    return contact_point_velocity(system)
 
 
 @dataclass(frozen=True)
@@ -103,13 +105,13 @@ class Delassus:
     moment: sp.Matrix          # CS x (A^T P), body axes
 
 
-@lru_cache(maxsize=None)
-def delassus() -> Delassus:
+@per_system
+def delassus(system: System) -> Delassus:
     """The impulse theorems with an impulse ``P`` of any direction at S give the jumps
     of ``V_C`` and ``omega``, and the jump of the velocity of S is ``W P``."""
-    am = angular_momentum()
+    am = angular_momentum(system)
     J, own = am.J, am.own
-    CS, d = lever()
+    CS, d = lever(system)
     M, m = nt.M, nt.m
     # momentum: Q = (m+M) V_C (E1.2's lemma), Q+ - Q- = P
     dV = sp.Matrix(sp.symbols("dX_C' dY_C' dZ_C'", real=True))
@@ -131,7 +133,7 @@ def delassus() -> Delassus:
         raise AssertionError("the moment of the impulse is not linear in P")
     omega_jump = sum((P_IMP[k] * Y[k] for k in range(3)), sp.zeros(3, 1))
     # the velocity of S after minus before: V_r, A, OS, OP unchanged
-    v = velocity_of_S()
+    v = velocity_of_S(system)
     after = v.xreplace({**{nt.V_C[i]: nt.V_C[i] + velocity_jump[i] for i in range(3)},
                         **{nt.omega[i]: nt.omega[i] + omega_jump[i] for i in range(3)}})
     dv = (after - v).applyfunc(sp.expand)
@@ -142,7 +144,7 @@ def delassus() -> Delassus:
     # W_ZZ is E1.16's k
     if not all(_zero(r - c) for r, c in zip(rhs[2], d)):
         raise AssertionError("CS x a_3 is not E1.10's d")
-    if not _zero(W[2, 2].xreplace(dict(zip(Y[2], nt.W))) - impact_map().k):
+    if not _zero(W[2, 2].xreplace(dict(zip(Y[2], nt.W))) - impact_map(system).k):
         raise AssertionError("W_ZZ differs from E1.16's k")
     return Delassus(matrix=W, rhs=rhs, velocity_jump=velocity_jump, omega_jump=omega_jump,
                     moment=moment)
@@ -243,22 +245,21 @@ def darboux_keller() -> DarbouxKeller:
 
 
 # ---- contact: the acceleration of S and the two phases ----------------------------------------
-@lru_cache(maxsize=None)
-def acceleration_of_S() -> sp.Matrix:
+@per_system
+def acceleration_of_S(system: System) -> sp.Matrix:
     """``dv_S/dt`` (fixed axes) along the motion by the chain rule over everything
     ``v_S`` depends on: ``V_C' = ACC_C``, ``omega'`` (the symbols ``omega_dot``), ``A'``
     (E1.8), the law, and ``OS' = OS_rate`` (S moves over the surface as the body turns,
     :mod:`derive.surfaces`).  Checked to be ``ACC_C + A (omega' x CS) + rest``."""
-    v = velocity_of_S()
+    v = velocity_of_S(system)
     poisson = poisson_equations()
     rates = {**dict(zip(nt.V_C, ACC_C)), **dict(zip(nt.omega, nt.omega_dot)),
              **{nt.a[i, j]: poisson[i, j] for i in range(3) for j in range(3)},
-             nt.x: nt.xd, nt.y: nt.yd, nt.z: nt.zd,
-             nt.xd: nt.xdd, nt.yd: nt.ydd, nt.zd: nt.zdd,
+             **system.rates(),
              **dict(zip(nt.OS, nt.OS_rate))}
     acc = sp.Matrix([sum((sp.diff(vi, s) * r for s, r in rates.items()), sp.Integer(0))
                      for vi in v])
-    CS, _ = lever()
+    CS, _ = lever(system)
     if acc.jacobian(ACC_C) != sp.eye(3):
         raise AssertionError("dv_S/dt is not V_C' + ...")
     want = (nt.a * nt.cross(nt.omega_dot, CS)).jacobian(nt.omega_dot)
@@ -267,14 +268,14 @@ def acceleration_of_S() -> sp.Matrix:
     return acc
 
 
-def _with_reaction(R: sp.Matrix, omega_dot: sp.Matrix) -> sp.Matrix:
+def _with_reaction(R: sp.Matrix, omega_dot: sp.Matrix, system: System) -> sp.Matrix:
     """``dv_S/dt`` with the momentum theorem's ``V_C' = R/(m+M) - g e_Z`` and the given
     ``omega'``."""
     M, m = nt.M, nt.m
     sol = sp.solve(list((m + M) * ACC_C - (-(m + M) * nt.g * nt.E_Z + R)), list(ACC_C),
                    dict=True)[0]
     acc_C = sp.Matrix([sol[c] for c in ACC_C])
-    return acceleration_of_S().xreplace({**dict(zip(ACC_C, acc_C)),
+    return acceleration_of_S(system).xreplace({**dict(zip(ACC_C, acc_C)),
                                          **dict(zip(nt.omega_dot, omega_dot))}), acc_C
 
 
@@ -288,19 +289,19 @@ class StickingContact:
     forcing: sp.Matrix         # f of J omega'_0 = f (E1.7's forcing)
 
 
-@lru_cache(maxsize=None)
-def sticking_contact() -> StickingContact:
+@per_system
+def sticking_contact(system: System) -> StickingContact:
     """``dK/dt = CS x A^T R = sum_k R_k (CS x a_k)``, so ``omega' = omega'_0 + sum R_k
     Y_k`` with the same solves as :func:`delassus`; ``dv_S/dt = a_free + W R = 0``
     gives ``R`` by a solve with W (numeric in generated code)."""
-    fd = flight_dynamics_structured()
-    dl = delassus()
+    fd = flight_dynamics_structured(system)
+    dl = delassus(system)
     moment = dl.moment.xreplace(dict(zip(P_IMP, R_VEC)))
     omega_dot = OMEGA_DOT_0 + sum((R_VEC[k] * Y[k] for k in range(3)), sp.zeros(3, 1))
     if not all(_zero(c) for c in moment - sum((R_VEC[k] * dl.rhs[k] for k in range(3)),
                                               sp.zeros(3, 1))):
         raise AssertionError("the moment of R is not sum R_k CS x a_k")
-    acc, acc_C = _with_reaction(R_VEC, omega_dot)
+    acc, acc_C = _with_reaction(R_VEC, omega_dot, system)
     acc = acc.applyfunc(sp.expand)
     matrix = acc.jacobian(R_VEC)
     if not all(_zero(c) for c in matrix - dl.matrix):
@@ -327,16 +328,16 @@ class SlidingContact:
     forcing: sp.Matrix
 
 
-@lru_cache(maxsize=None)
-def sliding_contact() -> SlidingContact:
+@per_system
+def sliding_contact(system: System) -> SlidingContact:
     """The momentum theorems with ``R = N (e_Z - mu_f sigma)`` and ``dv_n/dt = 0``.
 
     Valid while ``N >= 0`` and ``k_f > 0``; ``k_f = W_ZZ - mu_f (W_Zt, sigma)`` can turn
     non-positive for large ``mu_f`` (Painlevé's paradox: no consistent N), which the
     runtime must refuse."""
-    fd = flight_dynamics_structured()
-    _, d = lever()
-    CS, _ = lever()
+    fd = flight_dynamics_structured(system)
+    _, d = lever(system)
+    CS, _ = lever(system)
     N = nt.N
     sigma3 = sp.Matrix([SIGMA[0], SIGMA[1], 0])
     R = N * (nt.E_Z - mu_f * sigma3)
@@ -345,7 +346,7 @@ def sliding_contact() -> SlidingContact:
     if not all(_zero(c) for c in moment - N * arm):
         raise AssertionError("the moment of R is not N (d - mu_f CS x A^T sigma)")
     omega_dot = OMEGA_DOT_0 + N * W_SLIDE
-    acc, acc_C = _with_reaction(R, omega_dot)
+    acc, acc_C = _with_reaction(R, omega_dot, system)
     a_n = sp.expand(acc[2])
     if sp.diff(a_n, N, 2) != 0:
         raise AssertionError("dv_n/dt is not affine in N")
@@ -388,15 +389,15 @@ class ContactWrench:
     moment: sp.Matrix          # CS x A^T R + A^T T: J omega' = f + moment
 
 
-@lru_cache(maxsize=None)
-def contact_wrench() -> ContactWrench:
+@per_system
+def contact_wrench(system: System) -> ContactWrench:
     """``dK/dt = CS x A^T R + A^T T`` (a couple adds its own moment, in body axes), so
     ``omega' = omega'_0 + sum R_k Y_k + sum T_k YT_k`` with ``J YT_k = a_k``; ``Omega' =
     A omega'`` (``A' omega = 0`` by E1.8, checked), and ``dv_S/dt`` is
     :func:`acceleration_of_S` with that ``omega'``.  Sticking contact is the case T = 0
     (its G block is W, checked)."""
-    dl = delassus()
-    CS, _ = lever()
+    dl = delassus(system)
+    CS, _ = lever(system)
     axes = tuple(_axis_in_body(k) for k in range(3))
     moment = nt.cross(CS, nt.a.T * R_VEC) + nt.a.T * T_VEC
     for k in range(3):
@@ -404,7 +405,7 @@ def contact_wrench() -> ContactWrench:
             raise AssertionError("the moment of the couple T_k is not a_k")
     omega_dot = (OMEGA_DOT_0 + sum((R_VEC[k] * Y[k] for k in range(3)), sp.zeros(3, 1))
                  + sum((T_VEC[k] * YT[k] for k in range(3)), sp.zeros(3, 1)))
-    acc, acc_C = _with_reaction(R_VEC, omega_dot)
+    acc, acc_C = _with_reaction(R_VEC, omega_dot, system)
     poisson = poisson_equations()
     a_dot = sp.Matrix(3, 3, lambda i, j: poisson[i, j])
     if not all(_zero(c) for c in a_dot * nt.omega):
@@ -418,6 +419,6 @@ def contact_wrench() -> ContactWrench:
         raise AssertionError("du/dt is not affine in the wrench")
     if not all(_zero(c) for c in G[:3, :3] - dl.matrix):
         raise AssertionError("the force block of G differs from the Delassus matrix")
-    velocity = sp.Matrix([*velocity_of_S(), *(nt.a * nt.omega)])
+    velocity = sp.Matrix([*velocity_of_S(system), *(nt.a * nt.omega)])
     return ContactWrench(velocity=velocity, matrix=G, a_free=a_free, rhs=(*dl.rhs, *axes),
                          acc_C=acc_C, moment=moment)

@@ -37,6 +37,12 @@ velocity of S, the tangential impulse, the work of the normal impulse and of fri
 * ``general_wrench_rates(q, p, omega_dot, R) -> dq``: the same from omega', which the
   runtime forms from ``general_contact_wrench``'s ``omega_free`` and
   ``omega_per_wrench`` (no second solve).
+
+The functions that read the system (``<family>_*``) come in two families: ``general``,
+the paper's one point (``u`` its law), and ``moments``, any number of points and rotors
+(``u`` their moments, derive/layout.py's MOMENTS; derive.moments), the same derivation of
+derive.friction for each (:data:`FAMILIES`).  ``general_wrench_rates`` reads no ``u``: it
+serves both.
 """
 from __future__ import annotations
 
@@ -45,12 +51,25 @@ from functools import lru_cache
 import sympy as sp
 
 from . import friction as fr
+from . import layout, moments
 from . import notation as nt
 from .models import (MASS_DEFINITIONS, SDOT, SDOT_LABELS, STATE_LABELS, STATES, FunctionSpec,
                      LinearSolve, Vector, _p, _q, _rates, _s, _u)
 from .momentum import flight_dynamics_structured
 
 MODEL = "general"
+FAMILIES = ("general", "moments")
+
+
+def _family(family: str):
+    """``(system, u)``: the derivation's system (None: the paper's point) and the input
+    ``u`` of a family of :data:`FAMILIES`."""
+    if family == "general":
+        return None, _u()
+    if family == "moments":
+        return (moments.moments_system(),
+                Vector("u", moments.MOMENTS, layout.MOMENTS_LABELS))
+    raise ValueError(f"no family {family!r}: one of {FAMILIES}")
 Y_STATE = (*fr.V_S, *fr.P_T, fr.E_N, fr.E_T)
 Y_LABELS = ("v_X", "v_Y", "v_Z", "P_X", "P_Y", "E_n", "E_t")
 RHO = sp.Symbol("rho_t", nonnegative=True)       # |v_t|, the slip speed
@@ -78,30 +97,32 @@ def _dq(rates: dict) -> Vector:
 
 
 @lru_cache(maxsize=None)
-def delassus() -> FunctionSpec:
-    """``general_delassus(q, u, s, p) -> (W, v_S)``."""
-    dl = fr.delassus()
-    fd = flight_dynamics_structured()
+def delassus(family: str = "general") -> FunctionSpec:
+    """``<family>_delassus(q, u, s, p) -> (W, v_S)``."""
+    system, u = _family(family)
+    dl = fr.delassus(system)
+    fd = flight_dynamics_structured(system)
     return FunctionSpec(
-        name="general_delassus",
+        name=f"{family}_delassus",
         doc="Delassus matrix W of S (fixed axes, upper triangle): an impulse P at S changes "
             "the velocity of S by W P (derive.friction); and that velocity v_S.",
-        inputs=(_q(MODEL), _u(), _s(), _p()),
+        inputs=(_q(MODEL), u, _s(), _p()),
         outputs=(Vector("W", _upper(dl.matrix), fr.W_LABELS),
-                 Vector("v_S", tuple(fr.velocity_of_S()), ("v_X", "v_Y", "v_Z"))),
+                 Vector("v_S", tuple(fr.velocity_of_S(system)), ("v_X", "v_Y", "v_Z"))),
         solves=(LinearSolve(matrix=fd.mass_matrix, rhs=dl.rhs, unknowns=fr.Y),),
         definitions=MASS_DEFINITIONS)
 
 
 @lru_cache(maxsize=None)
-def contact_velocity() -> FunctionSpec:
-    """``general_contact_velocity(q, u, s, p) -> v_S``."""
+def contact_velocity(family: str = "general") -> FunctionSpec:
+    """``<family>_contact_velocity(q, u, s, p) -> v_S``."""
+    system, u = _family(family)
     return FunctionSpec(
-        name="general_contact_velocity",
+        name=f"{family}_contact_velocity",
         doc="Velocity of the body point S, fixed axes (its Z component is E1.14's v_n; "
             "X and Y are the slip velocity).",
-        inputs=(_q(MODEL), _u(), _s(), _p()),
-        outputs=(Vector("v_S", tuple(fr.velocity_of_S()), ("v_X", "v_Y", "v_Z")),),
+        inputs=(_q(MODEL), u, _s(), _p()),
+        outputs=(Vector("v_S", tuple(fr.velocity_of_S(system)), ("v_X", "v_Y", "v_Z")),),
         definitions=MASS_DEFINITIONS)
 
 
@@ -175,41 +196,43 @@ OMEGA_JUMP = sp.Matrix(sp.symbols("domega_x domega_y domega_z", real=True))
 
 
 @lru_cache(maxsize=None)
-def apply_impulse() -> FunctionSpec:
-    """``general_apply_impulse(q, u, s, p, P) -> q_plus``."""
-    dl = fr.delassus()
-    fd = flight_dynamics_structured()
+def apply_impulse(family: str = "general") -> FunctionSpec:
+    """``<family>_apply_impulse(q, u, s, p, P) -> q_plus``."""
+    system, u = _family(family)
+    dl = fr.delassus(system)
+    fd = flight_dynamics_structured(system)
     after = {v: v + dv for v, dv in zip(nt.V_C, dl.velocity_jump)}
     after.update({w: w + dw for w, dw in zip(nt.omega, OMEGA_JUMP)})
     q_plus = tuple(after.get(s, s) for s in STATES[MODEL])
     return FunctionSpec(
-        name="general_apply_impulse",
+        name=f"{family}_apply_impulse",
         doc="State just after an impact whose total impulse at S is P (fixed axes): "
             "V_C + P/(m+M), omega + J^-1 (CS x A^T P) (derive.friction).",
-        inputs=(_q(MODEL), _u(), _s(), _p(), Vector("P", tuple(fr.P_IMP), ("P_X", "P_Y", "P_Z"))),
+        inputs=(_q(MODEL), u, _s(), _p(), Vector("P", tuple(fr.P_IMP), ("P_X", "P_Y", "P_Z"))),
         outputs=(Vector("q_plus", q_plus, STATE_LABELS[MODEL]),),
         solves=(LinearSolve(matrix=fd.mass_matrix, rhs=(dl.moment,), unknowns=(OMEGA_JUMP,)),),
         definitions=MASS_DEFINITIONS)
 
 
 @lru_cache(maxsize=None)
-def sliding_rhs() -> FunctionSpec:
-    """``general_sliding_rhs(q, u, s, sdot, p, mu_f, dir) -> (dq, N, v_t, a_t)``."""
-    sc = fr.sliding_contact()
-    fd = flight_dynamics_structured()
+def sliding_rhs(family: str = "general") -> FunctionSpec:
+    """``<family>_sliding_rhs(q, u, s, sdot, p, mu_f, dir) -> (dq, N, v_t, a_t)``."""
+    system, u = _family(family)
+    sc = fr.sliding_contact(system)
+    fd = flight_dynamics_structured(system)
     N = sc.normal_force
     rates = _rates(MODEL)
     rates.update(dict(zip(nt.V_C, sc.acc_C)))
     rates.update(dict(zip(nt.omega, sc.omega_dot)))
     rates = {k: sp.sympify(v).xreplace({nt.N: N}) for k, v in rates.items()}
-    v_t = tuple(fr.velocity_of_S()[:2])
+    v_t = tuple(fr.velocity_of_S(system)[:2])
     a_t = tuple(c.xreplace({nt.N: N}) for c in sc.slip_acceleration)
     return FunctionSpec(
-        name="general_sliding_rhs",
+        name=f"{family}_sliding_rhs",
         doc="Sliding contact: S on the plane slipping along the unit horizontal dir, "
             "reaction N (e_Z - mu_f dir) with N from dv_n/dt = 0 (derive.friction); also "
             "the slip velocity v_t and its rate a_t.  Valid while N >= 0 and v_t != 0.",
-        inputs=(_q(MODEL), _u(), _s(), Vector("sdot", SDOT, SDOT_LABELS), _p(), _mu(),
+        inputs=(_q(MODEL), u, _s(), Vector("sdot", SDOT, SDOT_LABELS), _p(), _mu(),
                 Vector("dir", tuple(fr.SIGMA), ("dir_X", "dir_Y"))),
         outputs=(_dq(rates), Vector("N", (N,), ("N",)), Vector("v_t", v_t, ("v_X", "v_Y")),
                  Vector("a_t", a_t, ("v_X'", "v_Y'"))),
@@ -219,20 +242,21 @@ def sliding_rhs() -> FunctionSpec:
 
 
 @lru_cache(maxsize=None)
-def sticking_rhs() -> FunctionSpec:
-    """``general_sticking_rhs(q, u, s, sdot, p) -> (dq, R)``."""
-    st = fr.sticking_contact()
-    dl = fr.delassus()
-    fd = flight_dynamics_structured()
+def sticking_rhs(family: str = "general") -> FunctionSpec:
+    """``<family>_sticking_rhs(q, u, s, sdot, p) -> (dq, R)``."""
+    system, u = _family(family)
+    st = fr.sticking_contact(system)
+    dl = fr.delassus(system)
+    fd = flight_dynamics_structured(system)
     rates = _rates(MODEL)
     rates.update(dict(zip(nt.V_C, st.acc_C)))
     rates.update(dict(zip(nt.omega, st.omega_dot)))
     return FunctionSpec(
-        name="general_sticking_rhs",
+        name=f"{family}_sticking_rhs",
         doc="Sticking contact: S at rest on the plane, held by the reaction R (fixed axes) "
             "from dv_S/dt = 0, a solve with the Delassus matrix W (derive.friction).  "
             "Valid while R_Z >= 0 and R_X^2 + R_Y^2 <= mu_f^2 R_Z^2.",
-        inputs=(_q(MODEL), _u(), _s(), Vector("sdot", SDOT, SDOT_LABELS), _p()),
+        inputs=(_q(MODEL), u, _s(), Vector("sdot", SDOT, SDOT_LABELS), _p()),
         outputs=(_dq(rates), Vector("R", tuple(fr.R_VEC), ("R_X", "R_Y", "R_Z"))),
         solves=(LinearSolve(matrix=fd.mass_matrix, rhs=(st.forcing, *dl.rhs),
                             unknowns=(fr.OMEGA_DOT_0, *fr.Y)),
@@ -248,16 +272,17 @@ G_LABELS = tuple(f"G_{i}{j}" for i in range(6) for j in range(i, 6))
 
 
 @lru_cache(maxsize=None)
-def contact_wrench() -> FunctionSpec:
-    """``general_contact_wrench(q, u, s, sdot, p) -> (G, a_free, u_c)``."""
-    cw = fr.contact_wrench()
-    fd = flight_dynamics_structured()
+def contact_wrench(family: str = "general") -> FunctionSpec:
+    """``<family>_contact_wrench(q, u, s, sdot, p) -> (G, a_free, u_c)``."""
+    system, u = _family(family)
+    cw = fr.contact_wrench(system)
+    fd = flight_dynamics_structured(system)
     return FunctionSpec(
-        name="general_contact_wrench",
+        name=f"{family}_contact_wrench",
         doc="The contact as a wrench (R, T) at S (derive.friction.contact_wrench): the "
             "velocity of S and the angular velocity (fixed axes), u, change as du/dt = "
             "a_free + G (R, T); G's upper triangle row by row, a_free and u (u_c).",
-        inputs=(_q(MODEL), _u(), _s(), Vector("sdot", SDOT, SDOT_LABELS), _p()),
+        inputs=(_q(MODEL), u, _s(), Vector("sdot", SDOT, SDOT_LABELS), _p()),
         outputs=(Vector("G", _upper6(cw.matrix), G_LABELS),
                  Vector("a_free", tuple(cw.a_free), tuple(f"d({lb})/dt" for lb in
                                                           fr.RATE_LABELS)),
@@ -273,19 +298,20 @@ def contact_wrench() -> FunctionSpec:
 
 
 @lru_cache(maxsize=None)
-def wrench_rhs() -> FunctionSpec:
-    """``general_wrench_rhs(q, u, s, p, w) -> dq``."""
-    cw = fr.contact_wrench()
-    fd = flight_dynamics_structured()
+def wrench_rhs(family: str = "general") -> FunctionSpec:
+    """``<family>_wrench_rhs(q, u, s, p, w) -> dq``."""
+    system, u = _family(family)
+    cw = fr.contact_wrench(system)
+    fd = flight_dynamics_structured(system)
     rates = _rates(MODEL)
     rates.update(dict(zip(nt.V_C, cw.acc_C)))
     rates.update(dict(zip(nt.omega, fr.OMEGA_DOT_W)))
     return FunctionSpec(
-        name="general_wrench_rhs",
+        name=f"{family}_wrench_rhs",
         doc="Contact under a given wrench w = (R, T) at S (fixed axes): dq/dt with "
             "V_C' = R/(m+M) - g e_Z and J omega' = f + CS x A^T R + A^T T "
             "(derive.friction.contact_wrench).",
-        inputs=(_q(MODEL), _u(), _s(), _p(), Vector("w", tuple(fr.WRENCH),
+        inputs=(_q(MODEL), u, _s(), _p(), Vector("w", tuple(fr.WRENCH),
                                                      fr.WRENCH_LABELS)),
         outputs=(_dq(rates),),
         solves=(LinearSolve(matrix=fd.mass_matrix, rhs=(fd.forcing + cw.moment,),
@@ -325,3 +351,11 @@ def friction_specs() -> list[FunctionSpec]:
     return [delassus(), contact_velocity(), impulse_slip_rate(), impulse_slip_direction_rate(),
             impulse_stick_rate(), impulse_resliding(), apply_impulse(), sliding_rhs(),
             sticking_rhs(), contact_wrench(), wrench_rhs(), wrench_rates()]
+
+
+def family_specs(family: str) -> list[FunctionSpec]:
+    """The functions that read the system, for one family of :data:`FAMILIES` (the others
+    work on W alone, or, general_wrench_rates, on omega' and R)."""
+    return [delassus(family), contact_velocity(family), apply_impulse(family),
+            sliding_rhs(family), sticking_rhs(family), contact_wrench(family),
+            wrench_rhs(family)]

@@ -8,52 +8,53 @@ impulse ``I n`` applied at the body point S; so
     K+ - K- = CS x (I n)     (theorem of angular momentum about C)
     v_n+ = -e v_n-           (Newton's law for the normal velocity of S)
 
-Everything else follows here.  ``J^-1 d`` is never formed: it appears as the unknown
-``w`` with ``J w = d``, which generated code solves numerically.
+Everything else follows here, for any :class:`~derive.system.System` (OC and K = J omega
++ k are the system's; called without one, the paper's).  ``J^-1 d`` is never formed: it
+appears as the unknown ``w`` with ``J w = d``, which generated code solves numerically.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import lru_cache
 
 import sympy as sp
 
-from .kinematics import absolute_rate_in_body_axes, centre_of_mass_offset_t
-from .momentum import angular_momentum
+from .kinematics import absolute_rate_in_body_axes
+from .momentum import angular_momentum, per_system
+from .system import System
 from .notation import E_Z, OS, V_C, W, Z_Cd, I, M, a, cross, dot, e, freeze, m, n, omega
 
 
-@lru_cache(maxsize=None)
-def lever() -> tuple[sp.Matrix, sp.Matrix]:
+@per_system
+def lever(system: System) -> tuple[sp.Matrix, sp.Matrix]:
     """``CS = OS - OC`` and ``d = CS x n`` (E1.10), body axes."""
-    CS = OS - freeze(centre_of_mass_offset_t())
+    CS = OS - freeze(system.oc)
     return CS, cross(CS, n)
 
 
-@lru_cache(maxsize=None)
-def contact_point_velocity() -> sp.Matrix:
+@per_system
+def contact_point_velocity(system: System) -> sp.Matrix:
     """Absolute velocity of the body point S in fixed axes (E1.14's starting point).
 
     ``O_aO = O_aC - A OC`` (definition of C) so ``V_O = V_C - d/dt(A OC)``; S is a
     point of the body, so ``V_S = V_O + A (omega x OS)``.  Time derivatives of ``A``
     are taken through the relative rate: ``d/dt(A b) = A (b' + omega x b)``.
     """
-    oc_t = centre_of_mass_offset_t()
+    oc_t = system.oc
     V_O = V_C - a * freeze(absolute_rate_in_body_axes(oc_t))
     return V_O + a * cross(omega, OS)
 
 
-@lru_cache(maxsize=None)
-def normal_velocity() -> sp.Expr:
+@per_system
+def normal_velocity(system: System) -> sp.Expr:
     """E1.14: ``v_n = (V_S, e_Z)``, the rate of the height of S."""
-    return sp.expand(dot(contact_point_velocity(), E_Z))
+    return sp.expand(dot(contact_point_velocity(system), E_Z))
 
 
-@lru_cache(maxsize=None)
-def height() -> sp.Expr:
+@per_system
+def height(system: System) -> sp.Expr:
     """Height of S above the plane: the Z component of ``O_aC + A CS``."""
     from .notation import R_C
-    CS, _ = lever()
+    CS, _ = lever(system)
     return sp.expand((R_C + a * CS)[2])
 
 
@@ -72,11 +73,11 @@ class ImpactMap:
     normal_velocity: sp.Expr     # E1.14 (at the pre-impact state)
 
 
-@lru_cache(maxsize=None)
-def impact_map() -> ImpactMap:
-    am = angular_momentum()
+@per_system
+def impact_map(system: System) -> ImpactMap:
+    am = angular_momentum(system)
     J, own = am.J, am.own
-    _, d = lever()
+    _, d = lever(system)
 
     # momentum: Q = (m+M) V_C (E1.2's lemma) and Q+ - Q- = I e_Z
     dV = sp.Matrix(sp.symbols("dX_C' dY_C' dZ_C'", real=True))
@@ -94,7 +95,7 @@ def impact_map() -> ImpactMap:
     omega_plus = omega + I * W             # with J W = d: J (omega + I W) - J omega = I d
 
     # normal velocity of S before and after: V_r, n, d unchanged; Z_C' and omega jump
-    v_n = normal_velocity()
+    v_n = normal_velocity(system)
     v_n_plus = v_n.xreplace({Z_Cd: Z_Cd + velocity_jump[2],
                              **{omega[i]: omega_plus[i] for i in range(3)}})
     v_n_jump = sp.expand(v_n_plus - v_n)

@@ -11,6 +11,9 @@ Also the point law's two orders: ``u = (x, y, z, x', y', z', x'', y'', z'')`` (w
 derived functions read, :data:`U`) and the jets of a law ``(x, x', x'', y, y', y'', z,
 z', z'')`` (what :meth:`derive.scene.law.Program.jets` returns), and the map between
 them (:func:`u_of_jets`).
+
+And the moments of any number of points and rotors (:data:`MOMENTS`): the 27 numbers the
+``moments_*`` functions read in place of ``u``, and what each body's share takes.
 """
 from __future__ import annotations
 
@@ -142,3 +145,53 @@ def u_of_jets(jets):
     if isinstance(jets, np.ndarray):
         return jets[list(JET_TO_U)]
     return [jets[i] for i in JET_TO_U]
+
+
+# ---- the moments of the internal bodies (the moments family, derive/system.py) ------------
+# The carrier sees its points and rotors only through these sums, in body axes about O
+# (rho_j = OP_j, m_j the points' masses; a_k, I_k, psi_k a rotor's unit axis, axial moment
+# and angle relative to the body; a rotor's mass and locked inertia are part of [body]):
+#
+#   s      = sum m_j rho_j                                   first moment, OC = s/(M + m)
+#   s', s''                                                  its rates (relative to the body)
+#   Theta  = sum m_j (|rho_j|^2 E - rho_j rho_j^T)           the points' inertia about O
+#   Theta'                                                   its rate
+#   h      = sum m_j rho_j x rho_j' + sum I_k psi_k' a_k     internal angular momentum
+#   h'     = sum m_j rho_j x rho_j'' + sum I_k psi_k'' a_k   its rate
+#
+# 27 numbers, the input ``u`` of every ``moments_*`` function (derive.models_moments); the
+# 28th, m = sum m_j, is constant and sits in ``p = (M, m, J_x, J_y, J_z, g)`` as the one
+# point's mass does (derive.abi's parameter ``m``).  Theta and Theta' are symmetric: their
+# upper triangle row by row (xx, xy, xz, yy, yz, zz).  Each body's share is a function of its
+# own law (``point_moments``, ``rotor_moments``); the sum over the bodies is the moments.
+# For one point of mass m: s = m OP, Theta = m (|OP|^2 E - OP OP^T), h = m OP x OP'.
+_XYZ = ("x", "y", "z")
+_UPPER = ("xx", "xy", "xz", "yy", "yz", "zz")
+MOMENTS_LABELS = (*(f"s_{c}" for c in _XYZ), *(f"s_{c}'" for c in _XYZ),
+                  *(f"s_{c}''" for c in _XYZ),
+                  *(f"Theta_{ij}" for ij in _UPPER), *(f"Theta_{ij}'" for ij in _UPPER),
+                  *(f"h_{c}" for c in _XYZ), *(f"h_{c}'" for c in _XYZ))
+
+
+def _run(fmt: str, keys) -> tuple:
+    return tuple(fmt.format(k) for k in keys)
+
+
+MOMENTS = Layout("moments", MOMENTS_LABELS,
+                 {"s": _run("s_{}", _XYZ), "s_rate": _run("s_{}'", _XYZ),
+                  "s_acc": _run("s_{}''", _XYZ),
+                  "theta": _run("Theta_{}", _UPPER), "theta_rate": _run("Theta_{}'", _UPPER),
+                  "h": _run("h_{}", _XYZ), "h_rate": _run("h_{}'", _XYZ),
+                  # what a rotor adds (rotor_moments' output): h and h', contiguous
+                  "spin": (*_run("h_{}", _XYZ), *_run("h_{}'", _XYZ))},
+                 {})
+# (i, j) of each entry of a symmetric part's upper triangle
+UPPER_INDEX = ((0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2))
+# a point's input to point_moments: its mass, and its jet in the order of u above (U_LABELS)
+POINT_JET_LABELS = U_LABELS
+# a rotor's inputs to rotor_moments: its unit axis (body axes), axial moment, and the rates
+# of its angle psi (the angle itself does not enter: the rotor is symmetric about its axis)
+ROTOR_AXIS_LABELS = ("a_x", "a_y", "a_z")
+ROTOR_RATE_LABELS = ("psi'", "psi''")
+# a rotor's law has one output, psi(t); its jets are (psi, psi', psi'')
+ROTOR_JET_LABELS = ("psi", "psi'", "psi''")

@@ -19,8 +19,10 @@ Common inputs: ``u = (x, y, z, x', y', z', x'', y'', z'')`` (point law in body a
 """
 from __future__ import annotations
 
+import textwrap
 from dataclasses import dataclass, replace
 from functools import lru_cache
+from typing import Callable
 
 import sympy as sp
 
@@ -29,6 +31,7 @@ from . import notation as nt
 from .impact import K_SYMBOL, V_N_MINUS, height, impact_map, lever
 from .kinematics import poisson_equations
 from .momentum import (MU_OP, flight_dynamics_euler, flight_dynamics_euler_scaled)
+from .system import System
 from . import shapes, surfaces
 
 
@@ -66,6 +69,7 @@ class FunctionSpec:
     outputs: tuple
     solves: tuple = ()
     definitions: tuple = ()   # ((symbol, expr), ...): named quantities computed first
+    jacobian: bool = True     # generated/c carries its jac_ (derive.jacobians)
 
     def inlined(self, expr):
         """``expr`` with the definitions substituted (for references that want one
@@ -152,6 +156,36 @@ def inertia_solve(rhs: tuple, unknowns: tuple) -> LinearSolve:
                        diagonal=tuple(form.diagonal), rank_one=(*MU_OP, *form.vector))
 
 
+@dataclass(frozen=True)
+class Family:
+    """How a family of functions reads its system: the derivation's system (None: the
+    paper's one point), the input ``u`` (the point's law, or the moments of
+    derive/models_moments.py), the solve with J and the named quantities the solves and
+    the other functions read.  ``prefix`` names the functions (None: by their model)."""
+    prefix: str | None
+    system: System | None
+    u: Vector
+    solve: Callable            # (rhs, unknowns) -> LinearSolve with J
+    definitions: tuple         # read with the solves
+    mass_definitions: tuple    # read without them
+
+    def name(self, model: str, what: str) -> str:
+        return f"{self.prefix or model}_{what}"
+
+    def plain(self, what: str) -> str:
+        """The name of a function of no model (``lie_stage``, ``moments_lie_stage``)."""
+        return what if self.prefix is None else f"{self.prefix}_{what}"
+
+    @property
+    def own(self) -> str:
+        """K - J omega, as the documentation writes it."""
+        return "mu OP x V_r" if self.prefix is None else "k"
+
+
+POINT = Family(prefix=None, system=None, u=_u(), solve=inertia_solve,
+               definitions=INERTIA_DEFINITIONS, mass_definitions=MASS_DEFINITIONS)
+
+
 @lru_cache(maxsize=None)
 def flight_rhs(model: str) -> FunctionSpec:
     """``<model>_flight_rhs(q, u, p) -> dq``: E1.2, E1.7 (solved numerically), E1.8.
@@ -204,12 +238,12 @@ def flight_jacobian(model: str) -> FunctionSpec:
 
 
 @lru_cache(maxsize=None)
-def impact(model: str) -> FunctionSpec:
+def impact(model: str, family: Family = POINT) -> FunctionSpec:
     """``<model>_impact(q, u, s, p, e) -> (q_plus, I)``: E1.11, E1.12, E1.15, E1.16."""
     if model == "attitude":
         raise ValueError("the attitude model has no contact geometry")
-    im = impact_map()
-    _, d = lever()
+    im = impact_map(family.system)
+    _, d = lever(family.system)
     impulse = im.impulse.xreplace({V_N_MINUS: im.normal_velocity, K_SYMBOL: im.k})
     after = {nt.X_Cd: nt.X_Cd + im.velocity_jump[0], nt.Y_Cd: nt.Y_Cd + im.velocity_jump[1],
              nt.Z_Cd: nt.Z_Cd + im.velocity_jump[2]}
@@ -220,29 +254,29 @@ def impact(model: str) -> FunctionSpec:
     # I itself is an intermediate: substitute it last so that CSE sees one impulse
     outputs = tuple(Vector(v.name, tuple(ex.xreplace({nt.I: impulse})
                                          for ex in v.entries), v.labels) for v in outputs)
-    solve = inertia_solve((d,), (nt.W,))
+    solve = family.solve((d,), (nt.W,))
     return FunctionSpec(
-        name=f"{model}_impact",
-        doc=f"Impact map of the {model} model: state just after the impact and the "
-            "impulse I (E1.11, E1.12, E1.15, E1.16); apply only when v_n < 0.",
-        inputs=(_q(model), _u(), _s(), _p(), _e()),
-        outputs=outputs, solves=(solve,), definitions=INERTIA_DEFINITIONS)
+        name=family.name(model, "impact"),
+        doc=f"Impact map of the {family.prefix or model} model: state just after the impact "
+            "and the impulse I (E1.11, E1.12, E1.15, E1.16); apply only when v_n < 0.",
+        inputs=(_q(model), family.u, _s(), _p(), _e()),
+        outputs=outputs, solves=(solve,), definitions=family.definitions)
 
 
 @lru_cache(maxsize=None)
-def gap(model: str) -> FunctionSpec:
+def gap(model: str, family: Family = POINT) -> FunctionSpec:
     """``<model>_gap(q, u, s, p) -> (h, v_n)``: height of S and its rate (E1.14)."""
     if model == "attitude":
         raise ValueError("the attitude model has no contact geometry")
-    h = height()
-    v_n = impact_map().normal_velocity
+    h = height(family.system)
+    v_n = impact_map(family.system).normal_velocity
     return FunctionSpec(
-        name=f"{model}_gap",
+        name=family.name(model, "gap"),
         doc=f"Height h of the lowest point S above the plane and its rate v_n (E1.14), "
-            f"{model} model.",
-        inputs=(_q(model), _u(), _s(), _p()),
+            f"{family.prefix or model} model.",
+        inputs=(_q(model), family.u, _s(), _p()),
         outputs=(Vector("h", (h,), ("h",)), Vector("v_n", (v_n,), ("v_n",))),
-        definitions=MASS_DEFINITIONS)
+        definitions=family.mass_definitions)
 
 
 def _size_input(shape: str) -> Vector:
@@ -273,14 +307,14 @@ SDOT_LABELS = ("x*'", "y*'", "z*'")
 
 
 @lru_cache(maxsize=None)
-def contact_rhs(model: str) -> FunctionSpec:
+def contact_rhs(model: str, family: Family = POINT) -> FunctionSpec:
     """``<model>_contact_rhs(q, u, s, sdot, p) -> (dq, N)``: S held on the plane by the
     normal reaction N (derive.contact); valid while N >= 0."""
     if model == "attitude":
         raise ValueError("the attitude model has no contact geometry")
     from .contact import A_FREE, contact_dynamics
-    cd = contact_dynamics()
-    im = impact_map()
+    cd = contact_dynamics(family.system)
+    im = impact_map(family.system)
     f, d = cd.omega_rhs
     a_free = cd.a_free.xreplace(dict(zip(nt.omega_dot, OMEGA_DOT_FREE)))
     normal = cd.normal_force.xreplace({A_FREE: a_free, K_SYMBOL: im.k})
@@ -289,16 +323,16 @@ def contact_rhs(model: str) -> FunctionSpec:
     rates[nt.Z_Cd] = cd.z_acceleration
     rates.update(dict(zip(nt.omega, omega_dot)))
     dq = tuple(sp.sympify(rates[s]).xreplace({nt.N: normal}) for s in STATES[model])
-    solve = inertia_solve((f, d), (OMEGA_DOT_FREE, nt.W))
+    solve = family.solve((f, d), (OMEGA_DOT_FREE, nt.W))
     return FunctionSpec(
-        name=f"{model}_contact_rhs",
-        doc=f"Persistent contact of the {model} model: dq/dt with S held on the plane "
-            "and the normal reaction N (derive.contact); lift-off where N < 0.",
-        inputs=(_q(model), _u(), _s(), Vector("sdot", SDOT, SDOT_LABELS), _p()),
+        name=family.name(model, "contact_rhs"),
+        doc=f"Persistent contact of the {family.prefix or model} model: dq/dt with S held on "
+            "the plane and the normal reaction N (derive.contact); lift-off where N < 0.",
+        inputs=(_q(model), family.u, _s(), Vector("sdot", SDOT, SDOT_LABELS), _p()),
         outputs=(Vector("dq", tuple(v for v in dq),
                         tuple(f"d({lb})/dt" for lb in STATE_LABELS[model])),
                  Vector("N", (normal,), ("N",))),
-        solves=(solve,), definitions=INERTIA_DEFINITIONS)
+        solves=(solve,), definitions=family.definitions)
 
 
 @lru_cache(maxsize=None)
@@ -318,16 +352,16 @@ def lowest_point_rate(shape: str) -> FunctionSpec:
 
 
 @lru_cache(maxsize=None)
-def kinetic_moment(model: str) -> FunctionSpec:
+def kinetic_moment(model: str, family: Family = POINT) -> FunctionSpec:
     """``<model>_kinetic_moment(q, u, p) -> K``: E1.6, body axes (|K| is E1.9's integral)."""
     from .momentum import angular_momentum
-    K = tuple(k for k in angular_momentum().K)
+    K = tuple(k for k in angular_momentum(family.system).K)
     return FunctionSpec(
-        name=f"{model}_kinetic_moment",
-        doc=f"Angular momentum K about C in body axes (E1.6), {model} model.",
-        inputs=(_q(model), _u(), _p()),
+        name=family.name(model, "kinetic_moment"),
+        doc=f"Angular momentum K about C in body axes (E1.6), {family.prefix or model} model.",
+        inputs=(_q(model), family.u, _p()),
         outputs=(Vector("K", K, ("K_x", "K_y", "K_z")),),
-        definitions=MASS_DEFINITIONS)
+        definitions=family.mass_definitions)
 
 
 # ---- the momentum form (derive.momentum.momentum_form, derive.lie) -------------------------
@@ -340,35 +374,36 @@ def _omega() -> Vector:
 
 
 @lru_cache(maxsize=None)
-def momentum_omega() -> FunctionSpec:
+def momentum_omega(family: Family = POINT) -> FunctionSpec:
     """``momentum_omega(A, K, u, p) -> omega``: E1.4 solved for omega with K constant in
     fixed axes (E1.1): ``J omega = A^T K - mu OP x V_r``."""
     from .momentum import K_BODY, K_FIXED, momentum_form
-    mf = momentum_form()
+    mf = momentum_form(family.system)
     seen = nt.a.T * K_FIXED
     rhs = mf.body_rhs.xreplace(dict(zip(K_BODY, seen)))
     return FunctionSpec(
-        name="momentum_omega",
+        name=family.plain("momentum_omega" if family.prefix is None else "omega"),
         doc="omega of the momentum form: E1.4 solved with K constant in fixed axes "
-            "(E1.1), J omega = A^T K - mu OP x V_r.",
-        inputs=(_A(), Vector("K", tuple(K_FIXED), ("K_X", "K_Y", "K_Z")), _u(), _p()),
+            f"(E1.1), J omega = A^T K - {family.own}.",
+        inputs=(_A(), Vector("K", tuple(K_FIXED), ("K_X", "K_Y", "K_Z")), family.u, _p()),
         outputs=(_omega(),),
-        solves=(inertia_solve((rhs,), (nt.omega,)),),
-        definitions=INERTIA_DEFINITIONS)
+        solves=(family.solve((rhs,), (nt.omega,)),),
+        definitions=family.definitions)
 
 
 @lru_cache(maxsize=None)
-def fixed_kinetic_moment() -> FunctionSpec:
+def fixed_kinetic_moment(family: Family = POINT) -> FunctionSpec:
     """``fixed_kinetic_moment(A, omega, u, p) -> K``: K about C in fixed axes, A K of
     E1.4 (the constant of a flight, E1.1)."""
     from .momentum import momentum_form
     return FunctionSpec(
-        name="fixed_kinetic_moment",
-        doc="K about C in fixed axes, A (J omega + mu OP x V_r) (E1.4): constant in flight "
+        name=family.plain("fixed_kinetic_moment"),
+        doc=f"K about C in fixed axes, A (J omega + {family.own}) (E1.4): constant in flight "
             "(E1.1).",
-        inputs=(_A(), _omega(), _u(), _p()),
-        outputs=(Vector("K", tuple(momentum_form().fixed), ("K_X", "K_Y", "K_Z")),),
-        definitions=MASS_DEFINITIONS)
+        inputs=(_A(), _omega(), family.u, _p()),
+        outputs=(Vector("K", tuple(momentum_form(family.system).fixed),
+                        ("K_X", "K_Y", "K_Z")),),
+        definitions=family.mass_definitions)
 
 
 def _W() -> Vector:
@@ -381,7 +416,7 @@ def _lie():
 
 
 @lru_cache(maxsize=None)
-def lie_stage() -> FunctionSpec:
+def lie_stage(family: Family = POINT) -> FunctionSpec:
     """``lie_stage(W, k, u, p) -> (dW, omega)``: one stage of a Lie-group step.  With the
     attitude ``A = A_n exp(skew(W))`` and ``k = A_n^T K`` (K fixed, E1.1), the body
     components of K are ``exp(-skew(W)) k``; omega solves E1.4 with them, and
@@ -389,44 +424,44 @@ def lie_stage() -> FunctionSpec:
     from .momentum import K_BODY, momentum_form
     lie = _lie()
     ch = lie.exponential_chart()
-    mf = momentum_form()
+    mf = momentum_form(family.system)
     series, values = ch.definitions()
     seen = ch.body_view(K_BODY, values=values)
     rhs = mf.body_rhs.xreplace(dict(zip(K_BODY, seen)))
     dW = ch.dexpinv(nt.omega, values=values)
     return FunctionSpec(
-        name="lie_stage",
+        name=family.plain("lie_stage"),
         doc="A stage of the Lie-group flight step: omega from E1.4 with K = exp(-W^) k in "
             "body axes, and W' = dexpinv(W, omega) (E1.8 in exponential coordinates).",
-        inputs=(_W(), Vector("k", tuple(K_BODY), ("k_x", "k_y", "k_z")), _u(), _p()),
+        inputs=(_W(), Vector("k", tuple(K_BODY), ("k_x", "k_y", "k_z")), family.u, _p()),
         outputs=(Vector("dW", tuple(dW), ("W_x'", "W_y'", "W_z'")), _omega()),
-        solves=(inertia_solve((rhs,), (nt.omega,)),),
-        definitions=INERTIA_DEFINITIONS + series)
+        solves=(family.solve((rhs,), (nt.omega,)),),
+        definitions=family.definitions + series)
 
 
 @lru_cache(maxsize=None)
-def lie_point() -> FunctionSpec:
+def lie_point(family: Family = POINT) -> FunctionSpec:
     """``lie_point(W, k, u, p) -> (E, omega)``: the attitude factor ``exp(skew(W))`` of a
     point of a Lie step and omega there (E1.4 with K = E^T k): what the dense output of
     the momentum form needs at a time between steps."""
     from .momentum import K_BODY, momentum_form
     lie = _lie()
     ch = lie.exponential_chart()
-    mf = momentum_form()
+    mf = momentum_form(family.system)
     series, values = ch.definitions()
     E = ch.exp_matrix(values=values)
     seen = E.T * K_BODY
     rhs = mf.body_rhs.xreplace(dict(zip(K_BODY, seen)))
     keep = {lie.S_W} | {sym for sym, _ in series if sym.name.startswith(("a_W", "b_W", "s_W"))}
     return FunctionSpec(
-        name="lie_point",
+        name=family.plain("lie_point"),
         doc="exp(W^) and omega from E1.4 with K = exp(W^)^T k in body axes: a point of the "
             "dense output of a Lie-group flight step.",
-        inputs=(_W(), Vector("k", tuple(K_BODY), ("k_x", "k_y", "k_z")), _u(), _p()),
+        inputs=(_W(), Vector("k", tuple(K_BODY), ("k_x", "k_y", "k_z")), family.u, _p()),
         outputs=(Vector("E", tuple(E), tuple(f"e{i}{j}" for i in "123" for j in "123")),
                  _omega()),
-        solves=(inertia_solve((rhs,), (nt.omega,)),),
-        definitions=INERTIA_DEFINITIONS + tuple((sym, v) for sym, v in series if sym in keep))
+        solves=(family.solve((rhs,), (nt.omega,)),),
+        definitions=family.definitions + tuple((sym, v) for sym, v in series if sym in keep))
 
 
 @lru_cache(maxsize=None)
@@ -492,6 +527,10 @@ def layout_doc() -> str:
     lines.append(f"Common inputs: u = ({', '.join(U_LABELS)}), the point's kinematics in "
                  "body axes; p = (M, m, J_x, J_y, J_z, g);")
     lines.append("s = OS = (x*, y*, z*), the lowest point in body axes; restitution e.")
+    lines += textwrap.wrap(
+        "moments_* functions (any number of points and rotors): the general state; u = "
+        f"({', '.join(layout.MOMENTS_LABELS)}), the moments about O in body axes "
+        "(derive/layout.py); p's m is the points' total mass.", width=88)
     return "\n".join(lines)
 
 

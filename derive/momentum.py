@@ -10,32 +10,37 @@ Definitions used (and nothing the paper prints):
   ``diag(J_x, J_y, J_z) omega`` (``Oxyz`` are its principal central axes), so
   ``K = diag(J) omega + M rho_O x rho_O' + m rho_P x rho_P'``.
 * The theorems in flight: ``dQ/dt = -(m+M) g e_Z`` and ``dK/dt = 0``.
+
+Those definitions make the one-point :class:`~derive.system.System` (:func:`point_system`);
+the theorems are then applied to any system's ``K = J omega + k`` (:func:`flight_dynamics`,
+:func:`flight_dynamics_structured`, :func:`momentum_form`), and called without a system
+they apply to this one.  Euler's form of E1.7 (:func:`flight_dynamics_euler`) is the one
+point's own rewriting for the code.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import lru_cache
+from functools import lru_cache, wraps
 
 import sympy as sp
 
+from . import notation as nt
 from .kinematics import absolute_rate_in_body_axes, centre_of_mass_offset_t
 from .notation import (E_Z, MASS_FRACTION, J_x, J_y, J_z, M, OP_t, X_C_t, Y_C_t, Z_C_t, a_t,
                        cross, freeze, from_paper_notation, g, m, nu, omega, omega_dot,
                        omega_vec_t, t, thaw, to_paper_notation)
+from .system import AngularMomentum, System
 
-
-@dataclass(frozen=True)
-class AngularMomentum:
-    K: sp.Matrix          # E1.6: components in body axes, paper notation (mu)
-    J: sp.Matrix          # E1.5: dK/d omega
-    own: sp.Matrix        # K - J omega: the part carried by the relative motion of P
-    K_definition: sp.Matrix   # straight from the definition, in M and m
-    K_vector: sp.Matrix   # the same K kept as J_O omega + mu OP x (absolute rate of OP)
+# the chain rule of the point's law: x -> x' -> x'' (x, y, z)
+POINT_LAW_RATES = tuple(zip((nt.x, nt.y, nt.z, nt.xd, nt.yd, nt.zd),
+                            (nt.xd, nt.yd, nt.zd, nt.xdd, nt.ydd, nt.zdd)))
 
 
 @lru_cache(maxsize=None)
-def angular_momentum() -> AngularMomentum:
-    """E1.4–E1.6 from the definition of K about C."""
+def _point_angular_momentum() -> AngularMomentum:
+    """E1.4–E1.6 from the definition of K about C (K: E1.6 in paper notation, mu; J: E1.5;
+    own: the part carried by the relative motion of P; K_vector: J_O omega + mu OP x (the
+    absolute rate of OP))."""
     oc = centre_of_mass_offset_t()
     rho_O = -oc                       # O relative to C
     rho_P = OP_t - oc                 # P relative to C
@@ -60,6 +65,32 @@ def angular_momentum() -> AngularMomentum:
     return AngularMomentum(K=K, J=J, own=own, K_definition=K_def, K_vector=K_vec)
 
 
+@lru_cache(maxsize=None)
+def point_system() -> System:
+    """The paper's system: the carrier and one point P of mass m on the law OP(t), with
+    ``OC = m/(m+M) OP`` and K of E1.4–E1.6."""
+    return System(name="point", oc=centre_of_mass_offset_t(),
+                  momentum=_point_angular_momentum(), law_rates=POINT_LAW_RATES)
+
+
+def per_system(fn):
+    """A derivation of a :class:`~derive.system.System`, cached per system; called
+    without one it derives the paper's (:func:`point_system`)."""
+    cached = lru_cache(maxsize=None)(fn)
+
+    @wraps(fn)
+    def call(system: System | None = None):
+        return cached(point_system() if system is None else system)
+
+    call.cache_clear = cached.cache_clear
+    return call
+
+
+def angular_momentum(system: System | None = None) -> AngularMomentum:
+    """K about C of a system (the paper's: E1.4–E1.6)."""
+    return (point_system() if system is None else system).momentum
+
+
 @dataclass(frozen=True)
 class FlightDynamics:
     residual: sp.Matrix     # E1.7: dK~/dt + omega x K, linear in omega'
@@ -74,10 +105,11 @@ def relative_rate_equation():
     return K_t, absolute_rate_in_body_axes(K_t)
 
 
-@lru_cache(maxsize=None)
-def flight_dynamics() -> FlightDynamics:
-    """E1.7: the angular-momentum theorem ``dK/dt = 0`` in body axes with K of E1.6."""
-    K = angular_momentum().K
+@per_system
+def flight_dynamics(system: System) -> FlightDynamics:
+    """E1.7: the angular-momentum theorem ``dK/dt = 0`` in body axes with K of E1.6 (of
+    the system)."""
+    K = angular_momentum(system).K
     residual = freeze(absolute_rate_in_body_axes(thaw(K)))
     residual = residual.applyfunc(lambda r: sp.collect(sp.expand(r), omega_dot))
     mass = residual.jacobian(omega_dot)
@@ -87,8 +119,8 @@ def flight_dynamics() -> FlightDynamics:
     return FlightDynamics(residual=residual, mass_matrix=mass, forcing=forcing)
 
 
-@lru_cache(maxsize=None)
-def flight_dynamics_structured() -> FlightDynamics:
+@per_system
+def flight_dynamics_structured(system: System) -> FlightDynamics:
     """E1.7 with the same content, kept factored for code generation.
 
     E1.3 applied to ``K = J_O omega + mu OP x (V_r + omega x OP)`` (the definition
@@ -97,7 +129,7 @@ def flight_dynamics_structured() -> FlightDynamics:
     a seventh.  ``emit`` uses this form; ``tests`` check that it equals
     :func:`flight_dynamics`.
     """
-    am = angular_momentum()
+    am = angular_momentum(system)
     residual = freeze(absolute_rate_in_body_axes(thaw(am.K_vector)))
     forcing = -residual.xreplace({w: 0 for w in omega_dot})
     mass = residual.jacobian(omega_dot)
@@ -251,10 +283,10 @@ def centre_of_mass_motion():
     return Q, freeze(sp.Matrix([sol[c] for c in acc])), lemma
 
 
-@lru_cache(maxsize=None)
-def integral_of_kinetic_moment() -> sp.Expr:
+@per_system
+def integral_of_kinetic_moment(system: System) -> sp.Expr:
     """The quantity of E1.9, ``K_x^2 + K_y^2 + K_z^2``."""
-    K = angular_momentum().K
+    K = angular_momentum(system).K
     return sp.expand(sum((k ** 2 for k in K), sp.Integer(0)))
 
 
@@ -283,25 +315,18 @@ class MomentumForm:
     omega_rate_rhs: sp.Matrix
 
 
-def _law_rate(expr):
-    """d/dt of an expression in the point's law (x, x', ...) and nothing else moving."""
-    from .notation import xd, xdd, yd, ydd, zd, zdd, x, y, z
-    chain = ((x, xd), (y, yd), (z, zd), (xd, xdd), (yd, ydd), (zd, zdd))
-    return sum((sp.diff(expr, s) * r for s, r in chain), sp.Integer(0))
-
-
-@lru_cache(maxsize=None)
-def momentum_form() -> MomentumForm:
+@per_system
+def momentum_form(system: System) -> MomentumForm:
     from .notation import a, omega as w, skew
-    am = angular_momentum()
+    am = angular_momentum(system)
     J, own = am.J, am.own
     body_rhs = K_BODY - own
     fixed = a * (J * w + own)
     # J omega + own = A^T K: differentiate with A' = A skew(omega), K constant:
     # (A^T)' K = -skew(omega) A^T K = -omega x (J omega + own)
     K_seen = J * w + own
-    omega_rate_rhs = (-skew(w) * K_seen - J.applyfunc(_law_rate) * w
-                      - own.applyfunc(_law_rate))
+    omega_rate_rhs = (-skew(w) * K_seen - J.applyfunc(system.law_rate) * w
+                      - own.applyfunc(system.law_rate))
     return MomentumForm(J=J, own=own, body_rhs=body_rhs, fixed=fixed,
                         omega_rate_rhs=omega_rate_rhs.applyfunc(sp.expand))
 

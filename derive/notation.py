@@ -59,6 +59,38 @@ x_sd, y_sd, z_sd = sp.symbols("x_*' y_*' z_*'", real=True)   # its rate (persist
 # ---- J^-1 d, an unknown defined by J w = d (never formed by inversion) --------------
 w_x, w_y, w_z = sp.symbols("w_x w_y w_z", real=True)
 
+# ---- the moments of the internal bodies about O, body axes (derive/moments.py) -----------
+# s = sum m_j OP_j, Theta = sum m_j (|OP_j|^2 E - OP_j OP_j^T), h = sum m_j OP_j x OP_j' +
+# sum I_k psi_k' a_k: time functions, and their frozen values and rates (the order of the
+# moments vector is derive/layout.py's MOMENTS)
+_UPPER = (("xx", 0, 0), ("xy", 0, 1), ("xz", 0, 2), ("yy", 1, 1), ("yz", 1, 2), ("zz", 2, 2))
+
+
+def _symmetric(entry) -> sp.Matrix:
+    """A symmetric 3x3 matrix from ``entry(name)`` of its upper triangle's names."""
+    out = sp.zeros(3, 3)
+    for name, i, j in _UPPER:
+        out[i, j] = out[j, i] = entry(name)
+    return out
+
+
+s_m_t = sp.Matrix([sp.Function(f"s_{c}", real=True)(t) for c in "xyz"])
+s_m = sp.Matrix(sp.symbols("s_x s_y s_z", real=True))
+s_md = sp.Matrix(sp.symbols("s_x' s_y' s_z'", real=True))
+s_mdd = sp.Matrix(sp.symbols("s_x'' s_y'' s_z''", real=True))
+Theta_t = _symmetric(lambda ij: sp.Function(f"Theta_{ij}", real=True)(t))
+Theta = _symmetric(lambda ij: sp.Symbol(f"Theta_{ij}", real=True))
+Theta_d = _symmetric(lambda ij: sp.Symbol(f"Theta_{ij}'", real=True))
+h_m_t = sp.Matrix([sp.Function(f"h_{c}", real=True)(t) for c in "xyz"])
+h_m = sp.Matrix(sp.symbols("h_x h_y h_z", real=True))
+h_md = sp.Matrix(sp.symbols("h_x' h_y' h_z'", real=True))
+
+
+def upper(matrix: sp.Matrix) -> tuple:
+    """The upper triangle of a symmetric 3x3 matrix, row by row (xx, xy, xz, yy, yz, zz)."""
+    return tuple(matrix[i, j] for _, i, j in _UPPER)
+
+
 # ---- vectors ------------------------------------------------------------------------
 OP_t = sp.Matrix([x_t, y_t, z_t])
 OP = sp.Matrix([x, y, z])
@@ -109,6 +141,16 @@ def _freeze_table() -> dict:
     for f, s0, s1, s2 in ((X_C_t, X_C, X_Cd, X_Cdd), (Y_C_t, Y_C, Y_Cd, Y_Cdd),
                           (Z_C_t, Z_C, Z_Cd, Z_Cdd)):
         table[sp.Derivative(f, (t, 2))] = s2
+        table[sp.Derivative(f, t)] = s1
+        table[f] = s0
+    # the moments: s to its second rate, Theta and h to their first (what the derivation
+    # needs; a higher rate stays unfrozen and is refused where it is used)
+    for f, s0, s1, s2 in zip(s_m_t, s_m, s_md, s_mdd):
+        table[sp.Derivative(f, (t, 2))] = s2
+        table[sp.Derivative(f, t)] = s1
+        table[f] = s0
+    for f, s0, s1 in [*zip(upper(Theta_t), upper(Theta), upper(Theta_d)),
+                      *zip(h_m_t, h_m, h_md)]:
         table[sp.Derivative(f, t)] = s1
         table[f] = s0
     return table

@@ -9,10 +9,10 @@ import time
 import traceback
 from dataclasses import dataclass, field
 
-from . import extensions, section1, section2, section3, section4
+from . import extensions, internal_motion, section1, section2, section3, section4
 from .registry import CHECKS, CheckFailed, Erratum, Report
 
-SECTIONS = (section1, section2, section3, section4, extensions)
+SECTIONS = (section1, section2, section3, section4, extensions, internal_motion)
 
 
 @dataclass

@@ -96,7 +96,8 @@ def _rhs_report(hand_latency_ns: float):
     from derive.bench import rhs
     from derive.emit.linalg import DEFAULT_SOLVER
     rows = [rhs.Row("general_flight_rhs", 300, 400, 50.0, 60.0, 5e3, 9e3, 30.0, 40.0),
-            rhs.Row("vertical_flight_rhs", 100, 150, 20.0, 25.0, 4e3, 8e3, 12.0, 15.0)]
+            rhs.Row("vertical_flight_rhs", 100, 150, 20.0, 25.0, 4e3, 8e3, 12.0, 15.0),
+            rhs.Row("moments_flight_rhs", 400, 500, 65.0, 70.0, 6e3, 1e4, 39.0, 45.0)]
     variants = [rhs.Variant(f, solver, 300, 320, "mul 3", 10.0, 5.0, 50.0, 30.0, 2.0, 1.0)
                 for f in ("general_flight_rhs", "lie_stage")
                 for solver in (rhs.PREVIOUS, DEFAULT_SOLVER)]
@@ -116,6 +117,8 @@ def test_bench_rhs_exit_status(hand_latency_ns, status, monkeypatch, capsys):
     got, out = _verdict(["bench", "rhs"], capsys)
     assert got == status
     assert ("FAIL" in out) == (status == 1)
+    assert "ops 400/300 = 1.33, throughput 65.0/50.0 ns = 1.30, latency 39.0/30.0 ns = 1.30" \
+        in out
 
 
 # ---- bench sim: canned routes, SciPy fast or slow ------------------------------------------

@@ -18,7 +18,10 @@ Measured in one run, on the same machine, with the same compiler flags: the runt
 * the floor of the latency loop: a function of the general flight RHS's signature with
   one multiplication per output entry (what the loop's loads, stores and feedback cost
   whatever the function computes);
-* the CasADi Function called from Python, and the SymPy expressions lambdified to NumPy.
+* the CasADi Function called from Python, and the SymPy expressions lambdified to NumPy;
+* the moments family's flight RHS (any number of points and rotors, derive.models_moments)
+  beside the general one: the cost of taking the internal motion as its 27 moments in
+  place of one point's law (reported; issue 32's cost targets are whole runs').
 
 Two loops per C function: **throughput** (1024 independent random inputs) and
 **latency** (the state input of each call is the last call's output, the law and the
@@ -104,8 +107,9 @@ class Report:
 
 
 def _specs() -> list[FunctionSpec]:
+    from ..models_moments import flight_rhs as moments_flight_rhs
     return [flight_rhs("general"), flight_rhs("vertical"), impact("general"),
-            impact("vertical"), lie_stage()]
+            impact("vertical"), lie_stage(), moments_flight_rhs()]
 
 
 # ---- the peers: the flight right-hand side typed by hand in CasADi ------------------------
@@ -622,6 +626,13 @@ def report(rep: Report, judged: bool = True) -> tuple[str, bool]:
                 and x.solver == PREVIOUS)
     chosen = next(x for x in rep.variants if x.function == "general_flight_rhs"
                   and x.solver == DEFAULT_SOLVER)
+    mo = by["moments_flight_rhs"]
+    lines.append(f"moments / general flight RHS (the 27 moments of any number of points and "
+                 f"rotors against one point's law): ops {mo.ops}/{g.ops} = {mo.ops / g.ops:.2f}, "
+                 f"throughput {mo.standalone_ns:.1f}/{g.standalone_ns:.1f} ns = "
+                 f"{mo.standalone_ns / g.standalone_ns:.2f}, latency "
+                 f"{mo.standalone_latency_ns:.1f}/{g.standalone_latency_ns:.1f} ns = "
+                 f"{mo.standalone_latency_ns / g.standalone_latency_ns:.2f} (reported)")
     lines.append(f"accuracy of the emitted RHS ({DEFAULT_SOLVER}) on {ACCURACY_STATES} states "
                  f"against 30 digits, 99th percentile {v['accuracy'][0]:.1f} ulp (max "
                  f"{chosen.ulp_max:.1f}) against the previous form's {prev.ulp_p99:.1f} (max "

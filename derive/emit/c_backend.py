@@ -12,7 +12,9 @@ Each function gets a file ``generated/c/<name>.c`` holding
 
 Each function ``<name>`` also gets ``jac_<name>`` (``generated/c/jac_<name>.c``, from
 :mod:`derive.jacobians`): its Jacobian blocks in CasADi's ``jac_`` convention, so that
-``casadi.jacobian`` of the loaded functions, and the optimisers built on it, work.
+``casadi.jacobian`` of the loaded functions, and the optimisers built on it, work; but a
+function whose spec says ``jacobian=False`` (the rough plane's, whose modes switch at
+events).
 
 The header ``carrier.h`` declares all of them; a Makefile, a CMake project (with a
 package config for ``find_package(carrier)``) and a README complete the folder.  Output
@@ -230,7 +232,7 @@ def render_c(specs: list[FunctionSpec], out_dir: Path, model_doc: str) -> dict[s
     env = environment()
     tool_versions = versions()
     contexts = [function_context(spec) for spec in specs]
-    jacobians = [jacobian(spec) for spec in specs]
+    jacobians = [jacobian(spec) for spec in specs if spec.jacobian]
     jac_contexts = [function_context(j.spec, jacobian=j) for j in jacobians]
     files: dict[str, str] = {}
     tpl = env.get_template("c/function.c.jinja")

@@ -4,7 +4,8 @@ from __future__ import annotations
 import difflib
 from pathlib import Path
 
-from ..models import all_specs, layout_doc
+from ..models import layout_doc
+from ..models_moments import emitted_specs
 from .c_backend import render_c
 from .casadi_backend import render_casadi
 from .render import GENERATED
@@ -15,7 +16,7 @@ MANAGED_FILES = ("CMakeLists.txt", "Makefile")   # and files at its top
 
 
 def render_all() -> dict[str, bytes]:
-    specs = all_specs()
+    specs = emitted_specs()
     files = {k: v.encode("utf-8") for k, v in render_c(specs, GENERATED, layout_doc()).items()}
     files.update({k: v.encode("utf-8") for k, v in render_runtime().items()})
     files.update(render_casadi(specs))

@@ -15,6 +15,11 @@
  * - attitude, 3 states: (omega_x, omega_y, omega_z)
  * Common inputs: u = (x, y, z, x', y', z', x'', y'', z''), the point's kinematics in body axes; p = (M, m, J_x, J_y, J_z, g);
  * s = OS = (x*, y*, z*), the lowest point in body axes; restitution e.
+ * moments_* functions (any number of points and rotors): the general state; u = (s_x, s_y,
+ * s_z, s_x', s_y', s_z', s_x'', s_y'', s_z'', Theta_xx, Theta_xy, Theta_xz, Theta_yy,
+ * Theta_yz, Theta_zz, Theta_xx', Theta_xy', Theta_xz', Theta_yy', Theta_yz', Theta_zz',
+ * h_x, h_y, h_z, h_x', h_y', h_z'), the moments about O in body axes (derive/layout.py);
+ * p's m is the points' total mass.
  */
 
 /*
@@ -506,6 +511,330 @@ void exp_map_incref(void);
 void exp_map_decref(void);
 #endif
 
+/* point_moments(mass, jet[9]) -> (moments[27]): A point's share of the moments (derive.moments.point_share): m rho, its rates, m (|rho|^2 E - rho rho^T) and its rate (upper triangles), m rho x rho' and m rho x rho''; the moments are the sum over the points and rotors. */
+void carrier_point_moments(double mass, const double *jet, double *CARRIER_RESTRICT moments);
+#ifndef CARRIER_NO_CASADI_ABI
+int point_moments(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int point_moments_n_in(void);
+casadi_int point_moments_n_out(void);
+const char *point_moments_name_in(casadi_int i);
+const char *point_moments_name_out(casadi_int i);
+const casadi_int *point_moments_sparsity_in(casadi_int i);
+const casadi_int *point_moments_sparsity_out(casadi_int i);
+int point_moments_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real point_moments_default_in(casadi_int i);
+int point_moments_checkout(void);
+void point_moments_release(int mem);
+void point_moments_incref(void);
+void point_moments_decref(void);
+#endif
+
+/* rotor_moments(axis[3], inertia, rate[2]) -> (spin[6]): A rotor's share of the moments (derive.moments.rotor_share): I psi' a and I psi'' a, added to h and h' (derive/layout.py's MOMENTS.spin). */
+void carrier_rotor_moments(const double *axis, double inertia, const double *rate, double *CARRIER_RESTRICT spin);
+#ifndef CARRIER_NO_CASADI_ABI
+int rotor_moments(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int rotor_moments_n_in(void);
+casadi_int rotor_moments_n_out(void);
+const char *rotor_moments_name_in(casadi_int i);
+const char *rotor_moments_name_out(casadi_int i);
+const casadi_int *rotor_moments_sparsity_in(casadi_int i);
+const casadi_int *rotor_moments_sparsity_out(casadi_int i);
+int rotor_moments_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real rotor_moments_default_in(casadi_int i);
+int rotor_moments_checkout(void);
+void rotor_moments_release(int mem);
+void rotor_moments_incref(void);
+void rotor_moments_decref(void);
+#endif
+
+/* moments_flight_rhs(q[18], u[27], p[6]) -> (dq[18]): Flight right-hand side with the internal motion as its moments: dq/dt (E1.2, E1.7 of the moments solved for omega' (derive.moments.flight_form), E1.8). */
+void carrier_moments_flight_rhs(const double *q, const double *u, const double *p, double *CARRIER_RESTRICT dq);
+#ifndef CARRIER_NO_CASADI_ABI
+int moments_flight_rhs(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int moments_flight_rhs_n_in(void);
+casadi_int moments_flight_rhs_n_out(void);
+const char *moments_flight_rhs_name_in(casadi_int i);
+const char *moments_flight_rhs_name_out(casadi_int i);
+const casadi_int *moments_flight_rhs_sparsity_in(casadi_int i);
+const casadi_int *moments_flight_rhs_sparsity_out(casadi_int i);
+int moments_flight_rhs_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real moments_flight_rhs_default_in(casadi_int i);
+int moments_flight_rhs_checkout(void);
+void moments_flight_rhs_release(int mem);
+void moments_flight_rhs_incref(void);
+void moments_flight_rhs_decref(void);
+#endif
+
+/* moments_gap(q[18], u[27], s[3], p[6]) -> (h[1], v_n[1]): Height h of the lowest point S above the plane and its rate v_n (E1.14), moments model. */
+void carrier_moments_gap(const double *q, const double *u, const double *s, const double *p, double *CARRIER_RESTRICT h, double *CARRIER_RESTRICT v_n);
+#ifndef CARRIER_NO_CASADI_ABI
+int moments_gap(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int moments_gap_n_in(void);
+casadi_int moments_gap_n_out(void);
+const char *moments_gap_name_in(casadi_int i);
+const char *moments_gap_name_out(casadi_int i);
+const casadi_int *moments_gap_sparsity_in(casadi_int i);
+const casadi_int *moments_gap_sparsity_out(casadi_int i);
+int moments_gap_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real moments_gap_default_in(casadi_int i);
+int moments_gap_checkout(void);
+void moments_gap_release(int mem);
+void moments_gap_incref(void);
+void moments_gap_decref(void);
+#endif
+
+/* moments_impact(q[18], u[27], s[3], p[6], e) -> (q_plus[18], I[1]): Impact map of the moments model: state just after the impact and the impulse I (E1.11, E1.12, E1.15, E1.16); apply only when v_n < 0. */
+void carrier_moments_impact(const double *q, const double *u, const double *s, const double *p, double e, double *CARRIER_RESTRICT q_plus, double *CARRIER_RESTRICT I);
+#ifndef CARRIER_NO_CASADI_ABI
+int moments_impact(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int moments_impact_n_in(void);
+casadi_int moments_impact_n_out(void);
+const char *moments_impact_name_in(casadi_int i);
+const char *moments_impact_name_out(casadi_int i);
+const casadi_int *moments_impact_sparsity_in(casadi_int i);
+const casadi_int *moments_impact_sparsity_out(casadi_int i);
+int moments_impact_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real moments_impact_default_in(casadi_int i);
+int moments_impact_checkout(void);
+void moments_impact_release(int mem);
+void moments_impact_incref(void);
+void moments_impact_decref(void);
+#endif
+
+/* moments_contact_rhs(q[18], u[27], s[3], sdot[3], p[6]) -> (dq[18], N[1]): Persistent contact of the moments model: dq/dt with S held on the plane and the normal reaction N (derive.contact); lift-off where N < 0. */
+void carrier_moments_contact_rhs(const double *q, const double *u, const double *s, const double *sdot, const double *p, double *CARRIER_RESTRICT dq, double *CARRIER_RESTRICT N);
+#ifndef CARRIER_NO_CASADI_ABI
+int moments_contact_rhs(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int moments_contact_rhs_n_in(void);
+casadi_int moments_contact_rhs_n_out(void);
+const char *moments_contact_rhs_name_in(casadi_int i);
+const char *moments_contact_rhs_name_out(casadi_int i);
+const casadi_int *moments_contact_rhs_sparsity_in(casadi_int i);
+const casadi_int *moments_contact_rhs_sparsity_out(casadi_int i);
+int moments_contact_rhs_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real moments_contact_rhs_default_in(casadi_int i);
+int moments_contact_rhs_checkout(void);
+void moments_contact_rhs_release(int mem);
+void moments_contact_rhs_incref(void);
+void moments_contact_rhs_decref(void);
+#endif
+
+/* moments_kinetic_moment(q[18], u[27], p[6]) -> (K[3]): Angular momentum K about C in body axes (E1.6), moments model. */
+void carrier_moments_kinetic_moment(const double *q, const double *u, const double *p, double *CARRIER_RESTRICT K);
+#ifndef CARRIER_NO_CASADI_ABI
+int moments_kinetic_moment(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int moments_kinetic_moment_n_in(void);
+casadi_int moments_kinetic_moment_n_out(void);
+const char *moments_kinetic_moment_name_in(casadi_int i);
+const char *moments_kinetic_moment_name_out(casadi_int i);
+const casadi_int *moments_kinetic_moment_sparsity_in(casadi_int i);
+const casadi_int *moments_kinetic_moment_sparsity_out(casadi_int i);
+int moments_kinetic_moment_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real moments_kinetic_moment_default_in(casadi_int i);
+int moments_kinetic_moment_checkout(void);
+void moments_kinetic_moment_release(int mem);
+void moments_kinetic_moment_incref(void);
+void moments_kinetic_moment_decref(void);
+#endif
+
+/* moments_fixed_kinetic_moment(A[9], omega[3], u[27], p[6]) -> (K[3]): K about C in fixed axes, A (J omega + k) (E1.4): constant in flight (E1.1). */
+void carrier_moments_fixed_kinetic_moment(const double *A, const double *omega, const double *u, const double *p, double *CARRIER_RESTRICT K);
+#ifndef CARRIER_NO_CASADI_ABI
+int moments_fixed_kinetic_moment(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int moments_fixed_kinetic_moment_n_in(void);
+casadi_int moments_fixed_kinetic_moment_n_out(void);
+const char *moments_fixed_kinetic_moment_name_in(casadi_int i);
+const char *moments_fixed_kinetic_moment_name_out(casadi_int i);
+const casadi_int *moments_fixed_kinetic_moment_sparsity_in(casadi_int i);
+const casadi_int *moments_fixed_kinetic_moment_sparsity_out(casadi_int i);
+int moments_fixed_kinetic_moment_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real moments_fixed_kinetic_moment_default_in(casadi_int i);
+int moments_fixed_kinetic_moment_checkout(void);
+void moments_fixed_kinetic_moment_release(int mem);
+void moments_fixed_kinetic_moment_incref(void);
+void moments_fixed_kinetic_moment_decref(void);
+#endif
+
+/* moments_omega(A[9], K[3], u[27], p[6]) -> (omega[3]): omega of the momentum form: E1.4 solved with K constant in fixed axes (E1.1), J omega = A^T K - k. */
+void carrier_moments_omega(const double *A, const double *K, const double *u, const double *p, double *CARRIER_RESTRICT omega);
+#ifndef CARRIER_NO_CASADI_ABI
+int moments_omega(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int moments_omega_n_in(void);
+casadi_int moments_omega_n_out(void);
+const char *moments_omega_name_in(casadi_int i);
+const char *moments_omega_name_out(casadi_int i);
+const casadi_int *moments_omega_sparsity_in(casadi_int i);
+const casadi_int *moments_omega_sparsity_out(casadi_int i);
+int moments_omega_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real moments_omega_default_in(casadi_int i);
+int moments_omega_checkout(void);
+void moments_omega_release(int mem);
+void moments_omega_incref(void);
+void moments_omega_decref(void);
+#endif
+
+/* moments_lie_stage(W[3], k[3], u[27], p[6]) -> (dW[3], omega[3]): A stage of the Lie-group flight step: omega from E1.4 with K = exp(-W^) k in body axes, and W' = dexpinv(W, omega) (E1.8 in exponential coordinates). */
+void carrier_moments_lie_stage(const double *W, const double *k, const double *u, const double *p, double *CARRIER_RESTRICT dW, double *CARRIER_RESTRICT omega);
+#ifndef CARRIER_NO_CASADI_ABI
+int moments_lie_stage(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int moments_lie_stage_n_in(void);
+casadi_int moments_lie_stage_n_out(void);
+const char *moments_lie_stage_name_in(casadi_int i);
+const char *moments_lie_stage_name_out(casadi_int i);
+const casadi_int *moments_lie_stage_sparsity_in(casadi_int i);
+const casadi_int *moments_lie_stage_sparsity_out(casadi_int i);
+int moments_lie_stage_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real moments_lie_stage_default_in(casadi_int i);
+int moments_lie_stage_checkout(void);
+void moments_lie_stage_release(int mem);
+void moments_lie_stage_incref(void);
+void moments_lie_stage_decref(void);
+#endif
+
+/* moments_lie_point(W[3], k[3], u[27], p[6]) -> (E[9], omega[3]): exp(W^) and omega from E1.4 with K = exp(W^)^T k in body axes: a point of the dense output of a Lie-group flight step. */
+void carrier_moments_lie_point(const double *W, const double *k, const double *u, const double *p, double *CARRIER_RESTRICT E, double *CARRIER_RESTRICT omega);
+#ifndef CARRIER_NO_CASADI_ABI
+int moments_lie_point(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int moments_lie_point_n_in(void);
+casadi_int moments_lie_point_n_out(void);
+const char *moments_lie_point_name_in(casadi_int i);
+const char *moments_lie_point_name_out(casadi_int i);
+const casadi_int *moments_lie_point_sparsity_in(casadi_int i);
+const casadi_int *moments_lie_point_sparsity_out(casadi_int i);
+int moments_lie_point_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real moments_lie_point_default_in(casadi_int i);
+int moments_lie_point_checkout(void);
+void moments_lie_point_release(int mem);
+void moments_lie_point_incref(void);
+void moments_lie_point_decref(void);
+#endif
+
+/* moments_delassus(q[18], u[27], s[3], p[6]) -> (W[6], v_S[3]): Delassus matrix W of S (fixed axes, upper triangle): an impulse P at S changes the velocity of S by W P (derive.friction); and that velocity v_S. */
+void carrier_moments_delassus(const double *q, const double *u, const double *s, const double *p, double *CARRIER_RESTRICT W, double *CARRIER_RESTRICT v_S);
+#ifndef CARRIER_NO_CASADI_ABI
+int moments_delassus(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int moments_delassus_n_in(void);
+casadi_int moments_delassus_n_out(void);
+const char *moments_delassus_name_in(casadi_int i);
+const char *moments_delassus_name_out(casadi_int i);
+const casadi_int *moments_delassus_sparsity_in(casadi_int i);
+const casadi_int *moments_delassus_sparsity_out(casadi_int i);
+int moments_delassus_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real moments_delassus_default_in(casadi_int i);
+int moments_delassus_checkout(void);
+void moments_delassus_release(int mem);
+void moments_delassus_incref(void);
+void moments_delassus_decref(void);
+#endif
+
+/* moments_contact_velocity(q[18], u[27], s[3], p[6]) -> (v_S[3]): Velocity of the body point S, fixed axes (its Z component is E1.14's v_n; X and Y are the slip velocity). */
+void carrier_moments_contact_velocity(const double *q, const double *u, const double *s, const double *p, double *CARRIER_RESTRICT v_S);
+#ifndef CARRIER_NO_CASADI_ABI
+int moments_contact_velocity(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int moments_contact_velocity_n_in(void);
+casadi_int moments_contact_velocity_n_out(void);
+const char *moments_contact_velocity_name_in(casadi_int i);
+const char *moments_contact_velocity_name_out(casadi_int i);
+const casadi_int *moments_contact_velocity_sparsity_in(casadi_int i);
+const casadi_int *moments_contact_velocity_sparsity_out(casadi_int i);
+int moments_contact_velocity_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real moments_contact_velocity_default_in(casadi_int i);
+int moments_contact_velocity_checkout(void);
+void moments_contact_velocity_release(int mem);
+void moments_contact_velocity_incref(void);
+void moments_contact_velocity_decref(void);
+#endif
+
+/* moments_apply_impulse(q[18], u[27], s[3], p[6], P[3]) -> (q_plus[18]): State just after an impact whose total impulse at S is P (fixed axes): V_C + P/(m+M), omega + J^-1 (CS x A^T P) (derive.friction). */
+void carrier_moments_apply_impulse(const double *q, const double *u, const double *s, const double *p, const double *P, double *CARRIER_RESTRICT q_plus);
+#ifndef CARRIER_NO_CASADI_ABI
+int moments_apply_impulse(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int moments_apply_impulse_n_in(void);
+casadi_int moments_apply_impulse_n_out(void);
+const char *moments_apply_impulse_name_in(casadi_int i);
+const char *moments_apply_impulse_name_out(casadi_int i);
+const casadi_int *moments_apply_impulse_sparsity_in(casadi_int i);
+const casadi_int *moments_apply_impulse_sparsity_out(casadi_int i);
+int moments_apply_impulse_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real moments_apply_impulse_default_in(casadi_int i);
+int moments_apply_impulse_checkout(void);
+void moments_apply_impulse_release(int mem);
+void moments_apply_impulse_incref(void);
+void moments_apply_impulse_decref(void);
+#endif
+
+/* moments_sliding_rhs(q[18], u[27], s[3], sdot[3], p[6], mu_f, dir[2]) -> (dq[18], N[1], v_t[2], a_t[2]): Sliding contact: S on the plane slipping along the unit horizontal dir, reaction N (e_Z - mu_f dir) with N from dv_n/dt = 0 (derive.friction); also the slip velocity v_t and its rate a_t.  Valid while N >= 0 and v_t != 0. */
+void carrier_moments_sliding_rhs(const double *q, const double *u, const double *s, const double *sdot, const double *p, double mu_f, const double *dir, double *CARRIER_RESTRICT dq, double *CARRIER_RESTRICT N, double *CARRIER_RESTRICT v_t, double *CARRIER_RESTRICT a_t);
+#ifndef CARRIER_NO_CASADI_ABI
+int moments_sliding_rhs(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int moments_sliding_rhs_n_in(void);
+casadi_int moments_sliding_rhs_n_out(void);
+const char *moments_sliding_rhs_name_in(casadi_int i);
+const char *moments_sliding_rhs_name_out(casadi_int i);
+const casadi_int *moments_sliding_rhs_sparsity_in(casadi_int i);
+const casadi_int *moments_sliding_rhs_sparsity_out(casadi_int i);
+int moments_sliding_rhs_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real moments_sliding_rhs_default_in(casadi_int i);
+int moments_sliding_rhs_checkout(void);
+void moments_sliding_rhs_release(int mem);
+void moments_sliding_rhs_incref(void);
+void moments_sliding_rhs_decref(void);
+#endif
+
+/* moments_sticking_rhs(q[18], u[27], s[3], sdot[3], p[6]) -> (dq[18], R[3]): Sticking contact: S at rest on the plane, held by the reaction R (fixed axes) from dv_S/dt = 0, a solve with the Delassus matrix W (derive.friction).  Valid while R_Z >= 0 and R_X^2 + R_Y^2 <= mu_f^2 R_Z^2. */
+void carrier_moments_sticking_rhs(const double *q, const double *u, const double *s, const double *sdot, const double *p, double *CARRIER_RESTRICT dq, double *CARRIER_RESTRICT R);
+#ifndef CARRIER_NO_CASADI_ABI
+int moments_sticking_rhs(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int moments_sticking_rhs_n_in(void);
+casadi_int moments_sticking_rhs_n_out(void);
+const char *moments_sticking_rhs_name_in(casadi_int i);
+const char *moments_sticking_rhs_name_out(casadi_int i);
+const casadi_int *moments_sticking_rhs_sparsity_in(casadi_int i);
+const casadi_int *moments_sticking_rhs_sparsity_out(casadi_int i);
+int moments_sticking_rhs_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real moments_sticking_rhs_default_in(casadi_int i);
+int moments_sticking_rhs_checkout(void);
+void moments_sticking_rhs_release(int mem);
+void moments_sticking_rhs_incref(void);
+void moments_sticking_rhs_decref(void);
+#endif
+
+/* moments_contact_wrench(q[18], u[27], s[3], sdot[3], p[6]) -> (G[21], a_free[6], u_c[6], omega_free[3], omega_per_wrench[18]): The contact as a wrench (R, T) at S (derive.friction.contact_wrench): the velocity of S and the angular velocity (fixed axes), u, change as du/dt = a_free + G (R, T); G's upper triangle row by row, a_free and u (u_c). */
+void carrier_moments_contact_wrench(const double *q, const double *u, const double *s, const double *sdot, const double *p, double *CARRIER_RESTRICT G, double *CARRIER_RESTRICT a_free, double *CARRIER_RESTRICT u_c, double *CARRIER_RESTRICT omega_free, double *CARRIER_RESTRICT omega_per_wrench);
+#ifndef CARRIER_NO_CASADI_ABI
+int moments_contact_wrench(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int moments_contact_wrench_n_in(void);
+casadi_int moments_contact_wrench_n_out(void);
+const char *moments_contact_wrench_name_in(casadi_int i);
+const char *moments_contact_wrench_name_out(casadi_int i);
+const casadi_int *moments_contact_wrench_sparsity_in(casadi_int i);
+const casadi_int *moments_contact_wrench_sparsity_out(casadi_int i);
+int moments_contact_wrench_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real moments_contact_wrench_default_in(casadi_int i);
+int moments_contact_wrench_checkout(void);
+void moments_contact_wrench_release(int mem);
+void moments_contact_wrench_incref(void);
+void moments_contact_wrench_decref(void);
+#endif
+
+/* moments_wrench_rhs(q[18], u[27], s[3], p[6], w[6]) -> (dq[18]): Contact under a given wrench w = (R, T) at S (fixed axes): dq/dt with V_C' = R/(m+M) - g e_Z and J omega' = f + CS x A^T R + A^T T (derive.friction.contact_wrench). */
+void carrier_moments_wrench_rhs(const double *q, const double *u, const double *s, const double *p, const double *w, double *CARRIER_RESTRICT dq);
+#ifndef CARRIER_NO_CASADI_ABI
+int moments_wrench_rhs(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int moments_wrench_rhs_n_in(void);
+casadi_int moments_wrench_rhs_n_out(void);
+const char *moments_wrench_rhs_name_in(casadi_int i);
+const char *moments_wrench_rhs_name_out(casadi_int i);
+const casadi_int *moments_wrench_rhs_sparsity_in(casadi_int i);
+const casadi_int *moments_wrench_rhs_sparsity_out(casadi_int i);
+int moments_wrench_rhs_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real moments_wrench_rhs_default_in(casadi_int i);
+int moments_wrench_rhs_checkout(void);
+void moments_wrench_rhs_release(int mem);
+void moments_wrench_rhs_incref(void);
+void moments_wrench_rhs_decref(void);
+#endif
+
 /*
  * Derivatives: jac_<name> for every function above, in CasADi's jac_ convention: the
  * inputs, then the nominal outputs (not read); one output per block d output / d input,
@@ -962,6 +1291,204 @@ int jac_exp_map_checkout(void);
 void jac_exp_map_release(int mem);
 void jac_exp_map_incref(void);
 void jac_exp_map_decref(void);
+#endif
+
+/* jac_point_moments(mass, jet[9]) -> (jac_moments_mass[27 of 27x1], jac_moments_jet[69 of 27x9]) */
+void carrier_jac_point_moments(double mass, const double *jet, double *CARRIER_RESTRICT jac_moments_mass, double *CARRIER_RESTRICT jac_moments_jet);
+#ifndef CARRIER_NO_CASADI_ABI
+int jac_point_moments(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int jac_point_moments_n_in(void);
+casadi_int jac_point_moments_n_out(void);
+const char *jac_point_moments_name_in(casadi_int i);
+const char *jac_point_moments_name_out(casadi_int i);
+const casadi_int *jac_point_moments_sparsity_in(casadi_int i);
+const casadi_int *jac_point_moments_sparsity_out(casadi_int i);
+int jac_point_moments_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real jac_point_moments_default_in(casadi_int i);
+int jac_point_moments_checkout(void);
+void jac_point_moments_release(int mem);
+void jac_point_moments_incref(void);
+void jac_point_moments_decref(void);
+#endif
+
+/* jac_rotor_moments(axis[3], inertia, rate[2]) -> (jac_spin_axis[6 of 6x3], jac_spin_inertia[6 of 6x1], jac_spin_rate[6 of 6x2]) */
+void carrier_jac_rotor_moments(const double *axis, double inertia, const double *rate, double *CARRIER_RESTRICT jac_spin_axis, double *CARRIER_RESTRICT jac_spin_inertia, double *CARRIER_RESTRICT jac_spin_rate);
+#ifndef CARRIER_NO_CASADI_ABI
+int jac_rotor_moments(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int jac_rotor_moments_n_in(void);
+casadi_int jac_rotor_moments_n_out(void);
+const char *jac_rotor_moments_name_in(casadi_int i);
+const char *jac_rotor_moments_name_out(casadi_int i);
+const casadi_int *jac_rotor_moments_sparsity_in(casadi_int i);
+const casadi_int *jac_rotor_moments_sparsity_out(casadi_int i);
+int jac_rotor_moments_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real jac_rotor_moments_default_in(casadi_int i);
+int jac_rotor_moments_checkout(void);
+void jac_rotor_moments_release(int mem);
+void jac_rotor_moments_incref(void);
+void jac_rotor_moments_decref(void);
+#endif
+
+/* jac_moments_flight_rhs(q[18], u[27], p[6]) -> (jac_dq_q[48 of 18x18], jac_dq_u[81 of 18x27], jac_dq_p[16 of 18x6]) */
+void carrier_jac_moments_flight_rhs(const double *q, const double *u, const double *p, double *CARRIER_RESTRICT jac_dq_q, double *CARRIER_RESTRICT jac_dq_u, double *CARRIER_RESTRICT jac_dq_p);
+#ifndef CARRIER_NO_CASADI_ABI
+int jac_moments_flight_rhs(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int jac_moments_flight_rhs_n_in(void);
+casadi_int jac_moments_flight_rhs_n_out(void);
+const char *jac_moments_flight_rhs_name_in(casadi_int i);
+const char *jac_moments_flight_rhs_name_out(casadi_int i);
+const casadi_int *jac_moments_flight_rhs_sparsity_in(casadi_int i);
+const casadi_int *jac_moments_flight_rhs_sparsity_out(casadi_int i);
+int jac_moments_flight_rhs_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real jac_moments_flight_rhs_default_in(casadi_int i);
+int jac_moments_flight_rhs_checkout(void);
+void jac_moments_flight_rhs_release(int mem);
+void jac_moments_flight_rhs_incref(void);
+void jac_moments_flight_rhs_decref(void);
+#endif
+
+/* jac_moments_gap(q[18], u[27], s[3], p[6]) -> (jac_h_q[4 of 1x18], jac_h_u[3 of 1x27], jac_h_s[3 of 1x3], jac_h_p[2 of 1x6], jac_v_n_q[7 of 1x18], jac_v_n_u[6 of 1x27], jac_v_n_s[3 of 1x3], jac_v_n_p[2 of 1x6]) */
+void carrier_jac_moments_gap(const double *q, const double *u, const double *s, const double *p, double *CARRIER_RESTRICT jac_h_q, double *CARRIER_RESTRICT jac_h_u, double *CARRIER_RESTRICT jac_h_s, double *CARRIER_RESTRICT jac_h_p, double *CARRIER_RESTRICT jac_v_n_q, double *CARRIER_RESTRICT jac_v_n_u, double *CARRIER_RESTRICT jac_v_n_s, double *CARRIER_RESTRICT jac_v_n_p);
+#ifndef CARRIER_NO_CASADI_ABI
+int jac_moments_gap(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int jac_moments_gap_n_in(void);
+casadi_int jac_moments_gap_n_out(void);
+const char *jac_moments_gap_name_in(casadi_int i);
+const char *jac_moments_gap_name_out(casadi_int i);
+const casadi_int *jac_moments_gap_sparsity_in(casadi_int i);
+const casadi_int *jac_moments_gap_sparsity_out(casadi_int i);
+int jac_moments_gap_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real jac_moments_gap_default_in(casadi_int i);
+int jac_moments_gap_checkout(void);
+void jac_moments_gap_release(int mem);
+void jac_moments_gap_incref(void);
+void jac_moments_gap_decref(void);
+#endif
+
+/* jac_moments_impact(q[18], u[27], s[3], p[6], e) -> (jac_q_plus_q[42 of 18x18], jac_q_plus_u[48 of 18x27], jac_q_plus_s[12 of 18x3], jac_q_plus_p[20 of 18x6], jac_q_plus_e[4 of 18x1], jac_I_q[7 of 1x18], jac_I_u[12 of 1x27], jac_I_s[3 of 1x3], jac_I_p[5 of 1x6], jac_I_e[1 of 1x1]) */
+void carrier_jac_moments_impact(const double *q, const double *u, const double *s, const double *p, double e, double *CARRIER_RESTRICT jac_q_plus_q, double *CARRIER_RESTRICT jac_q_plus_u, double *CARRIER_RESTRICT jac_q_plus_s, double *CARRIER_RESTRICT jac_q_plus_p, double *CARRIER_RESTRICT jac_q_plus_e, double *CARRIER_RESTRICT jac_I_q, double *CARRIER_RESTRICT jac_I_u, double *CARRIER_RESTRICT jac_I_s, double *CARRIER_RESTRICT jac_I_p, double *CARRIER_RESTRICT jac_I_e);
+#ifndef CARRIER_NO_CASADI_ABI
+int jac_moments_impact(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int jac_moments_impact_n_in(void);
+casadi_int jac_moments_impact_n_out(void);
+const char *jac_moments_impact_name_in(casadi_int i);
+const char *jac_moments_impact_name_out(casadi_int i);
+const casadi_int *jac_moments_impact_sparsity_in(casadi_int i);
+const casadi_int *jac_moments_impact_sparsity_out(casadi_int i);
+int jac_moments_impact_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real jac_moments_impact_default_in(casadi_int i);
+int jac_moments_impact_checkout(void);
+void jac_moments_impact_release(int mem);
+void jac_moments_impact_incref(void);
+void jac_moments_impact_decref(void);
+#endif
+
+/* jac_moments_contact_rhs(q[18], u[27], s[3], sdot[3], p[6]) -> (jac_dq_q[63 of 18x18], jac_dq_u[108 of 18x27], jac_dq_s[12 of 18x3], jac_dq_sdot[12 of 18x3], jac_dq_p[24 of 18x6], jac_N_q[6 of 1x18], jac_N_u[27 of 1x27], jac_N_s[3 of 1x3], jac_N_sdot[3 of 1x3], jac_N_p[6 of 1x6]) */
+void carrier_jac_moments_contact_rhs(const double *q, const double *u, const double *s, const double *sdot, const double *p, double *CARRIER_RESTRICT jac_dq_q, double *CARRIER_RESTRICT jac_dq_u, double *CARRIER_RESTRICT jac_dq_s, double *CARRIER_RESTRICT jac_dq_sdot, double *CARRIER_RESTRICT jac_dq_p, double *CARRIER_RESTRICT jac_N_q, double *CARRIER_RESTRICT jac_N_u, double *CARRIER_RESTRICT jac_N_s, double *CARRIER_RESTRICT jac_N_sdot, double *CARRIER_RESTRICT jac_N_p);
+#ifndef CARRIER_NO_CASADI_ABI
+int jac_moments_contact_rhs(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int jac_moments_contact_rhs_n_in(void);
+casadi_int jac_moments_contact_rhs_n_out(void);
+const char *jac_moments_contact_rhs_name_in(casadi_int i);
+const char *jac_moments_contact_rhs_name_out(casadi_int i);
+const casadi_int *jac_moments_contact_rhs_sparsity_in(casadi_int i);
+const casadi_int *jac_moments_contact_rhs_sparsity_out(casadi_int i);
+int jac_moments_contact_rhs_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real jac_moments_contact_rhs_default_in(casadi_int i);
+int jac_moments_contact_rhs_checkout(void);
+void jac_moments_contact_rhs_release(int mem);
+void jac_moments_contact_rhs_incref(void);
+void jac_moments_contact_rhs_decref(void);
+#endif
+
+/* jac_moments_kinetic_moment(q[18], u[27], p[6]) -> (jac_K_q[9 of 3x18], jac_K_u[27 of 3x27], jac_K_p[9 of 3x6]) */
+void carrier_jac_moments_kinetic_moment(const double *q, const double *u, const double *p, double *CARRIER_RESTRICT jac_K_q, double *CARRIER_RESTRICT jac_K_u, double *CARRIER_RESTRICT jac_K_p);
+#ifndef CARRIER_NO_CASADI_ABI
+int jac_moments_kinetic_moment(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int jac_moments_kinetic_moment_n_in(void);
+casadi_int jac_moments_kinetic_moment_n_out(void);
+const char *jac_moments_kinetic_moment_name_in(casadi_int i);
+const char *jac_moments_kinetic_moment_name_out(casadi_int i);
+const casadi_int *jac_moments_kinetic_moment_sparsity_in(casadi_int i);
+const casadi_int *jac_moments_kinetic_moment_sparsity_out(casadi_int i);
+int jac_moments_kinetic_moment_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real jac_moments_kinetic_moment_default_in(casadi_int i);
+int jac_moments_kinetic_moment_checkout(void);
+void jac_moments_kinetic_moment_release(int mem);
+void jac_moments_kinetic_moment_incref(void);
+void jac_moments_kinetic_moment_decref(void);
+#endif
+
+/* jac_moments_fixed_kinetic_moment(A[9], omega[3], u[27], p[6]) -> (jac_K_A[9 of 3x9], jac_K_omega[9 of 3x3], jac_K_u[45 of 3x27], jac_K_p[15 of 3x6]) */
+void carrier_jac_moments_fixed_kinetic_moment(const double *A, const double *omega, const double *u, const double *p, double *CARRIER_RESTRICT jac_K_A, double *CARRIER_RESTRICT jac_K_omega, double *CARRIER_RESTRICT jac_K_u, double *CARRIER_RESTRICT jac_K_p);
+#ifndef CARRIER_NO_CASADI_ABI
+int jac_moments_fixed_kinetic_moment(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int jac_moments_fixed_kinetic_moment_n_in(void);
+casadi_int jac_moments_fixed_kinetic_moment_n_out(void);
+const char *jac_moments_fixed_kinetic_moment_name_in(casadi_int i);
+const char *jac_moments_fixed_kinetic_moment_name_out(casadi_int i);
+const casadi_int *jac_moments_fixed_kinetic_moment_sparsity_in(casadi_int i);
+const casadi_int *jac_moments_fixed_kinetic_moment_sparsity_out(casadi_int i);
+int jac_moments_fixed_kinetic_moment_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real jac_moments_fixed_kinetic_moment_default_in(casadi_int i);
+int jac_moments_fixed_kinetic_moment_checkout(void);
+void jac_moments_fixed_kinetic_moment_release(int mem);
+void jac_moments_fixed_kinetic_moment_incref(void);
+void jac_moments_fixed_kinetic_moment_decref(void);
+#endif
+
+/* jac_moments_omega(A[9], K[3], u[27], p[6]) -> (jac_omega_A[27 of 3x9], jac_omega_K[9 of 3x3], jac_omega_u[45 of 3x27], jac_omega_p[15 of 3x6]) */
+void carrier_jac_moments_omega(const double *A, const double *K, const double *u, const double *p, double *CARRIER_RESTRICT jac_omega_A, double *CARRIER_RESTRICT jac_omega_K, double *CARRIER_RESTRICT jac_omega_u, double *CARRIER_RESTRICT jac_omega_p);
+#ifndef CARRIER_NO_CASADI_ABI
+int jac_moments_omega(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int jac_moments_omega_n_in(void);
+casadi_int jac_moments_omega_n_out(void);
+const char *jac_moments_omega_name_in(casadi_int i);
+const char *jac_moments_omega_name_out(casadi_int i);
+const casadi_int *jac_moments_omega_sparsity_in(casadi_int i);
+const casadi_int *jac_moments_omega_sparsity_out(casadi_int i);
+int jac_moments_omega_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real jac_moments_omega_default_in(casadi_int i);
+int jac_moments_omega_checkout(void);
+void jac_moments_omega_release(int mem);
+void jac_moments_omega_incref(void);
+void jac_moments_omega_decref(void);
+#endif
+
+/* jac_moments_lie_stage(W[3], k[3], u[27], p[6]) -> (jac_dW_W[9 of 3x3], jac_dW_k[9 of 3x3], jac_dW_u[45 of 3x27], jac_dW_p[15 of 3x6], jac_omega_W[9 of 3x3], jac_omega_k[9 of 3x3], jac_omega_u[45 of 3x27], jac_omega_p[15 of 3x6]) */
+void carrier_jac_moments_lie_stage(const double *W, const double *k, const double *u, const double *p, double *CARRIER_RESTRICT jac_dW_W, double *CARRIER_RESTRICT jac_dW_k, double *CARRIER_RESTRICT jac_dW_u, double *CARRIER_RESTRICT jac_dW_p, double *CARRIER_RESTRICT jac_omega_W, double *CARRIER_RESTRICT jac_omega_k, double *CARRIER_RESTRICT jac_omega_u, double *CARRIER_RESTRICT jac_omega_p);
+#ifndef CARRIER_NO_CASADI_ABI
+int jac_moments_lie_stage(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int jac_moments_lie_stage_n_in(void);
+casadi_int jac_moments_lie_stage_n_out(void);
+const char *jac_moments_lie_stage_name_in(casadi_int i);
+const char *jac_moments_lie_stage_name_out(casadi_int i);
+const casadi_int *jac_moments_lie_stage_sparsity_in(casadi_int i);
+const casadi_int *jac_moments_lie_stage_sparsity_out(casadi_int i);
+int jac_moments_lie_stage_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real jac_moments_lie_stage_default_in(casadi_int i);
+int jac_moments_lie_stage_checkout(void);
+void jac_moments_lie_stage_release(int mem);
+void jac_moments_lie_stage_incref(void);
+void jac_moments_lie_stage_decref(void);
+#endif
+
+/* jac_moments_lie_point(W[3], k[3], u[27], p[6]) -> (jac_E_W[27 of 9x3], jac_omega_W[9 of 3x3], jac_omega_k[9 of 3x3], jac_omega_u[45 of 3x27], jac_omega_p[15 of 3x6]) */
+void carrier_jac_moments_lie_point(const double *W, const double *k, const double *u, const double *p, double *CARRIER_RESTRICT jac_E_W, double *CARRIER_RESTRICT jac_omega_W, double *CARRIER_RESTRICT jac_omega_k, double *CARRIER_RESTRICT jac_omega_u, double *CARRIER_RESTRICT jac_omega_p);
+#ifndef CARRIER_NO_CASADI_ABI
+int jac_moments_lie_point(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int jac_moments_lie_point_n_in(void);
+casadi_int jac_moments_lie_point_n_out(void);
+const char *jac_moments_lie_point_name_in(casadi_int i);
+const char *jac_moments_lie_point_name_out(casadi_int i);
+const casadi_int *jac_moments_lie_point_sparsity_in(casadi_int i);
+const casadi_int *jac_moments_lie_point_sparsity_out(casadi_int i);
+int jac_moments_lie_point_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real jac_moments_lie_point_default_in(casadi_int i);
+int jac_moments_lie_point_checkout(void);
+void jac_moments_lie_point_release(int mem);
+void jac_moments_lie_point_incref(void);
+void jac_moments_lie_point_decref(void);
 #endif
 
 #ifdef __cplusplus
