@@ -26,7 +26,7 @@ s/(m + M)`` (the definition of C), ``K = J omega + k`` with
 
     J = J_O + Theta - (|s|^2 E - s s^T)/(m + M),      k = h - s x s'/(m + M).
 
-For one point (:func:`one_point`) these are E1.4–E1.6 (``paper_checks``, X2.1).
+For one point (:func:`one_point`) these are E1.4–E1.6 (``paper_checks``, X1.2).
 """
 from __future__ import annotations
 

@@ -13,7 +13,7 @@ these terms, for a :class:`System`:
   E1.4–E1.16 are this instance, and every function of those modules takes it when called
   without a system;
 * the moments of any number of points and rotors (:func:`derive.moments.moments_system`),
-  which ``paper_checks`` (X2.1) proves equal to the first for one point.
+  which ``paper_checks`` (X1.2) proves equal to the first for one point.
 
 What a system must say: ``oc`` (OC as time functions: the derivations differentiate it),
 its angular momentum (:class:`AngularMomentum`) and ``law_rates``, the chain rule of its

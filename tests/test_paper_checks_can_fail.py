@@ -136,7 +136,7 @@ def test_the_latex_report_sets_code_spans_and_escapes_specials():
 
 # ---- X2 (EXTENSIONS.md): internal motion as data ------------------------------------------
 def test_x2_catches_a_first_moment_term_with_the_wrong_mass(monkeypatch):
-    """k = h - s x s'/M (the carrier's mass for the whole's): X2.1 and X2.2 fail."""
+    """k = h - s x s'/M (the carrier's mass for the whole's): X1.2 and X1.3 fail."""
     import dataclasses
 
     from derive import moments
@@ -145,8 +145,8 @@ def test_x2_catches_a_first_moment_term_with_the_wrong_mass(monkeypatch):
     wrong = dataclasses.replace(S, momentum=dataclasses.replace(
         S.momentum, own=own, K=S.momentum.J * nt.omega + own))
     monkeypatch.setattr(moments, "moments_system", lambda: wrong)
-    assert run("X2.1").status == "fail"
-    assert run("X2.2").status == "fail"
+    assert run("X1.2").status == "fail"
+    assert run("X1.3").status == "fail"
 
 
 def test_x2_1_catches_a_rotor_share_without_its_inertia(monkeypatch):
@@ -154,7 +154,7 @@ def test_x2_1_catches_a_rotor_share_without_its_inertia(monkeypatch):
     share = moments.rotor_share()
     values = tuple(v.xreplace({moments.I_AXIAL: 1}) for v in share.values)
     monkeypatch.setattr(moments, "rotor_share", lambda: moments.Share(values, share.inputs))
-    assert run("X2.1").status == "fail"
+    assert run("X1.2").status == "fail"
 
 
 def test_x2_1_catches_a_point_share_with_a_wrong_inertia(monkeypatch):
@@ -167,4 +167,4 @@ def test_x2_1_catches_a_point_share_with_a_wrong_inertia(monkeypatch):
         values[layout.MOMENTS.theta.start] *= 2          # Theta_xx
         return moments.Share(tuple(values), share.inputs)
     monkeypatch.setattr(moments, "point_share", wrong)
-    assert run("X2.1").status == "fail"
+    assert run("X1.2").status == "fail"
