@@ -230,7 +230,7 @@ SUMMARY = _names(
                            "contact steps (at most 1: the cone holds; 1 while sliding)"),
 )
 
-# Law kinds and opcodes of the interpreter (derive/runtime/law.py compiles to these).
+# Law kinds and opcodes of the interpreter (derive/scene/law/ compiles to these).
 LAW_KINDS = _names(
     ("none", "not set yet"),
     ("program", "an expression program: opcodes over a table of constants"),

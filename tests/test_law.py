@@ -147,6 +147,14 @@ def test_a_pole_between_samples_is_refused_naming_the_coordinate():
     assert "not twice differentiable" in info.value.rule and "1.0000001" in info.value.rule
 
 
+def test_the_opcodes_are_the_abis():
+    """The law modules' opcodes and the C interpreter's (numbered by derive.abi) are one
+    list, in one order."""
+    from derive import abi
+    from derive.scene.law import OPS
+    assert tuple(OPS) == abi.names(abi.OPCODES)
+
+
 def test_constant_subexpressions_and_sharing():
     p = compile_law(("2*exp(3*t) + exp(3*t)", "exp(3*t)", "pi^2"))
     assert sum(op == "exp" for op in p.ops) == 1           # shared
