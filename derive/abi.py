@@ -233,8 +233,10 @@ SUMMARY = _names(
 # Law kinds and opcodes of the interpreter (derive/scene/law/ compiles to these).
 LAW_KINDS = _names(
     ("none", "not set yet"),
-    ("program", "an expression program: opcodes over a table of constants"),
-    ("table", "a cubic spline through samples"),
+    ("program", "one point: an expression program, opcodes over a table of constants"),
+    ("table", "one point: a cubic spline through samples"),
+    ("bodies", "several points and rotors: each output a node of one program or a column "
+               "of one spline"),
 )
 
 OPCODES = _names(
@@ -250,7 +252,10 @@ OPCODES = _names(
     ("hcos", "a harmonic A cos(w t + p), (A, w, p) = consts[a], consts[a+1], consts[a+2]"),
 )
 
-LAW_MAX_NODES = 1024      # nodes of one law (three coordinates): the C jet workspace
+LAW_MAX_NODES = 1024      # nodes of one law (every body's): the C jet workspace
+# the internal bodies of a scene: [[point]] (3 outputs each) and [[rotor]] (1 each)
+LAW_MAX_POINTS = 16
+LAW_MAX_ROTORS = 8
 
 # The closed loop (crt_control.h): why the controller is called, why its law is refused,
 # the most knots of one law it sets, and the rows of pushes and of the realised law.
@@ -311,6 +316,7 @@ COUNTS = (
     ("options", len(OPTIONS)), ("parameters", len(PARAMETERS)), ("stats", len(STATS)),
     ("summary", len(SUMMARY)), ("opcodes", len(OPCODES)),
     ("event_columns", len(EVENT_COLUMNS)), ("law_max_nodes", LAW_MAX_NODES),
+    ("law_max_points", LAW_MAX_POINTS), ("law_max_rotors", LAW_MAX_ROTORS),
     ("min_rows", MIN_ROWS), ("min_events", MIN_EVENTS),
     ("ctl_max_knots", CTL_MAX_KNOTS), ("push_columns", len(PUSH_COLUMNS)),
     ("log_columns", len(LOG_COLUMNS)),
@@ -324,6 +330,7 @@ def c_context() -> dict:
             "restitution_models": RESTITUTION_MODELS, "event_kinds": EVENT_KINDS,
             "stats": STATS, "row_kinds": ROW_KINDS, "summary": SUMMARY,
             "law_kinds": LAW_KINDS, "opcodes": OPCODES, "law_max_nodes": LAW_MAX_NODES,
+            "law_max_points": LAW_MAX_POINTS, "law_max_rotors": LAW_MAX_ROTORS,
             "event_columns": EVENT_COLUMNS, "min_rows": MIN_ROWS, "min_events": MIN_EVENTS,
             "counts": COUNTS, "call_reasons": CALL_REASONS, "control_faults": CONTROL_FAULTS,
             "ctl_max_knots": CTL_MAX_KNOTS, "push_columns": PUSH_COLUMNS,

@@ -115,7 +115,15 @@ class Session:
             return
         lib = self.library.lib
         arrays = law.arrays()
-        if getattr(law, "kind", "") == "table":
+        if getattr(law, "kind", "") == "bodies":         # several bodies: crt_law_rows
+            a = arrays
+            status = lib.crt_set_law_bodies(
+                self.handle, a["n_points"], a["n_rotors"], a["out"].ctypes.data_as(IP),
+                a["n_nodes"], a["n_const"], a["code"].ctypes.data_as(IP),
+                a["consts"].ctypes.data_as(DP), len(a["consts"]), a["n_knots"],
+                a["n_columns"], a["knots"].ctypes.data_as(DP), a["coef"].ctypes.data_as(DP),
+                a["periodic"])
+        elif getattr(law, "kind", "") == "table":
             status = lib.crt_set_law_table(self.handle, len(arrays["knots"]),
                                            arrays["knots"].ctypes.data_as(DP),
                                            arrays["coef"].ctypes.data_as(DP),
@@ -132,14 +140,15 @@ class Session:
         self._law, self._law_key = (law, arrays), key
 
     def law_at(self, t: float) -> np.ndarray:
-        u = np.zeros(9)
+        u = np.zeros(self.library.lib.crt_law_width(self.handle))
         self.library.lib.crt_law_at(self.handle, float(t), u.ctypes.data_as(DP))
         return u
 
     def law_rows(self, t) -> np.ndarray:
-        """(N, 9): u = (x, y, z, x', y', z', x'', y'', z'') at the times ``t``, by the C."""
+        """(N, width): u at the times ``t``, by the C; one point's u = (x, y, z, x', y',
+        z', x'', y'', z''), several bodies' in the order of derive.layout.law_width."""
         t = np.ascontiguousarray(t, dtype=float)
-        u = np.zeros((len(t), 9))
+        u = np.zeros((len(t), self.library.lib.crt_law_width(self.handle)))
         self.library.lib.crt_law_rows(self.handle, len(t), t.ctypes.data_as(DP),
                                       u.ctypes.data_as(DP))
         return u

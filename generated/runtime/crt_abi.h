@@ -77,11 +77,12 @@ enum crt_method {
   CRT_METHOD_COUNT = 6
 };
 
-/* Return codes of crt_set_law_program, crt_set_law_table, crt_init, crt_advance, crt_run
-   and of each run of crt_run_many, as in SUNDIALS' CVODE: CRT_OK (0) is success, positive
-   codes are stops that are not errors, negative codes are errors (-1 to -4: the
-   integration failed; -20 and below: an input was refused).  crt_status_name(code) gives
-   the name Python reports (Result.status).  The codes are fixed: none is ever renumbered. */
+/* Return codes of crt_set_law_program, crt_set_law_table, crt_set_law_bodies, crt_init,
+   crt_advance, crt_run and of each run of crt_run_many, as in SUNDIALS' CVODE: CRT_OK (0)
+   is success, positive codes are stops that are not errors, negative codes are errors
+   (-1 to -4: the integration failed; -20 and below: an input was refused).
+   crt_status_name(code) gives the name Python reports (Result.status).  The codes are
+   fixed: none is ever renumbered. */
 enum crt_status {
   CRT_OK = 0,  /* accepted: the law (crt_set_law_*), or the run is ready (crt_init) */
   CRT_PAUSED = 1,  /* an output buffer is full: read the rows, call crt_advance again */
@@ -183,12 +184,13 @@ enum crt_summary_value {
   CRT_SUMMARY_COUNT = 4
 };
 
-/* How the point law is given (crt_set_law_program, crt_set_law_table). */
+/* How the law is given (crt_set_law_program, crt_set_law_table, crt_set_law_bodies). */
 enum crt_law_kind {
   CRT_LAW_NONE = 0,  /* not set yet */
-  CRT_LAW_PROGRAM = 1,  /* an expression program: opcodes over a table of constants */
-  CRT_LAW_TABLE = 2,  /* a cubic spline through samples */
-  CRT_LAW_COUNT = 3
+  CRT_LAW_PROGRAM = 1,  /* one point: an expression program, opcodes over a table of constants */
+  CRT_LAW_TABLE = 2,  /* one point: a cubic spline through samples */
+  CRT_LAW_BODIES = 3,  /* several points and rotors: each output a node of one program or a column of one spline */
+  CRT_LAW_COUNT = 4
 };
 
 /* Opcodes of a law program: rows (op, a, b) of int; a, b are node indices, or for
@@ -222,6 +224,9 @@ enum crt_opcode {
 };
 
 #define CRT_LAW_MAX_NODES 1024
+/* the internal bodies a law may have: points (3 outputs each) and rotors (1 each) */
+#define CRT_LAW_MAX_POINTS 16
+#define CRT_LAW_MAX_ROTORS 8
 #define CRT_EVENT_COLUMNS 17  /* t, kind, value, v_minus, v_plus, t_accumulation, mode, P_X, P_Y, slip_X_minus, slip_Y_minus, slip_X_plus, slip_Y_plus, work_normal, work_friction, stage, couples */
 /* The smallest output buffers crt_advance takes: smaller ones are refused with
    CRT_BAD_ARGUMENT (a step needs room for its rows and an event's). */
@@ -261,11 +266,13 @@ enum crt_count_kind {
   CRT_COUNT_OPCODES = 4,
   CRT_COUNT_EVENT_COLUMNS = 5,
   CRT_COUNT_LAW_MAX_NODES = 6,
-  CRT_COUNT_MIN_ROWS = 7,
-  CRT_COUNT_MIN_EVENTS = 8,
-  CRT_COUNT_CTL_MAX_KNOTS = 9,
-  CRT_COUNT_PUSH_COLUMNS = 10,
-  CRT_COUNT_LOG_COLUMNS = 11
+  CRT_COUNT_LAW_MAX_POINTS = 7,
+  CRT_COUNT_LAW_MAX_ROTORS = 8,
+  CRT_COUNT_MIN_ROWS = 9,
+  CRT_COUNT_MIN_EVENTS = 10,
+  CRT_COUNT_CTL_MAX_KNOTS = 11,
+  CRT_COUNT_PUSH_COLUMNS = 12,
+  CRT_COUNT_LOG_COLUMNS = 13
 };
 
 /* ---- the exported name functions: "" for an index or a code without a name ------------ */

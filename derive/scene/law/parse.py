@@ -44,7 +44,8 @@ _TOKEN = re.compile(r"""
 
 # ---- building: hash-consing, constant folding --------------------------------------------
 class _Builder:
-    def __init__(self):
+    def __init__(self, limit: int = MAX_NODES):
+        self.limit = limit             # distinct operations at most
         self.nodes: list = []          # (op, a, b)
         self.value: list = []          # float for constant nodes, else None
         self.consts: list = []
@@ -58,8 +59,8 @@ class _Builder:
         k = self.index.get(key)
         if k is None:
             k = len(self.nodes)
-            if k >= MAX_NODES:
-                raise LawError(f"has more than {MAX_NODES} distinct operations")
+            if k >= self.limit:
+                raise LawError(f"has more than {self.limit} distinct operations")
             self.nodes.append(key)
             self.value.append(value)
             self.index[key] = k
@@ -432,6 +433,33 @@ def compile_law(texts: tuple) -> Program:
         except CoordinateError:
             raise
         except LawError as exc:
+            raise CoordinateError(k, str(exc)) from None
+    return b.program(tuple(outs), tuple(texts))
+
+
+@lru_cache(maxsize=512)
+def compile_angle(text: str) -> Program:
+    """The program of a rotor's angle psi(t), one string (one output; cached by the
+    text)."""
+    b = _Builder()
+    return b.program((parse_one(text, b),), (text,))
+
+
+@lru_cache(maxsize=64)
+def compile_outputs(texts: tuple, limit: int) -> Program:
+    """One program of many outputs, one per string (every point's x, y, z, every rotor's
+    psi): one builder, so that a subexpression common to several bodies is one node; at
+    most ``limit`` nodes in all.  The strings have been compiled one law at a time before
+    (their own errors named there); CoordinateError(k) names the string otherwise."""
+    b = _Builder(limit)
+    outs = []
+    for k, text in enumerate(texts):
+        try:
+            outs.append(parse_one(text, b))
+        except LawError as exc:
+            if str(exc).startswith("has more than"):
+                raise LawError(f"have more than {limit} distinct operations together (the "
+                               "runtime's law workspace)") from None
             raise CoordinateError(k, str(exc)) from None
     return b.program(tuple(outs), tuple(texts))
 

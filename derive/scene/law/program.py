@@ -16,14 +16,15 @@ from .ops import OPS, Arrays, Floats, harmonic_jet
 class Program:
     """Nodes in topological order: ``ops[k]`` with arguments ``a[k]``, ``b[k]`` (node
     indices, or for ``const``/``powi``/``powr`` an index into ``consts``); the nodes
-    ``outputs`` are x, y, z.  Constant nodes come first, then ``t``, then the rest."""
+    ``outputs``: a point's x, y, z (a rotor's psi; every body's, in a law of several).
+    Constant nodes come first, then ``t``, then the rest."""
     kind = "program"
     ops: tuple
     a: tuple
     b: tuple
     consts: tuple
     outputs: tuple
-    text: tuple = ()                       # the three source strings
+    text: tuple = ()                       # the source strings, one per output
     _sympy: tuple | None = field(default=None, repr=False, compare=False)
 
     def is_zero(self, k: int) -> bool:
@@ -56,8 +57,18 @@ class Program:
                 val[k] = op.jet(xp, val[a], val[b] if op.reads_b else None, 0.0)
         return val
 
+    def node_jets(self, ts) -> list:
+        """Every node's jet (value, d/dt, d2/dt2) at the times ``ts`` (NumPy arrays, NaN
+        or inf where a value does not exist)."""
+        ts = np.asarray(ts, dtype=float).reshape(-1)
+        n = ts.size
+        with np.errstate(all="ignore"):
+            val = self._jets(Arrays, ts, np.ones(n), np.zeros(n))
+        return [tuple(np.broadcast_to(v, (n,)) for v in jet) for jet in val]
+
     def jets(self, ts) -> np.ndarray:
-        """(9, N): x, x', x'', y, y', y'', z, z', z'' at the times ``ts``."""
+        """(3 n_outputs, N): each output's value and two derivatives at the times ``ts``
+        (a point's: x, x', x'', y, y', y'', z, z', z'')."""
         ts = np.asarray(ts, dtype=float).reshape(-1)
         n = ts.size
         with np.errstate(all="ignore"):

@@ -110,7 +110,8 @@ def find_singularity(p: Program, t0: float, t1: float) -> Singularity | None:
 # ---- what a run needs to know about its law ----------------------------------------------
 @dataclass(frozen=True)
 class LawSummary:
-    """Facts about a law over a run, from its samples and the interval proof."""
+    """Facts about a law over a run, from its samples and the interval proof (a rotor's:
+    the same of its angle psi, a vector of one coordinate)."""
     max_radius: float           # max |OP|
     max_speed: float            # max |OP'|
     max_acceleration: float     # max |OP''|
@@ -122,7 +123,12 @@ SAMPLES = 4097
 
 
 def summarise(jets: np.ndarray) -> LawSummary:
-    r, v, a = (jets[list(rows)] for rows in (layout.JET_R, layout.JET_V, layout.JET_A))
+    """The summary of a law's jets: a point's (9, N) x, x', x'', y, ...; a rotor's (3,
+    N) psi, psi', psi''."""
+    if len(jets) == 9:
+        r, v, a = (jets[list(rows)] for rows in (layout.JET_R, layout.JET_V, layout.JET_A))
+    else:
+        r, v, a = jets[0::3], jets[1::3], jets[2::3]
     with np.errstate(over="ignore", invalid="ignore"):     # huge laws: inf, then refused
         rn = np.sqrt((r * r).sum(0))
         amp = float(np.sqrt(((r - r.mean(axis=1, keepdims=True)) ** 2).sum(0)).max())
