@@ -21,6 +21,7 @@ from . import choice
 from .build import DP, IP, Library, library
 from .geometry import heights, kinetic_moment
 from ..scene import Scene, load as _load
+from ..scene.bodies import refuse_runtime
 
 _S = abi.STATUS                 # return codes by name (abi.status_name: the reverse)
 EVENT_KINDS = abi.names(abi.EVENT_KINDS)
@@ -445,6 +446,7 @@ class Prepared:
 
 def prepare(scene) -> Prepared:
     scene, static = _load(scene)
+    refuse_runtime(scene)                    # internal bodies other than one point: not yet
     kind, why = choice.choose(scene)
     st = choice.start(scene, kind)
     if static is None:

@@ -73,9 +73,10 @@ class Scene:
     shape: str                 # sphere | ellipsoid | none
     size: tuple                # the shape's size numbers (derive/shapes.py)
     center: tuple
-    m: float
+    m: float                   # the point's mass (several points: their total)
     law: Any                   # law.Program or table.TableLaw; None for a scene read
     law_text: tuple            # the three strings, or () for a table   without a law
+                               # (or with internal bodies other than one point)
     plane: bool
     e: float
     t0: float
@@ -107,6 +108,12 @@ class Scene:
     restitution_model: str = "energetic"
     spin_friction: float = 0.0       # mu_s, a length ([plane].spin_friction)
     rolling_resistance: float = 0.0  # mu_r, a length ([plane].rolling_resistance)
+    # the internal bodies (derive/scene/bodies.py): Point and Rotor objects, proved.  One
+    # point: points = (that point,), rotors = (), law its law, bodies_law None.  Any
+    # other: law None, m the points' total mass, bodies_law the law of them all.
+    points: tuple = ()
+    rotors: tuple = ()
+    bodies_law: Any = field(default=None, compare=False)
 
     @classmethod
     def of_fields(cls, base: dict | None = None, **values) -> "Scene":
@@ -129,6 +136,11 @@ class Scene:
         Scene made otherwise).  A Scene changed with ``dataclasses.replace`` keeps the
         dict it was parsed from."""
         return self.doc_source.get() if self.doc_source is not None else {}
+
+    @property
+    def one_point(self) -> bool:
+        """The internal bodies are one point (the paper's carrier; a task's, too)."""
+        return self.law is not None or (len(self.points) == 1 and not self.rotors)
 
     @property
     def contact_possible(self) -> bool:
