@@ -50,6 +50,23 @@ OPTIONS = _names(
                 "than zeno_dt times the time scale"),
 )
 
+# the internal bodies (issue 32): what the runtime needs to sum their moments (the
+# layout of the moments in derive/layout.py; m above is the points' total): the counts,
+# each point's mass, each rotor's unit axis in body axes and axial moment.  One point:
+# n_points 1, m_1 = m.  Unused entries are 0.
+LAW_MAX_POINTS = 16
+LAW_MAX_ROTORS = 8
+_BODY_PARAMETERS = (
+    ("n_points", "the internal points ([point]: 1; [[point]]: 0 to LAW_MAX_POINTS)"),
+    ("n_rotors", "the rotors ([[rotor]]: 0 to LAW_MAX_ROTORS)"),
+    *((f"m_{j}", f"mass of point {j}" if j == 1 else "...")
+      for j in range(1, LAW_MAX_POINTS + 1)),
+    *((f"a_{r}_{c}", f"unit axis of rotor {r} in body axes" if (r, c) == (1, "x") else "...")
+      for r in range(1, LAW_MAX_ROTORS + 1) for c in "xyz"),
+    *((f"I_{r}", f"axial moment of inertia of rotor {r}" if r == 1 else "...")
+      for r in range(1, LAW_MAX_ROTORS + 1)),
+)
+
 # Parameters: a double vector of the scene's numbers, read by the model functions.
 PARAMETERS = _names(
     ("M", "mass of the carrier"),
@@ -78,6 +95,7 @@ PARAMETERS = _names(
     ("spin_friction", "rough model: mu_s, a length: |T_Z| <= mu_s N in contact (0: none)"),
     ("rolling_resistance", "rough model: mu_r, a length: |(T_X, T_Y)| <= mu_r N in contact "
                            "(0: none)"),
+    *_BODY_PARAMETERS,
 )
 
 # Values of prm[CRT_P_restitution_model] (derive/friction.py: darboux_keller's
@@ -253,9 +271,8 @@ OPCODES = _names(
 )
 
 LAW_MAX_NODES = 1024      # nodes of one law (every body's): the C jet workspace
-# the internal bodies of a scene: [[point]] (3 outputs each) and [[rotor]] (1 each)
-LAW_MAX_POINTS = 16
-LAW_MAX_ROTORS = 8
+# (LAW_MAX_POINTS and LAW_MAX_ROTORS, the internal bodies of a scene, [[point]] with 3
+# outputs each and [[rotor]] with 1, are above with the parameters they size)
 
 # The closed loop (crt_control.h): why the controller is called, why its law is refused,
 # the most knots of one law it sets, and the rows of pushes and of the realised law.

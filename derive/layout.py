@@ -147,7 +147,7 @@ def u_of_jets(jets):
 # ---- the law of several internal bodies (derive.scene.law.bodies, crt_law.h) ------------
 # u of a law of n_points points and n_rotors rotors: each point's u as above (U_LABELS),
 # then each rotor's angle relative to the body and its two derivatives
-ROTOR_U_LABELS = ("psi", "psi'", "psi''")
+ROTOR_JET_LABELS = ("psi", "psi'", "psi''")
 
 
 def law_width(n_points: int, n_rotors: int) -> int:

@@ -257,7 +257,7 @@ def centre_offset(points: tuple, M: float, t: float) -> tuple:
 def refuse_runtime(scene) -> None:
     """A scene that is not one point (several points, rotors, or none) cannot run yet:
     the runtime of several internal bodies (the moments models) is the next part."""
-    if scene.points and len(scene.points) == 1 and not scene.rotors:
+    if scene.one_point:
         return
     where = "[[rotor]]" if scene.rotors else "[[point]]" if scene.points else "[point]"
     raise SceneError(where, f"{describe(len(scene.points), len(scene.rotors))}: the runtime "

@@ -110,7 +110,8 @@ def static_part(v: dict, given: set, origin: str = "scene", base: Path | None = 
                   zeno_dt=run("zeno_dt"), source=origin, stability=st,
                   law_summary=d.summary, max_distance=d.max_distance,
                   control=_control(v), disturbance=_disturbance(v),
-                  points=d.points, rotors=d.rotors, bodies_law=d.bodies)
+                  internal=None if not with_law or d.one_point else (d.points, d.rotors),
+                  bodies_law=d.bodies)
     return Static(fields, d)
 
 

@@ -366,7 +366,7 @@ def _above_plane(d: Draft) -> None:
 def check_start_above_plane(scene) -> None:
     """The same rule on a Scene made from another one with a new initial position (the
     quick variants of a parameter study)."""
-    if scene.contact_possible and scene.law is None:     # not one point
+    if scene.contact_possible and not scene.one_point:
         _refuse_below(start_height(scene.shape, scene.size, scene.center, 1.0, scene.A0,
                                    scene.com, bodies.centre_offset(scene.points, scene.M,
                                                                    scene.t0)),

@@ -108,11 +108,11 @@ class Scene:
     restitution_model: str = "energetic"
     spin_friction: float = 0.0       # mu_s, a length ([plane].spin_friction)
     rolling_resistance: float = 0.0  # mu_r, a length ([plane].rolling_resistance)
-    # the internal bodies (derive/scene/bodies.py): Point and Rotor objects, proved.  One
-    # point: points = (that point,), rotors = (), law its law, bodies_law None.  Any
-    # other: law None, m the points' total mass, bodies_law the law of them all.
-    points: tuple = ()
-    rotors: tuple = ()
+    # the internal bodies other than one point (derive/scene/bodies.py): None for one
+    # point (the paper's carrier, its law in ``law``), else (points, rotors), the proved
+    # Point and Rotor objects, with ``law`` None, ``m`` the points' total mass and
+    # ``bodies_law`` the law of them all
+    internal: tuple | None = None
     bodies_law: Any = field(default=None, compare=False)
 
     @classmethod
@@ -140,7 +140,22 @@ class Scene:
     @property
     def one_point(self) -> bool:
         """The internal bodies are one point (the paper's carrier; a task's, too)."""
-        return self.law is not None or (len(self.points) == 1 and not self.rotors)
+        return self.internal is None
+
+    @property
+    def points(self) -> tuple:
+        """The points (:class:`derive.scene.bodies.Point`); one point's made from
+        ``m`` and ``law`` when asked (so that a Scene given another law by
+        ``dataclasses.replace`` says so)."""
+        if self.internal is not None:
+            return self.internal[0]
+        from .bodies import Point
+        return (Point("[point]", self.m, self.law, self.law_text, self.law_summary,
+                      self.max_distance),)
+
+    @property
+    def rotors(self) -> tuple:
+        return self.internal[1] if self.internal is not None else ()
 
     @property
     def contact_possible(self) -> bool:
