@@ -385,3 +385,84 @@ def test_multibody_documents_through_the_fuzz_worker_and_the_command_line():
     got = fuzz.run_cli(cli, workers=2)
     assert not any(o.bad for o in got), fuzz.report(got)
     assert all(o.verdict == "refused" for o in got)
+
+
+def test_the_law_of_several_bodies_is_clean_under_sanitizers(tmp_path):
+    """crt_law.h's setting (crt_set_law_bodies' work) and evaluation of a law of three
+    points (two periodic tables on different knots over one span, one of formulas) and
+    two rotors, compiled under the strict flags with AddressSanitizer and
+    UndefinedBehaviorSanitizer: the rows it prints are NumPy's, and malformed laws are
+    refused without a read out of bounds."""
+    import shutil
+    import subprocess
+    from derive.paths import GENERATED
+    from derive.scene import table
+    cc = shutil.which("cc") or shutil.which("gcc")
+    if cc is None:
+        pytest.skip("no C compiler")
+    period = 2.0
+    t1, t2 = np.linspace(0.0, period, 9), np.linspace(0.0, period, 6)
+    a = table.build(np.column_stack([t1, np.sin(np.pi * t1), 0 * t1, np.cos(np.pi * t1)]),
+                    "periodic", "a")
+    b = table.build(np.column_stack([t2, np.cos(np.pi * t2), np.sin(np.pi * t2), 0 * t2]),
+                    "periodic", "b")
+    f = compile_law(("0.2*sin(3*t)", "0.1*t", "0.05*cos(2*t)/(2 + sin(t))"))
+    law = combine((a, f, b), (compile_angle("3*t + sin(t)"), compile_angle("0.5*t^2")))
+    ar = law.arrays()
+    ts = np.linspace(-1.0, 5.0, 25)
+
+    def c_list(values, fmt=repr):
+        return ", ".join(fmt(v) for v in values)
+    main = f"""
+#include <stdio.h>
+#include "crt_law.h"
+static const int code[] = {{{c_list(ar["code"].ravel().tolist(), str)}}};
+static const double consts[] = {{{c_list(ar["consts"].tolist())}}};
+static const int out[] = {{{c_list(ar["out"].tolist(), str)}}};
+static const double knots[] = {{{c_list(ar["knots"].tolist())}}};
+static const double coef[] = {{{c_list(ar["coef"].tolist())}}};
+static const double ts[] = {{{c_list(ts.tolist())}}};
+static crt_law law;
+static crt_law_work work;
+
+static int set(int n_points, const int *o, int n_knots)
+{{
+  return crt_law_set_bodies(&law, &work, n_points, 2, o, {ar["n_nodes"]}, {ar["n_const"]},
+                            code, consts, {len(ar["consts"])}, n_knots, {ar["n_columns"]},
+                            knots, coef, 1);
+}}
+
+int main(void)
+{{
+  int wrong[{len(ar["out"])}], k, i, w;
+  long count = 0;
+  for (k = 0; k < {len(ar["out"])}; ++k) wrong[k] = out[k];
+  wrong[1] = -1 - {ar["n_columns"]};                /* a column beyond the table */
+  if (set(3, wrong, {ar["n_knots"]}) != CRT_BAD_LAW) return 3;
+  if (set(3, out, 1) != CRT_BAD_LAW) return 3;      /* one knot */
+  if (set(CRT_LAW_MAX_POINTS + 1, out, {ar["n_knots"]}) != CRT_BAD_LAW) return 3;
+  if (crt_law_u_width(&law) != 0) return 3;         /* refused: no law */
+  if (set(3, out, {ar["n_knots"]}) != CRT_OK) return 4;
+  w = crt_law_u_width(&law);
+  /* steps end on the knots of the shared spline, across its periods */
+  if (crt_law_next_knot(&law, 0.1) != knots[1]) return 5;
+  if (crt_law_next_knot(&law, {period} + 0.1) != {period} + knots[1]) return 5;
+  for (k = 0; k < {len(ts)}; ++k) {{
+    const double *u = crt_law_eval(&law, &work, ts[k], &count);
+    for (i = 0; i < w; ++i) printf("%.17g\\n", u[i]);
+  }}
+  return 0;
+}}
+"""
+    src, exe = tmp_path / "bodies.c", tmp_path / "bodies"
+    src.write_text(main)
+    cmd = [cc, "-std=c99", "-Wall", "-Wextra", "-Wpedantic", "-Werror", "-O1", "-g",
+           "-fsanitize=address,undefined", "-fno-sanitize-recover=all", "-I",
+           str(GENERATED / "runtime"), str(src), "-o", str(exe), "-lm"]
+    proc = subprocess.run(cmd, capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    run = subprocess.run([str(exe)], capture_output=True, text=True)
+    assert run.returncode == 0, (run.returncode, run.stderr[-3000:])
+    got = np.array(run.stdout.split(), dtype=float).reshape(len(ts), law.width).T
+    want = law.u(ts)
+    assert np.max(np.abs(got - want)) < 1e-12 * (1 + np.abs(want).max())
