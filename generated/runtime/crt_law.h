@@ -3,6 +3,10 @@
  * and two derivatives of every output in one forward pass) and cubic splines through
  * samples.  Included by each model's runtime (model_<kind>.c).
  *
+ * Hand-written C: this file is templates/runtime/crt_law.h, copied verbatim into
+ * generated/runtime/ by `derive emit` (`derive emit --check` compares the copy byte for
+ * byte).  Edit it there, then run `derive emit`.
+ *
  * Three kinds of law (enum crt_law_kind):
  *   CRT_LAW_PROGRAM  one point: its x, y, z are nodes of a program (crt_set_law_program);
  *   CRT_LAW_TABLE    one point: a cubic spline of x, y, z (crt_set_law_table, and the
@@ -14,10 +18,6 @@
  * What a law gives at t is u (crt_law_eval), CRT_LAW_WIDTH(n_points, n_rotors) numbers:
  * point j at u[9 j ..]: (x, y, z, x', y', z', x'', y'', z''); then rotor r at
  * u[9 n_points + 3 r ..]: (psi, psi', psi'').  One point's u is the first nine.
- *
- * Hand-written C: this file is templates/runtime/crt_law.h, copied verbatim into
- * generated/runtime/ by `derive emit` (`derive emit --check` compares the copy byte for
- * byte).  Edit it there, then run `derive emit`.
  */
 #ifndef CRT_LAW_H
 #define CRT_LAW_H
