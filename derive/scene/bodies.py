@@ -50,7 +50,7 @@ class Rotor:
     summary: LawSummary        # of psi: max |psi|, |psi'|, |psi''|, its time scale
 
 
-_POINT_KEYS = tuple(SCENE.by_table["point"])
+_POINT_FIELDS = tuple((f.key, f.where) for f in SCENE.by_table["point"].values())
 
 
 def point_elements(v: dict) -> tuple:
@@ -60,8 +60,8 @@ def point_elements(v: dict) -> tuple:
         return v["[[point]]"]
     if "point" not in v["__tables__"]:
         return ()
-    return (Element("point", 0, {k: v[f"[point].{k}"] for k in _POINT_KEYS},
-                    {k for k in _POINT_KEYS if v[f"[point].{k}"] is not None}),)
+    values = {key: v[where] for key, where in _POINT_FIELDS}
+    return (Element("point", 0, values, {k for k, x in values.items() if x is not None}),)
 
 
 def rotor_elements(v: dict) -> tuple:

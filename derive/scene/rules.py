@@ -66,6 +66,7 @@ class Draft:
     max_distance: float = 0.0
     point_elements: tuple = ()             # schema.Element of each point, each rotor
     rotor_elements: tuple = ()
+    one_point: bool = True                 # the bodies are one point: law is its law
     points: tuple = ()                     # bodies.Point, bodies.Rotor: proved
     rotors: tuple = ()
     laws: tuple = ()                       # each point's (law, law_text, summary)
@@ -83,11 +84,6 @@ class Draft:
         d.__dict__.update(self.__dict__)
         d.v, d.given, d.A0, d.extra = v, given, None, {}
         return d
-
-    @property
-    def one_point(self) -> bool:
-        """The internal bodies are one point (the paper's carrier): Draft.law is its."""
-        return len(self.point_elements) == 1 and not self.rotor_elements
 
     @property
     def law_field(self) -> str:
@@ -143,6 +139,7 @@ def _required(d: Draft) -> None:
     if d.with_law:
         d.point_elements = bodies.point_elements(v)
         d.rotor_elements = bodies.rotor_elements(v)
+        d.one_point = len(d.point_elements) == 1 and not d.rotor_elements
 
 
 def _inertia(d: Draft) -> None:
