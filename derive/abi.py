@@ -50,6 +50,23 @@ OPTIONS = _names(
                 "than zeno_dt times the time scale"),
 )
 
+# the internal bodies (issue 32): what the runtime needs to sum their moments (the
+# layout of the moments in derive/layout.py; m above is the points' total): the counts,
+# each point's mass, each rotor's unit axis in body axes and axial moment.  One point:
+# n_points 1, m_1 = m.  Unused entries are 0.
+LAW_MAX_POINTS = 16
+LAW_MAX_ROTORS = 8
+_BODY_PARAMETERS = (
+    ("n_points", "the internal points ([point]: 1; [[point]]: 0 to LAW_MAX_POINTS)"),
+    ("n_rotors", "the rotors ([[rotor]]: 0 to LAW_MAX_ROTORS)"),
+    *((f"m_{j}", f"mass of point {j}" if j == 1 else "...")
+      for j in range(1, LAW_MAX_POINTS + 1)),
+    *((f"a_{r}_{c}", f"unit axis of rotor {r} in body axes" if (r, c) == (1, "x") else "...")
+      for r in range(1, LAW_MAX_ROTORS + 1) for c in "xyz"),
+    *((f"I_{r}", f"axial moment of inertia of rotor {r}" if r == 1 else "...")
+      for r in range(1, LAW_MAX_ROTORS + 1)),
+)
+
 # Parameters: a double vector of the scene's numbers, read by the model functions.
 PARAMETERS = _names(
     ("M", "mass of the carrier"),
@@ -78,6 +95,7 @@ PARAMETERS = _names(
     ("spin_friction", "rough model: mu_s, a length: |T_Z| <= mu_s N in contact (0: none)"),
     ("rolling_resistance", "rough model: mu_r, a length: |(T_X, T_Y)| <= mu_r N in contact "
                            "(0: none)"),
+    *_BODY_PARAMETERS,
 )
 
 # Values of prm[CRT_P_restitution_model] (derive/friction.py: darboux_keller's
@@ -230,11 +248,13 @@ SUMMARY = _names(
                            "contact steps (at most 1: the cone holds; 1 while sliding)"),
 )
 
-# Law kinds and opcodes of the interpreter (derive/runtime/law.py compiles to these).
+# Law kinds and opcodes of the interpreter (derive/scene/law/ compiles to these).
 LAW_KINDS = _names(
     ("none", "not set yet"),
-    ("program", "an expression program: opcodes over a table of constants"),
-    ("table", "a cubic spline through samples"),
+    ("program", "one point: an expression program, opcodes over a table of constants"),
+    ("table", "one point: a cubic spline through samples"),
+    ("bodies", "several points and rotors: each output a node of one program or a column "
+               "of one spline"),
 )
 
 OPCODES = _names(
@@ -250,7 +270,9 @@ OPCODES = _names(
     ("hcos", "a harmonic A cos(w t + p), (A, w, p) = consts[a], consts[a+1], consts[a+2]"),
 )
 
-LAW_MAX_NODES = 1024      # nodes of one law (three coordinates): the C jet workspace
+LAW_MAX_NODES = 1024      # nodes of one law (every body's): the C jet workspace
+# (LAW_MAX_POINTS and LAW_MAX_ROTORS, the internal bodies of a scene, [[point]] with 3
+# outputs each and [[rotor]] with 1, are above with the parameters they size)
 
 # The closed loop (crt_control.h): why the controller is called, why its law is refused,
 # the most knots of one law it sets, and the rows of pushes and of the realised law.
@@ -320,6 +342,7 @@ COUNTS = (
     ("options", len(OPTIONS)), ("parameters", len(PARAMETERS)), ("stats", len(STATS)),
     ("summary", len(SUMMARY)), ("opcodes", len(OPCODES)),
     ("event_columns", len(EVENT_COLUMNS)), ("law_max_nodes", LAW_MAX_NODES),
+    ("law_max_points", LAW_MAX_POINTS), ("law_max_rotors", LAW_MAX_ROTORS),
     ("min_rows", MIN_ROWS), ("min_events", MIN_EVENTS),
     ("ctl_max_knots", CTL_MAX_KNOTS), ("push_columns", len(PUSH_COLUMNS)),
     ("log_columns", len(LOG_COLUMNS)),
@@ -333,6 +356,7 @@ def c_context() -> dict:
             "restitution_models": RESTITUTION_MODELS, "event_kinds": EVENT_KINDS,
             "stats": STATS, "row_kinds": ROW_KINDS, "summary": SUMMARY,
             "law_kinds": LAW_KINDS, "opcodes": OPCODES, "law_max_nodes": LAW_MAX_NODES,
+            "law_max_points": LAW_MAX_POINTS, "law_max_rotors": LAW_MAX_ROTORS,
             "event_columns": EVENT_COLUMNS, "min_rows": MIN_ROWS, "min_events": MIN_EVENTS,
             "counts": COUNTS, "call_reasons": CALL_REASONS, "control_faults": CONTROL_FAULTS,
             "ctl_max_knots": CTL_MAX_KNOTS, "push_columns": PUSH_COLUMNS,

@@ -195,3 +195,23 @@ ROTOR_AXIS_LABELS = ("a_x", "a_y", "a_z")
 ROTOR_RATE_LABELS = ("psi'", "psi''")
 # a rotor's law has one output, psi(t); its jets are (psi, psi', psi'')
 ROTOR_JET_LABELS = ("psi", "psi'", "psi''")
+
+
+# ---- the law of several internal bodies (derive.scene.law.bodies, crt_law.h) ------------
+# u of a law of n_points points and n_rotors rotors: each point's u as above (U_LABELS),
+# then each rotor's angle relative to the body and its two derivatives (ROTOR_JET_LABELS)
+
+
+def law_width(n_points: int, n_rotors: int) -> int:
+    """The numbers of a law's u: 9 per point, 3 per rotor (crt_law_width)."""
+    return 9 * n_points + 3 * n_rotors
+
+
+def point_slice(j: int) -> slice:
+    """Point j's (x, y, z, x', y', z', x'', y'', z'') in u."""
+    return slice(9 * j, 9 * j + 9)
+
+
+def rotor_slice(n_points: int, r: int) -> slice:
+    """Rotor r's (psi, psi', psi'') in u."""
+    return slice(9 * n_points + 3 * r, 9 * n_points + 3 * r + 3)

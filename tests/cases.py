@@ -1,4 +1,4 @@
-"""Random physical states shared by the cross-check tests."""
+"""Random physical states and laws shared by the cross-check tests."""
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -124,3 +124,17 @@ def table_flight(ts: np.ndarray, duration: float, **run) -> dict:
             "point": {"mass": 0.5, "samples": rows.tolist(), "ends": "periodic"},
             "initial": {"omega": [0.3, -0.2, 0.5]},
             "run": {"duration": duration, "g": 0.0, **run}}
+
+
+def random_law(rng, depth: int) -> str:
+    """A random law of the grammar that is smooth for t in [0, 2] (denominators,
+    log/sqrt arguments and asin/acos arguments kept away from their singular values)."""
+    if depth == 0 or rng.random() < 0.25:
+        return rng.choice(["t", f"{rng.uniform(-2, 2):.4g}", "pi", f"{rng.uniform(0.5, 3):.3g}*t"])
+    a = random_law(rng, depth - 1)
+    b = random_law(rng, depth - 1)
+    k = rng.integers(0, 12)
+    return [f"({a}) + ({b})", f"({a}) - ({b})", f"({a})*({b})",
+            f"({a})/(2 + sin({b}))", f"sin({a})", f"cos({a})", f"exp(0.3*sin({a}))",
+            f"log(3 + cos({a}))", f"sqrt(2 + sin({a}))", f"atan({a})", f"tanh({a})",
+            f"({a})^2"][k]

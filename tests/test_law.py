@@ -9,24 +9,11 @@ import numpy as np
 import pytest
 import sympy as sp
 
+from cases import random_law
 from derive.runtime.driver import prepare
 from derive.runtime.session import Session
 from derive.scene.law import compile_law, find_singularity, parse_law
 from derive.scene import SceneError, builtin_doc, parse_scene
-
-
-def _random_expr(rng, depth: int) -> str:
-    """A random law of the grammar that is smooth for t in [0, 2] (denominators,
-    log/sqrt arguments and asin/acos arguments kept away from their singular values)."""
-    if depth == 0 or rng.random() < 0.25:
-        return rng.choice(["t", f"{rng.uniform(-2, 2):.4g}", "pi", f"{rng.uniform(0.5, 3):.3g}*t"])
-    a = _random_expr(rng, depth - 1)
-    b = _random_expr(rng, depth - 1)
-    k = rng.integers(0, 12)
-    return [f"({a}) + ({b})", f"({a}) - ({b})", f"({a})*({b})",
-            f"({a})/(2 + sin({b}))", f"sin({a})", f"cos({a})", f"exp(0.3*sin({a}))",
-            f"log(3 + cos({a}))", f"sqrt(2 + sin({a}))", f"atan({a})", f"tanh({a})",
-            f"({a})^2"][k]
 
 
 def _session(law_texts):
@@ -48,7 +35,7 @@ def test_interpreter_numpy_and_sympy_agree_on_random_laws():
     t = sp.Symbol("t", real=True)
     checked = 0
     for _ in range(60):
-        texts = [_random_expr(rng, 4) for _ in range(3)]
+        texts = [random_law(rng, 4) for _ in range(3)]
         try:
             prep, s = _session(texts)
         except SceneError:
@@ -146,6 +133,14 @@ def test_a_pole_between_samples_is_refused_naming_the_coordinate():
         parse_scene(doc)
     assert info.value.where == "[point].law[1]"
     assert "not twice differentiable" in info.value.rule and "1.0000001" in info.value.rule
+
+
+def test_the_opcodes_are_the_abis():
+    """The law modules' opcodes and the C interpreter's (numbered by derive.abi) are one
+    list, in one order."""
+    from derive import abi
+    from derive.scene.law import OPS
+    assert tuple(OPS) == abi.names(abi.OPCODES)
 
 
 def test_constant_subexpressions_and_sharing():

@@ -176,7 +176,20 @@ def parameters(scene: Scene, constants: dict) -> np.ndarray:
     for name, value in constants.items():
         if not name.startswith("_"):
             prm[_P[name]] = float(value)
+    _bodies(prm, scene)
     return np.array(prm, dtype=float)
+
+
+def _bodies(prm: list, scene: Scene) -> None:
+    """The internal bodies' parameters (abi: n_points, n_rotors, m_j, a_r_x.., I_r)."""
+    points, rotors = scene.points, scene.rotors
+    prm[_P["n_points"]], prm[_P["n_rotors"]] = float(len(points)), float(len(rotors))
+    for j, point in enumerate(points, start=1):
+        prm[_P[f"m_{j}"]] = point.mass
+    for r, rotor in enumerate(rotors, start=1):
+        for c, x in zip("xyz", rotor.axis):
+            prm[_P[f"a_{r}_{c}"]] = x
+        prm[_P[f"I_{r}"]] = rotor.inertia
 
 
 # ---- results in the general layout -------------------------------------------------------------

@@ -24,6 +24,7 @@ from .build import Library, library
 from .geometry import heights, kinetic_moment
 from .session import Session, session_for
 from ..scene import Scene, load as _load
+from ..scene.bodies import refuse_runtime
 
 METHODS = {name: k for k, name in enumerate(abi.names(abi.METHODS))}
 
@@ -73,6 +74,7 @@ class Prepared:
 
 def prepare(scene) -> Prepared:
     scene, static = _load(scene)
+    refuse_runtime(scene)                    # internal bodies other than one point: not yet
     kind, why = choice.choose(scene)
     st = choice.start(scene, kind)
     if static is None:

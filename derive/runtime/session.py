@@ -82,7 +82,15 @@ class Session:
             return
         lib = self.library.lib
         arrays = law.arrays()
-        if getattr(law, "kind", "") == "table":
+        if getattr(law, "kind", "") == "bodies":         # several bodies: crt_law_rows
+            a = arrays
+            status = lib.crt_set_law_bodies(
+                self.handle, a["n_points"], a["n_rotors"], a["out"].ctypes.data_as(IP),
+                a["n_nodes"], a["n_const"], a["code"].ctypes.data_as(IP),
+                a["consts"].ctypes.data_as(DP), len(a["consts"]), a["n_knots"],
+                a["n_columns"], a["knots"].ctypes.data_as(DP), a["coef"].ctypes.data_as(DP),
+                a["periodic"])
+        elif getattr(law, "kind", "") == "table":
             status = lib.crt_set_law_table(self.handle, len(arrays["knots"]),
                                            arrays["knots"].ctypes.data_as(DP),
                                            arrays["coef"].ctypes.data_as(DP),
@@ -99,14 +107,15 @@ class Session:
         self._law, self._law_key = (law, arrays), key
 
     def law_at(self, t: float) -> np.ndarray:
-        u = np.zeros(9)
+        u = np.zeros(self.library.lib.crt_law_width(self.handle))
         self.library.lib.crt_law_at(self.handle, float(t), u.ctypes.data_as(DP))
         return u
 
     def law_rows(self, t) -> np.ndarray:
-        """(N, 9): u = (x, y, z, x', y', z', x'', y'', z'') at the times ``t``, by the C."""
+        """(N, width): u at the times ``t``, by the C; one point's u = (x, y, z, x', y',
+        z', x'', y'', z''), several bodies' in the order of derive.layout.law_width."""
         t = np.ascontiguousarray(t, dtype=float)
-        u = np.zeros((len(t), 9))
+        u = np.zeros((len(t), self.library.lib.crt_law_width(self.handle)))
         self.library.lib.crt_law_rows(self.handle, len(t), t.ctypes.data_as(DP),
                                       u.ctypes.data_as(DP))
         return u
@@ -125,7 +134,7 @@ class Session:
             what = (f"the parameter {abi.PARAMETERS[k].name} = {self._prm[k]!r} (it must "
                     f"be finite)") if 0 <= k < len(abi.PARAMETERS) else "a parameter"
         elif status == _S["bad_law"]:
-            what = "the run: no law set"
+            what = "the run: no law set (or a law of several bodies, which no model reads yet)"
         else:
             what = "the run's initial state"
         return SceneError("[run]", f"the runtime refused {what} ({name}); please report "

@@ -7,7 +7,8 @@ content, and such a scene re-validates only its ``[initial]`` table.  The key is
 marshal's serialisation of that content (with the origin and the table folder): byte
 for byte the same only for the same types and values, so a hit validates exactly what
 the first scene validated (a scene holding anything but plain dicts, lists, strings,
-numbers and booleans, or a ``[point].table`` whose file could change, is not kept).
+numbers and booleans, or a ``[point].table`` (a ``[[point]]``'s) whose file could change,
+is not kept).
 """
 from __future__ import annotations
 
@@ -55,7 +56,8 @@ def static_key(doc: dict, origin: str, base: Path | None) -> bytes | None:
     """The key of a scene's static part, or None for a scene that is not kept."""
     init, point = doc.get(STATE_TABLE), doc.get("point")
     if (init is not None and type(init) is not dict) or \
-            (type(point) is dict and "table" in point):
+            (type(point) is dict and "table" in point) or \
+            (type(point) is list and any(type(p) is not dict or "table" in p for p in point)):
         return None
     rest = [item for item in doc.items() if item[0] != STATE_TABLE]
     try:

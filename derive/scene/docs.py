@@ -5,8 +5,17 @@ from __future__ import annotations
 from .. import shapes
 from . import rules
 from . import toml
-from .schema import (CONTROL_FIELDS, DISTURBANCE_FIELDS, PLAN_FIELDS, REQUIRED, SCENE_FIELDS,
-                     SCENE_TABLES)
+from .schema import (ARRAYS, CONTROL_FIELDS, DISTURBANCE_FIELDS, PLAN_FIELDS, REQUIRED,
+                     SCENE_FIELDS, SCENE_TABLES)
+
+
+def _arrays_note() -> str:
+    """How the internal bodies are given (the arrays of tables)."""
+    return (f"Internal bodies: `[point]` is one point; `[[point]]`, once per point (0 to "
+            f"{ARRAYS['point']}), gives several, each with the fields of `[point]`; "
+            f"`[[rotor]]`, once per rotor (0 to {ARRAYS['rotor']}). Messages name the "
+            "element: `[[rotor]] 2: axis: must be a unit vector`. A scene of anything but "
+            "one point and no rotor is validated, and not run yet.")
 
 
 def _default(f) -> str:
@@ -42,6 +51,7 @@ def _rows(fields) -> list:
 def schema_table() -> str:
     """The README's scene schema: every field, then the rules across fields."""
     rows = _rows(SCENE_FIELDS + CONTROL_FIELDS + DISTURBANCE_FIELDS)
+    rows += ["", _arrays_note()]
     rows += ["", "Rules across fields:", ""]
     rows += [f"- {text}" for text in rules.texts()]
     return "\n".join(rows)
@@ -62,6 +72,15 @@ def template(shape: str = "sphere") -> str:
     for f in SCENE_FIELDS:
         if f.table in ("stability", "control", "disturbance") or \
                 (f.table == "body" and f.key in skip):
+            continue
+        if f.table == "rotor":            # none by default: the fields commented out
+            if table != "rotor":
+                table = "rotor"
+                lines += ["", f"# [[rotor]]  # zero or more: one [[rotor]] per rotor, at most "
+                              f"{ARRAYS['rotor']} (several points: one [[point]] each, at "
+                              f"most {ARRAYS['point']})"]
+            note = f.doc + (f"; {f.rule}" if f.rule else "")
+            lines.append(f"# {f.key} = {toml.value(f.example)}  # {note}")
             continue
         if f.table != table:
             table = f.table

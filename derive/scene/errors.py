@@ -29,3 +29,8 @@ def type_name(value) -> str:
     """How a message calls the type of a value a scene gave."""
     return {bool: "a boolean", int: "an integer", float: "a number", str: "a string",
             list: "a list", dict: "a table"}.get(type(value), type(value).__name__)
+
+
+class LawError(ValueError):
+    """A law that is malformed, unsafe, or not twice differentiable on the run (the law
+    modules raise it; the rules turn it into a :class:`SceneError` naming the field)."""

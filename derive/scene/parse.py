@@ -11,6 +11,7 @@ in range, and every failure raises :class:`SceneError` naming the field and the 
 from __future__ import annotations
 
 import os
+import re
 import tomllib
 from pathlib import Path
 
@@ -22,6 +23,9 @@ from .scene import Control, Disturbance, Scene, Stability
 from .schema import CONTROL_FIELDS, DISTURBANCE_FIELDS, SCENE
 
 MAX_BYTES = 16 * 1024 * 1024
+# a table header [point] and an array header [[point]] in one text (TOML refuses them)
+_BOTH_POINTS = (re.compile(r"^[ \t]*\[[ \t]*point[ \t]*\]", re.M),
+                re.compile(r"^[ \t]*\[\[[ \t]*point[ \t]*\]\]", re.M))
 
 
 def read_document(source, origin: str = "scene", what: str = "scene") -> tuple[dict, bool]:
@@ -32,6 +36,9 @@ def read_document(source, origin: str = "scene", what: str = "scene") -> tuple[d
             raise SceneError(origin, "is larger than 16 MB")
         empty = SceneError(origin, f"is empty: a {what} needs at least [body] and [point] "
                                    "(`derive scene new` prints one)")
+        if _BOTH_POINTS[0].search(source) and _BOTH_POINTS[1].search(source):
+            raise SceneError("[point]", "and [[point]] both given: one point is [point], "
+                                        "several are a [[point]] each")
         if not source.strip():
             raise empty
         try:
@@ -87,8 +94,11 @@ def static_part(v: dict, given: set, origin: str = "scene", base: Path | None = 
         return v[where] if where in v else defaults[where]
     st = Stability(run_stability(v, "period"), run_stability(v, "impacts_every"),
                    run_stability(v, "long_periods"), run_stability(v, "perturbations"))
+    # m: the point's mass; with other bodies the points' total (a task: [point].mass)
+    m = v["[point].mass"] if not with_law else d.points[0].mass if d.one_point else \
+        sum(p.mass for p in d.points)
     fields = dict(name=v["name"], M=v["[body].mass"], J=v["[body].inertia"],
-                  shape=v["[body].shape"], size=d.size, center=d.center, m=v["[point].mass"],
+                  shape=v["[body].shape"], size=d.size, center=d.center, m=m,
                   law=d.law, law_text=d.law_text, plane=d.plane, e=d.e, t0=d.t0,
                   friction=d.friction, restitution_model=d.restitution_model,
                   spin_friction=d.spin_friction, rolling_resistance=d.rolling_resistance,
@@ -99,7 +109,9 @@ def static_part(v: dict, given: set, origin: str = "scene", base: Path | None = 
                   keep_orthonormal=run("keep_orthonormal"), model=run("model"),
                   zeno_dt=run("zeno_dt"), source=origin, stability=st,
                   law_summary=d.summary, max_distance=d.max_distance,
-                  control=_control(v, given), disturbance=_disturbance(v, given))
+                  control=_control(v, given), disturbance=_disturbance(v, given),
+                  internal=None if not with_law or d.one_point else (d.points, d.rotors),
+                  bodies_law=d.bodies)
     return Static(fields, d)
 
 

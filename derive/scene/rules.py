@@ -11,6 +11,10 @@ seen before with other initial numbers runs only the state rules
 A scene may be read without a law (a planning task, whose law the planner makes): the
 rules that need the law then do not apply, and the point's position at the start, which
 the start-above-the-plane rule reads, is given instead (``Draft.point_at``).
+
+The internal bodies (``[point]`` or ``[[point]]``, ``[[rotor]]``) are read and proved by
+:mod:`derive.scene.bodies`; a scene of one point keeps its law in ``Draft.law`` as
+before, any other in ``Draft.bodies`` (the law of them all) with ``Draft.law`` None.
 """
 from __future__ import annotations
 
@@ -22,14 +26,14 @@ from typing import Any, Callable
 
 import numpy as np
 
-from .. import layout, shapes
+from .. import abi, shapes
 
-from . import law as lawmod
-from . import table as tablemod
+from . import bodies
 from .errors import SceneError
 from .scene import body_size
-from .law import CoordinateError, LawError, LawSummary
-from .schema import FIELDS, MAX_ROWS, MIN_DURATION, REQUIRED, as_rotation
+from .law import LawSummary
+from .schema import (ARRAY_ONLY, ARRAYS, AXIS_TOLERANCE, FIELDS, MAX_ROWS, MIN_DURATION,
+                     REQUIRED, as_rotation)
 
 REQUIRED_FIELDS = tuple(f for f in FIELDS if f.default is REQUIRED)
 # tables a scene may leave out: their required fields are required when they are given
@@ -56,10 +60,18 @@ class Draft:
     rolling_resistance: float = 0.0
     t0: float = 0.0
     duration: float = 0.0
-    law: Any = None
+    law: Any = None                        # one point's law (None for other bodies)
     law_text: tuple = ()
     summary: LawSummary | None = None
     max_distance: float = 0.0
+    point_elements: tuple = ()             # schema.Element of each point, each rotor
+    rotor_elements: tuple = ()
+    one_point: bool = True                 # the bodies are one point: law is its law
+    points: tuple = ()                     # bodies.Point, bodies.Rotor: proved
+    rotors: tuple = ()
+    laws: tuple = ()                       # each point's (law, law_text, summary)
+    bodies: Any = None                     # the law of every body (not one point)
+    slowest: str = ""                      # the body of the shortest time scale
     # derived by the state rules
     A0: np.ndarray | None = None
     extra: dict = field(default_factory=dict)
@@ -75,12 +87,11 @@ class Draft:
 
     @property
     def law_field(self) -> str:
-        """The field the scene gave its law in (for messages)."""
-        if self.v.get("[point].samples") is not None:
-            return "[point].samples"
-        if self.v.get("[point].table") is not None:
-            return "[point].table"
-        return "[point].law"
+        """The field the scene gave its law in (for messages; with several bodies, the
+        body of the shortest time scale)."""
+        if self.one_point:
+            return bodies.law_field(self.point_elements[0])
+        return self.slowest
 
     @property
     def body_size(self) -> float:
@@ -106,6 +117,9 @@ def _required(d: Draft) -> None:
             continue
         if f.table in OPTIONAL_TABLES and f.table not in v["__tables__"]:
             continue                  # a table given whole or not at all
+        if f.table in ARRAYS and (f.table in ARRAY_ONLY or f"[[{f.table}]]" in v or (
+                f.table not in v["__tables__"] and d.with_law)):
+            continue                  # an array's elements are read whole; no point: none
         if f.table in ("body", "point") and not any(g.startswith(f"[{f.table}]")
                                                      for g in given):
             raise SceneError(f"[{f.table}]", "is required")
@@ -122,6 +136,10 @@ def _required(d: Draft) -> None:
                                                "in the rough model's contact)")
         setattr(d, key, value)
     d.t0 = v["[initial].time"]
+    if d.with_law:
+        d.point_elements = bodies.point_elements(v)
+        d.rotor_elements = bodies.rotor_elements(v)
+        d.one_point = len(d.point_elements) == 1 and not d.rotor_elements
 
 
 def _inertia(d: Draft) -> None:
@@ -159,15 +177,16 @@ def _shape(d: Draft) -> None:
 
 
 def _law_source(d: Draft) -> None:
-    v = d.v
-    sources = [k for k in ("law", "table", "samples") if v[f"[point].{k}"] is not None]
-    if len(sources) != 1:
-        raise SceneError("[point].law", "give exactly one of law (three formulas), table (a "
-                         "CSV file) or samples (rows [t, x, y, z])" +
-                         (f"; got {', '.join(sources)}" if sources else ""))
-    if v["[point].ends"] != "free" and "[point].ends" in d.given \
-            and v["[point].law"] is not None:
-        raise SceneError("[point].ends", "applies to a table or samples, not to a law")
+    for el in d.point_elements:
+        bodies.check_source(el)
+
+
+def _model_by_hand(d: Draft) -> None:
+    model = d.v["[run].model"]
+    if not d.one_point and model not in ("auto", "general", "rough"):
+        raise SceneError("[run].model", f"{model!r} is a reduction of the one-point model; a "
+                         f"scene of {bodies.describe(len(d.point_elements), len(d.rotor_elements))}"
+                         " takes auto, general or rough")
 
 
 def _run_span(d: Draft) -> None:
@@ -187,102 +206,39 @@ def _run_span(d: Draft) -> None:
     d.duration = duration
 
 
-@lru_cache(maxsize=1024)
-def _analyse_program(program, t0: float, t1: float) -> LawSummary:
-    """The proof and the summary of a formula law over a run (cached by the program
-    object, which compile_law caches by the law's text, and the run's span)."""
-    sing = lawmod.find_singularity(program, t0, t1)
-    if sing is not None:
-        raise SceneError(f"[point].law[{sing.coordinate}]",
-                         f"is not twice differentiable on the run: {sing.what} near "
-                         f"t = {sing.t:.9g}")
-    ts = np.linspace(t0, t1, lawmod.SAMPLES)
-    jets = program.jets(ts)
-    bad = ~np.isfinite(jets)
-    if bad.any():
-        row, col = np.argwhere(bad)[0]
-        names = ("x", "x'", "x''", "y", "y'", "y''", "z", "z'", "z''")
-        raise SceneError(f"[point].law[{row // 3}]",
-                         f"{names[row]} is not finite at t = {ts[col]:.9g} (overflow)")
-    return lawmod.summarise(jets)
-
-
-def _compile_law(texts: tuple):
-    try:
-        return lawmod.compile_law(texts)
-    except CoordinateError as exc:
-        raise SceneError(f"[point].law[{exc.k}]", str(exc)) from None
-    except LawError as exc:
-        raise SceneError("[point].law", str(exc)) from None
-
-
-def _read_table_file(rel: str, base: Path | None) -> list:
-    path = Path(rel)
-    if base is None or path.is_absolute() or ".." in path.parts:
-        raise SceneError("[point].table", "must be a relative path below the scene "
-                                          "file's folder (scenes given as text or dicts "
-                                          "use samples)")
-    full = base / path
-    try:
-        inside = full.resolve().is_relative_to(Path(base).resolve())
-    except (OSError, RuntimeError, ValueError):
-        inside = False
-    if not inside:
-        raise SceneError("[point].table", f"{rel!r} leads outside the scene file's "
-                                          "folder (through a symbolic link)")
-    if not full.is_file():
-        raise SceneError("[point].table", f"no such file {rel!r} beside the scene")
-    if full.stat().st_size > tablemod.MAX_BYTES:
-        raise SceneError("[point].table", f"is larger than {tablemod.MAX_BYTES} bytes")
-    try:
-        text = full.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise SceneError("[point].table", f"cannot be read ({type(exc).__name__})") from None
-    return tablemod.read_rows(text, rel)
-
-
 def _law(d: Draft) -> None:
-    """The law compiled (a formula) or built (a table), and proved over the run."""
-    v = d.v
+    """Every body's law compiled (a formula) or built (a table), and proved over the run;
+    for a scene that is not one point, the law of them all."""
     t0, t1 = d.t0, d.t0 + d.duration
-    if v["[point].law"] is not None:
-        d.law_text = v["[point].law"]
-        d.law = _compile_law(d.law_text)
-        d.summary = _analyse_program(d.law, t0, t1)
-        return
-    kind = "samples" if v["[point].samples"] is not None else "table"
-    try:
-        if kind == "samples":
-            d.law = tablemod.build(v["[point].samples"], v["[point].ends"], "samples")
-        else:
-            rel = v["[point].table"]
-            d.law = tablemod.build(_read_table_file(rel, d.base), v["[point].ends"], rel)
-        d.law.check_run(t0, t1)
-    except LawError as exc:
-        raise SceneError(f"[point].{kind}", str(exc)) from None
-    d.summary = d.law.summary(t0, t1)
+    laws = [bodies.point_law(el, t0, t1, d.base) for el in d.point_elements]
+    d.rotors = tuple(bodies.rotor(el, t0, t1) for el in d.rotor_elements)
+    if d.one_point:
+        d.law, d.law_text, d.summary = laws[0]
+    d.laws = tuple(laws)
 
 
 def _reach(d: Draft) -> None:
-    v, summary = d.v, d.summary
-    d.max_distance = v["[point].max_distance"] or 10.0 * d.body_size
-    if summary.max_radius > d.max_distance:
-        if d.law_text:
-            with np.errstate(all="ignore"):
-                ts = np.linspace(d.t0, d.t0 + d.duration, lawmod.SAMPLES)
-                r = d.law.jets(ts)[list(layout.JET_R)]
-                far = np.nan_to_num(np.abs(r), nan=np.inf).max(axis=1)
-            where = f"[point].law[{int(np.argmax(far))}]"
-        else:
-            where = d.law_field
-        raise SceneError(where, f"takes P {summary.max_radius:.3g} from O, beyond "
-                                f"max_distance = {d.max_distance:.3g} (10 body sizes unless "
-                                "[point].max_distance says otherwise)")
+    v = d.v
+    t0, t1 = d.t0, d.t0 + d.duration
+    size = d.body_size
+    d.points = tuple(bodies.point(el, *law, t0, t1, size)
+                     for el, law in zip(d.point_elements, d.laws))
+    if d.one_point:
+        d.max_distance = d.points[0].max_distance
+    else:
+        d.summary, d.slowest = bodies.summary_of(d.points, d.rotors)
+        d.max_distance = max((p.max_distance for p in d.points), default=0.0)
+        d.bodies = bodies.law_of(d.points, d.rotors)
     # R1: J = diag(J) + mu (|r|^2 1 - r r^T) non-singular along the law; its eigenvalues
     # are at least min(J) (the added term is positive semi-definite), so only the ratio
-    # to the largest can degrade: bounded through max |OP|
-    J, M, m = v["[body].inertia"], v["[body].mass"], v["[point].mass"]
-    largest = max(J) + M * m / (M + m) * summary.max_radius ** 2
+    # to the largest can degrade: bounded through max |OP| (several points: the inertia
+    # they add about the centre of mass is at most sum m_j max |OP_j|^2)
+    J, M = v["[body].inertia"], v["[body].mass"]
+    if d.one_point:
+        m = d.points[0].mass
+        largest = max(J) + M * m / (M + m) * d.summary.max_radius ** 2
+    else:
+        largest = max(J) + sum(p.mass * p.summary.max_radius ** 2 for p in d.points)
     if not min(J) > 1e-12 * largest:
         raise SceneError("[body].inertia", "J of E1.5 is near-singular along the law "
                                            "(smallest/largest below 1e-12); R1 needs det J != 0")
@@ -294,8 +250,9 @@ def _time_scale(d: Draft) -> None:
             and d.duration / d.summary.time_scale > v["[run].max_steps"]:
         # with the plane a step is at most the law's time scale (driver.options): the run
         # could only end at max_steps, after minutes of work
+        moves = "turns the rotor" if d.law_field.startswith("[[rotor]]") else "moves P"
         raise SceneError(d.law_field,
-                         f"moves P on a time scale of {d.summary.time_scale:.3g} s "
+                         f"{moves} on a time scale of {d.summary.time_scale:.3g} s "
                          f"(sqrt(amplitude / max |OP''|)); with the plane a step is "
                          f"at most that, so {d.duration:g} s need at least "
                          f"{d.duration / d.summary.time_scale:.3g} steps, beyond [run]."
@@ -311,19 +268,28 @@ STATIC_RULES = (
         f"{' and '.join(s.key for s in sh.sizes)} for {sh.name}"
         for sh in shapes.SHAPES.values()) + "; nothing for none); the centre within 100 "
          "sizes of O", _shape),
-    Rule("[point]: exactly one of law, table, samples; ends only with a table or samples",
-         _law_source, law=True),
+    Rule("[point] and each [[point]]: exactly one of law, table, samples; ends only with a "
+         "table or samples", _law_source, law=True),
+    Rule(f"[[point]] and [[rotor]]: at most {ARRAYS['point']} points and {ARRAYS['rotor']} "
+         "rotors; a scene that is not one point takes [run].model auto, general or rough "
+         "(the others reduce the one-point model)", _model_by_hand, law=True),
     Rule("[run]: a duration that a step resolves and that is not lost in the start time; "
          "at most 1e7 output rows (duration/output_dt)", _run_span, law=True),
     Rule("[point].law[k]: x, y, z and their first two derivatives finite and continuous "
          "over the whole run (proved by interval arithmetic: no vanishing denominator, log, "
          "sqrt or non-integer power of a non-positive number, asin/acos outside (-1, 1) or "
          "tan pole); [point].table: a periodic table repeats; otherwise the run stays "
-         "inside its times", _law, law=True),
-    Rule("[point]: P stays within max_distance of O; J of E1.5 stays non-singular (R1)",
-         _reach, law=True),
+         "inside its times; the same for each [[point]], and for each [[rotor]]'s law psi; "
+         f"each [[rotor]]'s axis a unit vector (|a| within {AXIS_TOLERANCE:g} of 1, then "
+         "normalised)",
+         _law, law=True),
+    Rule("[point]: P stays within max_distance of O (each [[point]] within its own); J of "
+         "E1.5 stays non-singular (R1); the tables of several points all periodic (with "
+         "the same first and last times) or none; the formulas of all bodies at most "
+         f"{abi.LAW_MAX_NODES} operations together", _reach, law=True),
     Rule("[point] with the plane: duration / the law's time scale (sqrt(amplitude / max "
-         "|OP''|), the longest step then) at most [run].max_steps", _time_scale, law=True),
+         "|OP''|), the longest step then; with several bodies the shortest of theirs) at "
+         "most [run].max_steps", _time_scale, law=True),
 )
 
 
@@ -382,8 +348,14 @@ def _above_plane(d: Draft) -> None:
     v = d.v
     if not d.plane or v["[body].shape"] == "none":
         return
+    M = v["[body].mass"]
+    if d.with_law and not d.one_point:          # C from the points' first moment
+        _refuse_below(start_height(v["[body].shape"], d.size, d.center, 1.0, d.A0,
+                                   v["[initial].com"], bodies.centre_offset(d.points, M, d.t0)),
+                      d.body_size)
+        return
     r = point_position(d.law, d.t0) if d.law is not None else d.point_at
-    M, m = v["[body].mass"], v["[point].mass"]
+    m = v["[point].mass"] if d.law is None else d.points[0].mass
     _refuse_below(start_height(v["[body].shape"], d.size, d.center, m / (M + m), d.A0,
                                v["[initial].com"], r), d.body_size)
 
@@ -391,7 +363,12 @@ def _above_plane(d: Draft) -> None:
 def check_start_above_plane(scene) -> None:
     """The same rule on a Scene made from another one with a new initial position (the
     quick variants of a parameter study)."""
-    if scene.contact_possible:
+    if scene.contact_possible and not scene.one_point:
+        _refuse_below(start_height(scene.shape, scene.size, scene.center, 1.0, scene.A0,
+                                   scene.com, bodies.centre_offset(scene.points, scene.M,
+                                                                   scene.t0)),
+                      scene.body_size)
+    elif scene.contact_possible:
         _refuse_below(start_height(scene.shape, scene.size, scene.center, scene.nu, scene.A0,
                                    scene.com, point_position(scene.law, scene.t0)),
                       scene.body_size)

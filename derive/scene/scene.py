@@ -73,9 +73,10 @@ class Scene:
     shape: str                 # sphere | ellipsoid | none
     size: tuple                # the shape's size numbers (derive/shapes.py)
     center: tuple
-    m: float
+    m: float                   # the point's mass (several points: their total)
     law: Any                   # law.Program or table.TableLaw; None for a scene read
     law_text: tuple            # the three strings, or () for a table   without a law
+                               # (or with internal bodies other than one point)
     plane: bool
     e: float
     t0: float
@@ -107,6 +108,12 @@ class Scene:
     restitution_model: str = "energetic"
     spin_friction: float = 0.0       # mu_s, a length ([plane].spin_friction)
     rolling_resistance: float = 0.0  # mu_r, a length ([plane].rolling_resistance)
+    # the internal bodies other than one point (derive/scene/bodies.py): None for one
+    # point (the paper's carrier, its law in ``law``), else (points, rotors), the proved
+    # Point and Rotor objects, with ``law`` None, ``m`` the points' total mass and
+    # ``bodies_law`` the law of them all
+    internal: tuple | None = None
+    bodies_law: Any = field(default=None, compare=False)
 
     @classmethod
     def of_fields(cls, base: dict | None = None, **values) -> "Scene":
@@ -129,6 +136,26 @@ class Scene:
         Scene made otherwise).  A Scene changed with ``dataclasses.replace`` keeps the
         dict it was parsed from."""
         return self.doc_source.get() if self.doc_source is not None else {}
+
+    @property
+    def one_point(self) -> bool:
+        """The internal bodies are one point (the paper's carrier; a task's, too)."""
+        return self.internal is None
+
+    @property
+    def points(self) -> tuple:
+        """The points (:class:`derive.scene.bodies.Point`); one point's made from
+        ``m`` and ``law`` when asked (so that a Scene given another law by
+        ``dataclasses.replace`` says so)."""
+        if self.internal is not None:
+            return self.internal[0]
+        from .bodies import Point
+        return (Point("[point]", self.m, self.law, self.law_text, self.law_summary,
+                      self.max_distance),)
+
+    @property
+    def rotors(self) -> tuple:
+        return self.internal[1] if self.internal is not None else ()
 
     @property
     def contact_possible(self) -> bool:

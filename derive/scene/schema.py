@@ -1,13 +1,18 @@
 """The schema of every file a user writes, in one table of :class:`Field`: the scene's
-tables (``[body]``, ``[point]``, ``[plane]``, ``[initial]``, ``[run]``,
-``[stability]``) and a planning task's ``[plan]``.  Validation of single values
-(types, ranges, lists, nested tables), the defaults, the README's tables and the
-template of ``derive scene new`` all read it; the rules across fields are in
+tables (``[body]``, ``[point]`` or ``[[point]]``, ``[[rotor]]``, ``[plane]``,
+``[initial]``, ``[run]``, ``[stability]``) and a planning task's ``[plan]``.  Validation
+of single values (types, ranges, lists, nested tables), the defaults, the README's tables
+and the template of ``derive scene new`` all read it; the rules across fields are in
 :mod:`derive.scene.rules`.
 
 A :class:`Schema` is a selection of fields (a scene's, a task's); its :meth:`~Schema.read`
 turns a parsed document into the values of every field, and the set of fields the
 document gave, refusing unknown keys with the nearest known one suggested.
+
+The internal bodies are arrays of tables (:data:`ARRAYS`): ``[[point]]`` (zero or more
+points, each with the fields of ``[point]``; ``[point]``, a single table, is one point)
+and ``[[rotor]]``; their elements are read into :class:`Element` objects, and a message
+names the element and its field: ``[[rotor]] 2: axis: must be a unit vector``.
 """
 from __future__ import annotations
 
@@ -21,7 +26,7 @@ from typing import Any
 
 import numpy as np
 
-from .. import shapes
+from .. import abi, shapes
 from .errors import SceneError, type_name
 
 
@@ -53,7 +58,10 @@ class Field:
 
     @cached_property
     def where(self) -> str:
-        """How messages name the field: ``[body].mass``, ``name``."""
+        """How messages name the field: ``[body].mass``, ``name``, ``[[rotor]].axis``
+        (an element's: :meth:`Element.where`)."""
+        if self.table in ARRAY_ONLY:
+            return f"[[{self.table}]].{self.key}"
         return f"[{self.table}].{self.key}" if self.table else self.key
 
     @cached_property
@@ -81,6 +89,11 @@ MAX_ROWS = 10_000_000
 MIN_DURATION = 1e-12       # s: the runtime's steps (duration / 2000, / 4) stay normal floats
 MAX_TABLES = 1000          # entries of a list of tables ([disturbance].pushes)
 NAME_CHARACTERS = "- _ . , : ; = + ( ) [ ] / # @ & '"
+# the tables a scene may give several of (arrays of tables, [[point]]), with the most
+# elements each (derive/abi.py: the C law's limits); ARRAY_ONLY: never a single table
+ARRAYS = {"point": abi.LAW_MAX_POINTS, "rotor": abi.LAW_MAX_ROTORS}
+ARRAY_ONLY = ("rotor",)
+AXIS_TOLERANCE = 1e-6      # |a| of a rotor's axis within this of 1 (then normalised)
 _NAME = re.compile(r"[A-Za-z0-9 _.,:;=+()\[\]/#@&'\-]{1,80}", re.ASCII)
 
 SCENE_FIELDS = (
@@ -115,6 +128,14 @@ SCENE_FIELDS = (
       choices=("periodic", "rest", "free"), when="table or samples"),
     F("point", "max_distance", "number", None, "how far P may go from O (default: 10 body "
       "sizes)", 0, MAX_LENGTH, True),
+    F("rotor", "axis", "vector", REQUIRED, "a, the rotor's axis in body axes: a unit "
+      f"vector (|a| within {AXIS_TOLERANCE:g} of 1, then normalised)", -1.0 - AXIS_TOLERANCE,
+      1.0 + AXIS_TOLERANCE, size=3, example=[0.0, 0.0, 1.0]),
+    F("rotor", "inertia", "number", REQUIRED, "I, the rotor's moment of inertia about its "
+      "axis (its mass and transverse moments belong to [body], as if it were locked)", 0,
+      MAX_MASS, True, example=0.01),
+    F("rotor", "law", "formula", REQUIRED, "psi(t), the rotor's angle about a relative to "
+      "the body, in radians (right-handed): a formula as [point].law's", example="20*t"),
     F("plane", "restitution", "number", REQUIRED, "e of Newton's law v_n+ = -e v_n- (E1.13); "
       "with friction, e of restitution_model", 0, 1, example=0.9,
       when="[plane] given (absent: free flight)"),
@@ -427,6 +448,10 @@ def check_value(f: Field, value, where: str | None = None):
         return check_matrix(f, value, where)
     if k == "rotation":
         return as_rotation(check_matrix(f, value, where), where)
+    if k == "formula":
+        if not isinstance(value, str):
+            raise SceneError(where, f"must be a string (a formula in t), not {type_name(value)}")
+        return value
     if k == "laws":
         if not isinstance(value, (list, tuple)) or len(value) != 3:
             raise SceneError(where, "must be a list of three strings: x(t), y(t), z(t)")
@@ -514,10 +539,12 @@ class Schema:
     field: its value, its default, or REQUIRED), ``given`` the fields the document gave;
     ``values["__tables__"]`` the tables it has."""
 
-    def __init__(self, fields: tuple, tables: tuple, what: str = "scene"):
+    def __init__(self, fields: tuple, tables: tuple, what: str = "scene",
+                 arrays: dict | None = None):
         self.fields = fields
         self.tables = tables                       # "" first: the top level
         self.what = what
+        self.arrays = arrays or {}                 # tables that may be arrays: their limit
         self.by_table = {t: {f.key: f for f in fields if f.table == t} for t in tables}
         self.by_where = {f.where: f for f in fields}
         self.by_path = {f.path: f for f in fields}
@@ -562,6 +589,9 @@ class Schema:
             if table not in doc:
                 return
             tab = doc[table]
+            if table in self.arrays and (isinstance(tab, list) or table in ARRAY_ONLY):
+                out[f"[[{table}]]"] = self.read_array(table, tab)
+                return
             if not isinstance(tab, dict):
                 raise SceneError(f"[{table}]", "must be a table")
         if not tab:
@@ -587,15 +617,69 @@ class Schema:
         given.update(seen)
 
 
+    def read_array(self, table: str, items) -> tuple:
+        """The elements of an array of tables (``[[point]]``), each read against the
+        table's fields: a tuple of :class:`Element`."""
+        limit = self.arrays[table]
+        if not isinstance(items, list):
+            raise SceneError(f"[{table}]", f"must be an array of tables: write [[{table}]] "
+                                           f"once per {table} (at most {limit})")
+        if len(items) > limit:
+            raise SceneError(f"[[{table}]]", f"at most {limit} {table}s (the runtime's "
+                                             f"limit; got {len(items)})")
+        fields = self.by_table[table]
+        out = []
+        for i, item in enumerate(items, start=1):
+            el = Element(table, i, {}, set())
+            if not isinstance(item, dict):
+                raise SceneError(el.name, f"must be a table, not {type_name(item)}")
+            for key, value in item.items():
+                f = fields.get(key)
+                if f is None:
+                    raise SceneError(el.where(str(key)[:40]), unknown_key(key, fields))
+                el.values[key] = check_value(f, value, el.where(key))
+                el.given.add(key)
+            for key, f in fields.items():
+                if key in el.values:
+                    continue
+                if f.default is REQUIRED:
+                    raise SceneError(el.where(key), "is required" +
+                                     (f" ({f.rule})" if f.choices else ""))
+                el.values[key] = None if f.default is None else check_value(f, f.default)
+            out.append(el)
+        return tuple(out)
+
+
+@dataclass
+class Element:
+    """One element of an array of tables (``[[point]]`` 2), or the single ``[point]``
+    table: its fields' values by key (defaults filled in), the keys it gave, and how
+    messages name it and its fields."""
+    table: str
+    index: int                 # from 1; 0 for a single table ([point])
+    values: dict
+    given: set
+
+    @property
+    def name(self) -> str:
+        """``[[point]] 2`` (``[point]`` for the single table)."""
+        return f"[[{self.table}]] {self.index}" if self.index else f"[{self.table}]"
+
+    def where(self, key: str) -> str:
+        """``[[point]] 2: mass`` (``[point].mass`` for the single table)."""
+        return f"{self.name}: {key}" if self.index else f"[{self.table}].{key}"
+
+
 def _fast(f: Field) -> int:
     if f.kind == "number" and f.hi is not None and f.lo is not None:
         return 1
     return 2 if f.kind == "vector" else 0
 
 
-SCENE_TABLES = ("", "body", "point", "plane", "initial", "run", "stability", "control",
+SCENE_TABLES = ("", "body", "point", "rotor", "plane", "initial", "run", "stability", "control",
                 "disturbance")
-SCENE = Schema(SCENE_FIELDS + CONTROL_FIELDS + DISTURBANCE_FIELDS, SCENE_TABLES, "scene")
+SCENE = Schema(SCENE_FIELDS + CONTROL_FIELDS + DISTURBANCE_FIELDS, SCENE_TABLES, "scene",
+               ARRAYS)
 
 # a task's scene tables: a scene without a law and without the run's integration (the
 # plan sets the duration and integrates), and [plan]

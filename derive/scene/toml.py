@@ -1,5 +1,6 @@
 """The one TOML writer of the project: scenes written by ``derive scene new`` and by the
-planner (``scene.toml`` of a plan), the built-in scene, and the fuzzers' hostile files.
+planner (``scene.toml`` of a plan), the built-in scene, and the fuzzers' hostile files
+(arrays of tables, ``[[point]]`` and ``[[rotor]]``, as such).
 
 Python's ``tomllib`` only reads; what this writes reads back with it to the same
 values (floats by their shortest repr, bit for bit; NaN and infinities as TOML's
@@ -62,15 +63,23 @@ def value(v) -> str:
     raise TypeError(f"no TOML form for {type(v).__name__}")
 
 
+def _tables(v) -> bool:
+    """A non-empty list of dicts: an array of tables (``[[point]]``)."""
+    return isinstance(v, (list, tuple)) and bool(v) and all(isinstance(x, dict) for x in v)
+
+
 def dumps(doc: dict, comments: tuple = ()) -> str:
     """A document: ``comments`` first (each line prefixed ``# ``), the top-level keys,
-    then one ``[table]`` per dict value (dicts inside tables inline)."""
+    then one ``[table]`` per dict value and one ``[[table]]`` per element of a list of
+    dicts (``[[point]]``, ``[[rotor]]``), in the document's order (dicts inside tables
+    inline)."""
     lines = [f"# {c}" for c in comments]
     for k, v in doc.items():
-        if not isinstance(v, dict):
+        if not isinstance(v, dict) and not _tables(v):
             lines.append(f"{key(k)} = {value(v)}")
     for k, v in doc.items():
-        if isinstance(v, dict):
-            lines += ["", f"[{key(k)}]"]
-            lines += [f"{key(kk)} = {value(vv)}" for kk, vv in v.items()]
+        for header, table in ((f"[{key(k)}]", v),) if isinstance(v, dict) else \
+                ((f"[[{key(k)}]]", x) for x in v) if _tables(v) else ():
+            lines += ["", header]
+            lines += [f"{key(kk)} = {value(vv)}" for kk, vv in table.items()]
     return "\n".join(lines) + "\n"

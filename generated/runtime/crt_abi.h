@@ -57,7 +57,57 @@ enum crt_parameter {
   CRT_P_restitution_model = 20,  /* rough model: how an impact's restitution ends (enum crt_restitution: energetic, poisson or newton) */
   CRT_P_spin_friction = 21,  /* rough model: mu_s, a length: |T_Z| <= mu_s N in contact (0: none) */
   CRT_P_rolling_resistance = 22,  /* rough model: mu_r, a length: |(T_X, T_Y)| <= mu_r N in contact (0: none) */
-  CRT_P_COUNT = 23
+  CRT_P_n_points = 23,  /* the internal points ([point]: 1; [[point]]: 0 to LAW_MAX_POINTS) */
+  CRT_P_n_rotors = 24,  /* the rotors ([[rotor]]: 0 to LAW_MAX_ROTORS) */
+  CRT_P_m_1 = 25,  /* mass of point 1 */
+  CRT_P_m_2 = 26,  /* ... */
+  CRT_P_m_3 = 27,  /* ... */
+  CRT_P_m_4 = 28,  /* ... */
+  CRT_P_m_5 = 29,  /* ... */
+  CRT_P_m_6 = 30,  /* ... */
+  CRT_P_m_7 = 31,  /* ... */
+  CRT_P_m_8 = 32,  /* ... */
+  CRT_P_m_9 = 33,  /* ... */
+  CRT_P_m_10 = 34,  /* ... */
+  CRT_P_m_11 = 35,  /* ... */
+  CRT_P_m_12 = 36,  /* ... */
+  CRT_P_m_13 = 37,  /* ... */
+  CRT_P_m_14 = 38,  /* ... */
+  CRT_P_m_15 = 39,  /* ... */
+  CRT_P_m_16 = 40,  /* ... */
+  CRT_P_a_1_x = 41,  /* unit axis of rotor 1 in body axes */
+  CRT_P_a_1_y = 42,  /* ... */
+  CRT_P_a_1_z = 43,  /* ... */
+  CRT_P_a_2_x = 44,  /* ... */
+  CRT_P_a_2_y = 45,  /* ... */
+  CRT_P_a_2_z = 46,  /* ... */
+  CRT_P_a_3_x = 47,  /* ... */
+  CRT_P_a_3_y = 48,  /* ... */
+  CRT_P_a_3_z = 49,  /* ... */
+  CRT_P_a_4_x = 50,  /* ... */
+  CRT_P_a_4_y = 51,  /* ... */
+  CRT_P_a_4_z = 52,  /* ... */
+  CRT_P_a_5_x = 53,  /* ... */
+  CRT_P_a_5_y = 54,  /* ... */
+  CRT_P_a_5_z = 55,  /* ... */
+  CRT_P_a_6_x = 56,  /* ... */
+  CRT_P_a_6_y = 57,  /* ... */
+  CRT_P_a_6_z = 58,  /* ... */
+  CRT_P_a_7_x = 59,  /* ... */
+  CRT_P_a_7_y = 60,  /* ... */
+  CRT_P_a_7_z = 61,  /* ... */
+  CRT_P_a_8_x = 62,  /* ... */
+  CRT_P_a_8_y = 63,  /* ... */
+  CRT_P_a_8_z = 64,  /* ... */
+  CRT_P_I_1 = 65,  /* axial moment of inertia of rotor 1 */
+  CRT_P_I_2 = 66,  /* ... */
+  CRT_P_I_3 = 67,  /* ... */
+  CRT_P_I_4 = 68,  /* ... */
+  CRT_P_I_5 = 69,  /* ... */
+  CRT_P_I_6 = 70,  /* ... */
+  CRT_P_I_7 = 71,  /* ... */
+  CRT_P_I_8 = 72,  /* ... */
+  CRT_P_COUNT = 73
 };
 
 /* Values of prm[CRT_P_shape]: the surfaces of derive/shapes.py, in their order. */
@@ -77,11 +127,12 @@ enum crt_method {
   CRT_METHOD_COUNT = 6
 };
 
-/* Return codes of crt_set_law_program, crt_set_law_table, crt_init, crt_advance, crt_run
-   and of each run of crt_run_many, as in SUNDIALS' CVODE: CRT_OK (0) is success, positive
-   codes are stops that are not errors, negative codes are errors (-1 to -4: the
-   integration failed; -20 and below: an input was refused).  crt_status_name(code) gives
-   the name Python reports (Result.status).  The codes are fixed: none is ever renumbered. */
+/* Return codes of crt_set_law_program, crt_set_law_table, crt_set_law_bodies, crt_init,
+   crt_advance, crt_run and of each run of crt_run_many, as in SUNDIALS' CVODE: CRT_OK (0)
+   is success, positive codes are stops that are not errors, negative codes are errors
+   (-1 to -4: the integration failed; -20 and below: an input was refused).
+   crt_status_name(code) gives the name Python reports (Result.status).  The codes are
+   fixed: none is ever renumbered. */
 enum crt_status {
   CRT_OK = 0,  /* accepted: the law (crt_set_law_*), or the run is ready (crt_init) */
   CRT_PAUSED = 1,  /* an output buffer is full: read the rows, call crt_advance again */
@@ -183,12 +234,13 @@ enum crt_summary_value {
   CRT_SUMMARY_COUNT = 4
 };
 
-/* How the point law is given (crt_set_law_program, crt_set_law_table). */
+/* How the law is given (crt_set_law_program, crt_set_law_table, crt_set_law_bodies). */
 enum crt_law_kind {
   CRT_LAW_NONE = 0,  /* not set yet */
-  CRT_LAW_PROGRAM = 1,  /* an expression program: opcodes over a table of constants */
-  CRT_LAW_TABLE = 2,  /* a cubic spline through samples */
-  CRT_LAW_COUNT = 3
+  CRT_LAW_PROGRAM = 1,  /* one point: an expression program, opcodes over a table of constants */
+  CRT_LAW_TABLE = 2,  /* one point: a cubic spline through samples */
+  CRT_LAW_BODIES = 3,  /* several points and rotors: each output a node of one program or a column of one spline */
+  CRT_LAW_COUNT = 4
 };
 
 /* Opcodes of a law program: rows (op, a, b) of int; a, b are node indices, or for
@@ -222,6 +274,9 @@ enum crt_opcode {
 };
 
 #define CRT_LAW_MAX_NODES 1024
+/* the internal bodies a law may have: points (3 outputs each) and rotors (1 each) */
+#define CRT_LAW_MAX_POINTS 16
+#define CRT_LAW_MAX_ROTORS 8
 #define CRT_EVENT_COLUMNS 17  /* t, kind, value, v_minus, v_plus, t_accumulation, mode, P_X, P_Y, slip_X_minus, slip_Y_minus, slip_X_plus, slip_Y_plus, work_normal, work_friction, stage, couples */
 /* The smallest output buffers crt_advance takes: smaller ones are refused with
    CRT_BAD_ARGUMENT (a step needs room for its rows and an event's). */
@@ -261,11 +316,13 @@ enum crt_count_kind {
   CRT_COUNT_OPCODES = 4,
   CRT_COUNT_EVENT_COLUMNS = 5,
   CRT_COUNT_LAW_MAX_NODES = 6,
-  CRT_COUNT_MIN_ROWS = 7,
-  CRT_COUNT_MIN_EVENTS = 8,
-  CRT_COUNT_CTL_MAX_KNOTS = 9,
-  CRT_COUNT_PUSH_COLUMNS = 10,
-  CRT_COUNT_LOG_COLUMNS = 11
+  CRT_COUNT_LAW_MAX_POINTS = 7,
+  CRT_COUNT_LAW_MAX_ROTORS = 8,
+  CRT_COUNT_MIN_ROWS = 9,
+  CRT_COUNT_MIN_EVENTS = 10,
+  CRT_COUNT_CTL_MAX_KNOTS = 11,
+  CRT_COUNT_PUSH_COLUMNS = 12,
+  CRT_COUNT_LOG_COLUMNS = 13
 };
 
 /* ---- the exported name functions: "" for an index or a code without a name ------------ */
@@ -293,7 +350,7 @@ const char *crt_option_name(int i)
 
 const char *crt_parameter_name(int i)
 {
-  static const char names[23][19] = {
+  static const char names[73][19] = {
     "M",
     "m",
     "J_x",
@@ -316,9 +373,59 @@ const char *crt_parameter_name(int i)
     "friction",
     "restitution_model",
     "spin_friction",
-    "rolling_resistance"
+    "rolling_resistance",
+    "n_points",
+    "n_rotors",
+    "m_1",
+    "m_2",
+    "m_3",
+    "m_4",
+    "m_5",
+    "m_6",
+    "m_7",
+    "m_8",
+    "m_9",
+    "m_10",
+    "m_11",
+    "m_12",
+    "m_13",
+    "m_14",
+    "m_15",
+    "m_16",
+    "a_1_x",
+    "a_1_y",
+    "a_1_z",
+    "a_2_x",
+    "a_2_y",
+    "a_2_z",
+    "a_3_x",
+    "a_3_y",
+    "a_3_z",
+    "a_4_x",
+    "a_4_y",
+    "a_4_z",
+    "a_5_x",
+    "a_5_y",
+    "a_5_z",
+    "a_6_x",
+    "a_6_y",
+    "a_6_z",
+    "a_7_x",
+    "a_7_y",
+    "a_7_z",
+    "a_8_x",
+    "a_8_y",
+    "a_8_z",
+    "I_1",
+    "I_2",
+    "I_3",
+    "I_4",
+    "I_5",
+    "I_6",
+    "I_7",
+    "I_8"
   };
-  return (i >= 0 && i < 23) ? names[i] : "";
+  return (i >= 0 && i < 73) ? names[i] : "";
 }
 
 const char *crt_method_name(int i)

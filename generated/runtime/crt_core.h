@@ -12,7 +12,9 @@
  * ---- Use -----------------------------------------------------------------------------
  * A session lives in the caller's memory (crt_sizeof() bytes, aligned for a double);
  * nothing is allocated and nothing is global, so sessions are independent.  A run:
- *   crt_set_law_program or crt_set_law_table   the point law (kept for later runs)
+ *   crt_set_law_program or crt_set_law_table   the point law (kept for later runs;
+ *                                              crt_set_law_bodies: several bodies' laws,
+ *                                              evaluated but not yet run)
  *   crt_init(s, opt, prm, t0, q0)              options, parameters, the initial state
  *   crt_advance(s, t_end, rows, events)        again while it returns CRT_PAUSED
  *   crt_stats, crt_summary, crt_state, crt_time, crt_phase   what the run did
@@ -52,7 +54,7 @@
  *   CRT_BAD_PARAMETERS -22  crt_init: a parameter is not finite, or shape is no
  *                           CRT_SHAPE_*; crt_bad_parameter(s) gives its index CRT_P_*
  *   CRT_BAD_LAW        -23  crt_set_law_*: the law is malformed (the session then has no
- *                           law); crt_init: no law is set
+ *                           law); crt_init: no law is set, or a law of several bodies
  *   CRT_BAD_CONTROL    -24  crt_advance: the controller's law is refused (knots, or x or x'
  *                           not continuous at its start); crt_control_fault says why
  * After any code but CRT_OK, CRT_PAUSED and CRT_BAD_ARGUMENT, crt_advance returns that
@@ -790,6 +792,8 @@ int crt_count(int which)
     case CRT_COUNT_OPCODES: return CRT_OP_COUNT;
     case CRT_COUNT_EVENT_COLUMNS: return CRT_EVENT_COLUMNS;
     case CRT_COUNT_LAW_MAX_NODES: return CRT_LAW_MAX_NODES;
+    case CRT_COUNT_LAW_MAX_POINTS: return CRT_LAW_MAX_POINTS;
+    case CRT_COUNT_LAW_MAX_ROTORS: return CRT_LAW_MAX_ROTORS;
     case CRT_COUNT_MIN_ROWS: return CRT_MIN_ROWS;
     case CRT_COUNT_MIN_EVENTS: return CRT_MIN_EVENTS;
     case CRT_COUNT_CTL_MAX_KNOTS: return CRT_CTL_MAX_KNOTS;
@@ -810,27 +814,11 @@ int crt_set_law_program(crt_session *s, int n_nodes, int n_const, const int *cod
 {
   int k;
   s->law.kind = -1;
-  if (n_nodes < 1 || n_nodes > CRT_LAW_MAX_NODES || n_const < 0 || n_const > n_nodes)
-    return CRT_BAD_LAW;
-  for (k = 0; k < n_nodes; ++k) {
-    const int op = code[3 * k], a = code[3 * k + 1], b = code[3 * k + 2];
-    if (op < 0 || op >= CRT_OP_COUNT || (k < n_const) != (op == CRT_OP_CONST))
-      return CRT_BAD_LAW;
-    if (op == CRT_OP_CONST) { if (a < 0 || a >= n_consts) return CRT_BAD_LAW; continue; }
-    if (op == CRT_OP_T) continue;
-    if (op == CRT_OP_HSIN || op == CRT_OP_HCOS) {
-      if (a < 0 || a + 2 >= n_consts) return CRT_BAD_LAW;
-      continue;
-    }
-    if (a < 0 || a >= k) return CRT_BAD_LAW;
-    if ((op == CRT_OP_POWI || op == CRT_OP_POWR) && (b < 0 || b >= n_consts))
-      return CRT_BAD_LAW;
-    if ((op == CRT_OP_ADD || op == CRT_OP_SUB || op == CRT_OP_MUL || op == CRT_OP_DIV
-         || op == CRT_OP_POW) && (b < 0 || b >= k))
-      return CRT_BAD_LAW;
-  }
+  if (!crt_law_program_ok(n_nodes, n_const, code, n_consts)) return CRT_BAD_LAW;
   for (k = 0; k < 3; ++k)
     if (out[k] < 0 || out[k] >= n_nodes) return CRT_BAD_LAW;
+  s->law.n_points = 1;
+  s->law.n_rotors = 0;
   s->law.n_nodes = n_nodes;
   s->law.n_const = n_const;
   s->law.code = code;
@@ -856,7 +844,10 @@ int crt_set_law_table(crt_session *s, int n_knots, const double *knots, const do
   if (n_knots < 2) return CRT_BAD_LAW;
   for (k = 1; k < n_knots; ++k)
     if (!(knots[k] > knots[k - 1])) return CRT_BAD_LAW;
+  s->law.n_points = 1;
+  s->law.n_rotors = 0;
   s->law.n_knots = n_knots;
+  s->law.n_columns = 3;
   s->law.knots = knots;
   s->law.coef = coef;
   s->law.periodic = periodic != 0;
@@ -867,21 +858,53 @@ int crt_set_law_table(crt_session *s, int n_knots, const double *knots, const do
   return CRT_OK;
 }
 
-/* the law at t: u = (x, y, z, x', y', z', x'', y'', z'') */
-void crt_law_at(crt_session *s, double t, double *u)
+/* The law of several internal bodies: n_points points (0 to CRT_LAW_MAX_POINTS) and
+   n_rotors rotors (0 to CRT_LAW_MAX_ROTORS); out[3 n_points + n_rotors] their outputs in
+   the order of u (x, y, z of each point, then psi of each rotor), each a node of the
+   program (>= 0) or -1 - c for column c of the table.  The program: n_nodes rows of code
+   as crt_set_law_program's (0: none); the table: n_knots (0: none, else >= 2) increasing
+   knots and coef[(n_knots - 1) * n_columns * 4], the coefficients of each column on each
+   interval (c0 s^3 + c1 s^2 + c2 s + c3, s = t - knot), periodic as crt_set_law_table's.
+   The arrays are the caller's and must outlive the runs.  Returns CRT_OK, or CRT_BAD_LAW
+   for a malformed law (the session then has no law).  crt_law_at and crt_law_rows give
+   its u (crt_law_width numbers, crt_law.h); crt_init refuses it (CRT_BAD_LAW): the
+   models of this runtime read one point's u. */
+int crt_set_law_bodies(crt_session *s, int n_points, int n_rotors, const int *out,
+                       int n_nodes, int n_const, const int *code, const double *consts,
+                       int n_consts, int n_knots, int n_columns, const double *knots,
+                       const double *coef, int periodic)
 {
-  const double *v = crt_u(s, t);
-  int i;
-  for (i = 0; i < 9; ++i) u[i] = v[i];
+  s->ctl = (crt_control *)0;               /* an open-loop law: crt_set_control again */
+  return crt_law_set_bodies(&s->law, &s->lw, n_points, n_rotors, out, n_nodes, n_const,
+                            code, consts, n_consts, n_knots, n_columns, knots, coef,
+                            periodic);
 }
 
-/* the law along n times: u[9 k + i] (outputs, and the law's benchmark) */
+/* the numbers of u for the law set: 9 for one point (x, y, z, x', y', z', x'', y'',
+   z''), 9 per point and 3 per rotor for crt_set_law_bodies' (crt_law.h); 0 for none */
+int crt_law_width(crt_session *s) { return crt_law_u_width(&s->law); }
+
+/* the law at t: u[crt_law_width] (one point: x, y, z, x', y', z', x'', y'', z'') */
+void crt_law_at(crt_session *s, double t, double *u)
+{
+  const int n = crt_law_u_width(&s->law);
+  const double *v;
+  int i;
+  if (n == 0) return;
+  v = crt_u(s, t);
+  for (i = 0; i < n; ++i) u[i] = v[i];
+}
+
+/* the law along n times: u[width k + i], width = crt_law_width (outputs, and the law's
+   benchmark) */
 void crt_law_rows(crt_session *s, int n, const double *t, double *u)
 {
+  const int width = crt_law_u_width(&s->law);
   int k, i;
+  if (width == 0) return;
   for (k = 0; k < n; ++k) {
     const double *v = crt_u(s, t[k]);
-    for (i = 0; i < 9; ++i) u[9L * k + i] = v[i];
+    for (i = 0; i < width; ++i) u[(long)width * k + i] = v[i];
   }
 }
 
@@ -929,7 +952,8 @@ static int crt_parameter_fault(const double *prm)
    prm[CRT_P_COUNT] (both copied: the caller may reuse its arrays); the law must be set.
    Returns CRT_OK when the run is ready to advance, else (and crt_advance then returns the
    same code until the next crt_init):
-     CRT_BAD_LAW          no law is set, or the last crt_set_law_* refused its law;
+     CRT_BAD_LAW          no law is set, or the last crt_set_law_* refused its law, or
+                          it is crt_set_law_bodies' (the models read one point);
      CRT_BAD_OPTIONS      an option breaks its rule: crt_bad_option(s) is its index;
      CRT_BAD_PARAMETERS   a parameter is not finite, or shape is no CRT_SHAPE_*:
                           crt_bad_parameter(s) is its index;

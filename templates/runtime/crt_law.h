@@ -1,11 +1,23 @@
 /*
- * crt_law.h: the point law at run time -- an interpreted program (value and two
- * derivatives in one forward pass) or a cubic spline through samples.  Included by each
- * model's runtime (model_<kind>.c).
+ * crt_law.h: the laws of the internal bodies at run time -- an interpreted program (value
+ * and two derivatives of every output in one forward pass) and cubic splines through
+ * samples.  Included by each model's runtime (model_<kind>.c).
  *
  * Hand-written C: this file is templates/runtime/crt_law.h, copied verbatim into
  * generated/runtime/ by `derive emit` (`derive emit --check` compares the copy byte for
  * byte).  Edit it there, then run `derive emit`.
+ *
+ * Three kinds of law (enum crt_law_kind):
+ *   CRT_LAW_PROGRAM  one point: its x, y, z are nodes of a program (crt_set_law_program);
+ *   CRT_LAW_TABLE    one point: a cubic spline of x, y, z (crt_set_law_table, and the
+ *                    controller's laws, crt_control.h);
+ *   CRT_LAW_BODIES   n_points points and n_rotors rotors (crt_set_law_bodies): each
+ *                    output a node of one program (every formula shares its common
+ *                    subexpressions with the others) or a column of one spline (the
+ *                    points given as tables, on the union of their knots).
+ * What a law gives at t is u (crt_law_eval), CRT_LAW_WIDTH(n_points, n_rotors) numbers:
+ * point j at u[9 j ..]: (x, y, z, x', y', z', x'', y'', z''); then rotor r at
+ * u[9 n_points + 3 r ..]: (psi, psi', psi'').  One point's u is the first nine.
  */
 #ifndef CRT_LAW_H
 #define CRT_LAW_H
@@ -15,17 +27,30 @@
 #include "crt_abi.h"
 #include "crt_constants.h"     /* CRT_SINCOS_*: the constants of crt_sincos */
 
+/* the outputs of a law: 3 per point (x, y, z), 1 per rotor (psi) */
+#define CRT_LAW_MAX_OUTPUTS (3 * CRT_LAW_MAX_POINTS + CRT_LAW_MAX_ROTORS)
+/* the numbers of u: 9 per point (x, y, z and their two derivatives), 3 per rotor */
+#define CRT_LAW_WIDTH(n_points, n_rotors) (9 * (n_points) + 3 * (n_rotors))
+#define CRT_LAW_MAX_WIDTH CRT_LAW_WIDTH(CRT_LAW_MAX_POINTS, CRT_LAW_MAX_ROTORS)
+
 /* The law as the caller gave it: pointers to the caller's arrays (the session never
    copies or frees them; they must outlive the runs). */
 typedef struct {
-  int kind;                    /* CRT_LAW_PROGRAM or CRT_LAW_TABLE; -1: not set */
-  /* program: n_nodes rows (op, a, b); the first n_const nodes are constants */
+  int kind;                    /* CRT_LAW_PROGRAM, CRT_LAW_TABLE or CRT_LAW_BODIES; -1:
+                                  not set */
+  int n_points, n_rotors;      /* the bodies (one point, none, for PROGRAM and TABLE) */
+  /* program: n_nodes rows (op, a, b); the first n_const nodes are constants (n_nodes 0:
+     no program, a law of tables only) */
   int n_nodes, n_const;
   const int *code;
   const double *consts;
-  int out[3];                  /* the nodes of x, y, z */
-  /* table: knots[0..n_knots-1], coefficients [(n_knots - 1)][3][4] (c0 s^3 + ... + c3) */
-  int n_knots;
+  /* the outputs, 3 n_points + n_rotors in u's order (x, y, z of each point, then psi of
+     each rotor): PROGRAM the nodes of x, y, z; BODIES a node (>= 0), or -1 - c for
+     column c of the table */
+  int out[CRT_LAW_MAX_OUTPUTS];
+  /* table: knots[0..n_knots-1], coefficients [(n_knots - 1)][n_columns][4] (c0 s^3 + ...
+     + c3); TABLE has the 3 columns x, y, z (n_knots 0 in BODIES: no table) */
+  int n_knots, n_columns;
   const double *knots;
   const double *coef;
   int periodic;
@@ -38,7 +63,7 @@ typedef struct {
 typedef struct {
   int valid;
   double t;
-  double u[9];
+  double u[CRT_LAW_MAX_WIDTH];
   int interval;                /* table: the interval of the last evaluation */
   double jet[CRT_LAW_MAX_NODES][3];
 } crt_law_work;
@@ -121,7 +146,7 @@ static void crt_law_prepare(const crt_law *L, crt_law_work *w)
   int k;
   w->valid = 0;
   w->interval = 0;
-  if (L->kind != CRT_LAW_PROGRAM) return;
+  if (L->kind != CRT_LAW_PROGRAM && L->kind != CRT_LAW_BODIES) return;
   for (k = 0; k < L->n_const; ++k) {
     w->jet[k][0] = L->consts[L->code[3 * k + 1]];
     w->jet[k][1] = 0.0;
@@ -129,11 +154,89 @@ static void crt_law_prepare(const crt_law *L, crt_law_work *w)
   }
 }
 
-static void crt_law_program(const crt_law *L, crt_law_work *w, double t, double *u)
+/* A program's rules (crt_set_law_program, crt_set_law_bodies): n_nodes (1 to
+   CRT_LAW_MAX_NODES) rows (op, a, b) of code, the first n_const of them CRT_OP_CONST and
+   no other; each node reads only nodes before it, each constant index is below n_consts.
+   1 when the program keeps them, else 0. */
+static int crt_law_program_ok(int n_nodes, int n_const, const int *code, int n_consts)
+{
+  int k;
+  if (n_nodes < 1 || n_nodes > CRT_LAW_MAX_NODES || n_const < 0 || n_const > n_nodes)
+    return 0;
+  for (k = 0; k < n_nodes; ++k) {
+    const int op = code[3 * k], a = code[3 * k + 1], b = code[3 * k + 2];
+    if (op < 0 || op >= CRT_OP_COUNT || (k < n_const) != (op == CRT_OP_CONST)) return 0;
+    if (op == CRT_OP_CONST) { if (a < 0 || a >= n_consts) return 0; continue; }
+    if (op == CRT_OP_T) continue;
+    if (op == CRT_OP_HSIN || op == CRT_OP_HCOS) {
+      if (a < 0 || a + 2 >= n_consts) return 0;
+      continue;
+    }
+    if (a < 0 || a >= k) return 0;
+    if ((op == CRT_OP_POWI || op == CRT_OP_POWR) && (b < 0 || b >= n_consts)) return 0;
+    if ((op == CRT_OP_ADD || op == CRT_OP_SUB || op == CRT_OP_MUL || op == CRT_OP_DIV
+         || op == CRT_OP_POW) && (b < 0 || b >= k))
+      return 0;
+  }
+  return 1;
+}
+
+/* crt_set_law_bodies on the law and its workspace (its rules there); CRT_OK or
+   CRT_BAD_LAW, which leaves no law (kind -1). */
+static int crt_law_set_bodies(crt_law *L, crt_law_work *w, int n_points, int n_rotors,
+                              const int *out, int n_nodes, int n_const, const int *code,
+                              const double *consts, int n_consts, int n_knots,
+                              int n_columns, const double *knots, const double *coef,
+                              int periodic)
+{
+  int k;
+  L->kind = -1;
+  if (n_points < 0 || n_points > CRT_LAW_MAX_POINTS || n_rotors < 0
+      || n_rotors > CRT_LAW_MAX_ROTORS)
+    return CRT_BAD_LAW;
+  if (n_nodes != 0 && !crt_law_program_ok(n_nodes, n_const, code, n_consts))
+    return CRT_BAD_LAW;
+  if (n_knots != 0) {
+    if (n_knots < 2 || n_columns < 1 || n_columns > CRT_LAW_MAX_OUTPUTS) return CRT_BAD_LAW;
+    for (k = 1; k < n_knots; ++k)
+      if (!(knots[k] > knots[k - 1])) return CRT_BAD_LAW;
+  } else {
+    n_columns = 0;
+  }
+  for (k = 0; k < 3 * n_points + n_rotors; ++k)
+    if (out[k] >= n_nodes || out[k] < -n_columns) return CRT_BAD_LAW;
+  L->n_points = n_points;
+  L->n_rotors = n_rotors;
+  L->n_nodes = n_nodes;
+  L->n_const = n_nodes ? n_const : 0;
+  L->code = code;
+  L->consts = consts;
+  for (k = 0; k < 3 * n_points + n_rotors; ++k) L->out[k] = out[k];
+  L->n_knots = n_knots;
+  L->n_columns = n_columns;
+  L->knots = knots;
+  L->coef = coef;
+  L->periodic = periodic != 0;
+  L->extend = 0;
+  L->kind = CRT_LAW_BODIES;
+  crt_law_prepare(L, w);
+  return CRT_OK;
+}
+
+/* the numbers of u for the law set (0: none) */
+static int crt_law_u_width(const crt_law *L)
+{
+  if (L->kind == CRT_LAW_PROGRAM || L->kind == CRT_LAW_TABLE) return 9;
+  if (L->kind == CRT_LAW_BODIES) return CRT_LAW_WIDTH(L->n_points, L->n_rotors);
+  return 0;
+}
+
+/* every node's jet at t (the program's forward pass) */
+static void crt_law_nodes(const crt_law *L, crt_law_work *w, double t)
 {
   double (*J)[3] = w->jet;
   double trig_s = 0.0, trig_c = 1.0;
-  int k, c, trig_arg = -1;
+  int k, trig_arg = -1;
   for (k = L->n_const; k < L->n_nodes; ++k) {
     const int op = L->code[3 * k], a = L->code[3 * k + 1], b = L->code[3 * k + 2];
     double *r = J[k];
@@ -202,17 +305,27 @@ static void crt_law_program(const crt_law *L, crt_law_work *w, double t, double 
       }
     }
   }
+}
+
+/* one point's program: u = (x, y, z, x', y', z', x'', y'', z'') */
+static void crt_law_program(const crt_law *L, crt_law_work *w, double t, double *u)
+{
+  const double (*J)[3] = (const double (*)[3])w->jet;
+  int c;
+  crt_law_nodes(L, w, t);
   for (c = 0; c < 3; ++c) {
     const double *j = J[L->out[c]];
     u[c] = j[0]; u[3 + c] = j[1]; u[6 + c] = j[2];
   }
 }
 
-static void crt_law_table(const crt_law *L, crt_law_work *w, double t, double *u)
+/* The interval of the table that holds t (kept in w for the next call) and s = t minus
+   its knot: a periodic table wraps t into its period; before the first knot the first
+   is held, beyond the last the last (or, with extend, its cubic goes on). */
+static int crt_law_interval(const crt_law *L, crt_law_work *w, double t, double *s)
 {
   const double t0 = L->knots[0], t1 = L->knots[L->n_knots - 1];
-  int i = w->interval, c;
-  double s;
+  int i = w->interval;
   if (L->periodic) {
     const double period = t1 - t0;
     double tt = t0 + fmod(t - t0, period);
@@ -233,12 +346,47 @@ static void crt_law_table(const crt_law *L, crt_law_work *w, double t, double *u
     i = lo;
     w->interval = i;
   }
-  s = t - L->knots[i];
+  *s = t - L->knots[i];
+  return i;
+}
+
+/* one point's table: u = (x, y, z, x', y', z', x'', y'', z'') */
+static void crt_law_table(const crt_law *L, crt_law_work *w, double t, double *u)
+{
+  double s;
+  const int i = crt_law_interval(L, w, t, &s);
+  int c;
   for (c = 0; c < 3; ++c) {
     const double *k = L->coef + 12L * i + 4 * c;
     u[c] = ((k[0] * s + k[1]) * s + k[2]) * s + k[3];
     u[3 + c] = (3.0 * k[0] * s + 2.0 * k[1]) * s + k[2];
     u[6 + c] = 6.0 * k[0] * s + 2.0 * k[1];
+  }
+}
+
+/* Several bodies: the program's pass (if any), then each output from its node or its
+   column of the table, into u's blocks (point j at 9 j, rotor r at 9 n_points + 3 r). */
+static void crt_law_bodies(const crt_law *L, crt_law_work *w, double t, double *u)
+{
+  const double (*J)[3] = (const double (*)[3])w->jet;
+  const int np = L->n_points, n_out = 3 * L->n_points + L->n_rotors;
+  double s = 0.0;
+  int i = 0, k;
+  if (L->n_nodes > 0) crt_law_nodes(L, w, t);
+  if (L->n_knots > 0) i = crt_law_interval(L, w, t, &s);
+  for (k = 0; k < n_out; ++k) {
+    const int src = L->out[k];
+    const int at = k < 3 * np ? 9 * (k / 3) + k % 3 : 9 * np + 3 * (k - 3 * np);
+    const int step = k < 3 * np ? 3 : 1;     /* from a value to its derivative in u */
+    if (src >= 0) {
+      const double *j = J[src];
+      u[at] = j[0]; u[at + step] = j[1]; u[at + 2 * step] = j[2];
+    } else {
+      const double *c = L->coef + 4L * L->n_columns * i + 4 * (-1 - src);
+      u[at] = ((c[0] * s + c[1]) * s + c[2]) * s + c[3];
+      u[at + step] = (3.0 * c[0] * s + 2.0 * c[1]) * s + c[2];
+      u[at + 2 * step] = 6.0 * c[0] * s + 2.0 * c[1];
+    }
   }
 }
 
@@ -251,7 +399,7 @@ static double crt_law_next_knot(const crt_law *L, double t)
   const int n = L->n_knots;
   double t0, t1, base = 0.0, tt = t, margin;
   int lo, hi;
-  if (L->kind != CRT_LAW_TABLE) return HUGE_VAL;
+  if (L->kind != CRT_LAW_TABLE && !(L->kind == CRT_LAW_BODIES && n > 0)) return HUGE_VAL;
   t0 = L->knots[0];
   t1 = L->knots[n - 1];
   if (L->periodic) {
@@ -273,13 +421,14 @@ static double crt_law_next_knot(const crt_law *L, double t)
   return base + L->knots[hi];
 }
 
-/* u = (x, y, z, x', y', z', x'', y'', z'') at t; the last value is reused */
+/* u at t (one point: (x, y, z, x', y', z', x'', y'', z'')); the last value is reused */
 static const double *crt_law_eval(const crt_law *L, crt_law_work *w, double t, long *count)
 {
   if (w->valid && w->t == t) return w->u;
   ++*count;
   if (L->kind == CRT_LAW_TABLE) crt_law_table(L, w, t, w->u);
-  else crt_law_program(L, w, t, w->u);
+  else if (L->kind == CRT_LAW_PROGRAM) crt_law_program(L, w, t, w->u);
+  else crt_law_bodies(L, w, t, w->u);
   w->t = t;
   w->valid = 1;
   return w->u;
