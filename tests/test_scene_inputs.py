@@ -161,3 +161,100 @@ def test_a_seed_without_noise_is_refused():
     doc["disturbance"] = {"seed": 3, "pushes": [{"time": 1.0, "impulse": [0.1, 0.0, 0.0]}]}
     with pytest.raises(SceneError, match=r"^\[disturbance\]\.seed: seeds the noise"):
         parse_scene(doc)
+
+
+def _rolling_robot_at_rest(**initial) -> dict:
+    doc = _robot()
+    doc["initial"] = {"on_plane": True, **initial}
+    return doc
+
+
+def test_on_plane_puts_s_on_the_plane():
+    """[initial].on_plane computes Z_C (a new user had computed Z_C = 0.134 by hand, and
+    the naive value ran with a 1.6 cm drop): the robot's R - m/(m+M) |z_P|, and for a
+    tilted ellipsoid with its point off-centre the support point of -n (D^2 n /
+    sqrt(n^T D^2 n), D the semi-axes, written here), so that S starts at height 0."""
+    import numpy as np
+    sc = parse_scene(_rolling_robot_at_rest())
+    assert abs(sc.com[2] - (0.2 - 0.6 / 1.6 * 0.12)) < 1e-15
+    doc = _robot()
+    doc["body"] = {"mass": 2.0, "inertia": [0.03, 0.04, 0.05], "shape": "ellipsoid",
+                   "semi_axes": [0.3, 0.2, 0.15], "center": [0.01, -0.02, 0.03]}
+    doc["point"] = {"mass": 0.7, "law": ["0.05 + 0.02*sin(t)", "-0.03", "0.04*cos(3*t)"]}
+    doc["initial"] = {"on_plane": True, "com": [1.0, 2.0, 0.0],
+                      "quaternion": [0.9, 0.3, -0.2, 0.1], "time": 0.4}
+    sc = parse_scene(doc)
+    A, t = sc.A0, 0.4
+    n = A[2]
+    D2 = np.diag([0.3, 0.2, 0.15]) ** 2
+    s = np.array([0.01, -0.02, 0.03]) - D2 @ n / np.sqrt(n @ D2 @ n)
+    r = np.array([0.05 + 0.02 * np.sin(t), -0.03, 0.04 * np.cos(3 * t)])
+    OC = 0.7 / 2.7 * r
+    assert sc.com[:2] == (1.0, 2.0)
+    assert abs(sc.com[2] + n @ (s - OC)) < 1e-15          # S = C + A (OS - OC) at Z = 0
+    res = __import__("derive").simulate(doc)
+    assert abs(res.min_height) < 1e-12
+
+
+def test_carrier_velocity_starts_the_carrier_at_the_velocity_given():
+    """[initial].carrier_velocity is O's velocity: C's follows as V_O + A (omega x OC +
+    OC').  Checked on the run itself: O's velocity at t0 by a central difference of O's
+    path (O = C - A OC) equals the velocity given, though the point moves."""
+    import numpy as np
+
+    import derive
+    V_O = np.array([0.3, -0.1, 0.2])
+    doc = _robot()
+    doc.pop("plane")
+    doc["initial"] = {"com": [0.0, 0.0, 1.0], "omega": [0.4, -0.7, 1.1],
+                      "carrier_velocity": V_O.tolist(), "quaternion": [0.8, 0.2, 0.5, 0.1]}
+    doc["run"] = {"duration": 2e-4, "output_dt": 1e-5, "rtol": 1e-13, "atol": 1e-15,
+                  "method": "dop853"}
+    res = derive.simulate(doc)
+    from derive.runtime.motion import motion
+    mo = motion(res)
+    h = mo.t[1] - mo.t[0]
+    v0 = (-3 * mo.r_O[0] + 4 * mo.r_O[1] - mo.r_O[2]) / (2 * h)   # second order
+    assert np.max(np.abs(v0 - V_O)) < 1e-7, v0
+    Vc = np.array(res.scene.com_velocity)
+    assert np.max(np.abs(Vc - V_O)) > 0.05                      # C's differs from O's
+
+
+@pytest.mark.parametrize("initial, plane, where, words", [
+    ({"carrier_velocity": [0.0, 0.0, 0.0], "com_velocity": [0.0, 0.0, 0.0]}, True,
+     "[initial].carrier_velocity", "give either com_velocity"),
+    ({"on_plane": True, "com": [0.0, 0.0, 0.3]}, True, "[initial].com",
+     "Z_C is computed with on_plane = true: give 0 (got 0.3)"),
+    ({"on_plane": True}, False, "[initial].on_plane", "needs [plane]"),
+])
+def test_start_keys_refused_where_they_cannot_act(initial, plane, where, words):
+    doc = _robot()
+    doc["initial"] = initial
+    if not plane:
+        doc.pop("plane")
+    with pytest.raises(SceneError) as err:
+        parse_scene(doc)
+    assert str(err.value).startswith(where + ": ") and words in str(err.value), str(err.value)
+
+
+def test_a_task_refuses_carrier_velocity():
+    from derive.planner.task import load_task
+    from derive.paths import ROOT as _root
+    doc = tomllib.loads((_root / "derive" / "planner" / "examples" / "land.toml")
+                        .read_text(encoding="utf-8"))
+    doc["initial"]["carrier_velocity"] = [0.0, 0.0, 0.0]
+    doc["initial"].pop("com_velocity", None)
+    with pytest.raises(SceneError, match=r"^\[initial\]\.carrier_velocity: a task gives"):
+        load_task(doc)
+
+
+def test_on_plane_with_several_points_uses_their_first_moment():
+    """Two [[point]]s: C's offset is sum m_j OP_j / (M + sum m_j)."""
+    doc = _robot()
+    del doc["point"]
+    doc["point"] = [{"mass": 0.2, "law": ["0.1", "0", "-0.05"]},
+                    {"mass": 0.3, "law": ["0", "0.02", "0.1*cos(t)"]}]
+    doc["initial"] = {"on_plane": True}
+    sc = parse_scene(doc)
+    oc_z = (0.2 * -0.05 + 0.3 * 0.1) / 1.5
+    assert abs(sc.com[2] - (0.2 + oc_z)) < 1e-15

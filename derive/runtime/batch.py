@@ -203,9 +203,12 @@ _PARAMETER_VALUES = frozenset(_PARAMETER_FIELDS.values())
 def _quick_variant(base, v: dict, touched: set, label: str, doc: _VariantDoc):
     """The prepared variant by the fast path, or None when its fields need the full one."""
     changes = {}
+    initial = base.scene.doc.get("initial", {})
+    derived = initial.get("on_plane") or "carrier_velocity" in initial   # C's start computed
     for where in touched:
         attr = _STATE_FIELDS.get(where) or _PARAMETER_FIELDS.get(where)
-        if attr is None or (attr == "e" and not base.scene.plane):
+        if attr is None or (attr == "e" and not base.scene.plane) or \
+                (attr in ("com", "com_velocity") and derived):
             return None
         changes[attr] = v[where]
     scene = Scene.of_fields(base.scene.__dict__, **changes, source=label, doc_source=doc)

@@ -173,8 +173,8 @@ def state_part(static: Static, v: dict, given: set, source) -> Scene:
     """The rules that read the initial state, and the Scene."""
     d = static.draft.for_state(v, given)
     rules.check(rules.STATE_RULES, d)
-    return Scene.of_fields(static.fields, com=v["[initial].com"],
-                           com_velocity=v["[initial].com_velocity"],
+    return Scene.of_fields(static.fields, com=d.extra["com"],
+                           com_velocity=d.extra["com_velocity"],
                            omega=v["[initial].omega"], A0=d.A0,
                            step=d.extra.get("step", 0.0), doc_source=source)
 

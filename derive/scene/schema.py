@@ -155,10 +155,17 @@ SCENE_FIELDS = (
       "rolling (a flat face of half-width mu_r that must not tip; 0: none).  In contact "
       "only, with friction > 0", 0, MAX_LENGTH),
     F("initial", "time", "number", 0.0, "t0", -1e9, 1e9),
-    F("initial", "com", "vector", [0.0, 0.0, 0.0], "X_C, Y_C, Z_C", -1e9, 1e9, size=3,
-      example=[0.0, 0.0, 1.5]),
-    F("initial", "com_velocity", "vector", [0.0, 0.0, 0.0], "X_C', Y_C', Z_C'", -1e6, 1e6,
-      size=3, example=[0.3, 0.0, 0.0]),
+    F("initial", "com", "vector", [0.0, 0.0, 0.0], "X_C, Y_C, Z_C: C, the centre of mass of "
+      "the whole system (the carrier and its points), fixed axes; with on_plane, Z_C is "
+      "computed (give 0)", -1e9, 1e9, size=3, example=[0.0, 0.0, 1.5]),
+    F("initial", "on_plane", "bool", False, "S on the plane at the start: Z_C computed from "
+      "the shape, the attitude and where the points are (needs [plane] and a shape)"),
+    F("initial", "com_velocity", "vector", [0.0, 0.0, 0.0], "X_C', Y_C', Z_C': C's velocity "
+      "(the whole system's; the points' motion moves C); or give carrier_velocity", -1e6,
+      1e6, size=3, example=[0.3, 0.0, 0.0]),
+    F("initial", "carrier_velocity", "vector", None, "instead of com_velocity: the velocity "
+      "of O, the carrier's own centre of mass (fixed axes): a carrier at rest is [0, 0, 0] "
+      "whatever its points do (C's follows: V_O + A (omega x OC + OC'))", -1e6, 1e6, size=3),
     F("initial", "omega", "vector", [0.0, 0.0, 0.0], "angular velocity in body axes", -1e6,
       1e6, size=3, example=[0.5, -0.3, 1.0]),
     F("initial", "quaternion", "vector", [1.0, 0.0, 0.0, 0.0], "attitude as a unit "
