@@ -254,8 +254,9 @@ def simulate_many(scene, variants, workers: int | None = None, scheduler: str | 
     planned = study.plan(base, origin, items, keep) if here else None
 
     def tasks(threads: int) -> list:
-        if planned is None:
-            size = chunk or default_chunk(n_items, threads, cluster=bool(scheduler))
+        if planned is None:                  # a task plans (reads in bulk) its variants
+            size = chunk or (default_chunk(n_items, threads, cluster=True) if scheduler
+                             else part_chunk(n_items, threads))
             return [("plan", base, origin, items[k:k + size], keep)
                     for k in range(0, n_items, size)]
         out = [("part", piece) for part in planned.parts
@@ -336,7 +337,8 @@ def default_chunk(n: int, threads: int, cluster: bool = False) -> int:
 
 
 def part_chunk(n: int, threads: int) -> int:
-    """Variants per call into C for a part of ``n`` variants read in bulk on ``threads``
-    local threads: four chunks per thread (to balance), of 64 to 10000 variants (a
-    call's own cost, a few microseconds, against the runs'; the progress bar's steps)."""
-    return min(10_000, max(64, -(-n // (4 * max(threads, 1)))))
+    """Variants per call into C (or per task of local processes, which read them in bulk
+    first) for ``n`` variants on ``threads`` local workers: four chunks per worker (to
+    balance), of 8 to 10000 variants (a chunk's own cost, tens of microseconds of Python
+    around the call, against the runs'; the progress bar's steps)."""
+    return min(10_000, max(8, -(-n // (4 * max(threads, 1)))))
