@@ -7,7 +7,8 @@ changed (M, m, e, the drop height, the spin: :func:`derive.bench.sim.variation`)
 at the tolerance where the runtime meets the bench's 1e-9 error target on every variant
 that ``any_numbers`` measured against SciPy (the tightest of their loosest settings).
 Measured in interleaved rounds (a burst of load on the shared machine hits every route
-alike), each route once per round:
+alike), each route once per round, by the CPU time of the thread, and by the wall clock
+for two workers against one:
 
 * the study on one worker (``workers=1``) -- per variant, what a core pays;
 * the C run alone: ``crt_run_many`` of the same variants' inputs, built beforehand by
@@ -113,19 +114,19 @@ def measure(doc: dict, any_: dict, variation, progress, rounds: int = ROUNDS) ->
     first = time.perf_counter() - start
     kind, law, arrays = _c_inputs(base, variants)
     c1, c2 = _CAlone(kind, law, arrays, 1), _CAlone(kind, law, arrays, 2)
-    got = interleaved({
-        "study_1": lambda: derive.simulate_many(base, variants, workers=1),
-        "c_1": c1,
-        "study_2": lambda: derive.simulate_many(base, variants, workers=2),
-        "c_2": c2}, rounds)
+    one, two = (lambda: derive.simulate_many(base, variants, workers=1),
+                lambda: derive.simulate_many(base, variants, workers=2))
+    got = interleaved({"study_1": one, "c_1": c1, "study_1_wall": one, "study_2": two,
+                       "c_1_wall": c1, "c_2": c2}, rounds,
+                      wall=("study_1_wall", "study_2", "c_1_wall", "c_2"))
     out = {"scene": base["name"], "variants": VARIANTS, "setting": setting, "model": kind,
            "first_call_s": first,
            "study_1": Spread.of(got["study_1"]).scaled(1.0 / VARIANTS),
            "c_1": Spread.of(got["c_1"]).scaled(1.0 / VARIANTS),
            "study_2": Spread.of(got["study_2"]).scaled(1.0 / VARIANTS),
            "over_c": ratios(got["study_1"], got["c_1"]),
-           "workers": ratios(got["study_1"], got["study_2"]),
-           "ceiling": ratios(got["c_1"], got["c_2"])}
+           "workers": ratios(got["study_1_wall"], got["study_2"]),
+           "ceiling": ratios(got["c_1_wall"], got["c_2"])}
     out.update(_against_scipy(doc, base, any_, setting, progress))
     return out
 
@@ -195,8 +196,8 @@ def report_lines(b: dict) -> list:
     lines = [f"simulate_many of {b['variants']} variants of {b['scene']} (M, m, e, height and "
              f"spin each varied; the {b['model']} model, lie at {b['setting']:g}, where every "
              f"variant both routes reached meets the target), {ROUNDS} interleaved rounds:",
-             f"  per variant: {1e3 * b['study_1'].median:.4f} ms on one worker, "
-             f"{1e3 * b['study_2'].median:.4f} ms on two; the C run alone "
+             f"  per variant: {1e3 * b['study_1'].median:.4f} ms on one worker (CPU), "
+             f"{1e3 * b['study_2'].median:.4f} ms on two (wall); the C run alone "
              f"{1e3 * b['c_1'].median:.4f} ms (the first call of the process: "
              f"{b['first_call_s']:.3f} s for all)",
              f"  the C alone on two threads against one: {b['ceiling'].text('.2f', 'x')} "

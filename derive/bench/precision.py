@@ -32,7 +32,7 @@ import numpy as np
 from .. import json_text, reference
 from ..scene import DEFAULT_SCENE, parse_scene
 from .routes import Casadi, Run, Runtime, Scipy, errors
-from .timing import AT_MOST, SPREAD_NOTE, Judged, Spread, blend, verdict
+from .timing import AT_MOST, CPU, SPREAD_NOTE, Judged, Spread, blend, verdict
 
 LEVELS = [1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11, 1e-12]
 
@@ -174,9 +174,9 @@ def sweep(name, doc, ref, quick, repeats, progress, time_limit=20.0) -> list[Poi
             progress(f"{name}: {label} at {setting:g}")
             try:
                 route = make(doc, setting)
-                start = time.perf_counter()
+                start = CPU()
                 result = route.result()
-                once = time.perf_counter() - start
+                once = CPU() - start
             except Exception as exc:          # a peer that fails is a data point
                 points.append(Point(name, label, setting, math.nan, math.inf, math.inf, 0,
                                     f"failed: {exc}".splitlines()[0][:80]))

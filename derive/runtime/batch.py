@@ -33,7 +33,7 @@ from .. import parallel
 from ..progress import count
 from . import study
 from .driver import prepare
-from .study import COUNT_COLUMNS, SUMMARY_COLUMNS, TEXT_COLUMNS, summary_row  # noqa: F401
+from .study import COUNT_COLUMNS, SUMMARY_COLUMNS, TEXT_COLUMNS  # noqa: F401 (the API's names)
 from ..scene import Scene, SceneError, load_scene, overrides, parse_scene
 
 
