@@ -174,6 +174,17 @@ def _undecided(t: Judged, ceiling: Spread, margin: float) -> Judged:
                            f"core]", True, True)
 
 
+def _python_share(b: dict) -> float:
+    """The share of the study's time on one worker spent outside the C (its Python)."""
+    return max(0.0, 1.0 - 1.0 / b["over_c"].median)
+
+
+def _amdahl(b: dict) -> float:
+    """Two workers against one if all the Python were serial and the C split evenly."""
+    x = _python_share(b)
+    return 1.0 / (x + (1.0 - x) / 2.0)
+
+
 def targets(b: dict) -> list:
     if "skipped" in b:
         return []
@@ -201,7 +212,9 @@ def report_lines(b: dict) -> list:
              f"{1e3 * b['c_1'].median:.4f} ms (the first call of the process: "
              f"{b['first_call_s']:.3f} s for all)",
              f"  the C alone on two threads against one: {b['ceiling'].text('.2f', 'x')} "
-             "(the machine's ceiling for two workers now)"]
+             "(the machine's ceiling for two workers now); the study's Python around the C, "
+             f"{100 * _python_share(b):.0f}% of its time on one worker, holds the GIL: on two "
+             f"free cores it bounds two workers to {_amdahl(b):.2f}x one (Amdahl)"]
     if "over_scipy" in b:
         lines.append(f"  the variants SciPy reached: {1e3 * b['study_met'].median:.4f} ms per "
                      f"variant in the study, SciPy {1e3 * b['scipy_s'].median:.1f} ms")

@@ -161,19 +161,22 @@ def plan(base: dict, origin, items: list, keep: str = "summary") -> Plan:
             continue
         index = np.array([i for i, _ in members])
         singles += [members[k] for k in np.flatnonzero(~cols.ok)]
-        parts += _parts(cols, index, members, base, origin, base_v, base_given, singles)
+        found, alone = _parts(cols, index, members, base, origin, base_v, base_given)
+        parts += found
+        singles += alone
     singles.sort(key=lambda item: item[0])
     return Plan(parts, singles)
 
 
 def _parts(cols, index: np.ndarray, members: list, base: dict, origin, base_v: dict,
-           base_given: set, singles: list) -> list:
-    """The parts of one group read in bulk: its variants that passed, by model."""
+           base_given: set) -> tuple[list, list]:
+    """The parts of one group read in bulk (its variants that passed, by model), and the
+    variants of a model whose start reads the law (to go one at a time)."""
     n = cols.n
     keys = choice.symmetry_key(cols.v["[initial].omega"], cols.v["[body].inertia"])
     code = sum(np.broadcast_to(b, (n,)).astype(int) << k for k, b in enumerate(keys))
     scene, law = cols.scene, cols.draft.law
-    out = []
+    out, alone_ones = [], []
     for c in np.unique(code[cols.ok]):
         members_c = cols.ok & (code == c)
         first = int(np.flatnonzero(members_c)[0])
@@ -184,7 +187,7 @@ def _parts(cols, index: np.ndarray, members: list, base: dict, origin, base_v: d
             raise RuntimeError(f"variant {i} passed the study's bulk checks and the scene "
                                f"rules refuse it ({exc}): please report this study") from None
         if alone.kind not in choice.POSE_STARTS:    # its start reads the law: one by one
-            singles += [members[k] for k in np.flatnonzero(members_c)]
+            alone_ones += [members[k] for k in np.flatnonzero(members_c)]
             continue
         st = choice.start(scene, alone.kind)
         q0 = np.broadcast_to(st.q0, (n, len(alone.start.q0)))
@@ -200,7 +203,7 @@ def _parts(cols, index: np.ndarray, members: list, base: dict, origin, base_v: d
         out.append(Part(alone.kind, law, index[take], np.full(len(take), scene.t0),
                         np.full(len(take), scene.t0 + scene.duration), q0[take], opt[take],
                         prm[take]))
-    return out
+    return out, alone_ones
 
 
 # ---- running -----------------------------------------------------------------------------
