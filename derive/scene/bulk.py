@@ -20,6 +20,7 @@ verdicts and the same numbers.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from itertools import chain
 
 import numpy as np
 
@@ -64,7 +65,7 @@ def _is_number(x) -> bool:
 def _numbers(col: list, f: Field) -> tuple[np.ndarray, np.ndarray]:
     """The values of one number (or one entry of a vector) for every variant, and where
     they pass the field's checks."""
-    if all(type(x) is float for x in col):              # the common case
+    if set(map(type, col)) == {float}:                 # the common case
         x = np.array(col, dtype=float)
         return x, in_range(f, x)
     good = np.array([_is_number(c) for c in col], dtype=bool)
@@ -75,8 +76,8 @@ def _numbers(col: list, f: Field) -> tuple[np.ndarray, np.ndarray]:
 def _vectors(col: list, f: Field) -> tuple[tuple, np.ndarray]:
     """A vector given whole by every variant: its entries as columns, and where they pass."""
     size = f.size
-    if all(type(x) is list and len(x) == size and all(type(c) is float for c in x)
-           for x in col):
+    if set(map(type, col)) == {list} and set(map(len, col)) == {size} and \
+            set(map(type, chain.from_iterable(col))) == {float}:      # the common case
         rows = np.array(col, dtype=float).reshape(len(col), size)
         good = np.ones(len(col), dtype=bool)
     else:
