@@ -317,10 +317,11 @@ def _check_names(items: list) -> None:
 
 
 # A run of the built-in scene costs 0.1 ms of C, a Dask task 0.2 ms and more of
-# scheduling, pickling and round trip, plus the base scene's validation in _run_chunk:
-# about 2 ms a task in all (4000 variants on a local cluster of two workers: 250 tasks
-# of 16 took 1.23 s in the workers, 2 of 2000 took 0.79 s).  So on a cluster a task
-# holds hundreds of variants at least.
+# scheduling, pickling and round trip, plus its planning (the base scene read, a
+# variant per model prepared alone: about 0.4 ms, then 2 us a variant): milliseconds a
+# task in all (earlier, with a validation per variant: 4000 variants on a local cluster
+# of two workers took 1.23 s in the workers in 250 tasks of 16, 0.79 s in 2 of 2000).
+# So on a cluster a task holds hundreds of variants at least.
 CLUSTER_CHUNK = (256, 10_000)
 
 
