@@ -56,58 +56,6 @@ def test_serial_threads_processes_and_whole_results_agree_bit_for_bit():
             assert all(_same(ra[k], rb[k]) for k in ra if k != "run_ms"), (ra, rb)
 
 
-def test_the_quick_path_of_a_variant_equals_the_full_one():
-    """A variant changing only the initial position and velocity, e or g reuses the base
-    scene's validation; on random variants (and models) it equals the full path."""
-    from derive.runtime.batch import _quick_variant, _VariantDoc
-    from derive.runtime.driver import prepare
-    from derive.scene import build_scene, parse_scene
-    from derive.scene.overrides import apply_to_values
-    from derive.scene.schema import SCENE
-    rng = np.random.default_rng(7)
-    docs = [builtin_doc()]
-    flat = builtin_doc()
-    flat["initial"]["omega"] = [0.0, 0.0, 0.0]
-    flat["point"]["law"] = ["0.0", "0.0", "0.1*sin(2*t)"]
-    flat["run"]["outputs"] = ["impacts"]
-    docs.append(flat)                               # translational
-    names = ["initial.com[0]", "initial.com[2]", "initial.com_velocity[1]",
-             "initial.com_velocity[2]", "plane.restitution", "run.g"]
-    checked = refused = 0
-    for doc in docs:
-        base_v, base_given = SCENE.read(doc)
-        base = prepare(build_scene(dict(base_v), set(base_given), {}, "base scene"))
-        for _ in range(150):
-            picked = rng.choice(names, size=rng.integers(1, 4), replace=False)
-            over = {n: float(rng.uniform(0.2, 2.0) if n.startswith("initial.com[")
-                             else rng.uniform(0.0, 1.0) if n == "plane.restitution"
-                             else rng.uniform(-1.0, 1.0) if "velocity" in n
-                             else rng.uniform(1.0, 20.0)) for n in picked}
-            v, given = dict(base_v), set(base_given)
-            for n, value in over.items():
-                apply_to_values(v, given, n, value)
-            touched = {f"[{n.split('.')[0]}].{n.split('.')[1].split('[')[0]}" for n in over}
-            try:
-                full = prepare(build_scene(v, given, {}, "variant"))
-            except SceneError as exc:
-                with pytest.raises(SceneError, match=exc.where.replace("[", r"\[")):
-                    _quick_variant(base, v, touched, "variant", _VariantDoc(doc, over))
-                refused += 1
-                continue
-            quick = _quick_variant(base, v, touched, "variant", _VariantDoc(doc, over))
-            assert quick.kind == full.kind and quick.scene == full.scene
-            # its dict is the base's with the overrides: it gives the same scene again
-            assert parse_scene(quick.scene.doc, "variant") == full.scene
-            assert np.array_equal(quick.start.q0, full.start.q0)
-            assert np.array_equal(quick.options, full.options)
-            assert np.array_equal(quick.parameters, full.parameters)
-            checked += 1
-    assert checked > 200 and refused > 10      # S started below the plane
-    v, given = dict(base_v), set(base_given)
-    apply_to_values(v, given, "body.mass", 2.0)
-    assert _quick_variant(base, v, {"[body].mass"}, "variant", _VariantDoc(doc, {})) is None
-
-
 def test_a_bad_variant_is_named():
     doc = builtin_doc()
     with pytest.raises(BatchError) as info:

@@ -143,7 +143,8 @@ def test_bench_sim_exit_status(scipy_s, status, monkeypatch, capsys):
         "max": scipy_s / 1.5e-4, "met": n, "short": []})
     got, out = _verdict(["bench", "sim", "--quick"], capsys)
     assert got == status
-    assert out.count("law seen before: 714x faster than SciPy") == (2 if status else 0)
+    assert out.count("law seen before, faster than SciPy: 714x (target >= 1000x): FAIL") == \
+        (2 if status else 0)
 
 
 def test_bench_sim_refuses_a_bad_scene_in_one_line(tmp_path, capsys):
@@ -206,7 +207,8 @@ def test_bench_precision_exit_status(lie_factor, periods, status, tmp_path, monk
     got, out = _verdict(["bench", "precision", "--quick", "--scenes", "planar E4.2",
                          "--periods", periods, "-o", str(tmp_path)], capsys)
     assert got == status
-    assert f"target (E4.2 at every level): {'FAIL' if status else 'PASS'}" in out
+    line = next(x for x in out.splitlines() if x.strip().startswith("target (E4.2 at every"))
+    assert "at most 1x" in line and line.endswith("FAIL" if status else "PASS"), line
     assert ("targets of LIE: |K| <= 1e-12: PASS" in out) == (periods != "0")
     assert f"charts and data in {tmp_path}" in out
 
@@ -284,9 +286,10 @@ def test_bench_sim_leaves_out_a_variant_short_of_the_target_and_names_it():
                    {"route": "derive.simulate (law seen)", "seconds": 6e-5},
                    {"route": "derive.simulate (new law)", "seconds": 6e-4}],
           "any_numbers": any_}
-    text = sim._scene_targets(sc)[-1]
-    assert "3 of 4 variants" in text.what and "median 1100x" in text.what
-    assert "variant 2: SciPy short of the target" in text.what and text.ok
+    assert len(sim._scene_targets(sc)) == 2           # reported, no longer a target
+    text = sim.any_numbers_line(any_)
+    assert "3 of 4 variants" in text and "median 1100x" in text
+    assert "variant 2: SciPy short of the target" in text
 
 
 @pytest.mark.parametrize("argv, prog", [
@@ -312,3 +315,27 @@ def test_an_unknown_option_is_named_beside_a_missing_argument(capsys):
     err = capsys.readouterr().err
     assert ("derive plan: error: the following arguments are required: task (and --bogus "
             "is not an option of derive plan)") in err
+
+
+# ---- timings with their spread: a tie is not a failure -------------------------------------
+def test_a_miss_within_the_spread_is_a_tie_and_beyond_it_a_failure():
+    """derive.bench.timing judges a target on the median and the interquartile range:
+    'stationary C4.2' at 1e-4 had read 0.011 against 0.011 ms and failed; samples of two
+    routes as close as that tie, a route slower beyond its spread fails, one faster
+    passes; the same for 'at least' targets and for paired ratios."""
+    from derive.bench.timing import AT_LEAST, AT_MOST, Spread, judge, ratios, verdict
+    ours = Spread.of([0.01100, 0.01104, 0.01109, 0.01112, 0.01120])
+    peer = Spread.of([0.01095, 0.01101, 0.01106, 0.01115, 0.01118])
+    assert ours.median > peer.median and verdict(ours.over(peer), AT_MOST, 1.0) == "TIE"
+    slow = Spread.of([0.0130, 0.0131, 0.0132, 0.0133, 0.0134])
+    assert verdict(slow.over(peer), AT_MOST, 1.0) == "FAIL"
+    assert verdict(peer.over(slow), AT_MOST, 1.0) == "PASS"
+    t = judge("x", Spread.of([1500.0, 1400.0, 980.0, 990.0, 995.0]), AT_LEAST, 1000.0)
+    assert t.ok and t.mark == "TIE" and "target >= 1000x" in str(t) and str(t).endswith("TIE")
+    t = judge("x", Spread.of([900.0, 950.0, 960.0, 970.0, 990.0]), AT_LEAST, 1000.0)
+    assert not t.ok and t.mark == "FAIL"
+    # paired samples: a common burst of load cancels in their ratio
+    load = np.array([1.0, 3.0, 1.2, 5.0, 1.1])
+    r = ratios(1.04 * load, load)
+    assert r.median == pytest.approx(1.04) and r.hi - r.lo < 1e-12
+    assert verdict(r, AT_MOST, 1.3) == "PASS" and verdict(r, AT_MOST, 1.0) == "FAIL"

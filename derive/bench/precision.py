@@ -8,7 +8,10 @@ the built-in bouncing ball, which has none: its reference is the runtime at tole
 1e-14, checked against an arbitrary-precision (mpmath, 30 digits) integration of its first
 flight.  Every method integrates the ``general`` model.  Error: the max over the output
 grid of the state error (general layout), and for bouncing scenes the max error of the
-impact times.  Time: the minimum of several repetitions after a warm-up.
+impact times.  Time: the least of a block of repetitions after a warm-up, a sample; the
+runtime's short runs are sampled again in rounds over every scene, and the target (the
+default against the classical methods) is judged on the median and interquartile range
+of those samples (:mod:`derive.bench.timing`: a miss within the spread is a tie).
 
 Outputs: per scene a PNG with error against wall time and against RHS evaluations (one
 curve per method), ``precision.csv`` and ``precision.json`` with every point, the speed
@@ -21,15 +24,15 @@ import copy
 import math
 import platform
 import time
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from .. import json_text, reference
-from ..commands import Target
 from ..scene import DEFAULT_SCENE, parse_scene
 from .routes import Casadi, Run, Runtime, Scipy, errors
+from .timing import AT_MOST, CPU, SPREAD_NOTE, Judged, Spread, blend, verdict
 
 LEVELS = [1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11, 1e-12]
 
@@ -103,11 +106,17 @@ class Point:
     scene: str
     method: str
     setting: float
-    seconds: float
+    seconds: float             # the least of the samples
     error: float
     impact_error: float
     evaluations: int
     status: str
+    samples: list = field(default_factory=list)    # each the least of a block of runs
+
+    @property
+    def spread(self) -> Spread:
+        return Spread.of(self.samples) if self.samples else \
+            Spread(self.seconds, self.seconds, self.seconds)
 
 
 def mpmath_check(doc: dict, t_end: float = 0.3, dps: int = 30) -> float:
@@ -165,9 +174,9 @@ def sweep(name, doc, ref, quick, repeats, progress, time_limit=20.0) -> list[Poi
             progress(f"{name}: {label} at {setting:g}")
             try:
                 route = make(doc, setting)
-                start = time.perf_counter()
+                start = CPU()
                 result = route.result()
-                once = time.perf_counter() - start
+                once = CPU() - start
             except Exception as exc:          # a peer that fails is a data point
                 points.append(Point(name, label, setting, math.nan, math.inf, math.inf, 0,
                                     f"failed: {exc}".splitlines()[0][:80]))
@@ -178,7 +187,7 @@ def sweep(name, doc, ref, quick, repeats, progress, time_limit=20.0) -> list[Poi
             reps = _reps(once, repeats)
             seconds = route.timed(reps) if reps and result.status == "done" else once
             points.append(Point(name, label, setting, seconds, err, ierr, result.evaluations,
-                                result.status))
+                                result.status, [seconds]))
             if once > time_limit or result.status != "done":
                 break                          # tighter settings only cost more
     return points
@@ -192,14 +201,15 @@ def _reps(seconds: float, repeats: int) -> int:
     return repeats if seconds < 0.05 else (2 if seconds < 1.0 else 0)
 
 
-RETIME_ROUNDS = 3
+RETIME_ROUNDS = 4              # with the sweep's own, five samples of each short run
 
 
 def retime(doc: dict, points: list[Point], repeats: int, passes: int = 1,
            progress=lambda m: None) -> None:
     """Time the runtime's runs again, ``passes`` more times, each pass going through every
     method before the next: a burst of load on a shared machine during one method's
-    sweep would otherwise charge that method alone.  Each point keeps its least time."""
+    sweep would otherwise charge that method alone.  Each pass adds a sample to each
+    point; the point keeps its least time as ``seconds``."""
     factories = {label: make for label, make, _ in methods()}
     for k in range(passes):
         progress(f"timing pass {k + 2} of the runtime's runs")
@@ -209,7 +219,8 @@ def retime(doc: dict, points: list[Point], repeats: int, passes: int = 1,
                 continue
             route = factories[p.method](doc, p.setting)
             reps = _reps(p.seconds, repeats)
-            p.seconds = min(p.seconds, route.timed(reps))
+            p.samples.append(route.timed(reps))
+            p.seconds = min(p.samples)
 
 
 def time_at(points: list[Point], method: str, level: float, bouncing: bool) -> float:
@@ -242,29 +253,69 @@ def time_on_curve(points: list[Point], method: str, level: float, bouncing: bool
     return best
 
 
+def spread_at(points: list[Point], method: str, level: float, bouncing: bool) -> Spread:
+    """The timing (median and quartiles of its samples) of the method's run of least
+    median among those whose error is within ``level``."""
+    ok = [p.spread for p in points if p.method == method and p.status == "done"
+          and p.error <= level and (not bouncing or p.impact_error <= level)
+          and np.isfinite(p.seconds)]
+    return min(ok, key=lambda s: s.median) if ok else Spread.of([])
+
+
+def spread_on_curve(points: list[Point], method: str, level: float, bouncing: bool) -> Spread:
+    """:func:`time_on_curve` with the spreads: the median and each quartile read off the
+    curve alike (the least median of the grid reading and the interpolations)."""
+    best = spread_at(points, method, level, bouncing)
+    runs = sorted((p for p in points if p.method == method and p.status == "done"
+                   and np.isfinite(p.seconds) and p.error > 0), key=lambda p: -p.setting)
+
+    def err(p):
+        return max(p.error, p.impact_error) if bouncing else p.error
+    for loose, tight in zip(runs, runs[1:]):
+        if err(loose) > level >= err(tight) and tight.seconds > 0 and loose.seconds > 0:
+            w = math.log(err(loose) / level) / math.log(err(loose) / err(tight))
+            t = blend(loose.spread, tight.spread, w)
+            if not np.isfinite(best.median) or t.median < best.median:
+                best = t
+    return best
+
+
 DEFAULT = "runtime LIE"          # the scene default (derive/runtime/scene.py)
 CLASSICAL = ("runtime RK4", "runtime DOPRI5", "runtime DOP853", "runtime DOP853+orth")
 TARGET_SCENES = ("axisymmetric E3.14", "planar E4.2", "stationary C4.2", "stationary C4.3")
 
 
+MARGIN = 1.0          # the default at most this many times the fastest classical method
+
+
 def default_against_classical(points: list[Point], bouncing: bool) -> list[dict]:
     """Per error level: the default method's time and the least time of the classical
     runtime methods (today's best) on their work-precision curves, and whether the
-    default is at least as fast (issue 13's target on the reference scenes); the same on
-    the grid of runs alone (``grid_``)."""
+    default is at least as fast (issue 13's target on the reference scenes: at most
+    MARGIN times, judged on the spreads, a miss within them a tie); the same on the grid
+    of runs alone (``grid_``)."""
     rows = []
     for level in LEVELS:
         row = {"level": level}
-        for reading, fn in (("", time_on_curve), ("grid_", time_at)):
+        for reading, fn in (("", spread_on_curve), ("grid_", spread_at)):
             ours = fn(points, DEFAULT, level, bouncing)
-            best, which = math.nan, "-"
+            best, which = Spread.of([]), "-"
             for m in CLASSICAL:
                 t = fn(points, m, level, bouncing)
-                if np.isfinite(t) and not t >= best:
+                if np.isfinite(t.median) and not t.median >= best.median:
                     best, which = t, m
-            ok = bool(np.isfinite(ours) and (not np.isfinite(best) or ours <= best))
-            row.update({f"{reading}default_s": ours, f"{reading}classical_best_s": best,
-                        f"{reading}classical_best": which, f"{reading}ok": ok})
+            if not np.isfinite(ours.median):
+                mark = "FAIL"
+            elif not np.isfinite(best.median):
+                mark = "PASS"
+            else:
+                mark = verdict(ours.over(best), AT_MOST, MARGIN)
+            row.update({f"{reading}default_s": ours.median,
+                        f"{reading}default_iqr": (ours.lo, ours.hi),
+                        f"{reading}classical_best_s": best.median,
+                        f"{reading}classical_iqr": (best.lo, best.hi),
+                        f"{reading}classical_best": which, f"{reading}ok": mark != "FAIL",
+                        f"{reading}tie": mark == "TIE"})
         rows.append(row)
     return rows
 
@@ -471,31 +522,35 @@ def _default_holds(rows: list[dict], reading: str) -> bool:
                or np.isfinite(r[f"{reading}default_s"]))
 
 
-def _default_target(summary: dict) -> Target | None:
+def _default_target(summary: dict) -> Judged | None:
     """The default at least as fast as the fastest classical runtime method at every
-    level, read off the curves, on the target scenes that ran (issue 13)."""
+    level, read off the curves, on the target scenes that ran (issue 13); a tie within
+    the spreads at some level, and no miss, is a tie."""
     judged = {name: info["default"] for name, info in summary["scenes"].items()
               if name in TARGET_SCENES and info.get("default")}
     if not judged:
         return None
     ids = ", ".join(name.split()[-1] for name in judged)
-    return Target(f"target ({ids} at every level)",
-                  all(_default_holds(rows, "") for rows in judged.values()))
+    ok = all(_default_holds(rows, "") for rows in judged.values())
+    tie = ok and any(r.get("tie") for rows in judged.values() for r in rows)
+    return Judged(f"target ({ids} at every level: LIE at most {MARGIN:g}x the fastest "
+                  "classical method's median time, or within the interquartile ranges)",
+                  ok, tie)
 
 
-def _long_targets(long: dict) -> list[Target]:
+def _long_targets(long: dict) -> list:
     """The momentum form's drift over the long run (LIE)."""
     if "runtime LIE" not in long:
         return []
     d = long["runtime LIE"]
-    return [Target(f"|K| <= {LONG_TARGETS['K']:g}", d["K_max"] <= LONG_TARGETS["K"]),
-            Target(f"fixed K <= {LONG_TARGETS['K_fixed']:g}",
+    return [Judged(f"|K| <= {LONG_TARGETS['K']:g}", d["K_max"] <= LONG_TARGETS["K"]),
+            Judged(f"fixed K <= {LONG_TARGETS['K_fixed']:g}",
                    d["K_fixed_max"] <= LONG_TARGETS["K_fixed"]),
-            Target(f"orthonormality <= {LONG_TARGETS['orthonormality']:g}",
+            Judged(f"orthonormality <= {LONG_TARGETS['orthonormality']:g}",
                    d["orthonormality_max"] <= LONG_TARGETS["orthonormality"])]
 
 
-def targets(summary: dict) -> list[Target]:
+def targets(summary: dict) -> list:
     target = _default_target(summary)
     return ([target] if target else []) + _long_targets(summary.get("long_run", {}))
 
@@ -522,11 +577,13 @@ def default_report(summary: dict) -> str:
                 ours, best = r[f"{reading}default_s"], r[f"{reading}classical_best_s"]
                 if not np.isfinite(ours) and not np.isfinite(best):
                     continue
-                cells.append(f"{r['level']:.0e}: {1e3 * ours:.3f}/{1e3 * best:.3f}"
-                             f"{'' if r[f'{reading}ok'] else ' (slower)'}")
+                mark = " (slower)" if not r[f"{reading}ok"] else \
+                    " (tie)" if r.get(f"{reading}tie") else ""
+                cells.append(f"{r['level']:.0e}: {1e3 * ours:.4f}/{1e3 * best:.4f}{mark}")
             ok = _default_holds(rows, reading)
             if reading == "" and name in TARGET_SCENES:
-                mark = "PASS" if ok else "FAIL"
+                mark = "FAIL" if not ok else "TIE" if any(r.get("tie") for r in rows) \
+                    else "PASS"
             else:
                 mark = "as fast" if ok else "slower"
             out.append(f"  {name:<24}{mark:<9}" + "; ".join(cells))
@@ -540,8 +597,8 @@ def default_report(summary: dict) -> str:
         grid = all(_default_holds(info["default"], "grid_")
                    for name, info in summary["scenes"].items()
                    if name in TARGET_SCENES and info.get("default"))
-        verdict = "as fast at every level" if grid else "slower at some level"
-        lines.append(f"  on the runs alone: {verdict}")
+        said = "as fast at every level" if grid else "slower at some level"
+        lines.append(f"  on the runs alone: {said}")
     return "\n".join(lines)
 
 
@@ -579,6 +636,7 @@ def report(summary: dict) -> str:
         lines.append(long_report(summary["long_run"]))
     lines.append("\nratios: peer time / the runtime's best time at the same error (>1: the "
                  "runtime is faster); '-': the peer never reached that error")
+    lines.append(SPREAD_NOTE)
     if "output" in summary:
         lines.append(f"charts and data in {summary['output']}")
     return "\n".join(lines)

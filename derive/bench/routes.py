@@ -4,7 +4,7 @@ Every route takes a scene (a dict of the scene schema) and a setting (a toleranc
 step for RK4), and ``result()`` returns a :class:`Run`: the state in the ``general``
 layout on a common output grid, the impact times, the number of RHS evaluations, a
 status and the lowest height of S seen on the grid.  ``timed()`` is the minimum over
-repetitions after a warm-up.
+repetitions after a warm-up, of the thread's CPU time (derive.bench.timing).
 
 * :class:`Runtime` — this project's C runtime (lie and lie5, the momentum form on SO(3);
   rk4, dopri5, dop853, dop853 keeping A orthonormal), model forced to ``general`` so
@@ -21,7 +21,6 @@ Peers stop at an evaluation budget (``StopRun``), reported as a status, never a 
 from __future__ import annotations
 
 import copy
-import time
 from dataclasses import dataclass, field
 
 import casadi as ca
@@ -38,6 +37,7 @@ from ..runtime.driver import prepare, run_prepared
 from ..runtime.session import Session
 from ..scene import Scene, parse_scene
 from ..scipy_hybrid import Functions, Hybrid, StopRun
+from .timing import least_of
 
 GRID_DT = 0.05
 EVAL_BUDGET = 3_000_000
@@ -65,13 +65,9 @@ def heights(scene: Scene, t: np.ndarray, states: np.ndarray) -> np.ndarray:
 
 
 def _timed(fn, repeats: int) -> float:
+    """The least CPU time of ``repeats`` calls after a warm-up (derive.bench.timing)."""
     fn()
-    best = np.inf
-    for _ in range(repeats):
-        start = time.perf_counter()
-        fn()
-        best = min(best, time.perf_counter() - start)
-    return best
+    return least_of(fn, repeats)
 
 
 G = layout.GENERAL

@@ -4,8 +4,10 @@ measured in one run, with the targets of issue 10 marked PASS or FAIL.
 For each scene (the built-in one and an offset ellipsoid with a two-harmonic law), every
 route is run at the loosest setting (tolerances on a 1-2-5 grid) that reaches a max state
 error of 1e-9 on a common output grid (and 1e-9 in the impact times) against a reference
-at 1e-14 (itself checked against SciPy at 1e-13); then timed (minimum over repetitions
-after a warm-up):
+at 1e-14 (itself checked against SciPy at 1e-13); then timed (after a warm-up, the
+median and interquartile range of repeated samples, each the least of a block of calls:
+:mod:`derive.bench.timing`, which also judges the targets, a miss within the spread a
+tie):
 
 * ``runtime C``: the C run alone (crt_init + crt_advance through a Session);
 * ``derive.simulate`` end to end, the law seen before (other initial numbers on every
@@ -17,8 +19,9 @@ after a warm-up):
   impact; ``casadi cvodes``: CasADi's integrator segment by segment.
 
 Then, once: the CLI on the built-in scene (static plots included, and without them),
-``simulate_many`` of 1000 variants against the C run time per scene, and the first build
-of a model on a machine with an empty cache.
+``simulate_many`` of 1008 variants of each scene against the C run of the same variants,
+SciPy at equal error and one worker (:mod:`derive.bench.batch`), and the first build of
+a model on a machine with an empty cache.
 """
 from __future__ import annotations
 
@@ -28,17 +31,17 @@ import os
 import subprocess
 import sys
 import tempfile
-import time
 
 import numpy as np
 
-from ..commands import Target
-from ..scene import builtin_doc
-from .routes import Casadi, Runtime, Scipy, _timed, errors
+from ..scene import builtin_doc, overrides
+from . import batch
+from .routes import Casadi, Runtime, Scipy, errors
+from .timing import AT_LEAST, AT_MOST, SPREAD_NOTE, Spread, children_cpu, judge, sampled
 
 TARGET = 1e-9
-GOALS = {"seen": 1000.0, "unseen": 10.0, "cli_s": 2.0, "batch": 1.5}
-FAST = 20          # the sub-millisecond routes repeat this many times more (a stable minimum)
+GOALS = {"seen": 1000.0, "unseen": 10.0, "cli_s": 2.0}
+FAST = 20          # the sub-millisecond routes: each sample the least of this many calls
 
 
 def ellipsoid_doc() -> dict:
@@ -116,58 +119,71 @@ def scene_rows(doc: dict, progress, repeats: int) -> dict:
         (route, setting, result, err, ierr), ok = _loosest(
             lambda s, m=method: Runtime(doc, m, s), grid, ref, progress)
         if ok:
-            sec = _timed(route.run_raw, FAST * repeats)
-            if best is None or sec < best[0]:
+            sec = sampled(route.run_raw, repeats, FAST)
+            if best is None or sec.median < best[0].median:
                 best = (sec, route, setting, err, ierr, result)
-    rows.append({"route": f"runtime C ({best[1].label.split()[-1]})", "setting": best[2],
-                 "seconds": best[0], "error": best[3], "impact_error": best[4],
-                 "evaluations": best[5].evaluations})
+    rows.append(_row(f"runtime C ({best[1].label.split()[-1]})", best[2], best[0], best[3],
+                     best[4], best[5].evaluations))
     # what the user pays: derive.simulate end to end at the same setting
     user_doc = copy.deepcopy(doc)
     user_doc.setdefault("run", {}).update(best[1].prep.scene.doc["run"])
     derive.simulate(user_doc)
     # other numbers on every call (nothing keyed by a number can be reused), the same law
     docs = iter([_renumbered(user_doc, k) for k in range(1, FAST * repeats + 2)])
-    seen = _timed(lambda: derive.simulate(next(docs)), FAST * repeats)
-    rows.append({"route": "derive.simulate (law seen)", "setting": best[2], "seconds": seen,
-                 "error": best[3], "impact_error": best[4], "evaluations": np.nan})
+    seen = sampled(lambda: derive.simulate(next(docs)), repeats, FAST)
+    rows.append(_row("derive.simulate (law seen)", best[2], seen, best[3], best[4]))
     counter = [0]
 
     def unseen():
         counter[0] += 1
         derive.simulate(_perturbed(user_doc, counter[0]))
-    new = _timed(unseen, repeats)
-    rows.append({"route": "derive.simulate (new law)", "setting": best[2], "seconds": new,
-                 "error": best[3], "impact_error": best[4], "evaluations": np.nan})
+    new = sampled(unseen, repeats)
+    rows.append(_row("derive.simulate (new law)", best[2], new, best[3], best[4]))
     for make, grid in ((lambda s: Scipy(doc, "DOP853", s), settings(1e-9, 1e-13)),
                        (lambda s: Casadi(doc, s), settings(1e-11, 1e-14))):
         (route, setting, result, err, ierr), ok = _loosest(make, grid, ref, progress)
-        sec = _timed(route.result, repeats) if ok else np.nan
-        rows.append({"route": route.label, "setting": setting if ok else None,
-                     "seconds": sec, "error": err, "impact_error": ierr,
-                     "evaluations": result.evaluations})
+        sec = sampled(route.result, repeats) if ok else Spread.of([])
+        rows.append(_row(route.label, setting if ok else None, sec, err, ierr,
+                         result.evaluations))
     return {"scene": doc["name"], "duration": doc["run"]["duration"],
             "reference_agreement": agreement, "rows": rows}
+
+
+def _row(route: str, setting, spread: Spread, error: float, impact_error: float,
+         evaluations=np.nan) -> dict:
+    return {"route": route, "setting": setting, "seconds": spread.median, "spread": spread,
+            "error": error, "impact_error": impact_error, "evaluations": evaluations}
+
+
+def _spread(row: dict) -> Spread:
+    """A route's time with its spread (a row made without one: exact)."""
+    return row.get("spread") or Spread(row["seconds"], row["seconds"], row["seconds"])
 
 
 VARIANTS = 12             # variants of every number (bench sim's "any numbers" figure)
 
 
-def _varied(doc: dict, rng) -> dict:
-    """The scene with every number a parameter study varies changed: M and m by up to
-    +-15 % and +-20 %, e in [0.75, 0.95] (where the plane is), the drop height by +-15 %,
-    the spin by 0.7 to 1.3; the law's text the same."""
+def variation(doc: dict, rng) -> dict:
+    """The overrides of every number a parameter study varies: M and m by up to +-15 % and
+    +-20 %, e in [0.75, 0.95] (where the plane is), the drop height by +-15 %, the spin by
+    0.7 to 1.3; the law's text the same."""
+    out = {"body.mass": float(doc["body"]["mass"]) * float(rng.uniform(0.85, 1.15)),
+           "point.mass": float(doc["point"]["mass"]) * float(rng.uniform(0.8, 1.2))}
+    if "plane" in doc:
+        out["plane.restitution"] = float(rng.uniform(0.75, 0.95))
+    init = doc.get("initial", {})
+    com = [float(c) for c in init.get("com", [0.0, 0.0, 0.0])]
+    com[2] *= float(rng.uniform(0.85, 1.15))
+    out["initial.com"] = com
+    out["initial.omega"] = [float(w) * float(rng.uniform(0.7, 1.3))
+                            for w in init.get("omega", [0.0, 0.0, 0.0])]
+    return out
+
+
+def _varied(doc: dict, changes: dict) -> dict:
     d = copy.deepcopy(doc)
-    d["body"]["mass"] = float(d["body"]["mass"]) * float(rng.uniform(0.85, 1.15))
-    d["point"]["mass"] = float(d["point"]["mass"]) * float(rng.uniform(0.8, 1.2))
-    if "plane" in d:
-        d["plane"]["restitution"] = float(rng.uniform(0.75, 0.95))
-    init = d.setdefault("initial", {})
-    com = list(init.get("com", [0.0, 0.0, 0.0]))
-    com[2] = float(com[2]) * float(rng.uniform(0.85, 1.15))
-    init["com"] = com
-    init["omega"] = [float(w) * float(rng.uniform(0.7, 1.3))
-                     for w in init.get("omega", [0.0, 0.0, 0.0])]
+    for name, value in changes.items():
+        overrides.apply_to_doc(d, name, value)
     return d
 
 
@@ -188,7 +204,8 @@ def any_numbers(doc: dict, progress, repeats: int, n: int = VARIANTS) -> dict:
     rng = np.random.default_rng(2026)
     rows = []
     for k in range(n):
-        v = _varied(doc, rng)
+        changes = variation(doc, rng)
+        v = _varied(doc, changes)
         progress(f"{doc['name']}: variant {k + 1} of {n} with every number changed")
         ref = Runtime(v, "dop853", 1e-14).result()
         (sp, s_set, _, s_err, s_ierr), s_ok = _loosest(
@@ -199,17 +216,19 @@ def any_numbers(doc: dict, progress, repeats: int, n: int = VARIANTS) -> dict:
         user.setdefault("run", {}).update(rt.prep.scene.doc["run"])
         docs = iter([_bumped(user, j) for j in range(1, FAST * repeats + 3)])
         derive.simulate(next(docs))
-        t_sim = _timed(lambda: derive.simulate(next(docs)), FAST * repeats)
-        t_sp = _timed(sp.result, max(1, repeats // 2))
-        rows.append({"scipy_s": t_sp, "simulate_s": t_sim, "ratio": t_sp / t_sim,
+        t_sim = sampled(lambda: derive.simulate(next(docs)), repeats, FAST)
+        t_sp = sampled(sp.result, max(3, repeats // 2))
+        rows.append({"scipy_s": t_sp.median, "simulate_s": t_sim.median,
+                     "ratio": t_sp.median / t_sim.median, "scipy": t_sp,
                      "errors": (r_err, s_err), "impact_errors": (r_ierr, s_ierr),
                      "met": bool(s_ok and r_ok), "settings": (r_set, s_set),
+                     "overrides": changes, "reference": ref, "scipy_route": sp,
                      "short": [name for name, ok in (("runtime", r_ok), ("SciPy", s_ok))
                                if not ok]})
     # a ratio counts only where both routes reached the target (equal error); a variant
     # that one of them cannot reach at its tightest setting is reported, not averaged in
     ratios = np.array([r["ratio"] for r in rows if r["met"]])
-    return {"variants": rows, "met": len(ratios),
+    return {"variants": rows, "met": len(ratios), "target": TARGET,
             "median": float(np.median(ratios)) if len(ratios) else float("nan"),
             "min": float(ratios.min()) if len(ratios) else float("nan"),
             "max": float(ratios.max()) if len(ratios) else float("nan"),
@@ -219,7 +238,8 @@ def any_numbers(doc: dict, progress, repeats: int, n: int = VARIANTS) -> dict:
 
 def cli_seconds(repeats: int = 3) -> dict:
     """``derive simulate`` on the built-in scene as a user runs it (a new process each
-    time), with its static plots and without them."""
+    time), with its static plots and without them: each a Spread of ``repeats + 2``
+    samples after a warm-up, of the process's CPU time (user and system)."""
     helptext = subprocess.run([sys.executable, "-m", "derive", "simulate", "--help"],
                               capture_output=True, text=True).stdout
     static = ["--no-animation"] if "--no-animation" in helptext else []
@@ -228,55 +248,10 @@ def cli_seconds(repeats: int = 3) -> dict:
         for label, extra in (("with static plots", static), ("no plots", ["--no-plots"])):
             cmd = [sys.executable, "-m", "derive", "simulate", "-q", "-o",
                    os.path.join(tmp, "out"), *extra]
-            best = np.inf
-            for _ in range(repeats + 1):
-                start = time.perf_counter()
-                subprocess.run(cmd, check=True, capture_output=True)
-                best = min(best, time.perf_counter() - start)
-            out[label] = best
+            out[label] = sampled(lambda c=cmd: subprocess.run(c, check=True,
+                                                              capture_output=True),
+                                 repeats + 2, clock=children_cpu)
     return out
-
-
-def batch_throughput(n: int = 1000) -> dict:
-    """simulate_many of n variants of the built-in scene (initial height varied) on every
-    core, from its first call (the threads start, the sessions are made) to its rows,
-    against the C run time of the same variants (every 20th, each run alone through a
-    Session: crt_init and crt_advance, the minimum of five)."""
-    import derive
-    from ..runtime.driver import prepare, session_for
-    from ..scene import build_scene, overrides
-    from ..scene.schema import SCENE
-    doc = builtin_doc()
-    heights = list(1.2 + 0.6 * np.arange(n) / n)
-    base_v, base_given = SCENE.read(doc)
-    c_runs = []
-    for h in heights[::20]:
-        v, given = dict(base_v), set(base_given)
-        overrides.apply_to_values(v, given, "initial.com[2]", h)
-        prep = prepare(build_scene(v, given, {}))
-        session = session_for(prep.kind)
-        session.set_law(prep.scene.law)
-        c_runs.append(_timed(lambda: session.run(prep.scene.t0, prep.scene.duration,
-                                                 prep.start.q0, prep.options,
-                                                 prep.parameters), 5))
-    c_run = float(np.mean(c_runs))
-    out_by = {}
-    for executor in ("threads", "processes"):
-        walls = []
-        for _ in range(10):                  # the first call, then nine more (the
-            # minimum over them: the ratio needs the second core free, which a busy host
-            # takes away for bursts of tens of milliseconds)
-            start = time.perf_counter()
-            out = derive.simulate_many(doc, {"initial.com[2]": heights}, executor=executor)
-            walls.append(time.perf_counter() - start)
-        wall = min(walls[1:])
-        per_core = wall * out.workers / n
-        out_by[executor] = {"workers": out.workers, "executor": out.executor,
-                            "wall_s": wall, "first_call_s": walls[0],
-                            "per_variant_per_core_s": per_core, "ratio": per_core / c_run,
-                            "statuses": sorted({r["status"] for r in out.rows})}
-    return {"variants": n, "c_run_s": c_run, **out_by["threads"],
-            "processes": out_by["processes"]}
 
 
 def first_build() -> dict:
@@ -311,60 +286,49 @@ def run(scene=None, progress=lambda m: None, repeats: int = 5, quick: bool = Fal
     if not quick:
         progress("the CLI on the built-in scene")
         extra["cli"] = cli_seconds()
-        progress("simulate_many of 1000 variants")
-        extra["batch"] = batch_throughput()
+        extra["batch"] = [batch.measure(d, sc["any_numbers"], variation, progress)
+                          for d, sc in zip(docs, scenes) if "any_numbers" in sc]
         progress("a first build with an empty cache")
         extra["first_build"] = first_build()
     return {"target": TARGET, "scenes": scenes, **extra}
 
 
-# ---- the targets (issue 10) -------------------------------------------------------------
-def _scene_targets(sc: dict) -> list[Target]:
+# ---- the targets (issues 10 and 31) -----------------------------------------------------
+def _scene_targets(sc: dict) -> list:
     """derive.simulate end to end against SciPy: the law seen before, a new law."""
-    by = {r["route"]: r["seconds"] for r in sc["rows"]}
-    scipy = by.get("scipy DOP853", np.nan)
-    out = []
-    for label, key, goal in (("law seen before", "derive.simulate (law seen)", "seen"),
-                             ("new law", "derive.simulate (new law)", "unseen")):
-        ratio = scipy / by[key]
-        out.append(Target(f"derive.simulate end to end, {label}: {ratio:.0f}x faster than "
-                          f"SciPy (target >= {GOALS[goal]:g}x)", ratio >= GOALS[goal]))
-    any_ = sc.get("any_numbers")
-    if any_:
-        short = "".join(f"; variant {k}: {' and '.join(who)} short of the target at the "
-                        f"tightest setting ({err:.1e}), left out" for k, who, err in
-                        any_["short"])
-        out.append(Target(
-            f"derive.simulate end to end, the law seen and every other number changed "
-            f"(M, m, e, height, spin; {any_['met']} of {len(any_['variants'])} variants "
-            f"at equal error within the 1e-9 target): median {any_['median']:.0f}x SciPy "
-            f"on the same variant ({any_['min']:.0f}-{any_['max']:.0f}x; target >= "
-            f"{GOALS['seen']:g}x){short}",
-            any_["met"] > 0 and any_["median"] >= GOALS["seen"]))
-    return out
+    by = {r["route"]: _spread(r) for r in sc["rows"]}
+    scipy = by.get("scipy DOP853", Spread.of([]))
+    return [judge(f"derive.simulate end to end, {label}, faster than SciPy", scipy.over(by[key]),
+                  AT_LEAST, GOALS[goal], ".0f")
+            for label, key, goal in (("law seen before", "derive.simulate (law seen)", "seen"),
+                                     ("new law", "derive.simulate (new law)", "unseen"))]
 
 
-def _cli_target(c: dict) -> Target:
-    return Target(f"CLI on the built-in scene: {c['with static plots']:.2f} s with static "
-                  f"plots, {c['no plots']:.2f} s without (target < {GOALS['cli_s']:g} s)",
-                  c["with static plots"] < GOALS["cli_s"])
+def any_numbers_line(any_: dict) -> str:
+    """derive.simulate with every number changed, one call at a time, against SciPy: a
+    figure, no longer a target (issue 31 retired it: the per-call validation it needs
+    stands; studies of such variants meet it in bulk, below)."""
+    short = "".join(f"; variant {k}: {' and '.join(who)} short of the target at the "
+                    f"tightest setting ({err:.1e}), left out" for k, who, err in any_["short"])
+    return (f"derive.simulate end to end, the law seen and every other number changed (M, m, "
+            f"e, height, spin; {any_['met']} of {len(any_['variants'])} variants at equal error "
+            f"within the 1e-9 target): median {any_['median']:.0f}x SciPy on the same variant "
+            f"({any_['min']:.0f}-{any_['max']:.0f}x; one call at a time: reported, the goal of "
+            f"1000x is the study's){short}")
 
 
-def _batch_target(b: dict) -> Target:
-    return Target(f"simulate_many: {b['variants']} variants in {b['wall_s']:.3f} s on "
-                  f"{b['workers']} {b['executor']} (the first call of the process: "
-                  f"{b['first_call_s']:.3f} s); {1e3 * b['per_variant_per_core_s']:.3f} "
-                  f"ms per variant per core vs {1e3 * b['c_run_s']:.3f} ms for the C run "
-                  f"of a variant: {b['ratio']:.2f}x (target <= {GOALS['batch']:g}x)",
-                  b["ratio"] <= GOALS["batch"])
+def _cli_target(c: dict):
+    return judge(f"CLI on the built-in scene with static plots, CPU time (without: "
+                 f"{c['no plots'].median:.2f} s)", c["with static plots"], AT_MOST,
+                 GOALS["cli_s"], ".2f", " s")
 
 
-def targets(out: dict) -> list[Target]:
+def targets(out: dict) -> list:
     found = [t for sc in out["scenes"] for t in _scene_targets(sc)]
     if "cli" in out:
         found.append(_cli_target(out["cli"]))
-    if "batch" in out:
-        found.append(_batch_target(out["batch"]))
+    for b in out.get("batch", []):
+        found += batch.targets(b)
     return found
 
 
@@ -380,29 +344,31 @@ def report(out: dict) -> str:
         lines.append(f"scene {sc['scene']} ({sc['duration']:g} s), max state error target "
                      f"{out['target']:g}; reference vs SciPy at 1e-13: state {agree[0]:.1e}, "
                      f"impact times {agree[1]:.1e}")
-        lines.append(f"  {'route':<28}{'setting':>9}{'time [ms]':>12}{'state err':>11}"
-                     f"{'impact err':>12}{'evals':>9}")
+        lines.append(f"  {'route':<28}{'setting':>9}{'time [ms]':>12}{'quartiles [ms]':>20}"
+                     f"{'state err':>11}{'impact err':>12}{'evals':>9}")
         for r in rows:
             setting = f"{r['setting']:g}" if r["setting"] is not None else "not met"
             ev = f"{r['evaluations']:>9d}" if isinstance(r["evaluations"], (int, np.integer)) \
                 else f"{'':>9}"
-            lines.append(f"  {r['route']:<28}{setting:>9}{1e3 * r['seconds']:>12.3f}"
-                         f"{r['error']:>11.1e}{r['impact_error']:>12.1e}{ev}")
+            sp = _spread(r)
+            quart = f"{1e3 * sp.lo:.4g}-{1e3 * sp.hi:.4g}" if sp.n > 1 else ""
+            lines.append(f"  {r['route']:<28}{setting:>9}{1e3 * r['seconds']:>12.4g}"
+                         f"{quart:>20}{r['error']:>11.1e}{r['impact_error']:>12.1e}{ev}")
         by = {r["route"]: r["seconds"] for r in rows}
         scipy = by.get("scipy DOP853", np.nan)
         c_run = next(v for k, v in by.items() if k.startswith("runtime C"))
         lines += [f"  {t}" for t in _scene_targets(sc)]
+        if sc.get("any_numbers"):
+            lines.append(f"  {any_numbers_line(sc['any_numbers'])}")
         lines.append(f"  the C run alone: {scipy / c_run:.0f}x SciPy; end to end costs "
                      f"{by['derive.simulate (law seen)'] / c_run:.2f}x the C run")
     if "cli" in out:
         lines.append(str(_cli_target(out["cli"])))
-    if "batch" in out:
-        p = out["batch"]["processes"]
-        lines.append(str(_batch_target(out["batch"])))
-        lines.append(f"  (executor='processes': {p['wall_s']:.3f} s on {p['workers']} "
-                     f"processes, {p['ratio']:.2f}x the C run)")
+    for b in out.get("batch", []):
+        lines += batch.report_lines(b)
     if "first_build" in out:
         lines.append(f"first call on a fresh machine: the general model's library builds in "
                      f"{out['first_build']['general_s']:.1f} s (once; every later process "
                      "loads it from the cache)")
+    lines.append(SPREAD_NOTE)
     return "\n".join(lines)

@@ -1,41 +1,40 @@
 """Parameter studies: ``derive.simulate_many(scene, variants)`` runs many variants of one
-scene through the precompiled runtime, with no compilation and no Python per step.
+scene through the precompiled runtime, with no compilation and no Python per step -- nor
+per variant where the variants vary the numbers a study varies most.
 
 Variants are overrides of the scene's fields by dotted name (``"body.mass"``,
 ``"plane.restitution"``, ``"initial.com"``, ``"point.law"``, ...): a list of dicts, one
 per variant, or a grid, a dict of lists whose Cartesian product is taken.  Each variant
 is validated like any scene (so a bad value is refused naming the variant and the
-field) and its model chosen.  What comes back per variant is a summary row (``keep =
-"summary"``: the variants of one model and law run in one call into C, which keeps per
-run only what the row reads) or the whole :class:`~derive.runtime.driver.Result`
-(``keep = "result"``).
+field) and its model chosen: in bulk, NumPy over a group of variants, where they
+override only fields of :data:`derive.scene.bulk.BULK`, else one at a time
+(:mod:`derive.runtime.study`).  What comes back per variant is a summary (``keep =
+"summary"``: the variants of one model and law run in calls into C that keep per run
+only what the summary reads; the columns are sliced out of the C's arrays) or the
+whole :class:`~derive.runtime.driver.Result` (``keep = "result"``).
 
 Workers are local threads (``workers``, default every core: the C releases the GIL, so
-threads run it in parallel with nothing to start or pickle), local processes
-(``executor = "processes"``) or a Dask cluster (``scheduler``), through
-:mod:`derive.parallel`.
+threads run it in parallel with nothing to start or pickle; the study is planned once,
+here, and the threads run its chunks), local processes (``executor = "processes"``) or a
+Dask cluster (``scheduler``), through :mod:`derive.parallel`; those plan and run their
+own chunks of the variants.
 """
 from __future__ import annotations
 
 import copy
 import itertools
-import math
 import time
 from dataclasses import dataclass, field, fields as dataclass_fields
+from functools import cached_property
 
 import numpy as np
 
 from .. import parallel
-from .. import abi
 from ..progress import count
-from . import choice
-from .driver import Prepared, prepare, run_prepared, session_for
-from ..scene import Scene, SceneError, build_scene, load_scene, overrides, parse_scene
-from ..scene.rules import check_start_above_plane
-from ..scene.schema import SCENE
-
-SUMMARY_COLUMNS = ("status", "model", "t_end", "impacts", "contacts", "liftoffs", "steps",
-                   "rhs_evaluations", "min_height", "first_contact_t", "Z_C_end", "run_ms")
+from . import study
+from .driver import prepare
+from .study import COUNT_COLUMNS, SUMMARY_COLUMNS, TEXT_COLUMNS  # noqa: F401 (the API's names)
+from ..scene import Scene, SceneError, load_scene, overrides, parse_scene
 
 
 class BatchError(overrides.OverrideError):
@@ -55,17 +54,15 @@ def expand(variants) -> list[dict]:
     return [dict(v) for v in variants]
 
 
-TEXT_COLUMNS = ("error", "status", "model")
-COUNT_COLUMNS = ("impacts", "contacts", "liftoffs", "steps", "rhs_evaluations")
-
-
 @dataclass(repr=False)
 class Batch:
-    """The variants and what each gave (one row per variant, in order).  A refused
-    variant's row holds only ``error``; a row that ran has no ``error``."""
+    """The variants and what each gave, in order: ``columns`` (name -> one entry per
+    variant: ``error`` and the summary columns), read through :meth:`column`; ``rows``,
+    the same as one dict per variant (a refused variant's holds only ``error``, one that
+    ran has no ``error``), made when first read."""
 
     variants: list
-    rows: list                       # dicts of SUMMARY_COLUMNS (or errors)
+    columns: dict
     results: list = field(default_factory=list)      # keep = "result"
     seconds: float = 0.0
     executor: str = "serial"
@@ -76,9 +73,24 @@ class Batch:
     task_s: list = field(default_factory=list)    # per task: seconds in its worker
 
     def __repr__(self) -> str:               # (the rows and results can be thousands)
-        refused = sum("error" in r for r in self.rows)
-        return (f"<Batch of {len(self.rows)} variants ({refused} refused) in "
+        refused = int(self._refused.sum())
+        return (f"<Batch of {len(self.variants)} variants ({refused} refused) in "
                 f"{self.seconds:.3g} s on {self.executor} ({count(self.workers, 'worker')})>")
+
+    @property
+    def _refused(self) -> np.ndarray:
+        return self.columns["error"] != None           # noqa: E711 (entry by entry)
+
+    @cached_property
+    def rows(self) -> list:
+        """One dict per variant: ``error`` alone for a refused one, else the summary
+        columns (Python numbers and strings)."""
+        listed = {name: self.columns[name].tolist() for name in ("error", *SUMMARY_COLUMNS)}
+        out = []
+        for k, err in enumerate(listed["error"]):
+            out.append({"error": err} if err is not None else
+                       {name: listed[name][k] for name in SUMMARY_COLUMNS})
+        return out
 
     def column(self, name: str) -> np.ndarray:
         """One value per variant.  Text (``status``, ``model``, ``error``): an object
@@ -90,12 +102,9 @@ class Batch:
         when they are numbers (masked where a variant leaves the field alone), else an
         object array with None."""
         if name in TEXT_COLUMNS:
-            return _objects([r.get(name) for r in self.rows])
+            return self.columns[name].copy()
         if name in SUMMARY_COLUMNS:
-            kind = np.int64 if name in COUNT_COLUMNS else np.float64
-            missing = np.array([name not in r for r in self.rows], dtype=bool)
-            data = np.array([r.get(name, 0) for r in self.rows], dtype=kind)
-            return np.ma.MaskedArray(data, mask=missing)
+            return np.ma.MaskedArray(self.columns[name].copy(), mask=self._refused)
         if any(name in v for v in self.variants):
             values = [v.get(name) for v in self.variants]
             if all(v is None or (isinstance(v, (int, float, np.integer, np.floating))
@@ -140,101 +149,6 @@ def _csv(x) -> str:
     return '"' + text.replace('"', '""') + '"' if ("," in text or '"' in text) else text
 
 
-def summary_row(result) -> dict:
-    """The summary of one :class:`~derive.runtime.driver.Result` (the columns of
-    :func:`_summary_rows`, which a batch fills in C)."""
-    ev = result.event_rows
-    contact = ev[ev[:, 1] == abi.index(abi.EVENT_KINDS, "contact")] if len(ev) else ev
-    s = result.stats
-    t_end = float(result.t[-1])
-    return {"status": result.status, "model": result.model, "t_end": t_end,
-            "impacts": s["impacts"], "contacts": s["contacts"], "liftoffs": s["liftoffs"],
-            "steps": s["steps"], "rhs_evaluations": s["rhs_evaluations"],
-            "min_height": result.min_height,
-            "first_contact_t": float(contact[0, 0]) if len(contact) else math.nan,
-            "Z_C_end": choice.height_of_c(result.scene, result.model, t_end,
-                                          result.model_q[-1]),
-            "run_ms": 1e3 * result.timings.get("run_s", math.nan)}
-
-
-_STAT = {name: k for k, name in enumerate(abi.names(abi.STATS))}
-_SUMMARY = {name: k for k, name in enumerate(abi.names(abi.SUMMARY))}
-
-
-def _summary_rows(preps: list, session) -> list:
-    """The summary rows of prepared variants of one model and one law: all of them in
-    one call into C (no Python per run), the C time shared equally in ``run_ms``."""
-    out = session.run_many([p.scene.t0 for p in preps],
-                           [p.scene.t0 + p.scene.duration for p in preps],
-                           np.array([p.start.q0 for p in preps]),
-                           np.array([p.options for p in preps]),
-                           np.array([p.parameters for p in preps]))
-    ms = 1e3 * out["seconds"] / len(preps)
-    stats, summ, last = out["stats"].tolist(), out["summary"], out["last"]
-    rows = []
-    for i, p in enumerate(preps):
-        if out["init_status"][i] != abi.STATUS["ok"]:
-            # crt_init again on this run's inputs: the C then names what it refused
-            status = session.init_status(p.options, p.parameters, p.scene.t0, p.start.q0)
-            rows.append({"error": str(session._refused(status))})
-            continue
-        st, t_end = stats[i], float(last[i, 0])
-        rows.append({"status": abi.status_name(int(out["status"][i])), "model": p.kind,
-                     "t_end": t_end,
-                     "impacts": st[_STAT["impacts"]], "contacts": st[_STAT["contacts"]],
-                     "liftoffs": st[_STAT["liftoffs"]], "steps": st[_STAT["steps"]],
-                     "rhs_evaluations": st[_STAT["rhs_evaluations"]],
-                     "min_height": float(summ[i, _SUMMARY["min_height"]]),
-                     "first_contact_t": float(out["first_contact"][i]),
-                     "Z_C_end": choice.height_of_c(p.scene, p.kind, t_end, last[i, 1:]),
-                     "run_ms": ms})
-    return rows
-
-
-# Fields whose change reaches only the initial state (and the rule that S starts on or
-# above the plane) or only the parameter vector: a variant that changes nothing else
-# reuses the base scene's validation, model choice and options instead of redoing them
-# (tests/test_batch.py checks that it equals the full path on random variants).
-_STATE_FIELDS = {"[initial].com": "com", "[initial].com_velocity": "com_velocity"}
-_PARAMETER_FIELDS = {"[plane].restitution": "e", "[run].g": "g"}
-_PARAMETER_VALUES = frozenset(_PARAMETER_FIELDS.values())
-
-
-def _quick_variant(base, v: dict, touched: set, label: str, doc: _VariantDoc):
-    """The prepared variant by the fast path, or None when its fields need the full one."""
-    changes = {}
-    initial = base.scene.doc.get("initial", {})
-    derived = initial.get("on_plane") or "carrier_velocity" in initial   # C's start computed
-    for where in touched:
-        attr = _STATE_FIELDS.get(where) or _PARAMETER_FIELDS.get(where)
-        if attr is None or (attr == "e" and not base.scene.plane) or \
-                (attr in ("com", "com_velocity") and derived):
-            return None
-        changes[attr] = v[where]
-    scene = Scene.of_fields(base.scene.__dict__, **changes, source=label, doc_source=doc)
-    if "com" in changes:
-        check_start_above_plane(scene)
-    st = choice.start(scene, base.kind)
-    same = not (changes.keys() & _PARAMETER_VALUES or st.constants or base.start.constants)
-    return Prepared(scene, base.kind, base.why, st, base.options,
-                    base.parameters if same else choice.parameters(scene, st.constants))
-
-
-class _VariantDoc:
-    """A variant's scene dict (:attr:`Scene.doc`): the base's with the variant's
-    overrides, made only when read."""
-    __slots__ = ("_base", "_overrides")
-
-    def __init__(self, base: dict, overrides: dict):
-        self._base, self._overrides = base, overrides
-
-    def get(self) -> dict:
-        doc = copy.deepcopy(self._base)
-        for name, value in self._overrides.items():
-            overrides.apply_to_doc(doc, name, copy.deepcopy(value))
-        return doc
-
-
 def _differing_field(a: Scene, b: Scene) -> str | None:
     """The first field in which two Scenes differ (the law by its text or samples, the
     attitude by its matrix), or None."""
@@ -254,69 +168,47 @@ def _differing_field(a: Scene, b: Scene) -> str | None:
     return None
 
 
-def _run_task(task: tuple) -> tuple[list, float, float]:
-    """Runs in a worker: (rows of :func:`_run_chunk`, seconds readying the runtime
-    library (loading it, or building it on a machine that has not: a worker's first
-    task), seconds in all)."""
+# ---- tasks: what a worker runs -----------------------------------------------------------
+def _run_task(task: tuple) -> tuple:
+    """Runs in a worker: (the variants' numbers, their columns, their whole results or
+    None, seconds readying the runtime library (loading it, or building it on a machine
+    that has not: a worker's first task), seconds in all).  A task is a chunk of a part
+    (``("part", Part)``), variants one at a time (``("singles", base, origin, items,
+    keep)``) or, on processes and Dask, variants to plan and run here (``("plan", base,
+    origin, items, keep)``)."""
     start = time.perf_counter()
     ready = [0.0]
-    out = _run_chunk(task, ready)
-    return out, ready[0], time.perf_counter() - start
+    what = task[0]
+    if what == "part":
+        index, cols, results = task[1].index, study.run_part(task[1], ready), None
+    elif what == "singles":
+        _, base, origin, items, keep = task
+        index = np.array([i for i, _ in items], dtype=int)
+        cols, results = study.run_singles(base, origin, items, keep, ready)
+    else:
+        _, base, origin, items, keep = task
+        found = study.plan(base, origin, items, keep)
+        pieces = [(p.index, study.run_part(p, ready), None) for p in found.parts]
+        if found.singles:
+            cols, results = study.run_singles(base, origin, found.singles, keep, ready)
+            pieces.append((np.array([i for i, _ in found.singles], dtype=int), cols,
+                           results))
+        index, cols, results = _joined(pieces, keep)
+    return index, cols, results, ready[0], time.perf_counter() - start
 
 
-def _session(kind: str, ready: list):
-    """This thread's session of a model, the time it took added to ``ready[0]`` (nothing
-    but the first time in a thread)."""
-    start = time.perf_counter()
-    session = session_for(kind)
-    ready[0] += time.perf_counter() - start
-    return session
-
-
-def _run_chunk(task: tuple, ready: list) -> list:
-    """(base doc, origin, [(index, overrides)], keep) -> rows.  The base scene's fields
-    are read once; a variant re-validates only what it overrides, then every cross-field
-    rule (the law's analysis is cached by its text).  Summaries: the valid variants are
-    grouped by model and law and each group runs in one call into C; whole results: one
-    run per variant."""
-    base, origin, items, keep = task
-    try:
-        base_v, base_given = SCENE.read(base)
-    except SceneError as exc:
-        return [(index, {"error": f"base scene: {exc}"}, None) for index, _ in items]
-    try:
-        base_prep = prepare(build_scene(dict(base_v), set(base_given), _VariantDoc(base, {}),
-                                        "base scene", base=origin))
-    except SceneError:
-        base_prep = None                   # a variant may still make it valid
-    out, groups = [], {}
-    for index, changes in items:
-        v, given = dict(base_v), set(base_given)
-        try:
-            touched = {overrides.apply_to_values(v, given, name, value)
-                       for name, value in changes.items()}
-            label = f"variant {index}"
-            doc = _VariantDoc(base, changes)
-            prep = _quick_variant(base_prep, v, touched, label, doc) if base_prep else None
-            if prep is None:
-                prep = prepare(build_scene(v, given, doc, label, base=origin))
-            if keep == "result":
-                result = run_prepared(prep, _session(prep.kind, ready))
-                out.append((index, summary_row(result), result))
-                continue
-        except SceneError as exc:
-            out.append((index, {"error": f"variant {index}: {exc}"}, None))
-            continue
-        groups.setdefault((prep.kind, id(prep.scene.law)), []).append((index, prep))
-    for (kind, _), members in groups.items():
-        session = _session(kind, ready)
-        session.set_law(members[0][1].scene.law)
-        rows = _summary_rows([p for _, p in members], session)
-        for (index, _), row in zip(members, rows):
-            if "error" in row:
-                row = {"error": f"variant {index}: {row['error']}"}
-            out.append((index, row, None))
-    return out
+def _joined(pieces: list, keep: str) -> tuple:
+    index = np.concatenate([p[0] for p in pieces]) if pieces else np.zeros(0, dtype=int)
+    cols = study.empty_columns(len(index))
+    results = [] if keep == "result" else None
+    at = 0
+    for idx, c, res in pieces:
+        for name, col in c.items():
+            cols[name][at:at + len(idx)] = col
+        if results is not None:
+            results += res if res is not None else [None] * len(idx)
+        at += len(idx)
+    return index, cols, results
 
 
 def simulate_many(scene, variants, workers: int | None = None, scheduler: str | None = None,
@@ -348,20 +240,30 @@ def simulate_many(scene, variants, workers: int | None = None, scheduler: str | 
         sc = load_scene(scene)
         base, origin = sc.doc, Path(scene).parent
     items = list(enumerate(expand(variants)))
-    for k, v in items:                  # a field that does not exist fails the study
-        for name in v:
-            overrides.target(name, f"variant {k}")
+    _check_names(items)
     if chunk is not None and (isinstance(chunk, bool) or not isinstance(chunk, int)
                               or chunk < 1):
         raise BatchError("chunk", f"must be a whole number >= 1 (got {chunk!r})")
     start = time.perf_counter()
     n_items = len(items)
-
-    def tasks(threads: int) -> list:
-        size = chunk or default_chunk(n_items, threads, cluster=bool(scheduler))
-        return [(base, origin, items[k:k + size], keep) for k in range(0, n_items, size)]
     if workers is None and scheduler is None and n_items <= 8:
         workers = 1
+    # local threads share this process: the study is planned once, here; processes and
+    # Dask workers plan their own chunks (nothing but the variants is sent to them)
+    here = scheduler is None and (executor == "threads" or workers == 1)
+    planned = study.plan(base, origin, items, keep) if here else None
+
+    def tasks(threads: int) -> list:
+        if planned is None:                  # a task plans (reads in bulk) its variants
+            size = chunk or (default_chunk(n_items, threads, cluster=True) if scheduler
+                             else part_chunk(n_items, threads))
+            return [("plan", base, origin, items[k:k + size], keep)
+                    for k in range(0, n_items, size)]
+        out = [("part", piece) for part in planned.parts
+               for piece in part.pieces(chunk or part_chunk(len(part), threads))]
+        size = chunk or default_chunk(len(planned.singles), threads)
+        return out + [("singles", base, origin, planned.singles[k:k + size], keep)
+                      for k in range(0, len(planned.singles), size)]
     bar = None
     if progress:
         from ..progress import Bar
@@ -372,10 +274,11 @@ def simulate_many(scene, variants, workers: int | None = None, scheduler: str | 
         done[0] += len(task[0])
         if bar:
             bar.update(done[0] / n_items, f"{done[0]}/{n_items}")
-    try:                                     # the base scene's model, loaded before the
-        prepare(base if origin is None else scene).library     # workers fork
-    except SceneError:
-        pass
+    if planned is None:
+        try:                                     # the base scene's model, loaded before
+            prepare(base if origin is None else scene).library     # the workers fork
+        except SceneError:
+            pass
     info: dict = {}
     try:
         done_tasks, executor, n_workers = parallel.run(_run_task, tasks, workers, scheduler,
@@ -384,27 +287,41 @@ def simulate_many(scene, variants, workers: int | None = None, scheduler: str | 
         raise BatchError(exc.where, exc.rule) from None
     if bar:
         bar.close()
-    rows: list = [None] * n_items
+    cols = study.empty_columns(n_items)
     results: list = [None] * n_items if keep == "result" else []
-    for ch, _, _ in done_tasks:
-        for index, row, res in ch:
-            rows[index] = row
-            if keep == "result":
-                results[index] = res
+    for index, got, res, _, _ in done_tasks:
+        for name, col in got.items():
+            cols[name][index] = col
+        if keep == "result" and res is not None:
+            for i, r in zip(index.tolist(), res):
+                results[i] = r
     if strict:
-        bad = next((r for r in rows if "error" in r), None)
-        if bad is not None:
-            raise BatchError("variants", bad["error"])
-    return Batch([v for _, v in items], rows, results, time.perf_counter() - start, executor,
+        refused = np.flatnonzero(cols["error"] != None)       # noqa: E711 (entry by entry)
+        if len(refused):
+            raise BatchError("variants", cols["error"][refused[0]])
+    return Batch([v for _, v in items], cols, results, time.perf_counter() - start, executor,
                  n_workers, len(done_tasks), info.get("connect_s"),
-                 [t[1] for t in done_tasks], [t[2] for t in done_tasks])
+                 [t[3] for t in done_tasks], [t[4] for t in done_tasks])
+
+
+def _check_names(items: list) -> None:
+    """A field that does not exist fails the study, naming the first variant that gives
+    it (each set of names checked once)."""
+    seen = set()
+    for k, v in items:
+        names = tuple(v)
+        if names not in seen:
+            seen.add(names)
+            for name in names:
+                overrides.target(name, f"variant {k}")
 
 
 # A run of the built-in scene costs 0.1 ms of C, a Dask task 0.2 ms and more of
-# scheduling, pickling and round trip, plus the base scene's validation in _run_chunk:
-# about 2 ms a task in all (4000 variants on a local cluster of two workers: 250 tasks
-# of 16 took 1.23 s in the workers, 2 of 2000 took 0.79 s).  So on a cluster a task
-# holds hundreds of variants at least.
+# scheduling, pickling and round trip, plus its planning (the base scene read, a
+# variant per model prepared alone: about 0.4 ms, then 2 us a variant): milliseconds a
+# task in all (earlier, with a validation per variant: 4000 variants on a local cluster
+# of two workers took 1.23 s in the workers in 250 tasks of 16, 0.79 s in 2 of 2000).
+# So on a cluster a task holds hundreds of variants at least.
 CLUSTER_CHUNK = (256, 10_000)
 
 
@@ -418,3 +335,11 @@ def default_chunk(n: int, threads: int, cluster: bool = False) -> int:
         lo, hi = CLUSTER_CHUNK
         return min(hi, max(lo, -(-n // (2 * threads))))
     return max(1, min(64, n // (4 * threads) or 1))
+
+
+def part_chunk(n: int, threads: int) -> int:
+    """Variants per call into C (or per task of local processes, which read them in bulk
+    first) for ``n`` variants on ``threads`` local workers: four chunks per worker (to
+    balance), of 8 to 10000 variants (a chunk's own cost, tens of microseconds of Python
+    around the call, against the runs'; the progress bar's steps)."""
+    return min(10_000, max(8, -(-n // (4 * max(threads, 1)))))

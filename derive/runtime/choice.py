@@ -27,6 +27,7 @@ import numpy as np
 from .. import abi, layout, shapes
 from .geometry import kinetic_moment, lowest_point_numeric, momentum_frame, rotation_x, rotation_z
 from ..scene import Scene, SceneError
+from ..scene.rules import most
 
 POSE = "pose"
 G = layout.GENERAL
@@ -38,8 +39,18 @@ def _samples(scene: Scene, n: int = 801) -> tuple:
     return ts, scene.law.jets(ts)
 
 
-def _translational_reason(scene: Scene) -> str | None:
-    if any(w != 0.0 for w in scene.omega):
+def symmetry_key(omega, J) -> tuple:
+    """What the choice of a model reads of omega(0) and J: (omega = 0, omega along z, J_x =
+    J_y to 1e-12 of the largest).  Of one scene, or columns of a study's variants (omega and
+    J three entries each, numbers or columns): variants of one scene with the same key
+    are answered by the same model."""
+    wx, wy, wz = omega
+    along_z = (wx == 0.0) & (wy == 0.0)
+    return along_z & (wz == 0.0), along_z, abs(J[0] - J[1]) <= 1e-12 * most(J)
+
+
+def _translational_reason(scene: Scene, still: bool) -> str | None:
+    if not still:
         return None
     _, vals = _samples(scene)
     r, a = vals[list(layout.JET_R)], vals[list(layout.JET_A)]
@@ -59,8 +70,8 @@ def _translational_reason(scene: Scene) -> str | None:
     return why
 
 
-def _planar_reason(scene: Scene) -> str | None:
-    if scene.omega[0] != 0.0 or scene.omega[1] != 0.0 or not scene.law.is_zero(2):
+def _planar_reason(scene: Scene, along_z: bool) -> str | None:
+    if not along_z or not scene.law.is_zero(2):
         return None
     why = "z = 0 in the law and omega(0) along z: omega_x = omega_y = 0 persists (E4.1)"
     if scene.contact_possible:
@@ -71,10 +82,10 @@ def _planar_reason(scene: Scene) -> str | None:
     return why
 
 
-def _axisymmetric_reason(scene: Scene) -> str | None:
-    if scene.contact_possible or abs(scene.J[0] - scene.J[1]) > 1e-12 * max(scene.J):
+def _axisymmetric_reason(scene: Scene, still: bool, round_: bool) -> str | None:
+    if scene.contact_possible or not round_:
         return None
-    if not (scene.law.is_zero(0) and scene.law.is_zero(1)) or all(w == 0.0 for w in scene.omega):
+    if not (scene.law.is_zero(0) and scene.law.is_zero(1)) or still:
         return None
     return "free flight, J_x = J_y and P on the symmetry axis: quadratures (E3.11-E3.14)"
 
@@ -85,9 +96,10 @@ def candidates(scene: Scene) -> list:
         return [("rough", f"the plane has friction (mu_f = {scene.friction:g}): the slip of "
                           "S needs the horizontal velocity of C and the whole attitude")]
     out = []
-    for kind, reason in (("translational", _translational_reason),
-                         ("planar", _planar_reason), ("axisymmetric", _axisymmetric_reason)):
-        why = reason(scene)
+    still, along_z, round_ = symmetry_key(scene.omega, scene.J)
+    for kind, why in (("translational", _translational_reason(scene, still)),
+                      ("planar", _planar_reason(scene, along_z)),
+                      ("axisymmetric", _axisymmetric_reason(scene, still, round_))):
         if why:
             out.append((kind, why))
     if not scene.contact_possible and wants <= {"omega", "momentum"}:
@@ -128,13 +140,18 @@ class Start:
     constants: dict
 
 
+# the models whose start reads only C's position and velocity, omega and the attitude
+# (a study's variants start in bulk: rows of com, com_velocity and omega give rows of q0)
+POSE_STARTS = ("general", "rough", "vertical", "attitude")
+
+
 def start(scene: Scene, kind: str) -> Start:
     A0 = scene.A0
-    if kind in ("general", "rough", "vertical", "attitude"):
+    if kind in POSE_STARTS:
         q = G.assemble(com=scene.com, com_velocity=scene.com_velocity, omega=scene.omega,
                        A=A0.reshape(-1))
-        return Start(q if kind in ("general", "rough") else
-                     layout.vertical_of_general(q) if kind == "vertical" else q[G.omega], {})
+        return Start(q if kind in ("general", "rough") else layout.vertical_of_general(q)
+                     if kind == "vertical" else q[..., G.omega], {})
     n0 = {"n0_x": A0[2][0], "n0_y": A0[2][1], "n0_z": A0[2][2]}
     if kind == "translational":
         return Start(np.array([scene.com[2], scene.com_velocity[2]]), n0)
@@ -158,9 +175,19 @@ _P_SHAPE = (_P["size_a"], _P["size_b"], _P["size_c"], _P["center_x"], _P["center
             _P["center_z"])
 
 
+def vector(entries: list) -> np.ndarray:
+    """An option or parameter vector from its entries; where some are columns (a study's
+    variants at once, derive.scene.bulk), one row per variant."""
+    try:
+        return np.array(entries, dtype=float)
+    except ValueError:                   # columns among the numbers
+        return np.stack(np.broadcast_arrays(*entries), axis=-1).astype(float)
+
+
 def parameters(scene: Scene, constants: dict) -> np.ndarray:
     """The parameter vector of a run (indices from abi.PARAMETERS), built as a list and
-    made an array once (an item set on an array costs ten times a list's)."""
+    made an array once (an item set on an array costs ten times a list's); rows of them
+    for a Scene whose numbers are a study's columns."""
     prm = [0.0] * len(abi.PARAMETERS)
     for k, x in zip(_P_BODY, (scene.M, scene.m, *scene.J, scene.g, scene.e)):
         prm[k] = x
@@ -177,7 +204,7 @@ def parameters(scene: Scene, constants: dict) -> np.ndarray:
         if not name.startswith("_"):
             prm[_P[name]] = float(value)
     _bodies(prm, scene)
-    return np.array(prm, dtype=float)
+    return vector(prm)
 
 
 def _bodies(prm: list, scene: Scene) -> None:
@@ -253,9 +280,11 @@ def _general_rows(X, Y, Z, VX, VY, VZ, omega, A) -> np.ndarray:
 
 
 def height_of_c(scene: Scene, kind: str, t: float, q) -> float:
-    """Z_C at time t from one state of a model (NaN for the attitude model)."""
+    """Z_C at time t from one state of a model (NaN for the attitude model); from rows of
+    states, a column, for the models whose state holds it."""
     if kind in ("general", "rough", "vertical", "translational", "planar"):
-        return float(q[layout.of(kind).Z])
+        z = q[..., layout.of(kind).Z]
+        return float(z) if np.ndim(z) == 0 else z
     if kind == "axisymmetric":                # free flight: C on its parabola
         dt = t - scene.t0
         return scene.com[2] + scene.com_velocity[2] * dt - 0.5 * scene.g * dt * dt

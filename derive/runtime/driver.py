@@ -54,7 +54,7 @@ def options(scene: Scene, kind: str) -> np.ndarray:
     opt[_O["event_tol"]] = 1e-15
     opt[_O["length_scale"]] = choice.length_scale(scene) if contact else 0.0
     opt[_O["zeno_dt"]] = scene.zeno_dt
-    return np.array(opt, dtype=float)
+    return choice.vector(opt)          # (rows of them for a study's columns)
 
 
 @dataclass

@@ -7,6 +7,8 @@ validated below the runtime.
 * :mod:`~derive.scene.parse`: from a document to a :class:`Scene`;
 * :mod:`~derive.scene.cache`: scenes seen before re-validate only their initial state;
 * :mod:`~derive.scene.overrides`: ``body.mass=1.3`` and ``initial.com[2]``, one parser;
+* :mod:`~derive.scene.bulk`: a study's overrides of many variants checked at once, by the
+  same fields and rules over NumPy columns;
 * :mod:`~derive.scene.law` and :mod:`~derive.scene.table`: the point law as formulas (a
   whitelist parser, interval proofs) or as samples (a cubic spline);
 * :mod:`~derive.scene.toml`: the one TOML writer;

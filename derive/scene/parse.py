@@ -87,6 +87,12 @@ def static_part(v: dict, given: set, origin: str = "scene", base: Path | None = 
     attributes they give."""
     d = Draft(v, given, origin, base, with_law, point_at)
     rules.check(rules.STATIC_RULES, d)
+    return Static(scene_fields(v, d, origin, with_law), d)
+
+
+def scene_fields(v: dict, d: Draft, origin: str = "scene", with_law: bool = True) -> dict:
+    """The Scene's attributes but those of the state, from the field values and the
+    static rules' draft (a study's bulk read passes columns through: derive.scene.bulk)."""
     defaults = SCENE.defaults()
 
     def run(key):
@@ -97,22 +103,21 @@ def static_part(v: dict, given: set, origin: str = "scene", base: Path | None = 
     # m: the point's mass; with other bodies the points' total (a task: [point].mass)
     m = v["[point].mass"] if not with_law else d.points[0].mass if d.one_point else \
         sum(p.mass for p in d.points)
-    fields = dict(name=v["name"], M=v["[body].mass"], J=v["[body].inertia"],
-                  shape=v["[body].shape"], size=d.size, center=d.center, m=m,
-                  law=d.law, law_text=d.law_text, plane=d.plane, e=d.e, t0=d.t0,
-                  friction=d.friction, restitution_model=d.restitution_model,
-                  spin_friction=d.spin_friction, rolling_resistance=d.rolling_resistance,
-                  duration=d.duration if with_law else 0.0,
-                  method=run("method"), rtol=run("rtol"), atol=run("atol"), g=run("g"),
-                  outputs=run("outputs"), max_events=run("max_events"),
-                  max_steps=run("max_steps"), output_dt=run("output_dt"),
-                  keep_orthonormal=run("keep_orthonormal"), model=run("model"),
-                  zeno_dt=run("zeno_dt"), source=origin, stability=st,
-                  law_summary=d.summary, max_distance=d.max_distance,
-                  control=_control(v, given), disturbance=_disturbance(v, given),
-                  internal=None if not with_law or d.one_point else (d.points, d.rotors),
-                  bodies_law=d.bodies)
-    return Static(fields, d)
+    return dict(name=v["name"], M=v["[body].mass"], J=v["[body].inertia"],
+                shape=v["[body].shape"], size=d.size, center=d.center, m=m,
+                law=d.law, law_text=d.law_text, plane=d.plane, e=d.e, t0=d.t0,
+                friction=d.friction, restitution_model=d.restitution_model,
+                spin_friction=d.spin_friction, rolling_resistance=d.rolling_resistance,
+                duration=d.duration if with_law else 0.0,
+                method=run("method"), rtol=run("rtol"), atol=run("atol"), g=run("g"),
+                outputs=run("outputs"), max_events=run("max_events"),
+                max_steps=run("max_steps"), output_dt=run("output_dt"),
+                keep_orthonormal=run("keep_orthonormal"), model=run("model"),
+                zeno_dt=run("zeno_dt"), source=origin, stability=st,
+                law_summary=d.summary, max_distance=d.max_distance,
+                control=_control(v, d.given), disturbance=_disturbance(v, d.given),
+                internal=None if not with_law or d.one_point else (d.points, d.rotors),
+                bodies_law=d.bodies)
 
 
 def _control(v: dict, given: set) -> Control | None:

@@ -8,6 +8,11 @@ field of ``[initial]`` but its time; the *state rules* read the initial state.  
 seen before with other initial numbers runs only the state rules
 (:mod:`derive.scene.cache`).
 
+A rule that reads a field a parameter study may vary in bulk (:data:`derive.scene.bulk.BULK`)
+also has a form over columns (``Rule.bulk``): the same draft with those fields as NumPy
+columns, one entry per variant, and the same predicate as its check, giving where it
+fails instead of raising (:func:`check_bulk`).
+
 A scene may be read without a law (a planning task, whose law the planner makes): the
 rules that need the law then do not apply, and the point's position at the start, which
 the start-above-the-plane rule reads, is given instead (``Draft.point_at``).
@@ -20,7 +25,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from functools import lru_cache
+from functools import lru_cache, reduce
 from pathlib import Path
 from typing import Any, Callable
 
@@ -103,10 +108,31 @@ class Draft:
 class Rule:
     """A rule across fields: ``text`` (empty for the schema's own requirements) and
     ``check(draft)``, which raises :class:`SceneError` or derives into the draft.
-    ``law``: the rule reads the law (skipped for a scene without one)."""
+    ``law``: the rule reads the law (skipped for a scene without one).  ``bulk(draft)``,
+    for a rule that reads a field of :data:`derive.scene.bulk.BULK`: the check over a
+    draft whose fields may be columns (a study's variants), deriving as ``check`` does and
+    returning where the rule fails (a bool, or a bool per variant) instead of raising."""
     text: str
     check: Callable[[Draft], None]
     law: bool = False
+    bulk: Callable[[Draft], Any] | None = None
+
+
+def least(xs):
+    """The least of a few numbers, or entry by entry of a few numbers and columns (the
+    rules' min over a study's variants at once)."""
+    try:
+        return min(xs)
+    except ValueError:                 # a column among them: its truth is ambiguous
+        return reduce(np.minimum, xs)
+
+
+def most(xs):
+    """The greatest of a few numbers, or entry by entry (as :func:`least`)."""
+    try:
+        return max(xs)
+    except ValueError:
+        return reduce(np.maximum, xs)
 
 
 # ---- the static part ---------------------------------------------------------------------
@@ -142,17 +168,38 @@ def _required(d: Draft) -> None:
         d.one_point = len(d.point_elements) == 1 and not d.rotor_elements
 
 
+def _required_bulk(d: Draft) -> bool:
+    """The same: of the fields a study varies in bulk it reads only e, to copy it."""
+    _required(d)
+    return False
+
+
+def _exceeds_the_others(J, k: int):
+    """J_k above the sum of the other two moments (by more than 1e-12 of it)."""
+    return J[k] > (J[(k + 1) % 3] + J[(k + 2) % 3]) * (1 + 1e-12)
+
+
+def _singular_inertia(J):
+    return least(J) < 1e-9 * most(J)
+
+
 def _inertia(d: Draft) -> None:
     J = d.v["[body].inertia"]
     for k, c in enumerate("xyz"):
-        others = J[(k + 1) % 3] + J[(k + 2) % 3]
-        if J[k] > others * (1 + 1e-12):
+        if _exceeds_the_others(J, k):
             raise SceneError(f"[body].inertia[{k}]",
                              f"J_{c} = {J[k]:g} exceeds the sum of the other two "
-                             f"({others:g}): no mass distribution has these principal moments")
-    if min(J) < 1e-9 * max(J):
+                             f"({J[(k + 1) % 3] + J[(k + 2) % 3]:g}): no mass distribution "
+                             "has these principal moments")
+    if _singular_inertia(J):
         raise SceneError("[body].inertia", "J is near-singular: the smallest moment is below "
                                            "1e-9 of the largest (R1 needs det J != 0)")
+
+
+def _inertia_bulk(d: Draft):
+    J = d.v["[body].inertia"]
+    return (_exceeds_the_others(J, 0) | _exceeds_the_others(J, 1) | _exceeds_the_others(J, 2)
+            | _singular_inertia(J))
 
 
 def _shape(d: Draft) -> None:
@@ -217,8 +264,9 @@ def _law(d: Draft) -> None:
     d.laws = tuple(laws)
 
 
-def _reach(d: Draft) -> None:
-    v = d.v
+def _points(d: Draft) -> None:
+    """Each point proved over the run (P within its max_distance: bodies.point), and what
+    several bodies' law and summary are."""
     t0, t1 = d.t0, d.t0 + d.duration
     size = d.body_size
     d.points = tuple(bodies.point(el, *law, t0, t1, size)
@@ -229,19 +277,43 @@ def _reach(d: Draft) -> None:
         d.summary, d.slowest = bodies.summary_of(d.points, d.rotors)
         d.max_distance = max((p.max_distance for p in d.points), default=0.0)
         d.bodies = bodies.law_of(d.points, d.rotors)
-    # R1: J = diag(J) + mu (|r|^2 1 - r r^T) non-singular along the law; its eigenvalues
-    # are at least min(J) (the added term is positive semi-definite), so only the ratio
-    # to the largest can degrade: bounded through max |OP| (several points: the inertia
-    # they add about the centre of mass is at most sum m_j max |OP_j|^2)
+
+
+def point_mass(d: Draft):
+    """The one point's mass: [point].mass (a study's column where it varies it), or the
+    single [[point]]'s."""
+    m = d.v.get("[point].mass")
+    return m if isinstance(m, (float, int, np.ndarray)) else d.points[0].mass
+
+
+def _singular_along_the_law(d: Draft):
+    """R1: J = diag(J) + mu (|r|^2 1 - r r^T) non-singular along the law; its eigenvalues
+    are at least min(J) (the added term is positive semi-definite), so only the ratio to
+    the largest can degrade: bounded through max |OP| (several points: the inertia they
+    add about the centre of mass is at most sum m_j max |OP_j|^2).  (``<=``, not ``not
+    >``: every number here is finite and positive, and it reads columns too.)"""
+    v = d.v
     J, M = v["[body].inertia"], v["[body].mass"]
     if d.one_point:
-        m = d.points[0].mass
-        largest = max(J) + M * m / (M + m) * d.summary.max_radius ** 2
+        m = point_mass(d)
+        largest = most(J) + M * m / (M + m) * d.summary.max_radius ** 2
     else:
-        largest = max(J) + sum(p.mass * p.summary.max_radius ** 2 for p in d.points)
-    if not min(J) > 1e-12 * largest:
+        largest = most(J) + sum(p.mass * p.summary.max_radius ** 2 for p in d.points)
+    return least(J) <= 1e-12 * largest
+
+
+def _reach(d: Draft) -> None:
+    _points(d)
+    if _singular_along_the_law(d):
         raise SceneError("[body].inertia", "J of E1.5 is near-singular along the law "
                                            "(smallest/largest below 1e-12); R1 needs det J != 0")
+
+
+def _reach_bulk(d: Draft):
+    """(A study varies M and J in bulk only where the body has a shape: then the body's
+    size, and max_distance, do not read them.)"""
+    _points(d)
+    return _singular_along_the_law(d)
 
 
 def _time_scale(d: Draft) -> None:
@@ -261,9 +333,10 @@ def _time_scale(d: Draft) -> None:
 
 
 STATIC_RULES = (
-    Rule("", _required),
+    Rule("", _required, bulk=_required_bulk),
     Rule("[body].inertia: each moment at most the sum of the other two (a real mass "
-         "distribution), the smallest at least 1e-9 of the largest", _inertia),
+         "distribution), the smallest at least 1e-9 of the largest", _inertia,
+         bulk=_inertia_bulk),
     Rule("[body]: the size fields of its shape and no others (" + "; ".join(
         f"{' and '.join(s.key for s in sh.sizes)} for {sh.name}"
         for sh in shapes.SHAPES.values()) + "; nothing for none); the centre within 100 "
@@ -286,7 +359,7 @@ STATIC_RULES = (
     Rule("[point]: P stays within max_distance of O (each [[point]] within its own); J of "
          "E1.5 stays non-singular (R1); the tables of several points all periodic (with "
          "the same first and last times) or none; the formulas of all bodies at most "
-         f"{abi.LAW_MAX_NODES} operations together", _reach, law=True),
+         f"{abi.LAW_MAX_NODES} operations together", _reach, law=True, bulk=_reach_bulk),
     Rule("[point] with the plane: duration / the law's time scale (sqrt(amplitude / max "
          "|OP''|), the longest step then; with several bodies the shortest of theirs) at "
          "most [run].max_steps", _time_scale, law=True),
@@ -338,52 +411,70 @@ def start_height(shape: str, size: tuple, center: tuple, nu: float, A0, com, r) 
     return com[2] + sum(n[k] * (s[k] - nu * r[k]) for k in range(3))
 
 
-def _refuse_below(h: float, body_size: float) -> None:
-    if h < -1e-12 * body_size:
+def _below(h, body_size: float):
+    return h < -1e-12 * body_size
+
+
+def _start_height(d: Draft):
+    """The height of S at the start: of one scene, or a column of a study's variants
+    (the masses and C's position columns; the attitude and the shape are one)."""
+    v = d.v
+    M = v["[body].mass"]
+    if d.with_law and not d.one_point:          # C from the points' first moment
+        return start_height(v["[body].shape"], d.size, d.center, 1.0, d.A0, d.extra["com"],
+                            bodies.centre_offset(d.points, M, d.t0))
+    r = point_position(d.law, d.t0) if d.law is not None else d.point_at
+    m = v["[point].mass"] if d.law is None else point_mass(d)
+    return start_height(v["[body].shape"], d.size, d.center, m / (M + m), d.A0,
+                        d.extra["com"], r)
+
+
+def _above_plane(d: Draft) -> None:
+    if not d.plane or d.v["[body].shape"] == "none":
+        return
+    h = _start_height(d)
+    if _below(h, d.body_size):
         raise SceneError("[initial].com", f"the lowest point S starts below the plane "
                                           f"(height {h:.6g}); raise Z_C")
 
 
-def _above_plane(d: Draft) -> None:
-    v = d.v
-    if not d.plane or v["[body].shape"] == "none":
-        return
-    M = v["[body].mass"]
-    if d.with_law and not d.one_point:          # C from the points' first moment
-        _refuse_below(start_height(v["[body].shape"], d.size, d.center, 1.0, d.A0,
-                                   d.extra["com"], bodies.centre_offset(d.points, M, d.t0)),
-                      d.body_size)
-        return
-    r = point_position(d.law, d.t0) if d.law is not None else d.point_at
-    m = v["[point].mass"] if d.law is None else d.points[0].mass
-    _refuse_below(start_height(v["[body].shape"], d.size, d.center, m / (M + m), d.A0,
-                               d.extra["com"], r), d.body_size)
+def _above_plane_bulk(d: Draft):
+    if not d.plane or d.v["[body].shape"] == "none":
+        return False
+    return _below(_start_height(d), d.body_size)
 
 
-def check_start_above_plane(scene) -> None:
-    """The same rule on a Scene made from another one with a new initial position (the
-    quick variants of a parameter study)."""
-    if scene.contact_possible and not scene.one_point:
-        _refuse_below(start_height(scene.shape, scene.size, scene.center, 1.0, scene.A0,
-                                   scene.com, bodies.centre_offset(scene.points, scene.M,
-                                                                   scene.t0)),
-                      scene.body_size)
-    elif scene.contact_possible:
-        _refuse_below(start_height(scene.shape, scene.size, scene.center, scene.nu, scene.A0,
-                                   scene.com, point_position(scene.law, scene.t0)),
-                      scene.body_size)
+def spin(omega):
+    """|omega| (at least 1e-300), of one omega or of columns (x, y, z) of a study's."""
+    try:
+        return max(math.hypot(*omega), 1e-300)
+    except TypeError:                  # columns: hypot one variant at a time, as above
+        rows = np.stack(np.broadcast_arrays(*omega), axis=-1).tolist()
+        return np.maximum([math.hypot(*w) for w in rows], 1e-300)
+
+
+def _rk4_step_of(d: Draft):
+    step = d.v["[run].step"]
+    if step is None:
+        # RK4 has no error control: a step that resolves the spin and the point's motion
+        step = least((d.duration / 2000.0, 0.04 / spin(d.v["[initial].omega"]),
+                      d.summary.time_scale / 10.0))
+    d.extra["step"] = step
+    return step
+
+
+def _too_many_rk4_steps(d: Draft, step):
+    return d.v["[run].method"] == "rk4" and d.duration / step > 1e8
 
 
 def _rk4_step(d: Draft) -> None:
-    v = d.v
-    step = v["[run].step"]
-    if step is None:
-        # RK4 has no error control: a step that resolves the spin and the point's motion
-        spin = max(math.hypot(*v["[initial].omega"]), 1e-300)
-        step = min(d.duration / 2000.0, 0.04 / spin, d.summary.time_scale / 10.0)
-    if v["[run].method"] == "rk4" and d.duration / step > 1e8:
+    step = _rk4_step_of(d)
+    if _too_many_rk4_steps(d, step):
         raise SceneError("[run].step", f"gives {d.duration / step:.3g} RK4 steps (at most 1e8)")
-    d.extra["step"] = step
+
+
+def _rk4_step_bulk(d: Draft):
+    return _too_many_rk4_steps(d, _rk4_step_of(d))
 
 
 def _internal_offset(d: Draft) -> tuple:
@@ -439,12 +530,23 @@ def _start(d: Draft) -> None:
     d.extra["com_velocity"] = tuple(float(c) for c in vel)
 
 
+def _start_bulk(d: Draft):
+    """A study's variants of a scene that computes C's start (on_plane, carrier_velocity)
+    go one at a time (all marked); the others keep C's position and velocity as given."""
+    v = d.v
+    if v["[initial].on_plane"] or v["[initial].carrier_velocity"] is not None:
+        return True
+    d.extra["com"], d.extra["com_velocity"] = v["[initial].com"], v["[initial].com_velocity"]
+    return False
+
+
 STATE_RULES = (
     Rule("[initial]: quaternion or matrix, not both", _orientation),
     Rule("[initial]: on_plane puts S on the plane (Z_C computed, needs [plane] and a shape); "
-         "carrier_velocity gives O's velocity instead of com_velocity (C's)", _start),
-    Rule("[run]: at most 1e8 RK4 steps", _rk4_step, law=True),
-    Rule("[initial]: S starts on or above the plane", _above_plane),
+         "carrier_velocity gives O's velocity instead of com_velocity (C's)", _start,
+         bulk=_start_bulk),
+    Rule("[run]: at most 1e8 RK4 steps", _rk4_step, law=True, bulk=_rk4_step_bulk),
+    Rule("[initial]: S starts on or above the plane", _above_plane, bulk=_above_plane_bulk),
 )
 
 
@@ -453,6 +555,22 @@ def check(rules: tuple, d: Draft) -> None:
         if rule.law and not d.with_law:
             continue
         rule.check(d)
+
+
+def check_bulk(rules: tuple, d: Draft):
+    """The rules over a draft whose fields of :data:`derive.scene.bulk.BULK` may be
+    columns: where each rule fails, or'ed (a bool, or a bool per variant).  A rule
+    without a bulk form reads none of those fields (tests/test_bulk.py traces what every
+    rule reads): it is checked as for one scene, and raises for all the variants."""
+    bad = False
+    for rule in rules:
+        if rule.law and not d.with_law:
+            continue
+        if rule.bulk is None:
+            rule.check(d)
+        else:
+            bad = bad | rule.bulk(d)
+    return bad
 
 
 def texts() -> list:

@@ -324,10 +324,18 @@ FIELDS = SCENE_FIELDS + PLAN_FIELDS + CONTROL_FIELDS + DISTURBANCE_FIELDS
 
 
 # ---- single values -----------------------------------------------------------------------
+def in_range(f: Field, x):
+    """The range rule of a number field with a lower bound: ``x`` in [lo, hi] ((lo, hi]
+    when ``lo_open``; no upper bound when ``hi`` is None); NaN is in no range.  ``x`` a
+    float, or an array of them (a study's variants at once: derive.scene.bulk), for which
+    the answer is an array."""
+    above = x > f.lo if f.lo_open else x >= f.lo
+    return above if f.hi is None else above & (x <= f.hi)
+
+
 def check_number(f: Field, value, where: str | None = None) -> float:
     where = where or f.where
-    if type(value) is float and f.lo is not None and (f.hi is None or value <= f.hi) and \
-            (value > f.lo if f.lo_open else value >= f.lo):
+    if type(value) is float and f.lo is not None and in_range(f, value):
         return value                        # the common case, checked in one line
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
         raise SceneError(where, f"must be a number, not {type_name(value)}")

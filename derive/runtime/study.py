@@ -1,0 +1,288 @@
+"""How a parameter study runs (:func:`derive.runtime.batch.simulate_many`): its variants
+planned into *parts*, runs of one model and law whose inputs are built for all their
+variants at once, and *singles*, the variants taken one at a time; then each run in C,
+and what the user reads assembled as columns.
+
+Planning: the variants that override the same fields are read in bulk
+(:func:`derive.scene.bulk.read`: the same fields and rules as one scene, over NumPy
+columns); of those that pass, one per distinct value of what the model's choice reads
+(:func:`derive.runtime.choice.symmetry_key`) is prepared alone, through the per-scene
+path, for its model; then the options, parameters and start of every variant of that
+model come at once from :func:`derive.runtime.driver.options`,
+:func:`~derive.runtime.choice.parameters` and :func:`~derive.runtime.choice.start` over
+the study's Scene of columns -- and must equal that variant's own, bit for bit, or the
+study stops with an error (two validators that disagree are a bug).  The rest, and
+studies that keep whole results, go one variant at a time through the per-scene path
+(so a bad value is refused with the message one scene gets, naming the variant).
+
+Running: a part in chunks, each one call into C (``crt_run_many``, which releases the
+GIL: threads run chunks in parallel) that keeps per run only what the summary reads;
+its columns are sliced out of the C's arrays, with no Python per variant.
+"""
+from __future__ import annotations
+
+import copy
+import math
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from .. import abi
+from . import choice
+from .driver import options, prepare, run_prepared, session_for
+from ..scene import SceneError, build_scene, bulk, overrides
+from ..scene.schema import SCENE
+
+SUMMARY_COLUMNS = ("status", "model", "t_end", "impacts", "contacts", "liftoffs", "steps",
+                   "rhs_evaluations", "min_height", "first_contact_t", "Z_C_end", "run_ms")
+TEXT_COLUMNS = ("error", "status", "model")
+COUNT_COLUMNS = ("impacts", "contacts", "liftoffs", "steps", "rhs_evaluations")
+_STAT = {name: k for k, name in enumerate(abi.names(abi.STATS))}
+_SUMMARY = {name: k for k, name in enumerate(abi.names(abi.SUMMARY))}
+_OK = abi.STATUS["ok"]
+
+
+# ---- columns -----------------------------------------------------------------------------
+def empty_columns(n: int) -> dict:
+    """The columns of n variants, none filled: text None, numbers 0 (a refused variant's
+    stay so, and Batch.column masks them)."""
+    out = {}
+    for name in ("error", *SUMMARY_COLUMNS):
+        if name in TEXT_COLUMNS:
+            out[name] = np.full(n, None, dtype=object)
+        else:
+            out[name] = np.zeros(n, dtype=np.int64 if name in COUNT_COLUMNS else float)
+    return out
+
+
+def columns_of_rows(rows: list) -> dict:
+    """Columns from summary rows (dicts: the per-variant path's)."""
+    out = empty_columns(len(rows))
+    for k, row in enumerate(rows):
+        for name, value in row.items():
+            out[name][k] = value
+    return out
+
+
+def summary_row(result) -> dict:
+    """The summary of one :class:`~derive.runtime.driver.Result` (the columns a part
+    fills in C)."""
+    ev = result.event_rows
+    contact = ev[ev[:, 1] == abi.index(abi.EVENT_KINDS, "contact")] if len(ev) else ev
+    s = result.stats
+    t_end = float(result.t[-1])
+    return {"status": result.status, "model": result.model, "t_end": t_end,
+            "impacts": s["impacts"], "contacts": s["contacts"], "liftoffs": s["liftoffs"],
+            "steps": s["steps"], "rhs_evaluations": s["rhs_evaluations"],
+            "min_height": result.min_height,
+            "first_contact_t": float(contact[0, 0]) if len(contact) else math.nan,
+            "Z_C_end": choice.height_of_c(result.scene, result.model, t_end,
+                                          result.model_q[-1]),
+            "run_ms": 1e3 * result.timings.get("run_s", math.nan)}
+
+
+# ---- the plan ----------------------------------------------------------------------------
+@dataclass
+class Part:
+    """Variants of one model and law, their inputs built (one entry or row per variant).
+    ``scenes``: their Scenes, where Z_C at the end needs them (the axisymmetric model's
+    state does not hold it; the per-variant path's parts only)."""
+    kind: str
+    law: object
+    index: np.ndarray          # the variants' numbers in the study
+    t0: np.ndarray
+    t_end: np.ndarray
+    q0: np.ndarray
+    opt: np.ndarray
+    prm: np.ndarray
+    scenes: list | None = None
+
+    def __len__(self) -> int:
+        return len(self.index)
+
+    def pieces(self, size: int) -> list:
+        """The part in chunks of at most ``size`` variants."""
+        return [Part(self.kind, self.law, *(a[k:k + size] for a in (
+                    self.index, self.t0, self.t_end, self.q0, self.opt, self.prm)),
+                     None if self.scenes is None else self.scenes[k:k + size])
+                for k in range(0, len(self), size)]
+
+
+@dataclass
+class Plan:
+    parts: list                # Part
+    singles: list              # (index, overrides): one at a time
+
+
+class VariantDoc:
+    """A variant's scene dict (:attr:`Scene.doc`): the base's with the variant's
+    overrides, made only when read."""
+    __slots__ = ("_base", "_overrides")
+
+    def __init__(self, base: dict, changes: dict):
+        self._base, self._overrides = base, changes
+
+    def get(self) -> dict:
+        doc = copy.deepcopy(self._base)
+        for name, value in self._overrides.items():
+            overrides.apply_to_doc(doc, name, copy.deepcopy(value))
+        return doc
+
+
+def prepare_variant(base: dict, origin, base_v: dict, base_given: set, index: int,
+                    changes: dict):
+    """One variant through the per-scene path: its overrides validated into the base's
+    field values, every rule, the model (SceneError names the field)."""
+    v, given = dict(base_v), set(base_given)
+    for name, value in changes.items():
+        overrides.apply_to_values(v, given, name, value)
+    return prepare(build_scene(v, given, VariantDoc(base, changes), f"variant {index}",
+                               base=origin))
+
+
+def plan(base: dict, origin, items: list, keep: str = "summary") -> Plan:
+    """The parts and singles of ``items`` ([(index, overrides)]) of the scene ``base``."""
+    if keep != "summary":
+        return Plan([], list(items))
+    try:
+        base_v, base_given = SCENE.read(base)
+    except SceneError:
+        return Plan([], list(items))      # (each single says so)
+    groups: dict = {}
+    for index, changes in items:
+        groups.setdefault(tuple(changes), []).append((index, changes))
+    parts, singles = [], []
+    for names, members in groups.items():
+        cols = bulk.read(base_v, base_given, names, [c for _, c in members], "variant",
+                         origin)
+        if cols is None:
+            singles += members
+            continue
+        index = np.array([i for i, _ in members])
+        singles += [members[k] for k in np.flatnonzero(~cols.ok)]
+        found, alone = _parts(cols, index, members, base, origin, base_v, base_given)
+        parts += found
+        singles += alone
+    singles.sort(key=lambda item: item[0])
+    return Plan(parts, singles)
+
+
+def _parts(cols, index: np.ndarray, members: list, base: dict, origin, base_v: dict,
+           base_given: set) -> tuple[list, list]:
+    """The parts of one group read in bulk (its variants that passed, by model), and the
+    variants of a model whose start reads the law (to go one at a time)."""
+    n = cols.n
+    keys = choice.symmetry_key(cols.v["[initial].omega"], cols.v["[body].inertia"])
+    code = sum(np.broadcast_to(b, (n,)).astype(int) << k for k, b in enumerate(keys))
+    scene, law = cols.scene, cols.draft.law
+    out, alone_ones = [], []
+    for c in np.unique(code[cols.ok]):
+        members_c = cols.ok & (code == c)
+        first = int(np.flatnonzero(members_c)[0])
+        i, changes = members[first]
+        try:
+            alone = prepare_variant(base, origin, base_v, base_given, i, changes)
+        except SceneError as exc:
+            raise RuntimeError(f"variant {i} passed the study's bulk checks and the scene "
+                               f"rules refuse it ({exc}): please report this study") from None
+        if alone.kind not in choice.POSE_STARTS:    # its start reads the law: one by one
+            alone_ones += [members[k] for k in np.flatnonzero(members_c)]
+            continue
+        st = choice.start(scene, alone.kind)
+        q0 = np.broadcast_to(st.q0, (n, len(alone.start.q0)))
+        opt = np.broadcast_to(options(scene, alone.kind), (n, len(alone.options)))
+        prm = np.broadcast_to(choice.parameters(scene, st.constants),
+                              (n, len(alone.parameters)))
+        for what, mine, its in (("start", q0, alone.start.q0), ("options", opt, alone.options),
+                                ("parameters", prm, alone.parameters)):
+            if not np.array_equal(mine[first], its):
+                raise RuntimeError(f"variant {i}: its {what} read in bulk differ from its "
+                                   "own (please report this study)")
+        take = np.flatnonzero(members_c)
+        out.append(Part(alone.kind, law, index[take], np.full(len(take), scene.t0),
+                        np.full(len(take), scene.t0 + scene.duration), q0[take], opt[take],
+                        prm[take]))
+    return out, alone_ones
+
+
+# ---- running -----------------------------------------------------------------------------
+def _session(kind: str, ready: list):
+    """This thread's session of a model, the time it took added to ``ready[0]`` (nothing
+    but the first time in a thread)."""
+    start = time.perf_counter()
+    session = session_for(kind)
+    ready[0] += time.perf_counter() - start
+    return session
+
+
+def run_part(part: Part, ready: list) -> dict:
+    """The columns of a part's variants: one call into C."""
+    session = _session(part.kind, ready)
+    session.set_law(part.law)
+    n = len(part)
+    out = session.run_many(part.t0, part.t_end, part.q0, part.opt, part.prm)
+    cols = empty_columns(n)
+    codes = out["status"]
+    found = np.unique(codes)
+    names = np.array([abi.status_name(int(c)) for c in found], dtype=object)
+    cols["status"][:] = names[np.searchsorted(found, codes)]
+    cols["model"][:] = part.kind
+    last = out["last"]
+    cols["t_end"][:] = last[:, 0]
+    stats = out["stats"]
+    for name in COUNT_COLUMNS:
+        cols[name][:] = stats[:, _STAT[name]]
+    cols["min_height"][:] = out["summary"][:, _SUMMARY["min_height"]]
+    cols["first_contact_t"][:] = out["first_contact"]
+    if part.scenes is None:                 # a model whose state holds Z_C (or attitude)
+        cols["Z_C_end"][:] = choice.height_of_c(None, part.kind, last[:, 0], last[:, 1:])
+    else:
+        cols["Z_C_end"][:] = [choice.height_of_c(sc, part.kind, float(r[0]), r[1:])
+                              for sc, r in zip(part.scenes, last)]
+    cols["run_ms"][:] = 1e3 * out["seconds"] / n
+    for k in np.flatnonzero(out["init_status"] != _OK):
+        # crt_init again on this run's inputs: the C then names what it refused
+        status = session.init_status(part.opt[k], part.prm[k], part.t0[k], part.q0[k])
+        for name in SUMMARY_COLUMNS:
+            cols[name][k] = None if name in TEXT_COLUMNS else 0
+        cols["error"][k] = f"variant {part.index[k]}: {session._refused(status)}"
+    return cols
+
+
+def run_singles(base: dict, origin, items: list, keep: str, ready: list) -> tuple:
+    """The variants one at a time through the per-scene path: (columns, whole results
+    (keep = "result") or None).  Summaries: the valid variants of one model and law in
+    one call into C."""
+    cols = empty_columns(len(items))
+    results: list = [None] * len(items)
+    try:
+        base_v, base_given = SCENE.read(base)
+    except SceneError as exc:
+        cols["error"][:] = f"base scene: {exc}"
+        return cols, (results if keep == "result" else None)
+    groups: dict = {}
+    for k, (index, changes) in enumerate(items):
+        try:
+            prep = prepare_variant(base, origin, base_v, base_given, index, changes)
+            if keep == "result":
+                results[k] = run_prepared(prep, _session(prep.kind, ready))
+                for name, value in summary_row(results[k]).items():
+                    cols[name][k] = value
+                continue
+        except SceneError as exc:
+            cols["error"][k] = f"variant {index}: {exc}"
+            continue
+        groups.setdefault((prep.kind, id(prep.scene.law)), []).append((k, index, prep))
+    for (kind, _), members in groups.items():
+        preps = [p for _, _, p in members]
+        part = Part(kind, preps[0].scene.law, np.array([i for _, i, _ in members]),
+                    np.array([p.scene.t0 for p in preps]),
+                    np.array([p.scene.t0 + p.scene.duration for p in preps]),
+                    np.array([p.start.q0 for p in preps]), np.array([p.options for p in preps]),
+                    np.array([p.parameters for p in preps]), [p.scene for p in preps])
+        got = run_part(part, ready)
+        at = np.array([k for k, _, _ in members])
+        for name, col in got.items():
+            cols[name][at] = col
+    return cols, (results if keep == "result" else None)
