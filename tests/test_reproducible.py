@@ -70,7 +70,7 @@ def test_the_plain_runtime_headers_are_copied_byte_for_byte(monkeypatch, tmp_pat
                    for p in (TEMPLATES / "runtime").glob(pattern))
     assert plain == ["crt_call.h", "crt_contact.h", "crt_control.h",
                      "crt_core.h", "crt_dk.h", "crt_events.h",
-                     "crt_friction_state.h", "crt_hop.c", "crt_hop.h", "crt_integrators.h",
+                     "crt_friction_state.h", "crt_integrators.h",
                      "crt_law.h", "crt_lie.h", "crt_loop.h", "crt_math.h",
                      "crt_plane.h", "crt_rhs.h", "crt_rough.h",
                      "crt_rough_api.h", "crt_rough_modes.h",
@@ -83,6 +83,10 @@ def test_the_plain_runtime_headers_are_copied_byte_for_byte(monkeypatch, tmp_pat
         assert not any(tag in text for tag in ("{{", "{%", "{#")), name
         assert f"templates/runtime/{name}, copied verbatim" in " ".join(
             line.lstrip(" *") for line in text[:800].splitlines()), name
+    # the per-hop controller in C: templates/control/ into generated/control/, as they are
+    for rel, text in runtime_backend.render_controllers().items():
+        source = (TEMPLATES / rel).read_bytes()
+        assert text.encode("utf-8") == source and (GENERATED / rel).read_bytes() == source
     # an edited copy is a difference for --check
     committed = driver.existing(GENERATED)
     for rel, data in committed.items():

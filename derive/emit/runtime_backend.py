@@ -29,9 +29,10 @@ and rendered only where numbers or names come from Python (``templates/runtime/*
   DOP853, classical, Lie and Darboux-Keller's, with their tableaus
   (:mod:`derive.runtime.tableaus`) written out term by term.
 
-The per-hop controller in C (``crt_hop.c``, ``crt_hop.h``) is copied beside them.  Nothing
-of a scene reaches this code: it is rendered from the derivation alone, and
-:mod:`derive.runtime.build` compiles each model once per machine.
+The per-hop controller in C (``templates/control/crt_hop.c``, ``crt_hop.h``) is copied into
+``generated/control/`` (:func:`render_controllers`).  Nothing of a scene reaches this code:
+it is rendered from the derivation alone, and :mod:`derive.runtime.build` compiles each
+model once per machine.
 """
 from __future__ import annotations
 
@@ -221,11 +222,22 @@ RENDERED = ("crt_abi.h", "crt_constants.h", "crt_rk_steps.h", "crt_lie_steps.h",
 
 
 def plain_headers() -> dict[str, str]:
-    """The hand-written C, ``templates/runtime/*.h`` and ``*.c`` (the C controllers of the
-    closed loop), by name, as text."""
+    """The hand-written C of the runtime, ``templates/runtime/*.h``, by name, as text."""
     folder = TEMPLATES / "runtime"
-    return {path.name: path.read_bytes().decode("utf-8")
-            for path in sorted([*folder.glob("*.h"), *folder.glob("*.c")])}
+    return {path.name: path.read_bytes().decode("utf-8") for path in sorted(folder.glob("*.h"))}
+
+
+# the controllers of the closed loop written in C by hand (templates/control/), copied
+# into generated/control/ for embedding (CMake target carrier::hop); the MPC
+# controller is rendered per task by derive control, not here
+CONTROLLERS = ("crt_hop.c", "crt_hop.h")
+
+
+def render_controllers() -> dict[str, str]:
+    """Every file of ``generated/control``: the hand-written controllers, as text."""
+    folder = TEMPLATES / "control"
+    return {f"control/{name}": (folder / name).read_bytes().decode("utf-8")
+            for name in CONTROLLERS}
 
 
 def _macro_lines(text: str, breaks: tuple) -> str:
