@@ -1,7 +1,7 @@
 """The rough plane's functions (:mod:`derive.friction`) as FunctionSpecs for the emitters.
 
 ``derive emit`` renders :func:`runtime_specs` into the rough model's runtime
-(``generated/runtime/model_rough.c``; ``templates/runtime/crt_friction.h`` calls them);
+(``generated/runtime/model_rough.c``; ``templates/runtime/crt_rough*.h``, ``crt_dk.h`` call them);
 the tests render :func:`friction_specs` to C and CasADi the same way and compare both with
 the NumPy evaluation and an independent Newton–Euler formulation
 (``tests/test_friction_newton_euler.py``).
@@ -339,7 +339,7 @@ def wrench_rates() -> FunctionSpec:
 
 
 def runtime_specs() -> list[FunctionSpec]:
-    """What the rough model's runtime calls (templates/runtime/model.c.jinja, crt_friction.h
+    """What the rough model's runtime calls (templates/runtime/model.c.jinja, crt_rough*.h
     and the Darboux-Keller step of crt_rk_steps.h; the slip stage in polar form reads
     impulse_slip_direction_rate, not impulse_slip_rate)."""
     return [delassus(), contact_velocity(), impulse_slip_direction_rate(),

@@ -268,14 +268,15 @@ def test_a_closed_loop_in_c_is_clean_under_sanitizers(unstable, tmp_path):
     strict = ["-std=c99", "-Wall", "-Wextra", "-Wpedantic", "-Werror"]
     build = subprocess.run([cc, *strict, "-O1", "-g", "-fsanitize=address,undefined",
                             "-fno-sanitize-recover=all", "-I", str(GENERATED / "runtime"),
-                            str(src), "-o", str(exe), "-lm"], capture_output=True, text=True)
+                            "-I", str(GENERATED / "control"), str(src), "-o", str(exe), "-lm"],
+                           capture_output=True, text=True)
     assert build.returncode == 0, build.stderr[-3000:]
     run = subprocess.run([str(exe)], capture_output=True, text=True, timeout=120)
     assert run.returncode == 0, run.stdout + run.stderr[-3000:]
     assert "runtime error" not in run.stderr
     obj = tmp_path / "hop.o"
-    subprocess.run([cc, *strict, "-O2", "-c", str(GENERATED / "runtime" / "crt_hop.c"),
-                    "-o", str(obj)], check=True)
+    subprocess.run([cc, *strict, "-O2", "-I", str(GENERATED / "runtime"), "-c",
+                    str(GENERATED / "control" / "crt_hop.c"), "-o", str(obj)], check=True)
     nm = subprocess.run(["nm", str(obj)], capture_output=True, text=True).stdout.split("\n")
     assert not [ln for ln in nm if len(ln.split()) == 3 and ln.split()[1] in "BbDdGgSs"]
     assert {ln.split()[1] for ln in nm if ln.split()[:1] == ["U"]} <= {"sin", "cos", "sincos",

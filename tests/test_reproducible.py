@@ -68,9 +68,13 @@ def test_the_plain_runtime_headers_are_copied_byte_for_byte(monkeypatch, tmp_pat
     files = runtime_backend.render_runtime()
     plain = sorted(p.name for pattern in ("*.h", "*.c")
                    for p in (TEMPLATES / "runtime").glob(pattern))
-    assert plain == ["crt_call.h", "crt_control.h", "crt_core.h", "crt_friction.h",
-                     "crt_friction_state.h", "crt_hop.c", "crt_hop.h", "crt_integrators.h",
-                     "crt_law.h", "crt_lie.h"]
+    assert plain == ["crt_call.h", "crt_contact.h", "crt_control.h",
+                     "crt_core.h", "crt_dk.h", "crt_events.h",
+                     "crt_friction_state.h", "crt_integrators.h",
+                     "crt_law.h", "crt_lie.h", "crt_loop.h", "crt_math.h",
+                     "crt_plane.h", "crt_rhs.h", "crt_rough.h",
+                     "crt_rough_api.h", "crt_rough_modes.h",
+                     "crt_session.h", "crt_smooth.h", "crt_step.h"]
     for name in plain:
         source = (TEMPLATES / "runtime" / name).read_bytes()
         assert files[f"runtime/{name}"].encode("utf-8") == source
@@ -79,12 +83,16 @@ def test_the_plain_runtime_headers_are_copied_byte_for_byte(monkeypatch, tmp_pat
         assert not any(tag in text for tag in ("{{", "{%", "{#")), name
         assert f"templates/runtime/{name}, copied verbatim" in " ".join(
             line.lstrip(" *") for line in text[:800].splitlines()), name
+    # the per-hop controller in C: templates/control/ into generated/control/, as they are
+    for rel, text in runtime_backend.render_controllers().items():
+        source = (TEMPLATES / rel).read_bytes()
+        assert text.encode("utf-8") == source and (GENERATED / rel).read_bytes() == source
     # an edited copy is a difference for --check
     committed = driver.existing(GENERATED)
     for rel, data in committed.items():
         (tmp_path / rel).parent.mkdir(parents=True, exist_ok=True)
         (tmp_path / rel).write_bytes(data)
-    edited = committed["runtime/crt_core.h"].replace(b"CRT_MAX_SUB 32", b"CRT_MAX_SUB 33")
-    (tmp_path / "runtime" / "crt_core.h").write_bytes(edited)
+    edited = committed["runtime/crt_events.h"].replace(b"CRT_MAX_SUB 32", b"CRT_MAX_SUB 33")
+    (tmp_path / "runtime" / "crt_events.h").write_bytes(edited)
     delta = driver.diff(committed, tmp_path)
-    assert delta.startswith("--- generated/runtime/crt_core.h") and "CRT_MAX_SUB 33" in delta
+    assert delta.startswith("--- generated/runtime/crt_events.h") and "CRT_MAX_SUB 33" in delta

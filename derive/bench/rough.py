@@ -54,7 +54,7 @@ def example(name: str) -> dict:
 
 def robot_with_couples() -> dict:
     """The spherical robot with spin friction and rolling resistance (the contact solved
-    as a wrench: crt_friction.h, crt_rough_wrench)."""
+    as a wrench: crt_rough_modes.h, crt_rough_wrench)."""
     doc = example("spherical-robot")
     doc["name"] = "spherical-robot with couples"
     doc["plane"].update(spin_friction=0.005, rolling_resistance=0.002)
@@ -150,7 +150,7 @@ class ScipyRough:
             q[G.horizontal_velocity] -= v[:2]
         return q
 
-    # -- the direction a slip takes from rest (crt_friction.h, crt_rough_onset)
+    # -- the direction a slip takes from rest (crt_rough.h, crt_rough_onset)
     def onset(self, t, q, R):
         w6, _ = self.dl(q, self.u(t), self.s_of(q)[0], self.p)
         a, b, c, d, e, f = w6

@@ -474,7 +474,7 @@ def gait_for_apex(hm: HopMap, apex: float, tol: float = 1e-10) -> tuple:
 
 # ---- the same controller in C ------------------------------------------------------------------
 class _HopParams(ctypes.Structure):
-    """``crt_hop_params`` (generated/runtime/crt_hop.h)."""
+    """``crt_hop_params`` (generated/control/crt_hop.h)."""
     _fields_ = [("K", ctypes.c_double * 3), ("t_star", ctypes.c_double),
                 ("v_star", ctypes.c_double), ("a_star", ctypes.c_double),
                 ("W", ctypes.c_double), ("T", ctypes.c_double), ("tb", ctypes.c_double),
@@ -487,10 +487,11 @@ class _HopParams(ctypes.Structure):
 def _hop_library():
     """crt_hop.c compiled with the runtime's flags (once per machine, cached)."""
     from ..cbuild import build_shared, runtime_flags
+    from ..paths import GENERATED
     from ..runtime.build import runtime_dir
-    folder = runtime_dir()
-    sources = {name: (folder / name).read_bytes()
-               for name in ("crt_hop.c", "crt_hop.h", "crt_call.h")}
+    folder = GENERATED / "control"
+    sources = {name: (folder / name).read_bytes() for name in ("crt_hop.c", "crt_hop.h")}
+    sources["crt_call.h"] = (runtime_dir() / "crt_call.h").read_bytes()
     # no contraction into fused multiply-adds: the C rounds as NumPy does, so the two
     # routes write the same law (tests/test_hop_control.py compares them)
     flags = tuple(f for f in runtime_flags() if not f.startswith("-ffp-contract"))

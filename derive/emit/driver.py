@@ -9,9 +9,9 @@ from ..models_moments import emitted_specs
 from .c_backend import render_c
 from .casadi_backend import render_casadi
 from .render import GENERATED
-from .runtime_backend import render_runtime
+from .runtime_backend import render_controllers, render_runtime
 
-MANAGED = ("c", "casadi", "cmake", "runtime")   # folders of generated/ owned by emit
+MANAGED = ("c", "casadi", "cmake", "control", "runtime")   # folders of generated/ owned by emit
 MANAGED_FILES = ("CMakeLists.txt", "Makefile")   # and files at its top
 
 
@@ -19,6 +19,7 @@ def render_all() -> dict[str, bytes]:
     specs = emitted_specs()
     files = {k: v.encode("utf-8") for k, v in render_c(specs, GENERATED, layout_doc()).items()}
     files.update({k: v.encode("utf-8") for k, v in render_runtime().items()})
+    files.update({k: v.encode("utf-8") for k, v in render_controllers().items()})
     files.update(render_casadi(specs))
     return dict(sorted(files.items()))
 

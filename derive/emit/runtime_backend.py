@@ -2,28 +2,37 @@
 
 One C file per model (``model_<kind>.c``, rendered from ``templates/runtime/model.c.jinja``):
 the derived functions it calls (generic in every number of a scene: the parameters arrive
-at run time in ``prm[]``), the model's thin wrappers, and ``#include`` of the shared runtime
-headers.  Those are plain C, kept in ``templates/runtime/*.h`` and copied verbatim:
+at run time in ``prm[]``), the model's thin wrappers, and ``#include "crt_core.h"``, the top
+of the runtime's headers.  Those are plain C, kept in ``templates/runtime/*.h`` and copied
+verbatim; a stack in which each includes only those below it (crt_session.h lists them):
 
-* ``crt_law.h``: the point-law interpreter and splines;
-* ``crt_integrators.h``: RK4, DOPRI5, DOP853 with dense output, and their dispatch;
-* ``crt_lie.h``: the Lie-group methods of the momentum form (K and C's parabola constant
-  in flight, the attitude on SO(3)) and the dispatch between methods;
-* ``crt_friction_state.h``, ``crt_friction.h``: Coulomb friction at S (the rough model):
-  Darboux-Keller impacts, sliding and sticking contact and their transitions;
-* ``crt_core.h``: sessions, events, impacts, contact, output, the public API (its
-  comments are the runtime's manual);
+* ``crt_math.h``, ``crt_law.h``: max, min, sin and cos; the point-law interpreter and
+  splines;
+* ``crt_session.h``: the session record, the output buffers, the helpers all stages share;
+* ``crt_plane.h``: the gap, the projection onto the plane, lift-off;
+* ``crt_contact.h``: the contact's variant, chosen once by the model's macros:
+  ``crt_smooth.h``, or Coulomb friction at S (``crt_friction_state.h``,
+  ``crt_rough_modes.h``, ``crt_rough.h``, with Darboux-Keller's impacts in ``crt_dk.h``);
+* ``crt_rhs.h``, ``crt_integrators.h``, ``crt_lie.h``, ``crt_step.h``: the right-hand side,
+  RK4, DOPRI5, DOP853, the Lie-group methods of the momentum form and their dispatcher;
+* ``crt_events.h``: event location and the events' application;
+* ``crt_call.h``, ``crt_control.h``: the closed loop;
+* ``crt_loop.h``, ``crt_core.h``, ``crt_rough_api.h``: the loop and the public API (the
+  comments of crt_core.h are the runtime's manual);
 
 and rendered only where numbers or names come from Python (``templates/runtime/*.h.jinja``):
 
 * ``crt_abi.h``: enums, return codes and name tables from :mod:`derive.abi`;
 * ``crt_constants.h``: the constants of the runtime's sine and cosine
   (:mod:`derive.emit.sincos`) and the limits of the Lie methods;
-* ``crt_rk_steps.h``, ``crt_lie_steps.h``: the steps of DOPRI5 and DOP853, classical and
-  Lie, with their tableaus (:mod:`derive.runtime.tableaus`) written out term by term.
+* ``crt_rk_steps.h``, ``crt_lie_steps.h``, ``crt_dk_steps.h``: the steps of DOPRI5 and
+  DOP853, classical, Lie and Darboux-Keller's, with their tableaus
+  (:mod:`derive.runtime.tableaus`) written out term by term.
 
-Nothing of a scene reaches this code: it is rendered from the derivation alone, and
-:mod:`derive.runtime.build` compiles each model once per machine.
+The per-hop controller in C (``templates/control/crt_hop.c``, ``crt_hop.h``) is copied into
+``generated/control/`` (:func:`render_controllers`).  Nothing of a scene reaches this code:
+it is rendered from the derivation alone, and :mod:`derive.runtime.build` compiles each
+model once per machine.
 """
 from __future__ import annotations
 
@@ -70,7 +79,7 @@ class RuntimeModel:
 
     @property
     def friction(self) -> bool:
-        """Coulomb friction at S (crt_friction.h): the general state with the rough
+        """Coulomb friction at S (crt_rough.h): the general state with the rough
         plane's functions (derive/friction_models.py)."""
         return self.kind == "rough"
 
@@ -209,15 +218,26 @@ def render_model(m: RuntimeModel) -> str:
 
 # the headers rendered from templates/runtime/<name>.jinja; every other templates/runtime/*.h
 # is plain C, copied verbatim
-RENDERED = ("crt_abi.h", "crt_constants.h", "crt_rk_steps.h", "crt_lie_steps.h")
+RENDERED = ("crt_abi.h", "crt_constants.h", "crt_rk_steps.h", "crt_lie_steps.h", "crt_dk_steps.h")
 
 
 def plain_headers() -> dict[str, str]:
-    """The hand-written C, ``templates/runtime/*.h`` and ``*.c`` (the C controllers of the
-    closed loop), by name, as text."""
+    """The hand-written C of the runtime, ``templates/runtime/*.h``, by name, as text."""
     folder = TEMPLATES / "runtime"
-    return {path.name: path.read_bytes().decode("utf-8")
-            for path in sorted([*folder.glob("*.h"), *folder.glob("*.c")])}
+    return {path.name: path.read_bytes().decode("utf-8") for path in sorted(folder.glob("*.h"))}
+
+
+# the controllers of the closed loop written in C by hand (templates/control/), copied
+# into generated/control/ for embedding (CMake target carrier::hop); the MPC
+# controller is rendered per task by derive control, not here
+CONTROLLERS = ("crt_hop.c", "crt_hop.h")
+
+
+def render_controllers() -> dict[str, str]:
+    """Every file of ``generated/control``: the hand-written controllers, as text."""
+    folder = TEMPLATES / "control"
+    return {f"control/{name}": (folder / name).read_bytes().decode("utf-8")
+            for name in CONTROLLERS}
 
 
 def _macro_lines(text: str, breaks: tuple) -> str:

@@ -29,19 +29,14 @@ def runtime_dir() -> Path:
     return GENERATED / "runtime"
 
 
-# the runtime's headers (derive/emit/runtime_backend.py writes them; each model's file
-# includes all of them)
-HEADERS = ("crt_abi.h", "crt_constants.h", "crt_law.h", "crt_integrators.h",
-           "crt_rk_steps.h", "crt_lie.h", "crt_lie_steps.h", "crt_call.h", "crt_control.h",
-           "crt_core.h", "crt_friction_state.h", "crt_friction.h")
-
-
 def sources(kind: str) -> dict[str, bytes]:
+    """``model_<kind>.c`` and the runtime's headers (every ``crt_*.h`` that ``derive emit``
+    wrote beside it: each model's file includes them through crt_core.h)."""
     folder = runtime_dir()
     if kind not in KINDS:
         raise KeyError(kind)
-    names = [*HEADERS, f"model_{kind}.c"]
-    missing = [n for n in names if not (folder / n).is_file()]
+    names = [*sorted(p.name for p in folder.glob("crt_*.h")), f"model_{kind}.c"]
+    missing = [n for n in ("crt_core.h", f"model_{kind}.c") if not (folder / n).is_file()]
     if missing:
         raise FileNotFoundError(f"{folder} lacks {', '.join(missing)}: run `derive emit`")
     return {n: (folder / n).read_bytes() for n in names}
@@ -106,7 +101,7 @@ class Library:
             fn = getattr(lib, f"crt_{name}_name")
             fn.restype, fn.argtypes = c.c_char_p, [c.c_int]
         self.has_friction = bool(lib.crt_has_friction())
-        if self.has_friction:       # crt_friction.h's functions
+        if self.has_friction:       # crt_rough_api.h's functions
             for name, res, args in (
                     ("crt_contact_mode", c.c_int, [c.c_void_p]),
                     ("crt_set_contact_mode", c.c_int, [c.c_void_p, c.c_int, DP]),

@@ -11,7 +11,7 @@ chooses one and fills its numbers:
 * ``attitude`` (omega): free flight and only omega or momentum asked;
 * ``vertical`` (Z_C, Z_C', omega, n): contact possible, the pose not asked;
 * ``general`` (18 states) otherwise;
-* ``rough`` (the 18 general states, Coulomb friction at S: crt_friction.h) whenever
+* ``rough`` (the 18 general states, Coulomb friction at S: crt_rough.h) whenever
   contact is possible and ``[plane].friction > 0``: the slip of S needs the horizontal
   velocity of C and the whole attitude, which the smaller models leave out.
 

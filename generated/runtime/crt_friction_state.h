@@ -1,20 +1,14 @@
 /*
  * crt_friction_state.h: what a session of a friction model (MODEL_FRICTION, the `rough`
  * model) keeps about Coulomb friction at S besides the state: the contact mode and the
- * slip direction of reference.  Included by crt_core.h before the session type; the code
- * is crt_friction.h.
+ * slip direction of reference.  Included by crt_session.h before the session type; the
+ * code is crt_rough_modes.h and crt_rough.h.
  *
  * Hand-written C: this file is templates/runtime/crt_friction_state.h, copied verbatim into
  * generated/runtime/ by `derive emit`.  Edit it there, then run `derive emit`.
  */
 #ifndef CRT_FRICTION_STATE_H
 #define CRT_FRICTION_STATE_H
-
-#define CRT_DK_N 7            /* Darboux-Keller's state: v_X, v_Y, v_Z, P_X, P_Y, E_n, E_t */
-
-/* the slip stage's rates in polar coordinates (crt_friction.h; crt_rk_steps.h steps them) */
-static void crt_dk_rate(const double *w6, double mu, int log_rho, double x, const double *y,
-                        double *dy);
 
 /* A couple's channel (spin friction: 1 component, Omega_Z; rolling resistance: 2,
    Omega_X and Omega_Y), with the slip's fields below in its own angular units. */

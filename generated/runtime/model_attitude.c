@@ -316,7 +316,7 @@ static void exp_map(const double *W, double *restrict E, double *restrict quat)
   quat[3] = W_z*quat_v_W;
 }
 
-/* ---- the model: what the runtime (crt_core.h) calls ------------------------------------ */
+/* ---- the model: what the runtime (crt_core.h and below) calls --------------------------- */
 
 static void model_rhs(const double *p, const double *u, const double *q, double *dq)
 {
@@ -363,5 +363,4 @@ const char *crt_state_name(int i)
   return (i >= 0 && i < NQ) ? names[i] : "";
 }
 
-#include "crt_law.h"
-#include "crt_core.h"
+#include "crt_core.h"      /* the runtime: the public API on top of its stack of headers */

@@ -37,7 +37,7 @@ static void axisymmetric_rates(const double *u, const double *p, const double *c
   rates[1] = c1*c[1]*(-p[4] + c0);
 }
 
-/* ---- the model: what the runtime (crt_core.h) calls ------------------------------------ */
+/* ---- the model: what the runtime (crt_core.h and below) calls --------------------------- */
 
 static void model_rhs(const double *p, const double *u, const double *q, double *dq)
 {
@@ -59,5 +59,4 @@ const char *crt_state_name(int i)
   return (i >= 0 && i < NQ) ? names[i] : "";
 }
 
-#include "crt_law.h"
-#include "crt_core.h"
+#include "crt_core.h"      /* the runtime: the public API on top of its stack of headers */

@@ -718,7 +718,7 @@ static void general_apply_impulse(const double *q, const double *u, const double
   q_plus[17] = a33;
 }
 
-/* ---- the model: what the runtime (crt_core.h) calls ------------------------------------ */
+/* ---- the model: what the runtime (crt_core.h and below) calls --------------------------- */
 /* S for the vertical n on the scene's surface, prm[CRT_P_shape] (derive/shapes.py) */
 static void model_shape(const double *p, const double *n, double *s)
 {
@@ -872,5 +872,4 @@ const char *crt_state_name(int i)
   return (i >= 0 && i < NQ) ? names[i] : "";
 }
 
-#include "crt_law.h"
-#include "crt_core.h"
+#include "crt_core.h"      /* the runtime: the public API on top of its stack of headers */

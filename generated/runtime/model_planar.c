@@ -305,7 +305,7 @@ static void lowest_point_rate_ellipsoid(const double *n, const double *omega, co
   sdot[2] = c4*c7*(c12*c18 + c13*c17 + c14*(c5*c8 - 1.0));
 }
 
-/* ---- the model: what the runtime (crt_core.h) calls ------------------------------------ */
+/* ---- the model: what the runtime (crt_core.h and below) calls --------------------------- */
 /* S for the vertical n on the scene's surface, prm[CRT_P_shape] (derive/shapes.py) */
 static void model_shape(const double *p, const double *n, double *s)
 {
@@ -415,5 +415,4 @@ const char *crt_state_name(int i)
   return (i >= 0 && i < NQ) ? names[i] : "";
 }
 
-#include "crt_law.h"
-#include "crt_core.h"
+#include "crt_core.h"      /* the runtime: the public API on top of its stack of headers */

@@ -1588,7 +1588,7 @@ static void general_wrench_rates(const double *q, const double *p, const double 
   dq[17] = -a32*omega_x + a31*omega_y;
 }
 
-/* ---- the model: what the runtime (crt_core.h) calls ------------------------------------ */
+/* ---- the model: what the runtime (crt_core.h and below) calls --------------------------- */
 /* S for the vertical n on the scene's surface, prm[CRT_P_shape] (derive/shapes.py) */
 static void model_shape(const double *p, const double *n, double *s)
 {
@@ -1653,7 +1653,7 @@ static void model_contact(const double *p, const double *u, const double *q, dou
   general_contact_rhs_free(q, u, s, sdot, p, dq, N, a_free);
 }
 
-/* ---- Coulomb friction at S (derive/friction.py): what crt_friction.h calls ------------- */
+/* ---- Coulomb friction at S (derive/friction.py): what crt_rough*.h call --------------- */
 /* the Delassus matrix W (upper triangle, fixed axes) and the velocity of S */
 static void model_delassus(const double *p, const double *u, const double *q, double *w6,
                            double *v_S)
@@ -1682,13 +1682,13 @@ static void model_apply_impulse(const double *p, const double *u, const double *
 }
 
 /* sliding contact along the unit horizontal dir: dq/dt, N, the slip and its rate */
-static void model_sliding(const double *p, const double *u, const double *q, double mu,
+static void model_sliding(const double *p, const double *u, const double *q, double mu_f,
                           const double *dir, double *dq, double *N, double *v_t, double *a_t)
 {
   double s[3], sdot[3];
   model_shape(p, q + Q_N, s);
   model_shape_rate(p, q + Q_N, q + Q_OMEGA, sdot);
-  general_sliding_rhs(q, u, s, sdot, p, mu, dir, dq, N, v_t, a_t);
+  general_sliding_rhs(q, u, s, sdot, p, mu_f, dir, dq, N, v_t, a_t);
 }
 
 /* sticking contact: dq/dt and the reaction R (fixed axes) */
@@ -1809,5 +1809,4 @@ const char *crt_state_name(int i)
   return (i >= 0 && i < NQ) ? names[i] : "";
 }
 
-#include "crt_law.h"
-#include "crt_core.h"
+#include "crt_core.h"      /* the runtime: the public API on top of its stack of headers */

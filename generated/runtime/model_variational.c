@@ -226,7 +226,7 @@ static void vertical_flight_jacobian(const double *q, const double *u, const dou
   A[63] = 0.0;
 }
 
-/* ---- the model: what the runtime (crt_core.h) calls ------------------------------------ */
+/* ---- the model: what the runtime (crt_core.h and below) calls --------------------------- */
 
 /* the vertical flight and its variational equations Phi' = A Phi, A = df/dq */
 static void model_rhs(const double *p, const double *u, const double *q, double *dq)
@@ -327,5 +327,4 @@ const char *crt_state_name(int i)
   return (i >= 0 && i < NQ) ? names[i] : "";
 }
 
-#include "crt_law.h"
-#include "crt_core.h"
+#include "crt_core.h"      /* the runtime: the public API on top of its stack of headers */

@@ -584,7 +584,7 @@ static void flight_parabola(const double *c, double tau, const double *p, double
   c_tau[5] = c[5] - p[5]*tau;
 }
 
-/* ---- the model: what the runtime (crt_core.h) calls ------------------------------------ */
+/* ---- the model: what the runtime (crt_core.h and below) calls --------------------------- */
 /* S for the vertical n on the scene's surface, prm[CRT_P_shape] (derive/shapes.py) */
 static void model_shape(const double *p, const double *n, double *s)
 {
@@ -703,5 +703,4 @@ const char *crt_state_name(int i)
   return (i >= 0 && i < NQ) ? names[i] : "";
 }
 
-#include "crt_law.h"
-#include "crt_core.h"
+#include "crt_core.h"      /* the runtime: the public API on top of its stack of headers */

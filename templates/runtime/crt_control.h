@@ -1,8 +1,8 @@
 /*
  * crt_control.h: the loop closed around a run -- a controller that reads the state at
  * every sample and after every event and sets the point's law from then on; impulsive
- * pushes at given times; noise on what the controller reads.  Included by crt_core.h
- * (after the session and the event machinery it uses).
+ * pushes at given times; noise on what the controller reads.  Built on crt_session.h (and
+ * the model's model_push); the loop (crt_loop.h) calls it at its stops and after events.
  *
  * Hand-written C: this file is templates/runtime/crt_control.h, copied verbatim into
  * generated/runtime/ by `derive emit` (`derive emit --check` compares the copy byte for
@@ -48,6 +48,7 @@
 #ifndef CRT_CONTROL_H
 #define CRT_CONTROL_H
 
+#include "crt_session.h"
 #include "crt_call.h"          /* crt_call, crt_controller_fn: the ABI of a controller */
 
 struct crt_control {
@@ -359,7 +360,6 @@ static int crt_control_at_stop(crt_session *s, crt_out *o)
   return 0;
 }
 
-#if MODEL_HAS_PLANE
 /* After an event handled at s->t (counters before it in before[]): the controller is
    called after an impact (or the entry into contact it led to) and a lift-off. */
 static int crt_control_after_event(crt_session *s, const long *before)
@@ -378,7 +378,6 @@ static void crt_control_counters(const crt_session *s, long *before)
   before[1] = s->stat[CRT_STAT_IMPACTS];
   before[2] = s->stat[CRT_STAT_LIFTOFFS];
 }
-#endif
 
 /* ---- the public API of the loop -------------------------------------------------------- */
 int crt_control_sizeof(void) { return (int)sizeof(crt_control); }

@@ -1,9 +1,9 @@
 /*
- * crt_integrators.h: the Runge-Kutta methods of the runtime (RK4, DOPRI5, DOP853), their
- * error norm and dense outputs, and the dispatch between them.  The steps of DOPRI5 and
- * DOP853, whose tableaus are written out term by term, are rendered into crt_rk_steps.h
- * from derive/runtime/tableaus.py; crt_lie.h dispatches between these and the Lie methods.
- * Included by crt_core.h after the session type and crt_rhs are defined.
+ * crt_integrators.h: the classical Runge-Kutta methods of the runtime (RK4, DOPRI5,
+ * DOP853), their error norm and dense outputs, on the right-hand side of crt_rhs.h.  The
+ * steps of DOPRI5 and DOP853, whose tableaus are written out term by term, are rendered
+ * into crt_rk_steps.h from derive/runtime/tableaus.py; crt_step.h dispatches between these
+ * and the Lie methods (crt_lie.h).
  *
  * Hand-written C: this file is templates/runtime/crt_integrators.h, copied verbatim into
  * generated/runtime/ by `derive emit` (`derive emit --check` compares the copy byte for
@@ -11,6 +11,8 @@
  */
 #ifndef CRT_INTEGRATORS_H
 #define CRT_INTEGRATORS_H
+
+#include "crt_rhs.h"
 
 static double crt_error_norm(const crt_session *s, const double *y0, const double *y1,
                              const double *err)

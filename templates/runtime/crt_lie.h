@@ -1,10 +1,9 @@
 /*
  * crt_lie.h: flight on the integral -- the Lie-group steps for the attitude with K and C's
- * parabola as constants of the flight, and the dispatch of crt_step, crt_order and the
- * dense output between them and the classical methods (crt_integrators.h).  The steps
- * lie8 and lie5, whose tableaus are written out term by term, are rendered into
- * crt_lie_steps.h from derive/runtime/tableaus.py; the limits CRT_LIE_* come from
- * crt_constants.h.  Included by crt_core.h after crt_integrators.h.
+ * parabola as constants of the flight (models with MODEL_LIE).  The steps lie8 and lie5,
+ * whose tableaus are written out term by term, are rendered into crt_lie_steps.h from
+ * derive/runtime/tableaus.py; the limits CRT_LIE_* come from crt_constants.h.  crt_step.h
+ * dispatches between these and the classical methods (crt_integrators.h).
  *
  * Hand-written C: this file is templates/runtime/crt_lie.h, copied verbatim into
  * generated/runtime/ by `derive emit` (`derive emit --check` compares the copy byte for
@@ -34,35 +33,7 @@
  */
 
 #include "crt_constants.h"     /* CRT_LIE_TIGHT, CRT_LIE_MAX_W2, CRT_LIE_MAX_TURN */
-
-/* lie: the order of its coefficients by the tolerance (8 below CRT_LIE_TIGHT, else 5) */
-static int crt_resolve_method(const crt_session *s)
-{
-  const int method = (int)s->opt[CRT_OPT_METHOD];
-  if (method == CRT_LIE) return s->opt[CRT_OPT_RTOL] < CRT_LIE_TIGHT ? CRT_LIE8 : CRT_LIE5;
-  return method;
-}
-
-/* the classical method that stands in for a Lie method where it does not apply */
-static int crt_classical_method(const crt_session *s)
-{
-  const int method = crt_resolve_method(s);
-  if (method == CRT_LIE8) return CRT_DOP853;
-  if (method == CRT_LIE5) return CRT_DOPRI5;
-  return method;
-}
-
-static int crt_lie_active(const crt_session *s)
-{
-#if MODEL_LIE
-  const int method = (int)s->opt[CRT_OPT_METHOD];
-  return (method == CRT_LIE || method == CRT_LIE5 || method == CRT_LIE8)
-         && s->phase == CRT_FLIGHT;
-#else
-  (void)s;
-  return 0;
-#endif
-}
+#include "crt_integrators.h"   /* crt_dense_weights */
 
 #if MODEL_LIE
 /* ---- rotations: unit quaternions (w, x, y, z), Hamilton's product ----------------------- */
@@ -286,67 +257,12 @@ static double crt_lie_initial_step(crt_session *s, int order)
   else h1 = pow(0.01 / crt_max(d1, d2), 1.0 / (order + 1));
   return crt_min(crt_min(100.0 * h0, h1), s->opt[CRT_OPT_HMAX]);
 }
-#endif /* MODEL_LIE */
-
-/* the longest step the method takes from s->t (HUGE_VAL: no limit of its own) */
-static double crt_step_limit(crt_session *s)
+#else
+/* without the momentum form no Lie method is active (crt_lie_active): nothing to accept */
+static void crt_lie_accept(crt_session *s)
 {
-#if MODEL_LIE
-  if (crt_lie_active(s)) {
-    const double *w;
-    double rate;
-    if (!s->lie.valid) crt_lie_restart(s);
-    w = s->lie.omega;
-    rate = sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2]);
-    return rate > 0.0 ? CRT_LIE_MAX_TURN / rate : HUGE_VAL;
-  }
-#endif
   (void)s;
-  return HUGE_VAL;
 }
-
-/* ---- dispatch ------------------------------------------------------------------------------ */
-/* One step of the session's method from (t, y0) = (s->t, s->q): returns the error norm (0
-   for RK4) and y1; f1 = f(y1) for the classical methods (the Lie methods read omega from
-   the session and leave f1 zero). */
-static double crt_step(crt_session *s, double t, const double *y0, const double *f0,
-                       double h, double *y1, double *f1, int with_dense)
-{
-#if MODEL_LIE
-  if (crt_lie_active(s)) {
-    int i;
-    if (!s->lie.valid) crt_lie_restart(s);
-    for (i = 0; i < NQ; ++i) f1[i] = 0.0;
-    (void)y0; (void)f0;
-    return crt_resolve_method(s) == CRT_LIE8 ? crt_step_lie8(s, t, h, y1, with_dense)
-                                            : crt_step_lie5(s, t, h, y1, with_dense);
-  }
-#endif
-  return crt_step_classical(s, crt_classical_method(s), t, y0, f0, h, y1, f1, with_dense);
-}
-
-static int crt_order(const crt_session *s)
-{
-  return crt_order_classical(crt_classical_method(s));
-}
-
-static void crt_dense_complete(crt_session *s)
-{
-  if (!s->dense.pending) return;
-#if MODEL_LIE
-  if (s->dense.lie) { crt_lie_dense_complete8(s); return; }
-#endif
-  crt_dense_complete_classical(s);
-}
-
-/* the dense output at t, completing it first if needed */
-static void crt_dense_at(crt_session *s, double t, double *y)
-{
-  if (s->dense.pending) crt_dense_complete(s);
-#if MODEL_LIE
-  if (s->dense.lie) { crt_lie_dense_eval(s, t, y); return; }
-#endif
-  crt_dense_eval(&s->dense, t, y);
-}
+#endif /* MODEL_LIE */
 
 #endif /* CRT_LIE_H */

@@ -1,7 +1,8 @@
 /*
- * Hand-written C: this file is templates/runtime/crt_hop.c, copied verbatim into
- * generated/runtime/ by `derive emit` (`derive emit --check` compares the copy byte for
- * byte).  Edit it there, then run `derive emit`.
+ * Hand-written C: this file is templates/control/crt_hop.c, copied verbatim into
+ * generated/control/ by `derive emit` (`derive emit --check` compares the copy byte for
+ * byte).  Edit it there, then run `derive emit`.  It includes the controllers' ABI,
+ * crt_call.h, from generated/runtime/.
  *
  * crt_hop.c: per-hop feedback as a C controller of the closed loop (crt_call.h's ABI):
  * the controller of derive/control/hop.py (HopController), for a robot's firmware or for

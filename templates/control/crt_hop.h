@@ -9,9 +9,10 @@
  * (call.reason = 2, call.event = 1) in a robot's own loop: it writes the coming hop's law
  * as cubic pieces of the point's z (x, y as they were).
  *
- * Hand-written C: this file is templates/runtime/crt_hop.h, copied verbatim into
- * generated/runtime/ by `derive emit` (`derive emit --check` compares the copy byte for
- * byte).  Edit it there, then run `derive emit`.
+ * Hand-written C: this file is templates/control/crt_hop.h, copied verbatim into
+ * generated/control/ by `derive emit` (`derive emit --check` compares the copy byte for
+ * byte).  Edit it there, then run `derive emit`.  It includes the controllers' ABI,
+ * crt_call.h, from generated/runtime/.
  */
 #ifndef CRT_HOP_H
 #define CRT_HOP_H

@@ -1,0 +1,201 @@
+/*
+ * crt_session.h: the bottom of the runtime -- the session record every stage reads and
+ * writes (the caller's memory: crt_sizeof() bytes), the output buffers, and the helpers
+ * all stages share: crt_u (the point law at t), crt_changed (what was computed from the
+ * state is stale), crt_emit and crt_event (an output row, an event row).
+ *
+ * Hand-written C: this file is templates/runtime/crt_session.h, copied verbatim into
+ * generated/runtime/ by `derive emit` (`derive emit --check` compares the copy byte for
+ * byte).  Edit it there, then run `derive emit`.
+ *
+ * The runtime is a stack of headers, each including only those below it: none calls a
+ * function of one above it (the loop reaches the stages through their hooks, named
+ * below).  From the top (each line: the header, what it holds, what it includes):
+ *   crt_core.h        the public API and the manual          crt_loop.h (crt_rough_api.h)
+ *   crt_rough_api.h   the friction models' own functions     crt_rhs.h
+ *   crt_loop.h        the loop of crt_advance                crt_events.h, crt_control.h
+ *   crt_control.h     the closed loop: calls, pushes, noise  crt_session.h, crt_call.h
+ *   crt_events.h      event location and application;        crt_step.h
+ *                     hooks crt_events_* (no-ops without the plane)
+ *   crt_step.h        the steppers' dispatcher, dense output crt_integrators.h, crt_lie.h
+ *   crt_lie.h         the Lie-group methods                  crt_integrators.h
+ *   crt_integrators.h RK4, DOPRI5, DOP853                    crt_rhs.h
+ *   crt_rhs.h         the right-hand side in either phase    crt_contact.h
+ *   crt_contact.h     the contact's variant, chosen once: hooks crt_contact_*
+ *                       MODEL_FRICTION:  crt_rough.h        crt_dk.h, crt_rough_modes.h
+ *                                        crt_rough_modes.h  crt_plane.h
+ *                       MODEL_HAS_PLANE: crt_smooth.h       crt_plane.h
+ *                       neither:         (no-ops)           crt_session.h
+ *   crt_plane.h       the gap, projection, lift-off          crt_session.h
+ *   crt_dk.h          Darboux-Keller's impact, standalone    crt_math.h, crt_abi.h
+ *   crt_session.h     this file                              crt_law.h, crt_friction_state.h
+ *   crt_law.h         the point law                          crt_math.h, crt_abi.h
+ *   crt_math.h        max, min, sin and cos                  crt_constants.h
+ * and the rendered crt_abi.h, crt_constants.h, crt_rk_steps.h, crt_lie_steps.h,
+ * crt_dk_steps.h.  The model's file (model_<kind>.c) defines the model's functions, then
+ * includes crt_core.h.
+ */
+#ifndef CRT_SESSION_H
+#define CRT_SESSION_H
+
+#include "crt_abi.h"
+#include "crt_law.h"                      /* crt_law, crt_law_work, crt_law_eval */
+
+#define CRT_MAX_STAGES 16
+#define CRT_MAX_DENSE 7
+
+#if MODEL_FRICTION
+#include "crt_friction_state.h"           /* the type of s->fr: the rough contact's memory */
+#endif
+
+typedef struct {
+  double t0, h;
+  int m;                                  /* number of F vectors */
+  int pending;                            /* DOP853: extra stages not yet computed */
+  double y0[NQ];
+  double F[CRT_MAX_DENSE][NQ];
+  int lie;                                /* a Lie step: F[.][0..2] interpolate W, and */
+  double R0[9], k0[3];                    /* the attitude and K in body axes at t0, */
+  double c0[6], t_f, n_scale;             /* the flight's constants (crt_lie.h) */
+} crt_dense;
+
+#if MODEL_LIE
+/* The constants of a flight and the attitude, for the Lie methods (crt_lie.h). */
+typedef struct {
+  int valid;                              /* they describe the flight through s->t */
+  double t_f;                             /* when they were set (an event, or the start) */
+  double c0[6];                           /* C at t_f: X_C, Y_C, Z_C, X_C', Y_C', Z_C' */
+  double K[3];                            /* K about C in fixed axes (E1.1) */
+  double n_scale;                         /* |n| of the vertical model's state, else 1 */
+  double quat[4];                         /* the attitude at s->t, a unit quaternion */
+  double R[9];                            /* its matrix */
+  double k[3];                            /* R^T K: K in body axes at s->t */
+  double omega[3];                        /* omega at s->t */
+  double quat_end[4], omega_end[3];       /* the same at the end of the last step tried */
+} crt_lie;
+#endif
+
+typedef struct crt_control crt_control;      /* the closed loop: crt_control.h */
+
+typedef struct {
+  double opt[CRT_OPT_COUNT];
+  double prm[CRT_P_COUNT];
+  crt_law law;
+  crt_control *ctl;                       /* the loop, or NULL (crt_set_control) */
+  crt_law_work lw;
+  double t, h;
+  double q[NQ];
+  double f[NQ];
+  int f_valid;
+  int g_valid;                            /* g_start, d_start: the event function at t */
+  double g_start, d_start;
+  int phase;
+  int status;                             /* CRT_OK after crt_init, CRT_PAUSED while it
+                                             runs, then the code that ended the run */
+  int bad_option, bad_parameter;          /* crt_bad_option, crt_bad_parameter (-1: none) */
+  int plane;                              /* MODEL_HAS_PLANE and opt[CRT_OPT_PLANE] */
+  double err_old;
+  double last_event_t;                    /* the time of the last event */
+  double last_impact_t;                   /* accumulating impacts: the last impact, */
+  double last_flight;                     /* and the flight before it (0: none yet) */
+  double next_output;                     /* t_first + out_k output_dt, no accumulation */
+  double t_first;
+  double out_k;
+  int out_pending;                        /* output rows of the last step still to write */
+  double out_until;
+  long stat[CRT_STAT_COUNT];
+  double summary[CRT_SUMMARY_COUNT];
+  double k[CRT_MAX_STAGES][NQ];           /* stage workspace */
+  crt_dense dense;
+#if MODEL_LIE
+  crt_lie lie;
+#endif
+#if MODEL_FRICTION
+  crt_friction fr;                        /* the rough contact: its mode (crt_rough.h) */
+#endif
+} crt_session;
+
+/* ---- output buffers ---------------------------------------------------------------------- */
+typedef struct {
+  double *t;
+  double *q;
+  int *kind;
+  int cap, n;
+  double *ev;                              /* rows of CRT_EVENT_COLUMNS */
+  int ev_cap, ev_n;
+} crt_out;
+
+/* ---- small helpers ---------------------------------------------------------------------- */
+static int crt_finite(const double *y)
+{
+  int i;
+  for (i = 0; i < NQ; ++i) {
+    if (!(y[i] - y[i] == 0.0)) return 0;  /* NaN or infinity */
+  }
+  return 1;
+}
+
+/* the state changed other than by a step (an event, a projection): what was computed
+   from it is stale */
+static void crt_changed(crt_session *s)
+{
+  s->f_valid = 0;
+#if MODEL_LIE
+  s->lie.valid = 0;
+#endif
+}
+
+/* the point law at t (the last evaluation is reused) */
+static const double *crt_u(crt_session *s, double t)
+{
+  return crt_law_eval(&s->law, &s->lw, t, &s->stat[CRT_STAT_LAW_EVALUATIONS]);
+}
+
+static int crt_emit(crt_out *o, double t, const double *q, int kind)
+{
+  int i;
+  if (o->n >= o->cap) return 0;
+  o->t[o->n] = t;
+  for (i = 0; i < NQ; ++i) o->q[(long)o->n * NQ + i] = q[i];
+  o->kind[o->n] = kind;
+  ++o->n;
+  return 1;
+}
+
+#if MODEL_HAS_PLANE                       /* (events happen only on the plane) */
+static void crt_event(crt_out *o, double t, int kind, double value, double a, double b,
+                      double extra)
+{
+  double *row;
+  int i;
+  if (o->ev_n >= o->ev_cap) return;
+  row = o->ev + (long)CRT_EVENT_COLUMNS * o->ev_n;
+  row[0] = t; row[1] = (double)kind; row[2] = value; row[3] = a; row[4] = b; row[5] = extra;
+  for (i = 6; i < CRT_EVENT_COLUMNS; ++i) row[i] = 0.0;   /* the friction models' columns */
+  ++o->ev_n;
+}
+#endif
+
+/* What an event due at the start of a step led to (crt_contact_due, crt_events_due): none
+   (take the step), or one applied after which the controller of a closed loop is told of
+   the impact, entry into contact or lift-off it was, or not. */
+enum crt_due { CRT_DUE_NONE = 0, CRT_DUE_TELL = 1, CRT_DUE_SILENT = 2 };
+
+/* the run has had its events: opt[CRT_OPT_MAX_EVENTS] of them (then status
+   CRT_MAX_EVENTS), or an event was refused (status < 0) */
+static int crt_events_exhausted(crt_session *s)
+{
+  const double n = (double)(s->stat[CRT_STAT_IMPACTS] + s->stat[CRT_STAT_CONTACTS]
+                            + s->stat[CRT_STAT_LIFTOFFS] + s->stat[CRT_STAT_GRAZES]
+                            + s->stat[CRT_STAT_STICKS] + s->stat[CRT_STAT_SLIPS]
+                            + s->stat[CRT_STAT_REVERSALS] + s->stat[CRT_STAT_COUPLE_STOPS]
+                            + s->stat[CRT_STAT_COUPLE_STARTS]);
+  if (s->status < 0) return 1;            /* an event refused (friction: painleve, ...) */
+  if (n >= s->opt[CRT_OPT_MAX_EVENTS]) {
+    s->status = CRT_MAX_EVENTS;
+    return 1;
+  }
+  return 0;
+}
+
+#endif /* CRT_SESSION_H */
