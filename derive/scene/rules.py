@@ -228,6 +228,15 @@ def _law_source(d: Draft) -> None:
         bodies.check_source(el)
 
 
+def _as_for_one(check):
+    """The bulk form of a rule that reads a point's element, whose mass may be a study's
+    column, but not its mass: the check itself, the same for every variant."""
+    def bulk(d: Draft) -> bool:
+        check(d)
+        return False
+    return bulk
+
+
 def _model_by_hand(d: Draft) -> None:
     model = d.v["[run].model"]
     if not d.one_point and model not in ("auto", "general", "rough"):
@@ -342,7 +351,7 @@ STATIC_RULES = (
         for sh in shapes.SHAPES.values()) + "; nothing for none); the centre within 100 "
          "sizes of O", _shape),
     Rule("[point] and each [[point]]: exactly one of law, table, samples; ends only with a "
-         "table or samples", _law_source, law=True),
+         "table or samples", _law_source, law=True, bulk=_as_for_one(_law_source)),
     Rule(f"[[point]] and [[rotor]]: at most {ARRAYS['point']} points and {ARRAYS['rotor']} "
          "rotors; a scene that is not one point takes [run].model auto, general or rough "
          "(the others reduce the one-point model)", _model_by_hand, law=True),
@@ -355,7 +364,7 @@ STATIC_RULES = (
          "inside its times; the same for each [[point]], and for each [[rotor]]'s law psi; "
          f"each [[rotor]]'s axis a unit vector (|a| within {AXIS_TOLERANCE:g} of 1, then "
          "normalised)",
-         _law, law=True),
+         _law, law=True, bulk=_as_for_one(_law)),
     Rule("[point]: P stays within max_distance of O (each [[point]] within its own); J of "
          "E1.5 stays non-singular (R1); the tables of several points all periodic (with "
          "the same first and last times) or none; the formulas of all bodies at most "
