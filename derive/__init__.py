@@ -21,9 +21,10 @@ def simulate(scene, progress: bool = False):
 
 
 def simulate_many(scene, variants, **kwargs):
-    """Run variants of a scene; see :func:`derive.runtime.batch.simulate_many`."""
-    from .runtime.batch import simulate_many as _many
-    return _many(scene, variants, **kwargs)
+    """Run variants of a scene; see :func:`derive.runtime.batch.simulate_many` (a scene
+    with [control] or [disturbance]: :func:`derive.control.run.run_many`)."""
+    from .control.run import run_many
+    return run_many(scene, variants, **kwargs)
 
 
 def plan(task, **kwargs):

@@ -197,6 +197,14 @@ def _check_simulate_options(args) -> None:
         raise UsageError("--workers: runs the variants of a sweep, so it goes only with --sweep")
     if args.workers is not None and args.workers < 1:
         raise UsageError(f"--workers: must be >= 1 (got {args.workers})")
+    if args.plot is not None:
+        from .runtime.sweep_plot import PLOTTABLE
+        if not args.sweep:
+            raise UsageError("--plot: names the column sweep.png draws, so it goes only with "
+                             "--sweep")
+        if args.plot not in PLOTTABLE:
+            raise UsageError(f"--plot: must be one of {', '.join(PLOTTABLE)} (got "
+                             f"{args.plot!r})")
     _check_output_folder(args.output)
 
 
@@ -251,7 +259,6 @@ def _simulate_sweep(args, start: float) -> int:
     """``--sweep``: every combination of the swept values, through simulate_many."""
     import time
     from pathlib import Path
-    from .runtime import batch
     from .scene import SceneError, overrides, parse_scene
     from .scene.bodies import refuse_runtime
     try:
@@ -263,8 +270,9 @@ def _simulate_sweep(args, start: float) -> int:
             n *= len(values)
         if n > 1_000_000:
             raise SceneError("--sweep", f"{n} variants (at most 1e6)")
-        out = batch.simulate_many(doc, grid, workers=args.workers, scheduler=args.scheduler,
-                                  progress=not args.quiet, strict=False)
+        from .control.run import run_many
+        out = run_many(doc, grid, workers=args.workers, scheduler=args.scheduler,
+                       progress=not args.quiet, strict=False)
     except SceneError as exc:
         raise UsageError(str(exc)) from None
     bad = sum(1 for r in out.rows if "error" in r)
@@ -289,7 +297,7 @@ def _simulate_sweep(args, start: float) -> int:
     written = ["sweep.csv", "sweep.json"]
     if not args.no_plots and len(grid) <= 2:
         from .runtime.sweep_plot import sweep_plot
-        written.append(sweep_plot(out, grid, folder).name)
+        written.append(sweep_plot(out, grid, folder, args.plot or "impacts").name)
     where = {"serial": "this thread", "threads": f"{out.workers} threads",
              "processes": f"{out.workers} processes"}.get(
         out.executor, f"a Dask cluster of {_workers(out.workers)}")
@@ -563,6 +571,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--scheduler", metavar="tcp://HOST:PORT", help="--sweep: run the "
                    "variants on the Dask cluster of this scheduler instead (pip install -e "
                    "'.[cluster]'); many variants per task")
+    p.add_argument("--plot", metavar="COLUMN", help="--sweep: the column sweep.png draws "
+                   "against the swept values (default impacts; e.g. distance, X_C_end, "
+                   "Z_C_end, min_height)")
     p.set_defaults(func=cmd_simulate)
 
     p = sub.add_parser("scene", help="scene files: a commented template, a check, the "

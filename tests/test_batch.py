@@ -481,3 +481,96 @@ def test_a_one_field_sweep_plot_has_its_values_as_ticks(tmp_path, monkeypatch):
     fig = _drawn_figure(monkeypatch, lambda: sweep_plot(batch, grid, tmp_path))
     ax = fig.axes[0]
     assert [float(t) for _, t in _ticks(ax.xaxis, *ax.get_xlim())] == grid["point.mass"]
+
+
+def _robot_doc() -> dict:
+    import tomllib
+    from importlib import resources
+    return tomllib.loads((resources.files("derive.scene") / "examples" / "spherical-robot.toml")
+                         .read_text(encoding="utf-8"))
+
+
+def test_a_study_says_where_c_ends_and_how_far_it_went():
+    """sweep.csv had Z_C_end but no X_C_end, and sweep.png drew two flat lines against
+    friction (a new user's trial, issue 34).  X_C_end, Y_C_end and distance (the net
+    horizontal displacement of C) are columns: in bulk they equal each variant's own run
+    (the rough model's state), and on the smooth plane C moves uniformly (nothing
+    horizontal acts): X_C0 + X_C0' t, the closed form, through the vertical model."""
+    import derive
+    doc = _robot_doc()
+    b = derive.simulate_many(doc, {"plane.friction": [0.02, 0.1, 0.5]})
+    for k, f in enumerate((0.02, 0.1, 0.5)):
+        d = _robot_doc()
+        d["plane"]["friction"] = f
+        r = derive.simulate(d)
+        x, y = r.general[-1, 0], r.general[-1, 1]
+        assert b.column("X_C_end")[k] == x and b.column("Y_C_end")[k] == y
+        assert abs(b.column("distance")[k] - np.hypot(x, y)) < 1e-15
+    assert b.column("distance")[0] < 0.9 * b.column("distance")[2]   # it slips at 0.02
+    smooth = builtin_doc()
+    smooth["initial"].update(com_velocity=[0.3, -0.2, 0.0], omega=[0.0, 0.0, 1.0])
+    smooth["point"]["law"] = ["0", "0", "0.05*sin(3*t)"]
+    smooth["body"]["inertia"] = [0.02, 0.02, 0.03]
+    smooth["run"]["outputs"] = ["omega", "height", "impacts"]
+    s = derive.simulate_many(smooth, {"plane.restitution": [0.5, 0.9]})
+    assert set(s.column("model")) == {"vertical"}
+    t = s.column("t_end")
+    assert np.allclose(s.column("X_C_end"), 0.3 * t, rtol=0, atol=1e-15)
+    assert np.allclose(s.column("distance"), np.hypot(0.3, 0.2) * t, rtol=0, atol=1e-15)
+
+
+def test_summary_json_has_the_travel(tmp_path):
+    import json
+    import subprocess
+    import sys
+    from importlib import resources
+    robot = str(resources.files("derive.scene") / "examples" / "spherical-robot.toml")
+    out = subprocess.run([sys.executable, "-m", "derive", "simulate", robot, "-o",
+                          str(tmp_path), "-q", "--no-plots"], capture_output=True, text=True)
+    assert out.returncode == 0, out.stderr
+    travel = json.loads((tmp_path / "summary.json").read_text())["travel"]
+    assert 3.2 < travel["distance"] == travel["X_C_end"] < 3.4
+    assert abs(travel["path_length"] - travel["distance"]) < 1e-9   # a straight roll
+
+
+def test_sweep_png_draws_the_column_named(tmp_path, monkeypatch):
+    """--plot distance draws the distance against the swept values; an unknown column, or
+    --plot without --sweep, is refused naming the option (exit 2)."""
+    import subprocess
+    import sys
+    from importlib import resources
+    robot = str(resources.files("derive.scene") / "examples" / "spherical-robot.toml")
+    args = [sys.executable, "-m", "derive", "simulate", robot, "-q"]
+    bad = subprocess.run(args + ["-o", str(tmp_path / "a"), "--plot", "distance"],
+                         capture_output=True, text=True)
+    assert bad.returncode == 2 and "--plot: names the column" in bad.stderr
+    bad = subprocess.run(args + ["-o", str(tmp_path / "b"), "--sweep",
+                                 "plane.friction=0.1,0.5", "--plot", "speed"],
+                         capture_output=True, text=True)
+    assert bad.returncode == 2 and "--plot: must be one of impacts" in bad.stderr
+    assert not (tmp_path / "a").exists() and not (tmp_path / "b").exists()
+    from matplotlib.figure import Figure
+    from derive.runtime.sweep_plot import sweep_plot
+    saved = []
+    monkeypatch.setattr(Figure, "savefig", lambda self, *a, **k: saved.append(self))
+    import derive
+    b = derive.simulate_many(_robot_doc(), {"plane.friction": [0.02, 0.5]})
+    sweep_plot(b, {"plane.friction": [0.02, 0.5]}, tmp_path, "distance")
+    ax = saved[0].axes[0]
+    assert ax.get_ylabel().startswith("horizontal distance C travelled")
+    assert np.array_equal(ax.get_lines()[0].get_ydata(), b.column("distance").filled(np.nan))
+
+
+def test_a_study_of_a_pushed_or_controlled_scene_runs_each_loop():
+    """A study of a scene with [disturbance] or [control] had run each variant open and
+    unpushed (the tables accepted and ignored); each variant now runs as derive.simulate
+    runs the scene: the push applied (Y_C_end off the axis), the loop closed."""
+    import derive
+    doc = _robot_doc()
+    doc["disturbance"] = {"pushes": [{"time": 2.0, "impulse": [0.0, 0.5, 0.0]}]}
+    b = derive.simulate_many(doc, {"plane.friction": [0.3, 0.5]})
+    alone = derive.simulate(doc)                      # friction 0.5, pushed
+    assert b.column("Y_C_end")[1] == alone.general[-1, 1] and abs(alone.general[-1, 1]) > 0.1
+    with pytest.raises(BatchError, match="scheduler"):
+        derive.simulate_many(doc, {"plane.friction": [0.3, 0.5]},
+                             scheduler="tcp://127.0.0.1:1")

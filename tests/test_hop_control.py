@@ -303,3 +303,23 @@ def test_derive_control_refuses_hop_and_mirror_and_says_where_they_run(tmp_path,
     assert main(["control", str(scene), "-o", str(tmp_path / "out-scene")]) == 2
     err = capsys.readouterr().err.strip()
     assert "[control].mode: hop closes the loop around a scene's gait" in err
+
+
+def test_a_controllers_wider_gait_does_not_let_s_through_the_plane():
+    """The example hop at e = 0.8: the per-hop controller widens the gait beyond the
+    scene's own law, whose reach bounded |n.CS| in the runtime's test that S cannot reach
+    the plane inside a step (crt_events.h); S went 2.6 mm below the plane inside a step
+    and the impact was found only at its end, the run 'done'.  Now, once a controller has
+    set a law, every step is sampled: S never below the penetration tolerance (well under
+    a micrometre here), checked on the rows and against the law the loop ran (P's height
+    and C's give S's, computed here from the general layout's rows)."""
+    import tomllib
+    from importlib import resources
+    doc = tomllib.loads((resources.files("derive.control") / "examples" / "hop.toml")
+                        .read_text(encoding="utf-8"))
+    doc.pop("disturbance")
+    doc["plane"]["restitution"] = 0.8
+    res = simulate_closed(parse_scene(doc)).result
+    assert res.status == "done" and res.stats["law_changes"] > 1
+    assert res.min_height > -1e-9, res.min_height
+    assert float(np.min(res.height)) > -1e-9

@@ -14,7 +14,10 @@ push on the rolling robot ran as if it were not there (a new user's trial, issue
 """
 from __future__ import annotations
 
+import copy
+import os
 import time
+from concurrent.futures import ThreadPoolExecutor
 
 from ..progress import count
 from ..runtime.driver import Result, prepare, run_prepared, simulate
@@ -67,3 +70,65 @@ def simulate_pushed(sc: Scene, progress: bool = False) -> Result:
 def _open(call) -> None:
     """The open loop's controller: the scene's own law goes on."""
     return None
+
+
+def run_many(scene, variants, workers: int | None = None, scheduler: str | None = None,
+             keep: str = "summary", progress: bool = False, strict: bool = True, **kwargs):
+    """A parameter study as its scene's tables ask: :func:`derive.runtime.batch.
+    simulate_many` for a plain scene; a scene with ``[control]`` or ``[disturbance]`` runs
+    each variant as :func:`run_scene` does (the loop closed, the pushes applied), one at a
+    time in this process's threads (a study had run such variants open and unpushed)."""
+    from ..runtime import batch, study
+    from ..scene import SceneError, overrides
+    doc = _doc_of(scene)
+    if "control" not in doc and "disturbance" not in doc:
+        return batch.simulate_many(scene, variants, workers=workers, scheduler=scheduler,
+                                   keep=keep, progress=progress, strict=strict, **kwargs)
+    tables = " and ".join(f"[{t}]" for t in ("control", "disturbance") if t in doc)
+    if scheduler is not None or kwargs.get("executor", "threads") != "threads":
+        raise batch.BatchError("scheduler" if scheduler else "executor",
+                               f"a study of a scene with {tables} runs each variant's loop in "
+                               "this process's threads")
+    if keep not in ("summary", "result"):
+        raise batch.BatchError("keep", f"must be 'summary' or 'result' (got {keep!r})")
+    items = batch.expand(variants)
+    start = time.perf_counter()
+
+    def one(k: int):
+        try:
+            d = copy.deepcopy(doc)
+            for name, value in items[k].items():
+                overrides.apply_to_doc(d, name, copy.deepcopy(value))
+            res = run_scene(d)
+            return study.summary_row(res), res
+        except (SceneError, overrides.OverrideError) as exc:
+            return {"error": f"variant {k}: {exc}"}, None
+    n_workers = 1 if workers is None and len(items) <= 8 else (workers or os.cpu_count() or 1)
+    bar = None
+    if progress:
+        from ..progress import Bar
+        bar = Bar("variants")
+    out = []
+    with ThreadPoolExecutor(max_workers=n_workers) as pool:
+        for k, got in enumerate(pool.map(one, range(len(items)))):
+            out.append(got)
+            if bar:
+                bar.update((k + 1) / len(items))
+    if bar:
+        bar.close()
+    rows = [row for row, _ in out]
+    if strict:
+        bad = next((r["error"] for r in rows if "error" in r), None)
+        if bad is not None:
+            raise batch.BatchError("variants", bad)
+    return batch.Batch(items, study.columns_of_rows(rows),
+                       results=[res for _, res in out] if keep == "result" else [],
+                       seconds=time.perf_counter() - start, executor="threads",
+                       workers=n_workers, tasks=len(items))
+
+
+def _doc_of(scene) -> dict:
+    """A scene's dict (a path, a dict or a Scene)."""
+    if isinstance(scene, dict):
+        return scene
+    return load_scene(scene).doc

@@ -291,6 +291,36 @@ def height_of_c(scene: Scene, kind: str, t: float, q) -> float:
     return math.nan
 
 
+def horizontal_of_c(kind: str, t0, t, q, c0) -> tuple:
+    """(X_C, Y_C) at time t from a state of a model and C's start ``c0`` (X, Y, Z, X', Y',
+    Z'), of one run or entry by entry of rows.  The general and rough models hold them;
+    every other model runs on a smooth plane or in free flight, where nothing horizontal
+    acts on the system, so C moves uniformly: X_C = X_C0 + X_C0' (t - t0)."""
+    if kind in ("general", "rough"):
+        h = q[..., layout.of(kind).horizontal]
+        return h[..., 0], h[..., 1]
+    c0 = np.asarray(c0, dtype=float)
+    dt = np.asarray(t, dtype=float) - t0
+    return c0[..., 0] + c0[..., 3] * dt, c0[..., 1] + c0[..., 4] * dt
+
+
+def start_of_c(scene) -> np.ndarray:
+    """C's position and velocity at the start (X, Y, Z, X', Y', Z'), or rows of them."""
+    return np.concatenate([np.asarray(scene.com, dtype=float),
+                           np.asarray(scene.com_velocity, dtype=float)], axis=-1)
+
+
+def travel(kind: str, t0, t_end, q, c0) -> dict:
+    """Where C ends horizontally and how far it went from its start (the net horizontal
+    displacement), of one run or entry by entry."""
+    x, y = horizontal_of_c(kind, t0, t_end, q, c0)
+    c0 = np.asarray(c0, dtype=float)
+    distance = np.hypot(x - c0[..., 0], y - c0[..., 1])
+    one = np.ndim(distance) == 0
+    return {"X_C_end": float(x) if one else x, "Y_C_end": float(y) if one else y,
+            "distance": float(distance) if one else distance}
+
+
 def vertical_of(kind: str, general, Q) -> tuple | None:
     """(Z_C, n) along the rows, for the height of S."""
     if general is not None:

@@ -16,6 +16,7 @@ import numpy as np
 
 from .. import abi, layout
 from ..progress import count
+from . import choice
 from .events import phases
 from .motion import Motion, energy_balance, motion
 
@@ -72,12 +73,23 @@ def summary(result, mo: Motion | None = None) -> dict:
                     "t_min_height": _finite(result.summary["t_min_height"]),
                     "min_normal_force_in_contact": _finite(result.min_normal),
                     **(contact_friction(result) if result.rough else {})},
+        "travel": travel_of(result, mo),
         "energy": energy,
         "invariants": invariant_drift(result),
         "timings_s": dict(result.timings),
         "machine": {"processor": platform.processor() or platform.machine(),
                     "cpus": os.cpu_count()},
     }
+
+
+def travel_of(result, mo: Motion) -> dict:
+    """How far C went horizontally: where it ends, the net displacement from its start
+    (``distance``, as a study's column) and the length of its horizontal path."""
+    end = choice.travel(result.model, result.scene.t0, float(result.t[-1]),
+                        result.model_q[-1], choice.start_of_c(result.scene))
+    xy = np.asarray(mo.r_C)[:, :2]
+    return {"X_C_start": float(result.scene.com[0]), "Y_C_start": float(result.scene.com[1]),
+            **end, "path_length": float(np.hypot(*np.diff(xy, axis=0).T).sum())}
 
 
 def contact_friction(result) -> dict:

@@ -35,7 +35,8 @@ from ..scene import SceneError, build_scene, bulk, overrides
 from ..scene.schema import SCENE
 
 SUMMARY_COLUMNS = ("status", "model", "t_end", "impacts", "contacts", "liftoffs", "steps",
-                   "rhs_evaluations", "min_height", "first_contact_t", "Z_C_end", "run_ms")
+                   "rhs_evaluations", "min_height", "first_contact_t", "X_C_end", "Y_C_end",
+                   "Z_C_end", "distance", "run_ms")
 TEXT_COLUMNS = ("error", "status", "model")
 COUNT_COLUMNS = ("impacts", "contacts", "liftoffs", "steps", "rhs_evaluations")
 _STAT = {name: k for k, name in enumerate(abi.names(abi.STATS))}
@@ -77,6 +78,8 @@ def summary_row(result) -> dict:
             "steps": s["steps"], "rhs_evaluations": s["rhs_evaluations"],
             "min_height": result.min_height,
             "first_contact_t": float(contact[0, 0]) if len(contact) else math.nan,
+            **choice.travel(result.model, result.scene.t0, t_end, result.model_q[-1],
+                     choice.start_of_c(result.scene)),
             "Z_C_end": choice.height_of_c(result.scene, result.model, t_end,
                                           result.model_q[-1]),
             "run_ms": 1e3 * result.timings.get("run_s", math.nan)}
@@ -96,6 +99,7 @@ class Part:
     q0: np.ndarray
     opt: np.ndarray
     prm: np.ndarray
+    c0: np.ndarray             # C's start (X, Y, Z, X', Y', Z') per variant: its travel
     scenes: list | None = None
 
     def __len__(self) -> int:
@@ -104,7 +108,7 @@ class Part:
     def pieces(self, size: int) -> list:
         """The part in chunks of at most ``size`` variants."""
         return [Part(self.kind, self.law, *(a[k:k + size] for a in (
-                    self.index, self.t0, self.t_end, self.q0, self.opt, self.prm)),
+                    self.index, self.t0, self.t_end, self.q0, self.opt, self.prm, self.c0)),
                      None if self.scenes is None else self.scenes[k:k + size])
                 for k in range(0, len(self), size)]
 
@@ -202,7 +206,7 @@ def _parts(cols, index: np.ndarray, members: list, base: dict, origin, base_v: d
         take = np.flatnonzero(members_c)
         out.append(Part(alone.kind, law, index[take], np.full(len(take), scene.t0),
                         np.full(len(take), scene.t0 + scene.duration), q0[take], opt[take],
-                        prm[take]))
+                        prm[take], choice.start_of_c(scene)[take]))
     return out, alone_ones
 
 
@@ -240,6 +244,8 @@ def run_part(part: Part, ready: list) -> dict:
     else:
         cols["Z_C_end"][:] = [choice.height_of_c(sc, part.kind, float(r[0]), r[1:])
                               for sc, r in zip(part.scenes, last)]
+    for name, col in choice.travel(part.kind, part.t0, last[:, 0], last[:, 1:], part.c0).items():
+        cols[name][:] = col
     cols["run_ms"][:] = 1e3 * out["seconds"] / n
     for k in np.flatnonzero(out["init_status"] != _OK):
         # crt_init again on this run's inputs: the C then names what it refused
@@ -280,7 +286,8 @@ def run_singles(base: dict, origin, items: list, keep: str, ready: list) -> tupl
                     np.array([p.scene.t0 for p in preps]),
                     np.array([p.scene.t0 + p.scene.duration for p in preps]),
                     np.array([p.start.q0 for p in preps]), np.array([p.options for p in preps]),
-                    np.array([p.parameters for p in preps]), [p.scene for p in preps])
+                    np.array([p.parameters for p in preps]),
+                    np.array([choice.start_of_c(p.scene) for p in preps]), [p.scene for p in preps])
         got = run_part(part, ready)
         at = np.array([k for k, _, _ in members])
         for name, col in got.items():

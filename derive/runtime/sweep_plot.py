@@ -1,6 +1,7 @@
-"""The picture of a parameter sweep (``derive simulate --sweep``): for one swept field,
-the number of impacts and the time of the first resting contact against it; for two, a
-map of the number of impacts with refused or failed variants marked.
+"""The picture of a parameter sweep (``derive simulate --sweep``): for one swept field, a
+column of the study against it (the number of impacts by default, with the time of the
+first resting contact; ``--plot distance`` the distance C travelled, ...); for two, a map
+of that column with refused or failed variants marked.
 
 The map has one cell per variant, centred on a tick that says its value: the axes are
 categorical (the values in the order swept, equally spaced whatever their spacing), so
@@ -13,6 +14,15 @@ from pathlib import Path
 import numpy as np
 
 MOST_TICKS = 12                   # every value is a tick up to this many values
+# the columns a sweep may draw (the study's numbers), and how each is labelled
+PLOTTABLE = {"impacts": "impacts", "contacts": "contact phases", "liftoffs": "lift-offs",
+             "steps": "steps", "rhs_evaluations": "RHS evaluations",
+             "min_height": "lowest height of S [m]", "first_contact_t":
+             "time of first resting contact [s]", "X_C_end": "X_C at the end [m]",
+             "Y_C_end": "Y_C at the end [m]", "Z_C_end": "Z_C at the end [m]",
+             "distance": "horizontal distance C travelled [m]", "t_end": "t at the end [s]",
+             "run_ms": "run time [ms]"}
+_COUNTS = ("impacts", "contacts", "liftoffs", "steps", "rhs_evaluations")
 
 
 def value_text(v: float) -> str:
@@ -28,37 +38,43 @@ def category_ticks(n: int) -> list[int]:
     return list(range(0, n, step))
 
 
-def sweep_plot(batch, grid: dict, folder: Path) -> Path:
+def sweep_plot(batch, grid: dict, folder: Path, column: str = "impacts") -> Path:
+    """sweep.png: ``column`` (a key of :data:`PLOTTABLE`) against the swept values."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     from matplotlib.ticker import MaxNLocator
     names = list(grid)
-    impacts = batch.column("impacts").astype(float).filled(np.nan)
+    label = PLOTTABLE[column]
+    impacts = batch.column(column).astype(float).filled(np.nan)
     first = batch.column("first_contact_t").filled(np.nan)
     ok = batch.column("status") == "done"
     path = folder / "sweep.png"
     if len(names) == 1:
         x = np.array(grid[names[0]], dtype=float)
         fig, ax = plt.subplots(figsize=(7, 3.6))
-        ax.plot(x, impacts, "o-", ms=3, lw=1, color="C0", label="impacts")
+        ax.plot(x, impacts, "o-", ms=3, lw=1, color="C0", label=label)
         ax.set_xlabel(names[0])
-        ax.set_ylabel("impacts", color="C0")
-        ax.yaxis.set_major_locator(MaxNLocator(integer=True))
+        ax.set_ylabel(label, color="C0")
+        if column in _COUNTS:
+            ax.yaxis.set_major_locator(MaxNLocator(integer=True))
         if len(x) <= MOST_TICKS:
             ax.set_xticks(x, [value_text(v) for v in x])
-        ax2 = ax.twinx()
-        ax2.plot(x, first, "s-", ms=3, lw=1, color="C1", label="first resting contact")
-        ax2.set_ylabel("time of first resting contact [s]", color="C1")
-        if not np.isfinite(first).any():
-            ax2.set_yticks([])
-            ax2.text(0.98, 0.5, "no resting contact", transform=ax2.transAxes, ha="right",
-                     va="center", color="C1", fontsize=8)
+        handles = []
+        if column == "impacts":               # and when the impacts end in resting contact
+            ax2 = ax.twinx()
+            ax2.plot(x, first, "s-", ms=3, lw=1, color="C1", label="first resting contact")
+            ax2.set_ylabel("time of first resting contact [s]", color="C1")
+            if not np.isfinite(first).any():
+                ax2.set_yticks([])
+                ax2.text(0.98, 0.5, "no resting contact", transform=ax2.transAxes,
+                         ha="right", va="center", color="C1", fontsize=8)
+            handles = ax2.get_legend_handles_labels()
         if (~ok).any():
             ax.plot(x[~ok], impacts[~ok], "x", color="red", ms=8, label="not done")
         ax.set_title(f"{len(batch.rows)} variants", fontsize=10)
         h1, l1 = ax.get_legend_handles_labels()
-        h2, l2 = ax2.get_legend_handles_labels()
+        h2, l2 = handles or ([], [])
         ax.legend(h1 + h2, l1 + l2, loc="upper left", fontsize=8)
         fig.tight_layout()
     else:
@@ -68,7 +84,7 @@ def sweep_plot(batch, grid: dict, folder: Path) -> Path:
         fig, ax = plt.subplots(figsize=(6.5, 5))
         mesh = ax.pcolormesh(np.arange(nx + 1) - 0.5, np.arange(ny + 1) - 0.5, Z,
                              shading="flat", cmap="viridis")
-        fig.colorbar(mesh, ax=ax, label="impacts")
+        fig.colorbar(mesh, ax=ax, label=label)
         for axis, values in ((ax.xaxis, xs), (ax.yaxis, ys)):
             ticks = category_ticks(len(values))
             axis.set_ticks(ticks, [value_text(values[k]) for k in ticks])
@@ -79,7 +95,8 @@ def sweep_plot(batch, grid: dict, folder: Path) -> Path:
                 for j in range(ny):
                     if not missing[j, i]:
                         dark = hi > lo and (Z[j, i] - lo) / (hi - lo) < 0.6
-                        ax.text(i, j, f"{int(Z[j, i])}", ha="center", va="center",
+                        text = f"{int(Z[j, i])}" if column in _COUNTS else f"{Z[j, i]:.3g}"
+                        ax.text(i, j, text, ha="center", va="center",
                                 fontsize=8, color="white" if dark else "black")
         bad = (~ok).reshape(nx, ny).T
         if bad.any():
@@ -88,7 +105,7 @@ def sweep_plot(batch, grid: dict, folder: Path) -> Path:
             ax.legend(fontsize=8, loc="upper right")
         ax.set_xlabel(names[0])
         ax.set_ylabel(names[1])
-        ax.set_title(f"{len(batch.rows)} variants: impacts", fontsize=10)
+        ax.set_title(f"{len(batch.rows)} variants: {label}", fontsize=10)
         fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
