@@ -362,6 +362,42 @@ void lowest_point_ellipsoid_incref(void);
 void lowest_point_ellipsoid_decref(void);
 #endif
 
+/* lowest_point_box(n[3], center[3], half_extents[3]) -> (s[3]): Lowest point S of a box (centre anywhere in the body) for the vertical n, body axes. */
+void carrier_lowest_point_box(const double *n, const double *center, const double *half_extents, double *CARRIER_RESTRICT s);
+#ifndef CARRIER_NO_CASADI_ABI
+int lowest_point_box(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int lowest_point_box_n_in(void);
+casadi_int lowest_point_box_n_out(void);
+const char *lowest_point_box_name_in(casadi_int i);
+const char *lowest_point_box_name_out(casadi_int i);
+const casadi_int *lowest_point_box_sparsity_in(casadi_int i);
+const casadi_int *lowest_point_box_sparsity_out(casadi_int i);
+int lowest_point_box_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real lowest_point_box_default_in(casadi_int i);
+int lowest_point_box_checkout(void);
+void lowest_point_box_release(int mem);
+void lowest_point_box_incref(void);
+void lowest_point_box_decref(void);
+#endif
+
+/* lowest_point_cylinder(n[3], center[3], size[2]) -> (s[3]): Lowest point S of a cylinder (centre anywhere in the body) for the vertical n, body axes. */
+void carrier_lowest_point_cylinder(const double *n, const double *center, const double *size, double *CARRIER_RESTRICT s);
+#ifndef CARRIER_NO_CASADI_ABI
+int lowest_point_cylinder(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int lowest_point_cylinder_n_in(void);
+casadi_int lowest_point_cylinder_n_out(void);
+const char *lowest_point_cylinder_name_in(casadi_int i);
+const char *lowest_point_cylinder_name_out(casadi_int i);
+const casadi_int *lowest_point_cylinder_sparsity_in(casadi_int i);
+const casadi_int *lowest_point_cylinder_sparsity_out(casadi_int i);
+int lowest_point_cylinder_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real lowest_point_cylinder_default_in(casadi_int i);
+int lowest_point_cylinder_checkout(void);
+void lowest_point_cylinder_release(int mem);
+void lowest_point_cylinder_incref(void);
+void lowest_point_cylinder_decref(void);
+#endif
+
 /* lowest_point_rate_sphere(n[3], omega[3], radius) -> (sdot[3]): Rate of the lowest point S of a sphere in body axes as the body turns (Poisson's equations for n). */
 void carrier_lowest_point_rate_sphere(const double *n, const double *omega, double radius, double *CARRIER_RESTRICT sdot);
 #ifndef CARRIER_NO_CASADI_ABI
@@ -396,6 +432,42 @@ int lowest_point_rate_ellipsoid_checkout(void);
 void lowest_point_rate_ellipsoid_release(int mem);
 void lowest_point_rate_ellipsoid_incref(void);
 void lowest_point_rate_ellipsoid_decref(void);
+#endif
+
+/* lowest_point_rate_box(n[3], omega[3], half_extents[3]) -> (sdot[3]): Rate of the lowest point S of a box in body axes as the body turns (Poisson's equations for n). */
+void carrier_lowest_point_rate_box(const double *n, const double *omega, const double *half_extents, double *CARRIER_RESTRICT sdot);
+#ifndef CARRIER_NO_CASADI_ABI
+int lowest_point_rate_box(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int lowest_point_rate_box_n_in(void);
+casadi_int lowest_point_rate_box_n_out(void);
+const char *lowest_point_rate_box_name_in(casadi_int i);
+const char *lowest_point_rate_box_name_out(casadi_int i);
+const casadi_int *lowest_point_rate_box_sparsity_in(casadi_int i);
+const casadi_int *lowest_point_rate_box_sparsity_out(casadi_int i);
+int lowest_point_rate_box_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real lowest_point_rate_box_default_in(casadi_int i);
+int lowest_point_rate_box_checkout(void);
+void lowest_point_rate_box_release(int mem);
+void lowest_point_rate_box_incref(void);
+void lowest_point_rate_box_decref(void);
+#endif
+
+/* lowest_point_rate_cylinder(n[3], omega[3], size[2]) -> (sdot[3]): Rate of the lowest point S of a cylinder in body axes as the body turns (Poisson's equations for n). */
+void carrier_lowest_point_rate_cylinder(const double *n, const double *omega, const double *size, double *CARRIER_RESTRICT sdot);
+#ifndef CARRIER_NO_CASADI_ABI
+int lowest_point_rate_cylinder(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int lowest_point_rate_cylinder_n_in(void);
+casadi_int lowest_point_rate_cylinder_n_out(void);
+const char *lowest_point_rate_cylinder_name_in(casadi_int i);
+const char *lowest_point_rate_cylinder_name_out(casadi_int i);
+const casadi_int *lowest_point_rate_cylinder_sparsity_in(casadi_int i);
+const casadi_int *lowest_point_rate_cylinder_sparsity_out(casadi_int i);
+int lowest_point_rate_cylinder_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real lowest_point_rate_cylinder_default_in(casadi_int i);
+int lowest_point_rate_cylinder_checkout(void);
+void lowest_point_rate_cylinder_release(int mem);
+void lowest_point_rate_cylinder_incref(void);
+void lowest_point_rate_cylinder_decref(void);
 #endif
 
 /* momentum_omega(A[9], K[3], u[9], p[6]) -> (omega[3]): omega of the momentum form: E1.4 solved with K constant in fixed axes (E1.1), J omega = A^T K - mu OP x V_r. */
@@ -820,6 +892,42 @@ void jac_lowest_point_ellipsoid_incref(void);
 void jac_lowest_point_ellipsoid_decref(void);
 #endif
 
+/* jac_lowest_point_box(n[3], center[3], half_extents[3]) -> (jac_s_center[3 of 3x3], jac_s_half_extents[3 of 3x3]) */
+void carrier_jac_lowest_point_box(const double *n, const double *center, const double *half_extents, double *CARRIER_RESTRICT jac_s_center, double *CARRIER_RESTRICT jac_s_half_extents);
+#ifndef CARRIER_NO_CASADI_ABI
+int jac_lowest_point_box(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int jac_lowest_point_box_n_in(void);
+casadi_int jac_lowest_point_box_n_out(void);
+const char *jac_lowest_point_box_name_in(casadi_int i);
+const char *jac_lowest_point_box_name_out(casadi_int i);
+const casadi_int *jac_lowest_point_box_sparsity_in(casadi_int i);
+const casadi_int *jac_lowest_point_box_sparsity_out(casadi_int i);
+int jac_lowest_point_box_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real jac_lowest_point_box_default_in(casadi_int i);
+int jac_lowest_point_box_checkout(void);
+void jac_lowest_point_box_release(int mem);
+void jac_lowest_point_box_incref(void);
+void jac_lowest_point_box_decref(void);
+#endif
+
+/* jac_lowest_point_cylinder(n[3], center[3], size[2]) -> (jac_s_n[4 of 3x3], jac_s_center[3 of 3x3], jac_s_size[3 of 3x2]) */
+void carrier_jac_lowest_point_cylinder(const double *n, const double *center, const double *size, double *CARRIER_RESTRICT jac_s_n, double *CARRIER_RESTRICT jac_s_center, double *CARRIER_RESTRICT jac_s_size);
+#ifndef CARRIER_NO_CASADI_ABI
+int jac_lowest_point_cylinder(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int jac_lowest_point_cylinder_n_in(void);
+casadi_int jac_lowest_point_cylinder_n_out(void);
+const char *jac_lowest_point_cylinder_name_in(casadi_int i);
+const char *jac_lowest_point_cylinder_name_out(casadi_int i);
+const casadi_int *jac_lowest_point_cylinder_sparsity_in(casadi_int i);
+const casadi_int *jac_lowest_point_cylinder_sparsity_out(casadi_int i);
+int jac_lowest_point_cylinder_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real jac_lowest_point_cylinder_default_in(casadi_int i);
+int jac_lowest_point_cylinder_checkout(void);
+void jac_lowest_point_cylinder_release(int mem);
+void jac_lowest_point_cylinder_incref(void);
+void jac_lowest_point_cylinder_decref(void);
+#endif
+
 /* jac_lowest_point_rate_sphere(n[3], omega[3], radius) -> (jac_sdot_n[9 of 3x3], jac_sdot_omega[6 of 3x3], jac_sdot_radius[3 of 3x1]) */
 void carrier_jac_lowest_point_rate_sphere(const double *n, const double *omega, double radius, double *CARRIER_RESTRICT jac_sdot_n, double *CARRIER_RESTRICT jac_sdot_omega, double *CARRIER_RESTRICT jac_sdot_radius);
 #ifndef CARRIER_NO_CASADI_ABI
@@ -854,6 +962,42 @@ int jac_lowest_point_rate_ellipsoid_checkout(void);
 void jac_lowest_point_rate_ellipsoid_release(int mem);
 void jac_lowest_point_rate_ellipsoid_incref(void);
 void jac_lowest_point_rate_ellipsoid_decref(void);
+#endif
+
+/* jac_lowest_point_rate_box(n[3], omega[3], half_extents[3]) -> () */
+void carrier_jac_lowest_point_rate_box(const double *n, const double *omega, const double *half_extents, );
+#ifndef CARRIER_NO_CASADI_ABI
+int jac_lowest_point_rate_box(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int jac_lowest_point_rate_box_n_in(void);
+casadi_int jac_lowest_point_rate_box_n_out(void);
+const char *jac_lowest_point_rate_box_name_in(casadi_int i);
+const char *jac_lowest_point_rate_box_name_out(casadi_int i);
+const casadi_int *jac_lowest_point_rate_box_sparsity_in(casadi_int i);
+const casadi_int *jac_lowest_point_rate_box_sparsity_out(casadi_int i);
+int jac_lowest_point_rate_box_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real jac_lowest_point_rate_box_default_in(casadi_int i);
+int jac_lowest_point_rate_box_checkout(void);
+void jac_lowest_point_rate_box_release(int mem);
+void jac_lowest_point_rate_box_incref(void);
+void jac_lowest_point_rate_box_decref(void);
+#endif
+
+/* jac_lowest_point_rate_cylinder(n[3], omega[3], size[2]) -> (jac_sdot_n[6 of 3x3], jac_sdot_omega[6 of 3x3], jac_sdot_size[2 of 3x2]) */
+void carrier_jac_lowest_point_rate_cylinder(const double *n, const double *omega, const double *size, double *CARRIER_RESTRICT jac_sdot_n, double *CARRIER_RESTRICT jac_sdot_omega, double *CARRIER_RESTRICT jac_sdot_size);
+#ifndef CARRIER_NO_CASADI_ABI
+int jac_lowest_point_rate_cylinder(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int jac_lowest_point_rate_cylinder_n_in(void);
+casadi_int jac_lowest_point_rate_cylinder_n_out(void);
+const char *jac_lowest_point_rate_cylinder_name_in(casadi_int i);
+const char *jac_lowest_point_rate_cylinder_name_out(casadi_int i);
+const casadi_int *jac_lowest_point_rate_cylinder_sparsity_in(casadi_int i);
+const casadi_int *jac_lowest_point_rate_cylinder_sparsity_out(casadi_int i);
+int jac_lowest_point_rate_cylinder_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real jac_lowest_point_rate_cylinder_default_in(casadi_int i);
+int jac_lowest_point_rate_cylinder_checkout(void);
+void jac_lowest_point_rate_cylinder_release(int mem);
+void jac_lowest_point_rate_cylinder_incref(void);
+void jac_lowest_point_rate_cylinder_decref(void);
 #endif
 
 /* jac_momentum_omega(A[9], K[3], u[9], p[6]) -> (jac_omega_A[27 of 3x9], jac_omega_K[9 of 3x3], jac_omega_u[18 of 3x9], jac_omega_p[15 of 3x6]) */
