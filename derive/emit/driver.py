@@ -4,6 +4,7 @@ from __future__ import annotations
 import difflib
 from pathlib import Path
 
+from ..base import base_specs
 from ..models import all_specs, layout_doc
 from .c_backend import render_c
 from .casadi_backend import render_casadi
@@ -15,7 +16,7 @@ MANAGED_FILES = ("CMakeLists.txt", "Makefile")   # and files at its top
 
 
 def render_all() -> dict[str, bytes]:
-    specs = all_specs()
+    specs = all_specs() + base_specs()      # the paper's models, then the base model's
     files = {k: v.encode("utf-8") for k, v in render_c(specs, GENERATED, layout_doc()).items()}
     files.update({k: v.encode("utf-8") for k, v in render_runtime().items()})
     files.update(render_casadi(specs))

@@ -578,6 +578,60 @@ void exp_map_incref(void);
 void exp_map_decref(void);
 #endif
 
+/* base_slip(q[6], u[27], p[6], h, wrench[3]) -> (dq[6], N[1], cp[2]): Base model (a body on its face) while the face slips under the friction wrench (F_x, F_y, T_z) on it (face frame, T_z about O's vertical): dq/dt, the normal force N and the centre of pressure (x_cp, y_cp) from O's vertical. */
+void carrier_base_slip(const double *q, const double *u, const double *p, double h, const double *wrench, double *CARRIER_RESTRICT dq, double *CARRIER_RESTRICT N, double *CARRIER_RESTRICT cp);
+#ifndef CARRIER_NO_CASADI_ABI
+int base_slip(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int base_slip_n_in(void);
+casadi_int base_slip_n_out(void);
+const char *base_slip_name_in(casadi_int i);
+const char *base_slip_name_out(casadi_int i);
+const casadi_int *base_slip_sparsity_in(casadi_int i);
+const casadi_int *base_slip_sparsity_out(casadi_int i);
+int base_slip_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real base_slip_default_in(casadi_int i);
+int base_slip_checkout(void);
+void base_slip_release(int mem);
+void base_slip_incref(void);
+void base_slip_decref(void);
+#endif
+
+/* base_stick(u[27], p[6], h) -> (wrench[3], N[1], cp[2]): Base model at rest on its face: the friction wrench (F_x, F_y, T_z) the rest needs (s'' horizontal, h_z'), the normal force N and the centre of pressure. */
+void carrier_base_stick(const double *u, const double *p, double h, double *CARRIER_RESTRICT wrench, double *CARRIER_RESTRICT N, double *CARRIER_RESTRICT cp);
+#ifndef CARRIER_NO_CASADI_ABI
+int base_stick(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int base_stick_n_in(void);
+casadi_int base_stick_n_out(void);
+const char *base_stick_name_in(casadi_int i);
+const char *base_stick_name_out(casadi_int i);
+const casadi_int *base_stick_sparsity_in(casadi_int i);
+const casadi_int *base_stick_sparsity_out(casadi_int i);
+int base_stick_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real base_stick_default_in(casadi_int i);
+int base_stick_checkout(void);
+void base_stick_release(int mem);
+void base_stick_incref(void);
+void base_stick_decref(void);
+#endif
+
+/* base_twist(q[6]) -> (twist[3]): The slip of the face in the base model: O's velocity (v_x, v_y) and the yaw rate w, face frame. */
+void carrier_base_twist(const double *q, double *CARRIER_RESTRICT twist);
+#ifndef CARRIER_NO_CASADI_ABI
+int base_twist(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int base_twist_n_in(void);
+casadi_int base_twist_n_out(void);
+const char *base_twist_name_in(casadi_int i);
+const char *base_twist_name_out(casadi_int i);
+const casadi_int *base_twist_sparsity_in(casadi_int i);
+const casadi_int *base_twist_sparsity_out(casadi_int i);
+int base_twist_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real base_twist_default_in(casadi_int i);
+int base_twist_checkout(void);
+void base_twist_release(int mem);
+void base_twist_incref(void);
+void base_twist_decref(void);
+#endif
+
 /*
  * Derivatives: jac_<name> for every function above, in CasADi's jac_ convention: the
  * inputs, then the nominal outputs (not read); one output per block d output / d input,
@@ -965,7 +1019,7 @@ void jac_lowest_point_rate_ellipsoid_decref(void);
 #endif
 
 /* jac_lowest_point_rate_box(n[3], omega[3], half_extents[3]) -> () */
-void carrier_jac_lowest_point_rate_box(const double *n, const double *omega, const double *half_extents, );
+void carrier_jac_lowest_point_rate_box(const double *n, const double *omega, const double *half_extents);
 #ifndef CARRIER_NO_CASADI_ABI
 int jac_lowest_point_rate_box(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
 casadi_int jac_lowest_point_rate_box_n_in(void);
@@ -1106,6 +1160,60 @@ int jac_exp_map_checkout(void);
 void jac_exp_map_release(int mem);
 void jac_exp_map_incref(void);
 void jac_exp_map_decref(void);
+#endif
+
+/* jac_base_slip(q[6], u[27], p[6], h, wrench[3]) -> (jac_dq_q[15 of 6x6], jac_dq_u[27 of 6x27], jac_dq_p[9 of 6x6], jac_dq_wrench[9 of 6x3], jac_N_u[1 of 1x27], jac_N_p[3 of 1x6], jac_cp_q[8 of 2x6], jac_cp_u[32 of 2x27], jac_cp_p[8 of 2x6], jac_cp_h[2 of 2x1], jac_cp_wrench[6 of 2x3]) */
+void carrier_jac_base_slip(const double *q, const double *u, const double *p, double h, const double *wrench, double *CARRIER_RESTRICT jac_dq_q, double *CARRIER_RESTRICT jac_dq_u, double *CARRIER_RESTRICT jac_dq_p, double *CARRIER_RESTRICT jac_dq_wrench, double *CARRIER_RESTRICT jac_N_u, double *CARRIER_RESTRICT jac_N_p, double *CARRIER_RESTRICT jac_cp_q, double *CARRIER_RESTRICT jac_cp_u, double *CARRIER_RESTRICT jac_cp_p, double *CARRIER_RESTRICT jac_cp_h, double *CARRIER_RESTRICT jac_cp_wrench);
+#ifndef CARRIER_NO_CASADI_ABI
+int jac_base_slip(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int jac_base_slip_n_in(void);
+casadi_int jac_base_slip_n_out(void);
+const char *jac_base_slip_name_in(casadi_int i);
+const char *jac_base_slip_name_out(casadi_int i);
+const casadi_int *jac_base_slip_sparsity_in(casadi_int i);
+const casadi_int *jac_base_slip_sparsity_out(casadi_int i);
+int jac_base_slip_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real jac_base_slip_default_in(casadi_int i);
+int jac_base_slip_checkout(void);
+void jac_base_slip_release(int mem);
+void jac_base_slip_incref(void);
+void jac_base_slip_decref(void);
+#endif
+
+/* jac_base_stick(u[27], p[6], h) -> (jac_wrench_u[3 of 3x27], jac_N_u[1 of 1x27], jac_N_p[3 of 1x6], jac_cp_u[8 of 2x27], jac_cp_p[6 of 2x6], jac_cp_h[2 of 2x1]) */
+void carrier_jac_base_stick(const double *u, const double *p, double h, double *CARRIER_RESTRICT jac_wrench_u, double *CARRIER_RESTRICT jac_N_u, double *CARRIER_RESTRICT jac_N_p, double *CARRIER_RESTRICT jac_cp_u, double *CARRIER_RESTRICT jac_cp_p, double *CARRIER_RESTRICT jac_cp_h);
+#ifndef CARRIER_NO_CASADI_ABI
+int jac_base_stick(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int jac_base_stick_n_in(void);
+casadi_int jac_base_stick_n_out(void);
+const char *jac_base_stick_name_in(casadi_int i);
+const char *jac_base_stick_name_out(casadi_int i);
+const casadi_int *jac_base_stick_sparsity_in(casadi_int i);
+const casadi_int *jac_base_stick_sparsity_out(casadi_int i);
+int jac_base_stick_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real jac_base_stick_default_in(casadi_int i);
+int jac_base_stick_checkout(void);
+void jac_base_stick_release(int mem);
+void jac_base_stick_incref(void);
+void jac_base_stick_decref(void);
+#endif
+
+/* jac_base_twist(q[6]) -> (jac_twist_q[7 of 3x6]) */
+void carrier_jac_base_twist(const double *q, double *CARRIER_RESTRICT jac_twist_q);
+#ifndef CARRIER_NO_CASADI_ABI
+int jac_base_twist(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int jac_base_twist_n_in(void);
+casadi_int jac_base_twist_n_out(void);
+const char *jac_base_twist_name_in(casadi_int i);
+const char *jac_base_twist_name_out(casadi_int i);
+const casadi_int *jac_base_twist_sparsity_in(casadi_int i);
+const casadi_int *jac_base_twist_sparsity_out(casadi_int i);
+int jac_base_twist_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real jac_base_twist_default_in(casadi_int i);
+int jac_base_twist_checkout(void);
+void jac_base_twist_release(int mem);
+void jac_base_twist_incref(void);
+void jac_base_twist_decref(void);
 #endif
 
 #ifdef __cplusplus

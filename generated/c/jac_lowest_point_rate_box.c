@@ -17,7 +17,7 @@
  * in  half_extents [3]: a, b, c
  * Outputs must not alias inputs.
  */
-void carrier_jac_lowest_point_rate_box(const double *n, const double *omega, const double *half_extents, )
+void carrier_jac_lowest_point_rate_box(const double *n, const double *omega, const double *half_extents)
 {
   (void)n;
   (void)omega;
@@ -37,13 +37,14 @@ int jac_lowest_point_rate_box(const casadi_real **arg, casadi_real **res, casadi
                               int mem)
 {
   static const casadi_real zero[3] = {0.0};
+  (void)res;                  /* identically zero: no nonzeros to write */
   (void)iw;
   (void)w;
   (void)mem;
   carrier_jac_lowest_point_rate_box(
       arg[0] ? arg[0] : zero,
       arg[1] ? arg[1] : zero,
-      arg[2] ? arg[2] : zero,
+      arg[2] ? arg[2] : zero);
   return 0;
 }
 
