@@ -269,6 +269,12 @@ def _skew_z(w, r):
     return np.array([-w * r[1], w * r[0], 0.0])
 
 
+def _cross(a, b) -> np.ndarray:
+    """a x b of two 3-vectors (NumPy's cross is slow on one pair)."""
+    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2],
+                     a[0] * b[1] - a[1] * b[0]])
+
+
 @dataclass
 class Balance:
     """What the six equations give at one instant."""
@@ -292,22 +298,22 @@ def _terms(sys: System, t: float, v, w):
     col_F = np.zeros((3, 3))
     col_T = np.zeros((3, 3))
     known_F = np.array([0.0, 0.0, sys.M * g])
-    known_T = np.cross(om, J @ om)
+    known_T = _cross(om, J @ om)
     col_F[0, 0] = col_F[1, 1] = sys.M
     col_T[2, 2] = sys.J[2]
     for p in sys.points:
         rho, rd, rdd = (np.asarray(x, dtype=float) for x in p.law(t))
-        known_a = np.cross(om, np.cross(om, rho)) + 2 * np.cross(om, rd) + rdd
+        known_a = _cross(om, _cross(om, rho)) + 2 * _cross(om, rd) + rdd
         fk = p.mass * (known_a + np.array([0.0, 0.0, g]))
         known_F += fk
-        known_T += np.cross(rho, fk)
-        for i, da in enumerate((*unit, np.cross([0.0, 0.0, 1.0], rho))):
+        known_T += _cross(rho, fk)
+        for i, da in enumerate((*unit, _cross([0.0, 0.0, 1.0], rho))):
             col_F[:, i] += p.mass * da
-            col_T[:, i] += np.cross(rho, p.mass * da)
+            col_T[:, i] += _cross(rho, p.mass * da)
     for r in sys.rotors:
         a = np.asarray(r.axis, dtype=float)
         psid, psidd = r.law(t)
-        known_T += r.inertia * (psidd * a + np.cross(om, psid * a))
+        known_T += r.inertia * (psidd * a + _cross(om, psid * a))
     return col_F, col_T, known_F, known_T
 
 
@@ -355,10 +361,20 @@ def balance_stick(sys: System, t: float) -> Balance:
 class Run:
     status: str = "done"
     events: list = field(default_factory=list)      # (t, kind)
+    states: list = field(default_factory=list)      # y at each event
+    approaches: list = field(default_factory=list)  # at each stop of a slip: its unit
+                                                    # scaled twist (v_x, v_y, l w) as it ends
     samples: list = field(default_factory=list)     # (t, X_O, Y_O, psi, X_O', Y_O', psi')
 
     def times(self, kind: str) -> list:
         return [t for t, k in self.events if k == kind]
+
+    def note(self, t: float, kind: str, y) -> None:
+        self.events.append((t, kind))
+        self.states.append(np.array(y, dtype=float))
+
+    def rename_last(self, kind: str) -> None:
+        self.events[-1] = (self.events[-1][0], kind)
 
 
 def _turn(psi):
@@ -432,14 +448,14 @@ class Integrator:
                 bal = balance_stick(sys, t)
                 if bal.N <= 0:
                     out.status = "lift_off"
-                    out.events.append((t, "lift_off"))
+                    out.note(t, "lift_off", y)
                     break
                 gam, xi = limit_gauge(sys, bal.N, bal.cp, bal.wrench, xi)
                 mode = "stick" if gam < 1.0 - 1e-12 or (gam <= 1.0 + 1e-12 and
                                                          not self._rising(t, gam, xi)) \
                     else "onset"
-                if mode == "stick" and out.events and out.events[-1][1] == "reversal":
-                    out.events[-1] = (t, "stick")
+                if mode == "stick" and out.events and out.events[-1] == (t, "reversal"):
+                    out.rename_last("stick")
             if mode == "onset":           # the slip starts against xi* (friction opposes it)
                 if last_onset == t:
                     raise RuntimeError(f"the slip at {t} stops as it starts")
@@ -447,12 +463,10 @@ class Integrator:
                 d = self.start_direction(t, y, -xi)
                 if d is None:
                     d = -xi
-                seed = 1e3 * self.eps
-                y[3:5] = _turn(y[2]) @ (seed * d[:2])
-                y[5] = seed * d[2] / self.ell
-                mode = "slip"
                 if not (out.events and out.events[-1] == (t, "reversal")):
-                    out.events.append((t, "slip"))
+                    out.note(t, "slip", y)
+                t, y = self._onset(t, y, d)
+                mode = "slip"
             stop = min([m for m in marks if m > t] + [j for j in jumps if j > t] + [t_end])
             if mode == "stick":
                 t, y, ev, xi = self._stick(t, y, stop, xi)
@@ -460,10 +474,11 @@ class Integrator:
                 t, y, ev = self._slip(t, y, stop)
             if ev in ("lift_off", "tipping", "kern"):
                 out.status = ev
-                out.events.append((t, ev))
+                out.note(t, ev, y)
                 break
             if ev == "stop":              # the slip reached 0: stick or reverse (decided
-                out.events.append((t, "reversal"))      # at rest; a stick replaces it)
+                out.note(t, "reversal", y)              # at rest; a stick renames it)
+                out.approaches.append(self.approach)
                 mode = "rest"
                 continue
             if ev == "breakaway":
@@ -481,6 +496,34 @@ class Integrator:
         if out.status != "done":
             out.samples.append((t, *y))
         return out
+
+    def _onset(self, t, y, d):
+        """The first instants of a slip from rest along the scaled direction d, by its
+        Taylor series: the twist's rate is G(t) = G0 + G1 (t - t0) with the friction held
+        along d, so after delta the twist is G0 delta + G1 delta^2/2 (0 at t0) and O has
+        moved by its integral; delta is where the twist reaches 1e2 of the stop's
+        threshold (an error of delta^3 G'': below 1e-20 of the slip's scale)."""
+        h = 1e-7 * self.time_scale
+        G0 = self._flow(t, y, d)
+        G1 = (self._flow(t + h, y, d) - self._flow(t - h, y, d)) / (2 * h)
+        a, b = G0 @ d, G1 @ d
+        seed = 1e2 * self.eps
+        if b > 0 and a < 1e-3 * math.sqrt(b * seed):
+            delta = math.sqrt(2 * seed / b)
+            for _ in range(3):            # Newton on a delta + b delta^2/2 = seed
+                delta -= (a * delta + b * delta * delta / 2 - seed) / (a + b * delta)
+        else:
+            delta = seed / a
+        xi = G0 * delta + G1 * delta * delta / 2
+        moved = G0 * delta * delta / 2 + G1 * delta ** 3 / 6
+        y = y.copy()
+        R = _turn(y[2])
+        y[0:2] += R @ moved[:2]
+        y[2] += moved[2] / self.ell
+        R = _turn(y[2])
+        y[3:5] = R @ xi[:2]
+        y[5] = xi[2] / self.ell
+        return t + delta, y
 
     def _rising(self, t, gam, xi) -> bool:
         """Whether the gauge at rest grows through 1 at t (then the body cannot stick)."""
@@ -607,6 +650,7 @@ class Integrator:
                     acc = _turn(z[3]).T @ dy[3:5]
                     xid = np.array([acc[0], acc[1], ell * dy[5]])
                     rate = xi @ xid / np.linalg.norm(xi)
+                    self.approach = xi / np.linalg.norm(xi)
                     dt = -np.linalg.norm(xi) / rate if rate < 0 else 0.0
                     yy = z[1:].copy()
                     yy[0:3] += 0.5 * dt * yy[3:6]
