@@ -488,9 +488,10 @@ class Integrator:
             if jumps and abs(t - jumps[0]) <= 1e-15 * max(1.0, abs(t)):
                 y = self._jump(t, jumps.pop(0), y)
                 mode = "slip" if np.any(self.twist(y)) else "rest"
-            if marks and abs(t - marks[0]) <= 1e-15 * max(1.0, abs(t)):
-                out.samples.append((t, *y))
-                marks.pop(0)
+            tol = 1e-15 * max(1.0, abs(t))
+            while marks and marks[0] <= t + tol:     # (a mark passed in an event: dropped)
+                if abs(marks.pop(0) - t) <= tol:
+                    out.samples.append((t, *y))
             if t >= t_end:
                 break
         if out.status != "done":
