@@ -49,7 +49,7 @@ from scipy.optimize import minimize
 from . import shapes
 
 PRESSURES = ("uniform", "linear")
-FAR = 3.0                  # the instant centre this many sizes away: the product rule
+FAR = 8.0                  # the instant centre this many sizes away: the product rule
 AXIS_TOL = 1e-9            # n within this of a face normal: the face lies flat
 
 
@@ -289,7 +289,7 @@ def pressure_slope(face: Face, N: float, cp=None, mode: str = "uniform") -> tupl
 
 
 def centre_wrench(face: Face, N: float, cp, mode: str, mu: float, twist,
-                  n: int = 16) -> tuple[np.ndarray, float]:
+                  n: int = 32) -> tuple[np.ndarray, float]:
     """``((F_x, F_y, T_z), D)`` by the instant-centre rule of order n (see above)."""
     vx, vy, w = (float(c) for c in twist)
     P_c, k = pressure_slope(face, N, cp, mode)
@@ -362,7 +362,7 @@ class Friction:
     cp: tuple | None = None
     mode: str = "uniform"
     mu: float = 1.0
-    n: int = 16
+    n: int = 32
     product: bool = False
 
     def __call__(self, twist):
