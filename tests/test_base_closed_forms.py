@@ -200,3 +200,35 @@ def test_a_sliding_spinning_disc_stops_sliding_and_spinning_together(J_ratio):
         sol = solve_ivp(slope, (math.log(R * w0), x_end), [v0 / (R * w0)], method="DOP853",
                         rtol=1e-12, atol=1e-14)
         assert abs(sol.y[0, -1] - eps_end) < 5e-8
+
+
+# ---- the honest ends: lift-off, tipping, the face lifting at an edge ---------------------------
+def test_lift_off_tipping_and_the_kern_come_at_their_closed_form_times():
+    face = fc.face_on("box", (0.1, 0.06, 0.04), (0, 0, 0), (0, 0, 1))
+    Mb, mp = 1.0, 0.5
+    # a point bobbing vertically: N = (M + m) g + m z'' reaches 0 where sin(W t) = (M+m) g /
+    # (m A W^2)
+    Az, Wz = 0.05, 30.0
+
+    def bob(t):
+        s = math.sin(Wz * t)
+        return (np.array([0.0, 0.0, Az * s]),
+                np.array([0.0, 0.0, Az * Wz * math.cos(Wz * t)]),
+                np.array([0.0, 0.0, -Az * Wz * Wz * s]))
+    system = br.System(M=Mb, J=(0.01, 0.01, 0.01), face=face, points=(br.Point(mp, bob),),
+                       mu=0.5)
+    run = br.Integrator(system).run(np.zeros(6), 0.0, 1.0)
+    t_lift = math.asin((Mb + mp) * G / (mp * Az * Wz * Wz)) / Wz
+    assert run.status == "lift_off" and abs(run.events[-1][0] - t_lift) < 1e-9
+    # a point walking out at a constant speed c: cp = m x/(M + m) below C reaches the edge
+    # a at t = a (M + m)/(m c), and (linear pressure) the kern's a/3 at a third of that
+    c = 0.2
+
+    def walk(t):
+        return np.array([c * t, 0.0, 0.0]), np.array([c, 0.0, 0.0]), np.zeros(3)
+    for pressure, reach in (("uniform", 0.1), ("linear", 0.1 / 3)):
+        system = br.System(M=Mb, J=(0.01, 0.01, 0.01), face=face,
+                           points=(br.Point(mp, walk),), mu=0.5, pressure=pressure)
+        run = br.Integrator(system).run(np.zeros(6), 0.0, 2.0)
+        assert run.status == ("tipping" if pressure == "uniform" else "kern")
+        assert abs(run.events[-1][0] - reach * (Mb + mp) / (mp * c)) < 1e-9
