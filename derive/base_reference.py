@@ -31,7 +31,8 @@ surface's gauge ``max W.xi / D_s(xi)`` by SLSQP on the unit sphere of twists.
   0 by the linear decay; then sticking if the gauge is at most 1, else sliding off again
   along the stable direction of the slip's flow;
 * lift-off (N = 0), tipping (cp on the face's edge) and, with linear pressure, the face
-  starting to lift at an edge (cp leaving the kern): the run stops with that status.
+  starting to lift at an edge (cp leaving the kern: face_lifting): the run stops with
+  that status.
 """
 from __future__ import annotations
 
@@ -472,7 +473,7 @@ class Integrator:
                 t, y, ev, xi = self._stick(t, y, stop, xi)
             else:
                 t, y, ev = self._slip(t, y, stop)
-            if ev in ("lift_off", "tipping", "kern"):
+            if ev in ("lift_off", "tipping", "face_lifting"):
                 out.status = ev
                 out.note(t, ev, y)
                 break
@@ -509,12 +510,10 @@ class Integrator:
         G1 = (self._flow(t + h, y, d) - self._flow(t - h, y, d)) / (2 * h)
         a, b = G0 @ d, G1 @ d
         seed = 1e2 * self.eps
-        if b > 0 and a < 1e-3 * math.sqrt(b * seed):
-            delta = math.sqrt(2 * seed / b)
-            for _ in range(3):            # Newton on a delta + b delta^2/2 = seed
-                delta -= (a * delta + b * delta * delta / 2 - seed) / (a + b * delta)
-        else:
-            delta = seed / a
+        disc = a * a + 2 * b * seed       # a delta + b delta^2/2 = seed, its least root > 0
+        if disc < 0 or a + math.sqrt(max(disc, 0.0)) <= 0:
+            raise RuntimeError(f"the slip from rest at {t} does not start")
+        delta = 2 * seed / (a + math.sqrt(disc))
         xi = G0 * delta + G1 * delta * delta / 2
         moved = G0 * delta * delta / 2 + G1 * delta ** 3 / 6
         y = y.copy()
@@ -574,7 +573,7 @@ class Integrator:
         span = stop - t
         sol = solve_ivp(lambda tt, z: [0.0], (t, stop), [0.0], events=[gauge_event, *evs],
                         rtol=1e-13, atol=1e-15, max_step=span / 64 if span > 0 else np.inf)
-        for k, name in enumerate(("breakaway", "lift_off", "tipping", "kern")):
+        for k, name in enumerate(("breakaway", "lift_off", "tipping", "face_lifting")):
             if k < len(sol.t_events) and len(sol.t_events[k]):
                 te = float(sol.t_events[k][0])
                 if name == "breakaway":
@@ -640,7 +639,7 @@ class Integrator:
         s_span = 1e30
         sol = solve_ivp(f, (0.0, s_span), z0, method="DOP853", events=[slow, until, *evs],
                         rtol=self.rtol, atol=self.atol)
-        names = ("stop", "mark", "lift_off", "tipping", "kern")
+        names = ("stop", "mark", "lift_off", "tipping", "face_lifting")
         for k, name in enumerate(names):
             if k < len(sol.t_events) and len(sol.t_events[k]):
                 z = sol.y_events[k][0]

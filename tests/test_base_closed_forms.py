@@ -190,7 +190,7 @@ def test_a_sliding_spinning_disc_stops_sliding_and_spinning_together(J_ratio):
         run = integ.run([0, 0, 0, v0, 0, w0], 0.0, 5.0, samples=[])
         assert [k for _, k in run.events] == ["stick"], run.events
         # as the slip ends (|(v, R w)| at 1e-11 of sqrt(g R)) both still move, their ratio
-        # on its way to eps* (slowly: eps - eps* ~ (R w)^lambda, lambda ~ 0.4)
+        # on its way to eps* (slowly: eps - eps* ~ (R w)^lambda, lambda = 0.615)
         vx, vy, Rw = run.approaches[0]           # (face frame: v turns as the disc does)
         eps_end = math.hypot(vx, vy) / Rw
         assert Rw > 0 and abs(eps_end - eps_star) < 1e-3
@@ -230,5 +230,5 @@ def test_lift_off_tipping_and_the_kern_come_at_their_closed_form_times():
         system = br.System(M=Mb, J=(0.01, 0.01, 0.01), face=face,
                            points=(br.Point(mp, walk),), mu=0.5, pressure=pressure)
         run = br.Integrator(system).run(np.zeros(6), 0.0, 2.0)
-        assert run.status == ("tipping" if pressure == "uniform" else "kern")
+        assert run.status == ("tipping" if pressure == "uniform" else "face_lifting")
         assert abs(run.events[-1][0] - reach * (Mb + mp) / (mp * c)) < 1e-9
