@@ -60,7 +60,10 @@ class Shape:
     surface from its centre.  ``simplify_rate``: let SymPy simplify S's rate (worth it
     only for short expressions: the sphere's collapses to ``-R n'/|n|``).
     ``strictly_convex``: S moves continuously as the body turns (no flat parts); a shape
-    not declared so is watched in contact for S jumping (status ``surface_jump``)."""
+    not declared so is watched in contact for S jumping (status ``surface_jump``).
+    ``rate_together``: put each entry of dS/dn over one denominator before the chain rule
+    (a cylinder's rim ``-R n/rho``: ``1/rho - x^2/rho^3`` would cancel where y is small;
+    ``(y^2 + ...)/rho^3`` does not)."""
     name: str
     doc: str
     sizes: tuple[Size, ...]
@@ -68,6 +71,7 @@ class Shape:
     reach: Callable
     simplify_rate: bool = False
     strictly_convex: bool = False
+    rate_together: bool = False
 
     @property
     def code(self) -> int:
@@ -227,4 +231,4 @@ register(Shape("box", "a box with its half-extents a, b, c along the body axes",
                reach=lambda size: math.sqrt(sum(v * v for v in size))))
 register(Shape("cylinder", "a circular cylinder of radius R and half-length L, its axis "
                "along the body z axis", (RADIUS, HALF_LENGTH), _cylinder,
-               reach=lambda size: math.hypot(size[0], size[1])))
+               reach=lambda size: math.hypot(size[0], size[1]), rate_together=True))

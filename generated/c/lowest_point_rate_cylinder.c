@@ -3,7 +3,7 @@
  * Regenerate with `derive emit`; `derive emit --check` compares with a fresh render.
  * Tools: sympy 1.14.0, casadi 3.8.2 (ABI), jinja2 3.1.6.
  * lowest_point_rate_cylinder(n[3], omega[3], size[2]) -> (sdot[3])
- * Total ops: 30 (SymPy count_ops of the program after CSE), 9 intermediate terms.
+ * Total ops: 28 (SymPy count_ops of the program after CSE), 8 intermediate terms.
  */
 
 #include <math.h>
@@ -21,16 +21,15 @@
 void carrier_lowest_point_rate_cylinder(const double *n, const double *omega, const double *size, double *CARRIER_RESTRICT sdot)
 {
   const double c0 = -n[0]*omega[2] + n[2]*omega[0];
-  const double c1 = n[0]*n[0];
-  const double c2 = n[1]*n[1];
-  const double c3 = c1 + c2;
-  const double c4 = c3 - (((c3) > 0) - ((c3) < 0)) + 1.0;
-  const double c5 = 1.0/c4;
-  const double c6 = c5*n[0]*n[1];
-  const double c7 = n[1]*omega[2] - n[2]*omega[1];
-  const double c8 = size[0]/sqrt(c4);
-  sdot[0] = c8*(c0*c6 + c7*(c1*c5 - 1.0));
-  sdot[1] = c8*(c0*(c2*c5 - 1.0) + c6*c7);
+  const double c1 = n[0]*n[1];
+  const double c2 = n[1]*omega[2] - n[2]*omega[1];
+  const double c3 = n[1]*n[1];
+  const double c4 = n[0]*n[0];
+  const double c5 = c3 + c4;
+  const double c6 = 1.0 - (((c5) > 0) - ((c5) < 0));
+  const double c7 = size[0]/((c5 + c6)*sqrt(c5 + c6));
+  sdot[0] = c7*(c0*c1 + c2*(-c3 - c6));
+  sdot[1] = c7*(c0*(-c4 - c6) + c1*c2);
   sdot[2] = 0.0;
 }
 

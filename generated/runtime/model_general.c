@@ -418,20 +418,19 @@ static void lowest_point_cylinder(const double *n, const double *center, const d
   s[2] = -size[1]*(((n[2]) > 0) - ((n[2]) < 0)) + center[2];
 }
 
-/* Rate of the lowest point S of a cylinder in body axes as the body turns (Poisson's equations for n). (30 ops) */
+/* Rate of the lowest point S of a cylinder in body axes as the body turns (Poisson's equations for n). (28 ops) */
 static void lowest_point_rate_cylinder(const double *n, const double *omega, const double *size, double *restrict sdot)
 {
   const double c0 = -n[0]*omega[2] + n[2]*omega[0];
-  const double c1 = n[0]*n[0];
-  const double c2 = n[1]*n[1];
-  const double c3 = c1 + c2;
-  const double c4 = c3 - (((c3) > 0) - ((c3) < 0)) + 1.0;
-  const double c5 = 1.0/c4;
-  const double c6 = c5*n[0]*n[1];
-  const double c7 = n[1]*omega[2] - n[2]*omega[1];
-  const double c8 = size[0]/sqrt(c4);
-  sdot[0] = c8*(c0*c6 + c7*(c1*c5 - 1.0));
-  sdot[1] = c8*(c0*(c2*c5 - 1.0) + c6*c7);
+  const double c1 = n[0]*n[1];
+  const double c2 = n[1]*omega[2] - n[2]*omega[1];
+  const double c3 = n[1]*n[1];
+  const double c4 = n[0]*n[0];
+  const double c5 = c3 + c4;
+  const double c6 = 1.0 - (((c5) > 0) - ((c5) < 0));
+  const double c7 = size[0]/((c5 + c6)*sqrt(c5 + c6));
+  sdot[0] = c7*(c0*c1 + c2*(-c3 - c6));
+  sdot[1] = c7*(c0*(-c4 - c6) + c1*c2);
   sdot[2] = 0.0;
 }
 
