@@ -138,40 +138,36 @@ def _integrals(f: Face, r0, P_c: float, k) -> tuple:
             E += A2 * _quad(lambda s: part(s, 2), 0, 1)
         return G, E
     R = f.half[0]
-    d = r0 - c
-    delta = math.hypot(*d)
+    dx, dy = float(r0[0] - c[0]), float(r0[1] - c[1])
+    delta = math.hypot(dx, dy)
+    kx, ky = float(k[0]), float(k[1])
 
-    def moments(th, lo, hi):
-        e = np.array([math.cos(th), math.sin(th)])
-        ke = k @ e
-
-        def mom(j):
-            return (P0 * (hi ** (j + 1) - lo ** (j + 1)) / (j + 1)
-                    + ke * (hi ** (j + 2) - lo ** (j + 2)) / (j + 2))
-        return e, mom(1), mom(2)
+    def parts(th, lo, hi, jac=1.0):
+        """(e_x m1, e_y m1, m2) times jac at the angle th: m_j = int_lo^hi rho^j p rho-
+        moments along the ray (pure floats: the integrand is called thousands of times)."""
+        ex, ey = math.cos(th), math.sin(th)
+        ke = kx * ex + ky * ey
+        m1 = P0 * (hi ** 2 - lo ** 2) / 2 + ke * (hi ** 3 - lo ** 3) / 3
+        m2 = P0 * (hi ** 3 - lo ** 3) / 3 + ke * (hi ** 4 - lo ** 4) / 4
+        return ex * m1 * jac, ey * m1 * jac, m2 * jac
     if delta < R:
         def at(th):
-            e = np.array([math.cos(th), math.sin(th)])
-            de = d @ e
-            return moments(th, 0.0, -de + math.sqrt(R * R - delta * delta + de * de))
-        G = np.array([_quad(lambda th: (lambda e, m1, m2: e[0] * m1)(*at(th)), 0, 2 * math.pi),
-                      _quad(lambda th: (lambda e, m1, m2: e[1] * m1)(*at(th)), 0, 2 * math.pi)])
-        return G, _quad(lambda th: at(th)[2], 0, 2 * math.pi)
-    th_c = math.atan2(-d[1], -d[0])
+            de = dx * math.cos(th) + dy * math.sin(th)
+            return parts(th, 0.0, -de + math.sqrt(R * R - delta * delta + de * de))
+        span = (0.0, 2 * math.pi)
+    else:
+        th_c = math.atan2(-dy, -dx)
 
-    def at_phi(phi):
-        sn = R / delta * math.sin(phi)
-        th = th_c + math.asin(sn)
-        jac = R / delta * math.cos(phi) / math.sqrt(1 - sn * sn)
-        e = np.array([math.cos(th), math.sin(th)])
-        de = d @ e
-        root = R * math.cos(phi)
-        em = moments(th, -de - root, -de + root)
-        return em[0], em[1] * jac, em[2] * jac
-    h = math.pi / 2
-    G = np.array([_quad(lambda ph: (lambda e, m1, m2: e[0] * m1)(*at_phi(ph)), -h, h),
-                  _quad(lambda ph: (lambda e, m1, m2: e[1] * m1)(*at_phi(ph)), -h, h)])
-    return G, _quad(lambda ph: at_phi(ph)[2], -h, h)
+        def at(ph):
+            sn = R / delta * math.sin(ph)
+            th = th_c + math.asin(sn)
+            de = dx * math.cos(th) + dy * math.sin(th)
+            root = R * math.cos(ph)
+            return parts(th, -de - root, -de + root, R / delta * math.cos(ph)
+                         / math.sqrt(1 - sn * sn))
+        span = (-math.pi / 2, math.pi / 2)
+    G = np.array([_quad(lambda x: at(x)[0], *span), _quad(lambda x: at(x)[1], *span)])
+    return G, _quad(lambda x: at(x)[2], *span)
 
 
 FAR = 3.0      # r0 this many face sizes from the centroid: the slip field is smooth over
