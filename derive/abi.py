@@ -78,7 +78,8 @@ PARAMETERS = _names(
     ("e", "restitution coefficient of the plane"),
     ("shape", "the surface: CRT_SHAPE_<name>, its place in derive/shapes.py"),
     ("size_a", "the shape's size numbers in the order of its fields (derive/shapes.py): a "
-               "sphere's radius; an ellipsoid's semi-axes along Ox, Oy, Oz"),
+               "sphere's radius; an ellipsoid's semi-axes or a box's half-extents along Ox, "
+               "Oy, Oz; a cylinder's radius and half-length"),
     ("size_b", "..."),
     ("size_c", "..."),
     ("center_x", "centre of the shape in body axes"),

@@ -12,6 +12,7 @@ from typing import Callable
 
 import numpy as np
 
+from .base import base_specs
 from .cbuild import build_shared, generated_sources
 from .models import FunctionSpec
 from .models_moments import emitted_specs
@@ -59,4 +60,4 @@ def generated_library(folder: Path | None = None, flags: tuple = ("-O2",)) -> Pa
 
 def load_generated(folder: Path | None = None) -> dict[str, Callable]:
     lib = ctypes.CDLL(str(generated_library(folder)))
-    return {spec.name: wrap(lib, spec) for spec in emitted_specs()}
+    return {spec.name: wrap(lib, spec) for spec in emitted_specs() + base_specs()}

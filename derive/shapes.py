@@ -60,7 +60,10 @@ class Shape:
     surface from its centre.  ``simplify_rate``: let SymPy simplify S's rate (worth it
     only for short expressions: the sphere's collapses to ``-R n'/|n|``).
     ``strictly_convex``: S moves continuously as the body turns (no flat parts); a shape
-    not declared so is watched in contact for S jumping (status ``surface_jump``)."""
+    not declared so is watched in contact for S jumping (status ``surface_jump``).
+    ``rate_together``: put each entry of dS/dn over one denominator before the chain rule
+    (a cylinder's rim ``-R n/rho``: ``1/rho - x^2/rho^3`` would cancel where y is small;
+    ``(y^2 + ...)/rho^3`` does not)."""
     name: str
     doc: str
     sizes: tuple[Size, ...]
@@ -68,6 +71,7 @@ class Shape:
     reach: Callable
     simplify_rate: bool = False
     strictly_convex: bool = False
+    rate_together: bool = False
 
     @property
     def code(self) -> int:
@@ -97,7 +101,7 @@ class Shape:
 
 
 def _sign(x):
-    return (x > 0) - (x < 0)
+    return int(x > 0) - int(x < 0)        # (NumPy scalars too: their bools do not subtract)
 
 
 NUMPY = SimpleNamespace(sqrt=np.sqrt, abs=np.abs, sign=np.sign)
@@ -167,6 +171,11 @@ def fields_of(shape: Shape, size) -> dict:
 RADIUS = Size("radius", "radius", example=0.5, symbols=("R",), labels=("R",))
 SEMI_AXES = Size("semi_axes", "semi-axes along the body axes", 3, example=[0.5, 0.4, 0.3],
                  symbols=("s_a", "s_b", "s_c"), labels=("a", "b", "c"))
+HALF_EXTENTS = Size("half_extents", "half-extents along the body axes", 3,
+                    example=[0.2, 0.1, 0.05], symbols=("h_a", "h_b", "h_c"),
+                    labels=("a", "b", "c"))
+HALF_LENGTH = Size("half_length", "half-length along the body z axis", example=0.3,
+                   symbols=("L",), labels=("L",))
 
 
 def _sphere(d, size, ops):
@@ -189,3 +198,37 @@ register(Shape("sphere", "a sphere of the given radius", (RADIUS,), _sphere,
                reach=lambda size: size[0], simplify_rate=True, strictly_convex=True))
 register(Shape("ellipsoid", "an ellipsoid with its semi-axes along the body axes",
                (SEMI_AXES,), _ellipsoid, reach=lambda size: max(size), strictly_convex=True))
+
+
+def _box(d, size, ops):
+    """The corner of the box [-a, a] x [-b, b] x [-c, c] that d points to.  Where a
+    component of d is 0 (a face or an edge square to d), its sign 0 gives the middle of
+    that face or edge: a support point too, the one a flat contact is centred on."""
+    a, b, c = size
+    x, y, z = d
+    return (a * ops.sign(x), b * ops.sign(y), c * ops.sign(z))
+
+
+def _cylinder(d, size, ops):
+    """The point of the rim (radius R, along the horizontal part of d) on the end face that
+    d points to (z = +-L).  Where d is along the axis (x = y = 0) every point of that end
+    face is a support point: ``1 - sign(x^2 + y^2)`` (1 there, 0 elsewhere) under the root
+    keeps the quotient and its derivatives finite and gives the face's centre, as the
+    box's sign 0 does."""
+    R, L = size
+    x, y, z = d
+    rr = x * x + y * y
+    k = R / ops.sqrt(rr + 1 - ops.sign(rr))
+    return (k * x, k * y, L * ops.sign(z))
+
+
+# Box and cylinder are convex but not strictly convex: in flight their corner and rim
+# impacts are single-point impacts at S, exact; in contact S can jump (to another corner,
+# across an edge or a face), which the runtime watches (surface_jump).  A body resting on a
+# face is the base model's (derive/base.py), not the one-point contact's.
+register(Shape("box", "a box with its half-extents a, b, c along the body axes",
+               (HALF_EXTENTS,), _box,
+               reach=lambda size: math.sqrt(sum(v * v for v in size))))
+register(Shape("cylinder", "a circular cylinder of radius R and half-length L, its axis "
+               "along the body z axis", (RADIUS, HALF_LENGTH), _cylinder,
+               reach=lambda size: math.hypot(size[0], size[1]), rate_together=True))

@@ -74,7 +74,8 @@ def lowest_point(name: str) -> LowestPoint:
     d = tuple(-v for v in n_body)
     point = center + sp.Matrix(shape.support(d, shape_symbols(shape), SYMPY))
     ndot = poisson_equations()[2, :].T
-    rate = point.jacobian(n_body) * ndot
+    jac = point.jacobian(n_body)
+    rate = (jac.applyfunc(sp.together) if shape.rate_together else jac) * ndot
     # for a sphere, (n, n') = 0 collapses the rate to -R n'/|n| (simplify finds it)
     rate = rate.applyfunc(sp.simplify if shape.simplify_rate else sp.factor_terms)
     return LowestPoint(point=point, rate=rate)

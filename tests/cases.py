@@ -5,6 +5,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from derive import shapes
+
+# the inputs that carry a shape's size numbers: one field's key, or "size" for several
+# (derive.models._size_input)
+SIZE_INPUTS = {s.key for sh in shapes.SHAPES.values() for s in sh.sizes} | {"size"}
+
 
 def rotation_from_quaternion(qv: np.ndarray) -> np.ndarray:
     w, x, y, z = qv / np.linalg.norm(qv)
@@ -93,10 +99,8 @@ def inputs_for(spec, c, rng):
             values.append(c.A[2])
         elif vec.name == "center":
             values.append(rng.uniform(-0.5, 0.5, 3))
-        elif vec.name == "radius":
-            values.append(rng.uniform(0.1, 2.0, 1))
-        elif vec.name == "semi_axes":
-            values.append(rng.uniform(0.1, 2.0, 3))
+        elif vec.name in SIZE_INPUTS:               # a shape's size numbers, positive
+            values.append(rng.uniform(0.1, 2.0, len(vec.entries)))
         elif vec.name == "A":                       # the momentum form (issue 13)
             values.append(c.A.ravel())
         elif vec.name in ("K", "k"):

@@ -38,10 +38,21 @@ def implementations():
     return out
 
 
+def _exact(term) -> bool:
+    """A term computed without rounding: a number, a sign (-1, 0, 1) or their product."""
+    return all(f.is_Number or isinstance(f, sp.sign) for f in sp.Mul.make_args(term))
+
+
 def magnitude(expr):
     """The expression with every sum and product taken over absolute values: the scale
-    against which rounding error of a sum with cancellation is measured (h, v_n)."""
-    if expr.is_Add or expr.is_Mul:
+    against which rounding error of a sum with cancellation is measured (h, v_n).  The
+    exact terms of a sum are summed as they are (a cylinder's guard 1 - sign(x^2 + y^2)
+    is 0, not 2)."""
+    if expr.is_Add:
+        exact = [a for a in expr.args if _exact(a)]
+        return sp.Add(*[magnitude(a) for a in expr.args if not _exact(a)],
+                      sp.Abs(sp.Add(*exact)))
+    if expr.is_Mul:
         return expr.func(*[magnitude(a) for a in expr.args])
     if expr.is_Pow:
         return sp.Pow(magnitude(expr.base), expr.exp)

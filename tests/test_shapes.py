@@ -137,7 +137,9 @@ def test_the_compiled_runtime_reads_the_same_surface(name):
 
 @pytest.mark.parametrize("shape, stray, message", [
     ('shape = "ellipsoid"\nsemi_axes = [0.1, 0.1, 0.1]', "radius = 0.2",
-     "[body].radius: belongs to sphere; an ellipsoid has semi_axes"),
+     "[body].radius: belongs to sphere and cylinder; an ellipsoid has semi_axes"),
+    ('shape = "cylinder"\nradius = 0.2\nhalf_length = 0.1', "half_extents = [0.1, 0.1, 0.1]",
+     "[body].half_extents: belongs to box; a cylinder has radius, half_length"),
     ('shape = "sphere"\nradius = 0.2', "semi_axes = [0.1, 0.1, 0.1]",
      "[body].semi_axes: belongs to ellipsoid; a sphere has radius"),
 ])

@@ -4,6 +4,7 @@ from __future__ import annotations
 import difflib
 from pathlib import Path
 
+from ..base import base_specs
 from ..models import layout_doc
 from ..models_moments import emitted_specs
 from .c_backend import render_c
@@ -16,7 +17,7 @@ MANAGED_FILES = ("CMakeLists.txt", "Makefile")   # and files at its top
 
 
 def render_all() -> dict[str, bytes]:
-    specs = emitted_specs()
+    specs = emitted_specs() + base_specs()      # the paper's, the moments', the base model's
     files = {k: v.encode("utf-8") for k, v in render_c(specs, GENERATED, layout_doc()).items()}
     files.update({k: v.encode("utf-8") for k, v in render_runtime().items()})
     files.update({k: v.encode("utf-8") for k, v in render_controllers().items()})

@@ -70,7 +70,7 @@ class Scene:
     name: str
     M: float
     J: tuple                   # J_x, J_y, J_z
-    shape: str                 # sphere | ellipsoid | none
+    shape: str                 # a name of derive/shapes.py, or none
     size: tuple                # the shape's size numbers (derive/shapes.py)
     center: tuple
     m: float                   # the point's mass (several points: their total)

@@ -367,6 +367,42 @@ void lowest_point_ellipsoid_incref(void);
 void lowest_point_ellipsoid_decref(void);
 #endif
 
+/* lowest_point_box(n[3], center[3], half_extents[3]) -> (s[3]): Lowest point S of a box (centre anywhere in the body) for the vertical n, body axes. */
+void carrier_lowest_point_box(const double *n, const double *center, const double *half_extents, double *CARRIER_RESTRICT s);
+#ifndef CARRIER_NO_CASADI_ABI
+int lowest_point_box(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int lowest_point_box_n_in(void);
+casadi_int lowest_point_box_n_out(void);
+const char *lowest_point_box_name_in(casadi_int i);
+const char *lowest_point_box_name_out(casadi_int i);
+const casadi_int *lowest_point_box_sparsity_in(casadi_int i);
+const casadi_int *lowest_point_box_sparsity_out(casadi_int i);
+int lowest_point_box_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real lowest_point_box_default_in(casadi_int i);
+int lowest_point_box_checkout(void);
+void lowest_point_box_release(int mem);
+void lowest_point_box_incref(void);
+void lowest_point_box_decref(void);
+#endif
+
+/* lowest_point_cylinder(n[3], center[3], size[2]) -> (s[3]): Lowest point S of a cylinder (centre anywhere in the body) for the vertical n, body axes. */
+void carrier_lowest_point_cylinder(const double *n, const double *center, const double *size, double *CARRIER_RESTRICT s);
+#ifndef CARRIER_NO_CASADI_ABI
+int lowest_point_cylinder(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int lowest_point_cylinder_n_in(void);
+casadi_int lowest_point_cylinder_n_out(void);
+const char *lowest_point_cylinder_name_in(casadi_int i);
+const char *lowest_point_cylinder_name_out(casadi_int i);
+const casadi_int *lowest_point_cylinder_sparsity_in(casadi_int i);
+const casadi_int *lowest_point_cylinder_sparsity_out(casadi_int i);
+int lowest_point_cylinder_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real lowest_point_cylinder_default_in(casadi_int i);
+int lowest_point_cylinder_checkout(void);
+void lowest_point_cylinder_release(int mem);
+void lowest_point_cylinder_incref(void);
+void lowest_point_cylinder_decref(void);
+#endif
+
 /* lowest_point_rate_sphere(n[3], omega[3], radius) -> (sdot[3]): Rate of the lowest point S of a sphere in body axes as the body turns (Poisson's equations for n). */
 void carrier_lowest_point_rate_sphere(const double *n, const double *omega, double radius, double *CARRIER_RESTRICT sdot);
 #ifndef CARRIER_NO_CASADI_ABI
@@ -401,6 +437,42 @@ int lowest_point_rate_ellipsoid_checkout(void);
 void lowest_point_rate_ellipsoid_release(int mem);
 void lowest_point_rate_ellipsoid_incref(void);
 void lowest_point_rate_ellipsoid_decref(void);
+#endif
+
+/* lowest_point_rate_box(n[3], omega[3], half_extents[3]) -> (sdot[3]): Rate of the lowest point S of a box in body axes as the body turns (Poisson's equations for n). */
+void carrier_lowest_point_rate_box(const double *n, const double *omega, const double *half_extents, double *CARRIER_RESTRICT sdot);
+#ifndef CARRIER_NO_CASADI_ABI
+int lowest_point_rate_box(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int lowest_point_rate_box_n_in(void);
+casadi_int lowest_point_rate_box_n_out(void);
+const char *lowest_point_rate_box_name_in(casadi_int i);
+const char *lowest_point_rate_box_name_out(casadi_int i);
+const casadi_int *lowest_point_rate_box_sparsity_in(casadi_int i);
+const casadi_int *lowest_point_rate_box_sparsity_out(casadi_int i);
+int lowest_point_rate_box_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real lowest_point_rate_box_default_in(casadi_int i);
+int lowest_point_rate_box_checkout(void);
+void lowest_point_rate_box_release(int mem);
+void lowest_point_rate_box_incref(void);
+void lowest_point_rate_box_decref(void);
+#endif
+
+/* lowest_point_rate_cylinder(n[3], omega[3], size[2]) -> (sdot[3]): Rate of the lowest point S of a cylinder in body axes as the body turns (Poisson's equations for n). */
+void carrier_lowest_point_rate_cylinder(const double *n, const double *omega, const double *size, double *CARRIER_RESTRICT sdot);
+#ifndef CARRIER_NO_CASADI_ABI
+int lowest_point_rate_cylinder(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int lowest_point_rate_cylinder_n_in(void);
+casadi_int lowest_point_rate_cylinder_n_out(void);
+const char *lowest_point_rate_cylinder_name_in(casadi_int i);
+const char *lowest_point_rate_cylinder_name_out(casadi_int i);
+const casadi_int *lowest_point_rate_cylinder_sparsity_in(casadi_int i);
+const casadi_int *lowest_point_rate_cylinder_sparsity_out(casadi_int i);
+int lowest_point_rate_cylinder_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real lowest_point_rate_cylinder_default_in(casadi_int i);
+int lowest_point_rate_cylinder_checkout(void);
+void lowest_point_rate_cylinder_release(int mem);
+void lowest_point_rate_cylinder_incref(void);
+void lowest_point_rate_cylinder_decref(void);
 #endif
 
 /* momentum_omega(A[9], K[3], u[9], p[6]) -> (omega[3]): omega of the momentum form: E1.4 solved with K constant in fixed axes (E1.1), J omega = A^T K - mu OP x V_r. */
@@ -835,6 +907,60 @@ void moments_wrench_rhs_incref(void);
 void moments_wrench_rhs_decref(void);
 #endif
 
+/* base_slip(q[6], u[27], p[6], h, wrench[3]) -> (dq[6], N[1], cp[2]): Base model (a body on its face) while the face slips under the friction wrench (F_x, F_y, T_z) on it (face frame, T_z about O's vertical): dq/dt, the normal force N and the centre of pressure (x_cp, y_cp) from O's vertical. */
+void carrier_base_slip(const double *q, const double *u, const double *p, double h, const double *wrench, double *CARRIER_RESTRICT dq, double *CARRIER_RESTRICT N, double *CARRIER_RESTRICT cp);
+#ifndef CARRIER_NO_CASADI_ABI
+int base_slip(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int base_slip_n_in(void);
+casadi_int base_slip_n_out(void);
+const char *base_slip_name_in(casadi_int i);
+const char *base_slip_name_out(casadi_int i);
+const casadi_int *base_slip_sparsity_in(casadi_int i);
+const casadi_int *base_slip_sparsity_out(casadi_int i);
+int base_slip_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real base_slip_default_in(casadi_int i);
+int base_slip_checkout(void);
+void base_slip_release(int mem);
+void base_slip_incref(void);
+void base_slip_decref(void);
+#endif
+
+/* base_stick(u[27], p[6], h) -> (wrench[3], N[1], cp[2]): Base model at rest on its face: the friction wrench (F_x, F_y, T_z) the rest needs (s'' horizontal, h_z'), the normal force N and the centre of pressure. */
+void carrier_base_stick(const double *u, const double *p, double h, double *CARRIER_RESTRICT wrench, double *CARRIER_RESTRICT N, double *CARRIER_RESTRICT cp);
+#ifndef CARRIER_NO_CASADI_ABI
+int base_stick(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int base_stick_n_in(void);
+casadi_int base_stick_n_out(void);
+const char *base_stick_name_in(casadi_int i);
+const char *base_stick_name_out(casadi_int i);
+const casadi_int *base_stick_sparsity_in(casadi_int i);
+const casadi_int *base_stick_sparsity_out(casadi_int i);
+int base_stick_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real base_stick_default_in(casadi_int i);
+int base_stick_checkout(void);
+void base_stick_release(int mem);
+void base_stick_incref(void);
+void base_stick_decref(void);
+#endif
+
+/* base_twist(q[6]) -> (twist[3]): The slip of the face in the base model: O's velocity (v_x, v_y) and the yaw rate w, face frame. */
+void carrier_base_twist(const double *q, double *CARRIER_RESTRICT twist);
+#ifndef CARRIER_NO_CASADI_ABI
+int base_twist(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int base_twist_n_in(void);
+casadi_int base_twist_n_out(void);
+const char *base_twist_name_in(casadi_int i);
+const char *base_twist_name_out(casadi_int i);
+const casadi_int *base_twist_sparsity_in(casadi_int i);
+const casadi_int *base_twist_sparsity_out(casadi_int i);
+int base_twist_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real base_twist_default_in(casadi_int i);
+int base_twist_checkout(void);
+void base_twist_release(int mem);
+void base_twist_incref(void);
+void base_twist_decref(void);
+#endif
+
 /*
  * Derivatives: jac_<name> for every function above, in CasADi's jac_ convention: the
  * inputs, then the nominal outputs (not read); one output per block d output / d input,
@@ -1149,6 +1275,42 @@ void jac_lowest_point_ellipsoid_incref(void);
 void jac_lowest_point_ellipsoid_decref(void);
 #endif
 
+/* jac_lowest_point_box(n[3], center[3], half_extents[3]) -> (jac_s_center[3 of 3x3], jac_s_half_extents[3 of 3x3]) */
+void carrier_jac_lowest_point_box(const double *n, const double *center, const double *half_extents, double *CARRIER_RESTRICT jac_s_center, double *CARRIER_RESTRICT jac_s_half_extents);
+#ifndef CARRIER_NO_CASADI_ABI
+int jac_lowest_point_box(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int jac_lowest_point_box_n_in(void);
+casadi_int jac_lowest_point_box_n_out(void);
+const char *jac_lowest_point_box_name_in(casadi_int i);
+const char *jac_lowest_point_box_name_out(casadi_int i);
+const casadi_int *jac_lowest_point_box_sparsity_in(casadi_int i);
+const casadi_int *jac_lowest_point_box_sparsity_out(casadi_int i);
+int jac_lowest_point_box_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real jac_lowest_point_box_default_in(casadi_int i);
+int jac_lowest_point_box_checkout(void);
+void jac_lowest_point_box_release(int mem);
+void jac_lowest_point_box_incref(void);
+void jac_lowest_point_box_decref(void);
+#endif
+
+/* jac_lowest_point_cylinder(n[3], center[3], size[2]) -> (jac_s_n[4 of 3x3], jac_s_center[3 of 3x3], jac_s_size[3 of 3x2]) */
+void carrier_jac_lowest_point_cylinder(const double *n, const double *center, const double *size, double *CARRIER_RESTRICT jac_s_n, double *CARRIER_RESTRICT jac_s_center, double *CARRIER_RESTRICT jac_s_size);
+#ifndef CARRIER_NO_CASADI_ABI
+int jac_lowest_point_cylinder(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int jac_lowest_point_cylinder_n_in(void);
+casadi_int jac_lowest_point_cylinder_n_out(void);
+const char *jac_lowest_point_cylinder_name_in(casadi_int i);
+const char *jac_lowest_point_cylinder_name_out(casadi_int i);
+const casadi_int *jac_lowest_point_cylinder_sparsity_in(casadi_int i);
+const casadi_int *jac_lowest_point_cylinder_sparsity_out(casadi_int i);
+int jac_lowest_point_cylinder_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real jac_lowest_point_cylinder_default_in(casadi_int i);
+int jac_lowest_point_cylinder_checkout(void);
+void jac_lowest_point_cylinder_release(int mem);
+void jac_lowest_point_cylinder_incref(void);
+void jac_lowest_point_cylinder_decref(void);
+#endif
+
 /* jac_lowest_point_rate_sphere(n[3], omega[3], radius) -> (jac_sdot_n[9 of 3x3], jac_sdot_omega[6 of 3x3], jac_sdot_radius[3 of 3x1]) */
 void carrier_jac_lowest_point_rate_sphere(const double *n, const double *omega, double radius, double *CARRIER_RESTRICT jac_sdot_n, double *CARRIER_RESTRICT jac_sdot_omega, double *CARRIER_RESTRICT jac_sdot_radius);
 #ifndef CARRIER_NO_CASADI_ABI
@@ -1183,6 +1345,42 @@ int jac_lowest_point_rate_ellipsoid_checkout(void);
 void jac_lowest_point_rate_ellipsoid_release(int mem);
 void jac_lowest_point_rate_ellipsoid_incref(void);
 void jac_lowest_point_rate_ellipsoid_decref(void);
+#endif
+
+/* jac_lowest_point_rate_box(n[3], omega[3], half_extents[3]) -> () */
+void carrier_jac_lowest_point_rate_box(const double *n, const double *omega, const double *half_extents);
+#ifndef CARRIER_NO_CASADI_ABI
+int jac_lowest_point_rate_box(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int jac_lowest_point_rate_box_n_in(void);
+casadi_int jac_lowest_point_rate_box_n_out(void);
+const char *jac_lowest_point_rate_box_name_in(casadi_int i);
+const char *jac_lowest_point_rate_box_name_out(casadi_int i);
+const casadi_int *jac_lowest_point_rate_box_sparsity_in(casadi_int i);
+const casadi_int *jac_lowest_point_rate_box_sparsity_out(casadi_int i);
+int jac_lowest_point_rate_box_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real jac_lowest_point_rate_box_default_in(casadi_int i);
+int jac_lowest_point_rate_box_checkout(void);
+void jac_lowest_point_rate_box_release(int mem);
+void jac_lowest_point_rate_box_incref(void);
+void jac_lowest_point_rate_box_decref(void);
+#endif
+
+/* jac_lowest_point_rate_cylinder(n[3], omega[3], size[2]) -> (jac_sdot_n[6 of 3x3], jac_sdot_omega[6 of 3x3], jac_sdot_size[2 of 3x2]) */
+void carrier_jac_lowest_point_rate_cylinder(const double *n, const double *omega, const double *size, double *CARRIER_RESTRICT jac_sdot_n, double *CARRIER_RESTRICT jac_sdot_omega, double *CARRIER_RESTRICT jac_sdot_size);
+#ifndef CARRIER_NO_CASADI_ABI
+int jac_lowest_point_rate_cylinder(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int jac_lowest_point_rate_cylinder_n_in(void);
+casadi_int jac_lowest_point_rate_cylinder_n_out(void);
+const char *jac_lowest_point_rate_cylinder_name_in(casadi_int i);
+const char *jac_lowest_point_rate_cylinder_name_out(casadi_int i);
+const casadi_int *jac_lowest_point_rate_cylinder_sparsity_in(casadi_int i);
+const casadi_int *jac_lowest_point_rate_cylinder_sparsity_out(casadi_int i);
+int jac_lowest_point_rate_cylinder_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real jac_lowest_point_rate_cylinder_default_in(casadi_int i);
+int jac_lowest_point_rate_cylinder_checkout(void);
+void jac_lowest_point_rate_cylinder_release(int mem);
+void jac_lowest_point_rate_cylinder_incref(void);
+void jac_lowest_point_rate_cylinder_decref(void);
 #endif
 
 /* jac_momentum_omega(A[9], K[3], u[9], p[6]) -> (jac_omega_A[27 of 3x9], jac_omega_K[9 of 3x3], jac_omega_u[18 of 3x9], jac_omega_p[15 of 3x6]) */
@@ -1489,6 +1687,60 @@ int jac_moments_lie_point_checkout(void);
 void jac_moments_lie_point_release(int mem);
 void jac_moments_lie_point_incref(void);
 void jac_moments_lie_point_decref(void);
+#endif
+
+/* jac_base_slip(q[6], u[27], p[6], h, wrench[3]) -> (jac_dq_q[15 of 6x6], jac_dq_u[27 of 6x27], jac_dq_p[9 of 6x6], jac_dq_wrench[9 of 6x3], jac_N_u[1 of 1x27], jac_N_p[3 of 1x6], jac_cp_q[8 of 2x6], jac_cp_u[32 of 2x27], jac_cp_p[8 of 2x6], jac_cp_h[2 of 2x1], jac_cp_wrench[6 of 2x3]) */
+void carrier_jac_base_slip(const double *q, const double *u, const double *p, double h, const double *wrench, double *CARRIER_RESTRICT jac_dq_q, double *CARRIER_RESTRICT jac_dq_u, double *CARRIER_RESTRICT jac_dq_p, double *CARRIER_RESTRICT jac_dq_wrench, double *CARRIER_RESTRICT jac_N_u, double *CARRIER_RESTRICT jac_N_p, double *CARRIER_RESTRICT jac_cp_q, double *CARRIER_RESTRICT jac_cp_u, double *CARRIER_RESTRICT jac_cp_p, double *CARRIER_RESTRICT jac_cp_h, double *CARRIER_RESTRICT jac_cp_wrench);
+#ifndef CARRIER_NO_CASADI_ABI
+int jac_base_slip(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int jac_base_slip_n_in(void);
+casadi_int jac_base_slip_n_out(void);
+const char *jac_base_slip_name_in(casadi_int i);
+const char *jac_base_slip_name_out(casadi_int i);
+const casadi_int *jac_base_slip_sparsity_in(casadi_int i);
+const casadi_int *jac_base_slip_sparsity_out(casadi_int i);
+int jac_base_slip_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real jac_base_slip_default_in(casadi_int i);
+int jac_base_slip_checkout(void);
+void jac_base_slip_release(int mem);
+void jac_base_slip_incref(void);
+void jac_base_slip_decref(void);
+#endif
+
+/* jac_base_stick(u[27], p[6], h) -> (jac_wrench_u[3 of 3x27], jac_N_u[1 of 1x27], jac_N_p[3 of 1x6], jac_cp_u[8 of 2x27], jac_cp_p[6 of 2x6], jac_cp_h[2 of 2x1]) */
+void carrier_jac_base_stick(const double *u, const double *p, double h, double *CARRIER_RESTRICT jac_wrench_u, double *CARRIER_RESTRICT jac_N_u, double *CARRIER_RESTRICT jac_N_p, double *CARRIER_RESTRICT jac_cp_u, double *CARRIER_RESTRICT jac_cp_p, double *CARRIER_RESTRICT jac_cp_h);
+#ifndef CARRIER_NO_CASADI_ABI
+int jac_base_stick(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int jac_base_stick_n_in(void);
+casadi_int jac_base_stick_n_out(void);
+const char *jac_base_stick_name_in(casadi_int i);
+const char *jac_base_stick_name_out(casadi_int i);
+const casadi_int *jac_base_stick_sparsity_in(casadi_int i);
+const casadi_int *jac_base_stick_sparsity_out(casadi_int i);
+int jac_base_stick_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real jac_base_stick_default_in(casadi_int i);
+int jac_base_stick_checkout(void);
+void jac_base_stick_release(int mem);
+void jac_base_stick_incref(void);
+void jac_base_stick_decref(void);
+#endif
+
+/* jac_base_twist(q[6]) -> (jac_twist_q[7 of 3x6]) */
+void carrier_jac_base_twist(const double *q, double *CARRIER_RESTRICT jac_twist_q);
+#ifndef CARRIER_NO_CASADI_ABI
+int jac_base_twist(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+casadi_int jac_base_twist_n_in(void);
+casadi_int jac_base_twist_n_out(void);
+const char *jac_base_twist_name_in(casadi_int i);
+const char *jac_base_twist_name_out(casadi_int i);
+const casadi_int *jac_base_twist_sparsity_in(casadi_int i);
+const casadi_int *jac_base_twist_sparsity_out(casadi_int i);
+int jac_base_twist_work(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+casadi_real jac_base_twist_default_in(casadi_int i);
+int jac_base_twist_checkout(void);
+void jac_base_twist_release(int mem);
+void jac_base_twist_incref(void);
+void jac_base_twist_decref(void);
 #endif
 
 #ifdef __cplusplus

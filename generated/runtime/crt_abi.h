@@ -42,7 +42,7 @@ enum crt_parameter {
   CRT_P_g = 5,  /* gravity */
   CRT_P_e = 6,  /* restitution coefficient of the plane */
   CRT_P_shape = 7,  /* the surface: CRT_SHAPE_<name>, its place in derive/shapes.py */
-  CRT_P_size_a = 8,  /* the shape's size numbers in the order of its fields (derive/shapes.py): a sphere's radius; an ellipsoid's semi-axes along Ox, Oy, Oz */
+  CRT_P_size_a = 8,  /* the shape's size numbers in the order of its fields (derive/shapes.py): a sphere's radius; an ellipsoid's semi-axes or a box's half-extents along Ox, Oy, Oz; a cylinder's radius and half-length */
   CRT_P_size_b = 9,  /* ... */
   CRT_P_size_c = 10,  /* ... */
   CRT_P_center_x = 11,  /* centre of the shape in body axes */
@@ -114,7 +114,9 @@ enum crt_parameter {
 enum crt_shape {
   CRT_SHAPE_SPHERE = 0,  /* a sphere of the given radius */
   CRT_SHAPE_ELLIPSOID = 1,  /* an ellipsoid with its semi-axes along the body axes */
-  CRT_SHAPE_COUNT = 2
+  CRT_SHAPE_BOX = 2,  /* a box with its half-extents a, b, c along the body axes */
+  CRT_SHAPE_CYLINDER = 3,  /* a circular cylinder of radius R and half-length L, its axis along the body z axis */
+  CRT_SHAPE_COUNT = 4
 };
 /* Values of opt[CRT_OPT_METHOD]. */
 enum crt_method {

@@ -277,6 +277,51 @@ static void lowest_point_rate_ellipsoid(const double *n, const double *omega, co
   sdot[2] = c4*c7*(c12*c18 + c13*c17 + c14*(c5*c8 - 1.0));
 }
 
+/* Lowest point S of a box (centre anywhere in the body) for the vertical n, body axes. (9 ops) */
+static void lowest_point_box(const double *n, const double *center, const double *half_extents, double *restrict s)
+{
+  s[0] = center[0] - half_extents[0]*(((n[0]) > 0) - ((n[0]) < 0));
+  s[1] = center[1] - half_extents[1]*(((n[1]) > 0) - ((n[1]) < 0));
+  s[2] = center[2] - half_extents[2]*(((n[2]) > 0) - ((n[2]) < 0));
+}
+
+/* Rate of the lowest point S of a box in body axes as the body turns (Poisson's equations for n). (0 ops) */
+static void lowest_point_rate_box(const double *n, const double *omega, const double *half_extents, double *restrict sdot)
+{
+  (void)n;
+  (void)omega;
+  (void)half_extents;
+  sdot[0] = 0.0;
+  sdot[1] = 0.0;
+  sdot[2] = 0.0;
+}
+
+/* Lowest point S of a cylinder (centre anywhere in the body) for the vertical n, body axes. (16 ops) */
+static void lowest_point_cylinder(const double *n, const double *center, const double *size, double *restrict s)
+{
+  const double c0 = n[0]*n[0] + n[1]*n[1];
+  const double c1 = size[0]/sqrt(c0 - (((c0) > 0) - ((c0) < 0)) + 1.0);
+  s[0] = -c1*n[0] + center[0];
+  s[1] = -c1*n[1] + center[1];
+  s[2] = -size[1]*(((n[2]) > 0) - ((n[2]) < 0)) + center[2];
+}
+
+/* Rate of the lowest point S of a cylinder in body axes as the body turns (Poisson's equations for n). (28 ops) */
+static void lowest_point_rate_cylinder(const double *n, const double *omega, const double *size, double *restrict sdot)
+{
+  const double c0 = -n[0]*omega[2] + n[2]*omega[0];
+  const double c1 = n[0]*n[1];
+  const double c2 = n[1]*omega[2] - n[2]*omega[1];
+  const double c3 = n[1]*n[1];
+  const double c4 = n[0]*n[0];
+  const double c5 = c3 + c4;
+  const double c6 = 1.0 - (((c5) > 0) - ((c5) < 0));
+  const double c7 = size[0]/((c5 + c6)*sqrt(c5 + c6));
+  sdot[0] = c7*(c0*c1 + c2*(-c3 - c6));
+  sdot[1] = c7*(c0*(-c4 - c6) + c1*c2);
+  sdot[2] = 0.0;
+}
+
 /* ---- the model: what the runtime (crt_core.h and below) calls --------------------------- */
 /* S for the vertical n on the scene's surface, prm[CRT_P_shape] (derive/shapes.py) */
 static void model_shape(const double *p, const double *n, double *s)
@@ -284,6 +329,8 @@ static void model_shape(const double *p, const double *n, double *s)
   switch ((int)p[CRT_P_shape]) {
   default: lowest_point_sphere(n, p + CRT_P_center_x, p[CRT_P_size_a], s); break;
   case CRT_SHAPE_ELLIPSOID: lowest_point_ellipsoid(n, p + CRT_P_center_x, p + CRT_P_size_a, s); break;
+  case CRT_SHAPE_BOX: lowest_point_box(n, p + CRT_P_center_x, p + CRT_P_size_a, s); break;
+  case CRT_SHAPE_CYLINDER: lowest_point_cylinder(n, p + CRT_P_center_x, p + CRT_P_size_a, s); break;
   }
 }
 
@@ -291,8 +338,13 @@ static void model_shape(const double *p, const double *n, double *s)
    watches it in contact, crt_surface_jumped), 0 for a strictly convex one */
 static int model_surface_may_jump(const double *p)
 {
-  (void)p;
-  return 0;
+  switch ((int)p[CRT_P_shape]) {
+  case CRT_SHAPE_BOX:
+  case CRT_SHAPE_CYLINDER:
+    return 1;
+  default:
+    return 0;
+  }
 }
 
 /* its rate as the body turns (the centre is fixed in the body) */
@@ -302,6 +354,8 @@ static void model_shape_rate(const double *p, const double *n, const double *ome
   switch ((int)p[CRT_P_shape]) {
   default: lowest_point_rate_sphere(n, omega, p[CRT_P_size_a], sdot); break;
   case CRT_SHAPE_ELLIPSOID: lowest_point_rate_ellipsoid(n, omega, p + CRT_P_size_a, sdot); break;
+  case CRT_SHAPE_BOX: lowest_point_rate_box(n, omega, p + CRT_P_size_a, sdot); break;
+  case CRT_SHAPE_CYLINDER: lowest_point_rate_cylinder(n, omega, p + CRT_P_size_a, sdot); break;
   }
 }
 

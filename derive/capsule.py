@@ -1,0 +1,108 @@
+"""A capsule robot's fastest periodic crawl, in closed form: a body of mass M on a rough
+plane (Coulomb, mu) driven by an internal point of mass m moving along a line (the x
+axis) relative to it, the law periodic, its displacement bounded by L (range) and its
+velocity by U.  The acceptance check of the planner's ``travel`` goal and of the base
+model's runtime (issue 33; derived here: the search tool did not find the closed forms of
+Chernousko's papers, J. Appl. Math. Mech. 66 (2002), Meccanica 2016, so their optimum is
+not quoted).
+
+**The class of laws.**  With nu = m/(M + m) and N = (M + m) g, the body stays at rest while
+``m |x''| <= mu N``, i.e. ``|x''| <= a_s = mu g/nu``; a jump of the point's relative
+velocity by ``-w`` throws the body forward at ``nu w`` (momentum is kept: friction gives no
+impulse), and it then slides to rest in ``tau = nu w/(mu g)``, covering ``D = nu^2
+w^2/(2 mu g)``, if the point moves at constant velocity meanwhile (any acceleration adds
+to the braking).  So a period is: a jump from ``u1`` to ``-u2`` (``w = u1 + u2``); the slide
+at ``x' = -u2`` (tau); a rest at ``-u2`` (t5 >= 0); a ramp back to ``u1`` at ``kappa a_s``
+(``tau/kappa``, the body at rest as long as kappa <= 1); a rest at ``u1`` (t4 >= 0).  With
+``r = u2/w`` the period closes (x periodic) for
+
+* ``r = r_k = 1/(2 (1 + kappa))`` with t4 = t5 = 0: ``V = nu w kappa/(2 (1 + kappa))``,
+  ``L = (nu w^2/(mu g)) (r + r^2/(2 kappa))``;
+* ``r < r_k`` with t5 = tau ((1 - 2r)/(2 kappa r) - 1): ``V = nu w kappa r``, ``L = (nu
+  w^2/(2 kappa mu g)) (1 - r)^2``;
+* ``r > r_k`` with t4 = tau (r - (1 - 2r)/(2 kappa))/(1 - r): ``V = nu w kappa (1 -
+  r)/(2 kappa + 1)``, ``L`` as for r_k.
+
+At a given range L, V grows with r below r_k and falls above it, and at r_k it is
+``V(kappa) = kappa/(2 kappa + 1) sqrt(2 kappa nu mu g L)``, growing with kappa.  Under a
+velocity bound (``u1 = (1 - r) w <= U``) ``V = nu kappa U/(2 kappa + 1)``.  The best of the
+class is at the sticking limit kappa = 1, u1 = 3 u2:
+
+    V* = min( sqrt(2 nu mu g L)/3,  nu U/3 ).
+
+(Kappa = 1 holds the rest on the edge of the friction cone, which an event-driven run
+cannot resolve; the checks run kappa < 1.)
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class Crawl:
+    """One law of the class and what it does: velocities ``u1``, ``u2``, the phases
+    ``tau`` (slide), ``t5``, ``ramp``, ``t4``, the period, the range and the mean speed."""
+    u1: float
+    u2: float
+    a: float                 # the ramp's acceleration
+    tau: float
+    t5: float
+    ramp: float
+    t4: float
+    period: float
+    range: float
+    speed: float
+    nu: float
+
+    def law(self, t: float) -> tuple[float, float, float]:
+        """x, x', x'' relative to the body at t (periodic; just after the jump at t = 0,
+        x = 0 at the jump)."""
+        s = t % self.period
+        x, v = 0.0, -self.u2
+        if s < self.tau + self.t5:
+            return x + v * s, v, 0.0
+        x += v * (self.tau + self.t5)
+        s -= self.tau + self.t5
+        if s < self.ramp:
+            return x + v * s + self.a * s * s / 2, v + self.a * s, self.a
+        x += v * self.ramp + self.a * self.ramp ** 2 / 2
+        s -= self.ramp
+        return x + self.u1 * s, self.u1, 0.0
+
+    @property
+    def phases(self) -> tuple:
+        """The times in a period where x'' changes."""
+        return (self.tau + self.t5, self.tau + self.t5 + self.ramp)
+
+
+def crawl(M: float, m: float, mu: float, L: float, r: float, kappa: float = 1.0,
+          g: float = 9.81) -> Crawl:
+    """The law of the class with the share r = u2/w and ramp kappa a_s over the range L."""
+    nu = m / (M + m)
+    rk = 1.0 / (2.0 * (1.0 + kappa))
+    if r <= rk:
+        w = math.sqrt(2 * kappa * mu * g * L / nu) / (1 - r)
+    else:
+        w = math.sqrt(mu * g * L / (nu * (r + r * r / (2 * kappa))))
+    u2, u1 = r * w, (1 - r) * w
+    tau = nu * w / (mu * g)
+    t5 = tau * ((1 - 2 * r) / (2 * kappa * r) - 1) if r < rk else 0.0
+    t4 = tau * (r - (1 - 2 * r) / (2 * kappa)) / (1 - r) if r > rk else 0.0
+    ramp = tau / kappa
+    period = tau + t5 + ramp + t4
+    D = nu * nu * w * w / (2 * mu * g)
+    return Crawl(u1=u1, u2=u2, a=kappa * mu * g / nu, tau=tau, t5=t5, ramp=ramp, t4=t4,
+                 period=period, range=L, speed=D / period, nu=nu)
+
+
+def optimum(M: float, m: float, mu: float, L: float | None = None, U: float | None = None,
+            g: float = 9.81) -> float:
+    """V* of the class (kappa = 1, u1 = 3 u2) under the bounds given."""
+    nu = m / (M + m)
+    out = math.inf
+    if L is not None:
+        out = min(out, math.sqrt(2 * nu * mu * g * L) / 3)
+    if U is not None:
+        out = min(out, nu * U / 3)
+    return out

@@ -1,0 +1,373 @@
+"""The flat face a body rests on, and the friction over it: the base model's geometry and
+its face integrals (derive/base.py derives the dynamics; this module integrates over the
+face, by fixed rules designed for C).
+
+**The face.**  A box rests on one of its six faces, a cylinder on one of its two ends.  The
+*face frame* is the body frame turned so that its third axis is the upward vertical n (for
+these shapes a signed permutation of the body axes: J stays diagonal, the moments are
+permuted).  In it the face is the rectangle ``|x - c_x| <= a, |y - c_y| <= b`` or the disc
+``|r - c| <= R`` at the height ``-h`` below O (``h``: O's height above the plane while the
+face lies on it).  :func:`face_on` finds it from the shape, its size and centre, and n.
+
+**Friction over the face** (Coulomb's law at every point, so sliding and spinning are
+coupled: Contensou).  A body point r of the face (from O's vertical, face frame) moves at
+``u(r) = v + w e_z x r`` (v: O's horizontal velocity, w: the yaw rate), and friction there
+is ``-mu p(r) u/|u|``.  Summed over the face: the force ``F`` and the torque ``T_z`` about
+O's vertical (:func:`slip_wrench`), and the power they take, the dissipation ``D(v, w) =
+mu int p |u| dA`` (:func:`dissipation`).  D is a norm of the twist (v, w), and the friction
+of a slip is minus its gradient: ``(F, T_z) = -grad D``.
+
+**The limit surface**: the set of wrenches ``(F, T_z)`` static friction can supply, ``{W :
+W.xi <= D_s(xi) for every twist xi}`` (``D_s`` with the static coefficient).  Its gauge
+``gamma(W) = max_xi W.xi / D_s(xi)`` (the dual norm of D_s, :func:`gauge`) is at most 1
+inside: a body sticks while the wrench its rest requires has gamma <= 1, and slips from
+the twist xi* that attains the maximum when gamma reaches 1.
+
+**Pressure** over the face, for a normal force N with its centre at ``cp``:
+``"uniform"`` (``p = N/A``; cp, from the moment balance, only says where the body would
+tip) or ``"linear"`` (``p`` affine in position with its centroid at cp: the distribution of
+a rigid face on an elastic floor that balances the tipping moment, Sakharov 2015); linear
+pressure is positive while cp stays in the face's kern (``|x|/a + |y|/b <= 1/3`` of a
+rectangle, ``|r| <= R/4`` of a disc, from the face centroid), beyond which the face begins
+to lift at an edge (:func:`kern_margin`).
+
+**Rules.**  Fixed product Gauss rules (:func:`rule`): Gauss–Legendre in x and y over a
+rectangle; over a disc, Gauss–Legendre in the radius (with the weight r) times the
+trapezoid rule in the angle (exact for trigonometric polynomials).  Pure spin about the
+centre of a disc is integrated exactly (|u| = |w| r); elsewhere the integrand has a cone
+point at the instant centre ``r0 = e_z x v/w``, which limits a fixed rule to a few digits
+(measured in tests/test_face.py against the closed forms of :mod:`derive.base_reference`).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.optimize import minimize
+
+from . import shapes
+
+PRESSURES = ("uniform", "linear")
+FAR = 8.0                  # the instant centre this many sizes away: the product rule
+AXIS_TOL = 1e-9            # n within this of a face normal: the face lies flat
+
+
+@dataclass(frozen=True)
+class Face:
+    """A flat face on the plane, in the face frame (see the module's docstring)."""
+    kind: str                  # "rectangle" | "disc"
+    half: tuple                # (a, b) of a rectangle, (R,) of a disc
+    centre: tuple              # (c_x, c_y): the face's centroid from O's vertical
+    height: float              # h: O's height above the plane
+    frame: np.ndarray          # Q: rows are the face frame's axes in body axes
+
+    @property
+    def area(self) -> float:
+        if self.kind == "rectangle":
+            return 4.0 * self.half[0] * self.half[1]
+        return math.pi * self.half[0] ** 2
+
+    @property
+    def second_moments(self) -> tuple:
+        """int x^2 dA, int y^2 dA about the centroid."""
+        if self.kind == "rectangle":
+            a, b = self.half
+            return (4 * a ** 3 * b / 3, 4 * a * b ** 3 / 3)
+        R = self.half[0]
+        return (math.pi * R ** 4 / 4,) * 2
+
+    @property
+    def size(self) -> float:
+        """The length that scales the spin in a twist (v, size w): the face's half-diagonal
+        or radius."""
+        return math.hypot(*self.half) if self.kind == "rectangle" else self.half[0]
+
+    def edge_margin(self, cp) -> float:
+        """How far cp (from O's vertical) is inside the face: 0 on its edge, negative
+        outside (the body tips)."""
+        x, y = cp[0] - self.centre[0], cp[1] - self.centre[1]
+        if self.kind == "rectangle":
+            return min(self.half[0] - abs(x), self.half[1] - abs(y))
+        return self.half[0] - math.hypot(x, y)
+
+    def kern_margin(self, cp) -> float:
+        """Linear pressure stays positive while this is >= 0 (scaled as a length)."""
+        x, y = cp[0] - self.centre[0], cp[1] - self.centre[1]
+        if self.kind == "rectangle":
+            a, b = self.half
+            return min(a, b) * (1.0 / 3.0 - abs(x) / a - abs(y) / b)
+        return self.half[0] / 4 - math.hypot(x, y)
+
+
+def face_on(shape: str, size, center, n) -> Face:
+    """The face of a box or the end of a cylinder whose outward normal is ``-n`` (``n``
+    the upward vertical in body axes), or ValueError when n is along no face normal."""
+    n = np.asarray(n, dtype=float)
+    n = n / np.linalg.norm(n)
+    k = int(np.argmax(np.abs(n)))
+    if abs(abs(n[k]) - 1.0) > AXIS_TOL or (shape == "cylinder" and k != 2):
+        raise ValueError(f"the vertical {n.tolist()} is along no face normal of "
+                         f"{shapes.with_article(shape)}")
+    sign = 1.0 if n[k] > 0 else -1.0
+    e = np.eye(3)
+    third = sign * e[k]
+    first = e[(k + 1) % 3]
+    second = np.cross(third, first)
+    Q = np.vstack([first, second, third])
+    c = Q @ np.asarray(center, dtype=float)
+    if shape == "box":
+        ext = np.abs(Q) @ np.asarray(size, dtype=float)
+        return Face("rectangle", (float(ext[0]), float(ext[1])), (float(c[0]), float(c[1])),
+                    float(ext[2] - c[2]), Q)
+    if shape == "cylinder":
+        R, L = size
+        return Face("disc", (float(R),), (float(c[0]), float(c[1])), float(L - c[2]), Q)
+    raise ValueError(f"{shapes.with_article(shape)} has no flat face")
+
+
+# ---- fixed rules ---------------------------------------------------------------------------
+@dataclass(frozen=True)
+class Rule:
+    """Nodes (K, 2) from O's vertical (face frame) and weights (K,), summing to the area;
+    ``offsets``: the nodes from the face's centroid."""
+    nodes: np.ndarray
+    weights: np.ndarray
+    offsets: np.ndarray
+
+
+def rule(face: Face, n: int = 12) -> Rule:
+    """The fixed rule of order n: n x n Gauss–Legendre over a rectangle; over a disc n
+    Gauss–Legendre radii (weight r) times 2n + 2 equally spaced angles."""
+    x, w = np.polynomial.legendre.leggauss(n)
+    if face.kind == "rectangle":
+        a, b = face.half
+        X, Y = np.meshgrid(a * x, b * x, indexing="ij")
+        W = np.outer(a * w, b * w)
+        off = np.column_stack([X.ravel(), Y.ravel()])
+        weights = W.ravel()
+    else:
+        R = face.half[0]
+        r, wr = R * (x + 1) / 2, R * w / 2
+        m = 2 * n + 2
+        th = (np.arange(m) + 0.5) * 2 * math.pi / m
+        off = np.column_stack([np.outer(r, np.cos(th)).ravel(), np.outer(r, np.sin(th)).ravel()])
+        weights = np.outer(wr * r, np.full(m, 2 * math.pi / m)).ravel()
+    nodes = off + np.asarray(face.centre)
+    return Rule(nodes=nodes, weights=weights, offsets=off)
+
+
+def pressure(face: Face, rl: Rule, N: float, cp=None, mode: str = "uniform") -> np.ndarray:
+    """The pressure at the rule's nodes times their weights (summing to N)."""
+    if mode == "uniform" or cp is None:
+        return rl.weights * (N / face.area)
+    Ix, Iy = face.second_moments
+    dx, dy = cp[0] - face.centre[0], cp[1] - face.centre[1]
+    p = N / face.area + N * (dx * rl.offsets[:, 0] / Ix + dy * rl.offsets[:, 1] / Iy)
+    return rl.weights * p
+
+
+def slip_wrench(rl: Rule, pw: np.ndarray, mu: float, twist) -> np.ndarray:
+    """(F_x, F_y, T_z): the friction on the body over the face for the slip twist
+    ``(v_x, v_y, w)`` at O (``pw``: pressure times weight at the nodes)."""
+    vx, vy, w = twist
+    ux = vx - w * rl.nodes[:, 1]
+    uy = vy + w * rl.nodes[:, 0]
+    speed = np.hypot(ux, uy)
+    k = np.divide(-mu * pw, speed, out=np.zeros_like(speed), where=speed > 0)
+    fx, fy = k * ux, k * uy
+    return np.array([fx.sum(), fy.sum(), (rl.nodes[:, 0] * fy - rl.nodes[:, 1] * fx).sum()])
+
+
+def dissipation(rl: Rule, pw: np.ndarray, mu: float, twist) -> float:
+    """mu int p |v + w e_z x r| dA: the power friction takes at the twist (a norm)."""
+    vx, vy, w = twist
+    return float(mu * (pw * np.hypot(vx - w * rl.nodes[:, 1], vy + w * rl.nodes[:, 0])).sum())
+
+
+# ---- the instant-centre rule ----------------------------------------------------------------
+# With w != 0 the slip field is a rotation about the instant centre r0 = e_z x v / w, so the
+# unit slip is sign(w) e_z x (r - r0)/|r - r0| and, p affine (p = P0 + k.(r - r0) from r0),
+#
+#   F = -mu sgn(w) e_z x G,  G = int p (r - r0)/|r - r0| dA
+#   T = -mu sgn(w) H,        H = int p r.(r - r0)/|r - r0| dA
+#   D = mu |w| E,            E = int p |r - r0| dA.
+#
+# In polar coordinates about r0 the radial integrals are polynomial and done exactly; what
+# is left is one integral along the boundary.  Over a rectangle, edge by edge: the triangle
+# (r0, V_i, V_i+1) parametrised r = r0 + t q(s), q(s) = V_i - r0 + s (V_i+1 - V_i), dA =
+# t A2 ds dt (A2 = (V_i - r0) x (V_i+1 - r0), signed: the triangles of the edges r0 sees
+# from behind subtract); the s-integrals in closed form (asinh and square roots: exact, no
+# rule).  Over a disc, in the angle about r0 by a fixed rule of order n: the trapezoid
+# rule with 4n angles when r0 is inside (a periodic integrand), n-point Gauss–Legendre in
+# phi with sin(theta - theta_c) = (R/delta) sin(phi) when r0 is outside (smooth at the
+# two tangents).
+def _polygon_integrals(face: Face, r0, P_c: float, k, n: int = 0) -> tuple:
+    """G, H, E over a rectangle, edge by edge in closed form (n is not read).  Along an
+    edge, q = tau e + eta nu (e the edge's unit direction, nu its left normal, eta = q.nu
+    constant, tau from tau_1 to tau_1 + l, ds = d tau / l); the tau-integrals of 1/|q|,
+    tau/|q|, tau^2/|q|, |q|, tau |q| are asinh and powers of |q|."""
+    a, b = face.half
+    cx, cy = face.centre
+    V = np.array([[cx + a, cy - b], [cx + a, cy + b], [cx - a, cy + b], [cx - a, cy - b]])
+    r0 = np.asarray(r0, dtype=float)
+    P0 = P_c + k @ (r0 - np.asarray(face.centre))
+    G, E = np.zeros(2), 0.0
+    for i in range(4):
+        A, B = V[i] - r0, V[(i + 1) % 4] - r0
+        edge = B - A
+        ell = math.hypot(*edge)
+        e = edge / ell
+        nu = np.array([-e[1], e[0]])
+        eta = float(A @ nu)
+        if eta == 0.0:
+            continue                      # r0 on the edge's line: a flat triangle
+        h = abs(eta)
+        ke, kn = float(k @ e), float(k @ nu)
+
+        def prim(tau):
+            L = math.hypot(tau, eta)
+            ash = math.asinh(tau / h)
+            return (ash, L, (tau * L - eta * eta * ash) / 2,       # 1/|q|, tau/|q|, tau^2/|q|
+                    (tau * L + eta * eta * ash) / 2, L ** 3 / 3)     # |q|, tau |q|
+        lo, hi = prim(float(A @ e)), prim(float(A @ e) + ell)
+        I0, I1, K2, J0, J1 = (y - x for x, y in zip(lo, hi))
+        c2 = P0 / 2 + eta * kn / 3
+        c3 = P0 / 3 + eta * kn / 4
+        # the triangle's A2 = (V_i - r0) x (V_i+1 - r0) = -l eta, times ds = d tau / l
+        G += -eta * (e * (c2 * I1 + ke / 3 * K2) + nu * eta * (c2 * I0 + ke / 3 * I1))
+        E += -eta * (c3 * J0 + ke / 4 * J1)
+    return G, float(r0 @ G) + E, E
+
+
+def _disc_integrals(face: Face, r0, P_c: float, k, n: int) -> tuple:
+    R = face.half[0]
+    c = np.asarray(face.centre)
+    r0 = np.asarray(r0, dtype=float)
+    d = r0 - c
+    delta = math.hypot(*d)
+    P0 = P_c + k @ d
+    if delta < R:
+        m = 4 * n
+        th = np.arange(m) * 2 * math.pi / m
+        wt = np.full(m, 2 * math.pi / m)
+        e = np.column_stack([np.cos(th), np.sin(th)])
+        de = e @ d
+        lo = np.zeros(m)
+        hi = -de + np.sqrt(R * R - delta * delta + de * de)
+    else:
+        x, w = np.polynomial.legendre.leggauss(n)
+        phi, wphi = x * math.pi / 2, w * math.pi / 2
+        th_c = math.atan2(-d[1], -d[0])
+        sn = (R / delta) * np.sin(phi)
+        th = th_c + np.arcsin(sn)
+        wt = wphi * (R / delta) * np.cos(phi) / np.sqrt(1 - sn * sn)
+        e = np.column_stack([np.cos(th), np.sin(th)])
+        de = e @ d
+        root = R * np.cos(phi)
+        lo, hi = -de - root, -de + root
+    ke = e @ k
+
+    def moment(j):                       # int_lo^hi rho^j (P0 + rho k.e) d rho, per angle
+        return (P0 * (hi ** (j + 1) - lo ** (j + 1)) / (j + 1)
+                + ke * (hi ** (j + 2) - lo ** (j + 2)) / (j + 2))
+    m1, m2 = moment(1), moment(2)
+    G = (wt[:, None] * e * m1[:, None]).sum(axis=0)
+    H = (wt * ((e @ r0) * m1 + m2)).sum()
+    E = (wt * m2).sum()
+    return G, H, E
+
+
+def pressure_slope(face: Face, N: float, cp=None, mode: str = "uniform") -> tuple:
+    """``(P_c, k)``: the pressure at the face's centroid and its gradient (N/A and 0 for
+    uniform pressure; linear: the affine p with its centroid at cp)."""
+    if mode == "uniform" or cp is None:
+        return N / face.area, np.zeros(2)
+    Ix, Iy = face.second_moments
+    return N / face.area, N * np.array([(cp[0] - face.centre[0]) / Ix,
+                                        (cp[1] - face.centre[1]) / Iy])
+
+
+def centre_wrench(face: Face, N: float, cp, mode: str, mu: float, twist,
+                  n: int = 32) -> tuple[np.ndarray, float]:
+    """``((F_x, F_y, T_z), D)`` by the instant-centre rule of order n (see above)."""
+    vx, vy, w = (float(c) for c in twist)
+    P_c, k = pressure_slope(face, N, cp, mode)
+    speed = math.hypot(vx, vy)
+    if abs(w) * face.size <= 1e-12 * speed:           # a translation
+        if speed == 0.0:
+            return np.zeros(3), 0.0
+        centroid = np.asarray(face.centre) + (np.zeros(2) if mode == "uniform" or cp is None
+                                              else np.asarray(cp) - face.centre)
+        ux, uy = vx / speed, vy / speed
+        F = -mu * N * np.array([ux, uy])
+        return (np.array([F[0], F[1], centroid[0] * F[1] - centroid[1] * F[0]]),
+                mu * N * speed)
+    r0 = np.array([-vy / w, vx / w])
+    if math.hypot(*(r0 - np.asarray(face.centre))) > FAR * face.size:
+        # far from the face the slip field is analytic over it (a product rule converges
+        # fast), and the triangles about r0 would cancel (their areas grow as |r0|)
+        rl = rule(face, n)
+        pw = pressure(face, rl, N, cp, mode)
+        return slip_wrench(rl, pw, mu, twist), dissipation(rl, pw, mu, twist)
+    integrals = _polygon_integrals if face.kind == "rectangle" else _disc_integrals
+    G, H, E = integrals(face, r0, P_c, k, n)
+    sg = 1.0 if w > 0 else -1.0
+    return np.array([mu * sg * G[1], -mu * sg * G[0], -mu * sg * H]), mu * abs(w) * E
+
+
+def gauge(friction, wrench, size: float, start=None) -> tuple[float, np.ndarray]:
+    """``(gamma, xi*)``: the gauge of the limit surface at ``wrench = (F_x, F_y, T_z)``,
+    ``max W.xi / D(xi)``, and the unit twist that attains it, in the scaled components
+    ``(v_x, v_y, size w)``.  ``friction(twist) -> (slip wrench, D)`` (for instance
+    :func:`centre_wrench` with the static coefficient).  Found as ``1 / min D`` over the
+    plane ``W.xi = 1``, a convex problem in two coordinates (D is a norm, its gradient the
+    slip wrench's opposite), from ``start`` or from the wrench's own direction."""
+    scale = np.array([1.0, 1.0, 1.0 / size])            # scaled twist -> twist
+    W = np.asarray(wrench, dtype=float) * scale          # W.twist = W_scaled.xi
+    norm = np.linalg.norm(W)
+    if norm == 0.0:
+        return 0.0, np.array([1.0, 0.0, 0.0])
+    e0 = W / norm
+    helper = np.eye(3)[int(np.argmin(np.abs(e0)))]
+    e1 = np.cross(e0, helper)
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(e0, e1)
+    basis = np.vstack([e1, e2])
+
+    def D(c):
+        _, d = friction((e0 / norm + c @ basis) * scale)
+        return d
+
+    def grad(c):
+        f, _ = friction((e0 / norm + c @ basis) * scale)
+        return basis @ (-f * scale)
+
+    c0 = np.zeros(2)
+    if start is not None:
+        s = np.asarray(start, dtype=float)
+        if s @ e0 > 0:
+            c0 = basis @ (s / (s @ e0) / norm)
+    res = minimize(D, c0, jac=grad, method="BFGS", options={"gtol": 1e-14, "maxiter": 400})
+    xi = e0 / norm + res.x @ basis
+    return 1.0 / float(res.fun), xi / np.linalg.norm(xi)
+
+
+@dataclass(frozen=True)
+class Friction:
+    """The friction of one face under one pressure: ``self(twist) -> ((F_x, F_y, T_z),
+    D)`` by the instant-centre rule, or by the product rule with ``product`` set."""
+    face: Face
+    N: float
+    cp: tuple | None = None
+    mode: str = "uniform"
+    mu: float = 1.0
+    n: int = 32
+    product: bool = False
+
+    def __call__(self, twist):
+        if self.product:
+            rl = rule(self.face, self.n)
+            pw = pressure(self.face, rl, self.N, self.cp, self.mode)
+            return slip_wrench(rl, pw, self.mu, twist), dissipation(rl, pw, self.mu, twist)
+        return centre_wrench(self.face, self.N, self.cp, self.mode, self.mu, twist, self.n)
