@@ -10,6 +10,9 @@ import numpy as np
 
 from ..runtime.loop import Segments
 
+# controller.h's CTL_STAT_* in order (the C's CTL_NSTATS: checked when loaded)
+STATS = ("calls", "replans", "failures", "softened", "last_status", "last_iterations")
+
 
 class Compiled:
     """The controller compiled with the timing shim and loaded: ``controller()`` gives a
@@ -31,7 +34,8 @@ class Compiled:
         self.lib = lib
         self.mem = ctypes.create_string_buffer(lib.ctl_sizeof() + 64)
         self.inner = ctypes.c_void_p((ctypes.addressof(self.mem) + 63) // 64 * 64)
-        self.log = np.zeros((4096, 2))
+        lib.ctl_log_columns.restype = ctypes.c_int
+        self.log = np.zeros((4096, lib.ctl_log_columns()))
 
         DP = ctypes.POINTER(ctypes.c_double)
 
@@ -41,6 +45,8 @@ class Compiled:
                         ("laws_n", ctypes.c_int)]
         if ctypes.sizeof(Timed) != lib.ctl_timed_sizeof():
             raise RuntimeError("ctl_timed: the layouts differ")
+        if lib.ctl_timed_nstats() != len(STATS):
+            raise RuntimeError("ctl_stats: the counters differ from controller.h's")
         lib.ctl_law_row.restype = ctypes.c_int
         self.law_log = np.zeros((512, lib.ctl_law_row()))
         self.timed = Timed(self.inner, self.log.ctypes.data_as(DP), len(self.log), 0,
@@ -80,7 +86,15 @@ class Compiled:
 
     def times(self) -> np.ndarray:
         """(t, seconds) of the calls that ran the solver in the last run."""
-        return self.log[:self.timed.n].copy()
+        return self.log[:self.timed.n, :2].copy()
+
+    def solves(self) -> dict:
+        """The calls that ran the solver in the last run, column by column: t, seconds,
+        failed (the law in use went on), softened, the QP's iterations."""
+        rows = self.log[:self.timed.n]
+        return {"t": rows[:, 0].copy(), "seconds": rows[:, 1].copy(),
+                "failed": rows[:, 2] > 0, "softened": rows[:, 3] > 0,
+                "qp_iterations": rows[:, 4].astype(int)}
 
     def laws(self) -> list:
         """(t, Segments) of every law the controller set in the last run (timed)."""
@@ -94,7 +108,7 @@ class Compiled:
         return out
 
     def stats(self) -> dict:
-        out = (ctypes.c_long * 5)()
+        """The counters (controller.h's CTL_STAT_*, by name)."""
+        out = (ctypes.c_long * len(STATS))()
         self.lib.ctl_stats(self.inner, out)
-        return dict(zip(("calls", "replans", "failures", "last_status", "last_iterations"),
-                        out[:]))
+        return dict(zip(STATS, out[:]))

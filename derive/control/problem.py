@@ -43,7 +43,21 @@ LM_RELATIVE = 1e-4     # the Levenberg-Marquardt term: this times the largest of
 T_MIN = 1e-3           # land: the horizon is at least this (s)
 V_N_MAX = -0.05        # land: v_n / v_ref at touchdown at most this (S approaches)
 FREEZE_PERIODS = 1.5   # no re-plan when less than this many periods remain
-MAX_QP_ITER = 120      # see max_qp_iter
+MAX_QP_ITER = 300      # see max_qp_iter
+QP_BUDGET = 450        # the QPs' iterations of one sample in all
+SOFT_ITERATIONS = 3    # Gauss-Newton steps at most while a step leaves the ends unmet
+# the end conditions are soft (exact L1 penalties: a slack per finite side, each costing
+# SOFT_L1 s + SOFT_L2 s^2 / 2 in the objective's units), so that every QP has a solution
+# however far a disturbance puts them; the actuator's limits (the region, the
+# acceleration bound) and the law's own conditions (its start, at rest at its end) hard
+SOFT_L1, SOFT_L2 = 1.0, 1.0
+SOFT_POWER = 3.0       # the penalties at a horizon T: times (T_start / T)^SOFT_POWER
+# a trust region on each QP step, so that the linearised region stays exact: a control
+# point's coordinate moves at most STEP_FRACTION times the region's radius (and T by
+# T_STEP_FRACTION of itself), and the region's linearised rows keep a margin of
+# 3 STEP_FRACTION^2 (|dc|^2 / r^2, the convex constraint's most the step can add): the
+# control points stay in the ball, and P with them (the convex hull)
+STEP_FRACTION, T_STEP_FRACTION = 0.15, 0.25
 DATA_NAME = "ctl_qp_data"   # qp_data's name: the C symbol of controller_data.c
 PIECE_OPTIONS = {"max_num_dir": 1}   # the pieces' reverse derivative one direction at
 #                                       a time: a third less C, as fast
@@ -55,10 +69,11 @@ def freeze(period: float) -> float:
 
 
 def max_qp_iter(problem: "Problem") -> int:
-    """The QP's iteration limit: a solved QP of the land example took 27 iterations at the
-    median, 40 at the 99th percentile and 98 at most (1116 QPs of 40 disturbed runs of
-    derive bench control); those without a solution ran 101 to 258 before saying so.
-    At 120 the latency's tail is bounded and no solvable QP of that sweep is cut short."""
+    """The first QP's iteration limit in a sample (:data:`QP_BUDGET` bounds them all):
+    the QPs of undisturbed samples take about 40 iterations; after a push, a QP whose
+    end conditions are out of the step's reach can take several hundred (the law's
+    acceleration at its bound at most knots: one iteration per row that binds, and
+    those it drops); past the limit the sample keeps the law in use."""
     return MAX_QP_ITER
 
 
@@ -208,6 +223,17 @@ class Problem:
         ends = ca.Function("ends", [qe, w], [ca.vertcat(*g)])
         self.lbg, self.ubg, self.g_names = np.array(lbg), np.array(ubg), names
         self.ng = len(lbg)
+        # the soft rows: the end conditions; their slacks (a finite side each)
+        n_alg = g_alg.shape[0]
+        self.z1 = np.r_[np.zeros(n_alg), np.full(self.ng - n_alg, SOFT_L1)]
+        self.z2 = np.r_[np.zeros(n_alg), np.full(self.ng - n_alg, SOFT_L2)]
+        self.slack_sides = [(i, sd) for i in range(n_alg, self.ng)
+                            for sd, b in ((1.0, self.lbg[i]), (-1.0, self.ubg[i]))
+                            if math.isfinite(b)]
+        self.ns = len(self.slack_sides)
+        E = np.zeros((self.ng - n_alg, self.ns))
+        for j, (i, sd) in enumerate(self.slack_sides):
+            E[i - n_alg, j] = sd
         # single shooting (the controller): the motion through the N pieces from p's q;
         # the end conditions' Jacobian by reverse mode through them
         qk = p[7:]
@@ -233,6 +259,16 @@ class Problem:
             "x": ca.vertcat(w, ca.vec(Q)), "p": p, "f": f_w,
             "g": ca.vertcat(g_a, ends(Q[:, N], w), ca.vec(Q[:, 1:] - q_next),
                             Q[:, 0] - p[7:])}
+        # the same with the end conditions soft, as the QP has them: x = (w, Q, slacks)
+        S = ca.MX.sym("s", self.ns)
+        scale = ca.MX.sym("scale")          # the penalties' factor at this horizon
+        z1s = ca.DM([self.z1[i] for i, _ in self.slack_sides])
+        z2s = ca.DM([self.z2[i] for i, _ in self.slack_sides])
+        self.functions["nlp_ms_soft"] = {
+            "x": ca.vertcat(w, ca.vec(Q), S), "p": ca.vertcat(p, scale),
+            "f": f_w + scale * (ca.dot(z1s, S) + 0.5 * ca.dot(z2s, S * S)),
+            "g": ca.vertcat(g_a, ends(Q[:, N], w) + ca.mtimes(ca.DM(E), S),
+                            ca.vec(Q[:, 1:] - q_next), Q[:, 0] - p[7:])}
         self.functions["piece"] = piece
         # bounds on w: control points in the region's box; T
         lbx, ubx = np.full(self.nw, -np.inf), np.full(self.nw, np.inf)
@@ -241,6 +277,9 @@ class Problem:
             ubx[c * self.nc:(c + 1) * self.nc] = task.region_center[c] + task.region_radius
         lbx[-1] = T_MIN
         self.lbx, self.ubx = lbx, ubx
+        self.region_row = names.index("region")       # C0's; C1, ... follow
+        self.step = STEP_FRACTION * task.region_radius
+        self.region_margin = 3.0 * STEP_FRACTION ** 2
 
     @property
     def qp_data(self):
@@ -251,6 +290,39 @@ class Problem:
         if T_fixed is not None:
             lbx[-1] = ubx[-1] = T_fixed
         return lbx, ubx
+
+    def step_bounds(self, w: np.ndarray, T_fixed: float | None):
+        """The bounds of the QP's step at w: the bounds of w and the trust region."""
+        lbx, ubx = self.bounds(T_fixed)
+        lo, hi = lbx - w, ubx - w
+        lo[:-1] = np.maximum(lo[:-1], -self.step)
+        hi[:-1] = np.minimum(hi[:-1], self.step)
+        lo[-1] = max(lo[-1], -T_STEP_FRACTION * w[-1])
+        hi[-1] = min(hi[-1], T_STEP_FRACTION * w[-1])
+        return lo, hi
+
+    def region_rows(self, uba: np.ndarray) -> np.ndarray:
+        """The linearised region's upper bounds less the margin (in place); the three
+        control points the start holds to P's place and rate (C0, C1, C2) no further
+        out than they are (P may already be out by what the last step's linearisation
+        missed)."""
+        r = self.region_row
+        uba[r:r + self.nc] -= self.region_margin
+        uba[r:r + 3] = np.maximum(uba[r:r + 3], 0.0)
+        return uba
+
+    @staticmethod
+    def penalty_scale(T: float, T_ref: float) -> float:
+        """The soft rows' penalties at a horizon T are the start's (at T_ref) times this:
+        the end conditions' multipliers grow as the horizon shrinks (on the land
+        example from 0.04 at 0.6 s to 1 at 0.11 s and 14 at 0.09 s), and a penalty
+        below them would trade the goal for effort."""
+        return (T_ref / T) ** SOFT_POWER
+
+    def penalties(self, T: float, T_ref: float):
+        """The rows' L1 and quadratic penalties at a horizon T (the start's: T_ref)."""
+        scale = self.penalty_scale(T, T_ref)
+        return self.z1 * scale, self.z2 * scale
 
     def params(self, u: np.ndarray, T_s: float, q_model: np.ndarray) -> np.ndarray:
         """p from the law at the call (u: x, y, z, x', ...), the horizon and the measured

@@ -11,7 +11,9 @@ import re
 import numpy as np
 
 from .. import layout
-from .problem import DATA_NAME, Problem, freeze, max_qp_iter
+from .problem import (DATA_NAME, QP_BUDGET, SOFT_ITERATIONS, SOFT_POWER, T_STEP_FRACTION,
+                      Problem, freeze, max_qp_iter)
+from .solvers import SOFTENED_TOL
 from ..planner.law import BASIS
 
 G = layout.GENERAL
@@ -69,7 +71,12 @@ def render(problem: Problem, w0: np.ndarray, t0: float, t_end: float, period: fl
            "period": _num(period), "n_knots": problem.N + 2,
            "keep": [str(k) for k in problem.keep],
            "basis": [[_num(v) for v in row] for row in BASIS],
-           "lbx": _chunks(problem.lbx), "ubx": _chunks(problem.ubx), "w0": _chunks(w0)}
+           "lbx": _chunks(problem.lbx), "ubx": _chunks(problem.ubx), "w0": _chunks(w0),
+           "ns": problem.ns, "z1": _chunks(problem.z1), "z2": _chunks(problem.z2),
+           "softened_tol": _num(SOFTENED_TOL), "soft_power": _num(SOFT_POWER),
+           "t_ref": _num(w0[-1]), "step": _num(problem.step), "t_step": _num(T_STEP_FRACTION),
+           "region_row": problem.region_row, "region_margin": _num(problem.region_margin),
+           "qp_budget": QP_BUDGET, "max_sqp": max(int(iterations), SOFT_ITERATIONS)}
     env = environment()
     out = {name: env.get_template(f"control/{name}.jinja").render(**ctx)
            for name in ("controller.c", "controller.h", "CMakeLists.txt")}

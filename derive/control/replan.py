@@ -143,14 +143,14 @@ def setup(task, progress: bool = False) -> Setup:
     tick = time.perf_counter()
     problem = Problem(task, ctl.intervals)
     q0 = initial_state_of(task)
-    w0, status, its = initial_solution(problem, pl, q0, pl.law.u(np.array([t0]))[:, 0], t0)
-    if status not in ("Solve_Succeeded", "Solved_To_Acceptable_Level"):
-        raise ControlError(f"the re-planning problem at the start: IPOPT stopped with "
-                           f"{status}")
+    start = initial_solution(problem, pl, q0, pl.law.u(np.array([t0]))[:, 0], t0)
+    w0 = start["w"]
     seconds["problem_and_start"] = time.perf_counter() - tick
     sources = render(problem, w0, t0, T_plan, period, ctl.iterations)
     return Setup(task, pl, problem, w0, t0, period, duration, planned_doc(pl, duration),
-                 sources, seconds, {"ipopt_status": status, "iterations": its,
+                 sources, seconds, {"from": start["start"],
+                                    "ipopt_status": start["status"],
+                                    "iterations": start["iterations"],
                                     "horizon": float(w0[-1])})
 
 
@@ -160,7 +160,8 @@ def run(task, progress: bool = False, setup_: Setup | None = None):
     on the disturbed plant and the plan played open loop on the same plant (``setup_``:
     one made before for this task)."""
     from . import plots
-    from .core import ControlResult, disturbance_dict, measure_run, percentiles_ms
+    from .core import (ControlResult, disturbance_dict, measure_run, percentiles_ms,
+                       with_goal)
     start = time.perf_counter()
     su = setup_ or setup(task, progress)
     ctl = task.scene.control
@@ -176,19 +177,23 @@ def run(task, progress: bool = False, setup_: Setup | None = None):
     closed, law = su.closed(prep, dist, controller)
     su.seconds["closed_loop"] = time.perf_counter() - tick
     if ctl.solver == "sqp":
-        times, laws, cstats = compiled.times(), compiled.laws(), compiled.stats()
+        times, laws, st = compiled.times(), compiled.laws(), compiled.stats()
+        cstats = {"calls": st["calls"], "replans": st["replans"],
+                  "qp_failures": st["failures"], "softened": st["softened"]}
     else:
         st = controller.stats
         times = np.column_stack([st.solve_t, st.solve_s]).reshape(-1, 2)
         laws = st.laws
-        cstats = {"calls": st.calls, "replans": st.replans, "failures": st.failures}
+        cstats = {"calls": st.calls, "replans": st.replans, "ipopt_failures": st.failures,
+                  "softened": st.softened}
     opened = su.open(prep, dist)
     pl = su.plan
     summary = {
         "mode": "replan", "goal": task.goal,
-        "closed_loop": measure_run(task, pl, closed, law, "runtime, closed loop"),
-        "open_loop": measure_run(task, pl, opened, opened.scene.law,
-                                 "runtime, the plan played"),
+        "closed_loop": with_goal(task, measure_run(task, pl, closed, law,
+                                                   "runtime, closed loop")),
+        "open_loop": with_goal(task, measure_run(task, pl, opened, opened.scene.law,
+                                                 "runtime, the plan played")),
         "solve_ms": percentiles_ms(times[:, 1]),
         "solver": {"kind": ctl.solver, "what": what,
                    "qp": "dense dual active set (Goldfarb-Idnani), derive/control/qp.py",
