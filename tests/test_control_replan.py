@@ -266,6 +266,49 @@ def test_pushed_landings_that_stalled_now_land(su, impulse, fraction, before):
     assert not np.any(early)
 
 
+ELLIPSOID_PUSHED_EARLY = {
+    "name": "ellipsoid-pushed-early",
+    "body": {"mass": 0.7758, "inertia": [0.01631, 0.009866, 0.008560], "shape": "ellipsoid",
+             "semi_axes": [0.1970, 0.2152, 0.1886]},
+    "point": {"mass": 0.3112}, "plane": {"restitution": 0.5},
+    "initial": {"com": [0.0, 0.0, 3.757], "com_velocity": [0.1535, -0.02593, 0.0],
+                "omega": [0.9811, 0.4912, 0.5112],
+                "quaternion": [0.990651, -0.050490, 0.126731, 0.0]},
+    "plan": {"goal": "land", "target_matrix": np.eye(3).tolist(),
+             "region": {"center": [0.0, 0.0, 0.0], "radius": 0.15},
+             "max_acceleration": 60.0, "rest_at_ends": True, "objective": "effort"},
+    "control": {"mode": "replan", "period": 0.02, "intervals": 16},
+    "disturbance": {"seed": 10003, "mass_factor": 1.209, "point_mass_factor": 0.7993,
+                    "inertia_factor": [0.9152, 0.7853, 0.9885],
+                    "noise": {"omega": 0.01, "attitude": 0.002, "com": 0.001,
+                              "com_velocity": 0.01},
+                    "pushes": [{"time": 0.1888, "impulse": [-0.1204, 0.01034, -0.02254],
+                                "at": [0.01160, -0.1513, -0.1337]}]},
+}
+
+
+def test_an_ellipsoid_pushed_early_lands():
+    """An ellipsoid dropped from 3.8 m with a spin of 1.2 rad/s, 21 % heavier than its
+    model and pushed by 0.12 N s at a fifth of its fall (a draw of derive bench control,
+    seed 1, that IPOPT at every sample lands 0.3 deg off): the push turns it 97 deg off
+    by touchdown open loop; the C controller had stalled after the push (32 of 53 calls
+    without a solution) and landed 92 deg off.  Now within 2 deg; its first QPs after
+    the push meet the end conditions only in part, and none fails."""
+    task = load_control_task(ELLIPSOID_PUSHED_EARLY)
+    s2 = setup(task)
+    comp = s2.compiled
+    dist = task.scene.disturbance
+    prep = s2.plant(dist)
+    closed, _ = s2.closed(prep, dist, comp.controller())
+    err = upright_error_deg(closed, task.target)
+    err_open = upright_error_deg(s2.open(prep, dist), task.target)
+    st = comp.stats()
+    print(f"ellipsoid pushed early: closed {err:.3f} deg (before: 92.1), open {err_open:.1f} "
+          f"deg; {st}")
+    assert err < 2.0 and err_open > 45.0
+    assert st["softened"] > 0 and st["failures"] == 0
+
+
 def test_start_falls_back_to_the_offline_plan(su, monkeypatch):
     """When IPOPT cannot make the problem at the start usable (three ellipsoid drops of
     a trial stopped at its iteration limit, and derive control exited 1), the start is
@@ -310,12 +353,13 @@ def test_c_controller_returns_the_python_routes_law(su):
     """A disturbed closed loop (mass, inertia, a push, noise) run by the C controller;
     at every call the Python route (the same CasADi function in-process, the NumPy QP)
     is called with the same call and returns the same law: x and x' over the law's whole
-    horizon to 1e-12 of their largest magnitude (measured: 4e-14 and 7e-14 on this run;
-    2e-14 and 1e-13 on others).  x'' to 1e-11: it is a second difference of the control
-    points over h^2 (h = T/30), which magnifies their difference (some ulp: the QP's sums
-    run in another order in NumPy's BLAS than in the C, and its conditioning, about 1e5,
-    carries that to the solution) by 4/h^2 against their scale: measured 1.3e-12 to
-    3e-12."""
+    horizon to 5e-12 of their largest magnitude (measured: 8e-14 and 6e-13 on this run,
+    1.5e-13 and 8e-13 on others; the QPs after the push, with their end conditions
+    soft and a hundred rows active, are the least well conditioned).  x'' to 1e-10: it
+    is a second difference of the control points over h^2 (h = T/30), which magnifies
+    their difference (some ulp: the QP's sums run in another order in NumPy's BLAS than
+    in the C, and its conditioning carries that to the solution) by 4/h^2 against their
+    scale: measured 3.3e-11 to 4.6e-11."""
     comp = su.compiled
     c_ctl = comp.controller(timed=False)
     py = su.python()
@@ -330,7 +374,8 @@ def test_c_controller_returns_the_python_routes_law(su):
         if seg_c is None:
             return None
         laws[0] += 1
-        assert np.max(np.abs(seg_c.knots - seg_p.knots)) <= 1e-15 * (1 + abs(call.t))
+        # the knots are t + k T/N, T the solution's own (to its rounding in each route)
+        assert np.max(np.abs(seg_c.knots - seg_p.knots)) <= 1e-14 * (1 + abs(call.t))
         ts = np.linspace(seg_p.knots[0], seg_p.knots[-2], 400)
         uc = np.array([seg_c.at(t) for t in ts])
         up = np.array([seg_p.at(t) for t in ts])
@@ -344,8 +389,8 @@ def test_c_controller_returns_the_python_routes_law(su):
     print(f"C against Python, {laws[0]} laws: " + ", ".join(f"{k} {v:.1e}"
                                                          for k, v in worst.items()))
     assert laws[0] > 20
-    assert worst["x"] <= 1e-12 and worst["x'"] <= 1e-12
-    assert worst["x''"] <= 1e-11
+    assert worst["x"] <= 5e-12 and worst["x'"] <= 5e-12
+    assert worst["x''"] <= 1e-10
 
 
 def test_closed_loop_replayed_with_its_realised_law(su):
@@ -374,8 +419,10 @@ def test_closed_loop_replayed_with_its_realised_law(su):
     print(f"replay: touchdown {t_r - t_c:.1e} s apart, the state before it "
           f"{np.max(np.abs(q_r - q_c)):.1e}, the {len(common)} rows at common times before "
           f"it {dq:.1e}")
+    scale = 1.0 + np.max(np.abs(q_c))
     assert abs(t_r - t_c) < 1e-12
-    assert np.max(np.abs(q_r - q_c)) < 1e-10 and dq < 1e-10 and len(common) > 25
+    assert np.max(np.abs(q_r - q_c)) < 1e-10 * scale and dq < 1e-10 * scale
+    assert len(common) > 25
 
 
 def test_seeded_landings_upright_closed_not_open(su):

@@ -43,7 +43,7 @@ LM_RELATIVE = 1e-4     # the Levenberg-Marquardt term: this times the largest of
 T_MIN = 1e-3           # land: the horizon is at least this (s)
 V_N_MAX = -0.05        # land: v_n / v_ref at touchdown at most this (S approaches)
 FREEZE_PERIODS = 1.5   # no re-plan when less than this many periods remain
-MAX_QP_ITER = 300      # see max_qp_iter
+MAX_QP_ITER = 450      # see max_qp_iter
 QP_BUDGET = 450        # the QPs' iterations of one sample in all
 SOFT_ITERATIONS = 3    # Gauss-Newton steps at most while a step leaves the ends unmet
 # the end conditions are soft (exact L1 penalties: a slack per finite side, each costing
@@ -58,6 +58,7 @@ SOFT_POWER = 3.0       # the penalties at a horizon T: times (T_start / T)^SOFT_
 # 3 STEP_FRACTION^2 (|dc|^2 / r^2, the convex constraint's most the step can add): the
 # control points stay in the ball, and P with them (the convex hull)
 STEP_FRACTION, T_STEP_FRACTION = 0.15, 0.25
+ATTITUDE_EPS = 1e-3    # keeps the attitude's residual finite at 180 deg
 DATA_NAME = "ctl_qp_data"   # qp_data's name: the C symbol of controller_data.c
 PIECE_OPTIONS = {"max_num_dir": 1}   # the pieces' reverse derivative one direction at
 #                                       a time: a third less C, as fast
@@ -212,9 +213,15 @@ class Problem:
             add("touchdown: h = 0", hN, 0.0, 0.0)
             add("touchdown: v_n < 0", vnN / self.v_ref, -np.inf, V_N_MAX)
         if self.goal == "reorient" or task.at_touchdown == "attitude":
+            # 2 tan(angle/2) axis of target^T A (the angle to the target, to first order):
+            # zero at the target alone, and a step reduces it from any angle short of
+            # 180 deg; sin(angle) axis, the planner's, vanishes at 180 deg too, and a
+            # disturbed landing more than 90 deg off had been steered there (upside down)
             R = ca.mtimes(ca.DM(task.target).T, A_end)
-            add("target attitude", 0.5 * ca.vertcat(R[2, 1] - R[1, 2], R[0, 2] - R[2, 0],
-                                                    R[1, 0] - R[0, 1]), 0.0, 0.0)
+            cos = 0.5 * (R[0, 0] + R[1, 1] + R[2, 2] - 1.0)
+            add("target attitude", ca.vertcat(R[2, 1] - R[1, 2], R[0, 2] - R[2, 0],
+                                              R[1, 0] - R[0, 1]) / (1.0 + cos + ATTITUDE_EPS),
+                0.0, 0.0)
 
         else:
             CS, _ = load("lever")(full(qe), uN, s_of(qe), P)
