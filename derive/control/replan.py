@@ -172,7 +172,8 @@ def run(task, progress: bool = False, setup_: Setup | None = None):
         controller, what = compiled.controller(), "the generated C controller"
     else:
         controller = su.ipopt(keep_laws=True)
-        what = "IPOPT in-process, to convergence every sample"
+        what = ("IPOPT in-process at every sample (the same problem, converged or its "
+                "constraints held to 1e-4)")
     tick = time.perf_counter()
     closed, law = su.closed(prep, dist, controller)
     su.seconds["closed_loop"] = time.perf_counter() - tick
