@@ -29,7 +29,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from derive.bench.control import disturbance, upright_error_deg
+from derive.bench.control import upright_error_deg
 from derive.control.core import load_control_task
 from derive.control.qp import CDenseQP, DenseQP, INFEASIBLE, SOLVED
 from derive.control.replan import setup
@@ -104,6 +104,68 @@ def test_qp_against_qpoases():
     assert worst < 1e-9
 
 
+def _explicit_slacks(qp, z1, z2):
+    """The soft QP written out for a solver without soft rows: a slack variable per
+    finite side of each soft row, its weights on the diagonal and in the gradient."""
+    H, g, A, lba, uba, lbx, ubx = qp
+    n, m = len(g), len(lba)
+    sides = [(i, sd) for i in range(m) if z1[i] > 0
+             for sd, b in ((1.0, lba[i]), (-1.0, uba[i])) if np.isfinite(b)]
+    ns = len(sides)
+    Ha = np.zeros((n + ns, n + ns))
+    Ha[:n, :n] = H
+    ga, Aa = np.r_[g, np.zeros(ns)], np.c_[A, np.zeros((m, ns))]
+    for j, (i, sd) in enumerate(sides):
+        Aa[i, n + j], Ha[n + j, n + j], ga[n + j] = sd, z2[i], z1[i]
+    return (Ha, ga, Aa, lba, uba, np.r_[lbx, np.zeros(ns)], np.r_[ubx, np.full(ns, np.inf)])
+
+
+def test_soft_qp_against_qpoases_with_explicit_slacks():
+    """Soft rows (exact L1 penalties): the NumPy and the C solver against qpOASES on the
+    same QPs written with explicit slack variables, on QPs whose hard form is feasible
+    and on QPs whose hard form is not (a soft row no x in the bounds can meet: then the
+    slack is what the row misses by); with weights above the multipliers, a feasible
+    QP's soft solution is its hard one (the penalty is exact)."""
+    import casadi as ca
+    rng = np.random.default_rng(11)
+    n, m = 12, 9
+    soft_rows = [0, 3, 5]
+    c_qp, py_qp = CDenseQP(n, m, slacks=2 * len(soft_rows)), DenseQP(n, m)
+    worst, exact, missed = 0.0, 0.0, []
+    for trial in range(60):
+        feasible = trial % 3 != 2
+        qp = _random_qp(rng, n, m, feasible)
+        z1 = np.zeros(m)
+        z1[soft_rows] = rng.uniform(0.5, 5.0) if feasible else 1e3
+        z2 = np.where(z1 > 0, rng.uniform(0.1, 2.0), 0.0)
+        ex = _explicit_slacks(qp, z1, z2)
+        na = len(ex[1])
+        S = ca.conic("q", "qpoases", {"h": ca.Sparsity.dense(na, na),
+                                      "a": ca.Sparsity.dense(m, na)},
+                     {"printLevel": "none", "error_on_fail": False})
+        sol = S(h=ex[0], g=ex[1], a=ex[2], lba=ex[3], uba=ex[4], lbx=ex[5], ubx=ex[6])
+        assert S.stats()["success"], trial
+        x_ref = np.array(sol["x"]).ravel()[:n]
+        for solver in (py_qp, c_qp):
+            x, status, _ = solver.solve(*qp, z1, z2)
+            assert status == SOLVED, (trial, status)
+            worst = max(worst, float(np.max(np.abs(x - x_ref)) / (1 + np.max(np.abs(x_ref)))))
+        if not feasible:
+            missed.append(float(py_qp.slack[0]))
+            ax0 = qp[2][0] @ x
+            assert py_qp.slack[0] == pytest.approx(abs(ax0 - qp[3][0]), rel=1e-9, abs=1e-12)
+        else:                               # exact: the hard QP's solution, slacks 0
+            x_hard, status, _ = py_qp.solve(*qp)
+            if status == SOLVED:
+                x_soft, _, _ = py_qp.solve(*qp, 1e4 * (z1 > 0), 1e4 * (z1 > 0))
+                exact = max(exact, float(np.max(np.abs(x_soft - x_hard))))
+                assert np.max(py_qp.slack) < 1e-9
+    print(f"soft QP: worst relative difference from qpOASES {worst:.1e}; the hard solution "
+          f"at large weights to {exact:.1e}; rows no x could meet missed by "
+          f"{min(missed):.3g} to {max(missed):.3g}")
+    assert worst < 1e-9 and exact < 1e-9 and min(missed) > 1.0
+
+
 # ---- the QP's data ----------------------------------------------------------------------
 def test_qp_data_c_and_casadi_and_differences(su):
     """The generated ctl_qp_data (compiled) against CasADi's evaluation of the same
@@ -153,17 +215,151 @@ def _q0(su):
     return initial_state_of(su.task)
 
 
+def disturbance(k: int, T: float, radius: float):
+    """The k-th seeded disturbance of land_push's comfort zone (the landings these
+    checks compare routes on): M, m and each J times a factor in [0.85, 1.15]; one
+    horizontal push of up to 0.05 N s at a time in [0.1, 0.75] of the plan's horizon,
+    at a point of the sphere's surface; the example's noise."""
+    import math
+    from derive.scene.scene import Disturbance
+    rng = np.random.default_rng(1000 + k)
+    f = rng.uniform(0.85, 1.15, 5)
+    t_push = rng.uniform(0.1, 0.75) * T
+    ang = rng.uniform(0.0, 2 * math.pi)
+    P = rng.uniform(0.0, 0.05)
+    at = rng.normal(size=3)
+    at *= radius / np.linalg.norm(at)
+    return Disturbance(seed=k, mass_factor=f[0], point_mass_factor=f[1],
+                       inertia_factor=tuple(f[2:5]), noise=(0.01, 0.002, 0.001, 0.01),
+                       pushes=((t_push, P * math.cos(ang), P * math.sin(ang), 0.0, *at),))
+
+
+def _example_push(su, impulse: float, fraction: float):
+    """land_push.toml's disturbance with its push made ``impulse`` N s (along y, at
+    (0.2, 0, 0)) at ``fraction`` of the planned fall (a robustness trial's plants)."""
+    from dataclasses import replace as rep
+    d = su.task.scene.disturbance
+    return rep(d, pushes=((fraction * su.T_plan, 0.0, impulse, 0.0, 0.2, 0.0, 0.0),))
+
+
+# ---- what a robustness trial found (issue 35) ---------------------------------------------
+@pytest.mark.parametrize("impulse, fraction, before", [(0.12, 0.2, 31.5), (0.03, 0.8, 2.36)])
+def test_pushed_landings_that_stalled_now_land(su, impulse, fraction, before):
+    """The trial's plants of land_push.toml: a 0.12 N s push at 0.2 of the fall (the
+    C controller landed 31.5 deg off: its QPs infeasible after the push, every later
+    one linearised at the same stale solution, the closed loop the open loop), and
+    0.03 N s at 0.8 (2.36 deg, worse than the open loop's 1.51): IPOPT re-planning at
+    every sample lands both within 0.3 deg.  Now within 2 deg, no worse than the open
+    loop, and no sample fails before the last 0.1 s."""
+    from derive.bench.control import touchdown_time
+    comp = su.compiled
+    dist = _example_push(su, impulse, fraction)
+    prep = su.plant(dist)
+    closed, _ = su.closed(prep, dist, comp.controller())
+    solves = comp.solves()
+    err = upright_error_deg(closed, su.task.target)
+    err_open = upright_error_deg(su.open(prep, dist), su.task.target)
+    early = solves["t"][solves["failed"]] < touchdown_time(closed) - 0.1
+    print(f"{impulse} N s at {fraction} of the fall: closed {err:.3f} deg (before: "
+          f"{before} deg), open {err_open:.2f} deg; {comp.stats()}")
+    assert err < 2.0 and err < err_open
+    assert not np.any(early)
+
+
+ELLIPSOID_PUSHED_EARLY = {
+    "name": "ellipsoid-pushed-early",
+    "body": {"mass": 0.7758, "inertia": [0.01631, 0.009866, 0.008560], "shape": "ellipsoid",
+             "semi_axes": [0.1970, 0.2152, 0.1886]},
+    "point": {"mass": 0.3112}, "plane": {"restitution": 0.5},
+    "initial": {"com": [0.0, 0.0, 3.757], "com_velocity": [0.1535, -0.02593, 0.0],
+                "omega": [0.9811, 0.4912, 0.5112],
+                "quaternion": [0.990651, -0.050490, 0.126731, 0.0]},
+    "plan": {"goal": "land", "target_matrix": np.eye(3).tolist(),
+             "region": {"center": [0.0, 0.0, 0.0], "radius": 0.15},
+             "max_acceleration": 60.0, "rest_at_ends": True, "objective": "effort"},
+    "control": {"mode": "replan", "period": 0.02, "intervals": 16},
+    "disturbance": {"seed": 10003, "mass_factor": 1.209, "point_mass_factor": 0.7993,
+                    "inertia_factor": [0.9152, 0.7853, 0.9885],
+                    "noise": {"omega": 0.01, "attitude": 0.002, "com": 0.001,
+                              "com_velocity": 0.01},
+                    "pushes": [{"time": 0.1888, "impulse": [-0.1204, 0.01034, -0.02254],
+                                "at": [0.01160, -0.1513, -0.1337]}]},
+}
+
+
+def test_an_ellipsoid_pushed_early_lands():
+    """An ellipsoid dropped from 3.8 m with a spin of 1.2 rad/s, 21 % heavier than its
+    model and pushed by 0.12 N s at a fifth of its fall (a draw of derive bench control,
+    seed 1, that IPOPT at every sample lands 0.3 deg off): the push turns it 97 deg off
+    by touchdown open loop; the C controller had stalled after the push (32 of 53 calls
+    without a solution) and landed 92 deg off.  Now within 2 deg; its first QPs after
+    the push meet the end conditions only in part, and none fails."""
+    task = load_control_task(ELLIPSOID_PUSHED_EARLY)
+    s2 = setup(task)
+    comp = s2.compiled
+    dist = task.scene.disturbance
+    prep = s2.plant(dist)
+    closed, _ = s2.closed(prep, dist, comp.controller())
+    err = upright_error_deg(closed, task.target)
+    err_open = upright_error_deg(s2.open(prep, dist), task.target)
+    st = comp.stats()
+    print(f"ellipsoid pushed early: closed {err:.3f} deg (before: 92.1), open {err_open:.1f} "
+          f"deg; {st}")
+    assert err < 2.0 and err_open > 45.0
+    assert st["softened"] > 0 and st["failures"] == 0
+
+
+def test_start_falls_back_to_the_offline_plan(su, monkeypatch):
+    """When IPOPT cannot make the problem at the start usable (three ellipsoid drops of
+    a trial stopped at its iteration limit, and derive control exited 1), the start is
+    the offline plan's law itself: the spline through the plan's value, rate and
+    acceleration at the problem's knots (there it equals the plan's law to rounding)."""
+    from derive.control import solvers
+    from derive.control.spline import spline_jets
+    monkeypatch.setattr(solvers, "ms_solve", lambda *a, **k: {
+        "w": np.full(su.problem.nw, np.nan), "status": "Maximum_Iterations_Exceeded",
+        "iterations": 100, "violation": 1.0, "slack": 0.0, "usable": False})
+    pl = su.plan
+    out = solvers.initial_solution(su.problem, pl, _q0(su), pl.law.u(np.array([0.0]))[:, 0])
+    assert "offline plan's law" in out["start"]
+    w = out["w"]
+    C, T = w[:-1].reshape(su.problem.nc, 3, order="F"), w[-1]
+    t = np.linspace(0.0, T, 7)
+    ours = np.array([spline_jets(C, T, tt)[0] for tt in t])
+    assert np.max(np.abs(ours - pl.law.u(t)[0:3].T)) < 1e-3 * su.task.region_radius
+
+
+def test_plan_failure_says_one_thing(monkeypatch):
+    """A plan IPOPT leaves with violations, which the diagnosis then shows feasible:
+    the message says it failed and why, not "infeasible" beside "the task is feasible"."""
+    from derive.planner import solve as S
+    from derive.planner.diagnose import Diagnosis
+    from derive.planner.task import load_task
+    task = load_task(ROOT / "derive" / "planner" / "examples" / "reorient.toml")
+    monkeypatch.setattr(S, "solve_with_continuation", lambda session: [(
+        session.run(session.w_guess, session.limits, cap=2, label="capped"), "")])
+    monkeypatch.setattr(S, "diagnose_failure", lambda session, res: Diagnosis(
+        None, None, "the task is feasible (a plan keeps every limit), but IPOPT did not "
+        "converge from that plan either (Maximum_Iterations_Exceeded)", feasible=True))
+    from derive.planner.goals import goal_of
+    report = S.solve(task, goal_of(task))
+    assert not report.success
+    assert "infeasible" not in report.message and "feasible" in report.message
+    assert report.message.startswith("failed: ")
+
+
 # ---- the C controller and the Python route -----------------------------------------------
 def test_c_controller_returns_the_python_routes_law(su):
     """A disturbed closed loop (mass, inertia, a push, noise) run by the C controller;
     at every call the Python route (the same CasADi function in-process, the NumPy QP)
     is called with the same call and returns the same law: x and x' over the law's whole
-    horizon to 1e-12 of their largest magnitude (measured: 4e-14 and 7e-14 on this run;
-    2e-14 and 1e-13 on others).  x'' to 1e-11: it is a second difference of the control
-    points over h^2 (h = T/30), which magnifies their difference (some ulp: the QP's sums
-    run in another order in NumPy's BLAS than in the C, and its conditioning, about 1e5,
-    carries that to the solution) by 4/h^2 against their scale: measured 1.3e-12 to
-    3e-12."""
+    horizon to 5e-12 of their largest magnitude (measured: 8e-14 and 6e-13 on this run,
+    1.5e-13 and 8e-13 on others; the QPs after the push, with their end conditions
+    soft and a hundred rows active, are the least well conditioned).  x'' to 1e-10: it
+    is a second difference of the control points over h^2 (h = T/30), which magnifies
+    their difference (some ulp: the QP's sums run in another order in NumPy's BLAS than
+    in the C, and its conditioning carries that to the solution) by 4/h^2 against their
+    scale: measured 3.3e-11 to 4.6e-11."""
     comp = su.compiled
     c_ctl = comp.controller(timed=False)
     py = su.python()
@@ -178,7 +374,8 @@ def test_c_controller_returns_the_python_routes_law(su):
         if seg_c is None:
             return None
         laws[0] += 1
-        assert np.max(np.abs(seg_c.knots - seg_p.knots)) <= 1e-15 * (1 + abs(call.t))
+        # the knots are t + k T/N, T the solution's own (to its rounding in each route)
+        assert np.max(np.abs(seg_c.knots - seg_p.knots)) <= 1e-14 * (1 + abs(call.t))
         ts = np.linspace(seg_p.knots[0], seg_p.knots[-2], 400)
         uc = np.array([seg_c.at(t) for t in ts])
         up = np.array([seg_p.at(t) for t in ts])
@@ -192,8 +389,8 @@ def test_c_controller_returns_the_python_routes_law(su):
     print(f"C against Python, {laws[0]} laws: " + ", ".join(f"{k} {v:.1e}"
                                                          for k, v in worst.items()))
     assert laws[0] > 20
-    assert worst["x"] <= 1e-12 and worst["x'"] <= 1e-12
-    assert worst["x''"] <= 1e-11
+    assert worst["x"] <= 5e-12 and worst["x'"] <= 5e-12
+    assert worst["x''"] <= 1e-10
 
 
 def test_closed_loop_replayed_with_its_realised_law(su):
@@ -222,8 +419,10 @@ def test_closed_loop_replayed_with_its_realised_law(su):
     print(f"replay: touchdown {t_r - t_c:.1e} s apart, the state before it "
           f"{np.max(np.abs(q_r - q_c)):.1e}, the {len(common)} rows at common times before "
           f"it {dq:.1e}")
+    scale = 1.0 + np.max(np.abs(q_c))
     assert abs(t_r - t_c) < 1e-12
-    assert np.max(np.abs(q_r - q_c)) < 1e-10 and dq < 1e-10 and len(common) > 25
+    assert np.max(np.abs(q_r - q_c)) < 1e-10 * scale and dq < 1e-10 * scale
+    assert len(common) > 25
 
 
 def test_seeded_landings_upright_closed_not_open(su):
@@ -370,6 +569,11 @@ def test_control_writes_the_plans_keys_for_both_loops(su, tmp_path):
     assert set(s["solve_ms"]) >= {"median", "p99", "max"}
     assert s["closed_loop"]["attitude_error_rad"] < s["open_loop"]["attitude_error_rad"]
     assert s["solver"]["kind"] == "sqp"
+    # whether the goal was met, with the tolerance used (the open loop lands 13 deg off)
+    tol = s["closed_loop"]["goal_tolerance"]["attitude_error_rad"]
+    assert s["closed_loop"]["goal_met"] is (s["closed_loop"]["attitude_error_rad"] <= tol)
+    assert s["closed_loop"]["goal_met"] and not s["open_loop"]["goal_met"]
+    assert {"qp_failures", "softened"} <= set(s["controller"])
 
 
 @pytest.mark.parametrize("change, field", [
@@ -394,15 +598,51 @@ def test_bad_input_one_line_exit_2_nothing_written(tmp_path, change, field):
     assert not out.exists()
 
 
-def test_the_cli_counts_the_qps_without_a_solution():
-    """A trial's landing had 3 QPs without a solution that only control.json told."""
+def test_the_cli_says_the_goal_and_names_the_failures_by_solver():
+    """A trial's landing had QPs without a solution that only control.json told; a 117
+    deg miss printed no verdict; with solver = "ipopt" the CLI spoke of QPs."""
     from types import SimpleNamespace
 
     from derive.control.cli import report_lines
+    from derive.control.core import with_goal
+    task = load_control_task(TASK)
+    missed = with_goal(task, {"status": "done", "touchdown_time": 0.6,
+                              "touchdown_time_error": 0.0, "v_n_minus": -1.0,
+                              "attitude_error_rad": 2.04, "spin_after": 0.0})
+    landed = with_goal(task, {**missed, "attitude_error_rad": 0.004})
+    assert not missed["goal_met"] and landed["goal_met"]
     summary = {"mode": "replan", "goal": "land", "solver": {"what": "the generated C"},
-               "controller": {"calls": 38, "failures": 3}}
-    lines = report_lines(SimpleNamespace(summary=summary, task=None))
-    assert "  3 of 38 calls found no solution to their QP (the law in use went on)" in lines
-    summary["controller"]["failures"] = 0
-    assert not any("no solution" in line for line in report_lines(
-        SimpleNamespace(summary=summary, task=None)))
+               "controller": {"calls": 38, "replans": 35, "qp_failures": 3, "softened": 2},
+               "closed_loop": missed, "open_loop": landed}
+    lines = report_lines(SimpleNamespace(summary=summary, task=task))
+    assert ("  3 of 38 calls: the QP had no solution within its iteration limit (the law "
+            "in use went on)") in lines
+    assert any("2 of 35 laws meet the end conditions only in part" in x for x in lines)
+    assert any(x.startswith("  closed loop:") and "goal NOT met: 117 deg" in x for x in lines)
+    assert any(x.startswith("  open loop:") and "goal met: 0.229 deg" in x for x in lines)
+    summary["controller"] = {"calls": 38, "replans": 36, "ipopt_failures": 2}
+    lines = report_lines(SimpleNamespace(summary=summary, task=task))
+    assert any("IPOPT did not converge" in x for x in lines)
+    assert not any("QP" in x for x in lines)
+
+
+def test_the_cli_exits_1_when_the_closed_loop_misses_its_goal(tmp_path, monkeypatch, capsys):
+    """A 117 deg miss had exited 0 ('done'); derive control now exits 1 when the closed
+    loop misses its goal (its outputs written, the verdict in words), 0 when it meets it,
+    as derive simulate exits 1 for a run that did not end as asked."""
+    from types import SimpleNamespace
+
+    from derive.control import cli, core
+    from derive.control.core import with_goal
+    task = load_control_task(TASK)
+    missed = with_goal(task, {"status": "done", "touchdown_time": 0.6,
+                              "touchdown_time_error": 0.0, "v_n_minus": -1.0,
+                              "attitude_error_rad": 2.04, "spin_after": 0.0})
+    landed = with_goal(task, {**missed, "attitude_error_rad": 0.004})
+    for closed, status in ((missed, 1), (landed, 0)):
+        summary = {"mode": "replan", "goal": "land", "solver": {"what": "the generated C"},
+                   "controller": {"calls": 38, "replans": 38}, "closed_loop": closed}
+        result = SimpleNamespace(summary=summary, task=task, write=lambda *a, **k: [])
+        monkeypatch.setattr(core, "control", lambda *a, **k: result)
+        args = SimpleNamespace(task=TASK, output=str(tmp_path), no_animation=True, quiet=True)
+        assert cli.run(args) == status

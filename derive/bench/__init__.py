@@ -79,13 +79,20 @@ COMMANDS = (
                 Arg.of("--repeats", type=REPEATS, default=5,
                        help="timing repetitions (min taken)"),
             )),
-    Command("control", "the re-planning controller: re-plan latency of the generated C "
-            "(IPOPT in-process and qrqp beside it) and landing under seeded disturbances, "
-            "closed against open loop", "derive.bench.control", (
-                Arg.of("-n", type=count(1, 100_000), default=1000,
-                       help="seeded disturbances (default 1000)"),
-                Arg.of("--ipopt-runs", dest="ipopt_runs", type=count(1, 100), default=3,
-                       help="closed-loop runs solved by IPOPT every sample (default 3)"),
+    Command("control", "the re-planning controller on drawn landings (spheres and "
+            "ellipsoids, drops, spins, model errors, pushes): the C controller against IPOPT "
+            "at every sample (reachability) and the open loop, by disturbance size; its "
+            "solve time per sample", "derive.bench.control", (
+                Arg.of("--tasks", type=count(1, 10_000), default=12,
+                       help="landing tasks drawn (default 12)"),
+                Arg.of("--per-task", dest="per_task", type=count(1, 1000), default=4,
+                       help="disturbances per task, the sizes in turn (default 4)"),
+                Arg.of("--seed", type=count(0, 2 ** 31), default=1,
+                       help="the draws' seed (default 1)"),
+                Arg.of("--workers", type=count(1, 1024), default=None,
+                       help="worker processes (default: every core)"),
+                Arg.of("-o", "--output", dest="out_dir", default="bench-out", metavar="DIR",
+                       help="output folder (control-robustness.png)"),
             )),
 )
 

@@ -5,7 +5,11 @@
 * :mod:`~derive.control.hop`: per-hop feedback on the impact-to-impact (Poincare) map of
   a periodic hop, and the mirror law it is compared with;
 * :mod:`~derive.control.replan`: the plan re-solved in flight, as generated C
-  (``templates/control/``), with its Python route and IPOPT in-process;
+  (``templates/control/``): the pipeline of ``derive control``, over the problem
+  (:mod:`~derive.control.problem`), the law (:mod:`~derive.control.spline`), the C's
+  rendering (:mod:`~derive.control.render`, :mod:`~derive.control.compiled`) and the
+  solvers in Python (:mod:`~derive.control.solvers`: its Python route, IPOPT
+  in-process);
 * :mod:`~derive.control.qp`: the re-planner's dense QP solver (Goldfarb-Idnani), the
   NumPy statement of ``ctl_qp.h``;
 * :mod:`~derive.control.core`: ``derive.control`` (the dispatch on ``[control].mode``,

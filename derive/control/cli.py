@@ -1,12 +1,15 @@
 """``derive control TASK.toml -o DIR``: the command line of the closed loop.
 
 ``add_parser(subparsers)`` adds the subcommand; ``run(args)`` returns the exit status (0
-done, 1 when the loop could not be closed: the offline plan failed) and raises
+the closed loop met its goal; 1 it ran and missed it, said in words and in control.json's
+``goal_met``, its outputs written, or the loop could not be closed: the offline plan
+failed, as ``derive simulate`` exits 1 for a run that did not end as asked) and raises
 :class:`~derive.scene.SceneError` for bad input (exit status 2 in the CLI: one line
 naming the field and the rule, nothing written).
 """
 from __future__ import annotations
 
+import math
 import sys
 
 
@@ -40,7 +43,8 @@ def run(args) -> int:
     for line in report_lines(result):
         print(line)
     print(f"  wrote {', '.join(p.name for p in written)} to {args.output}")
-    return 0
+    closed = result.summary.get("closed_loop", {})
+    return 0 if closed.get("goal_met", True) else 1
 
 
 def _achieved(task, m: dict) -> str:
@@ -48,18 +52,48 @@ def _achieved(task, m: dict) -> str:
     return goal_of(task).achieved_text(m)
 
 
+def _goal_words(m: dict) -> str:
+    """Whether a loop met its goal, in words (control.json's goal_met)."""
+    if "goal_met" not in m:
+        return ""
+    tol = m.get("goal_tolerance", {})
+    if "attitude_error_rad" in m:
+        err = f"{math.degrees(m['attitude_error_rad']):.3g} deg from the target attitude"
+    elif "d_norm" in m:
+        err = f"|d| = {m['d_norm']:.3g} m (tolerance {tol.get('d_norm', 0.0):.3g} m)"
+    else:
+        err = m.get("error", "no touchdown")
+    word = "goal met" if m["goal_met"] else "goal NOT met"
+    return f"{word}: {err} (asked: within {tol.get('degrees', 0):g} deg)"
+
+
+def _failure_lines(s: dict) -> list[str]:
+    """The samples whose solver failed, named for the solver that ran."""
+    ctl = s.get("controller") or {}
+    calls, out = ctl.get("calls", "?"), []
+    if ctl.get("qp_failures"):
+        out.append(f"  {ctl['qp_failures']} of {calls} calls: the QP had no solution within "
+                   "its iteration limit (the law in use went on)")
+    if ctl.get("ipopt_failures"):
+        out.append(f"  {ctl['ipopt_failures']} of {calls} calls: IPOPT did not converge (the "
+                   "law in use went on)")
+    if ctl.get("softened"):
+        out.append(f"  {ctl['softened']} of {ctl.get('replans', '?')} laws meet the end "
+                   "conditions only in part (the goal was out of the step's reach)")
+    return out
+
+
 def report_lines(result) -> list[str]:
     s = result.summary
     lines = [f"{s['mode']} ({s['goal']}): {s['solver'].get('what', '')}"]
     ms = s.get("solve_ms") or {}
     if ms.get("samples"):
-        lines.append(f"  solve per sample: median {ms['median']:.3f} ms, p99 {ms['p99']:.3f} "
-                     f"ms, max {ms['max']:.3f} ms ({ms['samples']} samples)")
-    ctl = s.get("controller") or {}
-    if ctl.get("failures"):
-        lines.append(f"  {ctl['failures']} of {ctl.get('calls', '?')} calls found no solution "
-                     "to their QP (the law in use went on)")
+        lines.append(f"  solve per sample (CPU time): median {ms['median']:.3f} ms, p99 "
+                     f"{ms['p99']:.3f} ms, max {ms['max']:.3f} ms ({ms['samples']} samples)")
+    lines += _failure_lines(s)
     for key, name in (("closed_loop", "closed loop"), ("open_loop", "open loop")):
         if key in s:
-            lines.append(f"  {name}: {_achieved(result.task, s[key])}")
+            words = _goal_words(s[key])
+            lines.append(f"  {name}: {_achieved(result.task, s[key])}"
+                         + (f"; {words}" if words else ""))
     return lines

@@ -33,6 +33,7 @@ MODES = {
 OUTPUT_FILES = ("control.json", "trajectory.csv", "events.csv", "law.csv", "motion.gif")
 LAND_MARGIN = 0.2           # land's default duration: the plan's horizon and a fifth more
 DEFAULT_PERIOD = {"replan": 0.02, "mirror": 0.002, "hop": 0.0}
+GOAL_TOLERANCE_DEG = 2.0    # a loop meets its goal within this (control.json: goal_met)
 
 
 SCENE_MODES = ("hop", "mirror")      # closed around a scene's own gait: derive simulate
@@ -189,6 +190,27 @@ def measure_run(task, plan, result, law, source: str) -> dict:
     """The keys of plan.json's achieved.runtime for a run (``law``: the law it ran)."""
     from ..planner.goals import goal_of
     return goal_of(task).measure(task, plan.law, trajectory_of(result, law, source), {})
+
+
+def with_goal(task, m: dict) -> dict:
+    """A run's measures (:func:`measure_run`) with ``goal_met`` and ``goal_tolerance``:
+    the run ended done and its goal's error is within GOAL_TOLERANCE_DEG (the attitude
+    at touchdown, or at the end of a reorientation; for d = CS x n = 0, |d| within the
+    body's size times sin of it: CS that near the vertical for a lever that long)."""
+    m = dict(m)
+    tol = math.radians(GOAL_TOLERANCE_DEG)
+    if "attitude_error_rad" in m:
+        m["goal_tolerance"] = {"attitude_error_rad": tol, "degrees": GOAL_TOLERANCE_DEG}
+        ok = m["attitude_error_rad"] <= tol
+    elif "d_norm" in m:
+        size = float(task.scene.size[0])
+        m["goal_tolerance"] = {"d_norm": size * math.sin(tol), "degrees": GOAL_TOLERANCE_DEG}
+        ok = m["d_norm"] <= size * math.sin(tol)
+    else:                                   # no touchdown
+        m["goal_tolerance"] = {"degrees": GOAL_TOLERANCE_DEG}
+        ok = False
+    m["goal_met"] = bool(ok and m.get("status") == "done")
+    return m
 
 
 def disturbance_dict(d) -> dict:

@@ -128,7 +128,8 @@ def replans(path: Path, laws: list, realised, plan_law) -> Path:
 
 
 def solve_times(path: Path, times: np.ndarray, what: str, target_ms: float) -> Path:
-    """The solve time of every call that ran the solver, its median and p99."""
+    """The solve time (the thread's CPU time) of every call that ran the solver, its
+    median and p99."""
     fig = _figure(8.0, 3.4)
     ax = fig.add_subplot(1, 1, 1)
     times = np.asarray(times).reshape(-1, 2)
@@ -151,7 +152,7 @@ def solve_times(path: Path, times: np.ndarray, what: str, target_ms: float) -> P
     ax.yaxis.set_minor_formatter(FuncFormatter(
         lambda v, _: f"{v:g}" if f"{v:.0e}"[0] in "25" else ""))
     ax.set_xlabel("t (s)")
-    ax.set_ylabel("solve (ms)")
+    ax.set_ylabel("solve, CPU time (ms)")
     ax.set_title(f"solve time per sample: {what}", **_TITLE)
     ax.grid(alpha=0.3, which="both")
     fig.tight_layout()

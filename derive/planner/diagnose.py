@@ -99,6 +99,7 @@ class Diagnosis:
     message: str
     findings: list = field(default_factory=list)
     solution: object = None         # an NLPResult of the task itself, if it is feasible
+    feasible: bool = False          # shown feasible (a plan keeps every limit)
     runs: int = 0
     iterations: int = 0
     seconds: float = 0.0
@@ -337,7 +338,7 @@ def _feasible(session, run, start, why: str) -> Diagnosis:
         return Diagnosis(None, None, f"the task is feasible ({why}): solved again from "
                                      "that plan", solution=res)
     return Diagnosis(None, None, f"the task is feasible ({why}), but IPOPT did not converge "
-                                 f"from that plan either ({res.status})")
+                                 f"from that plan either ({res.status})", feasible=True)
 
 
 def _continue(session, run, start, limits: Limits, moving: list, need0: dict, raised: dict):

@@ -224,6 +224,11 @@ def solve(task, goal, progress: bool = False, max_rounds: int = 6, w0=None,
             elif found.limit:
                 report.message = ("infeasible: " + found.message + "; "
                                   + report.message.removeprefix("infeasible: "))
+            elif found.feasible:
+                # the task is shown feasible: the violations left are where IPOPT stopped,
+                # not evidence that the task is infeasible
+                report.message = ("failed: " + report.message.removeprefix("infeasible: ")
+                                  + "; " + found.message)
             else:
                 report.message += "; " + found.message
         if not res.success:

@@ -142,11 +142,11 @@ int main() {
       // the angle between the attitude and the target (the identity): trace A = 1 + 2 cos
       const double c = 0.5 * (q[9] + q[13] + q[17] - 1.0);
       const double angle = std::acos(std::fmax(-1.0, std::fmin(1.0, c))) * 180.0 / std::acos(-1.0);
-      long stats[5];
+      long stats[CTL_NSTATS];
       ctl_stats(memory.data(), stats);
       std::printf("touchdown at t = %.6f s, %.3f deg from upright; %d calls, %d laws, %ld "
                   "QPs without a solution; worst jump of x, x' at a call %.2e\n",
-                  t, angle, calls, laws, stats[2], worst_jump);
+                  t, angle, calls, laws, stats[CTL_STAT_FAILURES], worst_jump);
       const bool ok = angle < 2.0 && worst_jump < 1e-12 && laws > 10;
       std::printf("%s\n", ok ? "ok" : "FAIL");
       return ok ? 0 : 1;
