@@ -17,8 +17,8 @@
 
 #define CRT_EPS 2.220446049250313e-16     /* double precision unit round-off x 2 */
 
-static double crt_max(double a, double b) { return a > b ? a : b; }
-static double crt_min(double a, double b) { return a < b ? a : b; }
+static inline double crt_max(double a, double b) { return a > b ? a : b; }
+static inline double crt_min(double a, double b) { return a < b ? a : b; }
 
 /* sin and cos of x together (derive/emit/sincos.py): Cody and Waite's reduction
    r = x - k pi/2 = hi + lo with pi/2 in three parts (k times the first two exact for
