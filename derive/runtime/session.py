@@ -134,7 +134,8 @@ class Session:
             what = (f"the parameter {abi.PARAMETERS[k].name} = {self._prm[k]!r} (it must "
                     f"be finite)") if 0 <= k < len(abi.PARAMETERS) else "a parameter"
         elif status == _S["bad_law"]:
-            what = "the run: no law set (or a law of several bodies, which no model reads yet)"
+            what = ("the run: no law set (or a law of several bodies in a model of one "
+                    "point: only the moments models read one)")
         else:
             what = "the run's initial state"
         return SceneError("[run]", f"the runtime refused {what} ({name}); please report "

@@ -273,10 +273,11 @@ def run_singles(base: dict, origin, items: list, keep: str, ready: list) -> tupl
         except SceneError as exc:
             cols["error"][k] = f"variant {index}: {exc}"
             continue
-        groups.setdefault((prep.kind, id(prep.scene.law)), []).append((k, index, prep))
+        groups.setdefault((prep.kind, id(prep.scene.runtime_law)), []).append(
+            (k, index, prep))
     for (kind, _), members in groups.items():
         preps = [p for _, _, p in members]
-        part = Part(kind, preps[0].scene.law, np.array([i for _, i, _ in members]),
+        part = Part(kind, preps[0].scene.runtime_law, np.array([i for _, i, _ in members]),
                     np.array([p.scene.t0 for p in preps]),
                     np.array([p.scene.t0 + p.scene.duration for p in preps]),
                     np.array([p.start.q0 for p in preps]), np.array([p.options for p in preps]),
