@@ -67,6 +67,11 @@ _BODY_PARAMETERS = (
       for r in range(1, LAW_MAX_ROTORS + 1)),
 )
 
+# the moments models' rule on the bodies' parameters (crt_bodies.h, crt_bodies_fault)
+BODY_PARAMETERS = frozenset(("m", *(name for name, _ in _BODY_PARAMETERS)))
+BODIES_RULE = ("describe the law's bodies: n_points and n_rotors the law's, each m_j >= 0 "
+               "and m their sum, each rotor's axis (named by a_r_x) a unit vector, I_r >= 0")
+
 # Parameters: a double vector of the scene's numbers, read by the model functions.
 PARAMETERS = _names(
     ("M", "mass of the carrier"),

@@ -120,6 +120,7 @@ class Library:
         self.nq = lib.crt_nq()
         self.session_size = lib.crt_sizeof()
         self.has_plane = bool(lib.crt_has_plane())
+        self.moments = lib.crt_u_width() != 9      # u: the bodies' moments (crt_bodies.h)
         self.labels = tuple(lib.crt_state_name(i).decode() for i in range(self.nq))
         self._check_names()
 
