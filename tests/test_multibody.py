@@ -427,3 +427,24 @@ def test_random_scenes_on_a_rough_plane_keep_their_properties():
         verdicts.append((i, res.model, *judge_run(res, size)))
     assert all(v[2] in ("ok", "painleve") for v in verdicts), verdicts
     assert {v[1] for v in verdicts} == {"moments_rough"}
+
+
+# ---- the README's examples ----------------------------------------------------------------
+def _example(name: str) -> str:
+    from importlib import resources
+    return str(resources.files("derive.scene") / "examples" / f"{name}.toml")
+
+
+def test_the_examples_of_several_bodies_do_what_the_readme_says():
+    capsule = simulate(_example("two-mass-capsule"))
+    bal = energy_balance(capsule, motion(capsule))
+    assert capsule.model == "moments_rough" and capsule.status == "done"
+    assert 0.16 < capsule.q[-1][0] < 0.17 and abs(capsule.q[-1][1]) < 1e-9   # 16.5 cm on +x
+    assert capsule.stats["sticks"] >= 20 and capsule.stats["slips"] >= 20
+    assert abs(bal["residual"]) < 1e-9 and bal["work_of_friction"] < 0
+    sphere = simulate(_example("rotor-sphere"))
+    bal = energy_balance(sphere, motion(sphere))
+    assert sphere.model == "moments_rough" and sphere.status == "done"
+    assert sphere.stats["slips"] == 0 and np.hypot(*sphere.slip.T).max() < 1e-5
+    assert sphere.q[-1][0] < -0.8 and sphere.q[-1][1] > 0.5        # off along -x, then +y
+    assert abs(bal["residual"]) < 1e-8 and len(bal["drive_work_by_body"]) == 3

@@ -18,7 +18,7 @@ chooses one and fills its numbers:
   bodies seen through their moments, summed in C from every body's law (crt_bodies.h):
   the model of every scene that is not one point (several points, rotors, or none); a
   one-point scene takes it only when ``[run].model`` asks (the same motion as the
-  general model's, at about 1.3 times its cost).
+  general model's, at about 1.2 times its cost: derive bench bodies).
 
 The conditions read the law's program (``is_zero``) and its samples; nothing symbolic.
 """
@@ -114,7 +114,7 @@ def candidates(scene: Scene) -> list:
     # a one-point scene's moments model, chosen only by [run].model (last: never auto)
     moments = ("moments_rough" if scene.rough else "moments",
                "the one point through its moments, as [run].model asks (the general "
-               "model's motion at about 1.3 times its cost)")
+               "model's motion at about 1.2 times its cost)")
     if scene.rough:
         return [("rough", f"the plane has friction (mu_f = {scene.friction:g}): the slip of "
                           "S needs the horizontal velocity of C and the whole attitude"),
