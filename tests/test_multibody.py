@@ -408,6 +408,25 @@ def test_a_controller_is_refused_and_a_push_acts_on_several_bodies():
         parse_scene({**doc, "control": {"mode": "hop"}})
 
 
+def test_a_study_of_several_bodies_runs_as_its_variants_one_by_one():
+    """simulate_many over a scene of several bodies (its variants read in bulk, run by
+    crt_run_many on the bodies' law) gives each variant's own run."""
+    from derive.runtime.batch import simulate_many
+    rng = np.random.default_rng(13)
+    doc = bouncing_scene(rng, 2, 1)
+    variants = [{"plane.restitution": e, "body.mass": M} for e in (0.5, 0.8)
+                for M in (doc["body"]["mass"], 1.5)]
+    out = simulate_many(doc, variants)
+    assert len(out.rows) == 4
+    for row, change in zip(out.rows, variants):
+        one = copy.deepcopy(doc)
+        one["plane"]["restitution"] = change["plane.restitution"]
+        one["body"]["mass"] = change["body.mass"]
+        res = simulate(one)
+        assert (row["model"], row["status"]) == ("moments", "done")
+        assert (row["impacts"], row["steps"]) == (res.stats["impacts"], res.stats["steps"])
+
+
 # ---- the rough plane: properties over random scenes ---------------------------------------
 def test_random_scenes_on_a_rough_plane_keep_their_properties():
     """0-6 points and 0-3 rotors, mu_f 0.05 to 1.5, landing, sliding, sticking: judged

@@ -175,7 +175,8 @@ def _parts(cols, index: np.ndarray, members: list, base: dict, origin, base_v: d
     n = cols.n
     keys = choice.symmetry_key(cols.v["[initial].omega"], cols.v["[body].inertia"])
     code = sum(np.broadcast_to(b, (n,)).astype(int) << k for k, b in enumerate(keys))
-    scene, law = cols.scene, cols.draft.law
+    scene = cols.scene
+    law = cols.draft.law if cols.draft.one_point else cols.draft.bodies   # the runtime's
     out, alone_ones = [], []
     for c in np.unique(code[cols.ok]):
         members_c = cols.ok & (code == c)
