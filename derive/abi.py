@@ -67,6 +67,11 @@ _BODY_PARAMETERS = (
       for r in range(1, LAW_MAX_ROTORS + 1)),
 )
 
+# the moments models' rule on the bodies' parameters (crt_bodies.h, crt_bodies_fault)
+BODY_PARAMETERS = frozenset(("m", *(name for name, _ in _BODY_PARAMETERS)))
+BODIES_RULE = ("describe the law's bodies: n_points and n_rotors the law's, each m_j >= 0 "
+               "and m their sum, each rotor's axis (named by a_r_x) a unit vector, I_r >= 0")
+
 # Parameters: a double vector of the scene's numbers, read by the model functions.
 PARAMETERS = _names(
     ("M", "mass of the carrier"),
@@ -290,6 +295,8 @@ CONTROL_FAULTS = _names(
     ("nonfinite", "a coefficient is not finite"),
     ("position_jump", "x, y or z of the new law at its start differs from the law's"),
     ("velocity_jump", "x', y' or z' of the new law at its start differs from the law's"),
+    ("bodies", "the session's law is of several bodies (crt_set_law_bodies): a controller "
+               "sets one point's law"),
 )
 CTL_MAX_KNOTS = 256
 PUSH_COLUMNS = ("time", "P_X", "P_Y", "P_Z", "at_x", "at_y", "at_z")

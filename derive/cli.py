@@ -260,10 +260,9 @@ def _simulate_sweep(args, start: float) -> int:
     import time
     from pathlib import Path
     from .scene import SceneError, overrides, parse_scene
-    from .scene.bodies import refuse_runtime
     try:
         doc, base, origin = _scene_doc(args)
-        refuse_runtime(parse_scene(doc, origin, base=base))    # the base must be valid
+        parse_scene(doc, origin, base=base)                     # the base must be valid
         grid = dict(overrides.parse_sweep(text) for text in args.sweep)
         n = 1
         for values in grid.values():
@@ -342,10 +341,10 @@ def cmd_scene(args: argparse.Namespace) -> int:
         raise UsageError("scene check: give the scene file")
     try:
         scene = load_scene(args.file)
-        if not scene.one_point:
-            return _check_bodies(args.file, scene)
         from .runtime.choice import choose
         kind, why = choose(scene)
+        if not scene.one_point:
+            return _check_bodies(args.file, scene, kind, why)
     except SceneError as exc:
         raise UsageError(str(exc)) from None
     law = scene.law
@@ -357,13 +356,10 @@ def cmd_scene(args: argparse.Namespace) -> int:
     return 0
 
 
-def _check_bodies(file, scene) -> int:
+def _check_bodies(file, scene, kind: str, why: str) -> int:
     """``derive scene check`` of a scene whose internal bodies are not one point: valid,
-    each body's law proved, and not run yet."""
-    from .scene.bodies import describe
-    print(f"{file}: valid; {describe(len(scene.points), len(scene.rotors))} (the runtime "
-          "for internal bodies other than one point is not built yet: `derive simulate` "
-          "refuses the scene)")
+    its model, and each body's law proved."""
+    print(f"{file}: valid; model {kind} ({why})")
     for p in scene.points:
         s = p.summary
         given = f"a table of {len(p.law.knots)} samples" if p.law.kind == "table" \
@@ -383,7 +379,7 @@ def _check_bodies(file, scene) -> int:
 def cmd_stability(args: argparse.Namespace) -> int:
     from dataclasses import replace
     from .scene import SceneError, load_scene, parse_scene
-    from .scene.bodies import refuse_runtime
+    from .scene.bodies import refuse_analysis
     from .stability import scenes, sweep
     from .stability.families import FamilyError
     if bool(args.scene) == bool(args.family):
@@ -399,7 +395,7 @@ def cmd_stability(args: argparse.Namespace) -> int:
             scene = parse_scene(scenes.example(args.family, settings), f"--family {args.family}")
         else:
             scene = load_scene(args.scene)
-        refuse_runtime(scene)
+        refuse_analysis(scene, "derive stability")
         if args.long is not None:
             if args.long < 0:
                 raise SceneError("--long", f"must be >= 0 (got {args.long})")

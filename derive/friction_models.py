@@ -338,13 +338,16 @@ def wrench_rates() -> FunctionSpec:
         definitions=MASS_DEFINITIONS)
 
 
-def runtime_specs() -> list[FunctionSpec]:
-    """What the rough model's runtime calls (templates/runtime/model.c.jinja, crt_rough*.h
+def runtime_specs(family: str = "general") -> list[FunctionSpec]:
+    """What a rough model's runtime calls (templates/runtime/model.c.jinja, crt_rough*.h
     and the Darboux-Keller step of crt_rk_steps.h; the slip stage in polar form reads
-    impulse_slip_direction_rate, not impulse_slip_rate)."""
-    return [delassus(), contact_velocity(), impulse_slip_direction_rate(),
-            impulse_stick_rate(), impulse_resliding(), apply_impulse(), sliding_rhs(),
-            sticking_rhs(), contact_wrench(), wrench_rates()]
+    impulse_slip_direction_rate, not impulse_slip_rate): the family's functions (the
+    rough model's general ones, the moments_rough model's moments ones) and those of W, or
+    of omega' and R, alone."""
+    return [delassus(family), contact_velocity(family), impulse_slip_direction_rate(),
+            impulse_stick_rate(), impulse_resliding(), apply_impulse(family),
+            sliding_rhs(family), sticking_rhs(family), contact_wrench(family),
+            wrench_rates()]
 
 
 def friction_specs() -> list[FunctionSpec]:

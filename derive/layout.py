@@ -112,9 +112,12 @@ VARIATIONAL = Layout("variational", VERTICAL.labels + _PHI,
                      {"omega": _OMEGA, "n": _N, "Phi": _PHI}, {"Z": "Z_C", "Zd": "Z_C'"})
 LAYOUTS = {lay.model: lay for lay in (GENERAL, VERTICAL, ATTITUDE, TRANSLATIONAL, PLANAR,
                                       AXISYMMETRIC, VARIATIONAL)}
-# the rough model (Coulomb friction at S) runs the general state
+# the rough model (Coulomb friction at S) runs the general state, and so do the models of
+# internal bodies other than one point (moments, moments_rough: their input u is the
+# MOMENTS below, not a state)
 ROUGH = GENERAL
 LAYOUTS["rough"] = ROUGH
+LAYOUTS["moments"] = LAYOUTS["moments_rough"] = GENERAL
 
 
 def of(model: str) -> Layout:

@@ -539,13 +539,15 @@ def layout_doc() -> str:
 # of a scene at run time.  Besides the functions above it needs the contact right-hand side
 # with the free normal acceleration, and the closed forms of the reduced models.
 @lru_cache(maxsize=None)
-def runtime_contact(model: str) -> FunctionSpec:
+def runtime_contact(model: str, family: Family = POINT) -> FunctionSpec:
     """``contact_rhs`` with a third output, ``a_free`` = dv_n/dt without the reaction
-    (the runtime compares it with 0 to tell resting from leaving)."""
+    (the runtime compares it with 0 to tell resting from leaving); of the family's
+    system (the moments': ``moments_contact_rhs_free``)."""
     from .contact import contact_dynamics
-    base = contact_rhs(model)
-    a_free = contact_dynamics().a_free.xreplace(dict(zip(nt.omega_dot, OMEGA_DOT_FREE)))
-    return FunctionSpec(name=f"{model}_contact_rhs_free", doc=base.doc + " Also a_free.",
+    base = contact_rhs(model, family)
+    a_free = contact_dynamics(family.system).a_free.xreplace(
+        dict(zip(nt.omega_dot, OMEGA_DOT_FREE)))
+    return FunctionSpec(name=f"{base.name}_free", doc=base.doc + " Also a_free.",
                         inputs=base.inputs,
                         outputs=base.outputs + (Vector("a_free", (a_free,), ("a_free",)),),
                         solves=base.solves, definitions=base.definitions)

@@ -186,3 +186,21 @@ def test_work_precision_curves_are_read_between_runs():
     row = next(r for r in rows if r["level"] == 1e-12)
     assert row["ok"] and not row["grid_ok"]
     assert row["default_s"] < 0.0725 and row["grid_default_s"] == 0.082
+
+
+def test_bodies_bench_sees_a_swell_and_builds_its_scenes():
+    """derive bench bodies: a cost growing as (N + R)^2 is refused by its no-swell fit (a
+    linear one is not), and its scenes carry the bodies they say."""
+    from derive.bench import bodies
+    from derive.bench.timing import Spread
+    from derive.scene import parse_scene
+
+    def grid(cost):
+        return {(n, r): {"per_evaluation": Spread.of([cost(n, r)])}
+                for n in bodies.POINTS for r in bodies.ROTORS}
+    _, linear = bodies.linear_fit(grid(lambda n, r: 1.0 + 0.4 * n + 0.1 * r))
+    _, square = bodies.linear_fit(grid(lambda n, r: 1.0 + 0.4 * (n + r) ** 2))
+    assert linear < 1.0 + 1e-12 and square > bodies.SWELL
+    sc = parse_scene(bodies.scene(8, 4))
+    assert (len(sc.points), len(sc.rotors)) == (8, 4)
+    assert parse_scene(bodies.scene(1, 0)).one_point

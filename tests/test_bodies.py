@@ -101,7 +101,9 @@ RULES = [
      "[[rotor]]: at most 8 rotors"),
     (_set(("rotor",), {"axis": [0.0, 0.0, 1.0], "inertia": 1.0, "law": "t"}),
      "[rotor]: must be an array of tables"),
-    (_set(("run", "model"), "planar"), "[run].model: 'planar' is a reduction"),
+    (_set(("run", "model"), "planar"), "[run].model: 'planar' reads one point's law"),
+    (_set(("run", "model"), "general"), "[run].model: 'general' reads one point's law"),
+    (_set(("control",), {"mode": "hop"}), "[control]: closes its loop around one point's"),
     (_set(("initial", "com"), [0.0, 0.0, 0.3]), "[initial].com: the lowest point S starts"),
 ]
 
@@ -152,13 +154,14 @@ def test_an_axis_within_the_tolerance_is_normalised_and_bodies_are_carried():
     assert scene.bodies_law.width == layout.law_width(3, 2) == 33
 
 
-def test_no_point_is_valid_and_not_run():
+def test_no_point_is_valid_and_runs_as_a_bare_carrier():
     doc = builtin_doc()
     doc.pop("point")
     scene = parse_scene(doc)
     assert scene.points == () and scene.rotors == () and scene.m == 0.0
-    with pytest.raises(SceneError, match=r"^\[point\]: no point and no rotor: the runtime"):
-        simulate(doc)
+    res = simulate(doc)
+    assert res.model == "moments" and res.why.startswith("no point and no rotor")
+    assert res.status == "done" and res.stats["impacts"] > 0
 
 
 def test_one_point_as_an_array_of_tables_runs_as_point_bit_for_bit():
@@ -368,16 +371,14 @@ def test_random_multibody_documents_are_accepted_or_refused_naming_the_element()
 
 
 def test_multibody_documents_through_the_fuzz_worker_and_the_command_line():
-    """A sample through the sandboxed worker (parse and simulate: a valid scene of
-    other bodies than one point is refused by the runtime, naming them) and a few
-    through `derive simulate` (exit 2, one line naming the element, nothing written)."""
+    """A sample through the sandboxed worker (parse and simulate: a valid scene runs,
+    whatever its bodies) and a few through `derive simulate` (exit 2, one line naming the
+    element, nothing written)."""
     rng = np.random.default_rng(7)
     cases = []
     for i in range(40):
         doc, want = _random_document(rng)
-        fields = (want.split(":")[0],) if want else ("[[point]]", "[[rotor]]", "[point]")
-        if not want and len(doc["point"]) == 1 and "rotor" not in doc:
-            fields = ()
+        fields = (want.split(":")[0],) if want else ()
         cases.append(Case(i, "scene", f"bodies {i}", doc, expect="either", fields=fields))
     out = fuzz.run_api(cases, simulate=True, parse_limit=2.0, run_limit=10.0)
     assert not any(o.bad for o in out), fuzz.report(out)

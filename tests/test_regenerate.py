@@ -1,10 +1,17 @@
-"""The README's guide "Regenerating for a changed model", followed in a scratch copy:
-the capsule of the guide appended to derive/shapes.py, ``derive emit``, and a tilted
-capsule carrying a fixed point dropped on the plane.  Its first impact is checked against
-the closed form of a rigid body struck at its lowest point (the runtime, compiled from
-the regenerated C into an empty cache, must pick the new surface up by itself)."""
+"""The README's guide "Regenerating for a changed model", followed in a scratch copy (one
+``derive emit`` for both changes):
+
+* a new surface: the capsule of the guide appended to derive/shapes.py, and a tilted
+  capsule carrying a fixed point dropped on the plane, its first impact checked against
+  the closed form of a rigid body struck at its lowest point (the runtime, compiled from
+  the regenerated C into an empty cache, must pick the new surface up by itself);
+* a new kind of internal body: the rigid pendulum of tests/regenerate_pendulum.patch (the
+  files the README names, and no other), a pendulum turning the body in free flight
+  against its closed form and one dropped on the plane whose energy balance closes with
+  its drive's work."""
 import json
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -12,6 +19,7 @@ import textwrap
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -89,6 +97,60 @@ TIP = textwrap.dedent('''
 ''')
 
 
+# the pendulum of the guide: a closed form in free flight, and a drop whose energy balance
+# closes with its drive's work (the share derived in SymPy, run in C; the energy and the
+# power written in NumPy)
+PENDULUM = textwrap.dedent('''
+    import json, math
+    import numpy as np
+    import derive
+    from derive.runtime.motion import energy_balance, motion
+
+    M, m, r0, J = 2.0, 0.3, 0.2, [0.4, 0.5, 0.6]
+    Izz, w0, amp, nu = 0.003, 1.5, 0.8, 3.0
+    res = derive.simulate({
+        "name": "pendulum-spin",
+        "body": {"mass": M, "inertia": J, "shape": "none"},
+        "pendulum": [{"axis": [0.0, 0.0, 1.0], "arm": [r0, 0.0, 0.0], "mass": m,
+                      "inertia": [0.001, 0.0, 0.0, 0.002, 0.0, Izz],
+                      "law": f"{amp}*sin({nu}*t)"}],
+        "initial": {"com": [0.0, 0.0, 10.0], "omega": [0.0, 0.0, w0]},
+        "run": {"duration": 2.0, "rtol": 1e-12, "atol": 1e-14, "output_dt": 0.1}})
+    # about z through O: K_z = (J_z + mu r^2 + G_zz) omega_z + (mu r^2 + G_zz) phi'
+    mu = m * M / (m + M)
+    Jz, k = J[2] + mu * r0 ** 2 + Izz, mu * r0 ** 2 + Izz
+    Kz = Jz * w0 + k * amp * nu
+    worst = 0.0
+    for t, q in zip(res.t, res.q):
+        phi, rate = amp * math.sin(nu * t), amp * nu * math.cos(nu * t)
+        head = (Kz * t - k * phi) / Jz
+        c, s = math.cos(head), math.sin(head)
+        A = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+        worst = max(worst, abs(q[8] - (Kz - k * rate) / Jz), *np.abs(q[6:8]),
+                    np.abs(q[9:18] - A.ravel()).max())
+    drop = derive.simulate({
+        "name": "pendulum-drop",
+        "body": {"mass": 1.0, "inertia": [0.02, 0.03, 0.04], "shape": "sphere",
+                 "radius": 0.2},
+        "pendulum": [{"hinge": [0.0, 0.0, 0.05], "axis": [0.0, 0.6, 0.8],
+                      "arm": [0.1, 0.0, 0.0], "mass": 0.2,
+                      "inertia": [0.001, 0.0002, 0.0, 0.002, 0.0, 0.0015],
+                      "law": "1.2*sin(5*t)"}],
+        "plane": {"restitution": 0.3},
+        "initial": {"com": [0.0, 0.0, 0.6], "omega": [0.4, -0.3, 1.0]},
+        "run": {"duration": 2.0, "rtol": 1e-11, "atol": 1e-13}})
+    mo = motion(drop)
+    bal = energy_balance(drop, mo)
+    print(json.dumps({"models": [res.model, drop.model], "worst": worst,
+                      "drop": [drop.status, drop.stats["impacts"], drop.stats["contacts"]],
+                      "residual": bal["residual"] / float(np.abs(mo.E).max()),
+                      "drives": list(bal["drive_work_by_body"])}))
+''')
+
+
+PATCH = ROOT / "tests" / "regenerate_pendulum.patch"
+
+
 def _guide_block() -> str:
     text = (ROOT / "README.md").read_text(encoding="utf-8")
     after = text.split("<!-- shape-example -->\n", 1)[1]
@@ -110,12 +172,25 @@ def _run(root: Path, cache: Path, *args) -> subprocess.CompletedProcess:
                           text=True, timeout=600)
 
 
-def test_a_shape_added_as_the_readme_says_reaches_a_correct_impact(tmp_path):
+@pytest.fixture(scope="module")
+def regenerated(tmp_path_factory):
+    """A scratch copy with the guide's capsule and pendulum, emitted once: (its root, the
+    compile cache it uses)."""
+    tmp_path = tmp_path_factory.mktemp("regenerate")
     root = _scratch(tmp_path)
     with open(root / "derive" / "shapes.py", "a", encoding="utf-8") as f:
         f.write("\n\n" + _guide_block())
+    patch = subprocess.run(["git", "apply", str(PATCH)], cwd=root, capture_output=True,
+                           text=True)
+    assert patch.returncode == 0, patch.stderr
     emit = _run(root, tmp_path / "cache", "-m", "derive", "emit")
     assert emit.returncode == 0, emit.stderr[-3000:]
+    return root, tmp_path / "cache"
+
+
+def test_a_shape_added_as_the_readme_says_reaches_a_correct_impact(regenerated):
+    root, cache = regenerated
+    tmp_path = cache.parent
     for name in ("c/lowest_point_capsule.c", "c/lowest_point_rate_capsule.c",
                  "casadi/lowest_point_capsule.casadi"):
         assert (root / "generated" / name).is_file(), name
@@ -137,3 +212,24 @@ def test_a_shape_added_as_the_readme_says_reaches_a_correct_impact(tmp_path):
     status, contacts = tip.stdout.split()[-2:]
     assert (status, contacts) == ("surface_jump", "1"), tip.stdout
 
+
+
+def test_the_patch_touches_the_files_the_readme_names():
+    text = (ROOT / "README.md").read_text(encoding="utf-8")
+    block = text.split("<!-- body-kind-files -->", 1)[1].split("<!-- body-kind-files:end -->")[0]
+    named = set(re.findall(r"`((?:derive|templates)/[\w/]+\.(?:py|h))`", block))
+    touched = set(re.findall(r"^diff --git a/(\S+)", PATCH.read_text(encoding="utf-8"), re.M))
+    assert touched == named - {"derive/runtime/drawing.py"}, (touched ^ named)
+
+
+def test_a_pendulum_added_as_the_readme_says_turns_the_body_as_its_closed_form(regenerated):
+    root, cache = regenerated
+    assert "pendulum_moments" in (root / "generated/runtime/model_moments.c").read_text()
+    assert (root / "generated/c/pendulum_moments.c").is_file()
+    run = _run(root, cache, "-c", PENDULUM)
+    assert run.returncode == 0, run.stderr[-3000:]
+    got = json.loads(run.stdout.strip().splitlines()[-1])
+    assert got["models"] == ["moments", "moments"] and got["worst"] < 1e-9, got
+    status, impacts, contacts = got["drop"]
+    assert status == "done" and impacts > 2 and contacts >= 1, got
+    assert abs(got["residual"]) < 1e-9 and got["drives"] == ["[[pendulum]] 1"], got

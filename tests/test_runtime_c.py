@@ -8,7 +8,9 @@ same as the loop), under AddressSanitizer and UndefinedBehaviorSanitizer, for a 
 with impacts and resting contact, one with a tabulated law, and one without a plane,
 with every method; and the rough model (crt_friction.h) on a scene whose frictional
 impacts accumulate into contact that sticks, slips and lifts off, and on one that sticks,
-slips and reverses while the point drives it.
+slips and reverses while the point drives it; and the moments models (crt_bodies.h) on
+scenes of three points (two of them tables sharing one spline) and two rotors, smooth
+and rough, whose impacts accumulate into contact.
 """
 from __future__ import annotations
 
@@ -122,9 +124,19 @@ def scene_fields(make_doc, methods) -> dict:
         assert other.kind == prep.kind
         assert np.array_equal(other.parameters, prep.parameters)
         assert np.array_equal(other.start.q0, prep.start.q0)
-    law = prep.scene.law
+    law = prep.scene.runtime_law
     arrays = law.arrays()
-    if getattr(law, "kind", "") == "table":
+    if getattr(law, "kind", "") == "bodies":
+        a = arrays
+        data = (f"static const int code[] = {{{_c_list(a['code'].ravel(), str)}}};\n"
+                f"static const double consts[] = {{{_c_list(a['consts'])}}};\n"
+                f"static const int out[] = {{{_c_list(a['out'], str)}}};\n"
+                f"static const double knots[] = {{{_c_list(a['knots'])}}};\n"
+                f"static const double coef[] = {{{_c_list(a['coef'])}}};\n")
+        set_law = (f"crt_set_law_bodies(&s, {a['n_points']}, {a['n_rotors']}, out, "
+                   f"{a['n_nodes']}, {a['n_const']}, code, consts, {len(a['consts'])}, "
+                   f"{a['n_knots']}, {a['n_columns']}, knots, coef, {a['periodic']})")
+    elif getattr(law, "kind", "") == "table":
         data = (f"static const double knots[] = {{{_c_list(arrays['knots'])}}};\n"
                 f"static const double coef[] = {{{_c_list(arrays['coef'])}}};\n")
         set_law = (f"crt_set_law_table(&s, {len(arrays['knots'])}, knots, coef, "
@@ -171,6 +183,26 @@ def _rough_stick_slip():
     return doc
 
 
+def _bodies(friction: float = 0.0):
+    """Three points (two periodic tables on different knots, one of formulas) and two
+    rotors in a ball that lands and comes to rest: impacts accumulate into contact."""
+    doc = _spinning()
+    ts = np.linspace(0.0, 0.5, 11)
+    rows = [[float(t), 0.05 * np.sin(4 * np.pi * t), 0.0, 0.1 * np.cos(4 * np.pi * t)]
+            for t in ts]
+    rows[-1][1:] = rows[0][1:]
+    tab = {"mass": 0.1, "samples": rows, "ends": "periodic"}
+    other = {"mass": 0.05, "samples": [[r[0], r[3], r[1], 0.0] for r in rows[::2]],
+             "ends": "periodic"}
+    doc["point"] = [tab, {"mass": 0.2, "law": ["0.05*sin(7*t)", "0", "0.3*sin(20*t)"]},
+                    other]
+    doc["rotor"] = [{"axis": [0.0, 0.0, 1.0], "inertia": 0.002, "law": "30*t + sin(5*t)"},
+                    {"axis": [0.6, 0.8, 0.0], "inertia": 0.001, "law": "0.5*sin(9*t)"}]
+    if friction:
+        doc["plane"]["friction"] = friction
+    return doc
+
+
 SCENES = {
     "bouncing": lambda: scene_dict(run={"duration": 2.0}),
     "contact": lambda: ball(e=0.0, z0=0.5, law=("0", "0", "0.3*sin(20*t)"), duration=0.5,
@@ -185,6 +217,8 @@ SCENES = {
                                                     "outputs": ["omega"]}),
     "rough": _rough_spinning,
     "rough_stick_slip": _rough_stick_slip,
+    "moments": _bodies,
+    "moments_rough": lambda: _bodies(friction=0.4),
 }
 
 
@@ -224,7 +258,8 @@ def test_runtime_clean_under_sanitizers(name, method, sanitized):
 
 
 @pytest.mark.parametrize("kind", ["general", "rough", "vertical", "attitude", "translational",
-                                  "planar", "axisymmetric", "variational"])
+                                  "planar", "axisymmetric", "variational", "moments",
+                                  "moments_rough"])
 def test_runtime_has_no_writable_statics_and_needs_only_libm(kind, tmp_path):
     obj = tmp_path / "model.o"
     subprocess.run([CC, *STRICT, "-O2", "-c", str(GENERATED / "runtime" / f"model_{kind}.c"),

@@ -54,6 +54,17 @@ COMMANDS = (
                 Arg.of("--quick", action="store_true", help="the cost against the smooth "
                        "plane only (no work-precision)"),
             )),
+    Command("bodies", "several points and rotors (the moments models): derivation, "
+            "emission and compile once, RHS operations and the C run against N = 1..8 points "
+            "and R = 0..4 rotors (a chart; no swell, 8 points and 4 rotors at most 3x one "
+            "point), and against Pinocchio on the same flights", "derive.bench.bodies", (
+                Arg.of("-o", "--output", dest="out_dir", default="bench-out", metavar="DIR",
+                       help="output folder (bodies-cost.png)"),
+                Arg.of("--repeats", type=REPEATS, default=5,
+                       help="timing samples of each run (median and spread)"),
+                Arg.of("--quick", action="store_true", help="the grid and the one-point "
+                       "target only (no cold derivation and compile, no Pinocchio)"),
+            )),
     Command("law", "the point law interpreted against compiled: ns per evaluation, compile "
             "time, share of a run", "derive.bench.law", (
                 Arg.of("--repeats", type=REPEATS, default=7,

@@ -21,9 +21,11 @@ def plant_doc(doc: dict, disturbance: Disturbance | None) -> dict:
     d = copy.deepcopy(doc)
     if disturbance is None:
         return d
-    body, point = d["body"], d["point"]
+    body = d["body"]
     body["mass"] = float(body["mass"]) * disturbance.mass_factor
-    point["mass"] = float(point["mass"]) * disturbance.point_mass_factor
+    points = d.get("point", [])
+    for point in points if isinstance(points, list) else [points]:   # [point], [[point]]
+        point["mass"] = float(point["mass"]) * disturbance.point_mass_factor
     body["inertia"] = [float(j) * f for j, f in zip(body["inertia"],
                                                      disturbance.inertia_factor)]
     if disturbance.restitution is not None and "plane" in d:
@@ -34,10 +36,11 @@ def plant_doc(doc: dict, disturbance: Disturbance | None) -> dict:
 def plant_scene(scene: Scene, origin: str = "plant") -> Scene:
     """The scene the plant runs: the model's scene with its disturbance applied (pushes
     need the impulse map of the general model, or of the rough one on a rough plane: it
-    is forced when there are any)."""
+    is forced when there are any; a scene that is not one point runs a moments model,
+    which has it)."""
     dist = scene.disturbance
     doc = plant_doc(scene.doc, dist)
-    if dist is not None and dist.pushes:
+    if dist is not None and dist.pushes and scene.one_point:
         doc.setdefault("run", {})["model"] = "rough" if scene.friction > 0 else "general"
     try:
         return parse_scene(doc, origin)

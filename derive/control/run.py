@@ -22,7 +22,6 @@ from concurrent.futures import ThreadPoolExecutor
 from ..progress import count
 from ..runtime.driver import Result, prepare, run_prepared, simulate
 from ..scene import Scene, load_scene
-from ..scene.bodies import refuse_runtime
 from . import plant
 
 
@@ -31,7 +30,6 @@ def run_scene(scene, progress: bool = False) -> Result:
     docstring).  A closed loop's Result carries its :class:`~derive.control.closed.
     ClosedLoop` as ``result.loop``."""
     sc = load_scene(scene)
-    refuse_runtime(sc)                  # internal bodies other than one point: not yet
     if sc.control is not None:
         from .closed import simulate_closed
         closed = simulate_closed(sc)

@@ -41,11 +41,17 @@ from functools import lru_cache
 
 from .. import friction_models
 from .. import models as dm
+from .. import models_moments as mmo
 from .. import abi, layout, shapes
 from ..runtime import tableaus as T
 from . import sincos
 from .c_backend import body
 from .render import TEMPLATES, environment, versions
+
+
+# the models of internal bodies other than one point (issue 32): the general state, u the
+# moments of derive/layout.py's MOMENTS summed by the runtime from the bodies' law
+MOMENTS_KINDS = ("moments", "moments_rough")
 
 
 @dataclass(frozen=True)
@@ -75,24 +81,48 @@ class RuntimeModel:
     def lie(self) -> bool:
         """The momentum form applies (crt_lie.h): the model carries omega and the
         attitude, or only omega in free flight."""
-        return self.kind in ("general", "vertical", "attitude", "rough")
+        return self.kind in ("general", "vertical", "attitude", "rough", *MOMENTS_KINDS)
 
     @property
     def friction(self) -> bool:
         """Coulomb friction at S (crt_rough.h): the general state with the rough
         plane's functions (derive/friction_models.py)."""
-        return self.kind == "rough"
+        return self.kind in ("rough", "moments_rough")
+
+    @property
+    def moments(self) -> bool:
+        """The internal bodies seen through their moments (derive/models_moments.py):
+        the law of any number of points and rotors, summed in C (crt_bodies.h)."""
+        return self.kind in MOMENTS_KINDS
 
     @property
     def base(self) -> str:
-        """The model whose derived functions it calls (the rough model: general's)."""
-        return "general" if self.kind == "rough" else self.kind
+        """The prefix of the derived functions it calls: the rough model's are general's,
+        the moments models' the moments family's."""
+        return "moments" if self.moments else "general" if self.kind == "rough" else self.kind
+
+    def plain(self, what: str) -> str:
+        """The name of a function of no model in this model's family (``lie_stage``;
+        the moments models': ``moments_lie_stage``)."""
+        return f"moments_{what}" if self.moments else what
 
     def specs(self) -> list:
         # S and its rate for every shape of derive/shapes.py (model_shape picks one by
         # prm[CRT_P_shape])
         surface = [f(name) for name in shapes.SHAPE_NAMES
                    for f in (dm.lowest_point, dm.lowest_point_rate)]
+        if self.moments:
+            # the bodies' shares (summed by crt_bodies.h), then the general model's
+            # functions of the moments family; the pushes' impulse map is the rough
+            # plane's apply_impulse, which moments_rough has already
+            fam = mmo.family()
+            base = [mmo.point_moments(), mmo.rotor_moments(), mmo.flight_rhs(),
+                    dm.gap("general", fam), dm.impact("general", fam),
+                    dm.runtime_contact("general", fam), *surface, dm.lie_stage(fam),
+                    dm.lie_point(fam), dm.fixed_kinetic_moment(fam), dm.exp_map(),
+                    dm.flight_parabola()]
+            return base + (friction_models.runtime_specs("moments") if self.friction
+                           else [friction_models.apply_impulse("moments")])
         momentum = [dm.lie_stage(), dm.lie_point(), dm.fixed_kinetic_moment(), dm.exp_map()]
         if self.kind in ("general", "vertical", "rough"):
             base = [dm.flight_rhs(self.base), dm.gap(self.base), dm.impact(self.base),
@@ -138,6 +168,13 @@ MODELS = (
                  "J_x = J_y, P on the axis, free flight: the quadratures of E3.14."),
     RuntimeModel("variational", False, "none",
                  "the vertical flight with its variational equations Phi' = (df/dq) Phi."),
+    RuntimeModel("moments", True, "matrix",
+                 "the general model of any number of points and rotors, seen through their "
+                 "moments (derive/models_moments.py), summed from their laws in C "
+                 "(crt_bodies.h): flight, impacts, persistent contact, pushes."),
+    RuntimeModel("moments_rough", True, "matrix",
+                 "the moments model on a rough plane: Coulomb friction at S in impacts "
+                 "(Darboux-Keller) and in sliding and sticking contact, and the couples."),
 )
 KINDS = tuple(m.kind for m in MODELS)
 
@@ -208,6 +245,10 @@ def render_model(m: RuntimeModel) -> str:
                                 else []),
            "z_index": m.z_index, "zd_index": m.zd_index, "normalize": m.normalize,
            "summary": m.summary, "functions": functions, "lie": m.lie,
+           "moments": m.moments,
+           "moments_count": layout.MOMENTS.nq, "moments_spin": layout.MOMENTS.spin.start,
+           "lie_functions": [(f"MODEL_{name.upper()}", m.plain(name)) for name in
+                             ("lie_stage", "lie_point", "fixed_kinetic_moment")],
            # each shape's size as its functions read it (one number by value)
            "shapes": [(name, "p[CRT_P_size_a]" if shapes.of(name).size_count == 1
                        else "p + CRT_P_size_a") for name in shapes.SHAPE_NAMES],

@@ -1,6 +1,7 @@
 """``motion.gif``: the run as an animation — the plane with its grid, the body as its
-shape (outline, principal sections, shadow) with its axes, the point P, the trace of C so
-far and the impacts marked where S hit the plane.
+shape (outline, principal sections, shadow) with its axes, the point P (every point, and
+every rotor as a disc with a spoke at its angle), the trace of C so far and the impacts
+marked where S hit the plane.
 
 Made to be quick (about a second for the built-in scene): a small Agg figure; the plane
 and the whole trace of C (faint) drawn once and kept as the background; per frame only the
@@ -17,7 +18,7 @@ import numpy as np
 
 from .. import layout
 
-from . import drawing
+from . import bodies, drawing
 from .events import impact_rows
 from .motion import Motion
 
@@ -46,16 +47,22 @@ def _orthonormal(A: np.ndarray) -> np.ndarray:
 def interpolate(mo: Motion, scene, times: np.ndarray) -> dict:
     """r_C, A (re-orthonormalised) at ``times`` by linear interpolation between rows (the
     rows around an event share its time: positions and attitude are continuous there),
-    then O and P from the law at the frame times exactly."""
+    then O and the points (``r_points``; ``r_P`` the first) and the rotors' angles
+    (``psi``) from the law at the frame times exactly."""
     t = mo.t
     r_C = np.column_stack([np.interp(times, t, mo.r_C[:, k]) for k in range(3)])
     A = np.stack([np.interp(times, t, mo.A[:, i, j]) for i in range(3) for j in range(3)],
                  axis=1).reshape(-1, 3, 3)
     A = _orthonormal(A)
+    if not scene.one_point:
+        b = bodies.along(scene, times)
+        r_O, r_points = bodies.positions(scene, b, r_C, A)
+        return {"r_C": r_C, "A": A, "r_O": r_O, "r_points": r_points, "psi": b.psi[:, :, 0]}
     r = scene.law.jets(times)[list(layout.JET_R)].T
     Ar = np.einsum("nij,nj->ni", A, r)
     r_O = r_C - scene.nu * Ar
-    return {"r_C": r_C, "A": A, "r_O": r_O, "r_P": r_O + Ar}
+    return {"r_C": r_C, "A": A, "r_O": r_O, "r_P": r_O + Ar, "r_points": (r_O + Ar)[None],
+            "psi": np.zeros((0, len(times)))}
 
 
 def write_gif(result, mo: Motion, path: Path) -> Path:
@@ -83,7 +90,7 @@ def write_gif(result, mo: Motion, path: Path) -> Path:
     # static background: plane, grid, the whole trace of C (faint)
     pics0 = [drawing.body_pictures(view, s, st["r_O"][k], st["A"][k])
              for k in range(0, len(times), max(1, len(times) // 12))]
-    pts = [view(mo.r_C), view(mo.r_P), *(p["outline"] for p in pics0),
+    pts = [view(mo.r_C), *(view(P) for P in mo.r_points), *(p["outline"] for p in pics0),
            *(p["axes"].reshape(-1, 2) for p in pics0)]
     if s.plane:
         poly, grid = drawing.plane_pictures(view, xlim, ylim)
@@ -136,8 +143,10 @@ def write_gif(result, mo: Motion, path: Path) -> Path:
     add(front)
     axes_lines = add(ax.add_collection(LineCollection([], colors=drawing.AXIS_COLOURS,
                                                       linewidths=1.8)))
-    point, = ax.plot([], [], "o", color="#ff7f0e", mec="k", mew=0.7, ms=6)
-    add(point)
+    points = [add(ax.plot([], [], "o", color=drawing.point_colour(j), mec="k", mew=0.7,
+                          ms=6)[0]) for j in range(len(st["r_points"]))]
+    rotors = add(ax.add_collection(LineCollection([], colors=drawing.ROTOR_COLOUR,
+                                                  linewidths=1.1)))
     h = mo.h
     # text through Pillow: matplotlib's text costs milliseconds a frame
     from PIL import ImageDraw, ImageFont
@@ -159,8 +168,12 @@ def write_gif(result, mo: Motion, path: Path) -> Path:
         body.set_xy(pic["outline"])
         front.set_data(pic["front"][:, 0], pic["front"][:, 1])
         axes_lines.set_segments(list(pic["axes"]))
-        p = view(st["r_P"][k])
-        point.set_data([p[0]], [p[1]])
+        for j, point in enumerate(points):
+            p = view(st["r_points"][j, k])
+            point.set_data([p[0]], [p[1]])
+        rotors.set_segments([line for pic in drawing.rotor_pictures(
+            view, s, st["r_O"][k], st["A"][k], st["psi"][:, k])
+            for line in (pic["rim"], pic["spoke"])])
         hk = np.interp(tk, mo.t, h) if h is not None else None
         canvas.restore_region(background)
         for a in anim:

@@ -18,7 +18,7 @@ from ..cbuild import build_shared, runtime_flags
 from .. import abi
 
 KINDS = ("general", "rough", "vertical", "attitude", "translational", "planar",
-         "axisymmetric", "variational")
+         "axisymmetric", "variational", "moments", "moments_rough")
 
 DP = ctypes.POINTER(ctypes.c_double)
 IP = ctypes.POINTER(ctypes.c_int)
@@ -83,6 +83,8 @@ class Library:
                 ("crt_state", None, [c.c_void_p, DP]),
                 ("crt_eval_rhs", None, [c.c_void_p, c.c_double, DP, DP]),
                 ("crt_eval_rhs_rows", None, [c.c_void_p, c.c_int, DP, DP, DP]),
+                ("crt_u_width", c.c_int, []),
+                ("crt_eval_u_rows", None, [c.c_void_p, c.c_int, DP, DP]),
                 ("crt_eval_contact", None, [c.c_void_p, c.c_double, DP, DP, DP, DP]),
                 ("crt_eval_gap", None, [c.c_void_p, c.c_double, DP, DP, DP]),
                 ("crt_eval_contact_rows", None, [c.c_void_p, c.c_int, DP, DP, DP, DP, DP]),
@@ -118,6 +120,7 @@ class Library:
         self.nq = lib.crt_nq()
         self.session_size = lib.crt_sizeof()
         self.has_plane = bool(lib.crt_has_plane())
+        self.moments = lib.crt_u_width() != 9      # u: the bodies' moments (crt_bodies.h)
         self.labels = tuple(lib.crt_state_name(i).decode() for i in range(self.nq))
         self._check_names()
 

@@ -13,7 +13,12 @@ chooses one and fills its numbers:
 * ``general`` (18 states) otherwise;
 * ``rough`` (the 18 general states, Coulomb friction at S: crt_rough.h) whenever
   contact is possible and ``[plane].friction > 0``: the slip of S needs the horizontal
-  velocity of C and the whole attitude, which the smaller models leave out.
+  velocity of C and the whole attitude, which the smaller models leave out;
+* ``moments`` (``moments_rough`` on a rough plane): the general state with the internal
+  bodies seen through their moments, summed in C from every body's law (crt_bodies.h):
+  the model of every scene that is not one point (several points, rotors, or none); a
+  one-point scene takes it only when ``[run].model`` asks (the same motion as the
+  general model's, at about 1.2 times its cost: derive bench bodies).
 
 The conditions read the law's program (``is_zero``) and its samples; nothing symbolic.
 """
@@ -32,6 +37,9 @@ from ..scene.rules import most
 POSE = "pose"
 G = layout.GENERAL
 GENERAL_LABELS = G.labels
+MOMENTS_KINDS = ("moments", "moments_rough")
+# the models whose state is the general one (18 numbers)
+GENERAL_STATE = ("general", "rough", *MOMENTS_KINDS)
 
 
 def _samples(scene: Scene, n: int = 801) -> tuple:
@@ -90,11 +98,27 @@ def _axisymmetric_reason(scene: Scene, still: bool, round_: bool) -> str | None:
     return "free flight, J_x = J_y and P on the symmetry axis: quadratures (E3.11-E3.14)"
 
 
+def _moments_why(scene: Scene) -> str:
+    from ..scene.bodies import describe
+    why = (f"{describe(len(scene.points), len(scene.rotors))}: the carrier sees its "
+           "internal bodies through their moments, summed from their laws in C")
+    if scene.rough:
+        why += f"; the plane has friction (mu_f = {scene.friction:g})"
+    return why
+
+
 def candidates(scene: Scene) -> list:
     wants = set(scene.outputs)
+    if not scene.one_point:
+        return [("moments_rough" if scene.rough else "moments", _moments_why(scene))]
+    # a one-point scene's moments model, chosen only by [run].model (last: never auto)
+    moments = ("moments_rough" if scene.rough else "moments",
+               "the one point through its moments, as [run].model asks (the general "
+               "model's motion at about 1.2 times its cost)")
     if scene.rough:
         return [("rough", f"the plane has friction (mu_f = {scene.friction:g}): the slip of "
-                          "S needs the horizontal velocity of C and the whole attitude")]
+                          "S needs the horizontal velocity of C and the whole attitude"),
+                moments]
     out = []
     still, along_z, round_ = symmetry_key(scene.omega, scene.J)
     for kind, why in (("translational", _translational_reason(scene, still)),
@@ -109,6 +133,7 @@ def candidates(scene: Scene) -> list:
                                 "uniform and the heading is not needed"))
     out.append(("general", "the pose is asked and no symmetry reduces the model"
                 if POSE in wants else "no smaller model applies"))
+    out.append(moments)
     return out
 
 
@@ -142,7 +167,7 @@ class Start:
 
 # the models whose start reads only C's position and velocity, omega and the attitude
 # (a study's variants start in bulk: rows of com, com_velocity and omega give rows of q0)
-POSE_STARTS = ("general", "rough", "vertical", "attitude")
+POSE_STARTS = ("general", "rough", "vertical", "attitude", *MOMENTS_KINDS)
 
 
 def start(scene: Scene, kind: str) -> Start:
@@ -150,7 +175,7 @@ def start(scene: Scene, kind: str) -> Start:
     if kind in POSE_STARTS:
         q = G.assemble(com=scene.com, com_velocity=scene.com_velocity, omega=scene.omega,
                        A=A0.reshape(-1))
-        return Start(q if kind in ("general", "rough") else layout.vertical_of_general(q)
+        return Start(q if kind in GENERAL_STATE else layout.vertical_of_general(q)
                      if kind == "vertical" else q[..., G.omega], {})
     n0 = {"n0_x": A0[2][0], "n0_y": A0[2][1], "n0_z": A0[2][2]}
     if kind == "translational":
@@ -230,7 +255,7 @@ def omega_of(scene: Scene, kind: str, st: Start, t, Q, rates=None) -> np.ndarray
     """omega in body axes along the rows; ``rates`` (dq/dt of the rows, from the library)
     for the models whose omega is a rate (planar: phi', axisymmetric: psi')."""
     n = len(t)
-    if kind in ("general", "rough", "vertical", "attitude"):
+    if kind in ("vertical", "attitude", *GENERAL_STATE):
         return Q[:, layout.of(kind).omega]
     if kind == "translational":
         return np.zeros((n, 3))
@@ -249,7 +274,7 @@ def to_general(scene: Scene, kind: str, st: Start, t, Q, omega) -> np.ndarray | 
     """The rows in the general layout (None for models that cannot give the pose)."""
     n = len(t)
     A0 = scene.A0
-    if kind in ("general", "rough"):
+    if kind in GENERAL_STATE:
         return Q
     if kind in ("vertical", "attitude"):
         return None
@@ -282,7 +307,7 @@ def _general_rows(X, Y, Z, VX, VY, VZ, omega, A) -> np.ndarray:
 def height_of_c(scene: Scene, kind: str, t: float, q) -> float:
     """Z_C at time t from one state of a model (NaN for the attitude model); from rows of
     states, a column, for the models whose state holds it."""
-    if kind in ("general", "rough", "vertical", "translational", "planar"):
+    if kind in ("vertical", "translational", "planar", *GENERAL_STATE):
         z = q[..., layout.of(kind).Z]
         return float(z) if np.ndim(z) == 0 else z
     if kind == "axisymmetric":                # free flight: C on its parabola

@@ -15,6 +15,39 @@ from .. import shapes
 
 AXIS_COLOURS = ("#d62728", "#2ca02c", "#1f77b4")      # body x, y, z
 PLANE_COLOUR = "#dfe7ef"
+# the points P1, P2, ... (the one point P: the first), and the rotors
+POINT_COLOURS = ("#ff7f0e", "#8c564b", "#e377c2", "#bcbd22", "#17becf", "#9467bd",
+                 "#7f7f7f", "#393b79")
+ROTOR_COLOUR = "#6a3d9a"
+ROTOR_RADIUS = 0.45        # of the body's reach: a rotor drawn as a disc of this radius
+
+
+def point_colour(j: int) -> str:
+    return POINT_COLOURS[j % len(POINT_COLOURS)]
+
+
+def point_label(j: int, n: int) -> str:
+    """``P`` for the one point, ``P1``, ``P2``, ... for several."""
+    return "P" if n == 1 else f"P{j + 1}"
+
+
+def rotor_pictures(view, scene, r_O: np.ndarray, A: np.ndarray, psi) -> list:
+    """Each rotor at one pose as screen polylines: the rim of a disc about its axis (its
+    centre is no part of the scene: drawn at O; radius ROTOR_RADIUS of the body's reach)
+    and a spoke at its angle psi from a reference direction fixed in the body, so that
+    its turning shows.  ``psi``: one angle per rotor."""
+    R = ROTOR_RADIUS * body_reach(scene)
+    out = []
+    for rotor, angle in zip(scene.rotors, psi):
+        a = np.asarray(rotor.axis, dtype=float)
+        helper = np.array([1.0, 0.0, 0.0]) if abs(a[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+        e1 = np.cross(a, helper)
+        e1 /= np.linalg.norm(e1)
+        e2 = np.cross(a, e1)
+        rim = R * (np.cos(_CIRCLE)[:, None] * e1 + np.sin(_CIRCLE)[:, None] * e2)
+        spoke = R * np.array([[0.0, 0.0, 0.0], np.cos(angle) * e1 + np.sin(angle) * e2])
+        out.append({"rim": view(r_O + rim @ A.T), "spoke": view(r_O + spoke @ A.T)})
+    return out
 DRAWN_BINS = 2000          # columns of time a curve is reduced to (a panel is ~500 pixels)
 
 
@@ -174,7 +207,7 @@ def lowest_points(scene, r_O: np.ndarray, A: np.ndarray) -> np.ndarray:
 def scene_extent(scene, mo) -> tuple[tuple, tuple, float]:
     """The plane's rectangle (x, y limits) around the motion, and the body's reach."""
     reach = float(np.linalg.norm(scene.center)) + body_reach(scene) * 1.3
-    pts = np.vstack([mo.r_O, mo.r_P])
+    pts = np.vstack([mo.r_O, *mo.r_points])
     lo, hi = pts[:, :2].min(axis=0) - reach, pts[:, :2].max(axis=0) + reach
     span = max(hi - lo)
     mid = 0.5 * (lo + hi)

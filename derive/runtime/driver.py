@@ -19,12 +19,11 @@ from functools import cached_property
 import numpy as np
 
 from .. import abi, layout
-from . import choice, events as timeline
+from . import bodies, choice, events as timeline
 from .build import Library, library
 from .geometry import heights, kinetic_moment
 from .session import Session, session_for
 from ..scene import Scene, load as _load
-from ..scene.bodies import refuse_runtime
 
 METHODS = {name: k for k, name in enumerate(abi.names(abi.METHODS))}
 
@@ -74,7 +73,6 @@ class Prepared:
 
 def prepare(scene) -> Prepared:
     scene, static = _load(scene)
-    refuse_runtime(scene)                    # internal bodies other than one point: not yet
     kind, why = choice.choose(scene)
     st = choice.start(scene, kind)
     if static is None:
@@ -129,7 +127,7 @@ class Result:
         for evaluations after the run (the contact equations of the energy balance).  Its
         own: later runs of the thread's session do not change it."""
         s = Session(library(self.model), chunk=16)
-        s.set_law(self.scene.law)
+        s.set_law(self.scene.runtime_law)
         s.init(options(self.scene, self.model),
                choice.parameters(self.scene, self.start.constants), self.scene.t0,
                self.start.q0)
@@ -169,7 +167,11 @@ class Result:
     def momentum(self) -> dict:
         """K about C in body axes (E1.4), |K|, and K in fixed axes when the attitude is
         known."""
-        K = kinetic_moment(self.scene, self.omega, self.scene.law.jets(self.t))
+        if self.scene.one_point:
+            K = kinetic_moment(self.scene, self.omega, self.scene.law.jets(self.t))
+        else:                                   # every body's moments (runtime/bodies.py)
+            K = bodies.kinetic_moment(self.scene, bodies.along(self.scene, self.t),
+                                      self.omega)
         out = {"K_body": K, "K_norm": np.linalg.norm(K, axis=1)}
         if self.general is not None:
             A = self.general[:, layout.GENERAL.A].reshape(-1, 3, 3)
@@ -190,8 +192,8 @@ class Result:
 
     @property
     def rough(self) -> bool:
-        """The run has Coulomb friction at S (the rough model)."""
-        return self.model == "rough"
+        """The run has Coulomb friction at S (the rough model, or moments_rough)."""
+        return self.model in ("rough", "moments_rough")
 
     @cached_property
     def events(self) -> list:
@@ -264,7 +266,7 @@ def run_prepared(prep: Prepared, session: Session | None = None, progress=None,
     session = session or session_for(prep.kind)
     timings["load_s"] = time.perf_counter() - start
     start = time.perf_counter()
-    session.set_law(prep.scene.law)
+    session.set_law(prep.scene.runtime_law)
     raw = session.run(prep.scene.t0, prep.scene.duration, prep.start.q0, prep.options,
                       prep.parameters, progress, loop=loop)
     rates = session.rhs_rows(raw.t, raw.q) if prep.kind in ("planar", "axisymmetric") \

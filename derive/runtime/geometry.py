@@ -64,5 +64,9 @@ def heights(scene, t, Z, n) -> np.ndarray:
     """Height of the lowest point S above the plane along rows (Z_C and the vertical n in
     body axes given per row)."""
     s = lowest_point_numeric(scene, n)
-    r = scene.law.jets(t)[list(layout.JET_R)].T
-    return Z + np.einsum("ij,ij->i", n, s - scene.nu * r)
+    if scene.one_point:
+        oc = scene.nu * scene.law.jets(t)[list(layout.JET_R)].T
+    else:                                   # OC = s/(M + m) of every point
+        from . import bodies
+        oc = bodies.offsets(scene, bodies.moments(bodies.along(scene, t)))[0]
+    return Z + np.einsum("ij,ij->i", n, s - oc)

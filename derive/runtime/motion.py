@@ -1,5 +1,8 @@
 """What the outputs show besides the states: the positions of O, P and S, the kinetic
-energy of the carrier and of the point, and the energy balance of a run.
+energy of the carrier and of the point, and the energy balance of a run.  A scene that is
+not one point (several points, rotors, or none) has the same quantities per body, and
+each drive's work: :mod:`derive.runtime.bodies` gives them (below, "the point" is then
+each point, and the rotors' drives join the points').
 
 Positions (fixed axes).  ``O_aO = O_aC - A m/(m+M) OP`` (E1.8a), ``O_aP = O_aO + A OP``.
 
@@ -50,6 +53,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from .. import abi, layout
+from . import bodies as bm
 from . import choice
 from .driver import options, simulate
 from .events import event_rows, phases
@@ -62,9 +66,9 @@ class Motion:
     """Arrays along the rows of a :class:`~derive.runtime.driver.Result`."""
     t: np.ndarray
     omega: np.ndarray                 # (N, 3) body axes
-    r: np.ndarray                     # OP, body axes
-    v_r: np.ndarray                   # V_r, body axes
-    a_r: np.ndarray                   # V_r', body axes
+    r: np.ndarray | None              # OP, body axes (None: not one point, see bodies)
+    v_r: np.ndarray | None            # V_r, body axes
+    a_r: np.ndarray | None            # V_r', body axes
     A: np.ndarray | None              # (N, 3, 3) a_ij, or None without the attitude
     r_C: np.ndarray | None            # (N, 3) fixed axes (None: not known)
     v_C: np.ndarray | None
@@ -75,10 +79,22 @@ class Motion:
     T: np.ndarray | None              # total kinetic energy (None: V_C not known)
     U: np.ndarray | None              # potential energy (m+M) g Z_C
     h: np.ndarray | None              # height of S
+    # every body: the bodies' motion (None for one point, whose r, v_r, a_r are above),
+    # each point's position (n_points, N, 3) fixed axes, each point's kinetic energy
+    # (n_points, N) and each rotor's spin beyond its locked share (n_rotors, N)
+    bodies: bm.Bodies | None = None
+    r_points: np.ndarray | None = None
+    T_points: np.ndarray | None = None
+    T_rotors: np.ndarray | None = None
 
     @property
     def E(self) -> np.ndarray | None:
         return None if self.T is None or self.U is None else self.T + self.U
+
+
+def drive_names(scene) -> tuple:
+    """The drives whose work the balance splits: each point's, then each rotor's."""
+    return tuple(body.name for body in (*scene.points, *scene.rotors))
 
 
 def _centre(result):
@@ -121,6 +137,8 @@ def for_pictures(result):
 
 def motion(result) -> Motion:
     s = result.scene
+    if not s.one_point:
+        return _bodies_motion(result)
     t = result.t
     jets = s.law.jets(t)
     r, v_r, a_r = (jets[list(rows)].T for rows in (layout.JET_R, layout.JET_V, layout.JET_A))
@@ -145,7 +163,27 @@ def motion(result) -> Motion:
         T_p = 0.5 * s.m * np.einsum("ij,ij->i", V_P, V_P)
     h = result.height if s.size else None
     return Motion(t=t, omega=omega, r=r, v_r=v_r, a_r=a_r, A=A, r_C=r_C, v_C=v_C, r_O=r_O,
-                  r_P=r_P, T_carrier=T_c, T_point=T_p, T=T, U=U, h=h)
+                  r_P=r_P, T_carrier=T_c, T_point=T_p, T=T, U=U, h=h,
+                  r_points=None if r_P is None else r_P[None],
+                  T_points=None if T_p is None else T_p[None],
+                  T_rotors=None if T_p is None else np.zeros((0, len(t))))
+
+
+def _bodies_motion(result) -> Motion:
+    """:func:`motion` of a scene that is not one point (a moments model: the general
+    state), per body (:mod:`derive.runtime.bodies`)."""
+    s, t = result.scene, result.t
+    b = bm.along(s, t)
+    omega = np.asarray(result.omega, dtype=float)
+    A = result.general[:, G.A].reshape(-1, 3, 3)
+    r_C, v_C = _centre(result)
+    T_c, T_p, T_r = bm.energies(s, b, omega, A, v_C)
+    r_O, r_P = bm.positions(s, b, r_C, A)
+    return Motion(t=t, omega=omega, r=None, v_r=None, a_r=None, A=A, r_C=r_C, v_C=v_C,
+                  r_O=r_O, r_P=None, T_carrier=T_c, T_point=None,
+                  T=T_c + T_p.sum(axis=0) + T_r.sum(axis=0),
+                  U=(s.m + s.M) * s.g * r_C[:, 2], h=result.height if s.size else None,
+                  bodies=b, r_points=r_P, T_points=T_p, T_rotors=T_r)
 
 
 def point_velocity_body(scene, mo: Motion) -> np.ndarray | None:
@@ -180,7 +218,28 @@ def drive_power_in_flight(scene, mo: Motion) -> np.ndarray:
 
 
 _OMEGA_RATE = {"general": (G.omega, G.n), "rough": (G.omega, G.n),
-               "vertical": (layout.VERTICAL.omega, layout.VERTICAL.n)}
+               "vertical": (layout.VERTICAL.omega, layout.VERTICAL.n),
+               "moments": (G.omega, G.n), "moments_rough": (G.omega, G.n)}
+
+
+def drive_powers_in_flight(scene, mo: Motion) -> np.ndarray:
+    """Each drive's power in flight, (drives, rows) (:func:`drive_names`)."""
+    if mo.bodies is None:
+        return drive_power_in_flight(scene, mo)[None]
+    wd = bm.omega_rate_in_flight(scene, mo.bodies, mo.omega)
+    return bm.drive_powers(scene, mo.bodies, mo.omega, wd)
+
+
+def drive_powers_in_contact(result, mo: Motion, a: int, b: int) -> np.ndarray | None:
+    """Each drive's power on rows [a, b) of a smooth contact phase (as
+    :func:`drive_power_in_contact`), (drives, rows); None for models without omega."""
+    if mo.bodies is None or result.model not in _OMEGA_RATE:
+        p = drive_power_in_contact(result, mo, a, b)
+        return None if p is None else p[None]
+    q = result.model_q[a:b]
+    dq, N, _ = result.session.contact_rows(result.t[a:b], q)
+    return bm.drive_powers(result.scene, mo.bodies.rows(a, b), mo.omega[a:b], dq[:, G.omega],
+                           N[:, None] * q[:, G.n])
 
 
 def drive_power_in_contact(result, mo: Motion, a: int, b: int) -> np.ndarray | None:
@@ -229,10 +288,10 @@ def resolved_directions(v: np.ndarray, scale: float, rtol: float) -> np.ndarray:
 
 
 def rough_contact_power(result, mo: Motion, a: int, b: int) -> tuple[np.ndarray, np.ndarray]:
-    """The rough model on rows [a, b) of a contact phase: the drive's power (as in
-    :func:`drive_power_in_contact`, the force of the carrier on P gaining m/(m+M) A^T R)
-    and the power of friction (R, v_S), with omega', R and v_S from the runtime's sliding
-    or sticking equations in each row's mode."""
+    """The rough model on rows [a, b) of a contact phase: each drive's power (as in
+    :func:`drive_power_in_contact`, the force of the carrier on P gaining m/(m+M) A^T R;
+    (drives, rows)) and the power of friction (R, v_S), with omega', R and v_S from the
+    runtime's sliding or sticking equations in each row's mode."""
     s = result.scene
     q = result.model_q[a:b]
     A = q[:, G.A].reshape(-1, 3, 3)
@@ -251,10 +310,13 @@ def rough_contact_power(result, mo: Motion, a: int, b: int) -> tuple[np.ndarray,
                                                sliding_directions(result, a, b))
         friction = np.einsum("ij,ij->i", R, v_S)
     wd = dq[:, G.omega]
+    if mo.bodies is not None:
+        return bm.drive_powers(s, mo.bodies.rows(a, b), mo.omega[a:b], wd,
+                               np.einsum("nij,ni->nj", A, R)), friction
     r, v, w = mo.r[a:b], mo.v_r[a:b], mo.omega[a:b]
     rel = mo.a_r[a:b] + 2.0 * np.cross(w, v) + np.cross(wd, r) + np.cross(w, np.cross(w, r))
     F = s.reduced_mass * rel + (s.m / (s.m + s.M)) * np.einsum("nij,ni->nj", A, R)
-    return np.einsum("ij,ij->i", F, v), friction
+    return np.einsum("ij,ij->i", F, v)[None], friction
 
 
 def integrate(t: np.ndarray, f: np.ndarray, points: int = 6) -> float:
@@ -298,7 +360,7 @@ def _same_run(a, b) -> bool:
 
 def _knots(scene):
     """A table law's knots (run time for the first period), or None."""
-    knots = getattr(scene.law, "knots", None)
+    knots = getattr(scene.runtime_law, "knots", None)
     return None if knots is None or len(knots) < 3 else np.asarray(knots, dtype=float)
 
 
@@ -317,7 +379,7 @@ def _integrate_pieces(scene, t: np.ndarray, f: np.ndarray) -> float:
     knots = _knots(scene)
     if knots is None or len(t) < 3:
         return integrate(t, f)
-    if getattr(scene.law, "periodic", False):
+    if getattr(scene.runtime_law, "periodic", False):
         period = knots[-1] - knots[0]
         first = int(np.floor((t[0] - knots[0]) / period))
         last = int(np.ceil((t[-1] - knots[0]) / period))
@@ -378,7 +440,7 @@ def _resampled(result, a: int, b: int):
     opt[o["hmax"]] = min(opt[o["hmax"]], span / 4.0)
     opt[o["max_events"]] = 1
     prm = choice.parameters(s, result.start.constants)
-    mode = int(result.modes[a]) if result.model == "rough" else abi.MODE["flight"]
+    mode = int(result.modes[a]) if result.rough else abi.MODE["flight"]
     if mode in _ROUGH_CONTACT:       # a rough contact phase: resumed in its mode
         v = result.slip[a] if np.hypot(*result.slip[a]) > 0 else result.slip[b - 1]
         raw = result.session.run_in_contact(t0, span, result.model_q[a], opt, prm, mode,
@@ -399,22 +461,48 @@ def _resampled(result, a: int, b: int):
     return sub
 
 
+def _works(scene, t: np.ndarray, p: np.ndarray) -> np.ndarray:
+    """Each drive's work: its row of ``p`` (drives, rows) integrated over ``t``."""
+    return np.array([_integrate_pieces(scene, t, row) for row in p])
+
+
 def _phase_work(result, mo: Motion, a: int, b: int, state: str, p: np.ndarray,
-                budget: list) -> float:
-    """The drive's work over a phase: its power ``p`` on rows [a, b) integrated by
+                budget: list) -> np.ndarray:
+    """Each drive's work over a phase: its power ``p`` (drives, rows [a, b)) integrated by
     :func:`integrate`; a phase with fewer rows than the rule's order (a flight between
     accumulating impacts is often shorter than a row's spacing: two rows) is resampled
     first, while ``budget`` lasts."""
     if b - a >= QUADRATURE_POINTS or result.model not in _OMEGA_RATE or budget[0] <= 0:
-        return _integrate_pieces(result.scene, mo.t[a:b], p)
+        return _works(result.scene, mo.t[a:b], p)
     budget[0] -= 1
     fine = _resampled(result, a, b)
     if fine is None:
-        return _integrate_pieces(result.scene, mo.t[a:b], p)
+        return _works(result.scene, mo.t[a:b], p)
     fm = motion(fine)
-    fp = drive_power_in_flight(result.scene, fm) if state == "flight" else \
-        drive_power_in_contact(fine, fm, 0, len(fine.t))
-    return _integrate_pieces(result.scene, fm.t, fp)
+    fp = drive_powers_in_flight(result.scene, fm) if state == "flight" else \
+        drive_powers_in_contact(fine, fm, 0, len(fine.t))
+    return _works(result.scene, fm.t, fp)
+
+
+def _impulsive_work(result, mo: Motion, V_P, i: int) -> np.ndarray | None:
+    """Each drive's work in the impact between rows i and i + 1 (None without the
+    attitude)."""
+    if mo.bodies is not None:
+        q = result.model_q
+        return bm.impulsive_work(result.scene, mo.bodies, i, q[i], q[i + 1])
+    if V_P is None:
+        return None
+    return np.array([result.scene.m * float(np.dot(V_P[i + 1] - V_P[i], mo.v_r[i]))])
+
+
+def kinetic_by_body(mo: Motion, names: tuple) -> dict:
+    """Each body's kinetic energy at the start and the end, [start, end] by name (the
+    carrier's counts its rotors as locked; a rotor's is its spin beyond that); {} when
+    the split is not known (no attitude)."""
+    if mo.T_carrier is None:
+        return {}
+    rows = [mo.T_carrier, *mo.T_points, *mo.T_rotors]
+    return {name: [float(T[0]), float(T[-1])] for name, T in zip(("carrier", *names), rows)}
 
 
 def energy_balance(result, mo: Motion) -> dict | None:
@@ -425,10 +513,13 @@ def energy_balance(result, mo: Motion) -> dict | None:
     result, mo = for_balance(result, mo)
     s = result.scene
     E = mo.T + mo.U
-    V_P = point_velocity_body(s, mo)
+    V_P = point_velocity_body(s, mo) if mo.bodies is None else None
     jumps = {"impact": 0.0, "contact": 0.0, "liftoff": 0.0, "graze": 0.0, "event": 0.0}
-    restitution = drive_impacts = friction_impacts = friction_contact = 0.0
-    rough = result.model == "rough"
+    restitution = friction_impacts = friction_contact = 0.0
+    names = drive_names(s)
+    zero = np.zeros(len(names))
+    drive_impacts, impulsive_known = zero.copy(), V_P is not None or mo.bodies is not None
+    rough = result.rough
     for i, ev in event_rows(result):
         kind = ev["kind"]
         jumps[kind] = jumps.get(kind, 0.0) + float(E[i + 1] - E[i])
@@ -438,15 +529,18 @@ def energy_balance(result, mo: Motion) -> dict | None:
                 friction_impacts += ev["work_friction"]
             else:
                 restitution += 0.5 * ev["value"] * (ev["v_minus"] + ev["v_plus"])
-            if V_P is not None:
-                drive_impacts += s.m * float(np.dot(V_P[i + 1] - V_P[i], mo.v_r[i]))
-    power = drive_power_in_flight(s, mo)
-    drive_flight = drive_contact = contact = 0.0
+            works = _impulsive_work(result, mo, V_P, i)
+            if works is None:
+                impulsive_known = False
+            else:
+                drive_impacts += works
+    power = drive_powers_in_flight(s, mo)
+    drive_flight, drive_contact, contact = zero.copy(), zero.copy(), 0.0
     unchecked = False
     budget = [MAX_PHASE_RUNS]
     for a, b, state in phases(result):
         if state == "flight":
-            drive_flight += _phase_work(result, mo, a, b, state, power[a:b], budget)
+            drive_flight += _phase_work(result, mo, a, b, state, power[:, a:b], budget)
             continue
         if rough:
             fine, fm, fa, fb = result, mo, a, b
@@ -456,28 +550,33 @@ def energy_balance(result, mo: Motion) -> dict | None:
                 if sub is not None:
                     fine, fm, fa, fb = sub, motion(sub), 0, len(sub.t)
             p, pf = rough_contact_power(fine, fm, fa, fb)
-            drive_contact += _integrate_pieces(s, fm.t[fa:fb], p)
+            drive_contact += _works(s, fm.t[fa:fb], p)
             friction_contact += _integrate_pieces(s, fm.t[fa:fb], pf)
             continue
-        p = drive_power_in_contact(result, mo, a, b)
+        p = drive_powers_in_contact(result, mo, a, b)
         if p is None:
             contact += float(E[b - 1] - E[a])
             unchecked = True
         else:
             drive_contact += _phase_work(result, mo, a, b, state, p, budget)
     E0, E1 = float(E[0]), float(E[-1])
+    by_drive = drive_flight + drive_contact + (drive_impacts if impulsive_known else 0.0)
+    drive_flight, drive_contact = float(drive_flight.sum()), float(drive_contact.sum())
     out = {
         "start": E0, "end": E1, "change": E1 - E0,
         "kinetic_start": float(mo.T[0]), "kinetic_end": float(mo.T[-1]),
         "at_impacts": jumps["impact"],
         "lost_at_impacts": -jumps["impact"],
         "restitution_at_impacts": restitution,
-        "drive_work_at_impacts": drive_impacts if V_P is not None else None,
+        "drive_work_at_impacts": float(drive_impacts.sum()) if impulsive_known else None,
         "drive_work_in_flight": drive_flight,
         "drive_work_in_contact": drive_contact,
+        # each drive's work in all (flight, contact and its impulses at impacts)
+        "drive_work_by_body": dict(zip(names, by_drive.tolist())),
         "change_in_contact_not_split": contact if unchecked else None,
         "at_other_events": sum(v for k, v in jumps.items() if k != "impact"),
         "quadrature_rows": int(len(mo.t)),
+        "kinetic_by_body": kinetic_by_body(mo, names),
     }
     if rough:
         out.update({"friction_at_impacts": friction_impacts,

@@ -9,6 +9,11 @@ after two text columns ``event`` and ``side`` (before, after); ``impacts.csv`` h
 per impact (t, I, v_n_minus, v_n_plus).  Column names are plain identifiers (``dX_C`` for
 X_C'), so ``numpy.genfromtxt(..., names=True)`` and pandas keep them.
 
+A scene that is not one point has every point's position (``X_P1, Y_P1, Z_P1``, ...),
+every rotor's angle and rate relative to the body (``psi_1, dpsi_1``, ...) and each body's
+kinetic energy (``E_carrier`` with its rotors locked, ``E_P1``, ..., ``E_R1``, ...: a
+rotor's spin beyond that) in place of the one point's ``X_P, Y_P, Z_P`` and ``E_point``.
+
 On a rough plane (the ``rough`` model) the trajectory gains the slip of S (``slip_X,
 slip_Y, slip_speed``) and the contact ``mode`` (0 flight, 2 sliding, 3 sticking:
 abi.MODES), and each impact its tangential impulse, the slip before and after, the work
@@ -86,12 +91,27 @@ def trajectory_table(result: Result, mo: Motion | None = None) -> tuple[list, np
         elif name == "momentum":
             header += ["K_x", "K_y", "K_z", "K_norm"]
             cols += [value["K_body"], value["K_norm"][:, None]]
+    b = mo.bodies                       # a scene that is not one point: every body
     if mo.r_O is not None:
-        header += ["X_O", "Y_O", "Z_O", "X_P", "Y_P", "Z_P"]
-        cols += [mo.r_O, mo.r_P]
-    if mo.T_carrier is not None:
+        header += ["X_O", "Y_O", "Z_O"]
+        cols.append(mo.r_O)
+        if b is None:
+            header += ["X_P", "Y_P", "Z_P"]
+            cols.append(mo.r_P)
+        for j, r_P in enumerate(mo.r_points if b is not None else (), start=1):
+            header += [f"X_P{j}", f"Y_P{j}", f"Z_P{j}"]
+            cols.append(r_P)
+    if b is not None:                   # each rotor's angle and rate (relative to the body)
+        for k, psi in enumerate(b.psi, start=1):
+            header += [f"psi_{k}", f"dpsi_{k}"]
+            cols.append(psi[:, :2])
+    if mo.T_carrier is not None and b is None:
         header += ["E_carrier", "E_point"]
         cols += [mo.T_carrier[:, None], mo.T_point[:, None]]
+    elif mo.T_carrier is not None:      # the carrier (rotors locked), each point, each rotor
+        header += ["E_carrier", *(f"E_P{j}" for j in range(1, len(mo.T_points) + 1)),
+                   *(f"E_R{k}" for k in range(1, len(mo.T_rotors) + 1))]
+        cols += [mo.T_carrier[:, None], mo.T_points.T, mo.T_rotors.T]
     elif mo.T is not None:
         header.append("E_kinetic")
         cols.append(mo.T[:, None])

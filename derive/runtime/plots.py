@@ -2,7 +2,9 @@
 instants, the traces of C and P, the impacts), and against time the height of S, the
 attitude, omega, the energy of the carrier and of the point, the impulses and the drift
 of |K| between impacts (E1.9); on a rough plane also the slip speed of S with the contact
-modes shaded, and the contact mode with the impacts' tangential impulses.
+modes shaded, and the contact mode with the impacts' tangential impulses.  With several
+points every point is drawn (P1, P2, ...), and every rotor as a disc about its axis with a
+spoke at its angle; the energy is split per body.
 
 Drawn on a bare :class:`matplotlib.figure.Figure` with the Agg canvas (no pyplot, no
 backend selection); legends sit outside the axes so they never hide a curve.
@@ -140,15 +142,26 @@ def snapshot_rows(bodies: np.ndarray, pictures: np.ndarray, widths, height: floa
     return sorted(chosen)
 
 
+def _point_text(j: int) -> str:
+    """A point's colour in a legend (the first point's orange a shade darker: text)."""
+    return "#e6550d" if j == 0 else drawing.point_colour(j)
+
+
+def _point_entries(mo: Motion, what: str = "") -> list:
+    n = len(mo.r_points)
+    return [(what + drawing.point_label(j, n), _point_text(j)) for j in range(n)]
+
+
 def side_panel(ax, result, mo: Motion) -> None:
-    """The traces of C, O and P in the vertical plane of the main travel (X-Z or Y-Z),
-    to scale."""
+    """The traces of C, O and the points in the vertical plane of the main travel (X-Z or
+    Y-Z), to scale."""
     span = np.ptp(mo.r_C[:, :2], axis=0)
     k = 0 if span[0] >= span[1] else 1
     name = "XY"[k]
-    i = drawing.drawn_rows(mo.t, *(p[:, j] for p in (mo.r_P, mo.r_O, mo.r_C) for j in (k, 2)))
-    for pts, colour, lw, label in ((mo.r_P, "#ff7f0e", 0.7, "P"), (mo.r_O, "#3182bd", 0.9,
-                                   "O (carrier's centre)"), (mo.r_C, "k", 1.2, "C")):
+    i = drawing.drawn_rows(mo.t, *(p[:, j] for p in (*mo.r_points, mo.r_O, mo.r_C)
+                                   for j in (k, 2)))
+    traces = [(P, drawing.point_colour(j), 0.7) for j, P in enumerate(mo.r_points)]
+    for pts, colour, lw in (*traces, (mo.r_O, "#3182bd", 0.9), (mo.r_C, "k", 1.2)):
         ax.plot(pts[i, k], pts[i, 2], color=colour, lw=lw)
     if result.scene.plane:
         ax.axhline(0.0, color="0.4", lw=1.0)
@@ -159,9 +172,11 @@ def side_panel(ax, result, mo: Motion) -> None:
     # to scale unless that would leave most of the panel empty
     box = ax.get_position()
     fw, fh = ax.figure.get_size_inches()
-    allz = np.concatenate([mo.r_P[:, 2], mo.r_C[:, 2], [0.0] if result.scene.plane else []])
+    allz = np.concatenate([*(P[:, 2] for P in mo.r_points), mo.r_C[:, 2],
+                           [0.0] if result.scene.plane else []])
     dz = max(float(np.ptp(allz)), 1e-12)
-    dx = max(float(np.ptp(np.concatenate([mo.r_P[:, k], mo.r_O[:, k]]))), 1e-12)
+    dx = max(float(np.ptp(np.concatenate([*(P[:, k] for P in mo.r_points), mo.r_O[:, k]]))),
+             1e-12)
     panel = (box.width * fw) / (box.height * fh)
     to_scale = 1 / 3 <= (dx / dz) / panel <= 3
     if to_scale:
@@ -170,7 +185,7 @@ def side_panel(ax, result, mo: Motion) -> None:
     ax.set_ylabel("Z [m]", fontsize=9)
     ax.set_title(f"traces in the vertical plane {name}-Z"
                  + (", to scale" if to_scale else " (not to scale)"), **_TITLE)
-    _labels(ax, [("C", "k"), ("O, carrier's centre", "#3182bd"), ("P", "#e6550d")]
+    _labels(ax, [("C", "k"), ("O, carrier's centre", "#3182bd"), *_point_entries(mo)]
             + ([("x  impact points S", "#d62728")] if len(result.impacts) else []))
 
 
@@ -187,11 +202,13 @@ def motion_panel(ax, result, mo: Motion) -> None:
         poly, grid = drawing.plane_pictures(view, xlim, ylim)
         ax.fill(poly[:, 0], poly[:, 1], color=drawing.PLANE_COLOUR, zorder=0, lw=0)
         ax.add_collection(LineCollection(grid, colors="white", linewidths=0.7, zorder=0.5))
-    C, P = view(mo.r_C), view(mo.r_P)
-    i = drawing.drawn_rows(mo.t, C[:, 0], C[:, 1], P[:, 0], P[:, 1])
-    ax.plot(P[i, 0], P[i, 1], color="#ff7f0e", lw=0.6, alpha=0.7, zorder=1.5)
+    C, Ps = view(mo.r_C), [view(P) for P in mo.r_points]
+    i = drawing.drawn_rows(mo.t, C[:, 0], C[:, 1], *(P[:, k] for P in Ps for k in (0, 1)))
+    for j, P in enumerate(Ps):
+        ax.plot(P[i, 0], P[i, 1], color=drawing.point_colour(j), lw=0.6, alpha=0.7,
+                zorder=1.5)
     ax.plot(C[i, 0], C[i, 1], color="k", lw=1.0, zorder=1.6)
-    labels += [("trace of C", "k"), ("trace of P", "#e6550d")]
+    labels += [("trace of C", "k"), *_point_entries(mo, "trace of ")]
     if len(result.impacts):
         rows = impact_rows(result)
         Sv = view(drawing.lowest_points(s, mo.r_O[rows], mo.A[rows]))
@@ -211,7 +228,7 @@ def motion_panel(ax, result, mo: Motion) -> None:
                           np.maximum(bodies[:, 2:], np.maximum(O, tips.max(axis=0)))])
     texts = [_time_text(mo.t[i]) for i in cand]
     widths_pt = np.array([_text_width(t) for t in texts]) + 2 * _TIME_MARGIN
-    pts = np.vstack([C, P, pictures[:, :2], pictures[:, 2:]] + ([poly] if s.plane else []))
+    pts = np.vstack([C, *Ps, pictures[:, :2], pictures[:, 2:]] + ([poly] if s.plane else []))
     lo, hi = pts.min(axis=0), pts.max(axis=0)
     pad = 0.04 * (hi - lo).max()
     lo, hi = lo - pad, hi + pad
@@ -243,11 +260,17 @@ def motion_panel(ax, result, mo: Motion) -> None:
     ax.add_collection(LineCollection([p["axes"][k] for p in pics for k in range(3)],
                                      colors=list(drawing.AXIS_COLOURS) * len(pics),
                                      linewidths=1.5, zorder=4))
-    Pv = view(mo.r_P[rows])
-    ax.plot(Pv[:, 0], Pv[:, 1], "o", color="#ff7f0e", mec="k", mew=0.6, ms=5, zorder=5)
+    _draw_rotors(ax, view, s, mo, rows, zorder=4.5)
+    for j, P in enumerate(mo.r_points):
+        Pv = view(P[rows])
+        ax.plot(Pv[:, 0], Pv[:, 1], "o", color=drawing.point_colour(j), mec="k", mew=0.6,
+                ms=5, zorder=5)
     labels += [("body x axis", drawing.AXIS_COLOURS[0]), ("body y axis",
-               drawing.AXIS_COLOURS[1]), ("body z axis", drawing.AXIS_COLOURS[2]),
-               ("o  the point P", "#e6550d")]
+               drawing.AXIS_COLOURS[1]), ("body z axis", drawing.AXIS_COLOURS[2])]
+    labels += [("o  the point P", "#e6550d")] if len(mo.r_points) == 1 and not s.rotors \
+        else _point_entries(mo, "o  ")
+    if s.rotors:
+        labels.append((f"rotors ({len(s.rotors)}): disc, spoke at psi", drawing.ROTOR_COLOUR))
     for k, side in chosen:            # written where snapshot_rows made room for it
         ax.annotate(texts[k], (pictures[k, 0 if side < 0 else 2], centres[k, 1]),
                     textcoords="offset points", xytext=(side * (_TIME_GAP + _TIME_MARGIN), 0),
@@ -268,6 +291,19 @@ def motion_panel(ax, result, mo: Motion) -> None:
 _SMALL_BODY = 0.12      # of the panel's width: a body drawn smaller also gets an inset
 
 
+def _draw_rotors(ax, view, s, mo: Motion, rows, zorder: float) -> None:
+    """Every rotor at the rows: its rim and its spoke (drawing.rotor_pictures)."""
+    from matplotlib.collections import LineCollection
+    if not s.rotors:
+        return
+    lines = [line for i in np.atleast_1d(rows)
+             for pic in drawing.rotor_pictures(view, s, mo.r_O[i], mo.A[i],
+                                               mo.bodies.psi[:, i, 0])
+             for line in (pic["rim"], pic["spoke"])]
+    ax.add_collection(LineCollection(lines, colors=drawing.ROTOR_COLOUR, linewidths=1.0,
+                                     zorder=zorder))
+
+
 def _body_inset(ax, view, s, mo, row: int, R: float, real: bool) -> None:
     """The body at ``row`` enlarged in a corner of the motion panel, for a run whose path
     dwarfs it (a robot rolling metres): the same view, axes and point P."""
@@ -281,8 +317,11 @@ def _body_inset(ax, view, s, mo, row: int, R: float, real: bool) -> None:
     inset.plot(pic["front"][:, 0], pic["front"][:, 1], color="#3182bd", lw=0.6, alpha=0.8)
     inset.add_collection(LineCollection(list(pic["axes"]), colors=list(drawing.AXIS_COLOURS),
                                         linewidths=1.5))
-    Pv = view(mo.r_P[row:row + 1])
-    inset.plot(Pv[:, 0], Pv[:, 1], "o", color="#ff7f0e", mec="k", mew=0.6, ms=5)
+    _draw_rotors(inset, view, s, mo, row, zorder=2)
+    for j, P in enumerate(mo.r_points):
+        Pv = view(P[row:row + 1])
+        inset.plot(Pv[:, 0], Pv[:, 1], "o", color=drawing.point_colour(j), mec="k", mew=0.6,
+                   ms=5)
     c = view(mo.r_O[row:row + 1] + mo.A[row] @ np.asarray(s.center, dtype=float))[0]
     inset.set_xlim(c[0] - 1.4 * R, c[0] + 1.4 * R)
     inset.set_ylim(c[1] - 1.4 * R, c[1] + 1.4 * R)
@@ -410,13 +449,13 @@ def overview(result, mo: Motion, path: Path, dpi: int = 80, steps=None) -> Path:
             ax.set_title(f"height of the lowest point S (min {result.min_height:.3g} m"
                          + (f" at t = {mh:.3g} s)" if np.isfinite(mh) else ")"), **_TITLE)
     elif mo.r_O is not None:
-        i = drawing.drawn_rows(t, mo.r_P[:, 2], mo.r_O[:, 2], mo.r_C[:, 2])
-        for pts, colour, name in ((mo.r_P, "#ff7f0e", "Z_P"), (mo.r_O, "#3182bd", "Z_O"),
-                                  (mo.r_C, "k", "Z_C")):
+        i = drawing.drawn_rows(t, *(P[:, 2] for P in mo.r_points), mo.r_O[:, 2], mo.r_C[:, 2])
+        curves = [(P, drawing.point_colour(j)) for j, P in enumerate(mo.r_points)]
+        for pts, colour in (*curves, (mo.r_O, "#3182bd"), (mo.r_C, "k")):
             ax.plot(t[i], pts[i, 2], lw=1, color=colour)
         ax.set_ylabel("[m]", fontsize=9)
-        ax.set_title("heights of C, O and P (no surface: no lowest point)", **_TITLE)
-        _labels(ax, [("Z_C", "k"), ("Z_O", "#3182bd"), ("Z_P", "#e6550d")])
+        ax.set_title("heights of C, O and the points (no surface: no lowest point)", **_TITLE)
+        _labels(ax, [("Z_C", "k"), ("Z_O", "#3182bd"), *_point_entries(mo, "Z_")])
     else:
         ax.text(0.5, 0.5, "no surface: no lowest point", ha="center", va="center",
                 transform=ax.transAxes)
@@ -451,11 +490,18 @@ def overview(result, mo: Motion, path: Path, dpi: int = 80, steps=None) -> Path:
 
     ax = panels[3]
     if mo.T is not None:
-        curves = ([(mo.T_carrier, 1, "#3182bd"), (mo.T_point, 1, "#ff7f0e")]
-                  if mo.T_carrier is not None else [(mo.T, 1, "#3182bd")]) \
+        split = mo.T_carrier is not None
+        n_p = len(mo.T_points) if split else 0
+        curves = ([(mo.T_carrier, 1, "#3182bd"),
+                   *((T, 1, drawing.point_colour(j)) for j, T in enumerate(mo.T_points)),
+                   *((T, 1, drawing.ROTOR_COLOUR) for T in mo.T_rotors)]
+                  if split else [(mo.T, 1, "#3182bd")]) \
             + [(mo.U, 1, "0.55"), (mo.E, 1.4, "k")]
-        entries = [("carrier, kinetic", "#3182bd"), ("point, kinetic", "#e6550d")] \
-            if mo.T_carrier is not None else [("kinetic", "#3182bd")]
+        entries = ([("carrier, kinetic", "#3182bd")]
+                   + ([("point, kinetic", "#e6550d")] if n_p == 1 and not len(mo.T_rotors)
+                      else _point_entries(mo, "kinetic, "))
+                   + ([(f"rotors' spin ({len(mo.T_rotors)})", drawing.ROTOR_COLOUR)]
+                      if len(mo.T_rotors) else [])) if split else [("kinetic", "#3182bd")]
         i = drawing.drawn_rows(t, *(y for y, _, _ in curves))
         for y, lw, colour in curves:
             ax.plot(t[i], y[i], lw=lw, color=colour)

@@ -131,10 +131,14 @@ class Session:
                     f"{abi.OPTIONS[k].rule})") if 0 <= k < len(abi.OPTIONS) else "an option"
         elif status == _S["bad_parameters"]:
             k = lib.crt_bad_parameter(self.handle)
-            what = (f"the parameter {abi.PARAMETERS[k].name} = {self._prm[k]!r} (it must "
-                    f"be finite)") if 0 <= k < len(abi.PARAMETERS) else "a parameter"
+            name = abi.PARAMETERS[k].name if 0 <= k < len(abi.PARAMETERS) else ""
+            rule = (abi.BODIES_RULE if name in abi.BODY_PARAMETERS and self.library.moments
+                    else "be finite")
+            what = (f"the parameter {name} = {self._prm[k]!r} (it must {rule})"
+                    if name else "a parameter")
         elif status == _S["bad_law"]:
-            what = "the run: no law set (or a law of several bodies, which no model reads yet)"
+            what = ("the run: no law set (or a law of several bodies in a model of one "
+                    "point: only the moments models read one)")
         else:
             what = "the run's initial state"
         return SceneError("[run]", f"the runtime refused {what} ({name}); please report "

@@ -179,7 +179,8 @@ def _parts(cols, index: np.ndarray, members: list, base: dict, origin, base_v: d
     n = cols.n
     keys = choice.symmetry_key(cols.v["[initial].omega"], cols.v["[body].inertia"])
     code = sum(np.broadcast_to(b, (n,)).astype(int) << k for k, b in enumerate(keys))
-    scene, law = cols.scene, cols.draft.law
+    scene = cols.scene
+    law = cols.draft.law if cols.draft.one_point else cols.draft.bodies   # the runtime's
     out, alone_ones = [], []
     for c in np.unique(code[cols.ok]):
         members_c = cols.ok & (code == c)
@@ -279,10 +280,11 @@ def run_singles(base: dict, origin, items: list, keep: str, ready: list) -> tupl
         except SceneError as exc:
             cols["error"][k] = f"variant {index}: {exc}"
             continue
-        groups.setdefault((prep.kind, id(prep.scene.law)), []).append((k, index, prep))
+        groups.setdefault((prep.kind, id(prep.scene.runtime_law)), []).append(
+            (k, index, prep))
     for (kind, _), members in groups.items():
         preps = [p for _, _, p in members]
-        part = Part(kind, preps[0].scene.law, np.array([i for _, i, _ in members]),
+        part = Part(kind, preps[0].scene.runtime_law, np.array([i for _, i, _ in members]),
                     np.array([p.scene.t0 for p in preps]),
                     np.array([p.scene.t0 + p.scene.duration for p in preps]),
                     np.array([p.start.q0 for p in preps]), np.array([p.options for p in preps]),

@@ -254,13 +254,13 @@ def centre_offset(points: tuple, M: float, t: float) -> tuple:
     return tuple(c / total for c in oc)
 
 
-def refuse_runtime(scene) -> None:
-    """A scene that is not one point (several points, rotors, or none) cannot run yet:
-    the runtime of several internal bodies (the moments models) is the next part."""
+def refuse_analysis(scene, what: str) -> None:
+    """The analyses that read one point's law as formulas (``derive stability``: the
+    period of the law, its symbolic form in the variational equations) refuse a scene
+    that is not one point, naming its bodies; ``derive simulate`` runs any."""
     if scene.one_point:
         return
     where = "[[rotor]]" if scene.rotors else "[[point]]" if scene.points else "[point]"
-    raise SceneError(where, f"{describe(len(scene.points), len(scene.rotors))}: the runtime "
-                            "for internal bodies other than one point is not built yet "
-                            "(`derive scene check` validates the scene; runs take one "
-                            "[point] and no [[rotor]] today)")
+    raise SceneError(where, f"{describe(len(scene.points), len(scene.rotors))}: {what} "
+                            "reads one point's law (its formulas); `derive simulate` runs "
+                            "the scene")

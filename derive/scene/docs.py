@@ -15,7 +15,7 @@ def _arrays_note() -> str:
             f"{ARRAYS['point']}), gives several, each with the fields of `[point]`; "
             f"`[[rotor]]`, once per rotor (0 to {ARRAYS['rotor']}). Messages name the "
             "element: `[[rotor]] 2: axis: must be a unit vector`. A scene of anything but "
-            "one point and no rotor is validated, and not run yet.")
+            "one point and no rotor runs in a moments model (`moments`, `moments_rough`).")
 
 
 def _default(f) -> str:

@@ -238,11 +238,18 @@ def _as_for_one(check):
 
 
 def _model_by_hand(d: Draft) -> None:
+    if d.one_point:
+        return
+    what = bodies.describe(len(d.point_elements), len(d.rotor_elements))
     model = d.v["[run].model"]
-    if not d.one_point and model not in ("auto", "general", "rough"):
-        raise SceneError("[run].model", f"{model!r} is a reduction of the one-point model; a "
-                         f"scene of {bodies.describe(len(d.point_elements), len(d.rotor_elements))}"
-                         " takes auto, general or rough")
+    if model not in ("auto", "moments", "moments_rough"):
+        raise SceneError("[run].model", f"{model!r} reads one point's law; a scene of {what} "
+                         "takes auto, moments or moments_rough (its bodies through their "
+                         "moments)")
+    if "control" in d.v["__tables__"]:
+        raise SceneError("[control]", f"closes its loop around one point's law (each "
+                         f"controller reads and sets it): a scene of {what} has none to "
+                         "set (pushes act without [control]: [disturbance].pushes)")
 
 
 def _run_span(d: Draft) -> None:
@@ -353,8 +360,9 @@ STATIC_RULES = (
     Rule("[point] and each [[point]]: exactly one of law, table, samples; ends only with a "
          "table or samples", _law_source, law=True, bulk=_as_for_one(_law_source)),
     Rule(f"[[point]] and [[rotor]]: at most {ARRAYS['point']} points and {ARRAYS['rotor']} "
-         "rotors; a scene that is not one point takes [run].model auto, general or rough "
-         "(the others reduce the one-point model)", _model_by_hand, law=True),
+         "rotors; a scene that is not one point takes [run].model auto, moments or "
+         "moments_rough (the others read one point's law) and no [control] (its "
+         "controllers read and set one point's law)", _model_by_hand, law=True),
     Rule("[run]: a duration that a step resolves and that is not lost in the start time; "
          "at most 1e7 output rows (duration/output_dt)", _run_span, law=True),
     Rule("[point].law[k]: x, y, z and their first two derivatives finite and continuous "

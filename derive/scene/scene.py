@@ -158,6 +158,13 @@ class Scene:
         return self.internal[1] if self.internal is not None else ()
 
     @property
+    def runtime_law(self):
+        """The law the runtime runs: the one point's (``law``), or that of every body
+        (``bodies_law``, a :class:`~derive.scene.law.bodies.BodiesLaw`: the moments
+        models)."""
+        return self.law if self.internal is None else self.bodies_law
+
+    @property
     def contact_possible(self) -> bool:
         return self.plane and self.shape != "none"
 

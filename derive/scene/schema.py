@@ -190,8 +190,10 @@ SCENE_FIELDS = (
     F("run", "keep_orthonormal", "bool", False, "project the attitude onto the rotations "
       "after every step"),
     F("run", "model", "choice", "auto", "the model (auto: the smallest that answers the "
-      "scene)", choices=("auto", "general", "rough", "vertical", "attitude", "translational",
-                         "planar", "axisymmetric")),
+      "scene; moments, moments_rough: any points and rotors through their moments, the "
+      "only models of scenes that are not one point)",
+      choices=("auto", "general", "rough", "vertical", "attitude", "translational",
+               "planar", "axisymmetric", "moments", "moments_rough")),
     F("run", "zeno_dt", "number", 1e-9, "accumulating impacts: enter contact when the "
       "remaining flights sum to less than zeno_dt x duration", 0, 1, True),
     F("stability", "period", "number", None, "free flight: the period (default: the law's)",

@@ -133,6 +133,46 @@ def random_rough_scene(rng: np.random.Generator, max_duration: float = 20.0,
     return doc
 
 
+def random_bodies_scene(rng: np.random.Generator, max_duration: float = 5.0,
+                        method: str | None = None, rough: bool = False,
+                        n_points: int | None = None, n_rotors: int | None = None) -> dict:
+    """A random valid scene of several internal bodies (the moments models): the body,
+    plane and start of :func:`random_scene` with its point given as ``n_points`` points
+    (0 to 6 unless given; random masses, harmonic laws) and ``n_rotors`` rotors (0 to 3:
+    a random unit axis, an axial moment up to a tenth of the smallest J, a spin up to 60
+    rad/s and harmonics), started high enough for any law; ``rough``: a rough plane as
+    :func:`random_rough_scene`'s (mu_f, restitution and its law), started above it."""
+    doc = random_scene(rng, max_duration, method)
+    n_points = int(rng.integers(0, 7)) if n_points is None else n_points
+    n_rotors = int(rng.integers(0, 4)) if n_rotors is None else n_rotors
+    body = doc["body"]
+    size = body.get("radius") or max(body["semi_axes"])
+    M, J = body["mass"], body["inertia"]
+    amp = 0.3 * size / max(n_points, 1) ** 0.5
+    doc["point"] = [{"mass": float(M * rng.uniform(0.02, 0.6)),
+                     "law": [_harmonics(rng, amp) for _ in range(3)]}
+                    for _ in range(n_points)]
+    rotors = []
+    for _ in range(n_rotors):
+        axis = rng.normal(size=3)
+        axis /= np.linalg.norm(axis)
+        rotors.append({"axis": [float(a) for a in axis],
+                       "inertia": float(0.1 * min(J) * rng.uniform(0.05, 1.0)),
+                       "law": f"{rng.uniform(-60, 60):.6g}*t + {_harmonics(rng, 2.0, 20.0)}"})
+    if rotors:
+        doc["rotor"] = rotors
+    if not doc["point"]:
+        doc.pop("point")
+    if rough:
+        doc["plane"] = {"restitution": float(rng.choice((0.0, 0.1, 0.5, 0.9))),
+                        "friction": float(rng.uniform(0.05, 1.5)),
+                        "restitution_model": str(rng.choice(("energetic", "poisson")))}
+    # S is within |center| + size of O, and OC within the points' reach of it
+    doc["initial"]["com"][2] = float(np.linalg.norm(body["center"]) + 1.6 * size
+                                     + rng.uniform(0.0, 1.0))
+    return doc
+
+
 def with_rk4_step(doc: dict, rng) -> dict:
     """RK4 has no error control: give it a step that resolves fast spins (a user of RK4
     chooses its step; the default is for slow scenes)."""

@@ -18,6 +18,8 @@
  * flight (set from the state at the start of the run and after every event) and integrate
  * the attitude alone, A' = A skew(omega) (E1.8), with omega from E1.4 solved:
  *     J omega = A^T K - mu OP x V_r                                  (lie_stage)
+ * (the moments models: J omega = A^T K - k of their moments, moments_lie_stage; the model
+ * names its family's functions MODEL_LIE_STAGE, MODEL_LIE_POINT, MODEL_FIXED_KINETIC_MOMENT)
  * Over a step from t_n the attitude is A = A_n exp(W^) with W(t_n) = 0, and the step is
  * a Runge-Kutta step (the DOP853 or DOPRI5 coefficients, with their error estimates and
  * dense outputs) for W' = dexpinv(W, omega) in R^3 (Runge-Kutta-Munthe-Kaas with the
@@ -146,7 +148,7 @@ static void crt_lie_restart(crt_session *s)
     s->g_valid = 0;
   }
 #endif
-  fixed_kinetic_moment(L->R, omega, u, s->prm, L->K);
+  MODEL_FIXED_KINETIC_MOMENT(L->R, omega, u, s->prm, L->K);
   crt_transpose_times(L->R, L->K, L->k);
   for (i = 0; i < 3; ++i) L->omega[i] = omega[i];
   L->t_f = s->t;
@@ -169,7 +171,7 @@ static void crt_lie_eval(crt_session *s, double t, const double *W, const double
                          double *dW, double *omega)
 {
   ++s->stat[CRT_STAT_RHS_EVALUATIONS];
-  lie_stage(W, k, crt_u(s, t), s->prm, dW, omega);
+  MODEL_LIE_STAGE(W, k, crt_u(s, t), s->prm, dW, omega);
 }
 
 /* the end of a step: the attitude A_n cay(W1) as a quaternion and the model's state */
@@ -223,7 +225,7 @@ static void crt_lie_dense_eval(crt_session *s, double t, double *y)
     W[i] = acc;
   }
   ++s->stat[CRT_STAT_RHS_EVALUATIONS];
-  lie_point(W, d->k0, crt_u(s, t), s->prm, C, omega);
+  MODEL_LIE_POINT(W, d->k0, crt_u(s, t), s->prm, C, omega);
   for (i = 0; i < 3; ++i)
     for (j = 0; j < 3; ++j) {
       double acc = 0.0;

@@ -16,6 +16,11 @@
 #define MODEL_LIE 1
 #define MODEL_PUSH 0
 #define MODEL_FRICTION 0
+#define MODEL_MOMENTS 0
+/* the momentum form's functions of this model's family, by the names crt_lie.h calls */
+#define MODEL_LIE_STAGE lie_stage
+#define MODEL_LIE_POINT lie_point
+#define MODEL_FIXED_KINETIC_MOMENT fixed_kinetic_moment
 
 /* State: Z_C, Z_C', omega_x, omega_y, omega_z, a31, a32, a33
    where each quantity sits, from derive/layout.py (vertical) */

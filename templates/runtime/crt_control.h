@@ -20,9 +20,9 @@
  *     ends exactly at each sample, so the state the controller reads is the integrator's
  *     own state (plus the noise), not its dense output, and the method restarts there;
  *   - applies each push at its time: the impulse P (fixed axes) at a point of the body
- *     (body axes, from O) by the derived impulse map (model_push: the general model;
- *     other models refuse pushes), recorded as a CRT_EV_PUSH event (value |P|); the
- *     controller is not told;
+ *     (body axes, from O) by the derived impulse map (model_push: the general, rough
+ *     and moments models; others refuse pushes), recorded as a CRT_EV_PUSH event (value
+ *     |P|); the controller is not told;
  *   - writes the realised law into the caller's log, rows of CRT_LOG_COLUMNS: the piece's
  *     knot, the start and end of the time it was in use, and its coefficients of x, y, z
  *     (c0 s^3 + c1 s^2 + c2 s + c3, s = t - knot; 4 per coordinate).  When fewer than
@@ -41,9 +41,12 @@
  * crt_set_law_table.  Beyond the last knot the last cubic goes on.  x and x' go on
  * continuously (the impact map reads x'; x'' may jump): the new law's value and rate at
  * call->t must equal call->u's to 1e-12 relative, else the run stops with
- * CRT_BAD_CONTROL and crt_control_fault says why.  A negative return stops the run with
- * CRT_STOPPED.  ctx is the controller's own memory (its state, its solver's workspace):
- * the runtime passes it through and never reads it.  Nothing is allocated.
+ * CRT_BAD_CONTROL and crt_control_fault says why (as it does for a session whose law is
+ * of several bodies, crt_set_law_bodies: a controller sets one point's law; pushes act
+ * on it, and call->u holds its first point's nine numbers, zeros where it has none).  A
+ * negative return stops the run with CRT_STOPPED.  ctx is the controller's own memory
+ * (its state, its solver's workspace): the runtime passes it through and never reads it.
+ * Nothing is allocated.
  */
 #ifndef CRT_CONTROL_H
 #define CRT_CONTROL_H
@@ -215,6 +218,7 @@ static int crt_control_install(crt_session *s, double t, const double *u, int n)
   const int b = 1 - c->active;
   const double *knots = c->knots[b], *coef = c->coef[b];
   int i;
+  if (c->base.kind == CRT_LAW_BODIES) { c->fault = CRT_FAULT_BODIES; return CRT_BAD_CONTROL; }
   if (n < 2 || n > CRT_CTL_MAX_KNOTS) { c->fault = CRT_FAULT_KNOT_COUNT; return CRT_BAD_CONTROL; }
   if (knots[0] != t) { c->fault = CRT_FAULT_FIRST_KNOT; return CRT_BAD_CONTROL; }
   for (i = 1; i < n; ++i)
@@ -261,8 +265,9 @@ static int crt_control_call(crt_session *s, int reason, int event)
   crt_call call;
   double u[9];
   int i, n = 0, r;
-  const double *ul = crt_u(s, s->t);
-  for (i = 0; i < 9; ++i) u[i] = ul[i];
+  const double *ul = crt_law_u(s, s->t);
+  const int width = crt_law_u_width(&s->law);  /* a law of several bodies: its first nine */
+  for (i = 0; i < 9; ++i) u[i] = i < width ? ul[i] : 0.0;
   crt_control_measure(c, s->q, c->q_meas);
   call.t = s->t;
   call.reason = reason;
@@ -434,7 +439,11 @@ int crt_set_control(crt_session *s, crt_control *c)
   }
   s->ctl = c;
   if (c) {
-    if (s->law.kind != CRT_LAW_PROGRAM && s->law.kind != CRT_LAW_TABLE) return CRT_BAD_LAW;
+    /* a law of several bodies (the moments models) runs under a loop of pushes; a
+       controller's law is refused on it (CRT_FAULT_BODIES) */
+    if (s->law.kind != CRT_LAW_PROGRAM && s->law.kind != CRT_LAW_TABLE
+        && !(MODEL_MOMENTS && s->law.kind == CRT_LAW_BODIES))
+      return CRT_BAD_LAW;
     c->base = s->law;
   }
   return CRT_OK;

@@ -14,7 +14,7 @@
  * nothing is allocated and nothing is global, so sessions are independent.  A run:
  *   crt_set_law_program or crt_set_law_table   the point law (kept for later runs;
  *                                              crt_set_law_bodies: several bodies' laws,
- *                                              evaluated but not yet run)
+ *                                              which the moments models run)
  *   crt_init(s, opt, prm, t0, q0)              options, parameters, the initial state
  *   crt_advance(s, t_end, rows, events)        again while it returns CRT_PAUSED
  *   crt_stats, crt_summary, crt_state, crt_time, crt_phase   what the run did
@@ -54,7 +54,8 @@
  *   CRT_BAD_PARAMETERS -22  crt_init: a parameter is not finite, or shape is no
  *                           CRT_SHAPE_*; crt_bad_parameter(s) gives its index CRT_P_*
  *   CRT_BAD_LAW        -23  crt_set_law_*: the law is malformed (the session then has no
- *                           law); crt_init: no law is set, or a law of several bodies
+ *                           law); crt_init: no law is set, or a law of several bodies in a
+ *                           model of one point (any but moments and moments_rough)
  *   CRT_BAD_CONTROL    -24  crt_advance: the controller's law is refused (knots, or x or x'
  *                           not continuous at its start); crt_control_fault says why
  * After any code but CRT_OK, CRT_PAUSED and CRT_BAD_ARGUMENT, crt_advance returns that
@@ -78,8 +79,13 @@
  *   model_delassus, model_contact_velocity, model_apply_impulse, model_sliding,
  *   model_sticking, model_contact_wrench, model_wrench_rates, and the emitted
  *   impulse_slip_direction_rate, impulse_stick_rate, impulse_resliding (crt_dk.h);
- * and, when MODEL_PUSH (the closed loop's pushes, crt_control.h): model_push.
- * p: the parameters (crt_parameter), u: the point law at t (crt_law.h).
+ * and, when MODEL_PUSH (the closed loop's pushes, crt_control.h): model_push;
+ * and, when MODEL_MOMENTS (the moments models: any number of points and rotors), the
+ * emitted point_moments and rotor_moments and MODEL_MOMENTS_COUNT, MODEL_MOMENTS_SPIN
+ * (crt_bodies.h), and, with MODEL_LIE, MODEL_LIE_STAGE, MODEL_LIE_POINT and
+ * MODEL_FIXED_KINETIC_MOMENT name the family's momentum-form functions.
+ * p: the parameters (crt_parameter), u: what crt_u gives at t -- the point law
+ * (crt_law.h), or the moments models' sum of their bodies' moments (crt_bodies.h).
  * The contact's variant (smooth, rough, none) is chosen once, in crt_contact.h, by
  * MODEL_FRICTION and MODEL_HAS_PLANE; the loop reaches it through named hooks.
  *
@@ -207,8 +213,9 @@ int crt_set_law_table(crt_session *s, int n_knots, const double *knots, const do
    interval (c0 s^3 + c1 s^2 + c2 s + c3, s = t - knot), periodic as crt_set_law_table's.
    The arrays are the caller's and must outlive the runs.  Returns CRT_OK, or CRT_BAD_LAW
    for a malformed law (the session then has no law).  crt_law_at and crt_law_rows give
-   its u (crt_law_width numbers, crt_law.h); crt_init refuses it (CRT_BAD_LAW): the
-   models of this runtime read one point's u. */
+   its u (crt_law_width numbers, crt_law.h); the moments models run it (their
+   parameters n_points, n_rotors, m_j, a_r_*, I_r describe its bodies: crt_bodies.h), the
+   others refuse it in crt_init (CRT_BAD_LAW): they read one point's u. */
 int crt_set_law_bodies(crt_session *s, int n_points, int n_rotors, const int *out,
                        int n_nodes, int n_const, const int *code, const double *consts,
                        int n_consts, int n_knots, int n_columns, const double *knots,
@@ -231,7 +238,7 @@ void crt_law_at(crt_session *s, double t, double *u)
   const double *v;
   int i;
   if (n == 0) return;
-  v = crt_u(s, t);
+  v = crt_law_u(s, t);
   for (i = 0; i < n; ++i) u[i] = v[i];
 }
 
@@ -243,9 +250,41 @@ void crt_law_rows(crt_session *s, int n, const double *t, double *u)
   int k, i;
   if (width == 0) return;
   for (k = 0; k < n; ++k) {
+    const double *v = crt_law_u(s, t[k]);
+    for (i = 0; i < width; ++i) u[(long)width * k + i] = v[i];
+  }
+}
+
+/* the numbers the model's functions read in place of the law (crt_u): 9 for the models
+   of one point (the law's u), MODEL_MOMENTS_COUNT for the moments models (the moments of
+   the bodies, crt_bodies.h) */
+int crt_u_width(void)
+{
+#if MODEL_MOMENTS
+  return MODEL_MOMENTS_COUNT;
+#else
+  return 9;
+#endif
+}
+
+/* what the model's functions read at n times, after crt_init: u[crt_u_width() k + i] (the
+   moments models: the moments their bodies' law gives, summed as in a run) */
+void crt_eval_u_rows(crt_session *s, int n, const double *t, double *u)
+{
+  const int width = crt_u_width();
+  int k, i;
+  for (k = 0; k < n; ++k) {
     const double *v = crt_u(s, t[k]);
     for (i = 0; i < width; ++i) u[(long)width * k + i] = v[i];
   }
+}
+
+/* 1 when the model runs the law set: one point's (every model), or several bodies'
+   (the moments models) */
+static int crt_law_runs(const crt_law *L)
+{
+  if (L->kind == CRT_LAW_PROGRAM || L->kind == CRT_LAW_TABLE) return 1;
+  return MODEL_MOMENTS && L->kind == CRT_LAW_BODIES;
 }
 
 /* The first option that breaks its rule (the rules of crt_abi.h's enum crt_option), or
@@ -293,10 +332,13 @@ static int crt_parameter_fault(const double *prm)
    Returns CRT_OK when the run is ready to advance, else (and crt_advance then returns the
    same code until the next crt_init):
      CRT_BAD_LAW          no law is set, or the last crt_set_law_* refused its law, or
-                          it is crt_set_law_bodies' (the models read one point);
+                          it is crt_set_law_bodies' and the model reads one point (all
+                          but the moments models);
      CRT_BAD_OPTIONS      an option breaks its rule: crt_bad_option(s) is its index;
-     CRT_BAD_PARAMETERS   a parameter is not finite, or shape is no CRT_SHAPE_*:
-                          crt_bad_parameter(s) is its index;
+     CRT_BAD_PARAMETERS   a parameter is not finite, or shape is no CRT_SHAPE_*, or (the
+                          moments models) the bodies' parameters do not describe the
+                          law's bodies (crt_bodies_fault): crt_bad_parameter(s) is its
+                          index;
      CRT_NONFINITE        q0, or the right-hand side at (t0, q0), is not finite. */
 int crt_init(crt_session *s, const double *opt, const double *prm, double t0, const double *q0)
 {
@@ -328,13 +370,17 @@ int crt_init(crt_session *s, const double *opt, const double *prm, double t0, co
   s->out_pending = 0;
   s->out_until = t0;
   if (s->ctl) crt_control_start(s, t0);    /* the loop's clock, noise, pushes; the law */
-  if (s->law.kind != CRT_LAW_PROGRAM && s->law.kind != CRT_LAW_TABLE) {
+  if (!crt_law_runs(&s->law)) {
     s->status = CRT_BAD_LAW;
     return s->status;
   }
   s->bad_option = crt_option_fault(s->opt);
   if (s->bad_option >= 0) { s->status = CRT_BAD_OPTIONS; return s->status; }
   s->bad_parameter = crt_parameter_fault(s->prm);
+#if MODEL_MOMENTS
+  s->mo.stamp = -1;                        /* no sum of this run's law yet (crt_u) */
+  if (s->bad_parameter < 0) s->bad_parameter = crt_bodies_fault(&s->law, s->prm);
+#endif
   if (s->bad_parameter >= 0) { s->status = CRT_BAD_PARAMETERS; return s->status; }
   crt_contact_start(s);                    /* the contact's memory (the rough's: couples) */
   if (!crt_finite(s->q)) { s->status = CRT_NONFINITE; return s->status; }

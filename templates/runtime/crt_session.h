@@ -1,8 +1,9 @@
 /*
  * crt_session.h: the bottom of the runtime -- the session record every stage reads and
  * writes (the caller's memory: crt_sizeof() bytes), the output buffers, and the helpers
- * all stages share: crt_u (the point law at t), crt_changed (what was computed from the
- * state is stale), crt_emit and crt_event (an output row, an event row).
+ * all stages share: crt_u (what the model's functions read at t: the point law, or the
+ * bodies' moments), crt_changed (what was computed from the state is stale), crt_emit and
+ * crt_event (an output row, an event row).
  *
  * Hand-written C: this file is templates/runtime/crt_session.h, copied verbatim into
  * generated/runtime/ by `derive emit` (`derive emit --check` compares the copy byte for
@@ -28,8 +29,10 @@
  *                       neither:         (no-ops)           crt_session.h
  *   crt_plane.h       the gap, projection, lift-off          crt_session.h
  *   crt_dk.h          Darboux-Keller's impact, standalone    crt_math.h, crt_abi.h
- *   crt_session.h     this file                              crt_law.h, crt_friction_state.h
- *   crt_law.h         the point law                          crt_math.h, crt_abi.h
+ *   crt_session.h     this file                              crt_law.h, crt_friction_state.h,
+ *                                                            crt_bodies.h (MODEL_MOMENTS)
+ *   crt_bodies.h      the bodies' law summed into moments    crt_law.h, crt_abi.h
+ *   crt_law.h         the laws of the internal bodies        crt_math.h, crt_abi.h
  *   crt_math.h        max, min, sin and cos                  crt_constants.h
  * and the rendered crt_abi.h, crt_constants.h, crt_rk_steps.h, crt_lie_steps.h,
  * crt_dk_steps.h.  The model's file (model_<kind>.c) defines the model's functions, then
@@ -46,6 +49,9 @@
 
 #if MODEL_FRICTION
 #include "crt_friction_state.h"           /* the type of s->fr: the rough contact's memory */
+#endif
+#if MODEL_MOMENTS
+#include "crt_bodies.h"                   /* crt_moments, crt_bodies_sum: u of the bodies */
 #endif
 
 typedef struct {
@@ -113,6 +119,9 @@ typedef struct {
 #if MODEL_FRICTION
   crt_friction fr;                        /* the rough contact: its mode (crt_rough.h) */
 #endif
+#if MODEL_MOMENTS
+  crt_moments mo;                         /* the bodies' moments at lw.t (crt_bodies.h) */
+#endif
 } crt_session;
 
 /* ---- output buffers ---------------------------------------------------------------------- */
@@ -145,10 +154,27 @@ static void crt_changed(crt_session *s)
 #endif
 }
 
-/* the point law at t (the last evaluation is reused) */
-static const double *crt_u(crt_session *s, double t)
+/* the law's own u at t (one point's nine numbers, or every body's: crt_law.h); the last
+   evaluation is reused */
+static const double *crt_law_u(crt_session *s, double t)
 {
   return crt_law_eval(&s->law, &s->lw, t, &s->stat[CRT_STAT_LAW_EVALUATIONS]);
+}
+
+/* what the model's functions read at t: the point law (crt_law_u), or, MODEL_MOMENTS, the
+   bodies' moments, summed once per evaluation of their law (crt_bodies.h) */
+static const double *crt_u(crt_session *s, double t)
+{
+#if MODEL_MOMENTS
+  const double *b = crt_law_u(s, t);
+  if (s->mo.stamp != s->stat[CRT_STAT_LAW_EVALUATIONS]) {
+    crt_bodies_sum(&s->law, s->prm, b, s->mo.u);
+    s->mo.stamp = s->stat[CRT_STAT_LAW_EVALUATIONS];
+  }
+  return s->mo.u;
+#else
+  return crt_law_u(s, t);
+#endif
 }
 
 static int crt_emit(crt_out *o, double t, const double *q, int kind)
