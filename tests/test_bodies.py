@@ -457,7 +457,7 @@ int main(void)
 """
     src, exe = tmp_path / "bodies.c", tmp_path / "bodies"
     src.write_text(main)
-    cmd = [cc, "-std=c99", "-Wall", "-Wextra", "-Wpedantic", "-Werror", "-O1", "-g",
+    cmd = [cc, "-std=c99", "-Wall", "-Wextra", "-Wpedantic", "-Werror", "-O0", "-g",
            "-fsanitize=address,undefined", "-fno-sanitize-recover=all", "-I",
            str(GENERATED / "runtime"), str(src), "-o", str(exe), "-lm"]
     proc = subprocess.run(cmd, capture_output=True, text=True)

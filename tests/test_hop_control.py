@@ -266,7 +266,7 @@ def test_a_closed_loop_in_c_is_clean_under_sanitizers(unstable, tmp_path):
         "n": str(int(round(H.SPAN * H.KNOTS_PER_PERIOD))), "zd": str(hm.V.Zd)})
     exe = tmp_path / "main"
     strict = ["-std=c99", "-Wall", "-Wextra", "-Wpedantic", "-Werror"]
-    build = subprocess.run([cc, *strict, "-O1", "-g", "-fsanitize=address,undefined",
+    build = subprocess.run([cc, *strict, "-O0", "-g", "-fsanitize=address,undefined",
                             "-fno-sanitize-recover=all", "-I", str(GENERATED / "runtime"),
                             "-I", str(GENERATED / "control"), str(src), "-o", str(exe), "-lm"],
                            capture_output=True, text=True)

@@ -1,45 +1,37 @@
-"""generated/ is byte-for-byte what a fresh render gives, under any PYTHONHASHSEED: one
-render under seed 4242 and ``derive emit --check`` under seed 1 both equal the committed
-bytes (two renders, each about 30 s, prove all three the same)."""
+"""generated/ is byte-for-byte what a fresh render gives, under any PYTHONHASHSEED.
+
+A whole render costs about a minute of CPU, so the suite renders once for this:
+tests/test_wheel.py::test_emit_from_the_wheel renders the committed tree from the installed
+wheel under PYTHONHASHSEED=4242 and compares every byte (proving at once that a wheel
+renders what the checkout holds and that no hash order reaches the output; the committed
+tree was rendered under another seed).  Here: ``derive emit --check``'s own path (its
+verdicts and exit codes on a render it is given), the diff it prints, and the plain
+headers' verbatim copies.
+"""
 from __future__ import annotations
 
-import hashlib
-import json
-import os
-import subprocess
-import sys
 
-HASHES = """
-import hashlib, json
-from derive.emit.driver import render_all
-print(json.dumps({k: hashlib.sha256(v).hexdigest() for k, v in render_all().items()}))
-"""
+def test_emit_check_says_match_or_differ_and_exits_so(monkeypatch, tmp_path, capsys):
+    """``derive emit --check`` on a render equal to the tree: exit 0 and "matches"; on a
+    render one byte off: exit 1, the unified diff on stdout and the hint on stderr."""
+    import argparse
 
-
-def _render(seed: str) -> dict:
-    env = dict(os.environ, PYTHONHASHSEED=seed)
-    out = subprocess.run([sys.executable, "-c", HASHES], capture_output=True, text=True,
-                         env=env, check=True, timeout=600)
-    return json.loads(out.stdout)
-
-
-def _committed() -> dict:
-    from derive.emit.driver import existing
+    from derive import cli
+    from derive.emit import driver
     from derive.paths import GENERATED
-    return {k: hashlib.sha256(v).hexdigest() for k, v in existing(GENERATED).items()}
-
-
-def test_a_render_under_another_hash_seed_equals_the_committed_bytes():
-    fresh, committed = _render("4242"), _committed()
-    assert fresh == committed, sorted(set(fresh) ^ set(committed)) + sorted(
-        k for k in fresh if fresh[k] != committed.get(k))
-
-
-def test_committed_generated_matches_a_fresh_render():
-    proc = subprocess.run([sys.executable, "-m", "derive", "emit", "--check"],
-                          capture_output=True, text=True, timeout=600,
-                          env=dict(os.environ, PYTHONHASHSEED="1"))
-    assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr
+    files = driver.existing(GENERATED)
+    monkeypatch.setattr(driver, "render_all", lambda: dict(files))
+    args = argparse.Namespace(output=None, check=True)
+    assert cli.cmd_emit(args) == 0
+    assert "matches a fresh render" in capsys.readouterr().out
+    edited = dict(files)
+    name = "c/general_flight_rhs.c"
+    edited[name] = files[name].replace(b"dq[0] =", b"dq[0] = 1.0 +", 1)
+    monkeypatch.setattr(driver, "render_all", lambda: edited)
+    assert cli.cmd_emit(args) == 1
+    out = capsys.readouterr()
+    assert "+++ " in out.out and "dq[0] = 1.0 +" in out.out
+    assert "differs from a fresh render: run `derive emit`" in out.err
 
 
 def test_check_reports_a_diff_and_exit_1(tmp_path, monkeypatch):

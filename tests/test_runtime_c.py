@@ -237,7 +237,8 @@ def sanitized(tmp_path_factory):
             src = folder / "main.c"
             src.write_text(_source(SCENES[name], METHODS))
             exe = folder / "main"
-            cmd = [CC, *STRICT, "-O1", "-g", "-fsanitize=address,undefined",
+            # -O0: the sanitizers check the same, and it compiles in a quarter of the time
+            cmd = [CC, *STRICT, "-O0", "-g", "-fsanitize=address,undefined",
                    "-fno-sanitize-recover=all", "-I", str(GENERATED / "runtime"), str(src),
                    "-o", str(exe), "-lm"]
             proc = subprocess.run(cmd, capture_output=True, text=True)

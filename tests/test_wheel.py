@@ -116,13 +116,17 @@ def test_simulate_from_the_wheel(installed, tmp_path):
 
 
 def test_emit_from_the_wheel(installed):
-    """derive emit -o DIR renders the committed generated/ byte for byte; without -o
-    an installation is not rewritten (exit 2)."""
+    """derive emit -o DIR renders the committed generated/ byte for byte, under another
+    PYTHONHASHSEED than the one it was rendered under (the suite's one whole render: it
+    proves the wheel renders what the checkout holds and that no hash order reaches the
+    output; tests/test_reproducible.py); without -o an installation is not rewritten
+    (exit 2)."""
     bin_dir, env, _, work = installed
     refused = subprocess.run([bin_dir / "derive", "emit"], capture_output=True, text=True,
                              env=env, cwd=work)
     assert refused.returncode == 2 and "-o DIR" in refused.stderr
-    _run([bin_dir / "derive", "emit", "-o", "emitted"], env=env, cwd=work)
+    _run([bin_dir / "derive", "emit", "-o", "emitted"], env=dict(env, PYTHONHASHSEED="4242"),
+         cwd=work)
     emitted = work / "emitted"
     got = {p.relative_to(emitted).as_posix(): p.read_bytes()
            for p in emitted.rglob("*") if p.is_file()}
