@@ -28,6 +28,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..runtime.motion import contact_intervals, phases
+from ..scene.errors import has_unprintable
 
 if TYPE_CHECKING:
     from ..bench.routes import Run
@@ -43,7 +44,6 @@ BAD = ("traceback", "crash", "hang", "silent-accept", "wrong-field", "multi-line
 GOOD = ("ran-ok", "ran-status", "refused")
 
 FIELD_RE = re.compile(r"^(\[[^\]\n]+\][^:\n]*|[^\W\d][\w.\\-]*\s?(\[\d+\])*)( \([^)]*\))?:")
-CONTROL_RE = re.compile(r"[\x00-\x08\x0b-\x1f\x7f\u2028\u2029\u202a-\u202e]")
 
 
 @dataclass
@@ -80,7 +80,7 @@ def judge_api(case: Case, res: dict, run_limit: float) -> Outcome:
         msg = res.get("message", "")
         if "\n" in msg.strip():
             return Outcome(case, "multi-line", msg[:200], secs, msg)
-        if CONTROL_RE.search(msg):
+        if has_unprintable(msg.strip()):
             return Outcome(case, "control-chars", f"raw control characters: {msg[:160]!r}",
                            secs, msg)
         if res.get("seconds", 0.0) > PARSE_LIMIT_S:
@@ -137,7 +137,7 @@ def judge_cli(case, run, limit: float = CLI_LIMIT_S) -> Outcome:
             return Outcome(case, "wrong-field", f"not 'derive simulate:': {msg[:160]}",
                            secs, msg)
         body = msg[len("derive simulate: "):]
-        if CONTROL_RE.search(body):
+        if has_unprintable(body):
             return Outcome(case, "control-chars", f"raw control characters: "
                            f"{msg[:160]!r}", secs, msg)
         if case.fields is not None and not _names_field(body):
