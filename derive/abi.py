@@ -305,6 +305,12 @@ EVENT_COLUMNS = ("t", "kind", "value", "v_minus", "v_plus", "t_accumulation", "m
                  "P_Y", "slip_X_minus", "slip_Y_minus", "slip_X_plus", "slip_Y_plus",
                  "work_normal", "work_friction", "stage", "couples")
 COUPLE_BITS = (("spin", 1), ("roll", 2))
+# The contact's wrench at S with the couples (crt_eval_wrench_rows' rows, fixed axes): the
+# force, then the couple; each channel of COUPLE_BITS its columns and its bound (the
+# parameter, a length: |T| <= bound N)
+WRENCH_COLUMNS = ("R_X", "R_Y", "R_Z", "T_X", "T_Y", "T_Z")
+COUPLE_COLUMNS = {"spin": ("T_Z",), "roll": ("T_X", "T_Y")}
+COUPLE_BOUNDS = {"spin": "spin_friction", "roll": "rolling_resistance"}
 
 # What crt_count(CRT_COUNT_<NAME>) reports, with the value abi.py expects.
 COUNTS = (
