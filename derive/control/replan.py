@@ -550,7 +550,8 @@ def render(problem: Problem, w0: np.ndarray, t0: float, t_end: float, period: fl
            iterations: int) -> dict[str, str]:
     """controller.c, controller.h, ctl_qp.h and controller_data.c (CMakeLists.txt: see
     :func:`cmake_lists`)."""
-    from ..emit.render import TEMPLATES, environment, versions
+    from ..emit.render import environment, versions
+    from ..paths import c_sources
     f = problem.qp_data
     ctx = {"versions": versions(), "goal": problem.goal, "n_intervals": problem.N,
            "iterations": int(iterations), "nw": problem.nw, "ng": problem.ng,
@@ -565,7 +566,7 @@ def render(problem: Problem, w0: np.ndarray, t0: float, t_end: float, period: fl
     env = environment()
     out = {name: env.get_template(f"control/{name}.jinja").render(**ctx)
            for name in ("controller.c", "controller.h")}
-    out["ctl_qp.h"] = (TEMPLATES / "control" / "ctl_qp.h").read_text(encoding="utf-8")
+    out["ctl_qp.h"] = (c_sources("control") / "ctl_qp.h").read_text(encoding="utf-8")
     out["controller_data.c"] = data_source(problem)
     return out
 
@@ -589,9 +590,9 @@ class Compiled:
 
     def __init__(self, sources: dict, flags: tuple | None = None):
         from ..cbuild import build_shared, runtime_flags
-        from ..emit.render import TEMPLATES
+        from ..paths import c_sources
         files = dict(sources)
-        files["ctl_timing.c"] = (TEMPLATES / "control" / "ctl_timing.c").read_text(
+        files["ctl_timing.c"] = (c_sources("control") / "ctl_timing.c").read_text(
             encoding="utf-8")
         self.path = build_shared(files, flags=flags or runtime_flags(), name="controller")
         lib = ctypes.CDLL(str(self.path))
