@@ -1,0 +1,579 @@
+"""``derive verify mutants``: do the tests notice when the runtime's C is slightly wrong?
+
+A catalogue of small mutations of the runtime's and the controllers' hand-written C
+(``templates/runtime`` and ``templates/control``: every ``.h`` and ``.c`` there that is no
+jinja template), generated from the sites :mod:`derive.verify.csites` finds in them, never
+from lines typed by hand:
+
+* ``bound``: a factor of 1.05 on either side of every floating comparison whose sides
+  are both non-zero (a threshold, or a bound such as ``rt <= mu_f R_Z``);
+* ``flip``: every comparison turned around (``<`` to ``>``, ``<=`` to ``>=``, ``==`` to
+  ``!=``), ``for`` headers apart;
+* ``term``: each term of a sum dropped (0.0 in its place) in the sides of those floating
+  comparisons and in what a ``double`` function returns (an event function's value);
+* ``event``: both halves of a crossing test (``g0 > 0.0 && g1 <= 0.0``) turned around: the
+  event's direction;
+* ``tolerance``: every floating literal up to 1e-2 (and every ``#define`` of one) ten times
+  larger, and every read of the user's tolerances (``opt[CRT_OPT_RTOL]``, ``ATOL``,
+  ``EVENT_TOL``) ten times looser.
+
+Each mutant is applied to a scratch copy of the C (``generated/runtime``, whose runtime
+headers are the templates' verbatim twins, and ``templates/control``), never to the
+worktree; the library is built from there (``$DERIVE_C_SOURCES``, :func:`derive.paths.
+c_sources`, with a scratch ``$DERIVE_CACHE``) and a chosen subset of the tests runs
+against it (:data:`UNIT_TESTS`: the tests of each compiled unit the mutation reaches,
+found by preprocessing each model once).  A mutant is *killed* when a test fails, the run
+crashes or it runs past its time; it *survives* otherwise.  A survivor must be killed by
+a new test or recorded as equivalent, with the reason, in
+``derive/verify/equivalent_mutants.toml``; the command exits 1 while any survivor is not.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import re
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+import tomllib
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from ..commands import Target
+from . import csites as cs
+
+FACTOR = 1.05
+LOOSER = 10.0
+TOLERANCE_MAX = 1e-2
+PARTS = ("runtime", "control")
+KINDS = ("bound", "flip", "term", "event", "tolerance")
+TOLERANCE_OPTIONS = ("CRT_OPT_RTOL", "CRT_OPT_ATOL", "CRT_OPT_EVENT_TOL")
+EQUIVALENTS = Path(__file__).with_name("equivalent_mutants.toml")
+_REVERSED = {"<": ">", "<=": ">=", ">": "<", ">=": "<=", "==": "!=", "!=": "=="}
+
+# The tests a mutant runs, by the compiled units it reaches: the fast tests that exercise
+# each unit, in an order that fails early (a killed mutant stops at its first failure).
+# "model_<kind>.c" units are the runtime's models, "crt_hop.c" the per-hop controller,
+# "control/<header>" the controllers' headers.
+UNIT_TESTS = {
+    "model_rough.c": (
+        "tests/test_friction_boundaries.py",
+        "tests/test_friction_runtime.py",
+        "tests/test_friction_closed_forms.py",
+        "tests/test_friction_couples.py",
+        "tests/test_contact_properties.py::test_random_rough_scenes_hold_every_property",
+        "tests/test_friction_energy.py",
+        "tests/test_friction_literature.py",
+    ),
+    "model_general.c": (
+        "tests/test_bouncing.py",
+        "tests/test_contact_newton_euler.py",
+        "tests/test_contact_properties.py",
+        "tests/test_runtime_status.py",
+        "tests/test_runtime.py",
+    ),
+    "model_vertical.c": ("tests/test_runtime.py", "tests/test_bouncing.py"),
+    "model_attitude.c": ("tests/test_runtime.py",),
+    "model_translational.c": ("tests/test_runtime.py",),
+    "model_planar.c": ("tests/test_runtime.py", "tests/test_contact_properties.py"),
+    "model_axisymmetric.c": ("tests/test_runtime.py",),
+    "model_variational.c": ("tests/test_stability.py",),
+    "crt_hop.c": ("tests/test_hop_control.py",),
+    "control/ctl_qp.h": ("tests/test_control_replan.py",),
+}
+
+
+@dataclass(frozen=True)
+class Mutant:
+    """One mutation: ``edits`` (start, end, new text) of the file's text."""
+    part: str
+    file: str
+    function: str
+    kind: str
+    line: int
+    before: str
+    after: str
+    edits: tuple
+    occurrence: int = 1
+
+    @property
+    def key(self) -> str:
+        """How the equivalents file names it: the function, the kind and the text, no
+        line and no file (the C can move between headers)."""
+        more = f" #{self.occurrence}" if self.occurrence > 1 else ""
+        return f"{self.function}: {self.kind}: {self.before} -> {self.after}{more}"
+
+    @property
+    def id(self) -> str:
+        return hashlib.sha1(self.key.encode()).hexdigest()[:8]
+
+    @property
+    def where(self) -> str:
+        return f"{self.part}/{self.file}:{self.line} {self.function}"
+
+    def apply(self, text: str) -> str:
+        for start, end, new in sorted(self.edits, reverse=True):
+            text = text[:start] + new + text[end:]
+        return text
+
+
+# ---- the catalogue ---------------------------------------------------------------------
+def template_files() -> list[tuple[str, Path]]:
+    """(part, path) of the hand-written C: ``*.h`` and ``*.c`` of templates/runtime and
+    templates/control (jinja templates are not C)."""
+    from ..paths import TEMPLATES
+    out = []
+    for part in PARTS:
+        folder = TEMPLATES / part
+        for path in sorted(folder.iterdir()):
+            if path.suffix in (".h", ".c"):
+                out.append((part, path))
+    return out
+
+
+def _line_text(src: cs.Source, a: int, b: int) -> str:
+    return " ".join(src.span_text(a, b).split())
+
+
+def _mutants_of(part: str, src: cs.Source, names: dict) -> list[Mutant]:
+    out: list[Mutant] = []
+    toks = src.tokens
+
+    def add(kind, function, offset, before, after, edits):
+        out.append(Mutant(part, src.name, function, kind, src.line_of(offset),
+                          " ".join(before.split()), " ".join(after.split()), tuple(edits)))
+
+    comps = cs.comparisons(src, names)
+    for c in comps:
+        op = toks[c.op]
+        whole = (toks[c.left[0]].start, toks[c.right[1]].end)
+        text = src.text[whole[0]:whole[1]]
+
+        def rewrite(new_op=None, left=None, right=None):
+            ltxt = left if left is not None else src.span_text(*c.left)
+            rtxt = right if right is not None else src.span_text(*c.right)
+            gap_l = src.text[toks[c.left[1]].end:op.start]
+            gap_r = src.text[op.end:toks[c.right[0]].start]
+            return ltxt + gap_l + (new_op or op.text) + gap_r + rtxt
+
+        flipped = rewrite(new_op=_REVERSED[op.text])
+        add("flip", c.function, op.start, text, flipped, [(whole[0], whole[1], flipped)])
+        if c.kind == "double" and not c.zero and op.text in ("<", "<=", ">", ">="):
+            for side in ("left", "right"):
+                span = c.left if side == "left" else c.right
+                new = f"{FACTOR} * ({src.span_text(*span)})"
+                after = rewrite(**{side: new})
+                add("bound", c.function, op.start, text, after,
+                    [(whole[0], whole[1], after)])
+        if c.kind == "double" and not c.zero:
+            for span in (c.left, c.right):
+                for a, b in cs.terms(src, *span):
+                    s0, s1 = toks[a].start, toks[b].end
+                    after = src.text[whole[0]:s0] + "0.0" + src.text[s1:whole[1]]
+                    add("term", c.function, s0, text, after, [(whole[0], whole[1], after)])
+    # the event's direction: g0 > 0.0 && g1 <= 0.0 both turned around
+    for c1, c2 in zip(comps, comps[1:]):
+        if not (c1.zero and c2.zero and c1.kind == c2.kind == "double"):
+            continue
+        if c1.right[1] + 2 != c2.left[0] or toks[c1.right[1] + 1].text != "&&":
+            continue
+        o1, o2 = toks[c1.op].text, toks[c2.op].text
+        up = {"<": -1, "<=": -1, ">": 1, ">=": 1}
+        if o1 not in up or o2 not in up or up[o1] == up[o2]:
+            continue
+        start, end = toks[c1.left[0]].start, toks[c2.right[1]].end
+        text = src.text[start:end]
+        after = (src.text[start:toks[c1.op].start] + _REVERSED[o1]
+                 + src.text[toks[c1.op].end:toks[c2.op].start] + _REVERSED[o2]
+                 + src.text[toks[c2.op].end:end])
+        add("event", c1.function, toks[c1.op].start, text, after, [(start, end, after)])
+    for fn, a, b in cs.returns_of(src):
+        whole = (toks[a].start, toks[b].end)
+        text = src.text[whole[0]:whole[1]]
+        for x, y in cs.terms(src, a, b):
+            s0, s1 = toks[x].start, toks[y].end
+            after = src.text[whole[0]:s0] + "0.0" + src.text[s1:whole[1]]
+            add("term", fn, s0, "return " + text, "return " + after,
+                [(whole[0], whole[1], after)])
+    for lit in cs.literals(src):
+        if 0.0 < abs(lit.value) <= TOLERANCE_MAX:
+            new = repr(lit.value * LOOSER)
+            add("tolerance", lit.function, lit.start, lit.text, new,
+                [(lit.start, lit.start + len(lit.text), new)])
+    for start, end, text, fn in cs.tolerance_reads(src, TOLERANCE_OPTIONS):
+        new = f"({LOOSER} * {text})"
+        add("tolerance", fn, start, text, new, [(start, end, new)])
+    return out
+
+
+def catalogue() -> list[Mutant]:
+    """Every mutant of the hand-written C, in file order, each with its occurrence number
+    among mutants of the same key."""
+    files = [(part, path, cs.parse(path.name, path.read_text(encoding="utf-8")))
+             for part, path in template_files()]
+    names = cs.names([src for _, _, src in files])
+    out: list[Mutant] = []
+    seen: dict = {}
+    for part, _, src in files:
+        for m in _mutants_of(part, src, names):
+            if m.before == m.after:
+                continue
+            n = seen.get(m.key, 0) + 1
+            seen[m.key] = n
+            if n > 1:
+                m = Mutant(m.part, m.file, m.function, m.kind, m.line, m.before, m.after,
+                           m.edits, n)
+            out.append(m)
+    return out
+
+
+def equivalents() -> dict[str, str]:
+    """key -> reason, from equivalent_mutants.toml."""
+    if not EQUIVALENTS.is_file():
+        return {}
+    data = tomllib.loads(EQUIVALENTS.read_text(encoding="utf-8"))
+    return {entry["key"]: entry["reason"] for entry in data.get("mutant", [])}
+
+
+# ---- where a mutant is compiled --------------------------------------------------------
+def _compiled_lines(folder: Path, unit: str) -> dict[str, set]:
+    """file name -> the lines of it that the preprocessor keeps in ``unit`` (a .c of
+    ``folder``): the unit's models and options decide which #if blocks exist."""
+    from ..cbuild import compiler
+    proc = subprocess.run([compiler(), "-E", "-std=c99", "-I", str(folder), str(folder / unit)],
+                          capture_output=True, text=True)
+    if proc.returncode != 0:
+        raise RuntimeError(f"preprocessing {unit} failed:\n{proc.stderr[-2000:]}")
+    out: dict[str, set] = {}
+    current, line = None, 0
+    marker = re.compile(r'^# (\d+) "([^"]+)"')
+    for text in proc.stdout.splitlines():
+        m = marker.match(text)
+        if m:
+            line, current = int(m.group(1)), Path(m.group(2)).name
+            continue
+        if current is not None and text.strip():
+            out.setdefault(current, set()).add(line)
+        line += 1
+    return out
+
+
+def units_of(mutants: list[Mutant], folder: Path) -> dict[str, tuple]:
+    """mutant id -> the units it is compiled into (runtime: the .c files of ``folder``,
+    each preprocessed once; control: the header or file itself)."""
+    runtime_units = sorted(p.name for p in folder.iterdir() if p.suffix == ".c")
+    lines = {u: _compiled_lines(folder, u) for u in runtime_units}
+    out = {}
+    for m in mutants:
+        if m.part == "control":
+            out[m.id] = (f"control/{m.file}",)
+            continue
+        out[m.id] = tuple(u for u in runtime_units
+                          if m.line in lines[u].get(m.file, ()))
+    return out
+
+
+def tests_for(units: tuple) -> list[str]:
+    """The pytest arguments of a mutant reaching ``units`` (in UNIT_TESTS' order, each
+    once)."""
+    out: list[str] = []
+    for unit in units:
+        for t in UNIT_TESTS.get(unit, ()):
+            if t not in out:
+                out.append(t)
+    return out
+
+
+# ---- running ----------------------------------------------------------------------------
+@dataclass
+class Outcome:
+    mutant: Mutant
+    status: str            # killed, survived, equivalent, stillborn, not compiled, untested
+    detail: str = ""
+    seconds: float = 0.0
+    units: tuple = ()
+
+
+class Scratch:
+    """A worker's copy of the C (``runtime/``, ``control/``) and its own build cache."""
+
+    def __init__(self, root: Path):
+        from ..paths import GENERATED, TEMPLATES
+        self.root = root
+        self.c = root / "c"
+        shutil.copytree(GENERATED / "runtime", self.c / "runtime")
+        shutil.copytree(TEMPLATES / "control", self.c / "control")
+        self.cache = root / "cache"
+        self.cache.mkdir()
+        self.keep: set = set()
+
+    def env(self) -> dict:
+        from ..paths import C_SOURCES_ENV
+        env = dict(os.environ)
+        env.update({C_SOURCES_ENV: str(self.c), "DERIVE_CACHE": str(self.cache),
+                    "PYTHONDONTWRITEBYTECODE": "1"})
+        return env
+
+    def settle(self) -> None:
+        """What the cache holds now is the unmutated build: kept from here on."""
+        self.keep = set(os.listdir(self.cache))
+
+    def forget(self) -> None:
+        """Remove what a mutant built."""
+        for name in os.listdir(self.cache):
+            if name not in self.keep:
+                path = self.cache / name
+                shutil.rmtree(path, ignore_errors=True) if path.is_dir() else path.unlink()
+
+
+def check_twins() -> None:
+    """The runtime's templates must be the verbatim twins of generated/runtime's files
+    (``derive emit`` copies them): a mutant of one is built as the other."""
+    from ..paths import GENERATED
+    for part, path in template_files():
+        if part == "runtime":
+            twin = GENERATED / "runtime" / path.name
+            if not twin.is_file() or twin.read_bytes() != path.read_bytes():
+                raise SystemExit(f"derive verify mutants: generated/runtime/{path.name} "
+                                 f"differs from templates/runtime/{path.name}: run derive emit")
+
+
+def _pytest(scratch: Scratch, tests: list[str], timeout: float) -> tuple[str, str, float]:
+    """(killed/survived, the first failing test or why, seconds)."""
+    from ..paths import ROOT
+    cmd = [sys.executable, "-m", "pytest", "-x", "-q", "-n", "0", "-p", "no:cacheprovider",
+           "--no-header", "-W", "ignore", *tests]
+    start = time.perf_counter()
+    try:
+        proc = subprocess.run(cmd, cwd=ROOT, env=scratch.env(), capture_output=True, text=True,
+                              timeout=timeout)
+    except subprocess.TimeoutExpired:
+        return "killed", f"ran past {timeout:.0f} s", time.perf_counter() - start
+    seconds = time.perf_counter() - start
+    if proc.returncode == 0:
+        return "survived", "", seconds
+    if proc.returncode == 1:
+        failed = re.findall(r"^FAILED (\S+)", proc.stdout, re.M) or \
+            re.findall(r"^ERROR (\S+)", proc.stdout, re.M)
+        return "killed", failed[0] if failed else "a test failed", seconds
+    if proc.returncode < 0:
+        return "killed", f"crashed (signal {-proc.returncode})", seconds
+    return "error", (proc.stdout + proc.stderr)[-600:], seconds
+
+
+def _compiles(scratch: Scratch, unit: str) -> str:
+    """'' when the mutated unit compiles under the project's warnings, else the error."""
+    from ..cbuild import WARNINGS, compiler
+    if unit.startswith("control/"):
+        name = unit.split("/", 1)[1]
+        if not name.endswith(".h"):
+            return ""
+        shim = scratch.c / "control" / "_shim.c"
+        shim.write_text(f'#define CTL_QP_N 4\n#define CTL_QP_M 3\n#include "{name}"\n'
+                        "int ctl_shim_unused(void);\nint ctl_shim_unused(void) { return 0; }\n",
+                        encoding="utf-8")
+        path, folder = shim, scratch.c / "control"
+    else:
+        folder = scratch.c / "runtime"
+        path = folder / unit
+    proc = subprocess.run([compiler(), *WARNINGS, "-fsyntax-only", "-I", str(folder), str(path)],
+                          capture_output=True, text=True)
+    return "" if proc.returncode == 0 else proc.stderr.strip().splitlines()[0][:200]
+
+
+def _scratch_file(scratch: Scratch, m: Mutant) -> Path:
+    return scratch.c / m.part / m.file
+
+
+@dataclass
+class Report:
+    outcomes: list = field(default_factory=list)
+    baseline_seconds: float = 0.0
+    catalogue_size: int = 0
+
+    def count(self, status: str) -> int:
+        return sum(o.status == status for o in self.outcomes)
+
+    @property
+    def kill_rate(self) -> float:
+        judged = self.count("killed") + self.count("survived") + self.count("equivalent")
+        return self.count("killed") / judged if judged else 1.0
+
+
+def select(mutants: list[Mutant], files=None, kinds=None, match=None, sample=None,
+           seed: int = 36) -> list[Mutant]:
+    """The mutants of the named files (template names, e.g. crt_friction.h), of the
+    kinds, whose id or key contains ``match``; ``sample`` of them at random."""
+    out = [m for m in mutants
+           if (not files or m.file in files) and (not kinds or m.kind in kinds)
+           and (not match or match in m.id or match in m.key)]
+    if sample and sample < len(out):
+        import random
+        out = sorted(random.Random(seed).sample(out, sample),
+                     key=lambda m: (m.part, m.file, m.line))
+    return out
+
+
+def _basis() -> str:
+    """A hash of the hand-written C: a journal's verdicts stand while it is unchanged."""
+    h = hashlib.sha256()
+    for _, path in template_files():
+        h.update(path.name.encode() + b"\0" + path.read_bytes())
+    return h.hexdigest()[:16]
+
+
+def _read_journal(path: Path | None, basis: str) -> dict:
+    if path is None or not path.is_file():
+        return {}
+    out = {}
+    for line in path.read_text(encoding="utf-8").splitlines():
+        try:
+            entry = json.loads(line)
+        except ValueError:
+            continue
+        if entry.get("basis") == basis and entry.get("status") in ("killed", "stillborn",
+                                                                   "not compiled"):
+            out[entry["key"]] = entry
+    return out
+
+
+def run(files=None, kinds=None, match=None, sample=None, seed: int = 36,
+        workers: int | None = None, journal: str | None = None, listing: bool = False,
+        tests: list | None = None, progress=None) -> Report:
+    """Build and test each selected mutant (``listing``: only list the catalogue).
+    ``journal``: a file of verdicts (JSON lines) that a later run reuses for the mutants
+    killed under the same C (a survivor is always run again: a new test may kill it).
+    ``tests``: pytest arguments run against every mutant instead of UNIT_TESTS'."""
+    check_twins()
+    every = catalogue()
+    mutants = select(every, files, kinds, match, sample, seed)
+    report = Report(catalogue_size=len(every))
+    if listing:
+        report.outcomes = [Outcome(m, "listed") for m in mutants]
+        return report
+    equivalent = equivalents()
+    basis = _basis()
+    jpath = Path(journal) if journal else None
+    done = _read_journal(jpath, basis)
+    workers = max(1, min(workers or os.cpu_count() or 1, len(mutants) or 1))
+    with tempfile.TemporaryDirectory(prefix="derive-mutants-") as tmp:
+        scratches = [Scratch(Path(tmp) / f"w{k}") for k in range(workers)]
+        units = units_of(mutants, scratches[0].c / "runtime")
+        todo = [m for m in mutants if m.key not in done]
+        needed = list(tests) if tests else \
+            tests_for(tuple(sorted({u for m in todo for u in units[m.id]})))
+        # the unmutated C passes the tests (and its libraries are built once, shared)
+        if needed:
+            if progress:
+                progress(f"the unmutated C through {len(needed)} test groups")
+            status, detail, secs = _pytest(scratches[0], needed, 3600.0)
+            if status != "survived":
+                raise SystemExit(f"derive verify mutants: the tests fail on the unmutated C "
+                                 f"({detail}); fix them first")
+            report.baseline_seconds = secs
+            for sc in scratches[1:]:
+                shutil.rmtree(sc.cache)
+                shutil.copytree(scratches[0].cache, sc.cache)
+            for sc in scratches:
+                sc.settle()
+        timeout = max(120.0, 4.0 * report.baseline_seconds)
+        import queue
+        free: queue.Queue = queue.Queue()
+        for sc in scratches:
+            free.put(sc)
+
+        def one(m: Mutant) -> Outcome:
+            if m.key in done:
+                e = done[m.key]
+                return Outcome(m, e["status"], e.get("detail", "") + " (journal)", 0.0,
+                               units[m.id])
+            us = units[m.id]
+            if not us:
+                return Outcome(m, "not compiled", "in no model (its #if blocks)")
+            chosen = list(tests) if tests else tests_for(us)
+            if not chosen:
+                return Outcome(m, "untested", f"no tests for {', '.join(us)}", 0.0, us)
+            sc = free.get()
+            path = _scratch_file(sc, m)
+            original = path.read_text(encoding="utf-8")
+            try:
+                path.write_text(m.apply(original), encoding="utf-8")
+                err = _compiles(sc, us[0])
+                if err:
+                    return Outcome(m, "stillborn", err, 0.0, us)
+                status, detail, secs = _pytest(sc, chosen, timeout)
+            finally:
+                path.write_text(original, encoding="utf-8")
+                sc.forget()
+                free.put(sc)
+            if status == "survived" and m.key in equivalent:
+                status, detail = "equivalent", equivalent[m.key]
+            return Outcome(m, status, detail, secs, us)
+
+        n = len(mutants)
+        with ThreadPoolExecutor(workers) as pool:
+            for k, o in enumerate(pool.map(one, mutants), 1):
+                report.outcomes.append(o)
+                if jpath is not None and "journal" not in o.detail:
+                    with jpath.open("a", encoding="utf-8") as f:
+                        f.write(json.dumps({"key": o.mutant.key, "id": o.mutant.id,
+                                            "status": o.status, "detail": o.detail,
+                                            "seconds": round(o.seconds, 2),
+                                            "basis": basis}) + "\n")
+                if progress:
+                    progress(f"[{k}/{n}] {o.status} {o.mutant.id} {o.mutant.where} "
+                             f"{o.mutant.kind}: {o.mutant.before} -> {o.mutant.after}"
+                             + (f" ({o.detail})" if o.detail else ""))
+    return report
+
+
+def targets(report: Report) -> list[Target]:
+    surv = report.count("survived")
+    untested = report.count("untested")
+    return [Target(f"0 survivors not recorded as equivalent ({surv})", surv == 0),
+            Target(f"0 mutants without tests ({untested})", untested == 0),
+            Target(f"0 errors of the harness ({report.count('error')})",
+                   report.count("error") == 0)]
+
+
+def passed(report: Report) -> bool:
+    if report.outcomes and all(o.status == "listed" for o in report.outcomes):
+        return True
+    return all(t.ok for t in targets(report))
+
+
+def report(rep: Report) -> str:
+    from collections import Counter
+    lines = []
+    if rep.outcomes and all(o.status == "listed" for o in rep.outcomes):
+        for o in rep.outcomes:
+            m = o.mutant
+            lines.append(f"{m.id} {m.where} {m.kind}: {m.before} -> {m.after}")
+        kinds = Counter(o.mutant.kind for o in rep.outcomes)
+        lines.append(f"{len(rep.outcomes)} of {rep.catalogue_size} mutants ("
+                     + ", ".join(f"{k} {v}" for k, v in sorted(kinds.items())) + ")")
+        return "\n".join(lines)
+    for o in rep.outcomes:
+        if o.status in ("survived", "untested", "error"):
+            m = o.mutant
+            lines.append(f"  {o.status} {m.id} {m.where} {m.kind}: {m.before} -> "
+                         f"{m.after}" + (f" ({o.detail[:200]})" if o.detail else ""))
+    by_file = Counter((o.mutant.file, o.status) for o in rep.outcomes)
+    for name in sorted({o.mutant.file for o in rep.outcomes}):
+        counts = {s: by_file[(name, s)] for s in ("killed", "survived", "equivalent",
+                                                   "stillborn", "not compiled", "untested")
+                  if by_file[(name, s)]}
+        lines.append(f"{name}: " + ", ".join(f"{k} {v}" for k, v in counts.items()))
+    counts = Counter(o.status for o in rep.outcomes)
+    judged = counts["killed"] + counts["survived"] + counts["equivalent"]
+    lines.append(f"{len(rep.outcomes)} of {rep.catalogue_size} mutants: "
+                 + ", ".join(f"{k} {v}" for k, v in sorted(counts.items()))
+                 + f"; kill rate {counts['killed']}/{judged} = {100 * rep.kill_rate:.1f}% "
+                 f"({counts['equivalent']} survivors recorded as equivalent); the unmutated "
+                 f"tests took {rep.baseline_seconds:.0f} s")
+    lines.append("goal: " + "; ".join(str(t) for t in targets(rep)))
+    return "\n".join(lines)
