@@ -9,8 +9,9 @@ from lines typed by hand:
   are both non-zero (a threshold, or a bound such as ``rt <= mu_f R_Z``);
 * ``flip``: every comparison turned around (``<`` to ``>``, ``<=`` to ``>=``, ``==`` to
   ``!=``), ``for`` headers apart;
-* ``term``: each term of a sum dropped (0.0 in its place) in the sides of those floating
-  comparisons and in what a ``double`` function returns (an event function's value);
+* ``term``: each term of a sum dropped (multiplied by 0.0, so that what it reads stays
+  read) in the sides of those floating comparisons and in what a ``double`` function
+  returns (an event function's value);
 * ``event``: both halves of a crossing test (``g0 > 0.0 && g1 <= 0.0``) turned around: the
   event's direction;
 * ``tolerance``: every floating literal up to 1e-2 (and every ``#define`` of one) ten times
@@ -68,6 +69,7 @@ UNIT_TESTS = {
         "tests/test_contact_properties.py::test_random_rough_scenes_hold_every_property",
         "tests/test_friction_energy.py",
         "tests/test_friction_literature.py",
+        "tests/test_friction_peer.py",
     ),
     "model_general.c": (
         "tests/test_bouncing.py",
@@ -173,7 +175,8 @@ def _mutants_of(part: str, src: cs.Source, names: dict) -> list[Mutant]:
             for span in (c.left, c.right):
                 for a, b in cs.terms(src, *span):
                     s0, s1 = toks[a].start, toks[b].end
-                    after = src.text[whole[0]:s0] + "0.0" + src.text[s1:whole[1]]
+                    after = (src.text[whole[0]:s0] + f"0.0 * ({src.text[s0:s1]})"
+                             + src.text[s1:whole[1]])
                     add("term", c.function, s0, text, after, [(whole[0], whole[1], after)])
     # the event's direction: g0 > 0.0 && g1 <= 0.0 both turned around
     for c1, c2 in zip(comps, comps[1:]):
@@ -196,7 +199,7 @@ def _mutants_of(part: str, src: cs.Source, names: dict) -> list[Mutant]:
         text = src.text[whole[0]:whole[1]]
         for x, y in cs.terms(src, a, b):
             s0, s1 = toks[x].start, toks[y].end
-            after = src.text[whole[0]:s0] + "0.0" + src.text[s1:whole[1]]
+            after = src.text[whole[0]:s0] + f"0.0 * ({src.text[s0:s1]})" + src.text[s1:whole[1]]
             add("term", fn, s0, "return " + text, "return " + after,
                 [(whole[0], whole[1], after)])
     for lit in cs.literals(src):
@@ -272,6 +275,9 @@ def units_of(mutants: list[Mutant], folder: Path) -> dict[str, tuple]:
         if m.part == "control":
             out[m.id] = (f"control/{m.file}",)
             continue
+        if m.function.startswith("#define"):     # a macro: wherever its file is
+            out[m.id] = tuple(u for u in runtime_units if lines[u].get(m.file))
+            continue
         out[m.id] = tuple(u for u in runtime_units
                           if m.line in lines[u].get(m.file, ()))
     return out
@@ -318,6 +324,16 @@ class Scratch:
                     "PYTHONDONTWRITEBYTECODE": "1"})
         return env
 
+    def borrow(self) -> None:
+        """The user's cache's libraries, linked in: the unmutated C built once, ever
+        (the cache is keyed by the sources' content; a mutant's build is new)."""
+        from ..cbuild import cache_dir
+        home = cache_dir()
+        if home.is_dir():
+            for entry in home.iterdir():
+                if entry.is_dir() and not (self.cache / entry.name).exists():
+                    (self.cache / entry.name).symlink_to(entry, target_is_directory=True)
+
     def settle(self) -> None:
         """What the cache holds now is the unmutated build: kept from here on."""
         self.keep = set(os.listdir(self.cache))
@@ -327,7 +343,10 @@ class Scratch:
         for name in os.listdir(self.cache):
             if name not in self.keep:
                 path = self.cache / name
-                shutil.rmtree(path, ignore_errors=True) if path.is_dir() else path.unlink()
+                if path.is_dir() and not path.is_symlink():
+                    shutil.rmtree(path, ignore_errors=True)
+                else:
+                    path.unlink()
 
 
 def check_twins() -> None:
@@ -407,10 +426,11 @@ class Report:
 def select(mutants: list[Mutant], files=None, kinds=None, match=None, sample=None,
            seed: int = 36) -> list[Mutant]:
     """The mutants of the named files (template names, e.g. crt_friction.h), of the
-    kinds, whose id or key contains ``match``; ``sample`` of them at random."""
+    kinds, whose id or key contains one of ``match``; ``sample`` of them at random."""
+    texts = [match] if isinstance(match, str) else list(match or ())
     out = [m for m in mutants
            if (not files or m.file in files) and (not kinds or m.kind in kinds)
-           and (not match or match in m.id or match in m.key)]
+           and (not texts or any(x in m.id or x in m.key for x in texts))]
     if sample and sample < len(out):
         import random
         out = sorted(random.Random(seed).sample(out, sample),
@@ -462,6 +482,8 @@ def run(files=None, kinds=None, match=None, sample=None, seed: int = 36,
     workers = max(1, min(workers or os.cpu_count() or 1, len(mutants) or 1))
     with tempfile.TemporaryDirectory(prefix="derive-mutants-") as tmp:
         scratches = [Scratch(Path(tmp) / f"w{k}") for k in range(workers)]
+        for sc in scratches:
+            sc.borrow()
         units = units_of(mutants, scratches[0].c / "runtime")
         todo = [m for m in mutants if m.key not in done]
         needed = list(tests) if tests else \
@@ -476,10 +498,12 @@ def run(files=None, kinds=None, match=None, sample=None, seed: int = 36,
                                  f"({detail}); fix them first")
             report.baseline_seconds = secs
             for sc in scratches[1:]:
-                shutil.rmtree(sc.cache)
-                shutil.copytree(scratches[0].cache, sc.cache)
-            for sc in scratches:
-                sc.settle()
+                for entry in scratches[0].cache.iterdir():
+                    if not (sc.cache / entry.name).exists():
+                        (sc.cache / entry.name).symlink_to(entry.resolve(),
+                                                           target_is_directory=entry.is_dir())
+        for sc in scratches:
+            sc.settle()
         timeout = max(120.0, 4.0 * report.baseline_seconds)
         import queue
         free: queue.Queue = queue.Queue()
