@@ -38,9 +38,10 @@ import shutil
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 import tomllib
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import ThreadPoolExecutor, as_completed
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -57,35 +58,58 @@ EQUIVALENTS = Path(__file__).with_name("equivalent_mutants.toml")
 _REVERSED = {"<": ">", "<=": ">=", ">": "<", ">=": "<=", "==": "!=", "!=": "=="}
 
 # The tests a mutant runs, by the compiled units it reaches: the fast tests that exercise
-# each unit, in an order that fails early (a killed mutant stops at its first failure).
-# "model_<kind>.c" units are the runtime's models, "crt_hop.c" the per-hop controller,
-# "control/<header>" the controllers' headers.
+# each unit (the sanitizer builds, the CLI's end-to-end runs and the long random sweeps
+# are left to the suite), in an order that fails early (a killed mutant stops at its
+# first failure).  "model_<kind>.c" units are the runtime's models, "crt_hop.c" the
+# per-hop controller, "control/<file>" the controllers' C.  A survivor is run again
+# against whole files (--test) before it is recorded as equivalent.
+_ROUGH = "tests/test_friction_couples.py::"
+_HOP = "tests/test_hop_control.py::"
+_REPLAN = "tests/test_control_replan.py::"
 UNIT_TESTS = {
     "model_rough.c": (
         "tests/test_friction_boundaries.py",
-        "tests/test_friction_runtime.py",
         "tests/test_friction_closed_forms.py",
-        "tests/test_friction_couples.py",
-        "tests/test_contact_properties.py::test_random_rough_scenes_hold_every_property",
-        "tests/test_friction_energy.py",
+        "tests/test_friction_runtime.py",
+        _ROUGH + "test_a_spinning_sphere_stops_at_the_closed_form_time",
+        _ROUGH + "test_a_rolling_ball_decelerates_at_the_closed_form_rate",
+        _ROUGH + "test_a_body_held_from_rolling_slides_as_the_one_dimensional_coulomb_model",
+        _ROUGH + "test_bardin_panevs_periodic_modes",
+        _ROUGH + "test_the_wrench_equations_are_newton_eulers",
         "tests/test_friction_literature.py",
-        "tests/test_friction_peer.py",
+        "tests/test_contact_properties.py::test_random_rough_scenes_hold_every_property[0]",
     ),
     "model_general.c": (
+        "tests/test_runtime.py",
         "tests/test_bouncing.py",
         "tests/test_contact_newton_euler.py",
-        "tests/test_contact_properties.py",
         "tests/test_runtime_status.py",
-        "tests/test_runtime.py",
+        "tests/test_contact_properties.py::test_random_bouncing_scenes_hold_every_property[0]",
     ),
     "model_vertical.c": ("tests/test_runtime.py", "tests/test_bouncing.py"),
     "model_attitude.c": ("tests/test_runtime.py",),
     "model_translational.c": ("tests/test_runtime.py",),
-    "model_planar.c": ("tests/test_runtime.py", "tests/test_contact_properties.py"),
+    "model_planar.c": ("tests/test_runtime.py",),
     "model_axisymmetric.c": ("tests/test_runtime.py",),
     "model_variational.c": ("tests/test_stability.py",),
-    "crt_hop.c": ("tests/test_hop_control.py",),
-    "control/ctl_qp.h": ("tests/test_control_replan.py",),
+    "crt_hop.c": (
+        _HOP + "test_the_c_controller_writes_the_python_routes_law_to_the_bit",
+        _HOP + "test_where_impacts_stop_the_gait_goes_on_bounded_in_both_routes",
+        _HOP + "test_the_apex_a_target_sets_is_the_runs",
+        _HOP + "test_the_mirror_law_brings_the_apex_to_its_target",
+        _HOP + "test_a_deadbeat_gain_settles_in_three_hops",
+        _HOP + "test_feedback_holds_an_orbit_unstable_open_loop_at_the_predicted_rate",
+    ),
+    "control/ctl_qp.h": (
+        _REPLAN + "test_qp_against_qpoases",
+        _REPLAN + "test_c_controller_returns_the_python_routes_law",
+        _REPLAN + "test_closed_loop_replayed_with_its_realised_law",
+        _REPLAN + "test_seeded_landings_upright_closed_not_open",
+    ),
+    "control/ctl_timing.c": (
+        _REPLAN + "test_c_controller_returns_the_python_routes_law",
+        _REPLAN + "test_closed_loop_replayed_with_its_realised_law",
+    ),
 }
 
 
@@ -304,6 +328,9 @@ class Outcome:
     units: tuple = ()
 
 
+_HASH_NAME = re.compile(r"[0-9a-f]{24}")
+
+
 class Scratch:
     """A worker's copy of the C (``runtime/``, ``control/``) and its own build cache."""
 
@@ -324,15 +351,20 @@ class Scratch:
                     "PYTHONDONTWRITEBYTECODE": "1"})
         return env
 
-    def borrow(self) -> None:
-        """The user's cache's libraries, linked in: the unmutated C built once, ever
-        (the cache is keyed by the sources' content; a mutant's build is new)."""
+    def borrow(self, home: Path | None = None) -> None:
+        """Another cache's libraries, linked in (default: the user's): the unmutated C
+        built once, ever (the cache is keyed by the sources' content; a mutant's build
+        is new).  Only finished entries (a folder named by its hash), never another
+        process's build in progress."""
         from ..cbuild import cache_dir
-        home = cache_dir()
-        if home.is_dir():
-            for entry in home.iterdir():
-                if entry.is_dir() and not (self.cache / entry.name).exists():
-                    (self.cache / entry.name).symlink_to(entry, target_is_directory=True)
+        home = cache_dir() if home is None else home
+        if not home.is_dir():
+            return
+        for entry in home.iterdir():
+            link = self.cache / entry.name
+            if _HASH_NAME.fullmatch(entry.name) and entry.is_dir() \
+                    and not os.path.lexists(link):
+                link.symlink_to(entry.resolve(), target_is_directory=True)
 
     def settle(self) -> None:
         """What the cache holds now is the unmutated build: kept from here on."""
@@ -361,27 +393,48 @@ def check_twins() -> None:
                                  f"differs from templates/runtime/{path.name}: run derive emit")
 
 
+_RUNNING: set = set()          # the test runs in flight, ended if the harness is stopped
+_LOCK = threading.Lock()
+
+
+def _stop_all() -> None:
+    with _LOCK:
+        for proc in list(_RUNNING):
+            proc.kill()
+
+
 def _pytest(scratch: Scratch, tests: list[str], timeout: float) -> tuple[str, str, float]:
     """(killed/survived, the first failing test or why, seconds)."""
     from ..paths import ROOT
     cmd = [sys.executable, "-m", "pytest", "-x", "-q", "-n", "0", "-p", "no:cacheprovider",
            "--no-header", "-W", "ignore", *tests]
     start = time.perf_counter()
+    proc = subprocess.Popen(cmd, cwd=ROOT, env=scratch.env(), stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+    with _LOCK:
+        _RUNNING.add(proc)
     try:
-        proc = subprocess.run(cmd, cwd=ROOT, env=scratch.env(), capture_output=True, text=True,
-                              timeout=timeout)
+        out, err = proc.communicate(timeout=timeout)
     except subprocess.TimeoutExpired:
+        proc.kill()
+        proc.communicate()
         return "killed", f"ran past {timeout:.0f} s", time.perf_counter() - start
+    except BaseException:
+        proc.kill()
+        raise
+    finally:
+        with _LOCK:
+            _RUNNING.discard(proc)
     seconds = time.perf_counter() - start
     if proc.returncode == 0:
         return "survived", "", seconds
     if proc.returncode == 1:
-        failed = re.findall(r"^FAILED (\S+)", proc.stdout, re.M) or \
-            re.findall(r"^ERROR (\S+)", proc.stdout, re.M)
+        failed = re.findall(r"^FAILED (\S+)", out, re.M) or re.findall(r"^ERROR (\S+)", out,
+                                                                        re.M)
         return "killed", failed[0] if failed else "a test failed", seconds
     if proc.returncode < 0:
         return "killed", f"crashed (signal {-proc.returncode})", seconds
-    return "error", (proc.stdout + proc.stderr)[-600:], seconds
+    return "error", (out + err)[-600:], seconds
 
 
 def _compiles(scratch: Scratch, unit: str) -> str:
@@ -498,10 +551,7 @@ def run(files=None, kinds=None, match=None, sample=None, seed: int = 36,
                                  f"({detail}); fix them first")
             report.baseline_seconds = secs
             for sc in scratches[1:]:
-                for entry in scratches[0].cache.iterdir():
-                    if not (sc.cache / entry.name).exists():
-                        (sc.cache / entry.name).symlink_to(entry.resolve(),
-                                                           target_is_directory=entry.is_dir())
+                sc.borrow(scratches[0].cache)
         for sc in scratches:
             sc.settle()
         timeout = max(120.0, 4.0 * report.baseline_seconds)
@@ -539,9 +589,13 @@ def run(files=None, kinds=None, match=None, sample=None, seed: int = 36,
             return Outcome(m, status, detail, secs, us)
 
         n = len(mutants)
-        with ThreadPoolExecutor(workers) as pool:
-            for k, o in enumerate(pool.map(one, mutants), 1):
-                report.outcomes.append(o)
+        pool = ThreadPoolExecutor(workers)
+        try:
+            futures = {pool.submit(one, m): i for i, m in enumerate(mutants)}
+            got = {}
+            for k, fut in enumerate(as_completed(futures), 1):
+                o = fut.result()
+                got[futures[fut]] = o
                 if jpath is not None and "journal" not in o.detail:
                     with jpath.open("a", encoding="utf-8") as f:
                         f.write(json.dumps({"key": o.mutant.key, "id": o.mutant.id,
@@ -552,6 +606,15 @@ def run(files=None, kinds=None, match=None, sample=None, seed: int = 36,
                     progress(f"[{k}/{n}] {o.status} {o.mutant.id} {o.mutant.where} "
                              f"{o.mutant.kind}: {o.mutant.before} -> {o.mutant.after}"
                              + (f" ({o.detail})" if o.detail else ""))
+        except BaseException:
+            # stopped (a signal, ^C): no mutant after this one, the test runs ended now,
+            # the scratch folders removed on the way out
+            pool.shutdown(wait=False, cancel_futures=True)
+            _stop_all()
+            pool.shutdown(wait=True)
+            raise
+        pool.shutdown()
+        report.outcomes = [got[i] for i in sorted(got)]
     return report
 
 
