@@ -219,3 +219,53 @@ def test_the_judge_refuses_a_stick_outside_the_cone_and_a_slip_inside_it():
             result.__dict__.pop(name, None)
         verdict, detail = judge_run(result, RADIUS)
         assert verdict == "cone" and why in detail, (verdict, detail)
+
+
+# ---- an impact's stages at 3 % of each other ------------------------------------------------
+def _impact_session(mu: float, e: float, law: str):
+    from derive import abi
+    from derive.runtime.build import library
+    from derive.runtime.driver import Session, prepare
+    prep = prepare(sphere(["0", "0", "0"], mu=mu, duration=1.0))
+    s = Session(library(prep.kind), chunk=16)
+    s.set_law(prep.scene.law)
+    prm = prep.parameters.copy()
+    prm[abi.PRM["e"]] = e
+    prm[abi.PRM["restitution_model"]] = abi.index(abi.RESTITUTION_MODELS, law)
+    s.init(prep.options, prm, prep.scene.t0, prep.start.q0)
+    return s
+
+
+@pytest.mark.parametrize("law", ["energetic", "poisson"])
+@pytest.mark.parametrize("near, factor", [("compression", 0.97), ("compression", 1.03),
+                                          ("end", 0.97), ("end", 1.03)])
+def test_an_impacts_slip_stops_three_percent_before_or_after_compression_or_restitution_ends(
+        near, factor, law):
+    """W couples the slip along X with the normal impulse (W_XZ != 0; the slip keeps its
+    direction, a ray, and sticks after it stops, |tau| < mu_f): while slipping
+    dv_n/dp = W_ZZ - mu_f W_XZ, compression would end at p_c = -v_n/(W_ZZ - mu_f W_XZ)
+    and restitution at (1 + e) p_c (both laws at constant rates); the slip speed falls
+    as rho0 - (mu_f W_XX - W_XZ) p.  With its stop at 0.97 and 1.03 of p_c and of the
+    end, each stage boundary lies 3 % from the next, where the sticking rates (dv_n/dp =
+    W_ZZ - W_XZ^2/W_XX) differ from the slip's: the impulse, the velocity after, the
+    works and the stage against derive/darboux_keller.py (SciPy's DOP853 on the slip,
+    closed forms on the stick) to 1e-9."""
+    from derive import darboux_keller as dk
+    W = np.array([[0.8, 0.0, 0.25], [0.0, 0.6, 0.0], [0.25, 0.0, 1.3]])
+    mu, e, v_n = 0.5, 0.6, -2.0
+    p_c = -v_n / (W[2, 2] - mu * W[0, 2])
+    p_s = factor * (p_c if near == "compression" else (1.0 + e) * p_c)
+    v0 = np.array([(mu * W[0, 0] - W[0, 2]) * p_s, 0.0, v_n])
+    s = _impact_session(mu, e, law)
+    status, out = s.impact(W, v0)
+    ref = dk.integrate(W, v0, mu, e, law)
+    assert status == "ok"
+    events = [what for _, what in ref.events]
+    stops = "slip stops" in events
+    assert stops == (near == "compression" or factor < 1.0), events
+    assert np.abs(out["impulse"] - ref.impulse).max() < 1e-9 * ref.impulse[2]
+    assert np.abs(out["v_plus"] - ref.v_plus).max() < 1e-9 * abs(v_n)
+    scale = abs(v_n) * ref.impulse[2]
+    assert out["work_normal"] == pytest.approx(ref.work_normal, abs=1e-9 * scale)
+    assert out["work_friction"] == pytest.approx(ref.work_friction, abs=1e-9 * scale)
+    assert out["stage"] == (1 if stops else 0)
