@@ -245,16 +245,17 @@ def test_an_impacts_slip_stops_three_percent_before_or_after_compression_or_rest
     direction, a ray, and sticks after it stops, |tau| < mu_f): while slipping
     dv_n/dp = W_ZZ - mu_f W_XZ, compression would end at p_c = -v_n/(W_ZZ - mu_f W_XZ)
     and restitution at (1 + e) p_c (both laws at constant rates); the slip speed falls
-    as rho0 - (mu_f W_XX - W_XZ) p.  With its stop at 0.97 and 1.03 of p_c and of the
-    end, each stage boundary lies 3 % from the next, where the sticking rates (dv_n/dp =
-    W_ZZ - W_XZ^2/W_XX) differ from the slip's: the impulse, the velocity after, the
-    works and the stage against derive/darboux_keller.py (SciPy's DOP853 on the slip,
-    closed forms on the stick) to 1e-9."""
+    as rho0 - (mu_f W_XX - W_XZ) p.  With its stop at 0.97 and 1.03 of p_c, and of the
+    end's (1 + e) p_c after p_c (p_c + 0.97 e p_c, p_c + 1.03 e p_c: the impact decides on
+    what remains of each stage), each stage boundary lies 3 % from the next, where the
+    sticking rates (dv_n/dp = W_ZZ - W_XZ^2/W_XX) differ from the slip's: the impulse,
+    the velocity after, the works and the stage against derive/darboux_keller.py
+    (SciPy's DOP853 on the slip, closed forms on the stick) to 1e-9."""
     from derive import darboux_keller as dk
     W = np.array([[0.8, 0.0, 0.25], [0.0, 0.6, 0.0], [0.25, 0.0, 1.3]])
     mu, e, v_n = 0.5, 0.6, -2.0
     p_c = -v_n / (W[2, 2] - mu * W[0, 2])
-    p_s = factor * (p_c if near == "compression" else (1.0 + e) * p_c)
+    p_s = factor * p_c if near == "compression" else p_c * (1.0 + factor * e)
     v0 = np.array([(mu * W[0, 0] - W[0, 2]) * p_s, 0.0, v_n])
     s = _impact_session(mu, e, law)
     status, out = s.impact(W, v0)

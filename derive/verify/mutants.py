@@ -263,11 +263,16 @@ def catalogue() -> list[Mutant]:
 
 
 def equivalents() -> dict[str, str]:
-    """key -> reason, from equivalent_mutants.toml."""
+    """key -> reason, from equivalent_mutants.toml (an entry names one mutant, ``key``,
+    or several of one site that share the reason, ``keys``)."""
     if not EQUIVALENTS.is_file():
         return {}
     data = tomllib.loads(EQUIVALENTS.read_text(encoding="utf-8"))
-    return {entry["key"]: entry["reason"] for entry in data.get("mutant", [])}
+    out = {}
+    for entry in data.get("mutant", []):
+        for key in entry.get("keys", [entry.get("key")]):
+            out[key] = entry["reason"]
+    return out
 
 
 # ---- where a mutant is compiled --------------------------------------------------------
@@ -408,13 +413,18 @@ def _stop_all() -> None:
             proc.kill()
 
 
-def _pytest(scratch: Scratch, tests: list[str], timeout: float) -> tuple[str, str, float]:
-    """(killed/survived, the first failing test or why, seconds)."""
+def _pytest(scratch: Scratch, tests: list[str], timeout: float,
+            cache: Path | None = None) -> tuple[str, str, float]:
+    """(killed/survived, the first failing test or why, seconds); ``cache``: build into
+    this cache instead of the scratch one (the unmutated C: kept for later runs)."""
     from ..paths import ROOT
     cmd = [sys.executable, "-m", "pytest", "-x", "-q", "-n", "0", "-p", "no:cacheprovider",
            "--no-header", "-W", "ignore", *tests]
+    env = scratch.env()
+    if cache is not None:
+        env["DERIVE_CACHE"] = str(cache)
     start = time.perf_counter()
-    proc = subprocess.Popen(cmd, cwd=ROOT, env=scratch.env(), stdout=subprocess.PIPE,
+    proc = subprocess.Popen(cmd, cwd=ROOT, env=env, stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True)
     with _LOCK:
         _RUNNING.add(proc)
@@ -550,13 +560,14 @@ def run(files=None, kinds=None, match=None, sample=None, seed: int = 36,
         if needed:
             if progress:
                 progress(f"the unmutated C through {len(needed)} test groups")
-            status, detail, secs = _pytest(scratches[0], needed, 3600.0)
+            from ..cbuild import cache_dir
+            status, detail, secs = _pytest(scratches[0], needed, 3600.0, cache=cache_dir())
             if status != "survived":
                 raise SystemExit(f"derive verify mutants: the tests fail on the unmutated C "
                                  f"({detail}); fix them first")
             report.baseline_seconds = secs
-            for sc in scratches[1:]:
-                sc.borrow(scratches[0].cache)
+            for sc in scratches:
+                sc.borrow()
         for sc in scratches:
             sc.settle()
         timeout = max(120.0, 4.0 * report.baseline_seconds)
