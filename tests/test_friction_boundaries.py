@@ -270,3 +270,48 @@ def test_an_impacts_slip_stops_three_percent_before_or_after_compression_or_rest
     assert out["work_normal"] == pytest.approx(ref.work_normal, abs=1e-9 * scale)
     assert out["work_friction"] == pytest.approx(ref.work_friction, abs=1e-9 * scale)
     assert out["stage"] == (1 if stops else 0)
+
+
+# ---- where sliding gives up: Painleve's jam ---------------------------------------------------
+JAM = {"name": "jam",
+       "body": {"mass": 0.6944530848494009, "shape": "sphere", "radius": 0.36814160696756915,
+                "inertia": [0.016129301500455016, 0.016116128758682836, 0.01612971053121029],
+                "center": [0.06547794925807958, -0.08591019271603494, -0.081752662216688]},
+       "point": {"mass": 0.05482719085974788,
+                 "law": ["-0.0269348*sin(1.77475*t + 1.02705)",
+                         "0.0189423*sin(7.50012*t + 1.5498)",
+                         "0.0163953*sin(12.8533*t + 0.420078)"]},
+       "plane": {"restitution": 0.0, "friction": 1.288950170670899,
+                 "restitution_model": "poisson"},
+       "initial": {"com": [0.0, 0.0, 0.4587907019507393],
+                   "com_velocity": [0.766909387652072, 0.4323227299013967, 0.0],
+                   "omega": [3.935339957931003, 0.6775454112131721, -1.4445748688407503],
+                   "quaternion": [1.5215226725907989, 0.8128832573724393, -0.5143997529961658,
+                                  -0.3501503752456439]},
+       "run": {"duration": 0.1, "method": "dopri5", "rtol": 6.084149130799884e-09,
+               "atol": 1e-12}}
+
+
+def test_sliding_into_painleves_jam_stops_where_n_passes_a_hundred_weights():
+    """An offset sphere (scene #20 of derive verify robustness --plane rough) lands sliding
+    with mu_f = 1.29, and N's coefficient k_f = W_ZZ - mu_f (W_Zt, dir) falls towards 0
+    as it slides: N = -a_free/k_f grows without bound, a jam only an impact resolves.  The
+    runtime gives up (status painleve) once k_f <= 1e-2 W_ZZ with N above 100 weights: its
+    last row, the step before, has k_f below 1e-2 W_ZZ and N between 60 and 100
+    weights, growing by at most a fifth per step (N and W by Newton-Euler, apart from the
+    runtime: derive/verify/reaction.py, tests/newton_euler_friction.py)."""
+    result = simulate(JAM)
+    assert result.status == "painleve"
+    s = result.scene
+    weight = (s.M + s.m) * s.g
+    b = rx.Bodies.of(s)
+    N, kf = [], []
+    for j in range(len(result.t) - 3, len(result.t)):
+        k = rx.kinematics(b, result.model_q[[j]], rx.law_rows(s, result.t[[j]]))
+        slip = k.v_S[0, :2] / np.hypot(*k.v_S[0, :2])
+        N.append(rx.solve(b, k, np.zeros(1, dtype=bool), slip[None]).N[0] / weight)
+        W = ne.inverse_inertia_at_S(result.model_q[j], rx.law_rows(s, result.t[[j]])[0],
+                                    k.s[0], [s.M, s.m, *s.J, s.g])
+        kf.append((W[2, 2] - s.friction * (W[2, :2] @ slip)) / W[2, 2])
+    assert kf[-1] <= 1e-2 < kf[0]
+    assert 60.0 < N[-1] < 100.0 and N[-1] / N[-2] < 1.25, N
