@@ -344,6 +344,12 @@ IMPACT_STAGES = _names(
     ("stick", "the slip stopped and S stuck to the end"),
     ("reslide", "the slip stopped and S slid again, along a new direction"),
 )
+# The contact's wrench at S with the couples (crt_eval_wrench_rows' rows, fixed axes): the
+# force, then the couple; each channel of COUPLE_BITS its columns and its bound (the
+# parameter, a length: |T| <= bound N)
+WRENCH_COLUMNS = ("R_X", "R_Y", "R_Z", "T_X", "T_Y", "T_Z")
+COUPLE_COLUMNS = {"spin": ("T_Z",), "roll": ("T_X", "T_Y")}
+COUPLE_BOUNDS = {"spin": "spin_friction", "roll": "rolling_resistance"}
 
 # What crt_count(CRT_COUNT_<NAME>) reports, with the value abi.py expects.
 COUNTS = (

@@ -13,6 +13,7 @@ Two layouts, one answer:
 """
 from __future__ import annotations
 
+import os
 from importlib import resources
 from pathlib import Path
 
@@ -37,3 +38,18 @@ CHECKOUT = _is_checkout(_CHECKOUT_ROOT)
 ROOT = _CHECKOUT_ROOT if CHECKOUT else _package_data()
 TEMPLATES = ROOT / "templates"
 GENERATED = ROOT / "generated"
+
+
+# The hand-written C of the runtime and of the controllers is read from generated/runtime
+# and templates/control; ``$DERIVE_C_SOURCES`` names a folder holding ``runtime/`` and
+# ``control/`` to read in their place (``derive verify mutants`` builds each mutant from
+# a scratch copy there, never touching these folders).
+C_SOURCES_ENV = "DERIVE_C_SOURCES"
+
+
+def c_sources(part: str) -> Path:
+    """The folder of the runtime's C (``part`` "runtime") or of the controllers'
+    hand-written C ("control")."""
+    home = {"runtime": GENERATED / "runtime", "control": TEMPLATES / "control"}[part]
+    override = os.environ.get(C_SOURCES_ENV)
+    return Path(override) / part if override else home

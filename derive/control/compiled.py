@@ -21,9 +21,9 @@ class Compiled:
 
     def __init__(self, sources: dict, flags: tuple | None = None):
         from ..cbuild import build_shared, runtime_flags
-        from ..emit.render import TEMPLATES
+        from ..paths import c_sources
         files = dict(sources)
-        files["ctl_timing.c"] = (TEMPLATES / "control" / "ctl_timing.c").read_text(
+        files["ctl_timing.c"] = (c_sources("control") / "ctl_timing.c").read_text(
             encoding="utf-8")
         self.path = build_shared(files, flags=flags or runtime_flags(), name="controller")
         lib = ctypes.CDLL(str(self.path))

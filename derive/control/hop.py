@@ -487,9 +487,9 @@ class _HopParams(ctypes.Structure):
 def _hop_library():
     """crt_hop.c compiled with the runtime's flags (once per machine, cached)."""
     from ..cbuild import build_shared, runtime_flags
-    from ..paths import GENERATED
+    from ..paths import c_sources
     from ..runtime.build import runtime_dir
-    folder = GENERATED / "control"
+    folder = c_sources("control")
     sources = {name: (folder / name).read_bytes() for name in ("crt_hop.c", "crt_hop.h")}
     sources["crt_call.h"] = (runtime_dir() / "crt_call.h").read_bytes()
     # no contraction into fused multiply-adds: the C rounds as NumPy does, so the two

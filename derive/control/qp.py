@@ -293,7 +293,7 @@ class CDenseQP:
     def __init__(self, n: int, m: int, max_iter: int | None = None, slacks: int = 0):
         import ctypes
         from ..cbuild import build_shared, runtime_flags
-        from ..emit.render import TEMPLATES
+        from ..paths import c_sources
         self.n, self.m, self.slacks = n, m, slacks
         self.max_iter = max_iter or 4 * (n + m) + 20
         shim = (f"#define CTL_QP_N {n}\n#define CTL_QP_M {m}\n#define CTL_QP_NS {slacks}\n"
@@ -310,7 +310,7 @@ class CDenseQP:
                 "  for (j = 0; j < q->nv - CTL_QP_N; ++j) slack[q->row_of[j]] += q->s[j];\n"
                 "  return r;\n}\n"
                 "int ctl_qp_shim_size(void) { return (int)sizeof(ctl_qp); }\n")
-        header = (TEMPLATES / "control" / "ctl_qp.h").read_text(encoding="utf-8")
+        header = (c_sources("control") / "ctl_qp.h").read_text(encoding="utf-8")
         path = build_shared({"shim.c": shim, "ctl_qp.h": header}, flags=runtime_flags(),
                             name="qpshim")
         self.lib = ctypes.CDLL(str(path))

@@ -60,7 +60,8 @@ def render(problem: Problem, w0: np.ndarray, t0: float, t_end: float, period: fl
            iterations: int) -> dict[str, str]:
     """The folder's files: controller.c, controller.h, ctl_qp.h, controller_data.c and
     CMakeLists.txt."""
-    from ..emit.render import TEMPLATES, environment, versions
+    from ..emit.render import environment, versions
+    from ..paths import c_sources
     f = problem.qp_data
     ctx = {"versions": versions(), "goal": problem.goal, "n_intervals": problem.N,
            "iterations": int(iterations), "nw": problem.nw, "ng": problem.ng,
@@ -80,6 +81,6 @@ def render(problem: Problem, w0: np.ndarray, t0: float, t_end: float, period: fl
     env = environment()
     out = {name: env.get_template(f"control/{name}.jinja").render(**ctx)
            for name in ("controller.c", "controller.h", "CMakeLists.txt")}
-    out["ctl_qp.h"] = (TEMPLATES / "control" / "ctl_qp.h").read_text(encoding="utf-8")
+    out["ctl_qp.h"] = (c_sources("control") / "ctl_qp.h").read_text(encoding="utf-8")
     out["controller_data.c"] = data_source(problem)
     return out

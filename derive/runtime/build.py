@@ -25,8 +25,9 @@ IP = ctypes.POINTER(ctypes.c_int)
 
 
 def runtime_dir() -> Path:
-    from ..paths import GENERATED
-    return GENERATED / "runtime"
+    """generated/runtime (or the folder $DERIVE_C_SOURCES puts in its place)."""
+    from ..paths import c_sources
+    return c_sources("runtime")
 
 
 def sources(kind: str) -> dict[str, bytes]:

@@ -4,6 +4,10 @@ from __future__ import annotations
 
 import re
 
+# the characters a message never shows raw: C0 and C1 controls (tab and newline
+# included), DEL, the line and paragraph separators and the bidi embeddings, overrides
+# and isolates.  The one definition: the scene's messages escape them (printable) and the
+# fuzzers' judges (derive/verify) look for them (has_unprintable).
 _UNPRINTABLE = re.compile("[\x00-\x1f\x7f-\x9f\u2028\u2029\u202a-\u202e\u2066-\u2069]")
 
 
@@ -12,6 +16,11 @@ def printable(text: str) -> str:
     message is one line and cannot drive the terminal."""
     return _UNPRINTABLE.sub(lambda m: m.group().encode("unicode_escape").decode("ascii"),
                             str(text))
+
+
+def has_unprintable(text: str) -> bool:
+    """True when ``text`` holds a character that :func:`printable` would escape."""
+    return _UNPRINTABLE.search(str(text)) is not None
 
 
 class SceneError(ValueError):

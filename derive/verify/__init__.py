@@ -7,6 +7,9 @@ Modules, by role:
   is written as a scene file by the one TOML writer, :mod:`derive.scene.toml`);
 * :mod:`~derive.verify.oracle`: what the answer should be, computed another way (law
   derivatives, properties of any honest run, references of hard scenes);
+* :mod:`~derive.verify.reaction`: the contact reaction of a run's rows by Newton–Euler
+  for the two bodies, apart from the runtime (what the rough plane's judge holds the
+  cone and the couples' bounds against);
 * :mod:`~derive.verify.sandbox`: running a case where it can do no harm (a forked worker
   with time and memory limits; the command line in a private folder);
 * :mod:`~derive.verify.judges`: the verdict on what came out, against the README's
@@ -14,7 +17,8 @@ Modules, by role:
 * the drivers, one per command: :mod:`~derive.verify.fuzz` (hostile scenes through the
   parser, the runtime and the CLI), :mod:`~derive.verify.robustness` (random valid
   scenes through the runtime), :mod:`~derive.verify.failures` (hard scenes through every
-  method and peer).
+  method and peer), :mod:`~derive.verify.mutants` (small mutations of the runtime's C
+  through the tests; :mod:`~derive.verify.csites` reads the C's sites).
 
 ``COMMANDS`` declares ``derive verify``'s subcommands (see :mod:`derive.commands`): the
 same spelling for the same thing (``-n/--cases``, ``--seed``, ``--workers``), and exit
@@ -65,4 +69,30 @@ COMMANDS = (
     Command("failures", "hard scenes (accumulating impacts, grazing, chatter, a thin rod, "
             "a fast spin) through every method and peer, against references computed "
             "another way", "derive.verify.failures"),
+    Command("mutants", "small mutations of the runtime's and the controllers' hand-written "
+            "C (bounds x1.05, flipped comparisons, dropped terms, events' directions, "
+            "tolerances x10), each built in a scratch copy and run against the tests of "
+            "what it reaches: killed, survived, and the kill rate", "derive.verify.mutants", (
+                Arg.of("--file", dest="files", action="append", metavar="NAME",
+                       help="only the mutants of this file of templates/runtime or "
+                            "templates/control (e.g. crt_friction.h; repeatable)"),
+                Arg.of("--kind", dest="kinds", action="append",
+                       choices=["bound", "flip", "term", "event", "tolerance"],
+                       help="only mutants of this kind (repeatable)"),
+                Arg.of("--match", action="append", metavar="TEXT",
+                       help="only the mutants whose id or text contains TEXT (repeatable)"),
+                Arg.of("--sample", type=CASES, metavar="N",
+                       help="N of the selected mutants at random (--seed)"),
+                Arg.of("--seed", type=int, default=36, help="the sample's seed"),
+                Arg.of("--workers", type=WORKERS, metavar="N",
+                       help="mutants built and tested at once (default: every core)"),
+                Arg.of("--journal", metavar="FILE",
+                       help="append each verdict to FILE (JSON lines); a later run skips "
+                            "the mutants it records killed under the same C"),
+                Arg.of("--test", dest="tests", action="append", metavar="PYTEST_ARG",
+                       help="run these tests against every mutant (a file or a test id; "
+                            "repeatable) instead of the tests of what each one reaches"),
+                Arg.of("--list", dest="listing", action="store_true",
+                       help="list the selected mutants, run nothing"),
+            )),
 )

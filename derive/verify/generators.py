@@ -28,9 +28,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .judges import CONTROL_RE
 from .laws import EITHER_LAWS, HOSTILE_LAWS, deep_laws, law_text, planted_law, random_law
 from ..scene import toml
+from ..scene.errors import printable
 from ..scene.overrides import delete_path as _del, set_path as _set
 
 
@@ -462,8 +462,9 @@ def scene_mutation(rng: random.Random, index: int, marker: str) -> Case:
 
 
 def _escaped(key: str) -> str:
-    """How a message shows a key: control characters escaped (\\x00)."""
-    return CONTROL_RE.sub(lambda m: m.group().encode("unicode_escape").decode("ascii"), key)
+    """How a message shows a key: control characters escaped (\\x00), as SceneError
+    prints it."""
+    return printable(key)
 
 
 def _short(v) -> str:

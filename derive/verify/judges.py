@@ -27,7 +27,9 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from .. import abi
 from ..runtime.events import contact_intervals, phases
+from ..scene.errors import has_unprintable
 
 if TYPE_CHECKING:
     from ..bench.routes import Run
@@ -43,7 +45,6 @@ BAD = ("traceback", "crash", "hang", "silent-accept", "wrong-field", "multi-line
 GOOD = ("ran-ok", "ran-status", "refused")
 
 FIELD_RE = re.compile(r"^(\[[^\]\n]+\][^:\n]*|[^\W\d][\w.\\-]*\s?(\[\d+\])*)( \([^)]*\))?:")
-CONTROL_RE = re.compile(r"[\x00-\x08\x0b-\x1f\x7f\u2028\u2029\u202a-\u202e]")
 
 
 @dataclass
@@ -80,7 +81,7 @@ def judge_api(case: Case, res: dict, run_limit: float) -> Outcome:
         msg = res.get("message", "")
         if "\n" in msg.strip():
             return Outcome(case, "multi-line", msg[:200], secs, msg)
-        if CONTROL_RE.search(msg):
+        if has_unprintable(msg.strip()):
             return Outcome(case, "control-chars", f"raw control characters: {msg[:160]!r}",
                            secs, msg)
         if res.get("seconds", 0.0) > PARSE_LIMIT_S:
@@ -137,7 +138,7 @@ def judge_cli(case, run, limit: float = CLI_LIMIT_S) -> Outcome:
             return Outcome(case, "wrong-field", f"not 'derive simulate:': {msg[:160]}",
                            secs, msg)
         body = msg[len("derive simulate: "):]
-        if CONTROL_RE.search(body):
+        if has_unprintable(body):
             return Outcome(case, "control-chars", f"raw control characters: "
                            f"{msg[:160]!r}", secs, msg)
         if case.fields is not None and not _names_field(body):
@@ -278,83 +279,138 @@ def _judge_painleve(result) -> tuple[str, str]:
                       f"{ratio:.3f} < 1: no direction makes k_f vanish")
 
 
-def _couple_rows(result, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """With couples, the wrench (R, T) and (v_S, A omega) of contact rows, and which rows
-    have every channel known: held, or turning with its angular velocity resolved (as
-    the slip's: below that the runtime turns it along a reference these rows do not
-    record, and the other unknowns depend on it)."""
-    from ..runtime.choice import length_scale
-    s = result.scene
-    _, w, u = result.session.wrench_rows(
-        result.t[rows], result.model_q[rows], result.modes[rows], np.zeros((len(rows), 2)),
-        result.couples[rows], np.zeros((len(rows), 3)))
-    w_scale = (float(np.max(np.abs(result.model_q[:, 3:6]))) + 1.0) / length_scale(s)
-    known = np.ones(len(rows), dtype=bool)
-    for bit, cols, mu in couple_channels(s):
-        held = (result.couples[rows] & bit) != 0
-        known &= held | (np.linalg.norm(u[:, cols], axis=1)
-                         > 10.0 * math.sqrt(s.rtol) * w_scale)
-    return w, u, known
-
-
 def couple_channels(s) -> list:
-    """(bit, columns of the wrench, bound) of the couples a scene has on."""
-    return [(bit, cols, mu) for bit, cols, mu in (
-        (1, [5], s.spin_friction), (2, [3, 4], s.rolling_resistance)) if mu > 0.0]
+    """(bit, columns of the wrench, bound) of the couples a scene has on (the layout of
+    abi.COUPLE_BITS, WRENCH_COLUMNS and COUPLE_COLUMNS)."""
+    out = []
+    for name, bit in abi.COUPLE_BITS:
+        mu = float(getattr(s, abi.COUPLE_BOUNDS[name]))
+        if mu > 0.0:
+            out.append((bit, [abi.WRENCH_COLUMNS.index(c) for c in abi.COUPLE_COLUMNS[name]],
+                        mu))
+    return out
+
+
+# the decisions at the events (reaction.row_modes): the row that holds the state the
+# runtime decided on, ``before`` (1) or ``after`` (2) the event
+_INSIDE = {"stick": 2, "contact": 2}                 # the cone holds (sticking after it)
+_AT_THE_BOUND = {"slip": 1, "reversal": 2}          # the sticking reaction left the cone
+_COUPLE_STOPS = {f"{name}_stop": bit for name, bit in abi.COUPLE_BITS}
+_COUPLE_STARTS = {f"{name}_start": bit for name, bit in abi.COUPLE_BITS}
+
+
+def judge_reaction(result, slack: float) -> tuple[str, str] | None:
+    """The friction cone, the couples' bounds and N >= 0 on the contact rows, against the
+    reaction computed apart from the runtime (:mod:`derive.verify.reaction`: Newton–Euler
+    for the two bodies under each row's mode), and the decisions at the events:
+
+    * every row between events (the steps', and those of an instant with one event):
+      sticking inside the cone; sliding, where the slip says its direction, with N >= 0
+      along it, and where it does not, along some direction; each held couple inside its
+      bound;
+    * at each event what it decided: a stick (or an entry into contact that sticks) only
+      inside the cone, a couple's stop only inside its bound; a slip, and a reversal, only
+      where the sticking reaction is on or outside the cone; a lift-off only where N has
+      reached 0; a couple's start only where its held couple has reached its bound.  The
+      rows of an instant with several events (a spin's stop whose held couple makes the
+      slip begin at once) are held to their own event's decision alone: what it did not
+      decide, the next event at that instant does.
+
+    The reaction needs each turning couple's direction: rows where one turns below the
+    resolution (along a reference these rows do not record) are not judged.  ``slack``:
+    the tolerance's share of the weight.  None when all hold."""
+    from ..runtime.choice import length_scale
+    from .reaction import STICKING, contact_reactions
+    s = result.scene
+    rr = contact_reactions(result, 10.0 * math.sqrt(s.rtol))
+    if not len(rr.rows):
+        return None
+    R, N, T = rr.reaction.R, rr.reaction.N, rr.reaction.T
+    Rs, Ns = rr.sticking_reaction.R, rr.sticking_reaction.N
+    mode = rr.modes.mode[rr.rows]
+    held_bits = rr.modes.couples[rr.rows]
+    sticking = mode == STICKING
+    known, ck = rr.known, rr.couples_known
+    steady = ~rr.modes.cascade[rr.rows]
+    mu = s.friction
+    channels = couple_channels(s)
+    # (a couple's event function is scaled by mu F: located to 1e-6 of the bound at worst)
+    couple_slack = {bit: max(slack * length_scale(s), 1e-6 * bound * _force(s))
+                    for bit, _, bound in channels}
+    excess = np.hypot(R[:, 0], R[:, 1]) - mu * N
+    short = mu * Ns - np.hypot(Rs[:, 0], Rs[:, 1])      # > 0: inside the cone
+    over = {bit: np.linalg.norm(T[:, [c - 3 for c in cols]], axis=1) - bound * N
+            for bit, cols, bound in channels}
+
+    def where(k: int) -> str:
+        j = rr.rows[k]
+        ev = rr.modes.event[j]
+        side = {1: "before", 2: "after"}.get(int(rr.modes.side[j]), "")
+        return (f"t = {result.t[j]:.6g} ({abi.MODES[mode[k]].name}"
+                + (f", {side} {ev}" if ev else "") + ")")
+
+    for k in np.flatnonzero(steady & known & (N < -slack))[:1]:
+        return "cone", f"N = {N[k]:.3g} N < 0 at {where(k)} (independent reaction)"
+    for k in np.flatnonzero(steady & known & sticking & (excess > slack))[:1]:
+        return "cone", (f"|R_t| - mu_f N = {excess[k]:.3g} N, N = {N[k]:.3g} N at "
+                        f"{where(k)} (independent reaction)")
+    for k in np.flatnonzero(steady & (rr.min_sliding_N < -slack))[:1]:
+        return "cone", (f"sliding with N < 0 along every direction (at most "
+                        f"{rr.min_sliding_N[k]:.3g} N) at {where(k)}")
+    for bit, _, _ in channels:
+        held = (held_bits & bit) != 0
+        for k in np.flatnonzero(steady & known & held & (over[bit] > couple_slack[bit]))[:1]:
+            return "cone", (f"|T| - mu N = {over[bit][k]:.3g} N m (couple {bit}) at "
+                            f"{where(k)} (independent reaction)")
+    for k, j in enumerate(rr.rows):
+        ev, side = rr.modes.event[j], int(rr.modes.side[j])
+        if not ev or not ck[k]:
+            continue
+        if _INSIDE.get(ev) == side and sticking[k] and (ev == "stick" or not channels) \
+                and excess[k] > slack:
+            return "cone", (f"|R_t| - mu_f N = {excess[k]:.3g} N, N = {N[k]:.3g} N where "
+                            f"the runtime decided to stick, at {where(k)}")
+        if _AT_THE_BOUND.get(ev) == side and Ns[k] > 0.0 and short[k] > slack:
+            return "cone", (f"a {ev} where the sticking reaction is inside the cone by "
+                            f"{short[k]:.3g} N (N = {Ns[k]:.3g} N) at {where(k)}")
+        if ev == "liftoff" and side == 1 and (sticking[k] or known[k]):
+            n_here = Ns[k] if sticking[k] else N[k]
+            if n_here > slack:
+                return "cone", f"a lift-off with N = {n_here:.3g} N at {where(k)}"
+        bit = _COUPLE_STOPS.get(ev) if side == 2 else _COUPLE_STARTS.get(ev)
+        if bit in over and held_bits[k] & bit and known[k]:
+            gap = over[bit][k] if side == 2 else -over[bit][k]
+            if gap > couple_slack[bit]:
+                return "cone", (f"a {ev} with the held couple "
+                                + ("outside" if side == 2 else "inside")
+                                + f" its bound by {gap:.3g} N m at {where(k)}")
+    return None
+
+
+def _force(s) -> float:
+    return (s.M + s.m) * max(s.g, 1.0)
 
 
 def judge_rough(result) -> tuple[str, str]:
-    """The friction cone in every contact row, R_Z >= 0 and |R_t| <= mu_f R_Z (sticking:
-    the reaction of the sticking equations; sliding, where the slip is resolved, the
-    sliding one along it; where it is not, the runtime slides along a reference direction
-    these rows do not record, and its own least N at the steps' ends stands for them),
-    friction's work never positive, and no energy gain beyond the drive's work
-    (runtime.motion.energy_balance)."""
-    from ..runtime.choice import length_scale
+    """The friction cone, the couples' bounds and N >= 0 on every contact row and at the
+    events' decisions, against a reaction computed apart from the runtime
+    (:func:`judge_reaction`), friction's work never positive, and no energy gain beyond
+    the drive's work (runtime.motion.energy_balance)."""
     from ..runtime.motion import energy_balance, motion
     s = result.scene
-    F = (s.M + s.m) * max(s.g, 1.0)
+    F = _force(s)
     # RK4 has no error control: its step, the user's, need not resolve a contact phase (a
     # step can cross the place where sliding friction leaves no consistent reaction, k_f
-    # = 0, and come out with a reaction of the wrong sign): the cone is not judged there
+    # = 0, and come out with a reaction of the wrong sign): the cone is not judged there;
+    # nor in a closed loop (its law is the controller's, not the scene's)
     rk4 = s.method == "rk4"
     slack = max(1e-9, CONE_SLACK * s.rtol) * F
     if not rk4 and result.min_normal < -slack:
         return "cone", f"the runtime's least normal reaction in contact: {result.min_normal:.3g} N"
-    rows = np.flatnonzero(result.modes >= 2) if not rk4 else np.zeros(0, dtype=int)
-    if len(rows):
-        if result.couples_on:
-            w, u, known = _couple_rows(result, rows)
-            R, v = w[:, :3], u[:, :3]
-        else:
-            _, R, v = result.session.rough_rows(result.t[rows], result.model_q[rows],
-                                                result.modes[rows])
-            known = np.ones(len(rows), dtype=bool)
-        speed = np.hypot(v[:, 0], v[:, 1])
-        v_scale = float(np.max(np.abs(result.model_q[:, 3:6]))) + 1.0    # V_C
-        # below sqrt(rtol) of the speeds the runtime keeps the friction's last direction
-        # (crt_friction.h, v_freeze): there v_t/|v_t| is not the runtime's direction
-        keep = known & ((result.modes[rows] == 3)
-                        | (speed > 10.0 * math.sqrt(s.rtol) * v_scale))
-        R, rows = R[keep], rows[keep]
-        if result.couples_on:
-            # each couple inside its bound: |T_Z| <= mu_s N, |(T_X, T_Y)| <= mu_r N
-            w = w[keep]
-            # (the rows at a couple's transition are where its event function, scaled by
-            # mu F, crosses 0: located to 1e-6 of the bound at worst)
-            for bit, cols, mu in couple_channels(s):
-                excess = np.linalg.norm(w[:, cols], axis=1) - mu * w[:, 2]
-                k = int(np.argmax(excess)) if len(rows) else 0
-                if len(rows) and excess[k] > max(slack * length_scale(s), 1e-6 * mu * F):
-                    return "cone", (f"|T| - mu N = {excess[k]:.3g} N m (couple {bit}) at t "
-                                    f"= {result.t[rows[k]]:.6g} (row kind "
-                                    f"{result.row_kind[rows[k]]})")
-    if len(rows):
-        excess = np.hypot(R[:, 0], R[:, 1]) - s.friction * R[:, 2]
-        k = int(np.argmax(excess))
-        if excess[k] > slack or R[:, 2].min() < -slack:
-            return "cone", (f"|R_t| - mu_f R_Z = {excess[k]:.3g} N, R_Z = {R[k, 2]:.3g} N at "
-                            f"t = {result.t[rows[k]]:.6g} (mode {result.modes[rows[k]]})")
+    if not rk4 and s.control is None and s.disturbance is None:
+        verdict = judge_reaction(result, slack)
+        if verdict is not None:
+            return verdict
     mo = motion(result)
     balance = energy_balance(result, mo)
     scale = max(float(np.max(np.abs(mo.E))), float(np.max(mo.T)), 1e-300)

@@ -9,11 +9,14 @@ RK4 is given a step that resolves fast spins.  Each run is judged by
 lowest height of S above -1e-9 of the body's size, no NaN, A orthonormal, and |K|
 constant within each flight (E1.9); for the Lie-group methods (``lie``, ``lie5``,
 ``lie8``) both to round-off (1e-12) in flight, whatever the tolerance.  On the rough
-plane also: the friction cone in every contact row, friction's work never positive, no
-energy gain beyond the point's drive, and a ``painleve`` stop only where sliding friction
-can make k_f vanish (an honest status, counted apart).  The goal: no falls, no wrong
-status or invariant, no valid scene refused, no run past 10x the median cost per
-simulated second (each plane's own median).  ``tests/test_contact_properties.py`` runs a
+plane also: the friction cone, the couples' bounds and N >= 0 in every contact row and
+at every decision of an event (a stick, a slip's onset, a lift-off, a couple's stop and
+start), held against a reaction recomputed apart from the runtime
+(:mod:`derive.verify.reaction`, Newton–Euler for the two bodies), friction's work never
+positive, no energy gain beyond the point's drive, and a ``painleve`` stop only where
+sliding friction can make k_f vanish (an honest status, counted apart).  The goal: no
+falls, no wrong status or invariant, no valid scene refused, no run past 10x the median
+cost per simulated second (each plane's own median).  ``tests/test_contact_properties.py`` runs a
 seeded subset in CI.
 """
 from __future__ import annotations

@@ -1,0 +1,682 @@
+"""``derive verify mutants``: do the tests notice when the runtime's C is slightly wrong?
+
+A catalogue of small mutations of the runtime's and the controllers' hand-written C
+(``templates/runtime`` and ``templates/control``: every ``.h`` and ``.c`` there that is no
+jinja template), generated from the sites :mod:`derive.verify.csites` finds in them, never
+from lines typed by hand:
+
+* ``bound``: a factor of 1.05 on either side of every floating comparison whose sides
+  are both non-zero (a threshold, or a bound such as ``rt <= mu_f R_Z``);
+* ``flip``: every comparison turned around (``<`` to ``>``, ``<=`` to ``>=``, ``==`` to
+  ``!=``), ``for`` headers apart;
+* ``term``: each term of a sum dropped (multiplied by 0.0, so that what it reads stays
+  read) in the sides of those floating comparisons and in what a ``double`` function
+  returns (an event function's value);
+* ``event``: both halves of a crossing test (``g0 > 0.0 && g1 <= 0.0``) turned around: the
+  event's direction;
+* ``tolerance``: every floating literal up to 1e-2 (and every ``#define`` of one) ten times
+  larger, and every read of the user's tolerances (``opt[CRT_OPT_RTOL]``, ``ATOL``,
+  ``EVENT_TOL``) ten times looser.
+
+Each mutant is applied to a scratch copy of the C (``generated/runtime``, whose runtime
+headers are the templates' verbatim twins, and ``templates/control``), never to the
+worktree; the library is built from there (``$DERIVE_C_SOURCES``, :func:`derive.paths.
+c_sources`, with a scratch ``$DERIVE_CACHE``) and a chosen subset of the tests runs
+against it (:data:`UNIT_TESTS`: the tests of each compiled unit the mutation reaches,
+found by preprocessing each model once).  A mutant is *killed* when a test fails, the run
+crashes or it runs past its time; it *survives* otherwise.  A survivor must be killed by
+a new test or recorded as equivalent, with the reason, in
+``derive/verify/equivalent_mutants.toml``; the command exits 1 while any survivor is not.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import re
+import shutil
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+import tomllib
+from concurrent.futures import ThreadPoolExecutor, as_completed
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from ..commands import Target
+from . import csites as cs
+
+# the mutants' libraries are built at -O1: half the runtime's -O3 compile time, which is
+# most of what a killed mutant costs (the tests hold their tolerances at either; the
+# unmutated C is built the same way and must pass); $DERIVE_CFLAGS, when set, wins
+MUTANT_CFLAGS = "-O1"
+FACTOR = 1.05
+LOOSER = 10.0
+TOLERANCE_MAX = 1e-2
+PARTS = ("runtime", "control")
+KINDS = ("bound", "flip", "term", "event", "tolerance")
+TOLERANCE_OPTIONS = ("CRT_OPT_RTOL", "CRT_OPT_ATOL", "CRT_OPT_EVENT_TOL")
+EQUIVALENTS = Path(__file__).with_name("equivalent_mutants.toml")
+_REVERSED = {"<": ">", "<=": ">=", ">": "<", ">=": "<=", "==": "!=", "!=": "=="}
+
+# The tests a mutant runs, by the compiled units it reaches: the fast tests that exercise
+# each unit (the sanitizer builds, the CLI's end-to-end runs and the long random sweeps
+# are left to the suite), in an order that fails early (a killed mutant stops at its
+# first failure).  "model_<kind>.c" units are the runtime's models, "control/<file>" the
+# controllers' C (crt_hop.c the per-hop controller).  A survivor is run again
+# against whole files (--test) before it is recorded as equivalent.
+_ROUGH = "tests/test_friction_couples.py::"
+_HOP = "tests/test_hop_control.py::"
+_REPLAN = "tests/test_control_replan.py::"
+UNIT_TESTS = {
+    "model_rough.c": (
+        "tests/test_friction_boundaries.py",
+        "tests/test_friction_closed_forms.py",
+        "tests/test_friction_runtime.py",
+        _ROUGH + "test_a_spinning_sphere_stops_at_the_closed_form_time",
+        _ROUGH + "test_a_rolling_ball_decelerates_at_the_closed_form_rate",
+        _ROUGH + "test_a_body_held_from_rolling_slides_as_the_one_dimensional_coulomb_model",
+        _ROUGH + "test_bardin_panevs_periodic_modes",
+        _ROUGH + "test_the_wrench_equations_are_newton_eulers",
+        "tests/test_friction_literature.py",
+        "tests/test_contact_properties.py::test_random_rough_scenes_hold_every_property[0]",
+    ),
+    "model_general.c": (
+        "tests/test_runtime.py",
+        "tests/test_bouncing.py",
+        "tests/test_contact_newton_euler.py",
+        "tests/test_runtime_status.py",
+        "tests/test_contact_properties.py::test_random_bouncing_scenes_hold_every_property[0]",
+    ),
+    "model_vertical.c": ("tests/test_runtime.py", "tests/test_bouncing.py"),
+    "model_attitude.c": ("tests/test_runtime.py",),
+    "model_translational.c": ("tests/test_runtime.py",),
+    "model_planar.c": ("tests/test_runtime.py",),
+    "model_axisymmetric.c": ("tests/test_runtime.py",),
+    "model_variational.c": ("tests/test_stability.py",),
+    "control/crt_hop.c": (
+        _HOP + "test_the_c_controller_writes_the_python_routes_law_to_the_bit",
+        _HOP + "test_where_impacts_stop_the_gait_goes_on_bounded_in_both_routes",
+        _HOP + "test_the_apex_a_target_sets_is_the_runs",
+        _HOP + "test_the_mirror_law_brings_the_apex_to_its_target",
+        _HOP + "test_a_deadbeat_gain_settles_in_three_hops",
+        _HOP + "test_feedback_holds_an_orbit_unstable_open_loop_at_the_predicted_rate",
+    ),
+    "control/ctl_qp.h": (
+        _REPLAN + "test_qp_against_qpoases",
+        _REPLAN + "test_c_controller_returns_the_python_routes_law",
+        _REPLAN + "test_closed_loop_replayed_with_its_realised_law",
+        _REPLAN + "test_seeded_landings_upright_closed_not_open",
+    ),
+    "control/ctl_timing.c": (
+        _REPLAN + "test_c_controller_returns_the_python_routes_law",
+        _REPLAN + "test_closed_loop_replayed_with_its_realised_law",
+    ),
+}
+
+
+@dataclass(frozen=True)
+class Mutant:
+    """One mutation: ``edits`` (start, end, new text) of the file's text."""
+    part: str
+    file: str
+    function: str
+    kind: str
+    line: int
+    before: str
+    after: str
+    edits: tuple
+    occurrence: int = 1
+
+    @property
+    def key(self) -> str:
+        """How the equivalents file names it: the function, the kind and the text, no
+        line and no file (the C can move between headers)."""
+        more = f" #{self.occurrence}" if self.occurrence > 1 else ""
+        return f"{self.function}: {self.kind}: {self.before} -> {self.after}{more}"
+
+    @property
+    def id(self) -> str:
+        return hashlib.sha1(self.key.encode()).hexdigest()[:8]
+
+    @property
+    def where(self) -> str:
+        return f"{self.part}/{self.file}:{self.line} {self.function}"
+
+    def apply(self, text: str) -> str:
+        for start, end, new in sorted(self.edits, reverse=True):
+            text = text[:start] + new + text[end:]
+        return text
+
+
+# ---- the catalogue ---------------------------------------------------------------------
+def template_files() -> list[tuple[str, Path]]:
+    """(part, path) of the hand-written C: ``*.h`` and ``*.c`` of templates/runtime and
+    templates/control (jinja templates are not C)."""
+    from ..paths import TEMPLATES
+    out = []
+    for part in PARTS:
+        folder = TEMPLATES / part
+        for path in sorted(folder.iterdir()):
+            if path.suffix in (".h", ".c"):
+                out.append((part, path))
+    return out
+
+
+def _line_text(src: cs.Source, a: int, b: int) -> str:
+    return " ".join(src.span_text(a, b).split())
+
+
+def _mutants_of(part: str, src: cs.Source, names: dict) -> list[Mutant]:
+    out: list[Mutant] = []
+    toks = src.tokens
+
+    def add(kind, function, offset, before, after, edits):
+        out.append(Mutant(part, src.name, function, kind, src.line_of(offset),
+                          " ".join(before.split()), " ".join(after.split()), tuple(edits)))
+
+    comps = cs.comparisons(src, names)
+    for c in comps:
+        op = toks[c.op]
+        whole = (toks[c.left[0]].start, toks[c.right[1]].end)
+        text = src.text[whole[0]:whole[1]]
+
+        def rewrite(new_op=None, left=None, right=None):
+            ltxt = left if left is not None else src.span_text(*c.left)
+            rtxt = right if right is not None else src.span_text(*c.right)
+            gap_l = src.text[toks[c.left[1]].end:op.start]
+            gap_r = src.text[op.end:toks[c.right[0]].start]
+            return ltxt + gap_l + (new_op or op.text) + gap_r + rtxt
+
+        flipped = rewrite(new_op=_REVERSED[op.text])
+        add("flip", c.function, op.start, text, flipped, [(whole[0], whole[1], flipped)])
+        if c.kind == "double" and not c.zero and op.text in ("<", "<=", ">", ">="):
+            for side in ("left", "right"):
+                span = c.left if side == "left" else c.right
+                new = f"{FACTOR} * ({src.span_text(*span)})"
+                after = rewrite(**{side: new})
+                add("bound", c.function, op.start, text, after,
+                    [(whole[0], whole[1], after)])
+        if c.kind == "double" and not c.zero:
+            for span in (c.left, c.right):
+                for a, b in cs.terms(src, *span):
+                    s0, s1 = toks[a].start, toks[b].end
+                    after = (src.text[whole[0]:s0] + f"0.0 * ({src.text[s0:s1]})"
+                             + src.text[s1:whole[1]])
+                    add("term", c.function, s0, text, after, [(whole[0], whole[1], after)])
+    # the event's direction: g0 > 0.0 && g1 <= 0.0 both turned around
+    for c1, c2 in zip(comps, comps[1:]):
+        if not (c1.zero and c2.zero and c1.kind == c2.kind == "double"):
+            continue
+        if c1.right[1] + 2 != c2.left[0] or toks[c1.right[1] + 1].text != "&&":
+            continue
+        o1, o2 = toks[c1.op].text, toks[c2.op].text
+        up = {"<": -1, "<=": -1, ">": 1, ">=": 1}
+        if o1 not in up or o2 not in up or up[o1] == up[o2]:
+            continue
+        start, end = toks[c1.left[0]].start, toks[c2.right[1]].end
+        text = src.text[start:end]
+        after = (src.text[start:toks[c1.op].start] + _REVERSED[o1]
+                 + src.text[toks[c1.op].end:toks[c2.op].start] + _REVERSED[o2]
+                 + src.text[toks[c2.op].end:end])
+        add("event", c1.function, toks[c1.op].start, text, after, [(start, end, after)])
+    for fn, a, b in cs.returns_of(src):
+        whole = (toks[a].start, toks[b].end)
+        text = src.text[whole[0]:whole[1]]
+        for x, y in cs.terms(src, a, b):
+            s0, s1 = toks[x].start, toks[y].end
+            after = src.text[whole[0]:s0] + f"0.0 * ({src.text[s0:s1]})" + src.text[s1:whole[1]]
+            add("term", fn, s0, "return " + text, "return " + after,
+                [(whole[0], whole[1], after)])
+    for lit in cs.literals(src):
+        if 0.0 < abs(lit.value) <= TOLERANCE_MAX:
+            new = repr(lit.value * LOOSER)
+            add("tolerance", lit.function, lit.start, lit.text, new,
+                [(lit.start, lit.start + len(lit.text), new)])
+    for start, end, text, fn in cs.tolerance_reads(src, TOLERANCE_OPTIONS):
+        new = f"({LOOSER} * {text})"
+        add("tolerance", fn, start, text, new, [(start, end, new)])
+    return out
+
+
+def catalogue() -> list[Mutant]:
+    """Every mutant of the hand-written C, in file order, each with its occurrence number
+    among mutants of the same key."""
+    files = [(part, path, cs.parse(path.name, path.read_text(encoding="utf-8")))
+             for part, path in template_files()]
+    names = cs.names([src for _, _, src in files])
+    out: list[Mutant] = []
+    seen: dict = {}
+    for part, _, src in files:
+        for m in _mutants_of(part, src, names):
+            if m.before == m.after:
+                continue
+            n = seen.get(m.key, 0) + 1
+            seen[m.key] = n
+            if n > 1:
+                m = Mutant(m.part, m.file, m.function, m.kind, m.line, m.before, m.after,
+                           m.edits, n)
+            out.append(m)
+    return out
+
+
+def equivalents() -> dict[str, str]:
+    """key -> reason, from equivalent_mutants.toml (an entry names one mutant, ``key``,
+    or several of one site that share the reason, ``keys``)."""
+    if not EQUIVALENTS.is_file():
+        return {}
+    data = tomllib.loads(EQUIVALENTS.read_text(encoding="utf-8"))
+    out = {}
+    for entry in data.get("mutant", []):
+        for key in entry.get("keys", [entry.get("key")]):
+            out[key] = entry["reason"]
+    return out
+
+
+# ---- where a mutant is compiled --------------------------------------------------------
+def _compiled_lines(folder: Path, unit: str) -> dict[str, set]:
+    """file name -> the lines of it that the preprocessor keeps in ``unit`` (a .c of
+    ``folder``): the unit's models and options decide which #if blocks exist."""
+    from ..cbuild import compiler
+    proc = subprocess.run([compiler(), "-E", "-std=c99", "-I", str(folder), str(folder / unit)],
+                          capture_output=True, text=True)
+    if proc.returncode != 0:
+        raise RuntimeError(f"preprocessing {unit} failed:\n{proc.stderr[-2000:]}")
+    out: dict[str, set] = {}
+    current, line = None, 0
+    marker = re.compile(r'^# (\d+) "([^"]+)"')
+    for text in proc.stdout.splitlines():
+        m = marker.match(text)
+        if m:
+            line, current = int(m.group(1)), Path(m.group(2)).name
+            continue
+        if current is not None and text.strip():
+            out.setdefault(current, set()).add(line)
+        line += 1
+    return out
+
+
+def units_of(mutants: list[Mutant], folder: Path) -> dict[str, tuple]:
+    """mutant id -> the units it is compiled into (runtime: the .c files of ``folder``,
+    each preprocessed once; control: the header or file itself)."""
+    runtime_units = sorted(p.name for p in folder.iterdir() if p.suffix == ".c")
+    lines = {u: _compiled_lines(folder, u) for u in runtime_units}
+    out = {}
+    for m in mutants:
+        if m.part == "control":
+            out[m.id] = (f"control/{m.file}",)
+            continue
+        if m.function.startswith("#define"):     # a macro: wherever its file is
+            out[m.id] = tuple(u for u in runtime_units if lines[u].get(m.file))
+            continue
+        out[m.id] = tuple(u for u in runtime_units
+                          if m.line in lines[u].get(m.file, ()))
+    return out
+
+
+def tests_for(units: tuple) -> list[str]:
+    """The pytest arguments of a mutant reaching ``units`` (in UNIT_TESTS' order, each
+    once)."""
+    out: list[str] = []
+    for unit in units:
+        for t in UNIT_TESTS.get(unit, ()):
+            if t not in out:
+                out.append(t)
+    return out
+
+
+# ---- running ----------------------------------------------------------------------------
+@dataclass
+class Outcome:
+    mutant: Mutant
+    status: str            # killed, survived, equivalent, stillborn, not compiled, untested
+    detail: str = ""
+    seconds: float = 0.0
+    units: tuple = ()
+
+
+_HASH_NAME = re.compile(r"[0-9a-f]{24}")
+
+
+class Scratch:
+    """A worker's copy of the C (``runtime/``, ``control/``) and its own build cache."""
+
+    def __init__(self, root: Path):
+        from ..paths import GENERATED, TEMPLATES
+        self.root = root
+        self.c = root / "c"
+        shutil.copytree(GENERATED / "runtime", self.c / "runtime")
+        shutil.copytree(TEMPLATES / "control", self.c / "control")
+        self.cache = root / "cache"
+        self.cache.mkdir()
+        self.keep: set = set()
+
+    def env(self) -> dict:
+        from ..paths import C_SOURCES_ENV
+        env = dict(os.environ)
+        env.update({C_SOURCES_ENV: str(self.c), "DERIVE_CACHE": str(self.cache),
+                    "PYTHONDONTWRITEBYTECODE": "1"})
+        env.setdefault("DERIVE_CFLAGS", MUTANT_CFLAGS)
+        return env
+
+    def borrow(self, home: Path | None = None) -> None:
+        """Another cache's libraries, linked in (default: the user's): the unmutated C
+        built once, ever (the cache is keyed by the sources' content; a mutant's build
+        is new).  Only finished entries (a folder named by its hash), never another
+        process's build in progress."""
+        from ..cbuild import cache_dir
+        home = cache_dir() if home is None else home
+        if not home.is_dir():
+            return
+        for entry in home.iterdir():
+            link = self.cache / entry.name
+            if _HASH_NAME.fullmatch(entry.name) and entry.is_dir() \
+                    and not os.path.lexists(link):
+                link.symlink_to(entry.resolve(), target_is_directory=True)
+
+    def settle(self) -> None:
+        """What the cache holds now is the unmutated build: kept from here on."""
+        self.keep = set(os.listdir(self.cache))
+
+    def forget(self) -> None:
+        """Remove what a mutant built."""
+        for name in os.listdir(self.cache):
+            if name not in self.keep:
+                path = self.cache / name
+                if path.is_dir() and not path.is_symlink():
+                    shutil.rmtree(path, ignore_errors=True)
+                else:
+                    path.unlink()
+
+
+def check_twins() -> None:
+    """The runtime's templates must be the verbatim twins of generated/runtime's files
+    (``derive emit`` copies them): a mutant of one is built as the other."""
+    from ..paths import GENERATED
+    for part, path in template_files():
+        if part == "runtime":
+            twin = GENERATED / "runtime" / path.name
+            if not twin.is_file() or twin.read_bytes() != path.read_bytes():
+                raise SystemExit(f"derive verify mutants: generated/runtime/{path.name} "
+                                 f"differs from templates/runtime/{path.name}: run derive emit")
+
+
+_RUNNING: set = set()          # the test runs in flight, ended if the harness is stopped
+_LOCK = threading.Lock()
+
+
+def _stop_all() -> None:
+    with _LOCK:
+        for proc in list(_RUNNING):
+            proc.kill()
+
+
+def _pytest(scratch: Scratch, tests: list[str], timeout: float,
+            cache: Path | None = None) -> tuple[str, str, float]:
+    """(killed/survived, the first failing test or why, seconds); ``cache``: build into
+    this cache instead of the scratch one (the unmutated C: kept for later runs)."""
+    from ..paths import ROOT
+    cmd = [sys.executable, "-m", "pytest", "-x", "-q", "-n", "0", "-p", "no:cacheprovider",
+           "--no-header", "-W", "ignore", *tests]
+    env = scratch.env()
+    if cache is not None:
+        env["DERIVE_CACHE"] = str(cache)
+    start = time.perf_counter()
+    proc = subprocess.Popen(cmd, cwd=ROOT, env=env, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+    with _LOCK:
+        _RUNNING.add(proc)
+    try:
+        out, err = proc.communicate(timeout=timeout)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        proc.communicate()
+        return "killed", f"ran past {timeout:.0f} s", time.perf_counter() - start
+    except BaseException:
+        proc.kill()
+        raise
+    finally:
+        with _LOCK:
+            _RUNNING.discard(proc)
+    seconds = time.perf_counter() - start
+    if proc.returncode == 0:
+        return "survived", "", seconds
+    if proc.returncode == 1:
+        failed = re.findall(r"^FAILED (\S+)", out, re.M) or re.findall(r"^ERROR (\S+)", out,
+                                                                        re.M)
+        return "killed", failed[0] if failed else "a test failed", seconds
+    if proc.returncode < 0:
+        return "killed", f"crashed (signal {-proc.returncode})", seconds
+    return "error", (out + err)[-600:], seconds
+
+
+def _compiles(scratch: Scratch, unit: str) -> str:
+    """'' when the mutated unit compiles under the project's warnings, else the error."""
+    from ..cbuild import WARNINGS, compiler
+    if unit.startswith("control/"):
+        name = unit.split("/", 1)[1]
+        if not name.endswith(".h"):
+            return ""
+        shim = scratch.c / "control" / "_shim.c"
+        shim.write_text(f'#define CTL_QP_N 4\n#define CTL_QP_M 3\n#include "{name}"\n'
+                        "int ctl_shim_unused(void);\nint ctl_shim_unused(void) { return 0; }\n",
+                        encoding="utf-8")
+        path, folder = shim, scratch.c / "control"
+    else:
+        folder = scratch.c / "runtime"
+        path = folder / unit
+    proc = subprocess.run([compiler(), *WARNINGS, "-fsyntax-only", "-I", str(folder), str(path)],
+                          capture_output=True, text=True)
+    return "" if proc.returncode == 0 else proc.stderr.strip().splitlines()[0][:200]
+
+
+def _scratch_file(scratch: Scratch, m: Mutant) -> Path:
+    return scratch.c / m.part / m.file
+
+
+@dataclass
+class Report:
+    outcomes: list = field(default_factory=list)
+    baseline_seconds: float = 0.0
+    catalogue_size: int = 0
+
+    def count(self, status: str) -> int:
+        return sum(o.status == status for o in self.outcomes)
+
+    @property
+    def kill_rate(self) -> float:
+        judged = self.count("killed") + self.count("survived") + self.count("equivalent")
+        return self.count("killed") / judged if judged else 1.0
+
+
+def select(mutants: list[Mutant], files=None, kinds=None, match=None, sample=None,
+           seed: int = 36) -> list[Mutant]:
+    """The mutants of the named files (template names, e.g. crt_friction.h), of the
+    kinds, whose id or key contains one of ``match``; ``sample`` of them at random."""
+    texts = [match] if isinstance(match, str) else list(match or ())
+    out = [m for m in mutants
+           if (not files or m.file in files) and (not kinds or m.kind in kinds)
+           and (not texts or any(x in m.id or x in m.key for x in texts))]
+    if sample and sample < len(out):
+        import random
+        out = sorted(random.Random(seed).sample(out, sample),
+                     key=lambda m: (m.part, m.file, m.line))
+    return out
+
+
+def _basis() -> str:
+    """A hash of the hand-written C: a journal's verdicts stand while it is unchanged."""
+    h = hashlib.sha256()
+    for _, path in template_files():
+        h.update(path.name.encode() + b"\0" + path.read_bytes())
+    return h.hexdigest()[:16]
+
+
+def _read_journal(path: Path | None, basis: str) -> dict:
+    if path is None or not path.is_file():
+        return {}
+    out = {}
+    for line in path.read_text(encoding="utf-8").splitlines():
+        try:
+            entry = json.loads(line)
+        except ValueError:
+            continue
+        if entry.get("basis") == basis and entry.get("status") in ("killed", "stillborn",
+                                                                   "not compiled"):
+            out[entry["key"]] = entry
+    return out
+
+
+def run(files=None, kinds=None, match=None, sample=None, seed: int = 36,
+        workers: int | None = None, journal: str | None = None, listing: bool = False,
+        tests: list | None = None, progress=None) -> Report:
+    """Build and test each selected mutant (``listing``: only list the catalogue).
+    ``journal``: a file of verdicts (JSON lines) that a later run reuses for the mutants
+    killed under the same C (a survivor is always run again: a new test may kill it).
+    ``tests``: pytest arguments run against every mutant instead of UNIT_TESTS'."""
+    check_twins()
+    every = catalogue()
+    mutants = select(every, files, kinds, match, sample, seed)
+    report = Report(catalogue_size=len(every))
+    if listing:
+        report.outcomes = [Outcome(m, "listed") for m in mutants]
+        return report
+    equivalent = equivalents()
+    basis = _basis()
+    jpath = Path(journal) if journal else None
+    done = _read_journal(jpath, basis)
+    workers = max(1, min(workers or os.cpu_count() or 1, len(mutants) or 1))
+    with tempfile.TemporaryDirectory(prefix="derive-mutants-") as tmp:
+        scratches = [Scratch(Path(tmp) / f"w{k}") for k in range(workers)]
+        for sc in scratches:
+            sc.borrow()
+        units = units_of(mutants, scratches[0].c / "runtime")
+        todo = [m for m in mutants if m.key not in done]
+        needed = list(tests) if tests else \
+            tests_for(tuple(sorted({u for m in todo for u in units[m.id]})))
+        # the unmutated C passes the tests (and its libraries are built once, shared)
+        if needed:
+            if progress:
+                progress(f"the unmutated C through {len(needed)} test groups")
+            from ..cbuild import cache_dir
+            status, detail, secs = _pytest(scratches[0], needed, 3600.0, cache=cache_dir())
+            if status != "survived":
+                raise SystemExit(f"derive verify mutants: the tests fail on the unmutated C "
+                                 f"({detail}); fix them first")
+            report.baseline_seconds = secs
+            for sc in scratches:
+                sc.borrow()
+        for sc in scratches:
+            sc.settle()
+        timeout = max(120.0, 4.0 * report.baseline_seconds)
+        import queue
+        free: queue.Queue = queue.Queue()
+        for sc in scratches:
+            free.put(sc)
+
+        def one(m: Mutant) -> Outcome:
+            if m.key in done:
+                e = done[m.key]
+                return Outcome(m, e["status"], e.get("detail", "") + " (journal)", 0.0,
+                               units[m.id])
+            us = units[m.id]
+            if not us:
+                return Outcome(m, "not compiled", "in no model (its #if blocks)")
+            chosen = list(tests) if tests else tests_for(us)
+            if not chosen:
+                return Outcome(m, "untested", f"no tests for {', '.join(us)}", 0.0, us)
+            sc = free.get()
+            path = _scratch_file(sc, m)
+            original = path.read_text(encoding="utf-8")
+            try:
+                path.write_text(m.apply(original), encoding="utf-8")
+                err = _compiles(sc, us[0])
+                if err:
+                    return Outcome(m, "stillborn", err, 0.0, us)
+                status, detail, secs = _pytest(sc, chosen, timeout)
+            finally:
+                path.write_text(original, encoding="utf-8")
+                sc.forget()
+                free.put(sc)
+            if status == "survived" and m.key in equivalent:
+                status, detail = "equivalent", equivalent[m.key]
+            return Outcome(m, status, detail, secs, us)
+
+        n = len(mutants)
+        pool = ThreadPoolExecutor(workers)
+        try:
+            futures = {pool.submit(one, m): i for i, m in enumerate(mutants)}
+            got = {}
+            for k, fut in enumerate(as_completed(futures), 1):
+                o = fut.result()
+                got[futures[fut]] = o
+                if jpath is not None and "journal" not in o.detail:
+                    with jpath.open("a", encoding="utf-8") as f:
+                        f.write(json.dumps({"key": o.mutant.key, "id": o.mutant.id,
+                                            "status": o.status, "detail": o.detail,
+                                            "seconds": round(o.seconds, 2),
+                                            "basis": basis}) + "\n")
+                if progress:
+                    progress(f"[{k}/{n}] {o.status} {o.mutant.id} {o.mutant.where} "
+                             f"{o.mutant.kind}: {o.mutant.before} -> {o.mutant.after}"
+                             + (f" ({o.detail})" if o.detail else ""))
+        except BaseException:
+            # stopped (a signal, ^C): no mutant after this one, the test runs ended now,
+            # the scratch folders removed on the way out
+            pool.shutdown(wait=False, cancel_futures=True)
+            _stop_all()
+            pool.shutdown(wait=True)
+            raise
+        pool.shutdown()
+        report.outcomes = [got[i] for i in sorted(got)]
+    return report
+
+
+def targets(report: Report) -> list[Target]:
+    surv = report.count("survived")
+    untested = report.count("untested")
+    return [Target(f"0 survivors not recorded as equivalent ({surv})", surv == 0),
+            Target(f"0 mutants without tests ({untested})", untested == 0),
+            Target(f"0 errors of the harness ({report.count('error')})",
+                   report.count("error") == 0)]
+
+
+def passed(report: Report) -> bool:
+    if report.outcomes and all(o.status == "listed" for o in report.outcomes):
+        return True
+    return all(t.ok for t in targets(report))
+
+
+def report(rep: Report) -> str:
+    from collections import Counter
+    lines = []
+    if rep.outcomes and all(o.status == "listed" for o in rep.outcomes):
+        for o in rep.outcomes:
+            m = o.mutant
+            lines.append(f"{m.id} {m.where} {m.kind}: {m.before} -> {m.after}")
+        kinds = Counter(o.mutant.kind for o in rep.outcomes)
+        lines.append(f"{len(rep.outcomes)} of {rep.catalogue_size} mutants ("
+                     + ", ".join(f"{k} {v}" for k, v in sorted(kinds.items())) + ")")
+        return "\n".join(lines)
+    for o in rep.outcomes:
+        if o.status in ("survived", "untested", "error"):
+            m = o.mutant
+            lines.append(f"  {o.status} {m.id} {m.where} {m.kind}: {m.before} -> "
+                         f"{m.after}" + (f" ({o.detail[:200]})" if o.detail else ""))
+    by_file = Counter((o.mutant.file, o.status) for o in rep.outcomes)
+    for name in sorted({o.mutant.file for o in rep.outcomes}):
+        counts = {s: by_file[(name, s)] for s in ("killed", "survived", "equivalent",
+                                                   "stillborn", "not compiled", "untested")
+                  if by_file[(name, s)]}
+        lines.append(f"{name}: " + ", ".join(f"{k} {v}" for k, v in counts.items()))
+    counts = Counter(o.status for o in rep.outcomes)
+    judged = counts["killed"] + counts["survived"] + counts["equivalent"]
+    lines.append(f"{len(rep.outcomes)} of {rep.catalogue_size} mutants: "
+                 + ", ".join(f"{k} {v}" for k, v in sorted(counts.items()))
+                 + f"; kill rate {counts['killed']}/{judged} = {100 * rep.kill_rate:.1f}% "
+                 f"({counts['equivalent']} survivors recorded as equivalent); the unmutated "
+                 f"tests took {rep.baseline_seconds:.0f} s")
+    lines.append("goal: " + "; ".join(str(t) for t in targets(rep)))
+    return "\n".join(lines)

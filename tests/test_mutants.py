@@ -1,0 +1,119 @@
+"""derive verify mutants: its reader of C, its catalogue and one run end to end.
+
+* the reader (derive/verify/csites.py) on C written here: which comparisons it finds,
+  their types, the loop headers it leaves, the terms of a sum, the tolerances;
+* the catalogue read from the templates: the mutant of issue 36 (a stick accepted up to
+  1.05 mu_f N) is in it, each mutant changes its site and nothing else, the C of a sample
+  of them compiles under the project's warnings, and every entry of
+  derive/verify/equivalent_mutants.toml names a mutant that exists, with its reason;
+* a run: that mutant killed and a harmless one surviving (then the command fails), each
+  built in a scratch copy, the worktree untouched.
+"""
+from __future__ import annotations
+
+import subprocess
+
+import pytest
+
+from derive.cbuild import WARNINGS, compiler
+from derive.paths import GENERATED, TEMPLATES
+from derive.verify import csites as cs
+from derive.verify import mutants as mu
+
+C = """
+typedef struct { double lo, *hi; int n; } box;
+#define TOL 1e-9   /* a tolerance */
+static double f(const box *b, double x, int k)
+{
+  int i;
+  double acc = 0.0;
+  for (i = 0; i < b->n; ++i) acc += x;      /* a loop: not a site */
+  if (x <= 2.0 * b->lo + TOL && k == 3) return acc - x + 1.0;
+  if (acc > 0.0 && x <= 0.0) return -1.0;
+  return b->hi[0] < x ? 1.0 : 0.5;
+}
+"""
+
+
+def test_the_reader_finds_the_comparisons_their_types_and_the_tolerances():
+    src = cs.parse("x.c", C)
+    names = cs.names([src])
+    found = {(c.text, c.kind, c.zero) for c in cs.comparisons(src, names)}
+    assert found == {("x <= 2.0 * b->lo + TOL", "double", ""), ("k == 3", "int", ""),
+                     ("acc > 0.0", "double", "right"), ("x <= 0.0", "double", "right"),
+                     ("b->hi[0] < x", "double", "")}
+    (c,) = [c for c in cs.comparisons(src, names) if c.text.startswith("x <= 2.0")]
+    assert [src.span_text(a, b) for a, b in cs.terms(src, *c.right)] == ["2.0 * b->lo", "TOL"]
+    assert [(lit.text, lit.function) for lit in cs.literals(src)
+            if lit.value <= 1e-2 and lit.value > 0] == [("1e-9", "#define TOL")]
+    assert [(f, src.span_text(a, b)) for f, a, b in cs.returns_of(src)][0] == \
+        ("f", "acc - x + 1.0")
+
+
+@pytest.fixture(scope="module")
+def catalogue():
+    return mu.catalogue()
+
+
+def test_the_catalogue_holds_the_issues_mutant_and_each_changes_its_site(catalogue):
+    keys = {m.key for m in catalogue}
+    assert ("crt_rough_at_rest: bound: rt <= s->prm[CRT_P_friction] * R[2] -> "
+            "rt <= 1.05 * (s->prm[CRT_P_friction] * R[2])") in keys
+    assert len(keys) == len(catalogue)                  # each named once
+    kinds = {m.kind for m in catalogue}
+    assert kinds == set(mu.KINDS)
+    texts = {}
+    for m in catalogue:
+        if (m.part, m.file) not in texts:
+            texts[(m.part, m.file)] = (TEMPLATES / m.part / m.file).read_text(encoding="utf-8")
+        text = texts[(m.part, m.file)]
+        new = m.apply(text)
+        assert new != text
+        start = min(e[0] for e in m.edits)
+        assert new[:start] == text[:start]              # nothing before the site moved
+        assert text.count("\n") == new.count("\n") or "\n" in m.before
+
+
+def test_a_sample_of_mutants_compiles_under_the_projects_warnings(catalogue, tmp_path):
+    """One mutant of each kind in crt_friction.h, in the rough model (the harness
+    compiles each one the same way before testing it)."""
+    src = GENERATED / "runtime"
+    for kind in mu.KINDS:
+        m = next((m for m in catalogue if m.kind == kind and m.file == "crt_friction.h"),
+                 None)
+        if m is None:
+            continue
+        folder = tmp_path / kind
+        folder.mkdir()
+        for p in src.iterdir():
+            (folder / p.name).write_bytes(p.read_bytes())
+        (folder / m.file).write_text(m.apply((src / m.file).read_text(encoding="utf-8")),
+                                     encoding="utf-8")
+        proc = subprocess.run([compiler(), *WARNINGS, "-fsyntax-only", "-I", str(folder),
+                               str(folder / "model_rough.c")], capture_output=True, text=True)
+        assert proc.returncode == 0, (m.key, proc.stderr[-800:])
+
+
+def test_every_recorded_equivalent_names_a_mutant_with_its_reason(catalogue):
+    keys = {m.key for m in catalogue}
+    for key, reason in mu.equivalents().items():
+        assert key in keys, f"equivalent_mutants.toml names no mutant: {key}"
+        assert len(reason.split()) >= 5, f"say why {key} is equivalent"
+
+
+def test_a_run_kills_the_issues_mutant_and_reports_a_survivor():
+    """Against the boundary test of a slip that stops outside the cone: the stick
+    accepted up to 1.05 mu_f N is killed; a flip in crt_eval_impact (an evaluation for
+    Python that no run calls) survives, and the report fails.  Neither touches the
+    worktree."""
+    before = {p.name: p.read_bytes() for p in (GENERATED / "runtime").iterdir()}
+    test = ("tests/test_friction_boundaries.py::test_a_stopping_slip_sticks_inside_the_cone_"
+            "and_slides_on_outside_it[0.008279626483585467-reversal-band1]")
+    rep = mu.run(match=["rt <= 1.05 * (s->prm[CRT_P_friction] * R[2])",
+                        "crt_eval_impact: flip: status != CRT_OK -> status == CRT_OK"],
+                 tests=[test], workers=2)
+    got = {o.mutant.function: (o.status, o.detail) for o in rep.outcomes}
+    assert got["crt_rough_at_rest"][0] == "killed" and "reversal" in got["crt_rough_at_rest"][1]
+    assert got["crt_eval_impact"] == ("survived", "")
+    assert not mu.passed(rep) and "survived" in mu.report(rep)
+    assert {p.name: p.read_bytes() for p in (GENERATED / "runtime").iterdir()} == before
