@@ -32,7 +32,6 @@ transcription's law, RK4 intervals and structured derivatives
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import casadi as ca
@@ -350,56 +349,35 @@ class BodiesTranscription(Transcription):
         decided bodies at rest) made by the decided rotors about a fixed axis,
         psi = -B^+ J phi s(tau) (B = [I_k a_k]), or, with no rotor decided, by loops of
         the first decided point (:func:`derive.planner.guess.loops`' area rule)."""
-        from .guess import fit_ctrl, rotation_vector, smoothstep
+        from .guess import fit_ctrl, loops, rotation_vector, smoothstep
         rest = self.rest_ctrl()
         Q = self.rk4_nodes(rest, q0, T)
         phi = rotation_vector(self.layout.A_of(Q[:, -1]).T @ A_target)
         J = self.inertia(self.task.scene.t0)
         task = self.task
         rotors = self.channels.rotor_channels
+        dpsi = np.zeros(0)
         if rotors:
             B = np.array([np.asarray(self.channels.rotors[ch.index].axis)
                           * self.channels.rotors[ch.index].inertia for ch in rotors]).T
             dpsi = -np.linalg.pinv(B) @ (J @ phi)
-
-            def path(tau):
-                s = smoothstep(tau) if task.rest_at_ends else np.asarray(tau)
-                out = np.tile(rest[0], (len(s), 1))
-                for ch, d in zip(rotors, dpsi):
-                    out[:, ch.column] = d * s
-                return out
-            return fit_ctrl(self, path)
-        return fit_ctrl(self, self._loops(phi, J))
-
-    def _loops(self, phi, J):
-        """Loops of the first decided point about the area vector -J phi / (2 mu_j)
-        (mu_j = m_j (M + m - m_j)/(M + m)), the others at rest: the rule of one point."""
-        from .guess import smoothstep
-        task, sc = self.task, self.task.scene
-        ch = self.channels.point_channels[0]
-        m_j = self.channels.points[ch.index].mass
-        total = sc.M + sc.m
-        mu = m_j * (total - m_j) / total
-        area = -J @ phi / (2 * mu)
-        a = float(np.linalg.norm(area))
-        axis = area / a if a > 1e-12 else np.array([0.0, 0.0, 1.0])
-        helper = np.array([1.0, 0.0, 0.0]) if abs(axis[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
-        e1 = np.cross(axis, helper)
-        e1 /= np.linalg.norm(e1)
-        e2 = np.cross(axis, e1)
-        rho = 0.45 * task.region_radius
-        k = max(1, min(math.ceil(a / (math.pi * rho * rho)), max(1, self.N // 6)))
-        rho = min(rho, math.sqrt(max(a, 1e-8) / (math.pi * k)))
-        start, rest = task.start, self.rest_ctrl()[0]
+            phi = phi + np.linalg.solve(J, B @ dpsi)      # what the rotors cannot turn
+        # the rest by loops of the first decided point, by the rule of one point (the area
+        # vector -J phi / (2 mu), J and mu those of one point of the decided points' total
+        # mass), the others at rest
+        points = self.channels.point_channels
+        loop = loops(self, phi, task.rest_at_ends) \
+            if points and np.linalg.norm(phi) > 1e-9 else None
 
         def path(tau):
             s = smoothstep(tau) if task.rest_at_ends else np.asarray(tau)
-            al = 2 * math.pi * k * s
-            out = np.tile(rest, (len(s), 1))
-            out[:, ch.columns] = start + rho * ((np.cos(al) - 1)[:, None] * e1
-                                                + np.sin(al)[:, None] * e2)
+            out = np.tile(rest[0], (len(s), 1))
+            for ch, d in zip(rotors, dpsi):
+                out[:, ch.column] = d * s
+            if loop is not None:
+                out[:, points[0].columns] = loop(tau)
             return out
-        return path
+        return fit_ctrl(self, path)
 
 
 def initial_nodes(tr: BodiesTranscription) -> np.ndarray:
