@@ -60,9 +60,12 @@ def report_lines(result, message: bool = True) -> list[str]:
     law = s.law
     task = result.task
     goal = goal_of(task)
-    lines.append(f"  law: {law.pieces} pieces over {law.duration:.6g} s ({law.ends}), "
-                 f"max |OP''| {law.max_acceleration:.4g} m/s^2 (limit "
-                 f"{task.max_acceleration:.4g}), effort {law.effort:.5g} m^2/s^3")
+    if law.kind == "bodies":
+        lines += _bodies_law_lines(law, task)
+    else:
+        lines.append(f"  law: {law.pieces} pieces over {law.duration:.6g} s ({law.ends}), "
+                     f"max |OP''| {law.max_acceleration:.4g} m/s^2 (limit "
+                     f"{task.max_acceleration:.4g}), effort {law.effort:.5g} m^2/s^3")
     for name, meas in s.achieved.items():
         if meas.get("available") is False:
             lines.append(f"  achieved ({name}): not measured, {meas['reason']}")
@@ -73,4 +76,23 @@ def report_lines(result, message: bool = True) -> list[str]:
         st = s.stability
         lines.append(f"  multipliers |rho|: {', '.join(f'{m:.4f}' for m in st['moduli'])}")
         lines.append(f"  {st['verdict']}")
+    return lines
+
+
+def _bodies_law_lines(law, task) -> list[str]:
+    """The law of a task of several bodies: one line per decided body."""
+    lines = [f"  law: {law.pieces} pieces over {law.duration:.6g} s ({law.ends}) for "
+             f"{', '.join(law.decided)}; effort {law.effort:.5g} s (each body's "
+             "acceleration over its bound, squared)"]
+    for b in law.bodies:
+        if "max_rate" in b:
+            lines.append(f"    {b['name']}: turns {b['turn']:.6g} rad, max |psi'| "
+                         f"{b['max_rate']:.4g} rad/s (limit {task.max_rotor_rate:.4g}), max "
+                         f"|psi''| {b['max_acceleration']:.4g} rad/s^2 (limit "
+                         f"{task.max_rotor_acceleration:.4g})")
+        else:
+            lines.append(f"    {b['name']}: max |OP''| {b['max_acceleration']:.4g} m/s^2 "
+                         f"(limit {task.max_acceleration:.4g}), at most "
+                         f"{b['max_distance_from_region_center']:.4g} m from the region's "
+                         "centre")
     return lines

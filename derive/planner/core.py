@@ -44,6 +44,7 @@ class Plan:
     law: Law | None = None
     table: np.ndarray | None = None  # law.csv rows
     scene_toml: str = ""
+    tables: dict = field(default_factory=dict)     # several bodies: {point1.csv: rows, ...}
     sources: dict = field(default_factory=dict)    # law.c, law.h
     trajectories: dict = field(default_factory=dict)
     report: SolveReport | None = None
@@ -135,6 +136,8 @@ def plan(task, progress: bool = False, runtime: bool = True) -> Plan:
         summary.total_seconds = time.perf_counter() - t_start
         return Plan(task, summary.status, report.message, summary, report=report)
 
+    if task.bodies:
+        return _plan_bodies(task, goal, report, summary, t_start, runtime)
     tr = report.tr
     ctrl, Q, T = tr.unpack(report.result.w)
     law = Law(tr.spline, ctrl, T, tr.kind, task.circle[:3] if task.circle else (),
@@ -176,6 +179,47 @@ def plan(task, progress: bool = False, runtime: bool = True) -> Plan:
     summary.total_seconds = time.perf_counter() - t_start
     return Plan(task, "solved", report.message, summary, law, table, text, sources,
                 trajectories, report)
+
+
+def _plan_bodies(task: Task, goal, report: SolveReport, summary: Summary, t_start: float,
+                 runtime: bool) -> Plan:
+    """The solved plan of a task of several bodies: a table per decided body, the scene,
+    its re-simulations (derive.planner.bodies_plan, resim.resimulate_bodies)."""
+    from . import bodies_plan as bp
+    from .resim import resimulate_bodies
+    tr = report.tr
+    w = report.result.w
+    ctrl, Q, T = tr.unpack(w)
+    ends = "rest" if task.rest_at_ends else "free"
+    law = Law(tr.spline, ctrl, T, "cartesian", (), ends, rest=task.rest_at_ends)
+    sched = goal.schedule(task, tr, Q, T)
+    tables, repro = bp.tabulate(law, tr.channels, sched.t_table)
+    text = scene_toml(bp.scene_document(task, tr.channels, law, sched.initial,
+                                        sched.duration))
+    summary.law = bp.law_stats(task, tr, law, tables, repro, w)
+    summary.objective = Objective.of(task.objective, summary.law)
+    summary.nlp_estimate = sched.nlp_estimate
+    trajectories, achieved = {}, {}
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "scene.toml"
+        for name, rows in tables.items():
+            bp.write_table(Path(tmp) / name, rows)
+        path.write_text(text, encoding="utf-8")
+        traj = resimulate_bodies(path)
+        trajectories["scipy"] = traj
+        achieved["scipy"] = goal.measure(task, law, traj, sched.extra)
+        if runtime:
+            rt = runtime_resimulate(path)
+            if isinstance(rt, str):
+                achieved["runtime"] = {"available": False, "reason": rt}
+            else:
+                trajectories["runtime"] = rt
+                achieved["runtime"] = goal.measure(task, law, rt, sched.extra)
+    summary.achieved = achieved
+    summary.status, summary.message = "solved", report.message
+    summary.total_seconds = time.perf_counter() - t_start
+    return Plan(task, "solved", report.message, summary, law=law, scene_toml=text,
+                trajectories=trajectories, report=report, tables=tables)
 
 
 def _attach_u(traj: Trajectory, scene_path: Path):

@@ -114,10 +114,14 @@ class Diagnosis:
 
 def candidates(tr) -> list[str]:
     """The limits a task has that can be lifted: the acceleration bound; the region
-    (not a circle: there it is the path); the horizon when it bounds a free T."""
-    names = ["max_acceleration"]
-    if tr.kind == "cartesian":
-        names.append("region")
+    (not a circle: there it is the path); the horizon when it bounds a free T.  A task
+    of several bodies has the first two when it decides a point (its rotors' bounds are
+    not examined)."""
+    names = []
+    if not tr.bodies or tr.channels.point_channels:
+        names.append("max_acceleration")
+        if tr.kind == "cartesian":
+            names.append("region")
     if tr.free_T and tr.task.horizon is not None:
         names.append("horizon")
     return [n for n in LIMITS if n in names]
@@ -167,11 +171,16 @@ def _diagnose(session, run, failed) -> Diagnosis:
             return Diagnosis(None, None, "the task is feasible: IPOPT, resumed from where it "
                                          "stopped, converged", solution=res)
     names = candidates(tr)
+    if not names:
+        return Diagnosis(None, None, "not diagnosed: the task has no limit that the "
+                                     "diagnosis raises (the rotors' bounds are not examined)")
     listed = ", ".join(names)
     # every limit raised by RAISE, the acceleration bound set at the working bound of a
     # solve (a lifted bound lets IPOPT's iterates run off, as in a solve)
     raised = {n: RAISE * limits.value(n) for n in names}
-    raised["max_acceleration"] = WORKING * tr.limit_values(session.w_guess)["max_acceleration"]
+    if "max_acceleration" in raised:
+        raised["max_acceleration"] = WORKING * tr.limit_values(
+            session.w_guess)["max_acceleration"]
     # from the point where IPOPT stopped if it found the task infeasible (a point of
     # least infeasibility: the dynamics hold there), else from the guess; the other one
     # if that does not converge
@@ -181,7 +190,9 @@ def _diagnose(session, run, failed) -> Diagnosis:
     if failed.status not in INFEASIBLE:
         starts.reverse()
     tries = [(w, raised) for w in starts]
-    tries.append((session.w_guess, {**raised, "max_acceleration": limits.max_acceleration}))
+    if "max_acceleration" in raised:
+        tries.append((session.w_guess, {**raised,
+                                        "max_acceleration": limits.max_acceleration}))
     try:
         for start, values in tries:
             free, raised_to = _raise(session, run, start, None, limits, values, names,

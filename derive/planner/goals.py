@@ -85,7 +85,7 @@ class Goal:
 
     def bound_first_node(self, tr, lb, ub) -> None:
         """The first node is the task's initial state."""
-        lb[:] = ub[:] = initial_state(tr.task)[list(tr.layout.keep)]
+        lb[:] = ub[:] = tr.layout.of_state(initial_state(tr.task))
 
     def guess(self, tr) -> np.ndarray:
         raise NotImplementedError

@@ -112,13 +112,18 @@ def loops(tr: Transcription, phi: np.ndarray, at_rest_ends: bool = True):
 
 
 def _rest_ctrl(tr: Transcription) -> np.ndarray:
+    if tr.bodies:
+        return tr.rest_ctrl()
     if tr.kind == "circle":
         return np.full((tr.spline.n_ctrl, 1), tr.task.circle[3])
     return np.tile(tr.task.start, (tr.spline.n_ctrl, 1))
 
 
 def _attitude_guess(tr: Transcription, T: float, A_target, q0):
-    """Loops (or an arc of the circle) that turn the drifting body towards A_target."""
+    """Loops (or an arc of the circle) that turn the drifting body towards A_target (of
+    several bodies: :meth:`derive.planner.bodies.BodiesTranscription.attitude_ctrl`)."""
+    if tr.bodies:
+        return tr.attitude_ctrl(T, A_target, q0)
     rest = _rest_ctrl(tr)
     Q = tr.rk4_nodes(rest, q0, T)
     A_end = tr.layout.A_of(Q[:, -1])
@@ -186,7 +191,7 @@ def _nodes(tr: Transcription, ctrl, q0, T) -> np.ndarray:
 def reorient_guess(tr: Transcription) -> np.ndarray:
     """Loops that turn the drifting body to target_matrix by the end of the horizon."""
     task = tr.task
-    q0 = initial_state(task)[list(tr.layout.keep)]
+    q0 = tr.layout.of_state(initial_state(task))
     T = task.horizon
     return _nodes(tr, _attitude_guess(tr, T, task.target, q0), q0, T)
 
@@ -195,7 +200,7 @@ def land_guess(tr: Transcription) -> np.ndarray:
     """The touchdown time of P at rest, then loops that turn the body to target_matrix
     (or OP to the vertical, for d = 0) by then, and the touchdown time of that law."""
     task = tr.task
-    q0 = initial_state(task)[list(tr.layout.keep)]
+    q0 = tr.layout.of_state(initial_state(task))
     rest = _rest_ctrl(tr)
     T = touchdown_time(tr, rest, q0)
     if task.at_touchdown == "attitude":

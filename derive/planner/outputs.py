@@ -28,11 +28,19 @@ def write_plan(plan, out: Path) -> list[Path]:
     out.mkdir(parents=True, exist_ok=True)
     written = []
     if plan.ok:
-        write_table(out / "law.csv", plan.table)
+        if plan.tables:                      # several bodies: a table per decided body
+            from .bodies_plan import write_table as write_body_table
+            for name, rows in plan.tables.items():
+                write_body_table(out / name, rows)
+                written.append(out / name)
+        else:
+            write_table(out / "law.csv", plan.table)
+            written.append(out / "law.csv")
         (out / "scene.toml").write_text(plan.scene_toml, encoding="utf-8")
-        for name, text in plan.sources.items():
-            (out / name).write_text(text, encoding="utf-8")
-        written += [out / "law.csv", out / "scene.toml", out / "law.c", out / "law.h"]
+        written.append(out / "scene.toml")
+        for name in sorted(plan.sources):                  # law.c, law.h
+            (out / name).write_text(plan.sources[name], encoding="utf-8")
+            written.append(out / name)
     (out / "plan.json").write_text(plan.summary.to_json(), encoding="utf-8")
     written.append(out / "plan.json")
     if plan.ok:
@@ -41,11 +49,22 @@ def write_plan(plan, out: Path) -> list[Path]:
 
 
 def plots(plan, out: Path) -> list[Path]:
+    """law.png (the planned law) and motion.png (the re-simulated motion)."""
     import matplotlib
     matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    task, _law = plan.task, plan.law
     paths = []
+    if plan.tables:
+        from .bodies_plan import plot_law
+        paths.append(plot_law(plan, out / "law.png"))
+    else:
+        paths.append(_plot_point_law(plan, out / "law.png"))
+    paths += _plot_motion(plan, out)
+    return paths
+
+
+def _plot_point_law(plan, path: Path) -> Path:
+    import matplotlib.pyplot as plt
+    task = plan.task
     t = plan.table[:, 0]
     u = plan.table[:, 1:].T
     fig, ax = plt.subplots(2, 1, figsize=(7, 6), sharex=True)
@@ -60,10 +79,14 @@ def plots(plan, out: Path) -> list[Path]:
     ax[1].legend(loc="best")
     fig.suptitle(f"planned law ({task.goal})")
     fig.subplots_adjust(left=0.12, right=0.97, top=0.92, bottom=0.09, hspace=0.12)
-    fig.savefig(out / "law.png", dpi=110)
+    fig.savefig(path, dpi=110)
     plt.close(fig)
-    paths.append(out / "law.png")
+    return path
 
+
+def _plot_motion(plan, out: Path) -> list[Path]:
+    import matplotlib.pyplot as plt
+    task, paths = plan.task, []
     traj = plan.trajectories.get("scipy")
     if traj is not None:
         fig, ax = plt.subplots(2, 1, figsize=(7, 6), sharex=True)

@@ -58,28 +58,30 @@ class Trajectory:
     source: str = ""
 
 
-def read_table(path: Path):
-    """(t, xyz) from a law table: header row, columns t, x, y, z used."""
+def read_table(path: Path, names: tuple = ("t", "x", "y", "z"), where: str = "[point].table"):
+    """(t, values) from a law table: header row, the columns ``names`` used (t, x, y, z;
+    a rotor's t, psi)."""
     try:
         with open(path, newline="", encoding="utf-8") as fh:
             rows = list(csv.reader(fh))
     except OSError as exc:
-        raise SceneError("[point].table", f"cannot be read ({exc})") from None
+        raise SceneError(where, f"cannot be read ({exc})") from None
     if len(rows) < 3:
-        raise SceneError("[point].table", "needs a header and at least two rows")
+        raise SceneError(where, "needs a header and at least two rows")
     head = [h.strip() for h in rows[0]]
     try:
-        cols = [head.index(c) for c in ("t", "x", "y", "z")]
+        cols = [head.index(c) for c in names]
     except ValueError:
-        raise SceneError("[point].table", "needs columns t, x, y, z") from None
+        raise SceneError(where, f"needs columns {', '.join(names)}") from None
     data = np.array([[float(r[c]) for c in cols] for r in rows[1:]])
     if not np.all(np.isfinite(data)) or np.any(np.diff(data[:, 0]) <= 0):
-        raise SceneError("[point].table", "t must increase and every value be finite")
+        raise SceneError(where, "t must increase and every value be finite")
     return data[:, 0], data[:, 1:]
 
 
 class SplineLaw:
-    """The runtime's reading of a table: a C^2 cubic spline of (x, y, z)."""
+    """The runtime's reading of a table: a C^2 cubic spline of (x, y, z) (of psi, for a
+    rotor's)."""
 
     def __init__(self, t, xyz, ends: str):
         if ends not in BC:
@@ -87,7 +89,8 @@ class SplineLaw:
         self.t0, self.t1, self.ends = float(t[0]), float(t[-1]), ends
         bc = BC[ends]
         if ends == "rest":
-            bc = ((1, np.zeros(3)), (1, np.zeros(3)))
+            width = np.asarray(xyz).shape[1]
+            bc = ((1, np.zeros(width)), (1, np.zeros(width)))
         self.spline = CubicSpline(t, xyz, axis=0, bc_type=bc)
         self.d1, self.d2 = self.spline.derivative(1), self.spline.derivative(2)
         self.x, self.c = self.spline.x, self.spline.c        # c[k, i]: of (t - x_i)^(3-k)
@@ -142,6 +145,70 @@ def resimulate(scene_path, rtol: float = 1e-12, max_impacts: int = 1000) -> Traj
                     size=scene.size, method="DOP853", rtol=rtol, max_impacts=max_impacts)
     path = hybrid.run(scene.t0, scene.t0 + scene.duration, _state0(scene))
     return Trajectory(path.t, path.q, path.impacts, path.status, "scipy-dop853")
+
+
+class BodiesMoments:
+    """The moments of a planned scene of several bodies at t (27 numbers): each body's
+    law read independently of the runtime's spline (a table by SciPy's CubicSpline of
+    its CSV, a formula by its program), its share by the derived ``point_moments`` and
+    ``rotor_moments``, summed."""
+
+    def __init__(self, scene: Scene, doc: dict, folder: Path):
+        from ..layout import MOMENTS
+        self.spin = MOMENTS.spin
+        self.pm, self.rm = Fast(load("point_moments")), Fast(load("rotor_moments"))
+        self.points, self.rotors = [], []
+        for k, (p, el) in enumerate(zip(scene.points, _elements(doc, "point"))):
+            where = f"[[point]] {k + 1}: table"
+            law = (SplineLaw(*read_table(folder / el["table"], where=where),
+                             el.get("ends", "free")) if "table" in el else p.law.point)
+            self.points.append((p.mass, law))
+        for k, (r, el) in enumerate(zip(scene.rotors, _elements(doc, "rotor"))):
+            where = f"[[rotor]] {k + 1}: table"
+            if "table" in el:
+                law = SplineLaw(*read_table(folder / el["table"], ("t", "psi"), where),
+                                el.get("ends", "free"))
+            else:
+                law = _angle(r.law)
+            self.rotors.append((np.asarray(r.axis, float), r.inertia, law))
+
+    def __call__(self, t) -> np.ndarray:
+        out = np.zeros(27)
+        for mass, law in self.points:
+            out += self.pm(mass, law(t))[0]
+        for axis, inertia, law in self.rotors:
+            psi = law(t)
+            out[self.spin] += self.rm(axis, inertia, psi[1:3])[0]
+        return out
+
+
+def _elements(doc: dict, name: str) -> list:
+    items = doc.get(name, [])
+    return items if isinstance(items, list) else [items]
+
+
+def _angle(program):
+    def psi(t):
+        return program.jets([t])[:, 0]
+    return psi
+
+
+def resimulate_bodies(scene_path, rtol: float = 1e-12, max_impacts: int = 1000) -> Trajectory:
+    """A planned scene of several bodies integrated by the SciPy peer on the moments
+    models' derived functions (``moments_flight_rhs``, ``moments_gap``,
+    ``moments_impact``), the moments from :class:`BodiesMoments`."""
+    path = Path(scene_path)
+    scene = load_scene(path)
+    moments = BodiesMoments(scene, scene.doc, path.parent)
+    contact = scene.contact_possible
+    fns = Functions(Fast(load("moments_flight_rhs")), *(
+        (Fast(load("moments_gap")), Fast(load("moments_impact")),
+         Fast(load(f"lowest_point_{scene.shape}"))) if contact else ()))
+    hybrid = Hybrid(fns, moments, [scene.M, scene.m, *scene.J, scene.g],
+                    contact=contact, e=scene.e, center=scene.center,
+                    size=scene.size, method="DOP853", rtol=rtol, max_impacts=max_impacts)
+    run = hybrid.run(scene.t0, scene.t0 + scene.duration, _state0(scene))
+    return Trajectory(run.t, run.q, run.impacts, run.status, "scipy-dop853")
 
 
 def runtime_resimulate(scene_path) -> Trajectory | str:

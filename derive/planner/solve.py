@@ -115,8 +115,19 @@ def effort_reference(tr: Transcription, w) -> float:
     effort = tr.effort_of(w)
     if effort > 1e-9:
         return effort
+    if tr.bodies:
+        return tr.fallback_effort()
     T = tr.T_guess_value()
     return (tr.task.region_radius * (2 * math.pi / T) ** 2) ** 2 * T
+
+
+def transcription(task, goal, stabilize: bool = False) -> Transcription:
+    """The task's NLP: of the paper's model for a [point] task, of the moments models for
+    one of [[point]] and [[rotor]] (:mod:`derive.planner.bodies`)."""
+    if task.bodies:
+        from .bodies import BodiesTranscription
+        return BodiesTranscription(task, goal, stabilize)
+    return Transcription(task, goal, stabilize)
 
 
 class Session:
@@ -125,7 +136,7 @@ class Session:
     def __init__(self, task, goal, progress: bool = False, stabilize: bool = False, w0=None):
         t_build = time.perf_counter()
         self.task, self.goal = task, goal
-        self.tr = tr = Transcription(task, goal, stabilize)
+        self.tr = tr = transcription(task, goal, stabilize)
         self.w_guess = goal.guess(tr) if w0 is None else np.asarray(w0, dtype=float)
         tr.set_effort_scale(effort_reference(tr, self.w_guess))
         self.label = task.goal + (" (stability conditions)" if stabilize else "")

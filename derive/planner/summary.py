@@ -52,15 +52,36 @@ class LawStats:
 
 
 @dataclass
+class BodiesLawStats:
+    """The law of a task of several bodies (derive.planner.bodies): per decided body
+    (``bodies``: name, effort, and a point's max_acceleration and
+    max_distance_from_region_center, a rotor's max_rate, max_acceleration and turn,
+    psi(T) - psi(0)); ``effort`` the objective's: the integral of each decided body's
+    (acceleration / its bound)^2."""
+    kind: str                    # bodies
+    pieces: int
+    duration: float
+    ends: str                    # rest | free
+    decided: list                # "point 1", "rotor 2", ...
+    table_rows: int              # of each table
+    table_reproduction_error: float
+    bodies: list
+    effort: float
+
+    unit = "s (integral of each decided body's (acceleration / bound)^2)"
+
+
+@dataclass
 class Objective:
     kind: str                    # effort | time
     value: float | None = None
     unit: str | None = None
 
     @classmethod
-    def of(cls, kind: str, law: LawStats) -> "Objective":
+    def of(cls, kind: str, law) -> "Objective":
         if kind == "effort":
-            return cls("effort", law.effort, "m^2/s^3 (integral of |OP''|^2)")
+            return cls("effort", law.effort, getattr(law, "unit",
+                                                     "m^2/s^3 (integral of |OP''|^2)"))
         return cls("time", law.duration, "s")
 
     def to_dict(self) -> dict:
@@ -77,7 +98,7 @@ class Summary:
     total_seconds: float = math.nan
     stability_attempts: list = field(default_factory=list)
     blocking: dict | None = None     # a plan that failed: the diagnosis
-    law: LawStats | None = None
+    law: LawStats | BodiesLawStats | None = None
     nlp_estimate: dict | None = None
     achieved: dict | None = None     # per re-simulation: scipy, runtime
     stability: dict | None = None    # a hop: multipliers and their checks

@@ -7,6 +7,12 @@ of ``[plan]`` below, each its text and its check like the scene's
 (:class:`derive.scene.rules.Rule`).  Every failure is a
 :class:`~derive.scene.SceneError` naming the field and the rule.  The fields of
 ``[plan]`` are in the README's table (``derive.scene.plan_table()``).
+
+A task of several internal bodies (``[[point]]`` and ``[[rotor]]``, issue 32) names the
+bodies whose laws the plan makes in ``[plan].decide``; the others give their law (a
+formula).  Its scene is a scene of the parser's, the decided bodies held where they start
+(a point at ``start``, a rotor at psi = 0), so that every rule of a scene with those bodies
+(their laws proved over the plan's span, C's start) runs on it.
 """
 from __future__ import annotations
 
@@ -16,10 +22,23 @@ from pathlib import Path
 
 import numpy as np
 
-from ..scene import Scene, SceneError, build_body
+from ..scene import Scene, SceneError, build_body, parse_scene
+from ..scene.bodies import describe, point_elements, rotor_elements
 from ..scene.parse import read_document, read_file
 from ..scene.rules import Rule
-from ..scene.schema import TASK
+from ..scene.schema import TASK, body_name
+
+
+@dataclass(frozen=True)
+class Decided:
+    """A body whose law the plan makes: ``kind`` point or rotor, ``index`` its place in
+    ``scene.points`` or ``scene.rotors`` (from 0), ``name`` as [plan].decide says it."""
+    kind: str
+    index: int
+
+    @property
+    def name(self) -> str:
+        return f"{self.kind} {self.index + 1}"
 
 
 @dataclass(frozen=True)
@@ -44,6 +63,25 @@ class Task:
     tolerance: float
     max_iterations: int
     source: str = "task"
+    # a task of [[point]] and [[rotor]] (the moments models): the decided bodies, points
+    # first then rotors (each in its order), and the rotors' limits; () for a [point]
+    # task (its point decided, the paper's model)
+    decided: tuple = ()
+    max_rotor_rate: float | None = None
+    max_rotor_acceleration: float | None = None
+
+    @property
+    def bodies(self) -> bool:
+        """The task has [[point]] or [[rotor]]: planned through the moments models."""
+        return bool(self.decided)
+
+    @property
+    def decided_points(self) -> tuple:
+        return tuple(d for d in self.decided if d.kind == "point")
+
+    @property
+    def decided_rotors(self) -> tuple:
+        return tuple(d for d in self.decided if d.kind == "rotor")
 
 
 class _Plan:
@@ -54,12 +92,89 @@ class _Plan:
         self.goal = v["[plan].goal"]
         self.center = self.radius = self.circle = self.start = None
         self.at_touchdown = None
+        # several bodies ([[point]], [[rotor]]): their elements and the decided ones
+        self.bodies = "[[point]]" in v or "[[rotor]]" in v
+        self.points = point_elements(v) if self.bodies else ()
+        self.rotors = rotor_elements(v) if self.bodies else ()
+        self.decided: tuple = ()
+
+    @property
+    def decides_point(self) -> bool:
+        return not self.bodies or any(d.kind == "point" for d in self.decided)
+
+    @property
+    def decides_rotor(self) -> bool:
+        return any(d.kind == "rotor" for d in self.decided)
 
     def __getitem__(self, key: str):
         return self.v[f"[plan].{key}"]
 
     def has(self, key: str) -> bool:
         return f"[plan].{key}" in self.given
+
+
+def _decide(p: _Plan) -> None:
+    if not p.bodies:
+        if p.has("decide"):
+            raise SceneError("[plan].decide", "belongs to a task with [[point]] or [[rotor]] "
+                                              "(a [point] task plans its point)")
+        return
+    if not p.has("decide"):
+        raise SceneError("[plan].decide", "is required with [[point]] or [[rotor]]: name the "
+                                          "bodies the plan decides, e.g. [\"rotor 1\"]")
+    elements = {"point": p.points, "rotor": p.rotors}
+    chosen = set()
+    for i, name in enumerate(p["decide"]):
+        kind, k = body_name(name)
+        if k > len(elements[kind]):
+            raise SceneError(f"[plan].decide[{i}]", f"names {name!r}, but the task has "
+                                                    f"{describe(len(p.points), len(p.rotors))}")
+        chosen.add((kind, k - 1))
+    for kind, els in elements.items():
+        for k, el in enumerate(els):
+            if (kind, k) in chosen and el.values["law"] is not None:
+                raise SceneError(el.where("law"), f"the plan makes it ([plan].decide names "
+                                                  f"\"{kind} {k + 1}\"): remove it")
+            if (kind, k) not in chosen and el.values["law"] is None:
+                raise SceneError(el.where("law"), f"is required: the plan does not decide "
+                                                  f"this body ([plan].decide has no "
+                                                  f"\"{kind} {k + 1}\")")
+    p.decided = tuple(Decided(kind, k) for kind in ("point", "rotor")
+                      for k in range(len(elements[kind])) if (kind, k) in chosen)
+
+
+def _bounds(p: _Plan) -> None:
+    """The bounds of the decided bodies, each required when it acts and refused when it
+    does not."""
+    for key, needed, what in (("max_acceleration", p.decides_point, "point"),
+                              ("max_rotor_rate", p.decides_rotor, "rotor"),
+                              ("max_rotor_acceleration", p.decides_rotor, "rotor")):
+        if needed and p[key] is None:
+            raise SceneError(f"[plan].{key}", "is required")
+        if not needed and p.has(key):
+            raise SceneError(f"[plan].{key}", f"bounds a decided {what}, and "
+                             + ("[plan].decide names none" if p.bodies else
+                                "a [point] task decides its point alone"))
+    if not p.bodies:
+        return
+    if p.goal == "hop":
+        raise SceneError("[plan].goal", "hop plans one [point]'s law (the vertical model): a "
+                                        "task with [[point]] or [[rotor]] reorients or lands")
+    if p.has("circle"):
+        raise SceneError("[plan].circle", "P on a circle is planned for a [point] task: a "
+                                          "task with [[point]] or [[rotor]] gives region")
+    if p["at_touchdown"] == "d_zero":
+        raise SceneError("[plan].at_touchdown", "d_zero is planned for a [point] task: a task "
+                                                "with [[point]] or [[rotor]] lands with "
+                                                "target_matrix (at_touchdown = \"attitude\")")
+    if "[initial].carrier_velocity" in p.given:
+        raise SceneError("[initial].carrier_velocity", "a task gives C's velocity "
+                                                       "(com_velocity)")
+    if not p.decides_point:
+        for key in ("region", "start"):
+            if p.has(key):
+                raise SceneError(f"[plan].{key}", "places a decided point, and [plan].decide "
+                                                  "names none")
 
 
 def _tables(p: _Plan) -> None:
@@ -79,6 +194,8 @@ def _objective(p: _Plan) -> None:
 
 
 def _where_p_moves(p: _Plan) -> None:
+    if not p.decides_point:
+        return
     region, circle = p["region"], p["circle"]
     if region is not None and circle is not None:
         raise SceneError("[plan].circle", "give region or circle, not both")
@@ -130,6 +247,14 @@ def _hop(p: _Plan) -> None:
 
 
 PLAN_RULES = (
+    Rule("[plan].decide: required with [[point]] or [[rotor]] and refused without; each name "
+         "an element of the task; a decided body gives no law, every other one its law (a "
+         "formula)", _decide),
+    Rule("[plan].max_acceleration: required when a point is decided (a [point] task: "
+         "always), refused otherwise; max_rotor_rate and max_rotor_acceleration: required "
+         "when a rotor is decided, refused otherwise; with [[point]] or [[rotor]]: goal "
+         "reorient or land (with target_matrix), a region (no circle), region and start "
+         "only when a point is decided", _bounds),
     Rule("[plane]: given for land and hop, absent for reorient (free flight)", _tables),
     Rule("[plan].objective: time only for reorient; [plan].horizon: required for reorient",
          _objective),
@@ -153,6 +278,14 @@ def _no_law(doc: dict) -> None:
             if key in point:
                 raise SceneError(f"[point].{key}", "a task has no law: the [plan] table "
                                                    "plans it")
+    for name in ("point", "rotor"):
+        items = doc.get(name)
+        for i, el in enumerate(items if isinstance(items, list) else (), start=1):
+            for key in ("table", "samples", "ends"):
+                if isinstance(el, dict) and key in el:
+                    raise SceneError(f"[[{name}]] {i}: {key}", "a task's body keeps a law "
+                                     "given as a formula (law), or the plan makes it "
+                                     "([plan].decide)")
     if isinstance(run, dict):
         extra = sorted(set(run) - {"g"})
         if extra:
@@ -168,7 +301,10 @@ def parse_task(source, origin: str = "task") -> Task:
     p = _Plan(v, given)
     for rule in PLAN_RULES:
         rule.check(p)
-    scene = build_body(v, given, tuple(p.start), origin)
+    if p.bodies:
+        scene = _bodies_scene(doc, v, p, origin)
+    else:
+        scene = build_body(v, given, tuple(p.start), origin)
     if p.goal in ("land", "hop") and scene.shape == "none":
         raise SceneError("[body].shape", f"{p.goal} needs a shape that can touch the plane")
     if p.goal == "hop" and scene.g <= 0:
@@ -182,7 +318,46 @@ def parse_task(source, origin: str = "task") -> Task:
                 rest_at_ends=rest, objective=p["objective"], apex_height=p["apex_height"],
                 require_stable=require_stable, intervals=p["intervals"],
                 substeps=p["substeps"], tolerance=p["tolerance"],
-                max_iterations=p["max_iterations"], source=origin)
+                max_iterations=p["max_iterations"], source=origin, decided=p.decided,
+                max_rotor_rate=p["max_rotor_rate"],
+                max_rotor_acceleration=p["max_rotor_acceleration"])
+
+
+PROOF_MARGIN = 1.1     # the kept laws are proved over this times the horizon
+
+
+def _bodies_scene(doc: dict, v: dict, p: _Plan, origin: str) -> Scene:
+    """The scene of a task of several bodies, read by the scene parser: the kept bodies
+    with their laws, the decided ones held where they start (a point at ``start``, a
+    rotor at psi = 0), proved over the plan's span (the horizon; for a free duration
+    without a horizon every kept law must be constant)."""
+    decided = {(d.kind, d.index) for d in p.decided}
+    start = [repr(float(c)) for c in p.start] if p.start is not None else ["0", "0", "0"]
+    points = [{"mass": el.values["mass"],
+               "law": start if ("point", k) in decided else list(el.values["law"])}
+              for k, el in enumerate(p.points)]
+    rotors = [{"axis": list(el.values["axis"]), "inertia": el.values["inertia"],
+               "law": "0" if ("rotor", k) in decided else el.values["law"]}
+              for k, el in enumerate(p.rotors)]
+    span = p["horizon"] * PROOF_MARGIN if p["horizon"] is not None else 1.0
+    sd = {"name": v["name"], "body": doc["body"], "initial": doc.get("initial", {}),
+          "run": {"g": v["[run].g"], "duration": span, "method": "dop853"}}
+    if "plane" in doc:
+        sd["plane"] = doc["plane"]
+    if points:
+        sd["point"] = points
+    if rotors:
+        sd["rotor"] = rotors
+    scene = parse_scene(sd, origin)
+    if p["horizon"] is None and (p.goal != "reorient"):
+        kept = [b for b in (*scene.points, *scene.rotors)
+                if b.summary.max_speed > 0 or b.summary.max_acceleration > 0]
+        if kept:
+            raise SceneError("[plan].horizon", f"is required when a body keeps a law that "
+                                               f"moves ({kept[0].name}) and the plan's "
+                                               "duration is free: the span its law is "
+                                               "proved over")
+    return scene
 
 
 def load_task(task) -> Task:

@@ -72,6 +72,10 @@ class Layout:
     def index(self, label: str) -> int:
         return self.labels.index(label)
 
+    def of_state(self, q_model) -> np.ndarray:
+        """The NLP's state from the model's (numbers)."""
+        return np.asarray(q_model, dtype=float)[list(self.keep)]
+
     def full(self, q):
         """The model's state from the NLP's (CasADi or NumPy)."""
         where = {i: k for k, i in enumerate(self.keep)}
@@ -112,7 +116,10 @@ class Limits:
 
     @classmethod
     def of(cls, task) -> "Limits":
-        return cls(task.max_acceleration, task.region_radius,
+        """The task's; a task that decides no point has no acceleration bound nor region
+        (inf: the rows of neither exist)."""
+        return cls(math.inf if task.max_acceleration is None else task.max_acceleration,
+                   math.inf if task.region_radius is None else task.region_radius,
                    math.inf if task.horizon is None else task.horizon)
 
     def value(self, name: str) -> float:
@@ -133,29 +140,44 @@ def vee_skew(R):
 class Transcription:
     """The NLP of one task: variables, constraints by group, objective, bounds."""
 
+    bodies = False       # the moments models (derive.planner.bodies): several bodies
+
     def __init__(self, task, goal, stabilize: bool = False):
         self.task, self.goal, self.stabilize = task, goal, stabilize
         sc = task.scene
         self.p = [sc.M, sc.m, *sc.J, sc.g]
-        self.layout = goal.layout(task)
-        self.kind = "circle" if task.circle is not None else "cartesian"
-        self.dim = 1 if self.kind == "circle" else 3
+        self.layout = self._layout()
+        self._law_shape()
         self.N = task.intervals
         self.m = task.substeps
         self.spline = Spline(self.N, periodic=goal.periodic_law)
+        self.plane = goal.plane
+        self._model()
+        self._build_law_function()
+        self._build_interval()
+        self._build_nlp()
+
+    # ---- what a transcription of several bodies changes (derive.planner.bodies) ----------
+    def _layout(self) -> Layout:
+        return self.goal.layout(self.task)
+
+    def _law_shape(self):
+        """The law's shape: OP itself (3 columns) or an angle on a circle (1)."""
+        self.kind = "circle" if self.task.circle is not None else "cartesian"
+        self.dim = 1 if self.kind == "circle" else 3
+
+    def _model(self):
+        """The derived functions of the model, on the NLP's state: f, and with the plane
+        the gap and the impact map."""
         lay = self.layout
         f = load(f"{lay.model}_flight_rhs")
         self.f = lambda q, u, p: f(lay.full(q), u, p)[list(lay.keep)]
-        self.plane = goal.plane
         if self.plane:
             gap = load(f"{lay.model}_gap")
             impact = load(f"{lay.model}_impact")
             self.gap = lambda q, u, s, p: gap(lay.full(q), u, s, p)
             self.impact = lambda q, u, s, p, e: [
                 impact(lay.full(q), u, s, p, e)[0][list(lay.keep)]]
-        self._build_law_function()
-        self._build_interval()
-        self._build_nlp()
 
     # ---- the law on one piece ----------------------------------------------------------
     def _build_law_function(self):

@@ -45,8 +45,8 @@ class Rotor:
     name: str
     axis: tuple
     inertia: float
-    law: Any                   # a Program of one output
-    law_text: str
+    law: Any                   # a Program of one output, or a TableLaw (psi in its x)
+    law_text: str              # the formula ("" for a table)
     summary: LawSummary        # of psi: max |psi|, |psi'|, |psi''|, its time scale
 
 
@@ -116,7 +116,8 @@ def _analyse_program(program, t0: float, t1: float) -> LawSummary:
     return lawmod.summarise(jets)
 
 
-def _read_table_file(el: Element, base: Path | None) -> list:
+def _read_table_file(el: Element, base: Path | None,
+                     names: tuple = ("t", "x", "y", "z")) -> list:
     rel, where = el.values["table"], el.where("table")
     path = Path(rel)
     if base is None or path.is_absolute() or ".." in path.parts:
@@ -138,7 +139,7 @@ def _read_table_file(el: Element, base: Path | None) -> list:
         text = full.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as exc:
         raise SceneError(where, f"cannot be read ({type(exc).__name__})") from None
-    return tablemod.read_rows(text, rel)
+    return tablemod.read_rows(text, rel, names)
 
 
 def point_law(el: Element, t0: float, t1: float, base: Path | None) -> tuple:
@@ -204,10 +205,27 @@ def unit_axis(el: Element) -> tuple:
     return tuple(c / norm for c in a)
 
 
-def rotor(el: Element, t0: float, t1: float) -> Rotor:
-    """The rotor, its axis a unit vector and its angle's law proved over the run."""
+def rotor(el: Element, t0: float, t1: float, base: Path | None = None) -> Rotor:
+    """The rotor, its axis a unit vector and its angle's law (a formula, or a table of
+    t, psi: a spline with psi in its x, y = z = 0) proved over the run."""
     axis = unit_axis(el)
-    text = el.values["law"]
+    text, table = el.values["law"], el.values.get("table")
+    if text is None and table is None:
+        raise SceneError(el.where("law"), "is required (a formula; or give table, a CSV "
+                                          "file of t, psi)")
+    if text is not None and table is not None:
+        raise SceneError(el.where("table"), "give law (a formula) or table, not both")
+    if text is not None and "ends" in el.given:
+        raise SceneError(el.where("ends"), "applies to a table, not to a law")
+    if table is not None:
+        try:
+            rows = _read_table_file(el, base, ("t", "psi"))
+            zero = np.zeros((len(rows), 2))
+            law = tablemod.build(np.column_stack([rows, zero]), el.values["ends"], table)
+            law.check_run(t0, t1)
+        except LawError as exc:
+            raise SceneError(el.where("table"), str(exc)) from None
+        return Rotor(el.name, axis, el.values["inertia"], law, "", law.summary(t0, t1))
     try:
         program = compile_angle(text)
         summary = _analyse_program(program, t0, t1)
@@ -222,7 +240,7 @@ def law_of(points: tuple, rotors: tuple) -> BodiesLaw:
     try:
         return combine(tuple(p.law for p in points), tuple(r.law for r in rotors))
     except CoordinateError as exc:
-        tabled = [p for p in points if p.law.kind != "program"]
+        tabled = [b for b in (*points, *rotors) if b.law.kind != "program"]
         el = tabled[exc.k]
         raise SceneError(f"{el.name}: {'samples' if el.law.source == 'samples' else 'table'}",
                          str(exc)) from None

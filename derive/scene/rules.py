@@ -274,7 +274,7 @@ def _law(d: Draft) -> None:
     for a scene that is not one point, the law of them all."""
     t0, t1 = d.t0, d.t0 + d.duration
     laws = [bodies.point_law(el, t0, t1, d.base) for el in d.point_elements]
-    d.rotors = tuple(bodies.rotor(el, t0, t1) for el in d.rotor_elements)
+    d.rotors = tuple(bodies.rotor(el, t0, t1, d.base) for el in d.rotor_elements)
     if d.one_point:
         d.law, d.law_text, d.summary = laws[0]
     d.laws = tuple(laws)
@@ -369,12 +369,13 @@ STATIC_RULES = (
          "over the whole run (proved by interval arithmetic: no vanishing denominator, log, "
          "sqrt or non-integer power of a non-positive number, asin/acos outside (-1, 1) or "
          "tan pole); [point].table: a periodic table repeats; otherwise the run stays "
-         "inside its times; the same for each [[point]], and for each [[rotor]]'s law psi; "
+         "inside its times; the same for each [[point]], and for each [[rotor]]'s psi "
+         "(exactly one of law and table; ends only with a table); "
          f"each [[rotor]]'s axis a unit vector (|a| within {AXIS_TOLERANCE:g} of 1, then "
          "normalised)",
          _law, law=True, bulk=_as_for_one(_law)),
     Rule("[point]: P stays within max_distance of O (each [[point]] within its own); J of "
-         "E1.5 stays non-singular (R1); the tables of several points all periodic (with "
+         "E1.5 stays non-singular (R1); the tables of several bodies all periodic (with "
          "the same first and last times) or none; the formulas of all bodies at most "
          f"{abi.LAW_MAX_NODES} operations together", _reach, law=True, bulk=_reach_bulk),
     Rule("[point] with the plane: duration / the law's time scale (sqrt(amplitude / max "

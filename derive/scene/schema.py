@@ -42,7 +42,7 @@ REQUIRED = _Required()     # a field's default when the document must give it
 class Field:
     table: str                 # "" for the top level
     key: str                   # "region.radius" for a field of a nested table
-    kind: str                  # number integer vector string choice choices bool laws
+    kind: str                  # number integer vector string choice choices bool laws bodies
                                # matrix rotation numbers samples table tables
     default: Any               # REQUIRED, None (may be absent) or the default value
     doc: str
@@ -134,8 +134,15 @@ SCENE_FIELDS = (
     F("rotor", "inertia", "number", REQUIRED, "I, the rotor's moment of inertia about its "
       "axis (its mass and transverse moments belong to [body], as if it were locked)", 0,
       MAX_MASS, True, example=0.01),
-    F("rotor", "law", "formula", REQUIRED, "psi(t), the rotor's angle about a relative to "
-      "the body, in radians (right-handed): a formula as [point].law's", example="20*t"),
+    F("rotor", "law", "formula", None, "psi(t), the rotor's angle about a relative to "
+      "the body, in radians (right-handed): a formula as [point].law's", example="20*t",
+      when="one of law, table"),
+    F("rotor", "table", "string", None, "a CSV file (path relative to the scene) with "
+      "columns t, psi: the angle as samples, interpolated by a cubic spline (a plan's "
+      "rotors are written so)", example="psi.csv", when="one of law, table"),
+    F("rotor", "ends", "choice", "free", "a table's ends, as [point].ends' (rest: the rotor "
+      "at rest relative to the body at both ends)", choices=("periodic", "rest", "free"),
+      example="free", when="table"),
     F("plane", "restitution", "number", REQUIRED, "e of Newton's law v_n+ = -e v_n- (E1.13); "
       "with friction, e of restitution_model", 0, 1, example=0.9,
       when="[plane] given (absent: free flight)"),
@@ -239,7 +246,18 @@ PLAN_FIELDS = (
             -1e6, 1e6))),
     F("plan", "start", "vector", None, "P at t = 0 (default: the region's centre)",
       -MAX_LENGTH, MAX_LENGTH, size=3, when="with region"),
-    F("plan", "max_acceleration", "number", REQUIRED, "bound on |OP''|", 0, MAX_MASS, True),
+    F("plan", "decide", "bodies", None, "the bodies whose laws the plan makes, named as "
+      "their elements: \"point 1\", \"rotor 2\", ... (a [point] task plans its point); "
+      "the others keep the law their element gives (formulas)",
+      when="required with [[point]] or [[rotor]]"),
+    F("plan", "max_acceleration", "number", None, "bound on |OP''| of each decided point",
+      0, MAX_MASS, True, when="required when a point is decided"),
+    F("plan", "max_rotor_rate", "number", None, "bound on |psi'| of each decided rotor "
+      "(rad/s: the wheel's speed limit)", 0, MAX_MASS, True,
+      when="required when a rotor is decided"),
+    F("plan", "max_rotor_acceleration", "number", None, "bound on |psi''| of each decided "
+      "rotor (rad/s^2: its motor's torque limit over its inertia I)", 0, MAX_MASS, True,
+      when="required when a rotor is decided"),
     F("plan", "rest_at_ends", "bool", None, "P at rest at both ends (x' = x'' = 0); in a "
       "region it also returns to its start (the law repeats); hop: at rest at the impact "
       "(default: true but for hop)"),
@@ -478,6 +496,8 @@ def check_value(f: Field, value, where: str | None = None):
         return tuple(value)
     if k == "samples":
         return _samples(where, value)
+    if k == "bodies":
+        return _bodies(where, value)
     if k == "table":
         return read_nested(f, value, where)
     if k == "tables":
@@ -488,6 +508,29 @@ def check_value(f: Field, value, where: str | None = None):
 
 
 _CELL = Field("point", "samples", "number", None, "")
+_BODY = re.compile(r"(point|rotor) ([1-9][0-9]{0,2})", re.ASCII)
+
+
+def body_name(text: str) -> tuple | None:
+    """("point", 1) of "point 1" (an element of [[point]] or [[rotor]], from 1), else
+    None."""
+    m = _BODY.fullmatch(text) if isinstance(text, str) else None
+    return (m.group(1), int(m.group(2))) if m else None
+
+
+def _bodies(where: str, value) -> tuple:
+    """A list of bodies' names (``"point 1"``, ``"rotor 2"``), each once."""
+    limit = ARRAYS["point"] + ARRAYS["rotor"]
+    if not isinstance(value, list) or not 1 <= len(value) <= limit:
+        raise SceneError(where, f"must be a list of 1 to {limit} names, each \"point N\" "
+                                "or \"rotor N\"")
+    for i, text in enumerate(value):
+        if body_name(text) is None:
+            shown = _shown(text) if isinstance(text, str) else type_name(text)
+            raise SceneError(f"{where}[{i}]", f"must be \"point N\" or \"rotor N\" (N "
+                                              f"from 1: the element's number); got "
+                                              f"{shown!r}")
+    return tuple(dict.fromkeys(value))
 
 
 def _samples(where: str, value) -> list:
@@ -699,11 +742,15 @@ SCENE = Schema(SCENE_FIELDS + CONTROL_FIELDS + DISTURBANCE_FIELDS, SCENE_TABLES,
                ARRAYS)
 
 # a task's scene tables: a scene without a law and without the run's integration (the
-# plan sets the duration and integrates), and [plan]
+# plan sets the duration and integrates), and [plan]; its internal bodies [point] (one,
+# whose law the plan makes) or [[point]] and [[rotor]], each with a law (a formula) unless
+# [plan].decide names it
 _TASK_SCENE = tuple(f for f in SCENE_FIELDS
                     if f.table in ("", "body", "initial")
-                    or (f.table, f.key) in (("point", "mass"), ("plane", "restitution"),
+                    or (f.table, f.key) in (("point", "mass"), ("point", "law"),
+                                            ("rotor", "axis"), ("rotor", "inertia"),
+                                            ("rotor", "law"), ("plane", "restitution"),
                                             ("run", "g")))
 TASK = Schema(_TASK_SCENE + PLAN_FIELDS + CONTROL_FIELDS + DISTURBANCE_FIELDS,
-              ("", "body", "point", "plane", "initial", "run", "plan", "control",
-               "disturbance"), "task")
+              ("", "body", "point", "rotor", "plane", "initial", "run", "plan", "control",
+               "disturbance"), "task", ARRAYS)

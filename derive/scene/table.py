@@ -106,8 +106,9 @@ class TableLaw:
         return summarise(self.jets(ts))
 
 
-def read_rows(text: str, where: str) -> np.ndarray:
-    """(n, 4) samples t, x, y, z from CSV text with a header row."""
+def read_rows(text: str, where: str, names: tuple = ("t", "x", "y", "z")) -> np.ndarray:
+    """(n, len(names)) samples of the columns ``names`` (t, x, y, z; a rotor's t, psi)
+    from CSV text with a header row."""
     reader = csv.reader(io.StringIO(text))
     try:
         header = next(reader)
@@ -117,7 +118,7 @@ def read_rows(text: str, where: str) -> np.ndarray:
         raise LawError(f"{where}: not a readable CSV table ({str(exc)[:80]})") from None
     header = [h.strip() for h in header]
     cols = []
-    for name in ("t", "x", "y", "z"):
+    for name in names:
         if name not in header:
             raise LawError(f"{where}: the header row has no column {name!r} "
                            f"(found {', '.join(repr(h[:20]) for h in header[:10])})")
@@ -132,11 +133,12 @@ def read_rows(text: str, where: str) -> np.ndarray:
             try:
                 values = [float(row[c]) for c in cols]
             except (IndexError, ValueError):
-                raise LawError(f"{where}, line {line}: t, x, y, z must be numbers") from None
+                raise LawError(f"{where}, line {line}: {', '.join(names)} must be "
+                               "numbers") from None
             rows.append(values)
     except csv.Error as exc:             # a field beyond the csv module's limit, ...
         raise LawError(f"{where}: not a readable CSV table ({str(exc)[:80]})") from None
-    return np.array(rows, dtype=float).reshape(-1, 4)
+    return np.array(rows, dtype=float).reshape(-1, len(names))
 
 
 def build(samples, ends: str, source: str) -> TableLaw:

@@ -102,19 +102,22 @@ class BodiesLaw:
 def combine(points: tuple, rotors: tuple) -> BodiesLaw:
     """The law of every body: ``points`` each a point's law (a three-output
     :class:`Program`, or a table law with ``knots``, ``coef`` (n - 1, 3, 4) and
-    ``periodic``), ``rotors`` each a one-output Program.  Raises LawError when the
-    formulas together pass the runtime's workspace, and CoordinateError(k) when table k
-    (of the points given as tables, in order) cannot share a spline with the first."""
+    ``periodic``), ``rotors`` each a one-output Program or a table law whose x is psi.
+    Raises LawError when the formulas together pass the runtime's workspace, and
+    CoordinateError(k) when table k (of the points', then the rotors' given as tables, in
+    order) cannot share a spline with the first."""
     formulas = [(j, p) for j, p in enumerate(points) if p.kind == "program"]
     tables = [(j, p) for j, p in enumerate(points) if p.kind != "program"]
     n_points = len(points)
+    tables += [(n_points + r, p) for r, p in enumerate(rotors) if p.kind != "program"]
     texts, slots = [], []
     for j, p in formulas:
         texts += p.text
         slots += [3 * j, 3 * j + 1, 3 * j + 2]
     for r, p in enumerate(rotors):
-        texts += p.text
-        slots.append(3 * n_points + r)
+        if p.kind == "program":
+            texts += p.text
+            slots.append(3 * n_points + r)
     out = [0] * (3 * n_points + len(rotors))
     program = None
     if texts:
@@ -126,6 +129,9 @@ def combine(points: tuple, rotors: tuple) -> BodiesLaw:
     if tables:
         knots, coef, periodic = merge_tables([p for _, p in tables])
         for c, (j, _) in enumerate(tables):
+            if j >= n_points:                    # a rotor's: psi is the table's x
+                out[3 * n_points + j - n_points] = -1 - 3 * c
+                continue
             for k in range(3):
                 out[3 * j + k] = -1 - (3 * c + k)
     return BodiesLaw(n_points, len(rotors), program, tuple(out), knots, coef, periodic)

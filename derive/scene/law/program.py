@@ -57,6 +57,13 @@ class Program:
                 val[k] = op.jet(xp, val[a], val[b] if op.reads_b else None, 0.0)
         return val
 
+    def output_jets(self, xp, t) -> list:
+        """Each output's jet (value, d/dt, d2/dt2) in the arithmetic of the namespace
+        ``xp`` (the functions of :class:`~.ops.Floats`: sin, ..., arctan, power) at ``t``,
+        a number or a symbol (the planner's CasADi)."""
+        val = self._jets(xp, t, 1.0, 0.0)
+        return [val[node] for node in self.outputs]
+
     def node_jets(self, ts) -> list:
         """Every node's jet (value, d/dt, d2/dt2) at the times ``ts`` (NumPy arrays, NaN
         or inf where a value does not exist)."""
