@@ -177,8 +177,8 @@ def plan(task, progress: bool = False, runtime: bool = True) -> Plan:
     summary.achieved, summary.stability = achieved, stability
     summary.status, summary.message = "solved", report.message
     summary.total_seconds = time.perf_counter() - t_start
-    return Plan(task, "solved", report.message, summary, law, table, text, sources,
-                trajectories, report)
+    return Plan(task, "solved", report.message, summary, law=law, table=table,
+                scene_toml=text, sources=sources, trajectories=trajectories, report=report)
 
 
 def _plan_bodies(task: Task, goal, report: SolveReport, summary: Summary, t_start: float,

@@ -407,7 +407,9 @@ def judge_rough(result) -> tuple[str, str]:
     slack = max(1e-9, CONE_SLACK * s.rtol) * F
     if not rk4 and result.min_normal < -slack:
         return "cone", f"the runtime's least normal reaction in contact: {result.min_normal:.3g} N"
-    if not rk4 and s.control is None and s.disturbance is None:
+    # the independent reaction is written for the paper's two bodies (one point law): a
+    # scene of [[point]] and [[rotor]] tables is judged by its other properties here
+    if not rk4 and s.control is None and s.disturbance is None and s.law is not None:
         verdict = judge_reaction(result, slack)
         if verdict is not None:
             return verdict
