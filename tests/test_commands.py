@@ -5,8 +5,8 @@ For every command, a run whose verdict is forced one way and then the other: exi
 only PASS printed, or exit 1 and FAIL printed.  The measuring parts are stubbed or run at
 their smallest (a canned timing table, a peer made faster, one scene, a compiled law
 that computes another law, a scene capped at ten steps); the verdict logic is the
-commands' own.  And the README's command table names exactly the declared commands,
-with options they have.
+commands' own.  And the command table (derive/docs/commands.md) names exactly the declared
+commands, with options they have.
 """
 from __future__ import annotations
 
@@ -72,19 +72,20 @@ def test_one_parser_per_command(argv, capsys):
 
 
 def test_readme_command_table_is_the_registry():
-    """Every ``derive bench``/``derive verify`` line of the README's command table names a
-    declared command and only options it has; every declared command is there."""
-    text = (ROOT / "README.md").read_text(encoding="utf-8")
-    table = text.split("## Command line", 1)[1].split("```", 2)[1]
+    """Every ``derive bench``/``derive verify`` line of the command table (the reference
+    page derive/docs/commands.md) names a declared command and only options it has; every
+    declared command is there."""
+    text = (ROOT / "derive" / "docs" / "commands.md").read_text(encoding="utf-8")
+    table = text.split("# Command line", 1)[1].split("```", 2)[1]
     parser = build_parser()
     seen = set()
     for group, commands in (("bench", BENCHES), ("verify", CHECKS)):
         parsers = _subcommands(parser, group)
         for name, rest in re.findall(rf"^derive {group} (\w+)(.*)$", table, re.M):
-            assert name in parsers, f"README: derive {group} {name} is not a command"
+            assert name in parsers, f"commands.md: derive {group} {name} is not a command"
             options = {s for a in parsers[name]._actions for s in a.option_strings}
             for flag in re.findall(r"\[(-{1,2}[\w-]+)", rest):
-                assert flag in options, f"README: derive {group} {name} has no {flag}"
+                assert flag in options, f"commands.md: derive {group} {name} has no {flag}"
             seen.add((group, name))
         assert {(group, c.name) for c in commands} <= seen, group
     assert "derive bench fuzz" not in text and "derive bench robustness" not in text

@@ -1,12 +1,12 @@
-"""The README's guide "Regenerating for a changed model", followed in a scratch copy (one
-``derive emit`` for both changes):
+"""The guide "Regenerating for a changed model" (derive/docs/regenerating.md), followed in
+a scratch copy (one ``derive emit`` for both changes):
 
 * a new surface: the capsule of the guide appended to derive/shapes.py, and a tilted
   capsule carrying a fixed point dropped on the plane, its first impact checked against
   the closed form of a rigid body struck at its lowest point (the runtime, compiled from
   the regenerated C into an empty cache, must pick the new surface up by itself);
 * a new kind of internal body: the rigid pendulum of tests/regenerate_pendulum.patch (the
-  files the README names, and no other), a pendulum turning the body in free flight
+  files the guide names, and no other), a pendulum turning the body in free flight
   against its closed form and one dropped on the plane whose energy balance closes with
   its drive's work."""
 import json
@@ -152,7 +152,7 @@ PATCH = ROOT / "tests" / "regenerate_pendulum.patch"
 
 
 def _guide_block() -> str:
-    text = (ROOT / "README.md").read_text(encoding="utf-8")
+    text = (ROOT / "derive" / "docs" / "regenerating.md").read_text(encoding="utf-8")
     after = text.split("<!-- shape-example -->\n", 1)[1]
     return after.split("```python\n", 1)[1].split("```", 1)[0]
 
@@ -215,7 +215,7 @@ def test_a_shape_added_as_the_readme_says_reaches_a_correct_impact(regenerated):
 
 
 def test_the_patch_touches_the_files_the_readme_names():
-    text = (ROOT / "README.md").read_text(encoding="utf-8")
+    text = (ROOT / "derive" / "docs" / "regenerating.md").read_text(encoding="utf-8")
     block = text.split("<!-- body-kind-files -->", 1)[1].split("<!-- body-kind-files:end -->")[0]
     named = set(re.findall(r"`((?:derive|templates)/[\w/]+\.(?:py|h))`", block))
     touched = set(re.findall(r"^diff --git a/(\S+)", PATCH.read_text(encoding="utf-8"), re.M))

@@ -54,6 +54,8 @@ def _checkout_files() -> set:
     want |= {f"derive/{p.relative_to(ROOT).as_posix()}"
              for p in (ROOT / "templates").rglob("*") if p.is_file()}   # *.jinja and *.h
     want |= {f"derive/generated/{rel}" for rel in _generated()}
+    want |= {p.relative_to(ROOT).as_posix() for p in (ROOT / "derive" / "docs").rglob("*")
+             if p.suffix in (".md", ".png")}                     # the reference pages
     return want
 
 
