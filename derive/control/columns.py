@@ -18,6 +18,7 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
+from .. import layout
 from ..planner.bodies import Channels
 
 ROTOR_STEP_SECONDS = 1.0   # a rotor's control point moves per QP at most STEP_FRACTION
@@ -115,3 +116,29 @@ class Columns:
             for k, c in enumerate(self.real):
                 out[3 * d + c] = u[d * D + k]
         return out
+
+
+class DrivenLaw:
+    """A law of bodies (:class:`~derive.scene.law.bodies.BodiesLaw`) with the outputs a
+    controller drove replaced by its realised law (``driven``, a table law of three
+    columns; ``outputs`` as crt_control_channels'): the law the closed loop ran, which
+    the runtime plays as crt_law.h's ctl_* over a BODIES law, for the run's outputs
+    (the bodies' positions and angles, their energy, the pictures)."""
+
+    def __init__(self, base, driven, outputs: tuple):
+        self.base, self.driven, self.outputs = base, driven, tuple(outputs)
+
+    def __getattr__(self, name):
+        return getattr(self.base, name)
+
+    def u(self, t) -> np.ndarray:
+        t = np.atleast_1d(np.asarray(t, dtype=float))
+        u = np.array(self.base.u(t), dtype=float, copy=True)
+        jets = layout.u_of_jets(self.driven.jets(t))
+        for c, o in enumerate(self.outputs):
+            if o < 0:
+                continue
+            at, step = self.base.slot(o)
+            for d in range(3):
+                u[at + d * step] = jets[3 * d + c]
+        return u

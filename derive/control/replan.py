@@ -139,7 +139,11 @@ class Setup:
         lp = make_loop(controller, scene, self.period, self.channels)
         result = run_prepared(prep, loop=lp)
         law = realised_law(lp.law_rows(), "the closed loop's realised law")
-        if not self.channels:            # (a scene of bodies keeps its law of bodies)
+        if self.channels:                # the bodies' law, the driven outputs the loop's
+            from .columns import DrivenLaw
+            result.scene = replace(result.scene, bodies_law=DrivenLaw(
+                result.scene.bodies_law, law, self.channels))
+        else:
             result.scene = replace(result.scene, law=law, law_text=())
         return result, law
 
