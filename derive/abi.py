@@ -295,8 +295,8 @@ CONTROL_FAULTS = _names(
     ("nonfinite", "a coefficient is not finite"),
     ("position_jump", "x, y or z of the new law at its start differs from the law's"),
     ("velocity_jump", "x', y' or z' of the new law at its start differs from the law's"),
-    ("bodies", "the session's law is of several bodies (crt_set_law_bodies): a controller "
-               "sets one point's law"),
+    ("bodies", "the session's law is of several bodies (crt_set_law_bodies) and the "
+               "controller drives none of them (crt_control_channels)"),
 )
 CTL_MAX_KNOTS = 256
 PUSH_COLUMNS = ("time", "P_X", "P_Y", "P_Z", "at_x", "at_y", "at_z")

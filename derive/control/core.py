@@ -145,14 +145,31 @@ def planned_doc(plan, duration: float) -> dict:
     return doc
 
 
-def plant_of(doc: dict, disturbance):
-    """The plant's prepared scene: the planned scene with the disturbance applied."""
+def planned_bodies_doc(plan, duration: float, folder) -> dict:
+    """The plan of a task of several bodies as the plant's scene: its scene (scene.toml)
+    as a dict, each decided body's table written into ``folder`` (the scene's base),
+    run up to ``duration`` on the moments model (a table at rest at its end is held
+    there)."""
+    import tomllib
+    from ..planner.bodies_plan import write_table
+    doc = tomllib.loads(plan.scene_toml)
+    for name, rows in plan.tables.items():
+        write_table(Path(folder) / name, rows)
+    doc["run"]["duration"] = float(duration)
+    doc["run"]["model"] = "moments"
+    doc["run"]["outputs"] = ["pose", "omega", "impacts"]
+    return doc
+
+
+def plant_of(doc: dict, disturbance, base=None):
+    """The plant's prepared scene: the planned scene with the disturbance applied
+    (``base``: the folder of its tables)."""
     from ..runtime.driver import prepare
     from ..scene import parse_scene
     from .plant import plant_doc
     d = plant_doc(doc, disturbance)
     try:
-        scene = parse_scene(d, "plant")
+        scene = parse_scene(d, "plant", None if base is None else Path(base))
     except SceneError as exc:
         raise SceneError("[disturbance]", f"gives a plant that is not a valid scene: "
                                           f"{exc}") from None

@@ -49,9 +49,11 @@ def plant_scene(scene: Scene, origin: str = "plant") -> Scene:
                                           f"{exc}") from None
 
 
-def loop(controller, scene: Scene, period: float = 0.0) -> Loop:
+def loop(controller, scene: Scene, period: float = 0.0, channels: tuple = ()) -> Loop:
     """The loop around a run of ``scene``'s plant: ``controller``, the sample period, and
-    the disturbance's noise, seed and pushes."""
+    the disturbance's noise, seed and pushes (``channels``: on a law of several bodies,
+    the outputs the controller drives, :class:`~derive.runtime.loop.Loop`)."""
     dist = scene.disturbance or Disturbance()
     return Loop(controller, period=period, noise=dist.noise, seed=dist.seed,
-                pushes=np.array(dist.pushes, dtype=float).reshape(-1, 7))
+                pushes=np.array(dist.pushes, dtype=float).reshape(-1, 7),
+                channels=tuple(channels))

@@ -95,9 +95,11 @@ def disturbance(path: Path, task, closed, open_, dist, goal_time: float) -> Path
     return path
 
 
-def replans(path: Path, laws: list, realised, plan_law) -> Path:
-    """x, y, z of P: every law the controller set (from its call on, coloured by the
-    call's time), the realised law (black), the offline plan (dashed)."""
+def replans(path: Path, laws: list, realised, plan_u,
+            labels=("x of OP (m)", "y of OP (m)", "z of OP (m)")) -> Path:
+    """x, y, z of P (or the columns ``labels`` names: a task of bodies' decided
+    bodies): every law the controller set (from its call on, coloured by the call's
+    time), the realised law (black), the offline plan (dashed; ``plan_u(t)``, 9 rows)."""
     from matplotlib import colormaps
     fig = _figure(8.0, 6.4)
     axes = [fig.add_subplot(3, 1, k + 1) for k in range(3)]
@@ -106,7 +108,7 @@ def replans(path: Path, laws: list, realised, plan_law) -> Path:
     lo, hi = min(t_all), max(t_all) + 1e-12
     t_end = float(realised.knots[-1])
     tt = np.linspace(float(realised.knots[0]), t_end, 800)
-    u_plan = plan_law.u(tt)
+    u_plan = plan_u(tt)
     u_real = realised.jets(tt)
     for t_call, seg in laws:
         ts = np.linspace(seg.knots[0], seg.knots[-2], 120)
@@ -117,7 +119,7 @@ def replans(path: Path, laws: list, realised, plan_law) -> Path:
     for k, ax in enumerate(axes):
         ax.plot(tt, u_plan[k], "k--", lw=1.0)
         ax.plot(tt, u_real[3 * k], color="k", lw=1.6)
-        ax.set_ylabel("xyz"[k] + " of OP (m)")
+        ax.set_ylabel(labels[k])
         ax.grid(alpha=0.3)
     axes[-1].set_xlabel("t (s)")
     axes[0].set_title(f"{len(laws)} re-planned laws (colour: the time of the call), the "

@@ -102,6 +102,16 @@ class Problem:
         if task.circle is not None:
             raise ValueError("replan: P on a circle is not re-planned (give a region)")
         self.land = self.goal == "land"
+        # a task of several bodies: what the three columns drive (derive.control.columns);
+        # None: the paper's one point, its x, y, z
+        self.columns = None
+        if task.bodies:
+            from .columns import Columns
+            if self.land and task.at_touchdown != "attitude":
+                raise ValueError("replan: a task of bodies lands with at_touchdown = "
+                                 "\"attitude\"")
+            self.columns = Columns(task)
+        cols = self.columns
         omega, A = list(range(G.omega.start, G.omega.stop)), list(range(G.A.start, G.A.stop))
         self.keep = ([G.Z, G.Zd] if self.land else []) + omega + A
         self.nq = len(self.keep)
@@ -111,8 +121,16 @@ class Problem:
         self.p_model = [sc.M, sc.m, *sc.J, sc.g]
         P = ca.DM(self.p_model)
         keep = self.keep
-        rhs = load("general_flight_rhs")
-        gap = load("general_gap")
+        if cols is None:
+            rhs, gap = load("general_flight_rhs"), load("general_gap")
+        else:       # the bodies through their moments, from the columns' u
+            f_m, gap_m = load("moments_flight_rhs"), load("moments_gap")
+
+            def rhs(q, u, p):
+                return f_m(q, cols.moments(u), p)
+
+            def gap(q, u, s, p):
+                return gap_m(q, cols.moments(u), s, p)
 
         def full(q):
             where = {i: k for k, i in enumerate(keep)}
@@ -168,21 +186,11 @@ class Problem:
             lbg.extend([lb] * e.shape[0])
             ubg.extend([ub] * e.shape[0])
             names.extend([name] * e.shape[0])
-        add("start: x", (Cs[0, :] + 4 * Cs[1, :] + Cs[2, :]).T / 6 - x0, 0.0, 0.0)
-        add("start: x'", (Cs[2, :] - Cs[0, :]).T / 2 - Ts / N * v0, 0.0, 0.0)
-        add("end: at rest", ca.vertcat(Cs[N + 1, :] - Cs[N, :], Cs[N + 2, :] - Cs[N, :]),
-            0.0, 0.0)
-        center = ca.DM(task.region_center).T
-        dC = Cs - ca.repmat(center, self.nc, 1)
-        add("region", ca.sum2(dC * dC) / task.region_radius ** 2, -np.inf, 1.0)
         acc = Cs[0:N + 1, :] - 2 * Cs[1:N + 2, :] + Cs[2:N + 3, :]      # h^2 x'' at knots
-        # |OP''| <= max_acceleration through each component within max_acceleration/sqrt(3)
-        # (a box inside the ball): linear in C, so a QP step cannot leave it however
-        # short the horizon (x'' = (c_k - 2 c_k+1 + c_k+2)/h^2 magnifies a step by 1/h^2,
-        # and the ball's linearisation bounds nothing where x'' is small)
-        lim = 1.0 / math.sqrt(3.0)
-        add("max_acceleration", ca.vec(acc / (Ts / N) ** 2) / task.max_acceleration, -lim,
-            lim)
+        if cols is None:
+            self._point_rows(add, Cs, Ts, x0, v0, acc)
+        else:
+            self._bodies_rows(add, Cs, Ts, x0, v0)
         g_alg = ca.vertcat(*g)
         # the effort: on each piece x'' is linear, so the integral of |x''|^2 over it is
         # h (|a0|^2 + a0.a1 + |a1|^2)/3 = h (3/4 |a0 + a1|^2 + 1/4 |a0 - a1|^2)/3
@@ -192,7 +200,12 @@ class Problem:
             a0, a1 = a_t[k, :].T, a_t[k + 1, :].T
             res.append(ca.sqrt(Ts / N / 3) * ca.vertcat(math.sqrt(3) / 2 * (a0 + a1),
                                                         0.5 * (a0 - a1)))
-        r = ca.vertcat(*res) / ca.sqrt(task.max_acceleration ** 2 * T_s)
+        if cols is None:
+            r = ca.vertcat(*res) / ca.sqrt(task.max_acceleration ** 2 * T_s)
+        else:           # each column's acceleration over its own bound; none: nothing
+            scale = ca.DM([1.0 / cols.bound(c) if c in cols.real else 0.0
+                           for c in range(3)] * 2)
+            r = ca.vertcat(*[e * scale for e in res]) / ca.sqrt(T_s)
         Jr = ca.jacobian(r, ws)
         H = 2 * ca.mtimes(Jr.T, Jr)
         H = H + LM_RELATIVE * ca.mmax(ca.diag(H)) * ca.DM.eye(self.nw)
@@ -277,15 +290,26 @@ class Problem:
             "g": ca.vertcat(g_a, ends(Q[:, N], w) + ca.mtimes(ca.DM(E), S),
                             ca.vec(Q[:, 1:] - q_next), Q[:, 0] - p[7:])}
         self.functions["piece"] = piece
-        # bounds on w: control points in the region's box; T
+        # bounds on w: a point's control points in the region's box (a rotor's free, a
+        # column that drives nothing at 0); T
         lbx, ubx = np.full(self.nw, -np.inf), np.full(self.nw, np.inf)
+        region_step = (STEP_FRACTION * task.region_radius
+                       if cols is None or cols.points else 0.0)
+        self.step = np.full(3, region_step)    # a control point's move per QP, by column
         for c in range(3):
-            lbx[c * self.nc:(c + 1) * self.nc] = task.region_center[c] - task.region_radius
-            ubx[c * self.nc:(c + 1) * self.nc] = task.region_center[c] + task.region_radius
+            kind = "point" if cols is None else cols.columns[c].kind
+            at = slice(c * self.nc, (c + 1) * self.nc)
+            if kind == "point":
+                lbx[at] = task.region_center[c] - task.region_radius
+                ubx[at] = task.region_center[c] + task.region_radius
+            elif kind == "none":
+                lbx[at] = ubx[at] = 0.0
+            if cols is not None:
+                self.step[c] = cols.step(c, region_step, STEP_FRACTION)
         lbx[-1] = T_MIN
         self.lbx, self.ubx = lbx, ubx
-        self.region_row = names.index("region")       # C0's; C1, ... follow
-        self.step = STEP_FRACTION * task.region_radius
+        # the region's rows: C0's; C1, ... follow (None: no point decided)
+        self.region_row = names.index("region") if "region" in names else None
         self.region_margin = 3.0 * STEP_FRACTION ** 2
 
     @property
@@ -302,8 +326,9 @@ class Problem:
         """The bounds of the QP's step at w: the bounds of w and the trust region."""
         lbx, ubx = self.bounds(T_fixed)
         lo, hi = lbx - w, ubx - w
-        lo[:-1] = np.maximum(lo[:-1], -self.step)
-        hi[:-1] = np.minimum(hi[:-1], self.step)
+        step = np.repeat(self.step, self.nc)
+        lo[:-1] = np.maximum(lo[:-1], -step)
+        hi[:-1] = np.minimum(hi[:-1], step)
         lo[-1] = max(lo[-1], -T_STEP_FRACTION * w[-1])
         hi[-1] = min(hi[-1], T_STEP_FRACTION * w[-1])
         return lo, hi
@@ -314,6 +339,8 @@ class Problem:
         out than they are (P may already be out by what the last step's linearisation
         missed)."""
         r = self.region_row
+        if r is None:
+            return uba
         uba[r:r + self.nc] -= self.region_margin
         uba[r:r + 3] = np.maximum(uba[r:r + 3], 0.0)
         return uba
@@ -330,6 +357,73 @@ class Problem:
         """The rows' L1 and quadratic penalties at a horizon T (the start's: T_ref)."""
         scale = self.penalty_scale(T, T_ref)
         return self.z1 * scale, self.z2 * scale
+
+    def _point_rows(self, add, Cs, Ts, x0, v0, acc):
+        """The law's rows of one point: its start, at rest at its end, in the region,
+        its acceleration bounded (acc: h^2 x'' at the knots)."""
+        import casadi as ca
+        task, N = self.task, self.N
+        add("start: x", (Cs[0, :] + 4 * Cs[1, :] + Cs[2, :]).T / 6 - x0, 0.0, 0.0)
+        add("start: x'", (Cs[2, :] - Cs[0, :]).T / 2 - Ts / N * v0, 0.0, 0.0)
+        add("end: at rest", ca.vertcat(Cs[N + 1, :] - Cs[N, :], Cs[N + 2, :] - Cs[N, :]),
+            0.0, 0.0)
+        center = ca.DM(task.region_center).T
+        dC = Cs - ca.repmat(center, self.nc, 1)
+        add("region", ca.sum2(dC * dC) / task.region_radius ** 2, -np.inf, 1.0)
+        # |OP''| <= max_acceleration through each component within max_acceleration/sqrt(3)
+        # (a box inside the ball): linear in C, so a QP step cannot leave it however
+        # short the horizon (x'' = (c_k - 2 c_k+1 + c_k+2)/h^2 magnifies a step by 1/h^2,
+        # and the ball's linearisation bounds nothing where x'' is small)
+        lim = 1.0 / math.sqrt(3.0)
+        add("max_acceleration", ca.vec(acc / (Ts / N) ** 2) / task.max_acceleration, -lim,
+            lim)
+
+    def _bodies_rows(self, add, Cs, Ts, x0, v0):
+        """The law's rows of the decided bodies (the columns that drive one): each
+        starts at its value and rate, at rest at its end (a rotor at rest relative to
+        the body, its angle free); a point as one point's; a rotor's |psi''| at the knots
+        (linear on each piece: the bound holds everywhere) and psi' at its control
+        points (psi' lies in their hull) within their bounds.  A column that drives
+        nothing has no row (its control points are bounds at 0)."""
+        import casadi as ca
+        task, N, cols = self.task, self.N, self.columns
+        real = cols.real
+        add("start: x", (Cs[0, real] + 4 * Cs[1, real] + Cs[2, real]).T / 6 - x0[real],
+            0.0, 0.0)
+        add("start: x'", (Cs[2, real] - Cs[0, real]).T / 2 - Ts / N * v0[real], 0.0, 0.0)
+        add("end: at rest", ca.vertcat(Cs[N + 1, real] - Cs[N, real],
+                                       Cs[N + 2, real] - Cs[N, real]), 0.0, 0.0)
+        if cols.points:
+            pts = cols.points
+            dC = Cs[:, pts] - ca.repmat(ca.DM(task.region_center).T, self.nc, 1)
+            add("region", ca.sum2(dC * dC) / task.region_radius ** 2, -np.inf, 1.0)
+            acc = Cs[0:N + 1, pts] - 2 * Cs[1:N + 2, pts] + Cs[2:N + 3, pts]
+            lim = 1.0 / math.sqrt(3.0)
+            add("max_acceleration", ca.vec(acc / (Ts / N) ** 2) / task.max_acceleration,
+                -lim, lim)
+        if cols.rotors:
+            rot = cols.rotors
+            acc = Cs[0:N + 1, rot] - 2 * Cs[1:N + 2, rot] + Cs[2:N + 3, rot]
+            add("max_rotor_acceleration", ca.vec(acc / (Ts / N) ** 2)
+                / task.max_rotor_acceleration, -1.0, 1.0)
+            rate = Cs[1:self.nc, rot] - Cs[0:self.nc - 1, rot]          # h psi' points
+            add("max_rotor_rate", ca.vec(rate / (Ts / N)) / task.max_rotor_rate, -1.0, 1.0)
+
+    @property
+    def column_labels(self) -> tuple:
+        """What the law's three columns are (plots)."""
+        if self.columns is None:
+            return ("x of OP (m)", "y of OP (m)", "z of OP (m)")
+        return tuple(f"{n.replace('_', ' ')} (rad)" if n.endswith("psi") else
+                     f"{n.replace('_', ' ')} (m)" if n != "none" else "(none)"
+                     for n in self.columns.names)
+
+    def law_u(self, law, t) -> np.ndarray:
+        """(9, len(t)): a planned law's u as the controller's columns (x, y, z and two
+        derivatives; on a task of bodies the decided bodies' columns, zeros for none)."""
+        if self.columns is None:
+            return np.asarray(law.u(np.atleast_1d(np.asarray(t, float))))[:9]
+        return self.columns.u9(law, t)
 
     def params(self, u: np.ndarray, T_s: float, q_model: np.ndarray) -> np.ndarray:
         """p from the law at the call (u: x, y, z, x', ...), the horizon and the measured

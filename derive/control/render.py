@@ -75,8 +75,10 @@ def render(problem: Problem, w0: np.ndarray, t0: float, t_end: float, period: fl
            "lbx": _chunks(problem.lbx), "ubx": _chunks(problem.ubx), "w0": _chunks(w0),
            "ns": problem.ns, "z1": _chunks(problem.z1), "z2": _chunks(problem.z2),
            "softened_tol": _num(SOFTENED_TOL), "soft_power": _num(SOFT_POWER),
-           "t_ref": _num(w0[-1]), "step": _num(problem.step), "t_step": _num(T_STEP_FRACTION),
-           "region_row": problem.region_row, "region_margin": _num(problem.region_margin),
+           "t_ref": _num(w0[-1]), "step": [_num(v) for v in problem.step],
+           "t_step": _num(T_STEP_FRACTION), "has_region": problem.region_row is not None,
+           "region_row": problem.region_row or 0, "region_margin": _num(problem.region_margin),
+           "columns": problem.columns.names if problem.columns else ("x", "y", "z"),
            "qp_budget": QP_BUDGET, "max_sqp": max(int(iterations), SOFT_ITERATIONS)}
     env = environment()
     out = {name: env.get_template(f"control/{name}.jinja").render(**ctx)

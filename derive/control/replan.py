@@ -55,6 +55,14 @@ def check_task(task) -> None:
     ctl = task.scene.control
     if ctl.period is not None and not ctl.period > 0:
         raise SceneError("[control].period", "replan samples every period: must be > 0")
+    if task.bodies:
+        from .columns import check
+        why = check(task)
+        if why is not None:
+            raise SceneError("[plan].decide", why)
+        if task.goal == "land" and task.at_touchdown != "attitude":
+            raise SceneError("[plan].at_touchdown", "replan lands a task of bodies with "
+                                                    "\"attitude\" (d_zero reads one point)")
 
 
 def initial_state_of(task) -> np.ndarray:
@@ -82,10 +90,22 @@ class Setup:
     seconds: dict
     start: dict
     _compiled: object = None
+    folder: object = None     # a task of bodies: the plan's tables (a TemporaryDirectory)
+
+    @property
+    def channels(self) -> tuple:
+        """The outputs of the plant's law of bodies the controller drives (() for one
+        point's law)."""
+        cols = self.problem.columns
+        return () if cols is None else cols.outputs
 
     @property
     def T_plan(self) -> float:
         return self.plan.law.T
+
+    def plan_u(self, t) -> np.ndarray:
+        """The offline plan's law at times t as the controller's columns (9, len(t))."""
+        return self.problem.law_u(self.plan.law, t)
 
     @property
     def compiled(self) -> "Compiled":
@@ -106,7 +126,8 @@ class Setup:
     def plant(self, disturbance):
         """The plant's prepared scene for a disturbance (None: the model itself)."""
         from .core import plant_of
-        return plant_of(self.doc, disturbance)
+        return plant_of(self.doc, disturbance,
+                        None if self.folder is None else self.folder.name)
 
     def closed(self, prep, disturbance, controller):
         """A closed-loop run: (Result with the realised law as its scene's law, the law)."""
@@ -115,10 +136,15 @@ class Setup:
         from ..runtime.loop import realised_law
         from .plant import loop as make_loop
         scene = replace(prep.scene, disturbance=disturbance)
-        lp = make_loop(controller, scene, self.period)
+        lp = make_loop(controller, scene, self.period, self.channels)
         result = run_prepared(prep, loop=lp)
         law = realised_law(lp.law_rows(), "the closed loop's realised law")
-        result.scene = replace(result.scene, law=law, law_text=())
+        if self.channels:                # the bodies' law, the driven outputs the loop's
+            from .columns import DrivenLaw
+            result.scene = replace(result.scene, bodies_law=DrivenLaw(
+                result.scene.bodies_law, law, self.channels))
+        else:
+            result.scene = replace(result.scene, law=law, law_text=())
         return result, law
 
     def open(self, prep, disturbance):
@@ -128,8 +154,9 @@ class Setup:
 
 def setup(task, progress: bool = False) -> Setup:
     """The offline part of mode = "replan" (see :class:`Setup`)."""
+    import tempfile
     from ..planner.core import plan as make_plan
-    from .core import default_duration, period_of, planned_doc
+    from .core import default_duration, period_of, planned_bodies_doc, planned_doc
     start = time.perf_counter()
     check_task(task)
     ctl = task.scene.control
@@ -143,15 +170,21 @@ def setup(task, progress: bool = False) -> Setup:
     tick = time.perf_counter()
     problem = Problem(task, ctl.intervals)
     q0 = initial_state_of(task)
-    start = initial_solution(problem, pl, q0, pl.law.u(np.array([t0]))[:, 0], t0)
+    start = initial_solution(problem, pl, q0, problem.law_u(pl.law, [t0])[:, 0], t0)
     w0 = start["w"]
     seconds["problem_and_start"] = time.perf_counter() - tick
     sources = render(problem, w0, t0, T_plan, period, ctl.iterations)
-    return Setup(task, pl, problem, w0, t0, period, duration, planned_doc(pl, duration),
+    folder = None
+    if task.bodies:
+        folder = tempfile.TemporaryDirectory(prefix="markeev-plan-")
+        doc = planned_bodies_doc(pl, duration, folder.name)
+    else:
+        doc = planned_doc(pl, duration)
+    return Setup(task, pl, problem, w0, t0, period, duration, doc,
                  sources, seconds, {"from": start["start"],
                                     "ipopt_status": start["status"],
                                     "iterations": start["iterations"],
-                                    "horizon": float(w0[-1])})
+                                    "horizon": float(w0[-1])}, folder=folder)
 
 
 def run(task, progress: bool = False, setup_: Setup | None = None):
@@ -213,7 +246,8 @@ def run(task, progress: bool = False, setup_: Setup | None = None):
     figures = [
         ("disturbance.png", lambda p: plots.disturbance(p, task, closed, opened, dist,
                                                         su.T_plan)),
-        ("replans.png", lambda p: plots.replans(p, laws, law, pl.law)),
+        ("replans.png", lambda p: plots.replans(p, laws, law, su.plan_u,
+                                                su.problem.column_labels)),
         ("solve_times.png", lambda p: plots.solve_times(p, times, what, MEDIAN_TARGET_MS)),
     ]
     return ControlResult(task, "replan", summary, closed, opened, law, su.sources, figures)

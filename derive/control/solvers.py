@@ -98,7 +98,7 @@ def initial_solution(problem: Problem, plan, q0: np.ndarray, u0: np.ndarray,
     N = problem.N
     h = T / N
     t = t0 + h * np.arange(N + 1)
-    uu = law.u(t)
+    uu = problem.law_u(law, t)
     jets = np.stack([uu[0:3].T, uu[3:6].T, uu[6:9].T], axis=1)
     w0 = np.r_[ctrl_from_jets(jets, h).ravel(order="F"), T]
     out = ms_solve(problem, w0, problem.params(u0, T, q0), None if problem.land else T)

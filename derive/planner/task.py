@@ -344,6 +344,9 @@ def _bodies_scene(doc: dict, v: dict, p: _Plan, origin: str) -> Scene:
           "run": {"g": v["[run].g"], "duration": span, "method": "dop853"}}
     if "plane" in doc:
         sd["plane"] = doc["plane"]
+    for table in ("control", "disturbance"):     # derive control's (mode replan)
+        if table in doc:
+            sd[table] = doc[table]
     if points:
         sd["point"] = points
     if rotors:

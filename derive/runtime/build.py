@@ -93,6 +93,7 @@ class Library:
                 ("crt_control_setup", c.c_int, [c.c_void_p, c.c_void_p, c.c_void_p,
                                                 c.c_double, DP, c.c_double, DP, c.c_int, DP,
                                                 c.c_int]),
+                ("crt_control_channels", c.c_int, [c.c_void_p, c.c_int, IP]),
                 ("crt_set_control", c.c_int, [c.c_void_p, c.c_void_p]),
                 ("crt_control_log_count", c.c_int, [c.c_void_p]),
                 ("crt_control_log_taken", None, [c.c_void_p]),

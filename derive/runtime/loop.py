@@ -122,12 +122,16 @@ class Loop:
     """What closes the loop around a run (see the module's docstring).  ``noise``: the
     standard deviations of omega (rad/s), the attitude (rad), C's position (m) and its
     velocity (m/s) in what the controller reads; ``pushes``: rows (time, P_X, P_Y, P_Z,
-    at_x, at_y, at_z), the impulse in fixed axes (N s) at a body point (body axes, m)."""
+    at_x, at_y, at_z), the impulse in fixed axes (N s) at a body point (body axes, m);
+    ``channels``: on a law of several bodies, the outputs the controller's x, y, z drive
+    (crt_control_channels: 3 j + c for point j's coordinate c, 3 n_points + r for rotor
+    r's psi; -1 none; empty: one point's law)."""
     controller: object
     period: float = 0.0
     noise: tuple = (0.0, 0.0, 0.0, 0.0)
     seed: int = 0
     pushes: np.ndarray = field(default_factory=lambda: np.zeros((0, 7)))
+    channels: tuple = ()        # a law of several bodies: the outputs x, y, z drive
     error: BaseException | None = field(default=None, repr=False)
 
     def __post_init__(self):
@@ -188,8 +192,15 @@ class Loop:
             raise ValueError("the runtime refused the loop (a negative period or noise, "
                              "pushes not in time order or not finite, or pushes on a model "
                              "without them: pushes need the general model)")
+        if self.channels:
+            self._channels = (ctypes.c_int * len(self.channels))(*self.channels)
+            if lib.crt_control_channels(self.handle, len(self.channels),
+                                        self._channels) != _S["ok"]:
+                raise ValueError("the runtime refused the controller's channels (at most "
+                                 "three outputs of the law)")
         if lib.crt_set_control(handle, self.handle) != _S["ok"]:
-            raise ValueError("the runtime has no law to close the loop on")
+            raise ValueError("the runtime has no law to close the loop on (or the "
+                             "controller's channels are not outputs of its law of bodies)")
 
     def drain(self, lib) -> None:
         """Take the rows of the realised law written since the last drain."""

@@ -246,10 +246,12 @@ def _model_by_hand(d: Draft) -> None:
         raise SceneError("[run].model", f"{model!r} reads one point's law; a scene of {what} "
                          "takes auto, moments or moments_rough (its bodies through their "
                          "moments)")
-    if "control" in d.v["__tables__"]:
+    if "control" in d.v["__tables__"] and d.v["[control].mode"] != "replan":
         raise SceneError("[control]", f"closes its loop around one point's law (each "
-                         f"controller reads and sets it): a scene of {what} has none to "
-                         "set (pushes act without [control]: [disturbance].pushes)")
+                         f"controller of mode {d.v['[control].mode']} reads and sets it): a "
+                         f"scene of {what} has none to set (the re-planning controller, "
+                         "mode = \"replan\", drives a task's decided bodies; pushes act "
+                         "without [control]: [disturbance].pushes)")
 
 
 def _run_span(d: Draft) -> None:
@@ -361,8 +363,9 @@ STATIC_RULES = (
          "table or samples", _law_source, law=True, bulk=_as_for_one(_law_source)),
     Rule(f"[[point]] and [[rotor]]: at most {ARRAYS['point']} points and {ARRAYS['rotor']} "
          "rotors; a scene that is not one point takes [run].model auto, moments or "
-         "moments_rough (the others read one point's law) and no [control] (its "
-         "controllers read and set one point's law)", _model_by_hand, law=True),
+         "moments_rough (the others read one point's law) and no [control] but mode "
+         "replan (hop's and mirror's controllers read and set one point's law)",
+         _model_by_hand, law=True),
     Rule("[run]: a duration that a step resolves and that is not lost in the start time; "
          "at most 1e7 output rows (duration/output_dt)", _run_span, law=True),
     Rule("[point].law[k]: x, y, z and their first two derivatives finite and continuous "

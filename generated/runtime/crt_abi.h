@@ -302,7 +302,7 @@ enum crt_control_fault {
   CRT_FAULT_NONFINITE = 4,  /* a coefficient is not finite */
   CRT_FAULT_POSITION_JUMP = 5,  /* x, y or z of the new law at its start differs from the law's */
   CRT_FAULT_VELOCITY_JUMP = 6,  /* x', y' or z' of the new law at its start differs from the law's */
-  CRT_FAULT_BODIES = 7,  /* the session's law is of several bodies (crt_set_law_bodies): a controller sets one point's law */
+  CRT_FAULT_BODIES = 7,  /* the session's law is of several bodies (crt_set_law_bodies) and the controller drives none of them (crt_control_channels) */
   CRT_FAULT_COUNT = 8
 };
 

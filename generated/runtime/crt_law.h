@@ -56,6 +56,14 @@ typedef struct {
   int periodic;
   int extend;                  /* beyond the last knot: 1 the last cubic goes on (a
                                   controller's law, crt_control.h), 0 the end is held */
+  /* BODIES: a controller's law over up to three of the outputs (crt_control.h,
+     crt_control_channels): ctl_n_knots knots (0: none) and 12 coefficients an interval,
+     as a TABLE's x, y, z; its column c in place of output ctl_out[c] (-1: none), held at
+     its first knot before it, its last cubic going on beyond its end */
+  int ctl_n_knots;
+  int ctl_out[3];
+  const double *ctl_knots;
+  const double *ctl_coef;
 } crt_law;
 
 /* Workspace: the jets (value, first, second derivative) of every node, and the last
@@ -65,6 +73,7 @@ typedef struct {
   double t;
   double u[CRT_LAW_MAX_WIDTH];
   int interval;                /* table: the interval of the last evaluation */
+  int ctl_interval;            /* the controller's law over bodies: the same */
   double jet[CRT_LAW_MAX_NODES][3];
 } crt_law_work;
 
@@ -105,6 +114,7 @@ static void crt_law_prepare(const crt_law *L, crt_law_work *w)
   int k;
   w->valid = 0;
   w->interval = 0;
+  w->ctl_interval = 0;
   if (L->kind != CRT_LAW_PROGRAM && L->kind != CRT_LAW_BODIES) return;
   for (k = 0; k < L->n_const; ++k) {
     w->jet[k][0] = L->consts[L->code[3 * k + 1]];
@@ -177,6 +187,7 @@ static int crt_law_set_bodies(crt_law *L, crt_law_work *w, int n_points, int n_r
   L->coef = coef;
   L->periodic = periodic != 0;
   L->extend = 0;
+  L->ctl_n_knots = 0;
   L->kind = CRT_LAW_BODIES;
   crt_law_prepare(L, w);
   return CRT_OK;
@@ -281,11 +292,12 @@ static void crt_law_program(const crt_law *L, crt_law_work *w, double t, double 
 /* The interval of the table that holds t (kept in w for the next call) and s = t minus
    its knot: a periodic table wraps t into its period; before the first knot the first
    is held, beyond the last the last (or, with extend, its cubic goes on). */
-static int crt_law_interval(const crt_law *L, crt_law_work *w, double t, double *s)
+static int crt_law_find(const double *knots, int n_knots, int periodic, int extend,
+                        int *interval, double t, double *s)
 {
-  const double t0 = L->knots[0], t1 = L->knots[L->n_knots - 1];
-  int i = w->interval;
-  if (L->periodic) {
+  const double t0 = knots[0], t1 = knots[n_knots - 1];
+  int i = *interval;
+  if (periodic) {
     const double period = t1 - t0;
     double tt = t0 + fmod(t - t0, period);
     if (tt < t0) tt += period;
@@ -293,20 +305,25 @@ static int crt_law_interval(const crt_law *L, crt_law_work *w, double t, double 
     t = tt;
   } else if (t < t0) {
     t = t0;
-  } else if (t > t1 && !L->extend) {
+  } else if (t > t1 && !extend) {
     t = t1;
   }
-  if (!(i >= 0 && i < L->n_knots - 1 && L->knots[i] <= t && t < L->knots[i + 1])) {
-    int lo = 0, hi = L->n_knots - 1;
+  if (!(i >= 0 && i < n_knots - 1 && knots[i] <= t && t < knots[i + 1])) {
+    int lo = 0, hi = n_knots - 1;
     while (hi - lo > 1) {
       const int mid = lo + (hi - lo) / 2;
-      if (L->knots[mid] <= t) lo = mid; else hi = mid;
+      if (knots[mid] <= t) lo = mid; else hi = mid;
     }
     i = lo;
-    w->interval = i;
+    *interval = i;
   }
-  *s = t - L->knots[i];
+  *s = t - knots[i];
   return i;
+}
+
+static int crt_law_interval(const crt_law *L, crt_law_work *w, double t, double *s)
+{
+  return crt_law_find(L->knots, L->n_knots, L->periodic, L->extend, &w->interval, t, s);
 }
 
 /* one point's table: u = (x, y, z, x', y', z', x'', y'', z'') */
@@ -347,13 +364,28 @@ static void crt_law_bodies(const crt_law *L, crt_law_work *w, double t, double *
       u[at + 2 * step] = 6.0 * c[0] * s + 2.0 * c[1];
     }
   }
+  if (L->ctl_n_knots > 0) {            /* the controller's law over its outputs */
+    int c;
+    i = crt_law_find(L->ctl_knots, L->ctl_n_knots, 0, 1, &w->ctl_interval, t, &s);
+    for (c = 0; c < 3; ++c) {
+      const int o = L->ctl_out[c];
+      const double *k = L->ctl_coef + 12L * i + 4 * c;
+      int at, step;
+      if (o < 0) continue;
+      at = o < 3 * np ? 9 * (o / 3) + o % 3 : 9 * np + 3 * (o - 3 * np);
+      step = o < 3 * np ? 3 : 1;
+      u[at] = ((k[0] * s + k[1]) * s + k[2]) * s + k[3];
+      u[at + step] = (3.0 * k[0] * s + 2.0 * k[1]) * s + k[2];
+      u[at + 2 * step] = 6.0 * k[0] * s + 2.0 * k[1];
+    }
+  }
 }
 
 /* The first knot of a table law after t (beyond a margin of rounding), in run time; +inf
    for a program law or past the end of a table that does not repeat.  Steps end on the
    knots: there the spline's third derivative jumps, and a step across one is rejected
-   by the error control (about four times per knot). */
-static double crt_law_next_knot(const crt_law *L, double t)
+   by the error control (about four times per knot).  This: the law's own table. */
+static double crt_law_next_knot_of(const crt_law *L, double t)
 {
   const int n = L->n_knots;
   double t0, t1, base = 0.0, tt = t, margin;
@@ -378,6 +410,26 @@ static double crt_law_next_knot(const crt_law *L, double t)
     if (L->knots[mid] <= tt + margin) lo = mid; else hi = mid;
   }
   return base + L->knots[hi];
+}
+
+/* ... and a controller's law over bodies' outputs (crt_control.h): its knots too */
+static double crt_law_next_knot(const crt_law *L, double t)
+{
+  double next = crt_law_next_knot_of(L, t);
+  if (L->kind == CRT_LAW_BODIES && L->ctl_n_knots > 0) {
+    const double *k = L->ctl_knots;
+    const int n = L->ctl_n_knots;
+    const double margin = 1e-12 * (fabs(t) + (k[n - 1] - k[0]));
+    int lo = 0, hi = n - 1;
+    if (t + margin < k[0]) return crt_min(next, k[0]);
+    if (t + margin >= k[n - 1]) return next;
+    while (hi - lo > 1) {
+      const int mid = lo + (hi - lo) / 2;
+      if (k[mid] <= t + margin) lo = mid; else hi = mid;
+    }
+    next = crt_min(next, k[hi]);
+  }
+  return next;
 }
 
 /* u at t (one point: (x, y, z, x', y', z', x'', y'', z'')); the last value is reused */

@@ -42,8 +42,11 @@
  * continuously (the impact map reads x'; x'' may jump): the new law's value and rate at
  * call->t must equal call->u's to 1e-12 relative, else the run stops with
  * CRT_BAD_CONTROL and crt_control_fault says why (as it does for a session whose law is
- * of several bodies, crt_set_law_bodies: a controller sets one point's law; pushes act
- * on it, and call->u holds its first point's nine numbers, zeros where it has none).  A
+ * of several bodies, crt_set_law_bodies, when the controller drives none of them: pushes
+ * act on it, and call->u holds its first point's nine numbers, zeros where it has none).
+ * A controller of several bodies drives up to three of their outputs
+ * (crt_control_channels: a point's x, y, z, or up to three rotors' psi): call->u holds
+ * theirs, and its law's columns replace them, the other outputs going on.  A
  * negative return stops the run with CRT_STOPPED.  ctx is the controller's own memory
  * (its state, its solver's workspace): the runtime passes it through and never reads it.
  * Nothing is allocated.
@@ -83,6 +86,10 @@ struct crt_control {
   double knots[2][CRT_CTL_MAX_KNOTS];
   double coef[2][(CRT_CTL_MAX_KNOTS - 1) * 12];
   double q_meas[NQ];
+  /* a law of several bodies (crt_control_channels): the outputs (x, y, z of each point,
+     then psi of each rotor, crt_law.h's order) the controller's columns x, y, z drive */
+  int n_channels;
+  int channels[3];
 };
 
 /* ---- noise: xoshiro256** seeded by splitmix64, Gaussian deviates by Box-Muller -------- */
@@ -218,7 +225,10 @@ static int crt_control_install(crt_session *s, double t, const double *u, int n)
   const int b = 1 - c->active;
   const double *knots = c->knots[b], *coef = c->coef[b];
   int i;
-  if (c->base.kind == CRT_LAW_BODIES) { c->fault = CRT_FAULT_BODIES; return CRT_BAD_CONTROL; }
+  if (c->base.kind == CRT_LAW_BODIES && c->n_channels == 0) {
+    c->fault = CRT_FAULT_BODIES;
+    return CRT_BAD_CONTROL;
+  }
   if (n < 2 || n > CRT_CTL_MAX_KNOTS) { c->fault = CRT_FAULT_KNOT_COUNT; return CRT_BAD_CONTROL; }
   if (knots[0] != t) { c->fault = CRT_FAULT_FIRST_KNOT; return CRT_BAD_CONTROL; }
   for (i = 1; i < n; ++i)
@@ -245,12 +255,20 @@ static int crt_control_install(crt_session *s, double t, const double *u, int n)
   c->n_knots[b] = n;
   c->controlled = 1;
   c->since = t;
-  s->law.kind = CRT_LAW_TABLE;
-  s->law.n_knots = n;
-  s->law.knots = c->knots[b];
-  s->law.coef = c->coef[b];
-  s->law.periodic = 0;
-  s->law.extend = 1;
+  if (c->base.kind == CRT_LAW_BODIES) {   /* the bodies' law, the driven outputs its */
+    s->law = c->base;
+    s->law.ctl_n_knots = n;
+    s->law.ctl_knots = c->knots[b];
+    s->law.ctl_coef = c->coef[b];
+    for (i = 0; i < 3; ++i) s->law.ctl_out[i] = i < c->n_channels ? c->channels[i] : -1;
+  } else {
+    s->law.kind = CRT_LAW_TABLE;
+    s->law.n_knots = n;
+    s->law.knots = c->knots[b];
+    s->law.coef = c->coef[b];
+    s->law.periodic = 0;
+    s->law.extend = 1;
+  }
   crt_law_prepare(&s->law, &s->lw);
   s->lw.valid = 0;
   ++s->stat[CRT_STAT_LAW_CHANGES];
@@ -267,7 +285,21 @@ static int crt_control_call(crt_session *s, int reason, int event)
   int i, n = 0, r;
   const double *ul = crt_law_u(s, s->t);
   const int width = crt_law_u_width(&s->law);  /* a law of several bodies: its first nine */
-  for (i = 0; i < 9; ++i) u[i] = i < width ? ul[i] : 0.0;
+  if (c->n_channels > 0) {                     /* or the outputs the controller drives */
+    const int np = s->law.n_points;
+    for (i = 0; i < 9; ++i) u[i] = 0.0;
+    for (i = 0; i < c->n_channels; ++i) {
+      const int o = c->channels[i];
+      const int at = o < 3 * np ? 9 * (o / 3) + o % 3 : 9 * np + 3 * (o - 3 * np);
+      const int step = o < 3 * np ? 3 : 1;
+      if (o < 0) continue;
+      u[i] = ul[at];
+      u[3 + i] = ul[at + step];
+      u[6 + i] = ul[at + 2 * step];
+    }
+  } else {
+    for (i = 0; i < 9; ++i) u[i] = i < width ? ul[i] : 0.0;
+  }
   crt_control_measure(c, s->q, c->q_meas);
   call.t = s->t;
   call.reason = reason;
@@ -410,6 +442,7 @@ int crt_control_setup(crt_control *c, crt_controller_fn fn, void *ctx, double pe
   c->log_n = 0;
   c->started = 0;
   c->controlled = 0;
+  c->n_channels = 0;
   if (!fn || !(period >= 0.0) || period - period != 0.0 || n_pushes < 0
       || (n_pushes > 0 && !pushes) || !log || log_cap < 2 * CRT_CTL_MAX_KNOTS)
     return CRT_BAD_ARGUMENT;
@@ -423,6 +456,24 @@ int crt_control_setup(crt_control *c, crt_controller_fn fn, void *ctx, double pe
     if (i > 0 && row[0] < row[-CRT_PUSH_COLUMNS]) return CRT_BAD_ARGUMENT;
   }
   if (n_pushes > 0 && !MODEL_PUSH) return CRT_BAD_ARGUMENT;
+  return CRT_OK;
+}
+
+/* A law of several bodies (crt_set_law_bodies): the controller's columns x, y, z drive
+   outputs outputs[0..n-1] of it (x, y, z of point j are 3 j, 3 j + 1, 3 j + 2; psi of
+   rotor r is 3 n_points + r; -1: the column drives none), n at most 3: call->u holds
+   their values and two derivatives as a point's (x at u[c], x' at u[3 + c], x'' at
+   u[6 + c]), and a law the controller sets replaces them, the other outputs going on.
+   After crt_control_setup, before crt_set_control (which checks them against the law).
+   CRT_OK or CRT_BAD_ARGUMENT. */
+int crt_control_channels(crt_control *c, int n, const int *outputs)
+{
+  int i;
+  if (n < 0 || n > 3 || (n > 0 && !outputs)) return CRT_BAD_ARGUMENT;
+  for (i = 0; i < n; ++i)
+    if (outputs[i] < -1) return CRT_BAD_ARGUMENT;
+  c->n_channels = n;
+  for (i = 0; i < 3; ++i) c->channels[i] = i < n ? outputs[i] : -1;
   return CRT_OK;
 }
 
@@ -444,6 +495,12 @@ int crt_set_control(crt_session *s, crt_control *c)
     if (s->law.kind != CRT_LAW_PROGRAM && s->law.kind != CRT_LAW_TABLE
         && !(MODEL_MOMENTS && s->law.kind == CRT_LAW_BODIES))
       return CRT_BAD_LAW;
+    if (c->n_channels > 0) {             /* channels: outputs of a law of bodies */
+      int i;
+      if (s->law.kind != CRT_LAW_BODIES) return CRT_BAD_LAW;
+      for (i = 0; i < c->n_channels; ++i)
+        if (c->channels[i] >= 3 * s->law.n_points + s->law.n_rotors) return CRT_BAD_LAW;
+    }
     c->base = s->law;
   }
   return CRT_OK;
