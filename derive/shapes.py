@@ -16,7 +16,7 @@ and by ``math`` on one direction (the scene rules: S above the plane at the star
 SymPy is imported here: the runtime reads this module.
 
 Adding a shape is one :func:`register` call at the end of this file, then ``derive
-emit`` (see the README, "Regenerating for a changed model").  The order of ``SHAPES`` is
+emit`` (derive/docs/regenerating.md).  The order of ``SHAPES`` is
 the code the runtime reads in ``prm[CRT_P_shape]``: append, never insert.
 """
 from __future__ import annotations

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import copy
 import json
+import re
 import subprocess
 import sys
 
@@ -526,11 +527,17 @@ def test_summary_json_has_the_travel(tmp_path):
     from importlib import resources
     robot = str(resources.files("derive.scene") / "examples" / "spherical-robot.toml")
     out = subprocess.run([sys.executable, "-m", "derive", "simulate", robot, "-o",
-                          str(tmp_path), "-q", "--no-plots"], capture_output=True, text=True)
+                          str(tmp_path), "--no-plots"], capture_output=True, text=True)
     assert out.returncode == 0, out.stderr
     travel = json.loads((tmp_path / "summary.json").read_text())["travel"]
     assert 3.2 < travel["distance"] == travel["X_C_end"] < 3.4
     assert abs(travel["path_length"] - travel["distance"]) < 1e-9   # a straight roll
+    # and the CLI says it in words, the same number
+    said = re.search(r"C travelled (\S+) m horizontally \(from its start to X_C = (\S+),",
+                     out.stdout)
+    assert said, out.stdout
+    assert float(said[1]) == float(f"{travel['distance']:.4g}")
+    assert float(said[2]) == float(f"{travel['X_C_end']:.4g}")
 
 
 def test_sweep_png_draws_the_column_named(tmp_path, monkeypatch):

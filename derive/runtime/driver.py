@@ -280,7 +280,8 @@ def run_prepared(prep: Prepared, session: Session | None = None, progress=None,
 
 def simulate(scene, progress: bool = False) -> Result:
     """Simulate a scene (a path, a dict of the schema, or a :class:`Scene`); see the
-    README.  ``progress``: a bar on stderr for runs longer than a second."""
+    README's recipes and derive/docs/runtime.md.  ``progress``: a bar on stderr for runs
+    longer than a second."""
     start = time.perf_counter()
     prep = prepare(scene)
     t_prepare = time.perf_counter() - start

@@ -136,6 +136,11 @@ def lines(scene, result, loop: str | None = None) -> list[str]:
             + (", ..." if len(pushes) > 4 else ""))
     if result.rough:
         out += _friction_lines(scene, result)
+    end = choice.travel(result.model, scene.t0, float(result.t[-1]), result.model_q[-1],
+                        choice.start_of_c(scene))
+    if end["distance"] > 0.0:                  # C moved horizontally: how far
+        out.append(f"  C travelled {end['distance']:.4g} m horizontally (from its start to "
+                   f"X_C = {end['X_C_end']:.4g}, Y_C = {end['Y_C_end']:.4g} m)")
     if scene.contact_possible:
         mh, mn = result.min_height, result.min_normal
         out.append(f"  lowest height of S {mh:.3g} m" +

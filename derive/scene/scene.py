@@ -23,7 +23,7 @@ def body_size(shape: str, size: tuple, J, M: float) -> float:
 
 @dataclass(frozen=True)
 class Stability:
-    """``[stability]``: what ``derive stability`` analyses (see the README)."""
+    """``[stability]``: what ``derive stability`` analyses (derive/docs/stability.md)."""
     period: float | None = None
     impacts_every: int = 1
     long_periods: int = 0
@@ -32,7 +32,7 @@ class Stability:
 
 @dataclass(frozen=True)
 class Control:
-    """``[control]``: the loop closed around the run (see the README)."""
+    """``[control]``: the loop closed around the run (derive/docs/control.md)."""
     mode: str
     period: float | None = None
     gain: str = "lqr"

@@ -147,7 +147,8 @@ SCENE_FIELDS = (
       "with friction, e of restitution_model", 0, 1, example=0.9,
       when="[plane] given (absent: free flight)"),
     F("plane", "friction", "number", 0.0, "mu_f, Coulomb's coefficient of friction at S (0: "
-      "the paper's smooth plane; > 0: the rough model, see the README)", 0, 100),
+      "the paper's smooth plane; > 0: the rough model, one coefficient for static and "
+      "kinetic friction: derive/docs/friction.md)", 0, 100),
     F("plane", "restitution_model", "choice", "energetic", "how a frictional impact's "
       "restitution ends: energetic (Stronge: the normal impulse's work in restitution is "
       "-e^2 times that in compression; never gains energy), poisson (normal impulses in the "
@@ -181,7 +182,7 @@ SCENE_FIELDS = (
       "body axis j), a rotation", -1.0 - 1e-6, 1.0 + 1e-6),
     F("run", "duration", "number", 5.0, "length of the run", 0, MAX_DURATION, True),
     F("run", "method", "choice", "lie", "integrator: lie (the momentum form: K and C's "
-      "parabola constants of each flight, the attitude on SO(3); see the README), lie5, "
+      "parabola constants of each flight, the attitude on SO(3); derive/docs/runtime.md), lie5, "
       "lie8, dopri5, dop853, rk4", choices=("lie", "lie5", "lie8", "dopri5", "dop853", "rk4")),
     F("run", "rtol", "number", 1e-10, "relative tolerance", 1e-15, 1e-2),
     F("run", "atol", "number", 1e-12, "absolute tolerance", 0, 1, True),
