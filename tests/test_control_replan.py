@@ -23,6 +23,7 @@ import ctypes
 import shutil
 import subprocess
 import sys
+import tomllib
 from dataclasses import replace
 from pathlib import Path
 
@@ -423,6 +424,37 @@ def test_closed_loop_replayed_with_its_realised_law(su):
     assert abs(t_r - t_c) < 1e-12
     assert np.max(np.abs(q_r - q_c)) < 1e-10 * scale and dq < 1e-10 * scale
     assert len(common) > 25
+
+
+def _spin_after_touchdown(r) -> float:
+    """|omega| on the row just after the first impact (the runtime's impact map)."""
+    from derive.layout import GENERAL
+    t = [e["t"] for e in r.events if e["kind"] == "impact"][0]
+    k = np.flatnonzero(r.t == t)[-1]
+    return float(np.linalg.norm(r.q[k, GENERAL.omega]))
+
+
+def test_the_closed_loop_weighs_the_spin_the_touchdown_leaves(su):
+    """land_push landed upright and then spun at 23 rad/s (the impact's lever arm CS x n
+    is not in the goal; issue 34): with [plan].spin_weight = 0.1 the re-planning problem
+    weighs |omega+|^2 as the planner does, and the closed loop (the Python route on the
+    example's own push) lands upright and leaves under 2 rad/s, where the unweighed C
+    controller leaves over 10."""
+    doc = tomllib.loads(TASK.read_text())
+    doc["plan"]["spin_weight"] = 0.1
+    s2 = setup(load_control_task(doc))
+    dist = s2.task.scene.disturbance
+    weighed, _ = s2.closed(s2.plant(dist), dist, s2.python())
+    plain, _ = su.closed(su.plant(dist), dist, su.compiled.controller())
+    spins = _spin_after_touchdown(plain), _spin_after_touchdown(weighed)
+    print(f"spin after the touchdown: unweighed {spins[0]:.3g} rad/s, weighed {spins[1]:.3g}")
+    assert spins[0] > 10.0 and spins[1] < 2.0, spins
+    from derive.planner.resim import rotation_angle
+    from derive.layout import GENERAL
+    t = [e["t"] for e in weighed.events if e["kind"] == "impact"][0]
+    k = np.flatnonzero(weighed.t == t)[0]
+    assert rotation_angle(s2.task.target, weighed.q[k, GENERAL.A].reshape(3, 3)) < \
+        np.radians(2.0)
 
 
 def test_seeded_landings_upright_closed_not_open(su):

@@ -736,13 +736,3 @@ def test_spin_weight_belongs_to_land(goal):
     with pytest.raises(SceneError, match=r"^\[plan\]\.spin_weight: belongs to goal = "
                                          r"\"land\""):
         load_task(doc)
-
-
-def test_the_replanning_controller_refuses_a_weight_it_does_not_weigh():
-    from derive.control.core import load_control_task
-    doc = tomllib.loads((EXAMPLES.parent.parent / "control" / "examples" / "land_push.toml")
-                        .read_text())
-    doc["plan"]["spin_weight"] = 1.0
-    with pytest.raises(SceneError, match=r"^\[plan\]\.spin_weight: is weighed by derive "
-                                         r"plan"):
-        load_control_task(doc)

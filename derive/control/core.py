@@ -58,10 +58,10 @@ def load_control_task(task):
     if task.scene.control is None:
         raise SceneError("[control]", "is required (derive control closes a loop around "
                                       "a planned task: give mode = \"replan\")")
-    if task.spin_weight:
-        raise SceneError("[plan].spin_weight", "is weighed by derive plan; the re-planning "
-                                               "controller's problem does not weigh it: "
-                                               "remove it to close the loop")
+    if task.spin_weight and task.bodies:
+        raise SceneError("[plan].spin_weight", "is weighed for the paper's one point; a "
+                                               "task of [[point]] and [[rotor]] does not "
+                                               "weigh it: remove it to close the loop")
     return task
 
 

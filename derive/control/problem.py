@@ -241,6 +241,14 @@ class Problem:
             add("d = CS x n = 0", ca.mtimes(A_end[0:2, :], CS) / sc.size[0], 0.0, 0.0)
 
         ends = ca.Function("ends", [qe, w], [ca.vertcat(*g)])
+        # land with [plan].spin_weight: the spin the touchdown impact leaves, weighed beside
+        # the effort as the planner weighs it (a residual of the least squares: its
+        # Gauss-Newton term joins H, through the motion to the end)
+        self.spin_weight = float(task.spin_weight) if self.land else 0.0
+        if self.spin_weight:
+            q_plus = load("general_impact")(full(qe), uN, s_of(qe), P, sc.e)[0]
+            spin = ca.Function("spin", [qe, w], [math.sqrt(self.spin_weight)
+                                                 * q_plus[omega]])
         self.lbg, self.ubg, self.g_names = np.array(lbg), np.array(ubg), names
         self.ng = len(lbg)
         # the soft rows: the end conditions; their slacks (a finite side each)
@@ -261,6 +269,12 @@ class Problem:
             qk = piece(qk, ca.vec(Cm[k:k + 4, :]), Tm)
         g_end = ends(qk, w)
         f_w, g_a, H_w, grad_w, JA_w = alg(w, p)
+        if self.spin_weight:
+            r_spin = spin(qk, w)
+            J_spin = ca.jacobian(r_spin, w)
+            f_w = f_w + ca.sumsqr(r_spin)
+            H_w = H_w + 2 * ca.mtimes(J_spin.T, J_spin)
+            grad_w = grad_w + 2 * ca.mtimes(J_spin.T, r_spin)
         Gx = ca.vertcat(g_a, g_end)
         A_w = ca.vertcat(JA_w, ca.jacobian(g_end, w))
         self.functions["qp_data"] = ca.Function(
@@ -275,8 +289,10 @@ class Problem:
         Q = ca.MX.sym("Q", self.nq, N + 1)
         CL = ca.horzcat(*[ca.vec(Cm[k:k + 4, :]) for k in range(N)])
         q_next = piece.map(N)(Q[:, :N], CL, Tm)
+        f_ms = (alg(w, p)[0] + ca.sumsqr(spin(Q[:, N], w)) if self.spin_weight
+                else alg(w, p)[0])
         self.functions["nlp_ms"] = {
-            "x": ca.vertcat(w, ca.vec(Q)), "p": p, "f": f_w,
+            "x": ca.vertcat(w, ca.vec(Q)), "p": p, "f": f_ms,
             "g": ca.vertcat(g_a, ends(Q[:, N], w), ca.vec(Q[:, 1:] - q_next),
                             Q[:, 0] - p[7:])}
         # the same with the end conditions soft, as the QP has them: x = (w, Q, slacks)
@@ -286,7 +302,7 @@ class Problem:
         z2s = ca.DM([self.z2[i] for i, _ in self.slack_sides])
         self.functions["nlp_ms_soft"] = {
             "x": ca.vertcat(w, ca.vec(Q), S), "p": ca.vertcat(p, scale),
-            "f": f_w + scale * (ca.dot(z1s, S) + 0.5 * ca.dot(z2s, S * S)),
+            "f": f_ms + scale * (ca.dot(z1s, S) + 0.5 * ca.dot(z2s, S * S)),
             "g": ca.vertcat(g_a, ends(Q[:, N], w) + ca.mtimes(ca.DM(E), S),
                             ca.vec(Q[:, 1:] - q_next), Q[:, 0] - p[7:])}
         self.functions["piece"] = piece

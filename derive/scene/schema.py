@@ -229,8 +229,9 @@ PLAN_FIELDS = (
       when='goal = "land"'),
     F("plan", "spin_weight", "number", 0.0, "land: the weight of |omega+|^2 just after the "
       "touchdown impact (omega+ in rad/s) beside the effort, which the objective scales to 1 "
-      "at the initial guess; 0: not weighed, so the impact's lever arm CS x n may leave the "
-      "body spinning (at_touchdown = d_zero keeps omega instead)", 0, 1e9,
+      "at the initial guess (derive control's re-plans: scaled by max_acceleration^2 T); 0: "
+      "not weighed, so the impact's lever arm CS x n may leave the body spinning "
+      "(at_touchdown = d_zero keeps omega instead)", 0, 1e9,
       when='goal = "land"'),
     F("plan", "region", "table", None, "P stays in this ball (body axes)",
       when="one of region, circle", fields=(
