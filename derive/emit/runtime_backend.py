@@ -259,7 +259,23 @@ def render_model(m: RuntimeModel) -> str:
 
 # the headers rendered from templates/runtime/<name>.jinja; every other templates/runtime/*.h
 # is plain C, copied verbatim
-RENDERED = ("crt_abi.h", "crt_constants.h", "crt_rk_steps.h", "crt_lie_steps.h", "crt_dk_steps.h")
+RENDERED = ("crt_abi.h", "crt_constants.h", "crt_rk_steps.h", "crt_lie_steps.h", "crt_dk_steps.h",
+            "crt_face_rules.h")
+
+
+@lru_cache(maxsize=None)
+def face_rules_context() -> dict:
+    """The rules of the friction over a face (crt_face.h) from derive/face.py's: the
+    angle's Gauss-Legendre rule (its default order), the product rule where the instant
+    centre is far, and how far that is."""
+    import numpy as np
+    from .. import face
+
+    def gl(n):
+        x, w = np.polynomial.legendre.leggauss(n)
+        return [(_c(a), _c(b)) for a, b in zip(x, w)]
+    return {"face_angle": gl(face.ANGLE_ORDER), "face_far": gl(face.FAR_ORDER),
+            "face_far_sizes": _c(face.FAR)}
 
 
 def plain_headers() -> dict[str, str]:
@@ -298,7 +314,8 @@ def render_runtime() -> dict[str, str]:
         consts[key] = _macro_lines(consts[key], (" + z4 * ",))
     common = {"versions": versions(), **abi.c_context(), **tableau_context(), **consts,
               "lie_theta_max": repr(theta), "lie_theta_max2": repr(theta * theta),
-              "lie_max_turn": repr(LIE_MAX_TURN), "lie_tight": repr(LIE_TIGHT)}
+              "lie_max_turn": repr(LIE_MAX_TURN), "lie_tight": repr(LIE_TIGHT),
+              **face_rules_context()}
     files = {}
     for name in RENDERED:
         files[f"runtime/{name}"] = env.get_template(f"runtime/{name}.jinja").render(
