@@ -108,7 +108,11 @@
 #ifndef CRT_CORE_H
 #define CRT_CORE_H
 
+#if MODEL_BASE
+#include "crt_base.h"                     /* the base model's loop: stick and slip */
+#else
 #include "crt_loop.h"
+#endif
 
 /* ---- public API (its manual: the comment at the top of this file and those below) ---- */
 
