@@ -104,8 +104,8 @@ static void crt_face_edge_prims(double tau, double eta, double h, double *P)
 static void crt_face_polygon(const crt_face *f, double r0x, double r0y, double P_c,
                              const double *k, double *G, double *E)
 {
-  const double V[4][2] = {{f->cx + f->a, f->cy - f->b}, {f->cx + f->a, f->cy + f->b},
-                          {f->cx - f->a, f->cy + f->b}, {f->cx - f->a, f->cy - f->b}};
+  const double V[4][2] = { {f->cx + f->a, f->cy - f->b}, {f->cx + f->a, f->cy + f->b},
+                          {f->cx - f->a, f->cy + f->b}, {f->cx - f->a, f->cy - f->b} };
   const double P0 = P_c + k[0] * (r0x - f->cx) + k[1] * (r0y - f->cy);
   int i, j;
   G[0] = G[1] = 0.0;
