@@ -101,6 +101,8 @@ PARAMETERS = _names(
     ("spin_friction", "rough model: mu_s, a length: |T_Z| <= mu_s N in contact (0: none)"),
     ("rolling_resistance", "rough model: mu_r, a length: |(T_X, T_Y)| <= mu_r N in contact "
                            "(0: none)"),
+    ("static_friction", "base model: mu_s, the static coefficient over the face (>= "
+                        "friction, which is the kinetic one)"),
     *_BODY_PARAMETERS,
 )
 
@@ -151,6 +153,10 @@ STATUSES = (
     Status("max_events", 3, "max_events events happened (opt[CRT_OPT_MAX_EVENTS])"),
     Status("stopped", 4, "the controller stopped the run (its call returned a negative "
                          "value)"),
+    Status("lift_off", 5, "base model: the normal force N under the face reached 0 (the "
+                          "body leaves the plane; the run stops there)"),
+    Status("tipping", 6, "base model: the centre of pressure reached the face's edge (the "
+                         "body tips about it; the run stops there)"),
     Status("max_steps", -1, "max_steps steps were taken before the end time"),
     Status("step_underflow", -2, "the step size fell below 1e-14 of the time scale"),
     Status("nonfinite", -3, "the state or the right-hand side became NaN or infinite"),
@@ -217,6 +223,8 @@ EVENT_KINDS = _names(
                   "resistance holds it (value: |T_t|/(mu_r N))"),
     ("roll_start", "the rolling resistance reached mu_r N (or cannot hold the rolling it "
                    "stopped): the body rolls from rest against it (value: |T_t|/(mu_r N))"),
+    ("tipping", "base model: the centre of pressure reached the face's edge (value: its "
+                "distance from the face's centroid)"),
 )
 
 STATS = _names(

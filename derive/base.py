@@ -61,7 +61,7 @@ from functools import lru_cache
 import sympy as sp
 
 from . import notation as nt
-from .layout import MOMENTS_LABELS, UPPER_INDEX
+from .layout import BASE, MOMENTS_LABELS, UPPER_INDEX
 from .models import FunctionSpec, LinearSolve, Vector
 
 # ---- the moments (derive/layout.py's MOMENTS: the contract with the runtime); the symbols
@@ -87,7 +87,7 @@ H, HD = _vec(21), _vec(24)
 # ---- state, face, wrench, unknowns --------------------------------------------------------
 X_O, Y_O, PSI, X_OD, Y_OD, PSI_D = sp.symbols("X_O Y_O psi X_O' Y_O' psi'", real=True)
 STATE = (X_O, Y_O, PSI, X_OD, Y_OD, PSI_D)
-STATE_LABELS = ("X_O", "Y_O", "psi", "X_O'", "Y_O'", "psi'")
+STATE_LABELS = BASE.labels                            # (X_O, Y_O, psi, and their rates)
 HEIGHT = sp.Symbol("h_O", positive=True)             # O's height above the plane
 F_X, F_Y, T_Z = sp.symbols("F_x F_y T_z", real=True)  # friction on the body (face frame)
 WRENCH = (F_X, F_Y, T_Z)

@@ -50,6 +50,8 @@ from . import shapes
 
 PRESSURES = ("uniform", "linear")
 FAR = 8.0                  # the instant centre this many sizes away: the product rule
+ANGLE_ORDER = 32           # the instant-centre rule's order (Friction.n; crt_face.h's)
+FAR_ORDER = 12             # crt_face.h's product rule where r0 is FAR (converged there)
 AXIS_TOL = 1e-9            # n within this of a face normal: the face lies flat
 
 
@@ -289,7 +291,7 @@ def pressure_slope(face: Face, N: float, cp=None, mode: str = "uniform") -> tupl
 
 
 def centre_wrench(face: Face, N: float, cp, mode: str, mu: float, twist,
-                  n: int = 32) -> tuple[np.ndarray, float]:
+                  n: int = ANGLE_ORDER) -> tuple[np.ndarray, float]:
     """``((F_x, F_y, T_z), D)`` by the instant-centre rule of order n (see above)."""
     vx, vy, w = (float(c) for c in twist)
     P_c, k = pressure_slope(face, N, cp, mode)
@@ -362,7 +364,7 @@ class Friction:
     cp: tuple | None = None
     mode: str = "uniform"
     mu: float = 1.0
-    n: int = 32
+    n: int = ANGLE_ORDER
     product: bool = False
 
     def __call__(self, twist):

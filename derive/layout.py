@@ -110,8 +110,13 @@ AXISYMMETRIC = Layout("axisymmetric", ("psi", "phi"), {}, {"psi": "psi", "phi": 
 _PHI = tuple(f"Phi[{i},{j}]" for i in range(VERTICAL.nq) for j in range(VERTICAL.nq))
 VARIATIONAL = Layout("variational", VERTICAL.labels + _PHI,
                      {"omega": _OMEGA, "n": _N, "Phi": _PHI}, {"Z": "Z_C", "Zd": "Z_C'"})
+# the base model (issue 33): a body on its face, O's horizontal position and the yaw psi
+# (fixed axes; derive/base.py's STATE_LABELS)
+BASE = Layout("base", ("X_O", "Y_O", "psi", "X_O'", "Y_O'", "psi'"),
+              {"position": ("X_O", "Y_O"), "velocity": ("X_O'", "Y_O'")},
+              {"psi": "psi", "psi_rate": "psi'"})
 LAYOUTS = {lay.model: lay for lay in (GENERAL, VERTICAL, ATTITUDE, TRANSLATIONAL, PLANAR,
-                                      AXISYMMETRIC, VARIATIONAL)}
+                                      AXISYMMETRIC, VARIATIONAL, BASE)}
 # the rough model (Coulomb friction at S) runs the general state, and so do the models of
 # internal bodies other than one point (moments, moments_rough: their input u is the
 # MOMENTS below, not a state)

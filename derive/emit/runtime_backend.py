@@ -106,6 +106,12 @@ class RuntimeModel:
         the moments models': ``moments_lie_stage``)."""
         return f"moments_{what}" if self.moments else what
 
+    @property
+    def sums_bodies(self) -> bool:
+        """u is the bodies' moments summed in C (crt_bodies.h): the moments models' and
+        the base model's."""
+        return self.moments or self.kind == "base"
+
     def specs(self) -> list:
         # S and its rate for every shape of derive/shapes.py (model_shape picks one by
         # prm[CRT_P_shape])
@@ -123,6 +129,10 @@ class RuntimeModel:
                     dm.flight_parabola()]
             return base + (friction_models.runtime_specs("moments") if self.friction
                            else [friction_models.apply_impulse("moments")])
+        if self.kind == "base":
+            # a body on its face (derive/base.py): the bodies' shares, then its functions
+            from .. import base as db
+            return [mmo.point_moments(), mmo.rotor_moments(), *db.base_specs()]
         momentum = [dm.lie_stage(), dm.lie_point(), dm.fixed_kinetic_moment(), dm.exp_map()]
         if self.kind in ("general", "vertical", "rough"):
             base = [dm.flight_rhs(self.base), dm.gap(self.base), dm.impact(self.base),
@@ -172,6 +182,11 @@ MODELS = (
                  "the general model of any number of points and rotors, seen through their "
                  "moments (derive/models_moments.py), summed from their laws in C "
                  "(crt_bodies.h): flight, impacts, persistent contact, pushes."),
+    RuntimeModel("base", False, "none",
+                 "a box or a cylinder on its face (derive/base.py): O's horizontal motion and "
+                 "the yaw, driven by the points and rotors through their moments; Coulomb "
+                 "friction over the face with Contensou's coupling (crt_face.h), stick and "
+                 "slip as exact events, lift-off and tipping as stops (crt_base.h)."),
     RuntimeModel("moments_rough", True, "matrix",
                  "the moments model on a rough plane: Coulomb friction at S in impacts "
                  "(Darboux-Keller) and in sliding and sticking contact, and the couples."),
@@ -245,7 +260,10 @@ def render_model(m: RuntimeModel) -> str:
                                 else []),
            "z_index": m.z_index, "zd_index": m.zd_index, "normalize": m.normalize,
            "summary": m.summary, "functions": functions, "lie": m.lie,
-           "moments": m.moments,
+           "moments": m.sums_bodies,
+           "base_vectors": [layout.MOMENTS.parts[k].start for k in
+                            ("s", "s_rate", "s_acc", "h", "h_rate")],
+           "base_tensors": [layout.MOMENTS.parts[k].start for k in ("theta", "theta_rate")],
            "moments_count": layout.MOMENTS.nq, "moments_spin": layout.MOMENTS.spin.start,
            "lie_functions": [(f"MODEL_{name.upper()}", m.plain(name)) for name in
                              ("lie_stage", "lie_point", "fixed_kinetic_moment")],
@@ -259,7 +277,23 @@ def render_model(m: RuntimeModel) -> str:
 
 # the headers rendered from templates/runtime/<name>.jinja; every other templates/runtime/*.h
 # is plain C, copied verbatim
-RENDERED = ("crt_abi.h", "crt_constants.h", "crt_rk_steps.h", "crt_lie_steps.h", "crt_dk_steps.h")
+RENDERED = ("crt_abi.h", "crt_constants.h", "crt_rk_steps.h", "crt_lie_steps.h", "crt_dk_steps.h",
+            "crt_face_rules.h", "crt_base_steps.h")
+
+
+@lru_cache(maxsize=None)
+def face_rules_context() -> dict:
+    """The rules of the friction over a face (crt_face.h) from derive/face.py's: the
+    angle's Gauss-Legendre rule (its default order), the product rule where the instant
+    centre is far, and how far that is."""
+    import numpy as np
+    from .. import face
+
+    def gl(n):
+        x, w = np.polynomial.legendre.leggauss(n)
+        return [(_c(a), _c(b)) for a, b in zip(x, w)]
+    return {"face_angle": gl(face.ANGLE_ORDER), "face_far": gl(face.FAR_ORDER),
+            "face_far_sizes": _c(face.FAR)}
 
 
 def plain_headers() -> dict[str, str]:
@@ -298,7 +332,8 @@ def render_runtime() -> dict[str, str]:
         consts[key] = _macro_lines(consts[key], (" + z4 * ",))
     common = {"versions": versions(), **abi.c_context(), **tableau_context(), **consts,
               "lie_theta_max": repr(theta), "lie_theta_max2": repr(theta * theta),
-              "lie_max_turn": repr(LIE_MAX_TURN), "lie_tight": repr(LIE_TIGHT)}
+              "lie_max_turn": repr(LIE_MAX_TURN), "lie_tight": repr(LIE_TIGHT),
+              **face_rules_context()}
     files = {}
     for name in RENDERED:
         files[f"runtime/{name}"] = env.get_template(f"runtime/{name}.jinja").render(

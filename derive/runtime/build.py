@@ -18,7 +18,7 @@ from ..cbuild import build_shared, runtime_flags
 from .. import abi
 
 KINDS = ("general", "rough", "vertical", "attitude", "translational", "planar",
-         "axisymmetric", "variational", "moments", "moments_rough")
+         "axisymmetric", "variational", "moments", "moments_rough", "base")
 
 DP = ctypes.POINTER(ctypes.c_double)
 IP = ctypes.POINTER(ctypes.c_int)

@@ -57,57 +57,58 @@ enum crt_parameter {
   CRT_P_restitution_model = 20,  /* rough model: how an impact's restitution ends (enum crt_restitution: energetic, poisson or newton) */
   CRT_P_spin_friction = 21,  /* rough model: mu_s, a length: |T_Z| <= mu_s N in contact (0: none) */
   CRT_P_rolling_resistance = 22,  /* rough model: mu_r, a length: |(T_X, T_Y)| <= mu_r N in contact (0: none) */
-  CRT_P_n_points = 23,  /* the internal points ([point]: 1; [[point]]: 0 to LAW_MAX_POINTS) */
-  CRT_P_n_rotors = 24,  /* the rotors ([[rotor]]: 0 to LAW_MAX_ROTORS) */
-  CRT_P_m_1 = 25,  /* mass of point 1 */
-  CRT_P_m_2 = 26,  /* ... */
-  CRT_P_m_3 = 27,  /* ... */
-  CRT_P_m_4 = 28,  /* ... */
-  CRT_P_m_5 = 29,  /* ... */
-  CRT_P_m_6 = 30,  /* ... */
-  CRT_P_m_7 = 31,  /* ... */
-  CRT_P_m_8 = 32,  /* ... */
-  CRT_P_m_9 = 33,  /* ... */
-  CRT_P_m_10 = 34,  /* ... */
-  CRT_P_m_11 = 35,  /* ... */
-  CRT_P_m_12 = 36,  /* ... */
-  CRT_P_m_13 = 37,  /* ... */
-  CRT_P_m_14 = 38,  /* ... */
-  CRT_P_m_15 = 39,  /* ... */
-  CRT_P_m_16 = 40,  /* ... */
-  CRT_P_a_1_x = 41,  /* unit axis of rotor 1 in body axes */
-  CRT_P_a_1_y = 42,  /* ... */
-  CRT_P_a_1_z = 43,  /* ... */
-  CRT_P_a_2_x = 44,  /* ... */
-  CRT_P_a_2_y = 45,  /* ... */
-  CRT_P_a_2_z = 46,  /* ... */
-  CRT_P_a_3_x = 47,  /* ... */
-  CRT_P_a_3_y = 48,  /* ... */
-  CRT_P_a_3_z = 49,  /* ... */
-  CRT_P_a_4_x = 50,  /* ... */
-  CRT_P_a_4_y = 51,  /* ... */
-  CRT_P_a_4_z = 52,  /* ... */
-  CRT_P_a_5_x = 53,  /* ... */
-  CRT_P_a_5_y = 54,  /* ... */
-  CRT_P_a_5_z = 55,  /* ... */
-  CRT_P_a_6_x = 56,  /* ... */
-  CRT_P_a_6_y = 57,  /* ... */
-  CRT_P_a_6_z = 58,  /* ... */
-  CRT_P_a_7_x = 59,  /* ... */
-  CRT_P_a_7_y = 60,  /* ... */
-  CRT_P_a_7_z = 61,  /* ... */
-  CRT_P_a_8_x = 62,  /* ... */
-  CRT_P_a_8_y = 63,  /* ... */
-  CRT_P_a_8_z = 64,  /* ... */
-  CRT_P_I_1 = 65,  /* axial moment of inertia of rotor 1 */
-  CRT_P_I_2 = 66,  /* ... */
-  CRT_P_I_3 = 67,  /* ... */
-  CRT_P_I_4 = 68,  /* ... */
-  CRT_P_I_5 = 69,  /* ... */
-  CRT_P_I_6 = 70,  /* ... */
-  CRT_P_I_7 = 71,  /* ... */
-  CRT_P_I_8 = 72,  /* ... */
-  CRT_P_COUNT = 73
+  CRT_P_static_friction = 23,  /* base model: mu_s, the static coefficient over the face (>= friction, which is the kinetic one) */
+  CRT_P_n_points = 24,  /* the internal points ([point]: 1; [[point]]: 0 to LAW_MAX_POINTS) */
+  CRT_P_n_rotors = 25,  /* the rotors ([[rotor]]: 0 to LAW_MAX_ROTORS) */
+  CRT_P_m_1 = 26,  /* mass of point 1 */
+  CRT_P_m_2 = 27,  /* ... */
+  CRT_P_m_3 = 28,  /* ... */
+  CRT_P_m_4 = 29,  /* ... */
+  CRT_P_m_5 = 30,  /* ... */
+  CRT_P_m_6 = 31,  /* ... */
+  CRT_P_m_7 = 32,  /* ... */
+  CRT_P_m_8 = 33,  /* ... */
+  CRT_P_m_9 = 34,  /* ... */
+  CRT_P_m_10 = 35,  /* ... */
+  CRT_P_m_11 = 36,  /* ... */
+  CRT_P_m_12 = 37,  /* ... */
+  CRT_P_m_13 = 38,  /* ... */
+  CRT_P_m_14 = 39,  /* ... */
+  CRT_P_m_15 = 40,  /* ... */
+  CRT_P_m_16 = 41,  /* ... */
+  CRT_P_a_1_x = 42,  /* unit axis of rotor 1 in body axes */
+  CRT_P_a_1_y = 43,  /* ... */
+  CRT_P_a_1_z = 44,  /* ... */
+  CRT_P_a_2_x = 45,  /* ... */
+  CRT_P_a_2_y = 46,  /* ... */
+  CRT_P_a_2_z = 47,  /* ... */
+  CRT_P_a_3_x = 48,  /* ... */
+  CRT_P_a_3_y = 49,  /* ... */
+  CRT_P_a_3_z = 50,  /* ... */
+  CRT_P_a_4_x = 51,  /* ... */
+  CRT_P_a_4_y = 52,  /* ... */
+  CRT_P_a_4_z = 53,  /* ... */
+  CRT_P_a_5_x = 54,  /* ... */
+  CRT_P_a_5_y = 55,  /* ... */
+  CRT_P_a_5_z = 56,  /* ... */
+  CRT_P_a_6_x = 57,  /* ... */
+  CRT_P_a_6_y = 58,  /* ... */
+  CRT_P_a_6_z = 59,  /* ... */
+  CRT_P_a_7_x = 60,  /* ... */
+  CRT_P_a_7_y = 61,  /* ... */
+  CRT_P_a_7_z = 62,  /* ... */
+  CRT_P_a_8_x = 63,  /* ... */
+  CRT_P_a_8_y = 64,  /* ... */
+  CRT_P_a_8_z = 65,  /* ... */
+  CRT_P_I_1 = 66,  /* axial moment of inertia of rotor 1 */
+  CRT_P_I_2 = 67,  /* ... */
+  CRT_P_I_3 = 68,  /* ... */
+  CRT_P_I_4 = 69,  /* ... */
+  CRT_P_I_5 = 70,  /* ... */
+  CRT_P_I_6 = 71,  /* ... */
+  CRT_P_I_7 = 72,  /* ... */
+  CRT_P_I_8 = 73,  /* ... */
+  CRT_P_COUNT = 74
 };
 
 /* Values of prm[CRT_P_shape]: the surfaces of derive/shapes.py, in their order. */
@@ -141,6 +142,8 @@ enum crt_status {
   CRT_DONE = 2,  /* the end time was reached */
   CRT_MAX_EVENTS = 3,  /* max_events events happened (opt[CRT_OPT_MAX_EVENTS]) */
   CRT_STOPPED = 4,  /* the controller stopped the run (its call returned a negative value) */
+  CRT_LIFT_OFF = 5,  /* base model: the normal force N under the face reached 0 (the body leaves the plane; the run stops there) */
+  CRT_TIPPING = 6,  /* base model: the centre of pressure reached the face's edge (the body tips about it; the run stops there) */
   CRT_MAX_STEPS = -1,  /* max_steps steps were taken before the end time */
   CRT_STEP_UNDERFLOW = -2,  /* the step size fell below 1e-14 of the time scale */
   CRT_NONFINITE = -3,  /* the state or the right-hand side became NaN or infinite */
@@ -194,7 +197,8 @@ enum crt_event_kind {
   CRT_EV_SPIN_START = 10,  /* the drilling couple reached mu_s N (or cannot hold the spin it stopped): the body spins from rest against it (value: |T_Z|/(mu_s N)) */
   CRT_EV_ROLL_STOP = 11,  /* the rolling (the horizontal angular velocity) reached 0 and the rolling resistance holds it (value: |T_t|/(mu_r N)) */
   CRT_EV_ROLL_START = 12,  /* the rolling resistance reached mu_r N (or cannot hold the rolling it stopped): the body rolls from rest against it (value: |T_t|/(mu_r N)) */
-  CRT_EV_COUNT = 13
+  CRT_EV_TIPPING = 13,  /* base model: the centre of pressure reached the face's edge (value: its distance from the face's centroid) */
+  CRT_EV_COUNT = 14
 };
 
 /* Counters read with crt_stats (long[CRT_STAT_COUNT]). */
@@ -353,7 +357,7 @@ const char *crt_option_name(int i)
 
 const char *crt_parameter_name(int i)
 {
-  static const char names[73][19] = {
+  static const char names[74][19] = {
     "M",
     "m",
     "J_x",
@@ -377,6 +381,7 @@ const char *crt_parameter_name(int i)
     "restitution_model",
     "spin_friction",
     "rolling_resistance",
+    "static_friction",
     "n_points",
     "n_rotors",
     "m_1",
@@ -428,7 +433,7 @@ const char *crt_parameter_name(int i)
     "I_7",
     "I_8"
   };
-  return (i >= 0 && i < 73) ? names[i] : "";
+  return (i >= 0 && i < 74) ? names[i] : "";
 }
 
 const char *crt_method_name(int i)
@@ -453,6 +458,8 @@ const char *crt_status_name(int code)
     case CRT_DONE: return "done";
     case CRT_MAX_EVENTS: return "max_events";
     case CRT_STOPPED: return "stopped";
+    case CRT_LIFT_OFF: return "lift_off";
+    case CRT_TIPPING: return "tipping";
     case CRT_MAX_STEPS: return "max_steps";
     case CRT_STEP_UNDERFLOW: return "step_underflow";
     case CRT_NONFINITE: return "nonfinite";
@@ -471,7 +478,7 @@ const char *crt_status_name(int code)
 
 const char *crt_event_name(int i)
 {
-  static const char names[13][11] = {
+  static const char names[14][11] = {
     "none",
     "impact",
     "contact",
@@ -484,9 +491,10 @@ const char *crt_event_name(int i)
     "spin_stop",
     "spin_start",
     "roll_stop",
-    "roll_start"
+    "roll_start",
+    "tipping"
   };
-  return (i >= 0 && i < 13) ? names[i] : "";
+  return (i >= 0 && i < 14) ? names[i] : "";
 }
 
 const char *crt_stat_name(int i)

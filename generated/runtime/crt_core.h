@@ -31,6 +31,12 @@
  *                           caller's own budget: a stop, as CVODE's root return)
  *   CRT_STOPPED          4  crt_advance: the controller of a closed loop stopped the run
  *                           (crt_control.h)
+ *   CRT_LIFT_OFF         5  crt_advance, the base model (a body on its face, crt_base.h):
+ *                           the normal force N under the face reached 0; the run stops
+ *                           there, with an event liftoff at its time
+ *   CRT_TIPPING          6  crt_advance, the base model: the centre of pressure reached the
+ *                           face's edge (the body tips); the run stops there, with an
+ *                           event tipping at its time
  *   CRT_MAX_STEPS       -1  crt_advance: opt[CRT_OPT_MAX_STEPS] steps before t_end (an
  *                           error, as CVODE's CV_TOO_MUCH_WORK)
  *   CRT_STEP_UNDERFLOW  -2  crt_advance: the step fell below 1e-14 of the time scale
@@ -108,7 +114,11 @@
 #ifndef CRT_CORE_H
 #define CRT_CORE_H
 
+#if MODEL_BASE
+#include "crt_base.h"                     /* the base model's loop: stick and slip */
+#else
 #include "crt_loop.h"
+#endif
 
 /* ---- public API (its manual: the comment at the top of this file and those below) ---- */
 

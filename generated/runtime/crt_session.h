@@ -12,7 +12,10 @@
  * The runtime is a stack of headers, each including only those below it: none calls a
  * function of one above it (the loop reaches the stages through their hooks, named
  * below).  From the top (each line: the header, what it holds, what it includes):
- *   crt_core.h        the public API and the manual          crt_loop.h (crt_rough_api.h)
+ *   crt_core.h        the public API and the manual          crt_loop.h (crt_rough_api.h),
+ *                                                            or crt_base.h (MODEL_BASE)
+ *   crt_base.h        the base model's loop (a body on its   crt_control.h,
+ *                     face: stick, slip, their events)       crt_base_steps.h
  *   crt_rough_api.h   the friction models' own functions     crt_rhs.h
  *   crt_loop.h        the loop of crt_advance                crt_events.h, crt_control.h
  *   crt_control.h     the closed loop: calls, pushes, noise  crt_session.h, crt_call.h
@@ -30,8 +33,11 @@
  *   crt_plane.h       the gap, projection, lift-off          crt_session.h
  *   crt_dk.h          Darboux-Keller's impact, standalone    crt_math.h, crt_abi.h
  *   crt_session.h     this file                              crt_law.h, crt_friction_state.h,
- *                                                            crt_bodies.h (MODEL_MOMENTS)
+ *                                                            crt_bodies.h (MODEL_MOMENTS),
+ *                                                            crt_base_model.h (MODEL_BASE)
  *   crt_bodies.h      the bodies' law summed into moments    crt_law.h, crt_abi.h
+ *   crt_base_model.h  the base model's physics (MODEL_BASE)  crt_face.h, crt_abi.h
+ *   crt_face.h        friction over a flat face, the gauge   crt_face_rules.h
  *   crt_law.h         the laws of the internal bodies        crt_math.h, crt_abi.h
  *   crt_math.h        max, min, sin and cos                  crt_constants.h
  * and the rendered crt_abi.h, crt_constants.h, crt_rk_steps.h, crt_lie_steps.h,
@@ -52,6 +58,21 @@
 #endif
 #if MODEL_MOMENTS
 #include "crt_bodies.h"                   /* crt_moments, crt_bodies_sum: u of the bodies */
+#endif
+#if MODEL_BASE
+#include "crt_base_model.h"               /* crt_base_body: a body on its face */
+
+/* the base model's memory (crt_base.h): the body, its mode, the last gauge's maximiser */
+typedef struct {
+  crt_base_body body;
+  int mode;                               /* rest, stick or slip (crt_base.h) */
+  long stamp;                             /* uf: the moments in the face frame of this */
+  double uf[MODEL_MOMENTS_COUNT];         /* evaluation of the law (-1: none) */
+  double xi[3];                           /* the gauge's last maximiser (a warm start) */
+  double g[3];                            /* the stick's event functions at t */
+  double eps;                             /* the slip ends at rho = eps */
+  double hs;                              /* the slip's step in s (0: to be chosen) */
+} crt_base_memory;
 #endif
 
 typedef struct {
@@ -122,6 +143,9 @@ typedef struct {
 #if MODEL_MOMENTS
   crt_moments mo;                         /* the bodies' moments at lw.t (crt_bodies.h) */
 #endif
+#if MODEL_BASE
+  crt_base_memory bs;                     /* the base model's (crt_base.h) */
+#endif
 } crt_session;
 
 /* ---- output buffers ---------------------------------------------------------------------- */
@@ -188,7 +212,7 @@ static int crt_emit(crt_out *o, double t, const double *q, int kind)
   return 1;
 }
 
-#if MODEL_HAS_PLANE                       /* (events happen only on the plane) */
+#if MODEL_HAS_PLANE || MODEL_BASE         /* (events happen only on the plane) */
 static void crt_event(crt_out *o, double t, int kind, double value, double a, double b,
                       double extra)
 {

@@ -17,6 +17,7 @@
 #define MODEL_PUSH 0
 #define MODEL_FRICTION 0
 #define MODEL_MOMENTS 0
+#define MODEL_BASE 0
 
 /* State: psi, phi
    where each quantity sits, from derive/layout.py (axisymmetric) */

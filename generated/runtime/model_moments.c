@@ -17,6 +17,7 @@
 #define MODEL_PUSH 1
 #define MODEL_FRICTION 0
 #define MODEL_MOMENTS 1
+#define MODEL_BASE 0
 /* u is the internal bodies' moments (derive/layout.py's MOMENTS), summed from their law by
    crt_bodies.h: MODEL_MOMENTS_COUNT numbers, a rotor's share (h, h') from MODEL_MOMENTS_SPIN */
 #define MODEL_MOMENTS_COUNT 27

@@ -17,6 +17,7 @@
 #define MODEL_PUSH 0
 #define MODEL_FRICTION 0
 #define MODEL_MOMENTS 0
+#define MODEL_BASE 0
 
 /* State: Z_C, Z_C', omega_x, omega_y, omega_z, a31, a32, a33, Phi[0,0], Phi[0,1], Phi[0,2], Phi[0,3], Phi[0,4], Phi[0,5], Phi[0,6], Phi[0,7], Phi[1,0], Phi[1,1], Phi[1,2], Phi[1,3], Phi[1,4], Phi[1,5], Phi[1,6], Phi[1,7], Phi[2,0], Phi[2,1], Phi[2,2], Phi[2,3], Phi[2,4], Phi[2,5], Phi[2,6], Phi[2,7], Phi[3,0], Phi[3,1], Phi[3,2], Phi[3,3], Phi[3,4], Phi[3,5], Phi[3,6], Phi[3,7], Phi[4,0], Phi[4,1], Phi[4,2], Phi[4,3], Phi[4,4], Phi[4,5], Phi[4,6], Phi[4,7], Phi[5,0], Phi[5,1], Phi[5,2], Phi[5,3], Phi[5,4], Phi[5,5], Phi[5,6], Phi[5,7], Phi[6,0], Phi[6,1], Phi[6,2], Phi[6,3], Phi[6,4], Phi[6,5], Phi[6,6], Phi[6,7], Phi[7,0], Phi[7,1], Phi[7,2], Phi[7,3], Phi[7,4], Phi[7,5], Phi[7,6], Phi[7,7]
    where each quantity sits, from derive/layout.py (variational) */

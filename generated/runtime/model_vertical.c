@@ -17,6 +17,7 @@
 #define MODEL_PUSH 0
 #define MODEL_FRICTION 0
 #define MODEL_MOMENTS 0
+#define MODEL_BASE 0
 /* the momentum form's functions of this model's family, by the names crt_lie.h calls */
 #define MODEL_LIE_STAGE lie_stage
 #define MODEL_LIE_POINT lie_point

@@ -1,0 +1,423 @@
+/*
+ * crt_base.h: the loop of the base model (crt_integrate for MODEL_BASE, in crt_loop.h's
+ * place): a body on its face that sticks and slips, with exact events (issue 33).
+ *
+ * Hand-written C: this file is templates/runtime/crt_base.h, copied verbatim into
+ * generated/runtime/ by `derive emit` (`derive emit --check` compares the copy byte for
+ * byte).  Edit it there, then run `derive emit`.
+ *
+ * Three modes (s->bs.mode):
+ *  - rest: the body is at rest at t; sticking holds if the gauge gamma of the wrench the
+ *    rest needs (crt_face_gauge, mu_s) is below 1 (or at 1 and not rising); else the slip
+ *    starts against the gauge's maximiser, along the stable direction of the slip's flow,
+ *    by its Taylor series (twist = G0 d + G1 d^2/2 until it reaches 1e2 eps);
+ *  - stick: the state is constant; the event functions 1 - gamma, N and the centre of
+ *    pressure's edge margin are sampled every opt[CRT_OPT_HMAX]/8 and a sign change is
+ *    located by the Illinois method (break-away: the slip starts; N: status lift_off;
+ *    the edge: status tipping);
+ *  - slip: integrated in the time s with dt/ds = rho = |(V_O, ell psi')| (the state z = (t,
+ *    q)), so the end of the slip is approached without the friction's direction flipping:
+ *    rho decays exponentially in s, the event rho = eps (1e-11 sqrt(g ell)) ends it and
+ *    the linear decay's last rho/|rho'| is added; then rest (a stick, or a reversal).  Each
+ *    step DOPRI5 (the tableau of crt_base_steps.h) with the error of rtol, atol on z; the
+ *    events (t_end, the stop, N, the edge) located inside a step by re-stepping from its
+ *    start (Illinois on the step's fraction).
+ * A run never goes on past lift-off or tipping: it stops there with that status and an
+ * event at its time.  The closed loop (crt_set_control) is refused (CRT_BAD_CONTROL).
+ */
+#ifndef CRT_BASE_H
+#define CRT_BASE_H
+
+#include "crt_control.h"
+#include "crt_base_steps.h"       /* crt_base_a, crt_base_c, crt_base_e */
+
+#define CRT_BASE_NZ (NQ + 1)      /* the slip's state in s: (t, q) */
+
+enum crt_base_mode { CRT_BASE_REST = 0, CRT_BASE_STICK = 1, CRT_BASE_SLIP = 2 };
+enum crt_base_event { CRT_BASE_NONE = -1, CRT_BASE_END = 0, CRT_BASE_STOP = 1,
+                      CRT_BASE_LIFT = 2, CRT_BASE_TIP = 3, CRT_BASE_BREAK = 4 };
+
+/* the moments in the face frame at t (summed once per evaluation of the law) */
+static const double *crt_base_u(crt_session *s, double t)
+{
+  const double *u = crt_u(s, t);
+  if (s->bs.stamp != s->stat[CRT_STAT_LAW_EVALUATIONS]) {
+    crt_base_face_moments(&s->bs.body, u, s->bs.uf);
+    s->bs.stamp = s->stat[CRT_STAT_LAW_EVALUATIONS];
+  }
+  return s->bs.uf;
+}
+
+/* dq/dt in slip (crt_eval_rhs, crt_init) */
+static void crt_rhs(crt_session *s, double t, const double *q, double *dq)
+{
+  double N, cp[2];
+  ++s->stat[CRT_STAT_RHS_EVALUATIONS];
+  crt_base_rates(&s->bs.body, crt_base_u(s, t), q, 0, dq, &N, cp);
+}
+
+/* crt_init: the body on its face (a fault: CRT_BAD_PARAMETERS), the mode of the start */
+static void crt_contact_start(crt_session *s)
+{
+  const int fault = crt_base_body_set(&s->bs.body, s->prm);
+  s->bs.stamp = -1;
+  s->bs.xi[0] = s->bs.xi[1] = s->bs.xi[2] = 0.0;
+  s->bs.eps = 1e-11 * s->bs.body.v_scale;
+  s->bs.mode = crt_base_rho(&s->bs.body, s->q) > 0.0 ? CRT_BASE_SLIP : CRT_BASE_REST;
+  s->bs.hs = 0.0;
+  s->phase = CRT_CONTACT;
+  if (fault >= 0) {
+    s->bad_parameter = fault;
+    s->status = CRT_BAD_PARAMETERS;
+  }
+}
+
+/* the first step (the slip's own is set where a slip starts) */
+static double crt_first_step(crt_session *s)
+{
+  return 1e-3 * s->bs.body.t_scale;
+}
+
+/* ---- the slip in s ---------------------------------------------------------------------- */
+/* dz/ds at z = (t, q), with N, cp and rho */
+static void crt_base_zrhs(crt_session *s, const double *z, double *dz, double *N, double *cp,
+                          double *rho)
+{
+  double dq[NQ];
+  int i;
+  ++s->stat[CRT_STAT_RHS_EVALUATIONS];
+  crt_base_rates(&s->bs.body, crt_base_u(s, z[0]), z + 1, 0, dq, N, cp);
+  *rho = crt_base_rho(&s->bs.body, z + 1);
+  dz[0] = *rho;
+  for (i = 0; i < NQ; ++i) dz[1 + i] = *rho * dq[i];
+}
+
+/* one DOPRI5 step of h in s from z0 (f0 its rate): z1, f1 and N, cp, rho at z1; returns
+   the error norm */
+static double crt_base_step(crt_session *s, const double *z0, const double *f0, double h,
+                            double *z1, double *f1, double *N, double *cp, double *rho)
+{
+  double k[7][CRT_BASE_NZ], tmp[CRT_BASE_NZ], err = 0.0;
+  int i, j, st;
+  for (i = 0; i < CRT_BASE_NZ; ++i) k[0][i] = f0[i];
+  for (st = 1; st < 7; ++st) {
+    for (i = 0; i < CRT_BASE_NZ; ++i) {
+      double acc = 0.0;
+      for (j = 0; j < st; ++j) acc += crt_base_a[st][j] * k[j][i];
+      tmp[i] = z0[i] + h * acc;
+    }
+    crt_base_zrhs(s, tmp, k[st], N, cp, rho);
+  }
+  for (i = 0; i < CRT_BASE_NZ; ++i) {        /* the stage 6 is at z1 (FSAL) */
+    double e = 0.0, sc;
+    z1[i] = tmp[i];
+    f1[i] = k[6][i];
+    for (j = 0; j < 7; ++j) e += crt_base_e[j] * k[j][i];
+    sc = s->opt[CRT_OPT_ATOL] + s->opt[CRT_OPT_RTOL] * crt_max(fabs(z0[i]), fabs(z1[i]));
+    err += (h * e / sc) * (h * e / sc);
+  }
+  return sqrt(err / CRT_BASE_NZ);
+}
+
+/* the slip's event functions at a state: t_end - t, rho - eps, N, the edge margin */
+static void crt_base_slip_g(const crt_session *s, double t_end, const double *z, double N,
+                            const double *cp, double rho, double *g)
+{
+  g[CRT_BASE_END] = t_end - z[0];
+  g[CRT_BASE_STOP] = rho - s->bs.eps;
+  g[CRT_BASE_LIFT] = N;
+  g[CRT_BASE_TIP] = crt_face_edge_margin(&s->bs.body.face, cp[0], cp[1]);
+}
+
+/* ---- the rest ------------------------------------------------------------------------------ */
+/* the stick's event functions at t (the state is constant): 1 - gamma, N, the margin */
+static void crt_base_stick_g(crt_session *s, double t, double *g, double *xi)
+{
+  static const double k0[2] = {0.0, 0.0};
+  double W[3], N, cp[2];
+  crt_base_rest(&s->bs.body, crt_base_u(s, t), W, &N, cp);
+  ++s->stat[CRT_STAT_EVENT_FUNCTION_EVALUATIONS];
+  g[0] = 1.0 - crt_face_gauge(&s->bs.body.face, crt_max(N, 0.0), k0, s->bs.body.mu_s, W, xi,
+                              &s->stat[CRT_STAT_EVENT_FUNCTION_EVALUATIONS]);
+  g[1] = N;
+  g[2] = crt_face_edge_margin(&s->bs.body.face, cp[0], cp[1]);
+}
+
+/* the scaled twist's rate at rest at (t, q) with the friction of the unit direction d */
+static void crt_base_flow(crt_session *s, double t, const double *q, const double *d,
+                          double *G)
+{
+  double dq[NQ], N, cp[2], sn, cs;
+  crt_base_rates(&s->bs.body, crt_base_u(s, t), q, d, dq, &N, cp);
+  ++s->stat[CRT_STAT_RHS_EVALUATIONS];
+  crt_sincos(q[2], &sn, &cs);
+  G[0] = cs * dq[3] + sn * dq[4];
+  G[1] = -sn * dq[3] + cs * dq[4];
+  G[2] = s->bs.body.ell * dq[5];
+}
+
+/* A slip from rest at s->t against the gauge's maximiser: the stable direction of the
+   slip's flow from -xi*, then the Taylor start.  0 when no slip starts (the flow points
+   back: the body stays). */
+static int crt_base_onset(crt_session *s)
+{
+  const double ell = s->bs.body.ell, h = 1e-7 * s->bs.body.t_scale, seed = 1e2 * s->bs.eps;
+  double d[3], G[3], Gp[3], Gm[3], a, bb, disc, delta, xi[3], moved[3], sn, cs, nd;
+  double *q = s->q;
+  int i, it;
+  for (i = 0; i < 3; ++i) d[i] = -s->bs.xi[i];
+  for (it = 0; it < 2000; ++it) {
+    double along, step[3], ns, nG;
+    crt_base_flow(s, s->t, q, d, G);
+    along = G[0] * d[0] + G[1] * d[1] + G[2] * d[2];
+    for (i = 0; i < 3; ++i) step[i] = G[i] - along * d[i];
+    ns = sqrt(step[0] * step[0] + step[1] * step[1] + step[2] * step[2]);
+    nG = sqrt(G[0] * G[0] + G[1] * G[1] + G[2] * G[2]);
+    if (ns <= 1e-13 * (fabs(along) + 1e-300)) break;
+    for (i = 0; i < 3; ++i) d[i] += 0.5 * step[i] / crt_max(nG, 1e-300);
+    nd = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+    for (i = 0; i < 3; ++i) d[i] /= nd;
+  }
+  crt_base_flow(s, s->t, q, d, G);
+  if (!(G[0] * d[0] + G[1] * d[1] + G[2] * d[2] > 0.0)) {
+    for (i = 0; i < 3; ++i) d[i] = -s->bs.xi[i];
+    crt_base_flow(s, s->t, q, d, G);
+  }
+  crt_base_flow(s, s->t + h, q, d, Gp);
+  crt_base_flow(s, s->t - h, q, d, Gm);
+  a = G[0] * d[0] + G[1] * d[1] + G[2] * d[2];
+  bb = 0.0;
+  for (i = 0; i < 3; ++i) bb += (Gp[i] - Gm[i]) / (2.0 * h) * d[i];
+  disc = a * a + 2.0 * bb * seed;
+  if (disc < 0.0 || a + sqrt(crt_max(disc, 0.0)) <= 0.0) return 0;
+  delta = 2.0 * seed / (a + sqrt(disc));
+  for (i = 0; i < 3; ++i) {
+    const double G1 = (Gp[i] - Gm[i]) / (2.0 * h);
+    xi[i] = G[i] * delta + G1 * delta * delta / 2.0;
+    moved[i] = G[i] * delta * delta / 2.0 + G1 * delta * delta * delta / 6.0;
+  }
+  crt_sincos(q[2], &sn, &cs);
+  q[0] += cs * moved[0] - sn * moved[1];
+  q[1] += sn * moved[0] + cs * moved[1];
+  q[2] += moved[2] / ell;
+  crt_sincos(q[2], &sn, &cs);
+  q[3] = cs * xi[0] - sn * xi[1];
+  q[4] = sn * xi[0] + cs * xi[1];
+  q[5] = xi[2] / ell;
+  s->t += delta;
+  crt_changed(s);
+  s->bs.mode = CRT_BASE_SLIP;
+  s->bs.hs = 0.0;
+  return 1;
+}
+
+/* stop the run at t with a status and its event */
+static void crt_base_end(crt_session *s, crt_out *o, int status, int event, double value)
+{
+  crt_emit(o, s->t, s->q, CRT_ROW_BEFORE_EVENT);
+  crt_event(o, s->t, event, value, 0.0, 0.0, 0.0);
+  if (event == CRT_EV_LIFTOFF) ++s->stat[CRT_STAT_LIFTOFFS];
+  s->status = status;
+}
+
+/* At rest at s->t (after a stop of the slip when after_stop, else at the start): stick,
+   or slip off (a slip, or a reversal after a stop), or stop (lift-off, tipping). */
+static void crt_base_settle(crt_session *s, crt_out *o, int after_stop)
+{
+  double g[3], later[3], xi[3];
+  int i, stick;
+  crt_base_stick_g(s, s->t, g, s->bs.xi);
+  if (g[1] <= 0.0) { crt_base_end(s, o, CRT_LIFT_OFF, CRT_EV_LIFTOFF, g[1]); return; }
+  if (g[2] <= 0.0) { crt_base_end(s, o, CRT_TIPPING, CRT_EV_TIPPING, g[2]); return; }
+  stick = g[0] > 1e-12;
+  if (!stick && g[0] >= -1e-12) {          /* at 1: sticks unless the gauge is rising */
+    for (i = 0; i < 3; ++i) xi[i] = s->bs.xi[i];
+    crt_base_stick_g(s, s->t + 1e-6 * s->bs.body.t_scale, later, xi);
+    stick = !(later[0] < g[0]);
+  }
+  if (!stick) {
+    const double t_before = s->t;
+    if (after_stop) {
+      crt_event(o, s->t, CRT_EV_REVERSAL, 1.0 - g[0], 0.0, 0.0, 0.0);
+      ++s->stat[CRT_STAT_REVERSALS];
+    } else {
+      crt_emit(o, s->t, s->q, CRT_ROW_BEFORE_EVENT);
+      crt_event(o, s->t, CRT_EV_SLIP, 1.0 - g[0], 0.0, 0.0, 0.0);
+      ++s->stat[CRT_STAT_SLIPS];
+    }
+    if (crt_base_onset(s)) {
+      crt_emit(o, s->t, s->q, CRT_ROW_AFTER_EVENT);
+      return;
+    }
+    s->t = t_before;                       /* the flow points back: it stays */
+  }
+  if (after_stop) {
+    crt_event(o, s->t, CRT_EV_STICK, 1.0 - g[0], 0.0, 0.0, 0.0);
+    ++s->stat[CRT_STAT_STICKS];
+  }
+  s->bs.mode = CRT_BASE_STICK;
+  for (i = 0; i < 3; ++i) s->bs.g[i] = g[i];
+}
+
+/* Illinois' root of one of the functions from [x0: g0 > 0] to [x1: g1 <= 0]; eval(k, x)
+   gives that function at x */
+#define CRT_BASE_ILLINOIS(x0, g0, x1, g1, root, tol, EVAL)                              \
+  do {                                                                                 \
+    double xa_ = (x0), ga_ = (g0), xb_ = (x1), gb_ = (g1);                             \
+    int side_ = 0, it_;                                                                \
+    for (it_ = 0; it_ < 100 && xb_ - xa_ > (tol); ++it_) {                             \
+      double xm_ = (xa_ * gb_ - xb_ * ga_) / (gb_ - ga_), gm_;                         \
+      if (!(xm_ > xa_ && xm_ < xb_)) xm_ = 0.5 * (xa_ + xb_);                          \
+      gm_ = EVAL(xm_);                                                                 \
+      if (gm_ > 0.0) { xa_ = xm_; ga_ = gm_; if (side_ == 1) gb_ *= 0.5; side_ = 1; }  \
+      else { xb_ = xm_; gb_ = gm_; if (side_ == -1) ga_ *= 0.5; side_ = -1; }          \
+    }                                                                                  \
+    (root) = xb_;                                                                      \
+  } while (0)
+
+/* one sample of the stick: its events located in [t, t + h] */
+static void crt_base_stick_step(crt_session *s, crt_out *o, double t_end)
+{
+  const double h = crt_min(s->opt[CRT_OPT_HMAX] / 8.0, t_end - s->t);
+  const double t1 = s->t + h, tol = 1e-15 * crt_max(1.0, fabs(t1)) + 1e-15 * s->bs.body.t_scale;
+  double g1[3], xi[3], first = HUGE_VAL, g[3];
+  int k, which = -1, i;
+  for (i = 0; i < 3; ++i) xi[i] = s->bs.xi[i];
+  crt_base_stick_g(s, t1, g1, xi);
+  for (k = 0; k < 3; ++k) {
+    if (s->bs.g[k] > 0.0 && g1[k] <= 0.0) {
+      double root;
+#define CRT_BASE_STICK_EVAL(x) (crt_base_stick_g(s, (x), g, xi), g[k])
+      CRT_BASE_ILLINOIS(s->t, s->bs.g[k], t1, g1[k], root, tol, CRT_BASE_STICK_EVAL);
+#undef CRT_BASE_STICK_EVAL
+      if (root < first) { first = root; which = k; }
+    }
+  }
+  ++s->stat[CRT_STAT_STEPS];
+  if (which < 0) {
+    s->t = t1;
+    for (i = 0; i < 3; ++i) { s->bs.g[i] = g1[i]; s->bs.xi[i] = xi[i]; }
+    crt_emit(o, s->t, s->q, CRT_ROW_STEP);
+    return;
+  }
+  s->t = first;
+  crt_base_stick_g(s, s->t, g, s->bs.xi);  /* the maximiser at the event */
+  if (which == 1) { crt_base_end(s, o, CRT_LIFT_OFF, CRT_EV_LIFTOFF, g[1]); return; }
+  if (which == 2) { crt_base_end(s, o, CRT_TIPPING, CRT_EV_TIPPING, g[2]); return; }
+  crt_emit(o, s->t, s->q, CRT_ROW_BEFORE_EVENT);
+  crt_event(o, s->t, CRT_EV_SLIP, 1.0 - g[0], 0.0, 0.0, 0.0);
+  ++s->stat[CRT_STAT_SLIPS];
+  if (!crt_base_onset(s)) {                /* no slip after all: the stick goes on */
+    for (i = 0; i < 3; ++i) s->bs.g[i] = g[i];
+    s->bs.g[0] = crt_max(g[0], 0.0);
+    return;
+  }
+  crt_emit(o, s->t, s->q, CRT_ROW_AFTER_EVENT);
+}
+
+/* one step of the slip in s, its events located */
+static void crt_base_slip_step(crt_session *s, crt_out *o, double t_end)
+{
+  double z0[CRT_BASE_NZ], f0[CRT_BASE_NZ], z1[CRT_BASE_NZ], f1[CRT_BASE_NZ], zt[CRT_BASE_NZ];
+  double ft[CRT_BASE_NZ], g0[4], g1[4], gt[4], N, cp[2], rho, err, hs, first = HUGE_VAL;
+  int k, which = -1, i;
+  z0[0] = s->t;
+  for (i = 0; i < NQ; ++i) z0[1 + i] = s->q[i];
+  crt_base_zrhs(s, z0, f0, &N, cp, &rho);
+  crt_base_slip_g(s, t_end, z0, N, cp, rho, g0);
+  if (!(s->bs.hs > 0.0)) s->bs.hs = 1e-3 * s->bs.body.t_scale / crt_max(rho, 1e-300);
+  hs = s->bs.hs;
+  for (;;) {
+    err = crt_base_step(s, z0, f0, hs, z1, f1, &N, cp, &rho);
+    if (err <= 1.0 && crt_finite(z1 + 1) && z1[0] - z1[0] == 0.0) break;
+    ++s->stat[CRT_STAT_REJECTED];
+    hs *= (err > 1.0 && err - err == 0.0) ? crt_max(0.2, 0.9 * pow(err, -0.2)) : 0.25;
+    if (hs * crt_max(f0[0], 1e-300) < 1e-14 * s->bs.body.t_scale) {
+      s->status = CRT_STEP_UNDERFLOW;
+      return;
+    }
+  }
+  ++s->stat[CRT_STAT_STEPS];
+  crt_base_slip_g(s, t_end, z1, N, cp, rho, g1);
+  for (k = 0; k < 4; ++k) {
+    if (g0[k] > 0.0 && g1[k] <= 0.0) {
+      double root;
+#define CRT_BASE_SLIP_EVAL(x) (crt_base_step(s, z0, f0, (x) * hs, zt, ft, &N, cp, &rho), \
+                               crt_base_slip_g(s, t_end, zt, N, cp, rho, gt), gt[k])
+      CRT_BASE_ILLINOIS(0.0, g0[k], 1.0, g1[k], root, 1e-15, CRT_BASE_SLIP_EVAL);
+#undef CRT_BASE_SLIP_EVAL
+      if (root < first) { first = root; which = k; }
+    }
+  }
+  s->bs.hs = hs * crt_min(10.0, crt_max(0.2, 0.9 * pow(crt_max(err, 1e-10), -0.2)));
+  if (which < 0) {
+    s->t = z1[0];
+    for (i = 0; i < NQ; ++i) s->q[i] = z1[1 + i];
+    crt_changed(s);
+    crt_emit(o, s->t, s->q, CRT_ROW_STEP);
+    return;
+  }
+  crt_base_step(s, z0, f0, first * hs, zt, ft, &N, cp, &rho);
+  s->t = zt[0];
+  for (i = 0; i < NQ; ++i) s->q[i] = zt[1 + i];
+  crt_changed(s);
+  if (which == CRT_BASE_END) {
+    s->t = t_end;
+    crt_emit(o, s->t, s->q, CRT_ROW_STEP);
+  } else if (which == CRT_BASE_LIFT) {
+    crt_base_end(s, o, CRT_LIFT_OFF, CRT_EV_LIFTOFF, N);
+  } else if (which == CRT_BASE_TIP) {
+    crt_base_end(s, o, CRT_TIPPING, CRT_EV_TIPPING,
+                 crt_face_edge_margin(&s->bs.body.face, cp[0], cp[1]));
+  } else {                                 /* the stop: the linear decay's last part */
+    const double rate = ft[0] > 0.0
+        ? (s->q[3] * ft[4] + s->q[4] * ft[5] + s->bs.body.ell * s->bs.body.ell * s->q[5]
+           * ft[6]) / (ft[0] * rho) : 0.0;       /* (dq/dt = ft[1..]/rho) . xi / rho */
+    const double dt = rate < 0.0 ? -rho / rate : 0.0;
+    crt_emit(o, s->t, s->q, CRT_ROW_BEFORE_EVENT);
+    for (i = 0; i < 3; ++i) {
+      s->q[i] += 0.5 * dt * s->q[3 + i];
+      s->q[3 + i] = 0.0;
+    }
+    s->t += dt;
+    crt_changed(s);
+    s->bs.mode = CRT_BASE_REST;
+    crt_base_settle(s, o, 1);
+    if (s->status == CRT_PAUSED && s->bs.mode == CRT_BASE_STICK)
+      crt_emit(o, s->t, s->q, CRT_ROW_AFTER_EVENT);
+  }
+}
+
+/* crt_advance's loop for the base model */
+static void crt_integrate(crt_session *s, double t_end, crt_out *o)
+{
+  if (s->ctl) {                            /* the closed loop is not run on a face */
+    (void)crt_control_at_stop;
+    (void)crt_control_after_event;
+    (void)crt_control_counters;
+    (void)crt_control_next_stop;
+    (void)crt_law_next_knot;               /* (a table's cubic pieces join with s'' continuous) */
+    (void)model_normalize;                 /* (no attitude: nothing to keep orthonormal) */
+    s->status = CRT_BAD_CONTROL;
+    return;
+  }
+  if (s->stat[CRT_STAT_STEPS] == 0 && s->t_first == s->t && s->out_k == 0.0) {
+    crt_emit(o, s->t, s->q, CRT_ROW_STEP);
+    s->out_k = 1.0;
+  }
+  while (s->t < t_end && s->status == CRT_PAUSED) {
+    if (o->n + CRT_MIN_ROWS > o->cap || o->ev_n + CRT_MIN_EVENTS > o->ev_cap) return;
+    if ((double)s->stat[CRT_STAT_STEPS] >= s->opt[CRT_OPT_MAX_STEPS]) {
+      s->status = CRT_MAX_STEPS;
+      return;
+    }
+    if (crt_events_exhausted(s)) return;
+    if (s->bs.mode == CRT_BASE_REST) crt_base_settle(s, o, 0);
+    else if (s->bs.mode == CRT_BASE_STICK) crt_base_stick_step(s, o, t_end);
+    else crt_base_slip_step(s, o, t_end);
+    if (!crt_finite(s->q)) s->status = CRT_NONFINITE;
+  }
+  if (s->status == CRT_PAUSED && s->t >= t_end) s->status = CRT_DONE;
+}
+
+#endif /* CRT_BASE_H */

@@ -1,0 +1,154 @@
+/*
+ * crt_base_model.h: the base model's physics (issue 33) -- a box or a cylinder on its face,
+ * driven by its points and rotors through their moments: the face and its frame from the
+ * parameters, the moments turned into the face frame, the rest's wrench and the slip's
+ * rates (the emitted base_stick, base_slip, base_twist of derive/base.py) with the
+ * friction over the face (crt_face.h).  The model file (model_base.c) includes it after
+ * the derived functions; crt_session.h keeps its memory, crt_base.h runs it.
+ *
+ * Hand-written C: this file is templates/runtime/crt_base_model.h, copied verbatim into
+ * generated/runtime/ by `derive emit` (`derive emit --check` compares the copy byte for
+ * byte).  Edit it there, then run `derive emit`.
+ *
+ * The face frame (derive/face.py's face_on): the vertical n (prm n0_x, n0_y, n0_z, body
+ * axes) along a face normal of the box, or along the axis of the cylinder (to 1e-9); its
+ * rows Q (a signed permutation of the body axes) turn body components into face ones,
+ * so J stays diagonal and the moments are permuted: s -> Q s, Theta -> Q Theta Q^T.
+ * Pressure: uniform (N/A).  State q = (X_O, Y_O, psi, X_O', Y_O', psi'), fixed axes.
+ */
+#ifndef CRT_BASE_MODEL_H
+#define CRT_BASE_MODEL_H
+
+#include <math.h>
+
+#include "crt_abi.h"
+#include "crt_face.h"
+
+typedef struct {
+  crt_face face;
+  double Q[9];                  /* rows: the face frame's axes in body axes */
+  double pf[6];                 /* base_*'s p: M, m, J_x, J_y, J_z (face frame), g */
+  double h;                     /* O's height above the plane */
+  double mu, mu_s;              /* the kinetic and the static coefficient */
+  double ell;                   /* the face's size: the scaled twist is (v, ell w) */
+  double v_scale, t_scale;      /* sqrt(g ell), ell / v_scale */
+} crt_base_body;
+
+/* The body on its face from the parameters; returns -1, or the index (CRT_P_*) of the
+   parameter at fault (n0_x: the vertical along no face normal; static_friction below
+   friction; shape: neither a box nor a cylinder).  The body is usable either way. */
+static int crt_base_body_set(crt_base_body *b, const double *prm)
+{
+  const int shape = (int)prm[CRT_P_shape];
+  double n[3], norm, c[3], sign;
+  int k = 0, i, j, fault = -1;
+  for (i = 0; i < 3; ++i) n[i] = prm[CRT_P_n0_x + i];
+  norm = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+  for (i = 1; i < 3; ++i)
+    if (fabs(n[i]) > fabs(n[k])) k = i;
+  if (!(norm > 0.0) || !(fabs(fabs(n[k]) / norm - 1.0) <= 1e-9)) fault = CRT_P_n0_x;
+  if (shape == CRT_SHAPE_CYLINDER && k != 2) fault = CRT_P_n0_x;
+  if (shape != CRT_SHAPE_CYLINDER && shape != CRT_SHAPE_BOX) fault = CRT_P_shape;
+  sign = n[k] >= 0.0 ? 1.0 : -1.0;
+  /* third = sign e_k, first = e_(k+1), second = third x first */
+  for (i = 0; i < 9; ++i) b->Q[i] = 0.0;
+  b->Q[(k + 1) % 3] = 1.0;
+  b->Q[3 + (k + 2) % 3] = sign;
+  b->Q[6 + k] = sign;
+  for (i = 0; i < 3; ++i) {
+    c[i] = 0.0;
+    for (j = 0; j < 3; ++j) c[i] += b->Q[3 * i + j] * prm[CRT_P_center_x + j];
+  }
+  if (shape == CRT_SHAPE_CYLINDER) {
+    crt_face_set(&b->face, CRT_FACE_DISC, prm[CRT_P_size_a], 0.0, c[0], c[1]);
+    b->h = prm[CRT_P_size_b] - c[2];
+  } else {
+    double ext[3];
+    for (i = 0; i < 3; ++i) {
+      ext[i] = 0.0;
+      for (j = 0; j < 3; ++j) ext[i] += fabs(b->Q[3 * i + j]) * prm[CRT_P_size_a + j];
+    }
+    crt_face_set(&b->face, CRT_FACE_RECTANGLE, ext[0], ext[1], c[0], c[1]);
+    b->h = ext[2] - c[2];
+  }
+  b->pf[0] = prm[CRT_P_M];
+  b->pf[1] = prm[CRT_P_m];
+  for (i = 0; i < 3; ++i) {                /* J_f = Q J Q^T: J permuted */
+    b->pf[2 + i] = 0.0;
+    for (j = 0; j < 3; ++j) b->pf[2 + i] += b->Q[3 * i + j] * b->Q[3 * i + j] * prm[CRT_P_J_x + j];
+  }
+  b->pf[5] = prm[CRT_P_g];
+  b->mu = prm[CRT_P_friction];
+  b->mu_s = prm[CRT_P_static_friction];
+  if (!(b->mu_s >= b->mu) && fault < 0) fault = CRT_P_static_friction;
+  b->ell = b->face.size;
+  b->v_scale = sqrt(b->pf[5] * b->ell);
+  b->t_scale = b->ell / b->v_scale;
+  return fault;
+}
+
+/* The moments u (body axes, derive/layout.py's MOMENTS) in the face frame: each vector
+   (MODEL_MOMENTS_VECTORS) turned by Q, each symmetric tensor's upper triangle
+   (MODEL_MOMENTS_TENSORS, entries 00 01 02 11 12 22) by Q . Q^T. */
+static void crt_base_face_moments(const crt_base_body *b, const double *u, double *uf)
+{
+  static const int vectors[] = MODEL_MOMENTS_VECTORS;
+  static const int tensors[] = MODEL_MOMENTS_TENSORS;
+  static const int row[6] = {0, 0, 0, 1, 1, 2}, col[6] = {0, 1, 2, 1, 2, 2};
+  const double *Q = b->Q;
+  int v, i, j, a, c;
+  for (v = 0; v < (int)(sizeof vectors / sizeof vectors[0]); ++v) {
+    const int o = vectors[v];
+    for (i = 0; i < 3; ++i)
+      uf[o + i] = Q[3 * i] * u[o] + Q[3 * i + 1] * u[o + 1] + Q[3 * i + 2] * u[o + 2];
+  }
+  for (v = 0; v < (int)(sizeof tensors / sizeof tensors[0]); ++v) {
+    const int o = tensors[v];
+    double S[9];
+    for (i = 0; i < 6; ++i) {
+      S[3 * row[i] + col[i]] = u[o + i];
+      S[3 * col[i] + row[i]] = u[o + i];
+    }
+    for (i = 0; i < 6; ++i) {              /* (Q S Q^T)_(row, col) */
+      double acc = 0.0;
+      for (a = 0; a < 3; ++a)
+        for (c = 0; c < 3; ++c)
+          acc += Q[3 * row[i] + a] * S[3 * a + c] * Q[3 * col[i] + c];
+      uf[o + i] = acc;
+    }
+  }
+  (void)j;
+}
+
+/* At rest: the friction wrench W = (F_x, F_y, T_z) the rest needs, N and the centre of
+   pressure cp (face frame, from O's vertical) */
+static void crt_base_rest(const crt_base_body *b, const double *uf, double *W, double *N,
+                          double *cp)
+{
+  base_stick(uf, b->pf, b->h, W, N, cp);
+}
+
+/* The slip's rates dq/dt at q, with N and cp; the friction that of the slip's own twist
+   (dir = 0), or of the unit scaled twist dir (v_x, v_y, ell w) (a slip from rest) */
+static void crt_base_rates(const crt_base_body *b, const double *uf, const double *q,
+                           const double *dir, double *dq, double *N, double *cp)
+{
+  static const double k0[2] = {0.0, 0.0};            /* uniform pressure */
+  double W[3], tw[3], N0, cp0[2];
+  base_stick(uf, b->pf, b->h, W, &N0, cp0);         /* N: the same at rest and in slip */
+  if (dir) {
+    tw[0] = dir[0]; tw[1] = dir[1]; tw[2] = dir[2] / b->ell;
+  } else {
+    base_twist(q, tw);
+  }
+  crt_face_wrench(&b->face, N0, k0, b->mu, tw, W);
+  base_slip(q, uf, b->pf, b->h, W, dq, N, cp);
+}
+
+/* |xi|: the slip's scaled twist's norm, sqrt(|V_O|^2 + (ell psi')^2) */
+static double crt_base_rho(const crt_base_body *b, const double *q)
+{
+  return sqrt(q[3] * q[3] + q[4] * q[4] + b->ell * b->ell * q[5] * q[5]);
+}
+
+#endif /* CRT_BASE_MODEL_H */

@@ -1,0 +1,209 @@
+"""The base model's C runtime (model_base.c: crt_base_model.h, crt_base.h, crt_face.h)
+against the closed forms of tests/test_base_closed_forms.py and against the reference
+integrator written apart (derive/base_reference.py), on scenes read as a user writes them
+(a box or a cylinder on its face, [[point]] laws), run by the compiled library alone.
+
+* 1-D stick-slip of a box (x = A (sin W t + 0.4 sin 2 W t), mu_s = 0.35 > mu = 0.3):
+  every event's kind and time to 1e-9, X at each stop to 1e-9 (0.478 mm net a period);
+* a disc spinning down: the stop at J w0/((2/3) mu N R) to 1e-9, having turned w0 t*/2;
+* lift-off: a point thrown upward so that N = (M + m) g + m z'' reaches 0 at the
+  closed-form time;
+* random bodies (two points, a tilted rotor) on a face under a vertical other than +z:
+  events and the final state against the reference integrator to 1e-8 (the reference
+  costs ~15 s of CPU a case: marked slow).
+"""
+import math
+
+import numpy as np
+import pytest
+
+from derive import abi
+from derive.runtime import choice
+from derive.runtime.build import library
+from derive.runtime.session import Session
+from derive.scene.parse import parse_scene
+
+import test_base_closed_forms as cf
+
+G = 9.81
+_P, _O = abi.PRM, {o.name: k for k, o in enumerate(abi.OPTIONS)}
+
+
+def _scene(body: str, point: str, mu: float, duration: float):
+    return parse_scene(f"""
+[body]
+{body}
+[[point]]
+{point}
+[plane]
+friction = {mu}
+restitution = 0.0
+[initial]
+on_plane = true
+[run]
+duration = {duration}
+""")
+
+
+def run_base(scene, q0, mu_s=None, hmax=None):
+    """The base model's run of a scene on its face (n = e_z of the body): its raw result."""
+    prm = choice.parameters(scene, {})
+    prm[_P["n0_z"]] = 1.0
+    prm[_P["static_friction"]] = scene.friction if mu_s is None else mu_s
+    opt = np.zeros(len(abi.OPTIONS))
+    opt[_O["method"]] = 1
+    opt[_O["rtol"]], opt[_O["atol"]] = 1e-12, 1e-14
+    opt[_O["hmax"]] = hmax or scene.duration / 64
+    opt[_O["rk4_step"]] = 1e-3
+    opt[_O["time_scale"]] = scene.duration
+    opt[_O["event_tol"]] = 1e-15
+    opt[_O["max_steps"]], opt[_O["max_events"]] = 1e6, 1e4
+    session = Session(library("base"))
+    session.set_law(scene.runtime_law)
+    return session.run(scene.t0, scene.duration, np.asarray(q0, dtype=float), opt, prm)
+
+
+def _events(raw):
+    kinds = abi.names(abi.EVENT_KINDS)
+    return [(row[0], kinds[int(row[1])]) for row in raw.events]
+
+
+def test_a_box_crawls_by_stick_and_slip_as_the_closed_form_says():
+    law = (f'law = ["{cf.A}*(sin({cf.W}*t) + {cf.BETA}*sin({2 * cf.W}*t))", "0", '
+           f'"{cf.Z0}"]')
+    scene = _scene(f'mass = {cf.M}\ninertia = [0.01, 0.02, 0.025]\nshape = "box"\n'
+                   'half_extents = [0.1, 0.06, 0.04]', f"mass = {cf.m}\n{law}", cf.MU_K, 1.6)
+    raw = run_base(scene, np.zeros(6), mu_s=cf.MU_S)
+    closed = cf.closed_form_1d(1.6)
+    got = _events(raw)
+    assert raw.status == "done"
+    assert [k for _, k in got] == [e[1] for e in closed]
+    assert np.abs(np.array([t for t, _ in got]) - [e[0] for e in closed]).max() < 1e-9
+    # X at each stop: the row after the event (a stick) or before the next slip's start
+    after = raw.kinds == abi.ROW_KIND["after_event"]
+    before = raw.kinds == abi.ROW_KIND["before_event"]
+    stops = [e for e in closed if len(e) == 3]
+    X = []
+    for t, kind, _ in stops:
+        rows = np.flatnonzero((before | after) & (np.abs(raw.t - t) < 1e-12))
+        X.append(raw.q[rows[-1 if kind == "stick" else 0], 0])
+    assert np.abs(np.array(X) - [e[2] for e in stops]).max() < 1e-9
+    sticks = np.array([x for x, e in zip(X, stops) if e[1] == "stick"])
+    assert abs((sticks[2:] - sticks[:-2])[0] - 4.7774e-4) < 1e-7
+
+
+def test_a_disc_spins_down_and_stops_when_the_closed_form_says():
+    R, L, Mb, mp, Jz, mu, w0 = 0.1, 0.03, 1.2, 0.3, 0.008, 0.4, 6.0
+    N = (Mb + mp) * G
+    t_star = Jz * w0 / (2 / 3 * mu * N * R)
+    scene = _scene(f'mass = {Mb}\ninertia = [0.006, 0.006, {Jz}]\nshape = "cylinder"\n'
+                   f'radius = {R}\nhalf_length = {L}', f'mass = {mp}\nlaw = ["0", "0", "0.01"]',
+                   mu, 2 * t_star)
+    raw = run_base(scene, [0, 0, 0, 0, 0, w0])
+    got = _events(raw)
+    assert raw.status == "done" and [k for _, k in got] == ["stick"]
+    assert abs(got[0][0] - t_star) < 1e-9 * t_star
+    assert abs(raw.q[-1, 2] - w0 * t_star / 2) < 1e-9
+    assert np.abs(raw.q[-1, [0, 1, 3, 4, 5]]).max() < 1e-12
+
+
+def test_lift_off_comes_at_its_closed_form_time():
+    # z = Z0 + a sin(W t): N = (M + m) g - m a W^2 sin(W t) reaches 0 at asin(...)/W
+    Mb, mp, a, W = 0.5, 0.5, 0.02, 40.0
+    t_lift = math.asin((Mb + mp) * G / (mp * a * W * W)) / W
+    scene = _scene(f'mass = {Mb}\ninertia = [0.01, 0.02, 0.025]\nshape = "box"\n'
+                   'half_extents = [0.1, 0.06, 0.04]',
+                   f'mass = {mp}\nlaw = ["0", "0", "{a}*sin({W}*t)"]', 0.3, 0.2)
+    raw = run_base(scene, np.zeros(6))
+    assert raw.status == "lift_off"
+    assert abs(_events(raw)[-1][0] - t_lift) < 1e-9 and _events(raw)[-1][1] == "liftoff"
+
+
+@pytest.mark.parametrize("which", ["n0_x", "static_friction"])
+def test_a_body_not_on_a_face_or_mu_s_below_mu_is_refused(which):
+    scene = _scene('mass = 1\ninertia = [0.01, 0.02, 0.025]\nshape = "box"\n'
+                   'half_extents = [0.1, 0.06, 0.04]', 'mass = 0.1\nlaw = ["0", "0", "0"]',
+                   0.3, 0.1)
+    prm = choice.parameters(scene, {})
+    prm[_P["n0_x"]], prm[_P["n0_z"]] = (0.3, 1.0) if which == "n0_x" else (0.0, 1.0)
+    prm[_P["static_friction"]] = 0.1 if which == "static_friction" else 0.3
+    session = Session(library("base"))
+    session.set_law(scene.runtime_law)
+    opt = np.ones(len(abi.OPTIONS))
+    opt[_O["method"]] = 1
+    assert session.init_status(opt, prm, 0.0, np.zeros(6)) == abi.STATUS["bad_parameters"]
+    assert session.library.lib.crt_bad_parameter(session.handle) == _P[which]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("seed, shape, n", [(1, "box", (0.0, -1.0, 0.0)),
+                                            (2, "cylinder", (0.0, 0.0, -1.0))])
+def test_random_bodies_as_the_reference_integrator_runs_them(seed, shape, n):
+    """Two points on harmonic laws and a tilted rotor, the face under a vertical other than
+    +z (the moments turned into the face frame): the C's events and final state against
+    derive/base_reference.py (Newton-Euler of every body, adaptive quadrature), 1e-8."""
+    from derive import base_reference as br
+    from derive import face as fc
+    import base_cases as bc
+    rng = np.random.default_rng(seed)
+    size = (0.1, 0.06, 0.04) if shape == "box" else (0.08, 0.03)
+    center = (0.005, -0.004, 0.003)
+    J = tuple(float(x) for x in rng.uniform(0.01, 0.03, 3))
+    face = fc.face_on(shape, size, center, n)
+    Q = face.frame
+    points, lines = [], []
+    for _ in range(2):
+        mass = float(rng.uniform(0.1, 0.3))
+        A, W, P = rng.uniform(-0.03, 0.03, 3), rng.uniform(2, 8, 3), rng.uniform(0, 6, 3)
+        law = [f"{a:.17g}*sin({w:.17g}*t + {p:.17g})" for a, w, p in zip(A, W, P)]
+        lines.append(f'[[point]]\nmass = {mass!r}\nlaw = {law!r}'.replace("'", '"'))
+        body_law = bc.harmonic(A, W, P)
+        points.append(br.Point(mass, lambda t, f=body_law: tuple(Q @ x for x in f(t))))
+    axis = rng.normal(size=3)
+    axis /= np.linalg.norm(axis)
+    amp, rate, inertia = float(rng.uniform(5, 15)), float(rng.uniform(2, 5)), 0.004
+    lines.append(f'[[rotor]]\naxis = {[float(x) for x in axis]!r}\ninertia = {inertia}\n'
+                 f'law = "{-amp / rate!r}*cos({rate!r}*t)"')
+    sizes = ("half_extents = " + repr(list(size)) if shape == "box"
+             else f"radius = {size[0]}\nhalf_length = {size[1]}")
+    body = (f'mass = 1.0\ninertia = {list(J)!r}\nshape = "{shape}"\n{sizes}\n'
+            f'center = {list(center)!r}')
+    scene = parse_scene(f"[body]\n{body}\n" + "\n".join(lines) + """
+[plane]
+friction = 0.4
+restitution = 0.0
+[initial]
+on_plane = true
+[run]
+duration = 0.25
+""")
+    q0 = np.array([0.01, -0.02, 0.3, 0.15, -0.1, 1.5])
+    prm = choice.parameters(scene, {})
+    raw = _run_prm(scene, q0, prm, n)
+    system = br.System(M=1.0, J=tuple(np.diag(Q @ np.diag(J) @ Q.T)), face=face,
+                       points=tuple(points),
+                       rotors=(br.Rotor(inertia, tuple(Q @ axis), bc.spinning(amp, rate)),),
+                       mu=0.4)
+    ref = br.Integrator(system).run(q0, 0.0, 0.25)
+    got = _events(raw)
+    assert raw.status == ref.status == "done"
+    want = [("stick" if k == "stick" else k, t) for t, k in ref.events]
+    assert [k for _, k in got] == [k for k, _ in want] and len(got) >= 1
+    assert np.abs(np.array([t for t, _ in got]) - [t for _, t in want]).max() < 1e-8
+    assert np.abs(raw.q[-1] - ref.samples[-1][1:]).max() < 1e-8
+
+
+def _run_prm(scene, q0, prm, n):
+    prm[_P["n0_x"]], prm[_P["n0_y"]], prm[_P["n0_z"]] = n
+    prm[_P["static_friction"]] = scene.friction
+    opt = np.zeros(len(abi.OPTIONS))
+    opt[_O["method"]] = 1
+    opt[_O["rtol"]], opt[_O["atol"]] = 1e-12, 1e-14
+    opt[_O["hmax"]] = scene.duration / 64
+    opt[_O["rk4_step"]] = 1e-3
+    opt[_O["time_scale"]] = scene.duration
+    opt[_O["event_tol"]] = 1e-15
+    opt[_O["max_steps"]], opt[_O["max_events"]] = 1e6, 1e4
+    session = Session(library("base"))
+    session.set_law(scene.runtime_law)
+    return session.run(scene.t0, scene.duration, q0, opt, prm)

@@ -1,0 +1,166 @@
+"""crt_face.h, the base model's friction over a face in C, against derive/face.py (the same
+integrals in NumPy: the rules are the same nodes, crt_face_rules.h rendered from
+derive/face.py's orders) and against the reference's adaptive quadrature
+(derive/base_reference.py), through a small shim compiled once (a few functions of the
+header exported to ctypes).
+
+* The wrench and D on random twists about instant centres within 12 face sizes (the
+  closed form, the disc's rules, the far product rule and translations), uniform and
+  linear pressure: a rectangle to 1e-12 of the largest component, a disc to 1e-12.
+* The gauge: the closed forms (a force through the pressure centre |F|/(mu N), a torque
+  on a centred disc |T|/((2/3) mu N R)), face.gauge's on random wrenches to 1e-10, and
+  the support property (the slip's friction at xi* is -W/gamma).
+"""
+import ctypes
+import math
+
+import numpy as np
+import pytest
+
+from derive import base_reference as br
+from derive import face as fc
+from derive.cbuild import build_shared
+from derive.runtime.build import runtime_dir
+
+RNG = np.random.default_rng(33)
+SHIM = r"""
+#include "crt_face.h"
+double shim_wrench(int kind, const double *geom, double N, const double *k, double mu,
+                   const double *tw, double *W)
+{
+  crt_face f;
+  crt_face_set(&f, kind, geom[0], geom[1], geom[2], geom[3]);
+  return crt_face_wrench(&f, N, k, mu, tw, W);
+}
+double shim_gauge(int kind, const double *geom, double N, const double *k, double mu,
+                  const double *W, double *xi, long *evaluations)
+{
+  crt_face f;
+  crt_face_set(&f, kind, geom[0], geom[1], geom[2], geom[3]);
+  return crt_face_gauge(&f, N, k, mu, W, xi, evaluations);
+}
+double shim_edge(int kind, const double *geom, double x, double y)
+{
+  crt_face f;
+  crt_face_set(&f, kind, geom[0], geom[1], geom[2], geom[3]);
+  return crt_face_edge_margin(&f, x, y);
+}
+"""
+DP = ctypes.POINTER(ctypes.c_double)
+
+
+@pytest.fixture(scope="module")
+def shim():
+    folder = runtime_dir()
+    sources = {n: (folder / n).read_bytes() for n in ("crt_face.h", "crt_face_rules.h")}
+    lib = ctypes.CDLL(str(build_shared({**sources, "shim_face.c": SHIM}, name="shim_face")))
+    for name, extra in (("shim_wrench", []), ("shim_gauge", [ctypes.POINTER(ctypes.c_long)])):
+        fn = getattr(lib, name)
+        fn.restype = ctypes.c_double
+        fn.argtypes = [ctypes.c_int, DP, ctypes.c_double, DP, ctypes.c_double, DP, DP, *extra]
+    lib.shim_edge.restype = ctypes.c_double
+    lib.shim_edge.argtypes = [ctypes.c_int, DP, ctypes.c_double, ctypes.c_double]
+    return lib
+
+
+def _arr(x):
+    return np.ascontiguousarray(x, dtype=float)
+
+
+def _ptr(a):
+    return a.ctypes.data_as(DP)
+
+
+def _face_args(f, N, cp, mode):
+    kind = 0 if f.kind == "rectangle" else 1
+    half = (*f.half, 0.0)[:2]
+    _, k = fc.pressure_slope(f, N, cp, mode)
+    return kind, _arr([half[0], half[1], *f.centre]), _arr(k)
+
+
+def c_wrench(lib, f, N, cp, mode, mu, tw):
+    kind, geom, k = _face_args(f, N, cp, mode)
+    W = np.zeros(3)
+    D = lib.shim_wrench(kind, _ptr(geom), N, _ptr(k), mu, _ptr(_arr(tw)), _ptr(W))
+    return W, D
+
+
+def c_gauge(lib, f, N, cp, mode, mu, W, start=(0.0, 0.0, 0.0)):
+    kind, geom, k = _face_args(f, N, cp, mode)
+    xi = _arr(start)
+    count = ctypes.c_long(0)
+    gam = lib.shim_gauge(kind, _ptr(geom), N, _ptr(k), mu, _ptr(_arr(W)), _ptr(xi),
+                         ctypes.byref(count))
+    return gam, xi, count.value
+
+
+def _faces():
+    box = fc.face_on("box", (0.2, 0.1, 0.05), (0.01, -0.01, 0), (0, 0, 1))
+    disc = fc.face_on("cylinder", (0.1, 0.05), (0.01, -0.01, 0), (0, 0, 1))
+    for f in (box, disc):
+        for mode, cp in (("uniform", None), ("linear", (0.015, -0.005))):
+            yield f, mode, cp
+
+
+def _twists(f, count):
+    for j in range(count):
+        r0 = np.asarray(f.centre) + RNG.uniform(-12, 12, 2) * f.size * RNG.uniform(0, 1) ** 2
+        w = RNG.choice([-1, 1]) * RNG.uniform(0.5, 3)
+        if j % 10 == 9:
+            w *= 1e-14                             # a translation
+        yield (r0[1] * w, -r0[0] * w, w)
+
+
+def test_the_wrench_is_face_pys_and_the_references(shim):
+    N, mu = 2.0, 0.5
+    far = 0
+    for f, mode, cp in _faces():
+        system = br.System(M=1, J=(1, 1, 1), face=f, pressure=mode)
+        for tw in _twists(f, 60):
+            W, D = c_wrench(shim, f, N, cp, mode, mu, tw)
+            py, D_py = fc.centre_wrench(f, N, cp, mode, mu, tw)
+            scale = np.abs(py).max()
+            assert np.abs(W - py).max() <= 1e-12 * scale, (f.kind, mode, tw)
+            assert abs(D - D_py) <= 1e-12 * D_py
+            if mode == "uniform":
+                ref, D_ref = br.friction(system, mu, N, cp, tw)
+                assert np.abs(W - ref).max() <= 1e-12 * scale
+                assert abs(D - D_ref) <= 1e-12 * D_ref
+            r0 = np.array([-tw[1], tw[0]]) / tw[2]
+            far += np.hypot(*(r0 - f.centre)) > fc.FAR * f.size
+    assert far > 10                        # the product rule was exercised
+
+
+def test_the_edge_margin_is_face_pys(shim):
+    for f, _, _ in _faces():
+        kind, geom, _ = _face_args(f, 1.0, None, "uniform")
+        for p in RNG.uniform(-0.3, 0.3, (50, 2)):
+            assert shim.shim_edge(kind, _ptr(geom), *p) == pytest.approx(f.edge_margin(p),
+                                                                        abs=1e-15)
+
+
+def test_the_gauge_closed_forms_and_face_pys(shim):
+    mu, N = 0.4, 3.0
+    box = fc.face_on("box", (0.2, 0.1, 0.05), (0, 0, 0), (0, 0, 1))
+    gam, xi, _ = c_gauge(shim, box, N, None, "uniform", mu, (0.5, -0.3, 0.0))
+    assert math.isclose(gam, math.hypot(0.5, 0.3) / (mu * N), rel_tol=1e-12)
+    assert np.allclose(xi, np.array([0.5, -0.3, 0]) / math.hypot(0.5, 0.3), atol=1e-9)
+    disc = fc.face_on("cylinder", (0.1, 0.05), (0, 0, 0), (0, 0, 1))
+    gam, _, _ = c_gauge(shim, disc, N, None, "uniform", mu, (0, 0, 0.05))
+    assert math.isclose(gam, 0.05 / (2 / 3 * mu * N * 0.1), rel_tol=1e-12)
+    evaluations = []
+    for f, mode, cp in _faces():
+        fr = fc.Friction(f, N, cp, mode, mu)
+        for _ in range(6):
+            W = RNG.normal(size=3) * np.array([1, 1, f.size])
+            gam, xi, count = c_gauge(shim, f, N, cp, mode, mu, W)
+            gam_py, xi_py = fc.gauge(fr, W, f.size)
+            assert math.isclose(gam, gam_py, rel_tol=1e-10)
+            assert np.allclose(xi, xi_py, atol=1e-6)
+            fric, _ = c_wrench(shim, f, N, cp, mode, mu, xi * np.array([1.0, 1.0, 1.0 / f.size]))
+            assert np.allclose(-fric * gam, W, rtol=0, atol=1e-7 * np.abs(W).max())
+            # warm-started from a nearby maximiser it needs fewer evaluations
+            _, _, warm = c_gauge(shim, f, N, cp, mode, mu, W * (1 + 1e-3), start=xi)
+            evaluations.append((count, warm))
+    cold, warm = np.mean(evaluations, axis=0)
+    assert warm < cold
