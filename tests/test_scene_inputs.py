@@ -119,6 +119,30 @@ def test_a_push_without_control_acts_on_the_open_run():
     assert abs(res.general[-1, 1] - plain.general[-1, 1]) > 0.1
 
 
+def test_a_pushed_runs_pictures_and_balance_are_of_the_pushed_run():
+    """The pictures and the energy balance read denser rows from one more run of the C:
+    that run had been the plain scene's, so a pushed robot was drawn unpushed (its X-Z
+    trace to the unpushed end, omega_x flat) and its balance fell back to the run's 201
+    rows (a new user's trial).  The denser run is the pushed run: the same events and the
+    same end, and the balance's quadrature on its rows."""
+    import numpy as np
+
+    import derive
+    from derive.runtime.motion import energy_balance, for_pictures, motion
+    doc = _robot()
+    doc["disturbance"] = {"pushes": [{"time": 2.0, "impulse": [0.0, 0.5, 0.0]}]}
+    res = derive.simulate(doc)
+    fine = for_pictures(res)
+    assert len(fine.t) > 4 * len(res.t)
+    assert [(e["kind"], e["t"]) for e in fine.events] == \
+        [(e["kind"], e["t"]) for e in res.events]
+    assert np.max(np.abs(fine.general[-1] - res.general[-1])) < 1e-9
+    plain = derive.simulate(_robot())
+    assert abs(fine.general[-1, 1] - plain.general[-1, 1]) > 0.1
+    balance = energy_balance(res, motion(res))
+    assert balance["quadrature_rows"] > 4 * len(res.t)
+
+
 def test_derive_simulate_closes_a_scenes_loop_as_the_cli_does():
     """derive.simulate(scene with [control]) had run the open scene and ignored the
     table (only the CLI closed the loop); both now go through derive.control.run."""

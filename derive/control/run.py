@@ -18,6 +18,7 @@ import copy
 import os
 import time
 from concurrent.futures import ThreadPoolExecutor
+from dataclasses import replace
 
 from ..progress import count
 from ..runtime.driver import Result, prepare, run_prepared, simulate
@@ -43,7 +44,9 @@ def run_scene(scene, progress: bool = False) -> Result:
 def simulate_pushed(sc: Scene, progress: bool = False) -> Result:
     """An open run of ``sc`` with its ``[disturbance]``'s pushes (see the module)."""
     start = time.perf_counter()
-    pl = plant.plant_scene(sc)                 # the general model when there are pushes
+    # the general model when there are pushes; the rows sc asks for (a re-run for the
+    # pictures sets output_dt on the Scene, which the plant's document does not hold)
+    pl = replace(plant.plant_scene(sc), output_dt=sc.output_dt)
     loop = plant.loop(_open, sc, 0.0)
     prep = prepare(pl)
     t_prepare = time.perf_counter() - start
@@ -58,6 +61,7 @@ def simulate_pushed(sc: Scene, progress: bool = False) -> Result:
             bar.close()
     res.timings = {"prepare_s": t_prepare, **res.timings,
                    "library_build_s": prep.library.build_seconds}
+    res.rerun = lambda output_dt: simulate_pushed(replace(sc, output_dt=output_dt))
     n = len(sc.disturbance.pushes)
     if n:
         res.why = (f"[disturbance]'s {count(n, 'push', 'pushes')} need{'s' if n == 1 else ''} the "

@@ -120,6 +120,10 @@ class Result:
     rates: np.ndarray | None = field(repr=False, default=None)   # dq/dt rows (planar, axisym.)
     timings: dict = field(default_factory=dict)
     loop: object = field(repr=False, default=None)   # a closed loop's ClosedLoop (control)
+    # the same run again with another output_dt (output_dt -> Result), for the pictures'
+    # and the energy balance's denser rows; None: driver.simulate of the scene, which is
+    # the run unless it had pushes or a closed loop (their producers set it)
+    rerun: object = field(repr=False, default=None)
 
     @cached_property
     def session(self) -> Session:

@@ -132,7 +132,21 @@ def for_pictures(result):
     if (0 < s.output_dt <= fine) or len(result.t) >= PICTURE_SAMPLES \
             or result.status != "done":
         return result
-    return simulate(replace(s, output_dt=fine))
+    again = rerun(result, fine)
+    return again if again is not None and _same_run(result, again) else result
+
+
+def rerun(result, output_dt: float):
+    """The run of ``result`` again with rows every ``output_dt`` (None when it cannot be
+    repeated here: a closed loop's controller is not re-run).  A pushed run repeats with
+    its pushes (``Result.rerun``); a plain run is :func:`~derive.runtime.driver.simulate`
+    of its scene.  A pushed run redrawn by the plain run had been drawn unpushed."""
+    if result.rerun is not None:
+        return result.rerun(output_dt)
+    s = result.scene
+    if result.loop is not None or s.disturbance is not None or s.control is not None:
+        return None
+    return simulate(replace(result.scene, output_dt=output_dt))
 
 
 def motion(result) -> Motion:
@@ -417,8 +431,8 @@ def for_balance(result, mo: Motion):
     steps = np.diff(result.t)
     if len(steps) == 0 or float(np.max(steps)) <= dt * (1 + 1e-9):
         return result, mo
-    fine = simulate(replace(s, output_dt=dt))
-    if not _same_run(result, fine):
+    fine = rerun(result, dt)
+    if fine is None or not _same_run(result, fine):
         return result, mo
     return fine, motion(fine)
 
