@@ -308,6 +308,7 @@ def _simulate_sweep(args, start: float) -> int:
         print(f"{len(out.rows)} variants of {origin} ran in {out.seconds:.2f} s on {where}: "
               f"{outcome}")
     if out.executor == "dask":
+        from .runtime.batch import CLUSTER_CHUNK
         # what a call costs on a cluster: a worker's first task readies the runtime
         # library (loads it, or builds it where the machine has not)
         ready, run = max(out.ready_s), [t - r for t, r in zip(out.task_s, out.ready_s)]
@@ -315,7 +316,10 @@ def _simulate_sweep(args, start: float) -> int:
               f"{'s' if out.tasks != 1 else ''} of {min(run):.2f}-{max(run):.2f} s in the "
               "workers" + (f", and {ready:.2f} s readying the runtime library on a "
                            "worker's first task (once per worker)" if ready >= 0.01
-                           else " (the runtime library already loaded: not the first call)"))
+                           else " (the runtime library ready in under 0.01 s: already built "
+                                "on the worker's machine, or already loaded)")
+              + (f"; a task holds at least {CLUSTER_CHUNK[0]} variants, so a study this "
+                 "small keeps one worker busy" if out.tasks == 1 and out.workers > 1 else ""))
     if bad:
         first = next(r["error"] for r in out.rows if "error" in r)
         print(f"  {bad} refused, e.g. {first}")

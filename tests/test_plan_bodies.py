@@ -203,3 +203,14 @@ def test_decide_and_rotor_bounds_are_refused_in_a_point_task():
         with pytest.raises(SceneError) as info:
             parse_task(d)
         assert info.value.where == f"[plan].{key}"
+
+
+def test_derive_plan_says_it_does_not_use_derive_controls_tables(tmp_path, capsys):
+    """A control task's [control] and [disturbance] had been validated by derive plan and
+    then ignored without a word (a new user's trial): the plan says it plans the model's
+    task undisturbed and that derive control reads them."""
+    from derive.cli import main
+    task = EXAMPLES.parent.parent / "control" / "examples" / "wheels.toml"
+    assert main(["plan", str(task), "-o", str(tmp_path / "out"), "-q"]) == 0
+    out = capsys.readouterr().out
+    assert "[control] and [disturbance] validated, not used: derive control reads them" in out

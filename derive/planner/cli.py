@@ -31,6 +31,13 @@ def run(args) -> int:
     written = result.write(args.output)
     for line in report_lines(result, message=False):     # the message goes to stderr once
         print(line)
+    sc = task.scene             # derive control's tables: validated here, read there
+    given = [f"[{name}]" for name, table in (("control", sc.control),
+                                              ("disturbance", sc.disturbance)) if table]
+    if given:
+        print(f"  {' and '.join(given)} validated, not used: derive control reads "
+              f"{'them' if len(given) > 1 else 'it'} (this plans the model's task, "
+              "undisturbed)")
     print(f"  wrote {', '.join(p.name for p in written)} to {args.output}")
     if not result.ok:
         print(f"derive plan: {result.message}", file=sys.stderr)
