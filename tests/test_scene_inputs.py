@@ -141,6 +141,10 @@ def test_a_pushed_runs_pictures_and_balance_are_of_the_pushed_run():
     assert abs(fine.general[-1, 1] - plain.general[-1, 1]) > 0.1
     balance = energy_balance(res, motion(res))
     assert balance["quadrature_rows"] > 4 * len(res.t)
+    # the slip the push starts (tens of milliseconds) integrated on rows of its own: the
+    # residual had been 1 % of friction's work on the phase's 9 rows; 0.1 % now (and 1e-10
+    # of it unpushed: what remains after a push is not yet understood)
+    assert abs(balance["residual"]) < 2e-3 * abs(balance["work_of_friction"])
 
 
 def test_derive_simulate_closes_a_scenes_loop_as_the_cli_does():
