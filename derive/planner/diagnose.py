@@ -58,6 +58,10 @@ CAP_STEP = 60          # iterations of a continuation step, warm-started
 STEP = 0.7             # a step moves a limit by at most this factor
 HALVINGS = 1           # a failed step is retried this many times, halved
 BUDGET = 400           # iterations of the whole diagnosis (a few seconds)
+# what a user can do when no limit is found to blame (a new user changed five things at once)
+UNDIAGNOSED = (". No limit is shown to block the task: what is hard may be the task itself "
+               "(the start's spin and tilt, the height of the drop, the target); change one "
+               "of those at a time, or raise a limit by hand and plan again")
 CLOSE = 2.0            # a blocking limit within this factor is brought back to its value
 NEAR = 1e-3            # a solve stopped with violations below this is resumed
 INFEASIBLE = ("Infeasible_Problem_Detected", "Restoration_Failed")
@@ -201,15 +205,17 @@ def _diagnose(session, run, failed) -> Diagnosis:
                 break
     except Spent:
         return Diagnosis(None, None, f"not diagnosed: IPOPT did not converge with {listed} "
-                                     f"raised within {BUDGET} iterations")
+                                     f"raised within {BUDGET} iterations{UNDIAGNOSED}")
     raised = raised_to
     if not usable(free):
         if free.status in INFEASIBLE:
             return Diagnosis(None, None, f"the goal itself is out of reach: infeasible even "
                                          f"with {listed} raised "
                                          f"({_values(raised)})")
+        why = ("stopped at its cap of iterations" if free.status == "User_Requested_Stop"
+               else free.status)
         return Diagnosis(None, None, f"not diagnosed: IPOPT did not converge with {listed} "
-                                     f"raised ({_values(raised)}; {free.status})")
+                                     f"raised ({_values(raised)}; {why}){UNDIAGNOSED}")
     need = tr.limit_values(free.w)
     # the limit exceeded most first: to see whether it alone blocks the task, the
     # others (exceeded less) are set back to their values, the cheaper test
