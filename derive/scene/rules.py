@@ -63,6 +63,8 @@ class Draft:
     restitution_model: str = "energetic"
     spin_friction: float = 0.0
     rolling_resistance: float = 0.0
+    static_friction: float | None = None   # the base model's mu_s, pressure (None: not given)
+    pressure: str | None = None
     t0: float = 0.0
     duration: float = 0.0
     law: Any = None                        # one point's law (None for other bodies)

@@ -199,9 +199,10 @@ SCENE_FIELDS = (
       "after every step"),
     F("run", "model", "choice", "auto", "the model (auto: the smallest that answers the "
       "scene; moments, moments_rough: any points and rotors through their moments, the "
-      "only models of scenes that are not one point)",
+      "only models of scenes that are not one point; base: a box or a cylinder resting "
+      "on a face, on_plane, on a rough plane: derive/docs/bodies.md)",
       choices=("auto", "general", "rough", "vertical", "attitude", "translational",
-               "planar", "axisymmetric", "moments", "moments_rough")),
+               "planar", "axisymmetric", "moments", "moments_rough", "base")),
     F("run", "zeno_dt", "number", 1e-9, "accumulating impacts: enter contact when the "
       "remaining flights sum to less than zeno_dt x duration", 0, 1, True),
     F("stability", "period", "number", None, "free flight: the period (default: the law's)",
