@@ -141,9 +141,10 @@ def lines(result, tr: dict | None = None) -> list[str]:
     tr = tr if tr is not None else travel(result)
     if tr.get("displacement_per_period") is not None:
         d = tr["displacement_per_period"]
-        out.append(f"  C moved ({d[0]:.6g}, {d[1]:.6g}) m a period (period {tr['period']:.6g}"
-                   f" s, {tr['whole_periods']} whole periods): mean speed "
-                   f"{tr['mean_speed']:.6g} m/s")
+        last = tr["last_period_displacement"]
+        out.append(f"  C moved ({d[0]:.6g}, {d[1]:.6g}) m a period over {tr['whole_periods']}"
+                   f" whole periods of {tr['period']:.6g} s (mean speed {tr['mean_speed']:.6g}"
+                   f" m/s); the last period ({last[0]:.6g}, {last[1]:.6g}) m")
     return out
 
 
