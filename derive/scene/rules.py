@@ -171,6 +171,12 @@ def _required(d: Draft) -> None:
         d.one_point = len(d.point_elements) == 1 and not d.rotor_elements
 
 
+def _required_bulk(d: Draft) -> bool:
+    """The same: of the fields a study varies in bulk it reads only e, to copy it."""
+    _required(d)
+    return False
+
+
 def _face_keys(d: Draft) -> None:
     """[plane].static_friction (>= friction) and pressure: the base model's, kept as None
     where not given (choice.py refuses them by name on the other models)."""
@@ -188,12 +194,6 @@ def _face_keys(d: Draft) -> None:
                                                  'the tipping moment) is not yet modelled: '
                                                  'give "uniform" or leave it out')
         d.pressure = v["[plane].pressure"]
-
-
-def _required_bulk(d: Draft) -> bool:
-    """The same: of the fields a study varies in bulk it reads only e, to copy it."""
-    _required(d)
-    return False
 
 
 def _exceeds_the_others(J, k: int):
