@@ -65,6 +65,16 @@ COMMANDS = (
                 Arg.of("--quick", action="store_true", help="the grid and the one-point "
                        "target only (no cold derivation and compile, no Pinocchio)"),
             )),
+    Command("base", "a body resting on its face (issue 33): the base model's C run per "
+            "simulated second against the flight model's (target <= 1x), and a friction x "
+            "frequency study of 10^4 variants (target < 10 s)", "derive.bench.base", (
+                Arg.of("--repeats", type=REPEATS, default=7,
+                       help="timing samples (median and spread)"),
+                Arg.of("--grid", type=count(2, 1000), default=100,
+                       help="the study's grid per axis (default 100: 10^4 variants)"),
+                Arg.of("--workers", type=count(1, 1024), default=None,
+                       help="threads of the study (default: every core)"),
+            )),
     Command("law", "the point law interpreted against compiled: ns per evaluation, compile "
             "time, share of a run", "derive.bench.law", (
                 Arg.of("--repeats", type=REPEATS, default=7,

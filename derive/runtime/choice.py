@@ -19,6 +19,12 @@ chooses one and fills its numbers:
   the model of every scene that is not one point (several points, rotors, or none); a
   one-point scene takes it only when ``[run].model`` asks (the same motion as the
   general model's, at about 1.2 times its cost: derive bench bodies).
+* ``base`` (X_O, Y_O, psi and their rates: crt_base.h) for a box or a cylinder resting on a
+  face on a rough plane (``[initial].on_plane`` with the vertical along a face normal,
+  omega(0) along it, O moving horizontally): the face stays on the plane, so its
+  horizontal motion and yaw are the whole motion, with friction over the face (Coulomb
+  and Contensou) in place of one point's; the run stops with ``lift_off`` or ``tipping``
+  where N reaches 0 or the centre of pressure the face's edge.
 
 The conditions read the law's program (``is_zero``) and its samples; nothing symbolic.
 """
@@ -29,7 +35,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .. import abi, layout, shapes
+from .. import abi, face as faces, layout, shapes
 from .geometry import kinetic_moment, lowest_point_numeric, momentum_frame, rotation_x, rotation_z
 from ..scene import Scene, SceneError
 from ..scene.rules import most
@@ -107,8 +113,65 @@ def _moments_why(scene: Scene) -> str:
     return why
 
 
+BASE_SHAPES = ("box", "cylinder")
+
+
+def _base_offset(scene: Scene) -> tuple:
+    """OC and OC' at t0 (body axes): where the internal bodies put C, and how fast."""
+    from . import bodies
+    c, cd, _ = bodies.offsets(scene, bodies.moments(bodies.along(scene, [scene.t0])))
+    return c[0], cd[0]
+
+
+def base_face(scene: Scene):
+    """The face on the plane (derive/face.py's Face, its frame Q) under the vertical
+    A0[2], or ValueError when the vertical is along no face normal."""
+    return faces.face_on(scene.shape, scene.size, scene.center, scene.A0[2])
+
+
+def base_refusal(scene: Scene) -> str | None:
+    """Why the base model cannot run ``scene`` (None: it can): a box or a cylinder on a
+    face, on a rough plane, turning only about the vertical, O moving horizontally."""
+    if scene.shape not in BASE_SHAPES:
+        return (f"it needs a box or a cylinder (a flat face to rest on), not "
+                f"{shapes.with_article(scene.shape) if scene.shape != 'none' else 'no shape'}")
+    if not scene.contact_possible or not scene.on_plane:
+        return "it needs [plane] and [initial].on_plane = true (the body on a face at the start)"
+    if not scene.rough:
+        return "it needs [plane].friction > 0 (the face rests, slides and sticks by friction)"
+    try:
+        base_face(scene)
+    except ValueError as exc:
+        return f"[initial]'s attitude puts no face on the plane: {exc}"
+    n = np.asarray(scene.A0[2], dtype=float)
+    w = np.asarray(scene.omega, dtype=float)
+    if np.linalg.norm(np.cross(w, n)) > 1e-12 * max(np.linalg.norm(w), 1e-300):
+        return ("[initial].omega is not along the vertical (a body on its face turns only "
+                "about it)")
+    c, cd = _base_offset(scene)
+    v_O = np.asarray(scene.com_velocity, dtype=float) - scene.A0 @ (np.cross(w, c) + cd)
+    scale = math.sqrt(scene.g * faces.face_on(scene.shape, scene.size, scene.center, n).size)
+    if abs(v_O[2]) > 1e-12 * max(np.linalg.norm(v_O), scale):
+        return (f"O starts with a vertical velocity ({v_O[2]:.3g} m/s): a body on its face "
+                "moves horizontally (give [initial].carrier_velocity = [V_x, V_y, 0])")
+    return None
+
+
+def _base_why(scene: Scene) -> str:
+    face = base_face(scene)
+    what = "box on a face" if face.kind == "rectangle" else "cylinder on an end"
+    mu = f"mu = {scene.friction:g}" + (f", mu_s = {scene.mu_static:g}"
+                                       if scene.mu_static != scene.friction else "")
+    return (f"a {what} on a rough plane ({mu}): the face stays on the plane, so the "
+            "horizontal motion and the yaw are the whole motion (Coulomb-Contensou friction "
+            "over the face)")
+
+
 def candidates(scene: Scene) -> list:
     wants = set(scene.outputs)
+    if scene.rough and scene.on_plane and base_refusal(scene) is None:
+        found = candidates(_off_face(scene))
+        return [("base", _base_why(scene)), *found]
     if not scene.one_point:
         return [("moments_rough" if scene.rough else "moments", _moments_why(scene))]
     # a one-point scene's moments model, chosen only by [run].model (last: never auto)
@@ -137,16 +200,55 @@ def candidates(scene: Scene) -> list:
     return out
 
 
+def _off_face(scene: Scene) -> Scene:
+    """The scene as the other models read it (on_plane only computes C's start)."""
+    import dataclasses
+    return dataclasses.replace(scene, on_plane=False)
+
+
 def choose(scene: Scene) -> tuple[str, str]:
     """The model and why (for ``model = "auto"``), or the forced one checked."""
+    if scene.model == "base":
+        refusal = base_refusal(scene)
+        if refusal is not None:
+            raise SceneError("[run].model", f'"base" cannot run this scene: {refusal}')
     found = candidates(scene)
     if scene.model == "auto":
-        return found[0]
-    for kind, why in found:
-        if kind == scene.model:
-            return kind, f"forced by [run].model; {why}"
-    raise SceneError("[run].model", f"{scene.model!r} cannot answer this scene "
-                                    f"(possible: {', '.join(k for k, _ in found)})")
+        kind, why = found[0]
+    else:
+        for kind, why in found:
+            if kind == scene.model:
+                why = f"forced by [run].model; {why}"
+                break
+        else:
+            raise SceneError("[run].model", f"{scene.model!r} cannot answer this scene "
+                                            f"(possible: {', '.join(k for k, _ in found)})")
+    _base_keys(scene, kind)
+    return kind, why
+
+
+def _base_keys(scene: Scene, kind: str) -> None:
+    """The keys only the base model reads are refused by name on the others; and what the
+    base model does not read on it."""
+    if kind != "base":
+        for key, value in (("static_friction", scene.static_friction),
+                           ("pressure", scene.pressure)):
+            if value is not None:
+                raise SceneError(f"[plane].{key}", f"is read by the base model only (a box or "
+                                                   f"a cylinder resting on a face), and this "
+                                                   f"run is model {kind}")
+        return
+    for key in ("spin_friction", "rolling_resistance"):
+        if getattr(scene, key) > 0.0:
+            raise SceneError(f"[plane].{key}", "is a couple at the one point S of the rough "
+                                               "model; over a face the base model's friction "
+                                               "gives the torques itself: remove it")
+    if scene.control is not None:
+        raise SceneError("[control]", "is not read by the base model (a body resting on its "
+                                      "face has no controller yet): remove it")
+    if scene.disturbance is not None:
+        raise SceneError("[disturbance]", "is not read by the base model (a push would tilt "
+                                          "the body off its face): remove it")
 
 
 # ---- what a model reads ------------------------------------------------------------------------
@@ -178,6 +280,8 @@ def start(scene: Scene, kind: str) -> Start:
         return Start(q if kind in GENERAL_STATE else layout.vertical_of_general(q)
                      if kind == "vertical" else q[..., G.omega], {})
     n0 = {"n0_x": A0[2][0], "n0_y": A0[2][1], "n0_z": A0[2][2]}
+    if kind == "base":
+        return _base_start(scene, n0)
     if kind == "translational":
         return Start(np.array([scene.com[2], scene.com_velocity[2]]), n0)
     jets = scene.law.jets([scene.t0])[:, 0]
@@ -191,6 +295,46 @@ def start(scene: Scene, kind: str) -> Start:
         st.constants["_frame"] = (R_K, theta0)
         return st
     raise KeyError(kind)
+
+
+def _base_start(scene: Scene, n0: dict) -> Start:
+    """(X_O, Y_O, psi, X_O', Y_O', psi'): O from C and the bodies' offset, psi the yaw of
+    the face frame (A0 = R_z(psi) Q), psi' the spin about the vertical."""
+    A0 = np.asarray(scene.A0, dtype=float)
+    face = base_face(scene)
+    c, cd = _base_offset(scene)
+    w = np.asarray(scene.omega, dtype=float)
+    r_O = np.asarray(scene.com, dtype=float) - A0 @ c
+    v_O = np.asarray(scene.com_velocity, dtype=float) - A0 @ (np.cross(w, c) + cd)
+    F = A0 @ face.frame.T
+    psi = math.atan2(F[1, 0], F[0, 0])
+    q0 = np.array([r_O[0], r_O[1], psi, v_O[0], v_O[1], float(A0[2] @ w)])
+    return Start(q0, {**n0, "static_friction": scene.mu_static, "_face": face,
+                      "_Z_O": float(r_O[2])})
+
+
+def base_pose(scene: Scene, st: Start, t, Q) -> tuple:
+    """Along the rows of a base run: the attitude A = R_z(psi) Q_face (n, 3, 3), O's
+    position and velocity (n, 3) and omega in body axes (psi' along the vertical)."""
+    n = len(t)
+    B = layout.BASE
+    Qf = st.constants["_face"].frame
+    A = rotation_z(Q[:, B.psi]) @ Qf[None]
+    r_O = np.column_stack([Q[:, B.position], np.full(n, st.constants["_Z_O"])])
+    v_O = np.column_stack([Q[:, B.velocity], np.zeros(n)])
+    omega = Q[:, B.psi_rate][:, None] * np.asarray(scene.A0[2], dtype=float)[None]
+    return A, r_O, v_O, omega
+
+
+def base_c(scene: Scene, st: Start, t, Q) -> tuple:
+    """C's position and velocity (fixed axes) and the attitude along the rows of a base
+    run: r_C = r_O + A OC, V_C = V_O + A (omega x OC + OC')."""
+    from . import bodies
+    A, r_O, v_O, omega = base_pose(scene, st, t, Q)
+    c, cd, _ = bodies.offsets(scene, bodies.moments(bodies.along(scene, t)))
+    r_C = r_O + np.einsum("nij,nj->ni", A, c)
+    v_C = v_O + np.einsum("nij,nj->ni", A, np.cross(omega, c) + cd)
+    return r_C, v_C, A, omega
 
 
 _P = abi.PRM
@@ -257,6 +401,8 @@ def omega_of(scene: Scene, kind: str, st: Start, t, Q, rates=None) -> np.ndarray
     n = len(t)
     if kind in ("vertical", "attitude", *GENERAL_STATE):
         return Q[:, layout.of(kind).omega]
+    if kind == "base":
+        return base_pose(scene, st, t, Q)[3]
     if kind == "translational":
         return np.zeros((n, 3))
     if kind == "planar":
@@ -278,6 +424,9 @@ def to_general(scene: Scene, kind: str, st: Start, t, Q, omega) -> np.ndarray | 
         return Q
     if kind in ("vertical", "attitude"):
         return None
+    if kind == "base":
+        r_C, v_C, A, omega = base_c(scene, st, t, Q)
+        return G.assemble(com=r_C, com_velocity=v_C, omega=omega, A=A.reshape(n, 9))
     X, Y, VX, VY = _uniform_horizontal(scene, t)
     if kind == "translational":
         T = layout.TRANSLATIONAL
@@ -310,20 +459,35 @@ def height_of_c(scene: Scene, kind: str, t: float, q) -> float:
     if kind in ("vertical", "translational", "planar", *GENERAL_STATE):
         z = q[..., layout.of(kind).Z]
         return float(z) if np.ndim(z) == 0 else z
+    if kind == "base":
+        return float(base_c_at(scene, t, q)[2])
     if kind == "axisymmetric":                # free flight: C on its parabola
         dt = t - scene.t0
         return scene.com[2] + scene.com_velocity[2] * dt - 0.5 * scene.g * dt * dt
     return math.nan
 
 
-def horizontal_of_c(kind: str, t0, t, q, c0) -> tuple:
+def base_c_at(scene: Scene, t: float, q) -> np.ndarray:
+    """C's position at time t from one state of the base model."""
+    st = start(scene, "base")
+    return base_c(scene, st, np.array([float(t)]), np.asarray(q, dtype=float)[None])[0][0]
+
+
+def horizontal_of_c(kind: str, t0, t, q, c0, scenes=None) -> tuple:
     """(X_C, Y_C) at time t from a state of a model and C's start ``c0`` (X, Y, Z, X', Y',
     Z'), of one run or entry by entry of rows.  The general and rough models hold them;
     every other model runs on a smooth plane or in free flight, where nothing horizontal
-    acts on the system, so C moves uniformly: X_C = X_C0 + X_C0' (t - t0)."""
+    acts on the system, so C moves uniformly: X_C = X_C0 + X_C0' (t - t0).  The base model
+    (friction over a face) reads the scene (``scenes``: one, or one per row): C = O + A OC."""
     if kind in ("general", "rough"):
         h = q[..., layout.of(kind).horizontal]
         return h[..., 0], h[..., 1]
+    if kind == "base":
+        if np.ndim(t) == 0:
+            r = base_c_at(scenes, t, q)
+            return float(r[0]), float(r[1])
+        r = np.array([base_c_at(sc, tk, qk) for sc, tk, qk in zip(scenes, t, q)])
+        return r[:, 0], r[:, 1]
     c0 = np.asarray(c0, dtype=float)
     dt = np.asarray(t, dtype=float) - t0
     return c0[..., 0] + c0[..., 3] * dt, c0[..., 1] + c0[..., 4] * dt
@@ -335,10 +499,10 @@ def start_of_c(scene) -> np.ndarray:
                            np.asarray(scene.com_velocity, dtype=float)], axis=-1)
 
 
-def travel(kind: str, t0, t_end, q, c0) -> dict:
+def travel(kind: str, t0, t_end, q, c0, scenes=None) -> dict:
     """Where C ends horizontally and how far it went from its start (the net horizontal
-    displacement), of one run or entry by entry."""
-    x, y = horizontal_of_c(kind, t0, t_end, q, c0)
+    displacement), of one run or entry by entry (``scenes``: horizontal_of_c's)."""
+    x, y = horizontal_of_c(kind, t0, t_end, q, c0, scenes)
     c0 = np.asarray(c0, dtype=float)
     distance = np.hypot(x - c0[..., 0], y - c0[..., 1])
     one = np.ndim(distance) == 0

@@ -412,7 +412,8 @@ def overview(result, mo: Motion, path: Path, dpi: int = 80, steps=None) -> Path:
                           bottom=0.45 / height, wspace=0.45, hspace=0.42)
     n_contact = len(contact_intervals(result))
     phases_text = f", {count(n_contact, 'contact phase')}" if n_contact else ""
-    fig.suptitle(f"{s.name}: {result.model} model, {s.method}, {result.status}; "
+    method = "dopri5" if result.model == "base" else s.method
+    fig.suptitle(f"{s.name}: {result.model} model, {method}, {result.status}; "
                  f"{count(len(imp), 'impact')}{phases_text}", fontsize=12, y=1 - 0.15 / height,
                  va="top")
     if has_motion:
@@ -573,6 +574,9 @@ def overview(result, mo: Motion, path: Path, dpi: int = 80, steps=None) -> Path:
 
     for ax in panels[:4]:
         ax.set_xlim(t[0], t[-1])
+    if result.model == "base":          # a body on its face: no flight, no impacts
+        from .base_report import panels as base_panels
+        base_panels(panels[0], panels[4], panels[5], result, mo)
     scale_into_labels(fig)
     fig.savefig(path, dpi=dpi)
     return path

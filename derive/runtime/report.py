@@ -16,22 +16,24 @@ import numpy as np
 
 from .. import abi, layout
 from ..progress import count
-from . import choice
+from . import base_report, choice
 from .events import phases
 from .motion import Motion, energy_balance, motion
 
 _SLIDING, _STICKING = abi.MODE["sliding"], abi.MODE["sticking"]
 
 
-def invariant_drift(result) -> dict:
-    """Relative drift of |K| within each flight phase (E1.9), and of A's orthonormality."""
+def invariant_drift(result, on_face: bool = False) -> dict:
+    """Relative drift of |K| within each flight phase (E1.9; not of a body on its face,
+    which never flies), and of A's orthonormality."""
     out = {}
     K = result.momentum["K_norm"]
     worst = 0.0
-    for a, b, state in phases(result):
+    for a, b, state in () if on_face else phases(result):
         if state == "flight" and b - a > 1 and K[a] > 0:
             worst = max(worst, float(np.max(np.abs(K[a:b] - K[a])) / K[a]))
-    out["K_norm_relative_drift_between_events"] = worst
+    if not on_face:
+        out["K_norm_relative_drift_between_events"] = worst
     if result.general is not None:
         A = result.general[:, layout.GENERAL.A].reshape(-1, 3, 3)
         err = np.abs(np.einsum("nij,nkj->nik", A, A) - np.eye(3)).max(axis=(1, 2))
@@ -55,13 +57,14 @@ def summary(result, mo: Motion | None = None) -> dict:
     mo = mo if mo is not None else motion(result)
     steps, events = (np.flatnonzero(result.row_kind == abi.ROW_KIND["step"]),
                      np.flatnonzero(result.row_kind != abi.ROW_KIND["step"]))
-    energy = energy_balance(result, mo)
+    base = result.model == "base"
+    energy = base_report.energy(result, mo) if base else energy_balance(result, mo)
     return {
         "scene": s.name,
         "status": result.status,
         "model": result.model,
         "why": result.why,
-        "method": s.method, "rtol": s.rtol, "atol": s.atol,
+        "method": base_report.METHOD if base else s.method, "rtol": s.rtol, "atol": s.atol,
         "t0": s.t0, "t_end": float(result.t[-1]) if len(result.t) else s.t0,
         "duration": s.duration,
         "counts": {**result.stats, "rows": int(len(result.t)),
@@ -72,10 +75,11 @@ def summary(result, mo: Motion | None = None) -> dict:
         "contact": {"min_height_of_S": _finite(result.min_height),
                     "t_min_height": _finite(result.summary["t_min_height"]),
                     "min_normal_force_in_contact": _finite(result.min_normal),
-                    **(contact_friction(result) if result.rough else {})},
-        "travel": travel_of(result, mo),
+                    **(contact_friction(result) if result.rough else {}),
+                    **(base_report.contact(result) if base else {})},
+        "travel": {**travel_of(result, mo), **(base_report.travel(result) if base else {})},
         "energy": energy,
-        "invariants": invariant_drift(result),
+        "invariants": invariant_drift(result, base),
         "timings_s": dict(result.timings),
         "machine": {"processor": platform.processor() or platform.machine(),
                     "cpus": os.cpu_count()},
@@ -86,7 +90,7 @@ def travel_of(result, mo: Motion) -> dict:
     """How far C went horizontally: where it ends, the net displacement from its start
     (``distance``, as a study's column) and the length of its horizontal path."""
     end = choice.travel(result.model, result.scene.t0, float(result.t[-1]),
-                        result.model_q[-1], choice.start_of_c(result.scene))
+                        result.model_q[-1], choice.start_of_c(result.scene), result.scene)
     xy = np.asarray(mo.r_C)[:, :2]
     return {"X_C_start": float(result.scene.com[0]), "Y_C_start": float(result.scene.com[1]),
             **end, "path_length": float(np.hypot(*np.diff(xy, axis=0).T).sum())}
@@ -125,10 +129,13 @@ def lines(scene, result, loop: str | None = None) -> list[str]:
     out = [f"{scene.name}: {result.status}; model {result.model} ({result.why})"]
     if loop is not None:
         out.append(f"  closed loop ({loop})")
-    out.append(f"  {scene.method}, {info['steps']} steps ({info['rejected']} rejected), "
-               f"{info['rhs_evaluations']} RHS evaluations, {count(info['impacts'], 'impact')}, "
+    base = result.model == "base"
+    method = base_report.METHOD if base else scene.method
+    out.append(f"  {method}, {info['steps']} steps ({info['rejected']} rejected), "
+               f"{info['rhs_evaluations']} RHS evaluations" + ("" if base else
+               f", {count(info['impacts'], 'impact')}, "
                f"{count(info['contacts'], 'contact phase')}, "
-               f"{count(info['liftoffs'], 'lift-off')}")
+               f"{count(info['liftoffs'], 'lift-off')}"))
     pushes = [ev for ev in result.events if ev["kind"] == "push"]
     if pushes:
         out.append(f"  {count(len(pushes), 'push', 'pushes')} applied: " + ", ".join(
@@ -136,12 +143,14 @@ def lines(scene, result, loop: str | None = None) -> list[str]:
             + (", ..." if len(pushes) > 4 else ""))
     if result.rough:
         out += _friction_lines(scene, result)
+    if base:
+        out += base_report.lines(result)
     end = choice.travel(result.model, scene.t0, float(result.t[-1]), result.model_q[-1],
-                        choice.start_of_c(scene))
+                        choice.start_of_c(scene), scene)
     if end["distance"] > 0.0:                  # C moved horizontally: how far
         out.append(f"  C travelled {end['distance']:.4g} m horizontally (from its start to "
                    f"X_C = {end['X_C_end']:.4g}, Y_C = {end['Y_C_end']:.4g} m)")
-    if scene.contact_possible:
+    if scene.contact_possible and not base:
         mh, mn = result.min_height, result.min_normal
         out.append(f"  lowest height of S {mh:.3g} m" +
                    (f", smallest reaction in contact {mn:.4g} N" if mn < float("inf") else ""))

@@ -79,7 +79,7 @@ def summary_row(result) -> dict:
             "min_height": result.min_height,
             "first_contact_t": float(contact[0, 0]) if len(contact) else math.nan,
             **choice.travel(result.model, result.scene.t0, t_end, result.model_q[-1],
-                     choice.start_of_c(result.scene)),
+                            choice.start_of_c(result.scene), result.scene),
             "Z_C_end": choice.height_of_c(result.scene, result.model, t_end,
                                           result.model_q[-1]),
             "run_ms": 1e3 * result.timings.get("run_s", math.nan)}
@@ -245,7 +245,8 @@ def run_part(part: Part, ready: list) -> dict:
     else:
         cols["Z_C_end"][:] = [choice.height_of_c(sc, part.kind, float(r[0]), r[1:])
                               for sc, r in zip(part.scenes, last)]
-    for name, col in choice.travel(part.kind, part.t0, last[:, 0], last[:, 1:], part.c0).items():
+    for name, col in choice.travel(part.kind, part.t0, last[:, 0], last[:, 1:], part.c0,
+                                   part.scenes).items():
         cols[name][:] = col
     cols["run_ms"][:] = 1e3 * out["seconds"] / n
     for k in np.flatnonzero(out["init_status"] != _OK):

@@ -154,6 +154,7 @@ def read(base_v: dict, base_given: set, names: tuple, variants: list,
     scene = Scene.of_fields(fields, com=_rows(d.extra["com"], n),
                             com_velocity=_rows(d.extra["com_velocity"], n),
                             omega=_rows(v["[initial].omega"], n), A0=d.A0,
+                            on_plane=bool(v["[initial].on_plane"]),
                             step=d.extra.get("step", 0.0), doc_source=None)
     return Columns(n, v, d, ok, scene)
 

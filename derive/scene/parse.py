@@ -108,6 +108,7 @@ def scene_fields(v: dict, d: Draft, origin: str = "scene", with_law: bool = True
                 law=d.law, law_text=d.law_text, plane=d.plane, e=d.e, t0=d.t0,
                 friction=d.friction, restitution_model=d.restitution_model,
                 spin_friction=d.spin_friction, rolling_resistance=d.rolling_resistance,
+                static_friction=d.static_friction, pressure=d.pressure,
                 duration=d.duration if with_law else 0.0,
                 method=run("method"), rtol=run("rtol"), atol=run("atol"), g=run("g"),
                 outputs=run("outputs"), max_events=run("max_events"),
@@ -181,6 +182,7 @@ def state_part(static: Static, v: dict, given: set, source) -> Scene:
     return Scene.of_fields(static.fields, com=d.extra["com"],
                            com_velocity=d.extra["com_velocity"],
                            omega=v["[initial].omega"], A0=d.A0,
+                           on_plane=bool(v["[initial].on_plane"]),
                            step=d.extra.get("step", 0.0), doc_source=source)
 
 

@@ -63,6 +63,8 @@ class Draft:
     restitution_model: str = "energetic"
     spin_friction: float = 0.0
     rolling_resistance: float = 0.0
+    static_friction: float | None = None   # the base model's mu_s, pressure (None: not given)
+    pressure: str | None = None
     t0: float = 0.0
     duration: float = 0.0
     law: Any = None                        # one point's law (None for other bodies)
@@ -161,6 +163,7 @@ def _required(d: Draft) -> None:
             raise SceneError(f"[plane].{key}", "needs [plane].friction > 0 (the couple acts "
                                                "in the rough model's contact)")
         setattr(d, key, value)
+    _face_keys(d)
     d.t0 = v["[initial].time"]
     if d.with_law:
         d.point_elements = bodies.point_elements(v)
@@ -172,6 +175,25 @@ def _required_bulk(d: Draft) -> bool:
     """The same: of the fields a study varies in bulk it reads only e, to copy it."""
     _required(d)
     return False
+
+
+def _face_keys(d: Draft) -> None:
+    """[plane].static_friction (>= friction) and pressure: the base model's, kept as None
+    where not given (choice.py refuses them by name on the other models)."""
+    v, given = d.v, d.given
+    d.static_friction = d.pressure = None
+    if "[plane].static_friction" in given and d.plane:
+        mu_s = v["[plane].static_friction"]
+        if not mu_s >= d.friction:
+            raise SceneError("[plane].static_friction", f"must be >= [plane].friction "
+                                                        f"({mu_s:g} < {d.friction:g})")
+        d.static_friction = mu_s
+    if "[plane].pressure" in given and d.plane:
+        if v["[plane].pressure"] == "linear":
+            raise SceneError("[plane].pressure", '"linear" (the distribution that balances '
+                                                 'the tipping moment) is not yet modelled: '
+                                                 'give "uniform" or leave it out')
+        d.pressure = v["[plane].pressure"]
 
 
 def _exceeds_the_others(J, k: int):

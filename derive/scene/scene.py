@@ -108,6 +108,9 @@ class Scene:
     restitution_model: str = "energetic"
     spin_friction: float = 0.0       # mu_s, a length ([plane].spin_friction)
     rolling_resistance: float = 0.0  # mu_r, a length ([plane].rolling_resistance)
+    static_friction: float | None = None   # the base model's mu_s (None: not given)
+    pressure: str | None = None      # the base model's pressure over the face (None: not given)
+    on_plane: bool = False           # [initial].on_plane: S on the plane at the start
     # the internal bodies other than one point (derive/scene/bodies.py): None for one
     # point (the paper's carrier, its law in ``law``), else (points, rotors), the proved
     # Point and Rotor objects, with ``law`` None, ``m`` the points' total mass and
@@ -172,6 +175,12 @@ class Scene:
     def rough(self) -> bool:
         """Contact is possible and the plane has friction (the rough model)."""
         return self.contact_possible and self.friction > 0.0
+
+    @property
+    def mu_static(self) -> float:
+        """The static coefficient over a face (the base model): [plane].static_friction, or
+        friction's when it is not given."""
+        return self.friction if self.static_friction is None else self.static_friction
 
     @property
     def reduced_mass(self) -> float:

@@ -162,6 +162,13 @@ SCENE_FIELDS = (
       "couple about the horizontal at S with |(T_X, T_Y)| <= mu_r N that opposes the "
       "rolling (a flat face of half-width mu_r that must not tip; 0: none).  In contact "
       "only, with friction > 0", 0, MAX_LENGTH),
+    F("plane", "static_friction", "number", None, "mu_s, the static coefficient over a "
+      "face (>= friction; default: friction): the base model's rest holds while the wrench "
+      "it needs is within the limit surface of mu_s (derive/docs/bodies.md); refused on "
+      "the other models", 0, 100),
+    F("plane", "pressure", "choice", "uniform", "the pressure over a face on the plane (the "
+      "base model): uniform; linear (Sakharov's, balancing the tipping moment) is not yet "
+      "modelled and is refused; refused on the other models", choices=("uniform", "linear")),
     F("initial", "time", "number", 0.0, "t0", -1e9, 1e9),
     F("initial", "com", "vector", [0.0, 0.0, 0.0], "X_C, Y_C, Z_C: C, the centre of mass of "
       "the whole system (the carrier and its points), fixed axes; with on_plane, Z_C is "
@@ -199,9 +206,10 @@ SCENE_FIELDS = (
       "after every step"),
     F("run", "model", "choice", "auto", "the model (auto: the smallest that answers the "
       "scene; moments, moments_rough: any points and rotors through their moments, the "
-      "only models of scenes that are not one point)",
+      "only models of scenes that are not one point; base: a box or a cylinder resting "
+      "on a face, on_plane, on a rough plane: derive/docs/bodies.md)",
       choices=("auto", "general", "rough", "vertical", "attitude", "translational",
-               "planar", "axisymmetric", "moments", "moments_rough")),
+               "planar", "axisymmetric", "moments", "moments_rough", "base")),
     F("run", "zeno_dt", "number", 1e-9, "accumulating impacts: enter contact when the "
       "remaining flights sum to less than zeno_dt x duration", 0, 1, True),
     F("stability", "period", "number", None, "free flight: the period (default: the law's)",

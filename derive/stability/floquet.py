@@ -26,20 +26,19 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from fractions import Fraction
 
 import casadi as ca
 import numpy as np
 import sympy as sp
 
 from .. import models as dm
-from .. import notation as nt
 from ..emit.casadi_backend import build_function
 from ..emit.numpy_backend import compile_spec
 from .. import abi, layout
 from ..runtime import choice
 from ..runtime.driver import simulate
 from ..scene import Scene, SceneError
+from ..scene.law.period import NotPeriodic, common_period
 from .specialise import common as _common
 from .specialise import specialise
 from .variational import Monodromy
@@ -89,29 +88,16 @@ class Analysis:
 
 
 def law_period(scene: Scene) -> float:
-    """The common period of the point's law: every sin/cos argument must be k t + c
-    with frequencies commensurate (ratios of small integers); constant laws have none."""
-    hint = "set [stability].period"
-    freqs = set()
-    for expr in scene.law.sympy():
-        expr = sp.sympify(expr)
-        for atom in expr.atoms(sp.sin, sp.cos):
-            arg = sp.expand(atom.args[0])
-            k = arg.coeff(nt.t)
-            if not k.is_number or (arg - k * nt.t).has(nt.t):
-                raise SceneError("[point].law", f"is not periodic in t ({atom}): {hint}")
-            freqs.add(abs(float(k)))
-        if expr.xreplace({a: 0 for a in expr.atoms(sp.sin, sp.cos)}).has(nt.t):
-            raise SceneError("[point].law", f"is not periodic in t ({expr}): {hint}")
-    if not freqs:
-        raise SceneError("[stability].period", "is required: a constant law has no period")
-    base = min(freqs)
-    ratios = [Fraction(f / base).limit_denominator(64) for f in freqs]
-    for f, r in zip(freqs, ratios):
-        if abs(f / base - float(r)) > 1e-12:
-            raise SceneError("[point].law", f"has incommensurate frequencies: {hint}")
-    den = math.lcm(*[r.denominator for r in ratios])
-    return 2 * math.pi / (base / den)
+    """The common period of the point's law (derive/scene/law/period.py): every sin/cos
+    argument must be k t + c with frequencies commensurate (ratios of small integers);
+    constant laws have none."""
+    try:
+        return common_period(scene.law.sympy())
+    except NotPeriodic as exc:
+        if exc.constant:
+            raise SceneError("[stability].period", "is required: a constant law has no "
+                                                   "period") from None
+        raise SceneError("[point].law", f"{exc}: set [stability].period") from None
 
 
 V = layout.VERTICAL

@@ -1,0 +1,182 @@
+"""What a run of the base model did (a box or a cylinder on its face, crt_base.h), for
+``summary.json``, ``derive simulate``'s lines and the overview: the face's contact (the
+stick and slip phases from the events, the normal force ``N = (M + m) g + s_z''`` along
+the rows from the bodies' moments), how C travelled (for a periodic law, the mean
+velocity per period: C's displacement over the whole periods run, from runs of the
+scene ending at them), and the statuses ``lift_off`` and ``tipping`` said in words.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+
+from .. import abi
+from . import bodies, choice
+
+STOPS = {"lift_off": "N reached 0: the body leaves the plane (lift-off)",
+         "tipping": "the centre of pressure reached the face's edge: the body tips"}
+METHOD = "dopri5 (slips in arc time; the base model's own integrator)"
+_SLIDING, _STICKING = abi.MODE["sliding"], abi.MODE["sticking"]
+
+
+def modes(result) -> np.ndarray:
+    """The face's mode on every row (abi.MODES: sliding, sticking) from the events: a
+    slip starts sliding, a stick ends it (a reversal keeps it)."""
+    t = result.t
+    q0 = result.start.q0
+    mode = _SLIDING if np.hypot(np.hypot(q0[3], q0[4]), q0[5]) > 0.0 else _STICKING
+    out = np.full(len(t), mode, dtype=int)
+    for ev in result.events:
+        if ev["kind"] in ("slip", "stick"):
+            after = np.searchsorted(t, ev["t"], side="right")
+            out[after:] = _SLIDING if ev["kind"] == "slip" else _STICKING
+    return out
+
+
+def normal_force(result) -> np.ndarray:
+    """N along the rows: ``(M + m) g + n . s''`` (n the vertical in body axes: the body does
+    not tilt), the vertical balance of derive/base.py."""
+    s = result.scene
+    mo = bodies.moments(bodies.along(s, result.t))
+    return (s.M + mo.m) * s.g + mo.sdd @ np.asarray(s.A0[2], dtype=float)
+
+
+def contact(result) -> dict:
+    """The face's contact: the coefficients, the pressure, the events counted, the time
+    sticking and sliding, the smallest N."""
+    s, t = result.scene, result.t
+    face = choice.base_face(s)
+    m = modes(result)[:-1]
+    dt = np.diff(t)
+    kinds = [ev["kind"] for ev in result.events]
+    N = normal_force(result)
+    return {"face": face.kind, "friction": s.friction, "static_friction": s.mu_static,
+            "pressure": "uniform", "sticks": kinds.count("stick"),
+            "slips": kinds.count("slip"), "reversals": kinds.count("reversal"),
+            "time_sticking": float(dt[m == _STICKING].sum()),
+            "time_sliding": float(dt[m == _SLIDING].sum()),
+            "min_normal_force": float(N.min()), "t_min_normal_force": float(t[np.argmin(N)])}
+
+
+def law_period(scene) -> float | None:
+    """The common period of every body's law given as formulas (None: a table, or not
+    periodic)."""
+    from ..scene.law.period import NotPeriodic, common_period
+    exprs = []
+    for body in (*scene.points, *scene.rotors):
+        if not hasattr(body.law, "sympy"):
+            return None
+        exprs += list(body.law.sympy())
+    try:
+        return common_period(exprs)
+    except NotPeriodic:
+        return None
+
+
+def _c_at_end(scene, t_end: float) -> np.ndarray | None:
+    """C's position at t_end from a run of the scene that ends there (None: it stopped
+    before)."""
+    from .driver import simulate
+    run = simulate(dataclasses.replace(scene, duration=t_end - scene.t0, output_dt=0.0))
+    if run.status != "done":
+        return None
+    return choice.base_c_at(scene, float(run.t[-1]), run.model_q[-1])
+
+
+def travel(result) -> dict:
+    """C's horizontal displacement (the vector), and for a periodic law the whole periods
+    run: the mean displacement and velocity per period over them, and the last one's."""
+    s = result.scene
+    t_end = float(result.t[-1])
+    c0 = np.asarray(s.com, dtype=float)
+    end = choice.base_c_at(s, t_end, result.model_q[-1])
+    out = {"displacement": [float(end[0] - c0[0]), float(end[1] - c0[1])]}
+    T = law_period(s)
+    if T is None:
+        out["period"] = None
+        return out
+    n = int(math.floor((t_end - s.t0) / T * (1 + 1e-12)))
+    out.update({"period": T, "whole_periods": n})
+    if n < 1:
+        return out
+    ends = {k: _c_at_end(s, s.t0 + k * T) for k in {n, n - 1} if k > 0}
+    ends[0] = c0
+    if ends[n] is None or ends.get(n - 1) is None:
+        return out
+    d = (ends[n] - c0)[:2] / n
+    last = (ends[n] - ends[n - 1])[:2]
+    out.update({"displacement_per_period": [float(x) for x in d],
+                "mean_velocity": [float(x / T) for x in d],
+                "mean_speed": float(np.hypot(*d) / T),
+                "last_period_displacement": [float(x) for x in last]})
+    return out
+
+
+def energy(result, mo) -> dict:
+    """The energy at the start and the end; the friction over the face and the drives' work
+    are not split (their sum is the change)."""
+    E = mo.T + mo.U
+    return {"start": float(E[0]), "end": float(E[-1]), "change": float(E[-1] - E[0]),
+            "kinetic_start": float(mo.T[0]), "kinetic_end": float(mo.T[-1]),
+            "not_split": "the base model's friction over the face and the drives' work are "
+                         "not split yet: the change is their sum"}
+
+
+def lines(result, tr: dict | None = None) -> list[str]:
+    """``derive simulate``'s lines of a base run: the stop said plainly, the contact, the
+    travel per period."""
+    out = []
+    if result.status in STOPS:
+        out.append(f"  stopped at t = {float(result.t[-1]):.6g} s: {STOPS[result.status]}; "
+                   "the base model does not go on past it")
+    c = contact(result)
+    mu = f"mu = {c['friction']:g}" + (f", mu_s = {c['static_friction']:g}"
+                                      if c["static_friction"] != c["friction"] else "")
+    out.append(f"  friction over the {c['face']} ({mu}, uniform pressure): {c['slips']} "
+               f"slips, {c['sticks']} sticks, {c['reversals']} reversals; sticking "
+               f"{c['time_sticking']:.4g} s, sliding {c['time_sliding']:.4g} s; smallest N "
+               f"{c['min_normal_force']:.4g} N")
+    tr = tr if tr is not None else travel(result)
+    if tr.get("displacement_per_period") is not None:
+        d = tr["displacement_per_period"]
+        last = tr["last_period_displacement"]
+        out.append(f"  C moved ({d[0]:.6g}, {d[1]:.6g}) m a period over {tr['whole_periods']}"
+                   f" whole periods of {tr['period']:.6g} s (mean speed {tr['mean_speed']:.6g}"
+                   f" m/s); the last period ({last[0]:.6g}, {last[1]:.6g}) m")
+    return out
+
+
+def panels(ax_x, ax_v, ax_psi, result, mo) -> None:
+    """The overview's base panels: C's and O's horizontal position, O's speed and the yaw
+    rate, the yaw; sticking and sliding shaded."""
+    from .plots import _TITLE, _labels, _mode_spans
+    t = result.t
+    m = modes(result)
+    for ax in (ax_x, ax_v, ax_psi):
+        ax.clear()
+        ax.tick_params(labelsize=8)
+        ax.grid(True, lw=0.4, color="0.9")
+        _mode_spans(ax, t, m)
+        ax.set_xlim(t[0], t[-1])
+    for k, (name, style) in enumerate((("X", "-"), ("Y", "--"))):
+        ax_x.plot(t, mo.r_C[:, k], style, lw=1, color="k")
+        ax_x.plot(t, mo.r_O[:, k], style, lw=1, color="#3182bd")
+    ax_x.set_ylabel("[m]", fontsize=9)
+    ax_x.set_title("C and O horizontally (X solid, Y dashed)", **_TITLE)
+    _labels(ax_x, [("C", "k"), ("O", "#3182bd"), ("sliding", "#e6550d"),
+                   ("sticking", "#41ab5d")])
+    q = result.model_q
+    ax_v.plot(t, np.hypot(q[:, 3], q[:, 4]), lw=1, color="#3182bd")
+    ax_v.set_ylabel("|V_O| [m/s]", fontsize=9)
+    tw = ax_v.twinx()
+    tw.plot(t, q[:, 5], lw=1, color="C3")
+    tw.tick_params(labelsize=8)
+    tw.set_ylabel("psi' [rad/s]", fontsize=9, color="C3")
+    ax_v.set_title("O's speed and the yaw rate", **_TITLE)
+    ax_psi.plot(t, np.degrees(q[:, 2]), lw=1, color="C3")
+    ax_psi.set_ylabel("psi [deg]", fontsize=9)
+    ax_psi.set_title("yaw of the face frame", **_TITLE)
+    ax_psi.set_xlabel("t [s]", fontsize=9)
+    ax_v.set_xlabel("t [s]", fontsize=9)
