@@ -74,6 +74,7 @@ _BODIES = "tests/test_multibody.py::"
 UNIT_TESTS = {
     "model_rough.c": (
         "tests/test_friction_boundaries.py",
+        "tests/test_rough_evaluators.py",
         "tests/test_friction_closed_forms.py",
         "tests/test_friction_runtime.py",
         _ROUGH + "test_a_spinning_sphere_stops_at_the_closed_form_time",
