@@ -75,7 +75,7 @@ COMMANDS = (
             "what it reaches: killed, survived, and the kill rate", "derive.verify.mutants", (
                 Arg.of("--file", dest="files", action="append", metavar="NAME",
                        help="only the mutants of this file of templates/runtime or "
-                            "templates/control (e.g. crt_friction.h; repeatable)"),
+                            "templates/control (e.g. crt_rough.h; repeatable)"),
                 Arg.of("--kind", dest="kinds", action="append",
                        choices=["bound", "flip", "term", "event", "tolerance"],
                        help="only mutants of this kind (repeatable)"),

@@ -503,7 +503,7 @@ class Report:
 
 def select(mutants: list[Mutant], files=None, kinds=None, match=None, sample=None,
            seed: int = 36) -> list[Mutant]:
-    """The mutants of the named files (template names, e.g. crt_friction.h), of the
+    """The mutants of the named files (template names, e.g. crt_rough.h), of the
     kinds, whose id or key contains one of ``match``; ``sample`` of them at random."""
     texts = [match] if isinstance(match, str) else list(match or ())
     out = [m for m in mutants
