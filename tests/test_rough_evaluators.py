@@ -11,8 +11,8 @@ from it (derive/verify/reaction.py: Newton–Euler under each row's mode).
   (``max_friction_ratio``), the extremes of the independent reaction over the rows.
 * ``Session.run_in_contact`` (crt_set_contact_mode, the energy balance's resumed contact
   phases): resumed from a row of a run in its mode (sliding along its slip, or sticking)
-  it starts with no event and follows the run's own rows; a sliding start needs a
-  direction, a sticking one none.
+  it starts with no event, follows the run's own rows and ends sticking as the run
+  (``crt_contact_mode``); a sliding start needs a direction, a sticking one none.
 """
 from __future__ import annotations
 
@@ -154,6 +154,9 @@ def test_a_run_resumed_in_contact_follows_the_runs_rows():
         assert np.abs(raw.q[-1] - result.model_q[-1]).max() < 1e-6 * scale, mode
         first = [e["kind"] for e in result.events if e["t"] > result.t[j]]
         assert kinds[:1] == first[:1], (kinds, first)
+        # the C's own word on the mode it ends in (crt_contact_mode, for embedders)
+        session = result.session
+        assert session.library.lib.crt_contact_mode(session.handle) == abi.MODE["sticking"]
     with pytest.raises(ValueError, match="bad_argument"):
         _resume(result, steps[-1], abi.MODE["sliding"], (0.0, 0.0))
     assert math.isfinite(result.q[-1][0])
