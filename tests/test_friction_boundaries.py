@@ -310,7 +310,7 @@ def test_sliding_into_painleves_jam_stops_where_n_passes_a_hundred_weights():
         k = rx.kinematics(b, result.model_q[[j]], rx.law_rows(s, result.t[[j]]))
         slip = k.v_S[0, :2] / np.hypot(*k.v_S[0, :2])
         N.append(rx.solve(b, k, np.zeros(1, dtype=bool), slip[None]).N[0] / weight)
-        W = ne.inverse_inertia_at_S(result.model_q[j], rx.law_rows(s, result.t[[j]])[0],
+        W = ne.inverse_inertia_at_S(result.model_q[j], rx.law_rows(s, result.t[[j]]).points[0, 0],
                                     k.s[0], [s.M, s.m, *s.J, s.g])
         kf.append((W[2, 2] - s.friction * (W[2, :2] @ slip)) / W[2, 2])
     assert kf[-1] <= 1e-2 < kf[0]

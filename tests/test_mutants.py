@@ -6,17 +6,19 @@
   1.05 mu_f N) is in it, each mutant changes its site and nothing else, the C of a sample
   of them compiles under the project's warnings, and every entry of
   derive/verify/equivalent_mutants.toml names a mutant that exists, with its reason;
-* a run: that mutant killed and a harmless one surviving (then the command fails), each
-  built in a scratch copy, the worktree untouched.
+* the command: that mutant killed and a harmless one surviving, its kill rate printed and
+  its exit status 1, each built in a scratch copy, the worktree untouched.
 """
 from __future__ import annotations
 
+import re
 import subprocess
+import sys
 
 import pytest
 
 from derive.cbuild import WARNINGS, compiler
-from derive.paths import GENERATED, TEMPLATES
+from derive.paths import GENERATED, ROOT, TEMPLATES
 from derive.verify import csites as cs
 from derive.verify import mutants as mu
 
@@ -75,14 +77,13 @@ def test_the_catalogue_holds_the_issues_mutant_and_each_changes_its_site(catalog
 
 
 def test_a_sample_of_mutants_compiles_under_the_projects_warnings(catalogue, tmp_path):
-    """One mutant of each kind in crt_friction.h, in the rough model (the harness
-    compiles each one the same way before testing it)."""
+    """The first mutant of each kind in the files that decide the rough plane's modes and
+    impacts, in the rough model (the harness compiles each one the same way before
+    testing it)."""
     src = GENERATED / "runtime"
+    rough = ("crt_rough.h", "crt_rough_modes.h", "crt_rough_api.h", "crt_dk.h", "crt_events.h")
     for kind in mu.KINDS:
-        m = next((m for m in catalogue if m.kind == kind and m.file == "crt_friction.h"),
-                 None)
-        if m is None:
-            continue
+        m = next(m for m in catalogue if m.kind == kind and m.file in rough)
         folder = tmp_path / kind
         folder.mkdir()
         for p in src.iterdir():
@@ -101,19 +102,24 @@ def test_every_recorded_equivalent_names_a_mutant_with_its_reason(catalogue):
         assert len(reason.split()) >= 5, f"say why {key} is equivalent"
 
 
-def test_a_run_kills_the_issues_mutant_and_reports_a_survivor():
-    """Against the boundary test of a slip that stops outside the cone: the stick
-    accepted up to 1.05 mu_f N is killed; a flip in crt_eval_impact (an evaluation for
-    Python that no run calls) survives, and the report fails.  Neither touches the
-    worktree."""
+def test_the_command_kills_the_issues_mutant_reports_a_survivor_and_fails():
+    """``derive verify mutants`` against the boundary test of a slip that stops outside the
+    cone: the stick accepted up to 1.05 mu_f N is killed by it; a flip in crt_eval_impact
+    (an evaluation for Python that no run calls) survives, so the command prints it, its
+    kill rate (1 of 2) and exits 1.  Neither touches the worktree."""
     before = {p.name: p.read_bytes() for p in (GENERATED / "runtime").iterdir()}
     test = ("tests/test_friction_boundaries.py::test_a_stopping_slip_sticks_inside_the_cone_"
             "and_slides_on_outside_it[0.008279626483585467-reversal-band1]")
-    rep = mu.run(match=["rt <= 1.05 * (s->prm[CRT_P_friction] * R[2])",
-                        "crt_eval_impact: flip: status != CRT_OK -> status == CRT_OK"],
-                 tests=[test], workers=2)
-    got = {o.mutant.function: (o.status, o.detail) for o in rep.outcomes}
-    assert got["crt_rough_at_rest"][0] == "killed" and "reversal" in got["crt_rough_at_rest"][1]
-    assert got["crt_eval_impact"] == ("survived", "")
-    assert not mu.passed(rep) and "survived" in mu.report(rep)
+    proc = subprocess.run(
+        [sys.executable, "-m", "derive", "verify", "mutants", "--workers", "1", "--test", test,
+         "--match", "rt <= 1.05 * (s->prm[CRT_P_friction] * R[2])",
+         "--match", "crt_eval_impact: flip: status != CRT_OK -> status == CRT_OK"],
+        capture_output=True, text=True, cwd=ROOT)
+    out = proc.stdout + proc.stderr
+    assert proc.returncode == 1, out[-2000:]
+    killed = [ln for ln in out.splitlines() if re.search(r"\] killed \w+ ", ln)]
+    assert len(killed) == 1 and "crt_rough_at_rest" in killed[0] and "reversal" in killed[0]
+    assert "crt_rough.h: killed 1" in out and "crt_rough_api.h: survived 1" in out
+    assert re.search(r"survived \w+ runtime/crt_rough_api.h:\d+ crt_eval_impact flip", out)
+    assert "kill rate 1/2 = 50.0%" in out and "FAIL" in out
     assert {p.name: p.read_bytes() for p in (GENERATED / "runtime").iterdir()} == before

@@ -8,8 +8,8 @@ Modules, by role:
 * :mod:`~derive.verify.oracle`: what the answer should be, computed another way (law
   derivatives, properties of any honest run, references of hard scenes);
 * :mod:`~derive.verify.reaction`: the contact reaction of a run's rows by Newton–Euler
-  for the two bodies, apart from the runtime (what the rough plane's judge holds the
-  cone and the couples' bounds against);
+  for the carrier, its points and its rotors, apart from the runtime (what the rough
+  plane's judge holds the cone and the couples' bounds against);
 * :mod:`~derive.verify.sandbox`: running a case where it can do no harm (a forked worker
   with time and memory limits; the command line in a private folder);
 * :mod:`~derive.verify.judges`: the verdict on what came out, against the README's
@@ -75,7 +75,7 @@ COMMANDS = (
             "what it reaches: killed, survived, and the kill rate", "derive.verify.mutants", (
                 Arg.of("--file", dest="files", action="append", metavar="NAME",
                        help="only the mutants of this file of templates/runtime or "
-                            "templates/control (e.g. crt_friction.h; repeatable)"),
+                            "templates/control (e.g. crt_rough.h; repeatable)"),
                 Arg.of("--kind", dest="kinds", action="append",
                        choices=["bound", "flip", "term", "event", "tolerance"],
                        help="only mutants of this kind (repeatable)"),

@@ -302,7 +302,8 @@ _COUPLE_STARTS = {f"{name}_start": bit for name, bit in abi.COUPLE_BITS}
 def judge_reaction(result, slack: float) -> tuple[str, str] | None:
     """The friction cone, the couples' bounds and N >= 0 on the contact rows, against the
     reaction computed apart from the runtime (:mod:`derive.verify.reaction`: Newton–Euler
-    for the two bodies under each row's mode), and the decisions at the events:
+    for the carrier, its points and rotors under each row's mode), and the decisions at
+    the events:
 
     * every row between events (the steps', and those of an instant with one event):
       sticking inside the cone; sliding, where the slip says its direction, with N >= 0
@@ -407,9 +408,7 @@ def judge_rough(result) -> tuple[str, str]:
     slack = max(1e-9, CONE_SLACK * s.rtol) * F
     if not rk4 and result.min_normal < -slack:
         return "cone", f"the runtime's least normal reaction in contact: {result.min_normal:.3g} N"
-    # the independent reaction is written for the paper's two bodies (one point law): a
-    # scene of [[point]] and [[rotor]] tables is judged by its other properties here
-    if not rk4 and s.control is None and s.disturbance is None and s.law is not None:
+    if not rk4 and s.control is None and s.disturbance is None:
         verdict = judge_reaction(result, slack)
         if verdict is not None:
             return verdict

@@ -70,9 +70,11 @@ _REVERSED = {"<": ">", "<=": ">=", ">": "<", ">=": "<=", "==": "!=", "!=": "=="}
 _ROUGH = "tests/test_friction_couples.py::"
 _HOP = "tests/test_hop_control.py::"
 _REPLAN = "tests/test_control_replan.py::"
+_BODIES = "tests/test_multibody.py::"
 UNIT_TESTS = {
     "model_rough.c": (
         "tests/test_friction_boundaries.py",
+        "tests/test_rough_evaluators.py",
         "tests/test_friction_closed_forms.py",
         "tests/test_friction_runtime.py",
         _ROUGH + "test_a_spinning_sphere_stops_at_the_closed_form_time",
@@ -90,6 +92,12 @@ UNIT_TESTS = {
         "tests/test_runtime_status.py",
         "tests/test_contact_properties.py::test_random_bouncing_scenes_hold_every_property[0]",
     ),
+    "model_moments_rough.c": (
+        "tests/test_reaction_bodies.py",
+        _BODIES + "test_random_scenes_on_a_rough_plane_keep_their_properties",
+        _BODIES + "test_the_examples_of_several_bodies_do_what_the_readme_says",
+    ),
+    "model_moments.c": ("tests/test_multibody.py",),
     "model_vertical.c": ("tests/test_runtime.py", "tests/test_bouncing.py"),
     "model_attitude.c": ("tests/test_runtime.py",),
     "model_translational.c": ("tests/test_runtime.py",),
@@ -318,9 +326,11 @@ def units_of(mutants: list[Mutant], folder: Path) -> dict[str, tuple]:
 
 def tests_for(units: tuple) -> list[str]:
     """The pytest arguments of a mutant reaching ``units`` (in UNIT_TESTS' order, each
-    once)."""
+    once: the paper's models' tests before those of several bodies, which build one more
+    model)."""
     out: list[str] = []
-    for unit in units:
+    for unit in sorted(units, key=lambda u: (list(UNIT_TESTS).index(u) if u in UNIT_TESTS
+                                             else len(UNIT_TESTS), u)):
         for t in UNIT_TESTS.get(unit, ()):
             if t not in out:
                 out.append(t)
@@ -493,7 +503,7 @@ class Report:
 
 def select(mutants: list[Mutant], files=None, kinds=None, match=None, sample=None,
            seed: int = 36) -> list[Mutant]:
-    """The mutants of the named files (template names, e.g. crt_friction.h), of the
+    """The mutants of the named files (template names, e.g. crt_rough.h), of the
     kinds, whose id or key contains one of ``match``; ``sample`` of them at random."""
     texts = [match] if isinstance(match, str) else list(match or ())
     out = [m for m in mutants

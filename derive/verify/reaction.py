@@ -3,24 +3,34 @@
 The judge of the rough plane (:func:`derive.verify.judges.judge_rough`) holds the
 friction cone, the couples' bounds and the sign of N against the reaction computed here,
 not against the runtime's own (``Session.rough_rows`` and ``wrench_rows`` evaluate the
-runtime's C).  Written from Newton's and Euler's laws for the two bodies, without reading
-derive/friction.py, derive/friction_models.py, derive/contact.py or the runtime's C; the
-scene's numbers, the point law (``Scene.law.jets``, evaluated in Python) and the surface's
-support map (:mod:`derive.shapes`, the shape's definition) are its only inputs.
+runtime's C).  Written from Newton's and Euler's laws for the bodies, without reading
+derive/friction.py, derive/friction_models.py, derive/contact.py, derive/moments.py or
+the runtime's C; the scene's numbers, each body's own law (``Point.law.jets``,
+``Rotor.law.jets``, evaluated in Python) and the surface's support map
+(:mod:`derive.shapes`, the shape's definition) are its only inputs.
 
-Two bodies, body axes of the carrier for the dynamics (n = A^T e_Z the vertical):
+The bodies, body axes of the carrier for the dynamics (n = A^T e_Z the vertical):
 
-* the carrier, mass M, principal central inertia diag(J) about its centre O;
-* the point, mass m, at r = OP(t) in body axes with r', r'' prescribed: the carrier
-  exerts F on it, it exerts -F on the carrier at P;
+* the carrier, mass M, principal central inertia diag(J) about its centre O (its rotors'
+  masses in M, and their inertia as if locked in J: the scene's [body]);
+* point j (the paper's one point, or each [[point]]), mass m_j, at r_j = OP_j(t) in body
+  axes with r_j', r_j'' prescribed: the carrier exerts F_j on it, it exerts -F_j on the
+  carrier at P_j;
+* rotor k ([[rotor]]), turning by psi_k(t) relative to the carrier about the unit axis
+  a_k fixed in it, axial moment I_k: the carrier and its rotors have the angular
+  momentum J w + h_r about O, h_r = sum_k I_k psi_k' a_k (a rotor's transverse moments
+  and its locked axial one are in J), whose rate relative to the body is h_r' = sum_k
+  I_k psi_k'' a_k;
 * the plane acts on the carrier at its material point at S (s = OS in body axes, the
   lowest point of the surface) with the force R and the couple T (fixed axes).
 
-Nine laws (a_O the absolute acceleration of O, w' the angular acceleration)::
+The laws (a_O the absolute acceleration of O, w' the angular acceleration)::
 
-    carrier, Newton   M a_O + F - A^T R                          = -M g n
-    point,   Newton   m (a_O + w' x r) - F  = -m g n - m (w x (w x r) + 2 w x r' + r'')
-    carrier, Euler    J w' + r x F - s x A^T R - A^T T          = -w x J w     (about O)
+    carrier, Newton   M a_O + sum_j F_j - A^T R                   = -M g n
+    point j, Newton   m_j (a_O + w' x r_j) - F_j
+                          = -m_j g n - m_j (w x (w x r_j) + 2 w x r_j' + r_j'')
+    carrier, Euler    J w' + sum_j r_j x F_j - s x A^T R - A^T T
+                          = -w x (J w + h_r) - h_r'                  (about O)
 
 and the row's mode constraints, on the acceleration of the material point at S
 ``a_S = a_O + w' x s + w x (w x s) + w x s'`` (s' the motion of S over the surface as the
@@ -33,7 +43,8 @@ body turns: d(n . s)/dt involves it) and on A w' (the rate of Omega = A w):
   sign(Omega_Z); rolling resistance held: (A w')_X = (A w')_Y = 0 and T_X, T_Y unknown;
   turning: (T_X, T_Y) = -mu_r N (Omega_X, Omega_Y)/|(Omega_X, Omega_Y)|.
 
-One dense solve per row (numpy.linalg.solve on the stacked system, every row at once).
+One dense solve per row (numpy.linalg.solve on the stacked system, every row at once):
+12 + 3 N_points unknowns (a_O, w', each F_j, and the reaction's six).
 """
 from __future__ import annotations
 
@@ -52,9 +63,11 @@ SPIN, ROLL = (dict(abi.COUPLE_BITS)[name] for name in ("spin", "roll"))
 
 @dataclass(frozen=True)
 class Bodies:
-    """The numbers of a scene the two bodies' laws read."""
+    """The numbers of a scene the bodies' laws read: the carrier's, each point's mass
+    ``masses`` (N,), each rotor's unit ``axes`` (R, 3) and axial moment ``inertias``
+    (R,), the plane's."""
     M: float
-    m: float
+    masses: np.ndarray
     J: np.ndarray
     g: float
     shape: str
@@ -63,13 +76,24 @@ class Bodies:
     mu_f: float
     mu_s: float
     mu_r: float
+    axes: np.ndarray
+    inertias: np.ndarray
 
     @classmethod
     def of(cls, scene) -> "Bodies":
-        return cls(float(scene.M), float(scene.m), np.asarray(scene.J, dtype=float),
-                   float(scene.g), scene.shape, tuple(scene.size),
-                   np.asarray(scene.center, dtype=float), float(scene.friction),
-                   float(scene.spin_friction), float(scene.rolling_resistance))
+        rotors = scene.rotors
+        return cls(float(scene.M), np.array([float(p.mass) for p in scene.points]),
+                   np.asarray(scene.J, dtype=float), float(scene.g), scene.shape,
+                   tuple(scene.size), np.asarray(scene.center, dtype=float),
+                   float(scene.friction), float(scene.spin_friction),
+                   float(scene.rolling_resistance),
+                   np.array([r.axis for r in rotors], dtype=float).reshape(-1, 3),
+                   np.array([float(r.inertia) for r in rotors]))
+
+    @property
+    def m(self) -> float:
+        """The points' total mass."""
+        return float(np.sum(self.masses))
 
     @property
     def weight(self) -> float:
@@ -91,14 +115,34 @@ def _skew(v):
 
 
 @dataclass
+class Jets:
+    """The bodies' laws on rows: ``points`` (n, N, 9) each point's r, r', r'' (body
+    axes); ``rotors`` (n, R, 3) each rotor's psi, psi', psi''."""
+    points: np.ndarray
+    rotors: np.ndarray
+
+
+def _jets(u, n_rotors: int) -> Jets:
+    """``u`` as :class:`Jets`: itself, or one point's rows (n, 9) or the points' (n, N,
+    9) with no rotor."""
+    if isinstance(u, Jets):
+        return u
+    u = np.asarray(u, dtype=float)
+    pts = u[:, None, :] if u.ndim == 2 else u
+    return Jets(pts, np.zeros((len(pts), n_rotors, 3)))
+
+
+@dataclass
 class Kinematics:
-    """Rows of a run in the two bodies' terms (body axes unless said)."""
+    """Rows of a run in the bodies' terms (body axes unless said)."""
     A: np.ndarray       # (n, 3, 3): fixed = A body
     w: np.ndarray       # angular velocity
     n: np.ndarray       # the vertical
-    r: np.ndarray       # OP and its rates
+    r: np.ndarray       # (n, N, 3): each OP_j and its rates
     rd: np.ndarray
     rdd: np.ndarray
+    h_r: np.ndarray     # the rotors' axial angular momentum sum I psi' a, and its rate
+    h_rd: np.ndarray
     s: np.ndarray       # OS and its rate as the body turns
     sd: np.ndarray
     v_S: np.ndarray     # the velocity of the material point at S, fixed axes
@@ -107,21 +151,27 @@ class Kinematics:
 
 def kinematics(b: Bodies, q, u) -> Kinematics:
     """``q`` (n, 18): X_C, V_C (fixed), omega (body), A (row-major, a_ij = cos(fixed i,
-    body j)); ``u`` (n, 9): r, r', r'' (body axes)."""
+    body j)); ``u``: :class:`Jets`, or (n, 9) one point's r, r', r'' (body axes)."""
     q = np.atleast_2d(np.asarray(q, dtype=float))
-    u = np.atleast_2d(np.asarray(u, dtype=float))
+    jets = _jets(u, len(b.inertias))
     A = q[:, 9:18].reshape(-1, 3, 3)
     w, V_C = q[:, 6:9], q[:, 3:6]
-    r, rd, rdd = u[:, 0:3], u[:, 3:6], u[:, 6:9]
+    pts = jets.points
+    r, rd, rdd = pts[..., 0:3], pts[..., 3:6], pts[..., 6:9]
+    spin = b.inertias * b.axes.T[:, None, :]                 # (3, 1, R): I_k a_k
+    h_r = np.sum(spin * jets.rotors[None, :, :, 1], axis=2).T
+    h_rd = np.sum(spin * jets.rotors[None, :, :, 2], axis=2).T
     n = A[:, 2, :]
     shape = shapes.of(b.shape)
     s = shape.lowest_rows(n, b.center, b.size)
     nd = _cross(n, w)                        # e_Z fixed: n' = n x w in body axes
     sd = _surface_rate(shape, b, n, nd)
-    nu = b.m / (b.M + b.m)
-    v_O = np.einsum("nji,nj->ni", A, V_C) - nu * (rd + _cross(w, r))
+    # V_C = V_O + (s_m' + w x s_m)/(M + m), s_m = sum m_j r_j (C's definition)
+    first = np.einsum("j,njk->nk", b.masses, rd + _cross(w[:, None, :], r))
+    v_O = np.einsum("nji,nj->ni", A, V_C) - first / (b.M + b.m)
     v_S = np.einsum("nij,nj->ni", A, v_O + _cross(w, s))
-    return Kinematics(A, w, n, r, rd, rdd, s, sd, v_S, np.einsum("nij,nj->ni", A, w))
+    return Kinematics(A, w, n, r, rd, rdd, h_r.reshape(-1, 3), h_rd.reshape(-1, 3), s, sd,
+                      v_S, np.einsum("nij,nj->ni", A, w))
 
 
 def _surface_rate(shape, b: Bodies, n, nd):
@@ -182,58 +232,73 @@ def solve(b: Bodies, k: Kinematics, sticking, sigma=None, spin_held=None, roll_h
         Bt[:, 1, 0] = np.where(rh, 0.0, -b.mu_r * rd[:, 1])
     Bt[:, 2, 3] = Bt[:, 0, 4] = Bt[:, 1, 5] = 1.0
     AT = np.transpose(k.A, (0, 2, 1))
-    M, m, g = b.M, b.m, b.g
+    M, g = b.M, b.g
+    npt = k.r.shape[1]
+    iz = 6 + 3 * npt                    # x = (a_O, w', F_1 .. F_N, z)
+    size = iz + 6
     I3 = np.broadcast_to(np.eye(3), (nrow, 3, 3))
-    K = np.zeros((nrow, 15, 15))        # x = (a_O, w', F, z)
-    rhs = np.zeros((nrow, 15))
+    K = np.zeros((nrow, size, size))
+    rhs = np.zeros((nrow, size))
     rho = AT @ Br                       # A^T R per unknown
+    # carrier: Newton (rows 0:3) and Euler about O (rows 3:6)
     K[:, 0:3, 0:3] = M * I3
-    K[:, 0:3, 6:9] = I3
-    K[:, 0:3, 9:15] = -rho
+    K[:, 0:3, iz:] = -rho
     rhs[:, 0:3] = -M * g * k.n
-    K[:, 3:6, 0:3] = m * I3
-    K[:, 3:6, 3:6] = -m * _skew(k.r)
-    K[:, 3:6, 6:9] = -I3
-    rhs[:, 3:6] = -m * g * k.n - m * (_cross(k.w, _cross(k.w, k.r)) + 2.0 * _cross(k.w, k.rd)
-                                      + k.rdd)
-    K[:, 6:9, 3:6] = np.broadcast_to(np.diag(b.J), (nrow, 3, 3))
-    K[:, 6:9, 6:9] = _skew(k.r)
-    K[:, 6:9, 9:15] = -_skew(k.s) @ rho - AT @ Bt
-    rhs[:, 6:9] = -_cross(k.w, k.w * b.J)
+    K[:, 3:6, 3:6] = np.broadcast_to(np.diag(b.J), (nrow, 3, 3))
+    K[:, 3:6, iz:] = -_skew(k.s) @ rho - AT @ Bt
+    rhs[:, 3:6] = -_cross(k.w, k.w * b.J + k.h_r) - k.h_rd
+    for j, mj in enumerate(b.masses):   # point j: its own Newton, its own force
+        F = slice(6 + 3 * j, 9 + 3 * j)
+        rj, rdj, rddj = k.r[:, j], k.rd[:, j], k.rdd[:, j]
+        K[:, 0:3, F] = I3
+        K[:, 3:6, F] = _skew(rj)
+        K[:, F, 0:3] = mj * I3
+        K[:, F, 3:6] = -mj * _skew(rj)
+        K[:, F, F] = -I3
+        rhs[:, F] = -mj * g * k.n - mj * (_cross(k.w, _cross(k.w, rj))
+                                          + 2.0 * _cross(k.w, rdj) + rddj)
     # a_S = a_O - s x w' + c
     c = _cross(k.w, _cross(k.w, k.s)) + _cross(k.w, k.sd)
-    Sa = np.zeros((nrow, 3, 9))
+    Sa = np.zeros((nrow, 3, 6))
     Sa[:, :, 0:3] = I3
     Sa[:, :, 3:6] = -_skew(k.s)
     ASa = k.A @ Sa                      # fixed axes
     Ac = np.einsum("nij,nj->ni", k.A, c)
-    Aw = np.zeros((nrow, 3, 9))
+    Aw = np.zeros((nrow, 3, 6))
     Aw[:, :, 3:6] = k.A
-    # row 9: on the plane; 10, 11: the slip held or R_X, R_Y = 0; 12: the spin held or
-    # T_Z = 0 (where turning the column of N carries it); 13, 14: the rolling
-    K[:, 9, :9] = ASa[:, 2]
-    rhs[:, 9] = -Ac[:, 2]
-    for row, axis in ((10, 0), (11, 1)):
-        K[:, row, :9] = np.where(sticking[:, None], ASa[:, axis], 0.0)
+    # row iz: on the plane; +1, +2: the slip held or R_X, R_Y = 0; +3: the spin held or
+    # T_Z = 0 (where turning the column of N carries it); +4, +5: the rolling
+    K[:, iz, :6] = ASa[:, 2]
+    rhs[:, iz] = -Ac[:, 2]
+    for row, axis in ((iz + 1, 0), (iz + 2, 1)):
+        K[:, row, :6] = np.where(sticking[:, None], ASa[:, axis], 0.0)
         rhs[:, row] = np.where(sticking, -Ac[:, axis], 0.0)
-        K[:, row, 9 + 1 + axis] = np.where(sticking, 0.0, 1.0)
-    K[:, 12, :9] = np.where(sh[:, None], Aw[:, 2], 0.0)
-    K[:, 12, 12] = np.where(sh, 0.0, 1.0)
-    for row, axis in ((13, 0), (14, 1)):
-        K[:, row, :9] = np.where(rh[:, None], Aw[:, axis], 0.0)
-        K[:, row, 9 + 4 + axis] = np.where(rh, 0.0, 1.0)
+        K[:, row, iz + 1 + axis] = np.where(sticking, 0.0, 1.0)
+    K[:, iz + 3, :6] = np.where(sh[:, None], Aw[:, 2], 0.0)
+    K[:, iz + 3, iz + 3] = np.where(sh, 0.0, 1.0)
+    for row, axis in ((iz + 4, 0), (iz + 5, 1)):
+        K[:, row, :6] = np.where(rh[:, None], Aw[:, axis], 0.0)
+        K[:, row, iz + 4 + axis] = np.where(rh, 0.0, 1.0)
     x = np.linalg.solve(K, rhs[:, :, None])[:, :, 0]
-    z = x[:, 9:15]
+    z = x[:, iz:]
     R = np.einsum("nij,nj->ni", Br, z)
     T = np.einsum("nij,nj->ni", Bt, z)
-    a_S = np.einsum("nij,nj->ni", ASa, x[:, :9]) + Ac
+    a_S = np.einsum("nij,nj->ni", ASa, x[:, :6]) + Ac
     return Reaction(R, T, a_S, np.einsum("nij,nj->ni", k.A, x[:, 3:6]))
 
 
-def law_rows(scene, t) -> np.ndarray:
-    """u = (r, r', r'') at the times t, from the scene's law in Python."""
-    j = np.asarray(scene.law.jets(np.asarray(t, dtype=float)))     # x, x', x'', y, ...
-    return np.stack([j[0], j[3], j[6], j[1], j[4], j[7], j[2], j[5], j[8]], axis=1)
+def law_rows(scene, t) -> Jets:
+    """Each body's r, r', r'' (points) and psi, psi', psi'' (rotors) at the times t, from
+    its own law evaluated in Python (the paper's one point: the scene's law)."""
+    t = np.asarray(t, dtype=float).reshape(-1)
+    pts = np.zeros((len(t), len(scene.points), 9))
+    for j, p in enumerate(scene.points):
+        x = np.asarray(p.law.jets(t))                       # x, x', x'', y, ...
+        pts[:, j] = np.stack([x[0], x[3], x[6], x[1], x[4], x[7], x[2], x[5], x[8]], axis=1)
+    rot = np.zeros((len(t), len(scene.rotors), 3))
+    for k, r in enumerate(scene.rotors):
+        rot[:, k] = np.asarray(r.law.jets(t))[0:3].T       # psi is a table's x
+    return Jets(pts, rot)
 
 
 # ---- which mode holds on each row ------------------------------------------------------

@@ -12,8 +12,8 @@ constant within each flight (E1.9); for the Lie-group methods (``lie``, ``lie5``
 plane also: the friction cone, the couples' bounds and N >= 0 in every contact row and
 at every decision of an event (a stick, a slip's onset, a lift-off, a couple's stop and
 start), held against a reaction recomputed apart from the runtime
-(:mod:`derive.verify.reaction`, Newton–Euler for the two bodies), friction's work never
-positive, no energy gain beyond the point's drive, and a ``painleve`` stop only where
+(:mod:`derive.verify.reaction`, Newton–Euler for the carrier and its bodies), friction's
+work never positive, no energy gain beyond the point's drive, and a ``painleve`` stop only where
 sliding friction can make k_f vanish (an honest status, counted apart).  The goal: no
 falls, no wrong status or invariant, no valid scene refused, no run past 10x the median
 cost per simulated second (each plane's own median).  ``tests/test_contact_properties.py`` runs a
