@@ -269,6 +269,7 @@ class Problem:
             qk = piece(qk, ca.vec(Cm[k:k + 4, :]), Tm)
         g_end = ends(qk, w)
         f_w, g_a, H_w, grad_w, JA_w = alg(w, p)
+        f_effort = f_w                  # the effort alone (the multiple shooting adds its spin)
         if self.spin_weight:
             r_spin = spin(qk, w)
             J_spin = ca.jacobian(r_spin, w)
@@ -289,8 +290,7 @@ class Problem:
         Q = ca.MX.sym("Q", self.nq, N + 1)
         CL = ca.horzcat(*[ca.vec(Cm[k:k + 4, :]) for k in range(N)])
         q_next = piece.map(N)(Q[:, :N], CL, Tm)
-        f_ms = (alg(w, p)[0] + ca.sumsqr(spin(Q[:, N], w)) if self.spin_weight
-                else alg(w, p)[0])
+        f_ms = f_effort + ca.sumsqr(spin(Q[:, N], w)) if self.spin_weight else f_effort
         self.functions["nlp_ms"] = {
             "x": ca.vertcat(w, ca.vec(Q)), "p": p, "f": f_ms,
             "g": ca.vertcat(g_a, ends(Q[:, N], w), ca.vec(Q[:, 1:] - q_next),
