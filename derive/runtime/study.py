@@ -36,7 +36,7 @@ from ..scene.schema import SCENE
 
 SUMMARY_COLUMNS = ("status", "model", "t_end", "impacts", "contacts", "liftoffs", "steps",
                    "rhs_evaluations", "min_height", "first_contact_t", "X_C_end", "Y_C_end",
-                   "Z_C_end", "distance", "run_ms")
+                   "Z_C_end", "distance", "mean_speed", "run_ms")
 TEXT_COLUMNS = ("error", "status", "model")
 COUNT_COLUMNS = ("impacts", "contacts", "liftoffs", "steps", "rhs_evaluations")
 _STAT = {name: k for k, name in enumerate(abi.names(abi.STATS))}
@@ -73,16 +73,26 @@ def summary_row(result) -> dict:
     contact = ev[ev[:, 1] == abi.index(abi.EVENT_KINDS, "contact")] if len(ev) else ev
     s = result.stats
     t_end = float(result.t[-1])
+    travel = choice.travel(result.model, result.scene.t0, t_end, result.model_q[-1],
+                           choice.start_of_c(result.scene), result.scene)
     return {"status": result.status, "model": result.model, "t_end": t_end,
             "impacts": s["impacts"], "contacts": s["contacts"], "liftoffs": s["liftoffs"],
             "steps": s["steps"], "rhs_evaluations": s["rhs_evaluations"],
             "min_height": result.min_height,
             "first_contact_t": float(contact[0, 0]) if len(contact) else math.nan,
-            **choice.travel(result.model, result.scene.t0, t_end, result.model_q[-1],
-                            choice.start_of_c(result.scene), result.scene),
+            **travel, "mean_speed": mean_speed(travel["distance"], result.scene.t0, t_end),
             "Z_C_end": choice.height_of_c(result.scene, result.model, t_end,
                                           result.model_q[-1]),
             "run_ms": 1e3 * result.timings.get("run_s", math.nan)}
+
+
+def mean_speed(distance, t0, t_end):
+    """C's net horizontal displacement over the run's time: the mean speed per period of
+    a periodic law when the run is whole periods of it (nan for a run of no time)."""
+    span = np.asarray(t_end, dtype=float) - t0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        out = np.where(span > 0, np.asarray(distance, dtype=float) / span, np.nan)
+    return float(out) if np.ndim(out) == 0 else out
 
 
 # ---- the plan ----------------------------------------------------------------------------
@@ -248,6 +258,7 @@ def run_part(part: Part, ready: list) -> dict:
     for name, col in choice.travel(part.kind, part.t0, last[:, 0], last[:, 1:], part.c0,
                                    part.scenes).items():
         cols[name][:] = col
+    cols["mean_speed"][:] = mean_speed(cols["distance"], part.t0, last[:, 0])
     cols["run_ms"][:] = 1e3 * out["seconds"] / n
     for k in np.flatnonzero(out["init_status"] != _OK):
         # crt_init again on this run's inputs: the C then names what it refused
