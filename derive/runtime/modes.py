@@ -33,6 +33,7 @@ EXAMPLE = Path(__file__).parents[1] / "scene" / "examples" / "bardin-panev.toml"
 TYPES = ("two reversals", "a rest and a reversal", "two rests")
 NOT_SETTLED = "not settled"
 AT_REST = "at rest"       # the rest holds throughout: beta <= mu/sqrt(1 + mu^2)
+ODD = "no rest, odd reversals (a stop missed)"      # not a periodic motion
 SETTLED = 1e-6            # the last period's stops repeat the previous ones' to this x T
 _STOPS = ("stick", "reversal")
 
@@ -43,8 +44,11 @@ def mode_type(events, t_end: float, period: float, t0: float = 0.0,
     stops (``stick``: a rest begins; ``reversal``: the slip turns back) of the period
     ending at the run's last stop against those of the period before it.  Where they
     differ (in kind, or in time by more than ``settled`` x period), the run has not
-    reached its mode: NOT_SETTLED.  No stop in either period and a rest last (or never a slip):
-    AT_REST, the body held throughout.  A type outside TYPES is named by its counts."""
+    reached its mode: NOT_SETTLED.  No stop in either period and a rest last (or never a
+    slip): AT_REST, the body held throughout.  An odd number of reversals a period and
+    no rest is no periodic motion (u returns to its sign): ODD, an event the run did not
+    write.  Another
+    type is named by its counts."""
     if t_end - t0 < 2 * period * (1 - 1e-12):
         raise ValueError("a mode's type needs two whole periods of the run")
     at = [(e["t"], e["kind"]) for e in events if e["kind"] in _STOPS]
@@ -62,6 +66,8 @@ def mode_type(events, t_end: float, period: float, t0: float = 0.0,
         return NOT_SETTLED
     rests = sum(k == "stick" for _, k in last)
     reversals = len(last) - rests
+    if not rests and reversals % 2:     # never resting, u turns back an even number of times
+        return ODD
     by_counts = {(0, 2): TYPES[0], (1, 1): TYPES[1], (2, 0): TYPES[2]}
     return by_counts.get((rests, reversals),
                          f"{rests} rest{'s' * (rests != 1)} and {reversals} "
@@ -163,7 +169,7 @@ def counts(mm: ModeMap) -> dict:
 
 
 COLOURS = {TYPES[0]: "#3182bd", TYPES[1]: "#fd8d3c", TYPES[2]: "#31a354",
-           AT_REST: "#636363", NOT_SETTLED: "#d9d9d9"}
+           AT_REST: "#636363", NOT_SETTLED: "#d9d9d9", ODD: "#e7298a"}
 
 
 def rest_limit(mu):
@@ -204,14 +210,14 @@ def _draw(mm: ModeMap, path: Path) -> Path:
     import matplotlib.pyplot as plt
     from matplotlib.colors import ListedColormap
     from matplotlib.patches import Patch
-    known = (*TYPES, AT_REST, NOT_SETTLED)
+    known = (*TYPES, AT_REST, NOT_SETTLED, ODD)
     found = list(dict.fromkeys([*[t for t in known if t in mm.types],
                                 *sorted(set(mm.types) - set(known))]))
-    extra = ["#756bb1", "#e7298a", "#a6761d", "#666666", "#e6ab02"]
+    extra = ["#756bb1", "#a6761d", "#e6ab02", "#1b9e77", "#666666"]
     colours = [COLOURS.get(t) or extra[k % len(extra)] for k, t in enumerate(found)]
     index = np.array([found.index(t) for t in mm.types]).reshape(len(mm.betas), len(mm.mus))
     mus, betas = np.asarray(mm.mus, float), np.asarray(mm.betas, float)
-    fig, ax = plt.subplots(figsize=(6.8, 5))
+    fig, ax = plt.subplots(figsize=(9.5, 5))
     ax.pcolormesh(_edges(mus), _edges(betas), index, cmap=ListedColormap(colours),
                   vmin=-0.5, vmax=len(found) - 0.5, shading="flat")
     fine = np.linspace(_edges(mus)[0], _edges(mus)[-1], 200)
@@ -224,8 +230,8 @@ def _draw(mm: ModeMap, path: Path) -> Path:
                  f"(m = {s.m:g}, r = {s.r:g}, w = {s.w:g}; M from beta)", fontsize=9)
     from matplotlib.lines import Line2D
     ax.legend([*(Patch(color=c) for c in colours), Line2D([], [], color="k", ls="--")],
-              [*found, "beta = mu/sqrt(1 + mu^2): at rest below (closed form)"],
-              fontsize=8, loc="upper left", framealpha=0.9)
+              [*found, "beta = mu/sqrt(1 + mu^2):\nat rest below (closed form)"],
+              fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
