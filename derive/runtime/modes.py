@@ -101,14 +101,17 @@ class Setting:
 
 
 def example() -> tuple[dict, Setting]:
-    """The example scene's dict and its point's setting (read from its law)."""
+    """The example scene's dict and its point's setting: r = x(0) and w = 2 pi/T from its
+    law x = r cos(w t) (T the law's period)."""
     from ..scene import parse_scene
+    from ..scene.law.period import common_period
     doc = tomllib.loads(EXAMPLE.read_text(encoding="utf-8"))
     scene = parse_scene(doc, str(EXAMPLE))
-    x = doc["point"]["law"][0]                     # "r*cos(w*t)"
-    r, _, rest = x.partition("*cos(")
-    w = rest.partition("*t")[0]
-    return doc, Setting(doc["point"]["mass"], float(r), float(w), scene.g)
+    x, _, _ = scene.points[0].law.sympy()
+    t = sorted(x.free_symbols, key=str)[0]
+    T = float(common_period([x]))
+    return doc, Setting(scene.points[0].mass, float(x.subs(t, 0)), 2 * math.pi / T,
+                        scene.g)
 
 
 # ---- the map ----------------------------------------------------------------------------
