@@ -32,6 +32,23 @@ class is at the sticking limit kappa = 1, u1 = 3 u2:
 
 (Kappa = 1 holds the rest on the edge of the friction cone, which an event-driven run
 cannot resolve; the checks run kappa < 1.)
+
+**A bounded acceleration** (``|x''| <= A``, the planner's ``travel`` goal).  The jump
+becomes a throw at ``x'' = -A`` for ``w/A``; the rest breaks at once if ``A`` exceeds the
+static limit ``mu_s g/nu``, and the body gains ``V1 = nu w (1 - beta)``, ``beta = a_k/A``
+with ``a_k = mu g/nu``, then slides to rest at ``x' = -u2``.  The throw and the slide
+cover ``D = nu w^2 (1 - beta)/(2 a_k)`` in ``w/a_k`` together (the throw's time is the
+slide's lost time), so in units of ``w/a_k`` the period is ``1 + 1/kappa + t4 + t5``, the
+ramp back at ``kappa mu_s g/nu`` (kappa here counts in ``a_k``: the sticking limit is
+``kappa = mu_s/mu``).  The period closes with t4 = t5 = 0 at ``r = (kappa beta + 1)/(2
+(kappa + 1))``, where
+
+    V = nu w (1 - beta) kappa/(2 (kappa + 1)),
+    L = (w^2/a_k) (r (1 - beta) + r^2 (beta + 1/kappa)/2),   u1 = (1 - r) w <= U;
+
+at a given range this r is the best of the class and V grows with kappa, as for the jump
+(a scan of r, kappa and beta checks both: tests/test_travel.py).  ``beta -> 0`` gives the
+formulas above.
 """
 from __future__ import annotations
 
@@ -106,3 +123,27 @@ def optimum(M: float, m: float, mu: float, L: float | None = None, U: float | No
     if U is not None:
         out = min(out, nu * U / 3)
     return out
+
+
+def optimum_bounded(M: float, m: float, mu: float, L: float | None = None,
+                    U: float | None = None, A: float | None = None,
+                    mu_s: float | None = None, g: float = 9.81,
+                    kappa: float | None = None) -> float:
+    """V* of the class with the acceleration bounded by ``A`` (None: unbounded, the
+    jump) and the static coefficient ``mu_s`` (default mu), at the sticking limit (or
+    with the return at ``kappa a_k``, kappa <= mu_s/mu); 0 when ``A`` cannot break the
+    rest."""
+    nu = m / (M + m)
+    mu_s = mu if mu_s is None else mu_s
+    a_k = mu * g / nu
+    if A is not None and A <= mu_s * g / nu:
+        return 0.0
+    beta = 0.0 if A is None else a_k / A
+    kappa = mu_s / mu if kappa is None else kappa
+    r = (kappa * beta + 1) / (2 * (kappa + 1))
+    w = math.inf
+    if L is not None:
+        w = min(w, math.sqrt(L * a_k / (r * (1 - beta) + r * r * (beta + 1 / kappa) / 2)))
+    if U is not None:
+        w = min(w, U / (1 - r))
+    return nu * w * (1 - beta) * kappa / (2 * (kappa + 1))
