@@ -1,0 +1,332 @@
+"""``[plan].goal = "travel"``: the periodic law of a point on a guide that makes a body
+resting on its face crawl fastest, under bounds on the point's displacement (the guide,
+``region``), velocity (``max_velocity``) and acceleration (``max_acceleration``).
+
+**The class.**  The point's acceleration along the guide is periodic and piecewise linear
+through the breakpoints of four phases: a hold (``x'' = 0``), a throw (``-A1``), a coast
+(0) and a return (``+a3``), joined by linear corners of width ``e``; the throw and the
+return balance (``A1 (d1 + e) = a3 (d3 + e)``, so the velocity is periodic) and the
+velocity's constant makes the position periodic.  Such a law is a C^2 piecewise cubic
+whose knots are the breakpoints, so the runtime's periodic cubic spline through its
+values at those knots (``law.csv``, ``ends = "periodic"``) *is* the law, to round-off:
+the printed law runs as the scene it writes.  Its extremes are exact: ``|x''|`` at the
+breakpoints, ``|x'|`` at the knots (the acceleration keeps one sign on each piece), the
+range at the roots of ``x'`` on each piece.  Time is scaled (the accelerations kept) until
+the range or the velocity bound is met: a crawl covers more the larger its stroke.
+
+**The search.**  Five unknowns (``A1/A``, ``a3/A``, the coast, hold and corner durations
+over the throw's), Nelder-Mead from the closed-form optimum of :mod:`derive.capsule` for
+the same bounds at 97 % of its return's limit; every candidate is run by the base
+model's C runtime from rest for ``PERIODS`` periods and scored by C's displacement over
+the last one along the guide (a steady crawl: the capsule's body comes to rest each
+period; a run that stops early, tipping say, scores nothing).  ``max_iterations`` caps
+the simplex's iterations.
+
+**The comparison.**  :func:`derive.capsule.optimum_bounded`: the best law of the class
+derived there (a throw at ``-A``, a slide, a return at the static limit), with the same
+``L``, ``U``, ``A``, ``mu``, ``mu_s``, at the sticking limit (a supremum: its return on
+the edge of the friction cone; the search's corners have a width and its return stays
+inside the cone).  The search of Chernousko's own closed forms (J. Appl. Math. Mech. 66,
+2002; Meccanica 2016) found no text of them, so they are not quoted.
+"""
+from __future__ import annotations
+
+import math
+import tempfile
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .. import capsule, json_text
+from .travel_scene import scene_document, scene_toml
+
+PERIODS = 2              # periods run per candidate; the last one is measured
+RUN_PERIODS = 10         # the written scene's duration, in periods (derive simulate)
+MIN_CORNER = 1e-3        # the corners' width at least this share of the period
+ROWS_PER_PIECE = 4       # law.csv: the breakpoints and 3 points inside each piece
+GUESS_KAPPA = 0.97       # the guess's return at this share of the static limit
+
+
+@dataclass(frozen=True)
+class Law:
+    """The law along the guide: breakpoints ``t`` (from 0 to the period), ``s``, ``v``,
+    ``a`` there (the position from the guide's middle, its rate and acceleration)."""
+    t: np.ndarray
+    s: np.ndarray
+    v: np.ndarray
+    a: np.ndarray
+    phases: dict                 # durations (s) and levels (m/s^2) of the four phases
+
+    @property
+    def period(self) -> float:
+        return float(self.t[-1])
+
+    def at(self, ts) -> tuple:
+        """s, s', s'' at times ``ts`` (periodic): the cubic of each piece."""
+        ts = np.mod(np.asarray(ts, dtype=float), self.period)
+        i = np.clip(np.searchsorted(self.t, ts, side="right") - 1, 0, len(self.t) - 2)
+        h = self.t[i + 1] - self.t[i]
+        x = ts - self.t[i]
+        j = (self.a[i + 1] - self.a[i]) / h
+        a = self.a[i] + j * x
+        v = self.v[i] + self.a[i] * x + j * x * x / 2
+        s = self.s[i] + self.v[i] * x + self.a[i] * x * x / 2 + j * x ** 3 / 6
+        return s, v, a
+
+    def extremes(self) -> dict:
+        """max |s''|, max |s'| and the range of s, exactly (see the module's text)."""
+        lo, hi = float(self.s.min()), float(self.s.max())
+        for i in range(len(self.t) - 1):
+            h = self.t[i + 1] - self.t[i]
+            j = (self.a[i + 1] - self.a[i]) / h
+            roots = np.roots([j / 2, self.a[i], self.v[i]]) if j != 0 else (
+                np.array([-self.v[i] / self.a[i]]) if self.a[i] != 0 else np.array([]))
+            for r in roots:
+                if abs(r.imag) < 1e-300 and 0 < r.real < h:
+                    sv = self.at(self.t[i] + r.real)[0]
+                    lo, hi = min(lo, float(sv)), max(hi, float(sv))
+        return {"max_acceleration": float(np.abs(self.a).max()),
+                "max_velocity": float(np.abs(self.v).max()), "range": hi - lo,
+                "min": lo, "max": hi}
+
+    def rows(self, center: np.ndarray, d: np.ndarray) -> np.ndarray:
+        """law.csv: t, x, y, z, x', y', z', x'', y'', z'' at the breakpoints and
+        ``ROWS_PER_PIECE - 1`` points inside each piece (all on the same C^2 cubics, so
+        the runtime's periodic spline through them is the law)."""
+        ts = [np.linspace(self.t[i], self.t[i + 1], ROWS_PER_PIECE + 1)[:-1]
+              for i in range(len(self.t) - 1)]
+        ts = np.r_[np.concatenate(ts), self.period]
+        s, v, a = self.at(ts)
+        s[-1], v[-1], a[-1] = s[0], v[0], a[0]           # the last row is the first
+        return np.column_stack([ts, center + np.outer(s, d), np.outer(v, d),
+                                np.outer(a, d)])
+
+
+def law_of(theta, A: float, L: float, U: float | None) -> Law | None:
+    """The law of the class for the unknowns ``theta`` (None: not a law of it)."""
+    q1, q3, l2, l4, le = theta
+    A1, a3 = A * min(max(q1, 0.01), 1.0), A * min(max(q3, 1e-3), 1.0)
+    d1, d2, d4 = 1.0, math.exp(l2), math.exp(l4)
+    e = math.exp(le)
+    e = max(e, MIN_CORNER * (d1 + d2 + d4 + A1 / a3 + 4 * e))
+    d3 = A1 * (d1 + e) / a3 - e
+    if d3 < 0 or not all(math.isfinite(x) for x in (d2, d4, e)):
+        return None
+    spans = [d4, e, d1, e, d2, e, d3, e]
+    levels = [0.0, 0.0, -A1, -A1, 0.0, 0.0, a3, a3, 0.0]
+    t = np.r_[0.0, np.cumsum(spans)]
+    keep = np.r_[True, np.diff(t) > 1e-9 * t[-1]]         # an empty hold or coast
+    t, acc = t[keep], np.array(levels)[keep]
+    h = np.diff(t)
+    v = np.r_[0.0, np.cumsum(h * (acc[:-1] + acc[1:]) / 2)]
+    v[-1] = 0.0                                           # A1 (d1 + e) = a3 (d3 + e)
+    s = np.r_[0.0, np.cumsum(v[:-1] * h + h * h * (2 * acc[:-1] + acc[1:]) / 6)]
+    mean = s[-1] / t[-1]                                  # the constant of x'
+    v, s = v - mean, s - mean * t
+    law = Law(t, s, v, acc, {})
+    ext = law.extremes()
+    c = math.sqrt(L / ext["range"])                       # time scaled by c: x by c^2
+    if U is not None:
+        c = min(c, U / ext["max_velocity"])
+    mid = (ext["min"] + ext["max"]) / 2 * c * c
+    phases = {"hold": d4 * c, "throw": d1 * c, "coast": d2 * c, "return": d3 * c,
+              "corner": e * c, "throw_acceleration": -A1, "return_acceleration": a3}
+    return Law(t * c, s * c * c - mid, v * c, acc, phases)
+
+
+def guess(task) -> list:
+    """The closed form's law (derive/capsule.py) for the task's bounds, its return at
+    GUESS_KAPPA of the static limit, in the unknowns of :func:`law_of`."""
+    sc, A = task.scene, task.max_acceleration
+    nu = sc.m / (sc.M + sc.m)
+    a_k, a_st = sc.friction * sc.g / nu, sc.mu_static * sc.g / nu
+    beta = min(a_k / A, 0.9)
+    kappa = GUESS_KAPPA * a_st / a_k          # counted in a_k, as in capsule.py
+    e = 0.02 * beta
+    throw = beta - e                          # units of w/a_k: the throw, the slide,
+    coast = (1 - beta) - e                    # the return, an empty hold
+    return [1.0, min(kappa * a_k / A, 1.0), math.log(max(coast, 1e-3) / throw),
+            math.log(1e-3), math.log(e / throw)]
+
+
+@dataclass
+class Evaluator:
+    """Runs a law as the task's scene in the base model's C runtime and measures C's
+    mean velocity over the last of ``periods`` periods from rest."""
+    task: object
+    periods: int = PERIODS
+    evaluations: int = 0
+    seconds: float = 0.0
+
+    def scene(self, law: Law, periods: int) -> dict:
+        t = self.task
+        rows = law.rows(t.region_center, t.direction)
+        return scene_document(t.scene, {"samples": [[float(x) for x in r[:4]] for r in rows],
+                                        "ends": "periodic"}, periods * law.period)
+
+    def run(self, law: Law) -> dict:
+        from ..runtime.choice import base_c_at
+        from ..runtime.driver import simulate
+        start = time.perf_counter()
+        ends = {}
+        for k in (self.periods - 1, self.periods):
+            res = simulate(self.scene(law, k))
+            if res.status != "done":
+                self.evaluations += 1
+                self.seconds += time.perf_counter() - start
+                return {"status": res.status, "t": float(res.t[-1]), "model": res.model}
+            ends[k] = base_c_at(res.scene, float(res.t[-1]), res.model_q[-1])
+        self.evaluations += 1
+        self.seconds += time.perf_counter() - start
+        dC = (ends[self.periods] - ends[self.periods - 1])[:2]
+        fixed = (self.task.scene.A0 @ self.task.direction)[:2]
+        vel = dC / law.period
+        return {"status": "done", "model": res.model, "mean_velocity": [float(x) for x in vel],
+                "mean_speed": float(np.hypot(*vel)),
+                "forward_speed": float(vel @ fixed / np.linalg.norm(fixed))}
+
+
+@dataclass(repr=False)
+class TravelPlan:
+    """A travel plan: ``summary`` is plan.json; ``write(dir)`` writes law.csv,
+    scene.toml and plan.json."""
+    task: object
+    status: str
+    message: str
+    summary: dict
+    law: Law | None = None
+    table: np.ndarray | None = None
+    scene_toml: str = ""
+    extra: dict = field(default_factory=dict)
+
+    @property
+    def ok(self) -> bool:
+        return self.status == "solved"
+
+    def __repr__(self) -> str:
+        what = (f"{self.summary['mean_speed']:.6g} m/s, {self.summary['ratio']:.4f} of the "
+                "closed form" if self.ok else self.message[:120])
+        return f"<Plan travel: {self.status}; {what}>"
+
+    def write(self, out) -> list[Path]:
+        from .outputs import write_table
+        out = Path(out)
+        out.mkdir(parents=True, exist_ok=True)
+        written = []
+        if self.ok:
+            write_table(out / "law.csv", self.table)
+            (out / "scene.toml").write_text(self.scene_toml, encoding="utf-8")
+            written += [out / "law.csv", out / "scene.toml"]
+        (out / "plan.json").write_text(json_text.dumps(self.summary), encoding="utf-8")
+        return written + [out / "plan.json"]
+
+
+def closed_form(task) -> dict:
+    """derive/capsule.py's optimum for the task's bounds (and without the acceleration
+    bound, the jump's)."""
+    sc = task.scene
+    L, U, A = 2 * task.region_radius, task.max_velocity, task.max_acceleration
+    kw = dict(M=sc.M, m=sc.m, mu=sc.friction, L=L, U=U, mu_s=sc.mu_static, g=sc.g)
+    nu = sc.m / (sc.M + sc.m)
+    return {"source": "derive/capsule.py (derived there; Chernousko's closed forms not found)",
+            "class": "a throw at -A, a slide at rest velocity, a return at the static "
+                     "limit mu_s g/nu (its supremum, on the edge of the friction cone)",
+            "speed": capsule.optimum_bounded(A=A, **kw),
+            "speed_unbounded_acceleration": capsule.optimum_bounded(A=None, **kw),
+            "static_limit_acceleration": sc.mu_static * sc.g / nu}
+
+
+def plan(task, progress: bool = False) -> TravelPlan:
+    """The fastest crawl of the class for a travel task (see the module's text)."""
+    from scipy.optimize import minimize
+    t_start = time.perf_counter()
+    sc, A = task.scene, task.max_acceleration
+    L, U = 2 * task.region_radius, task.max_velocity
+    cf = closed_form(task)
+    summary = {"goal": "travel", "closed_form": cf,
+               "bounds": {"range": L, "max_velocity": U, "max_acceleration": A}}
+    if cf["speed"] == 0.0:
+        msg = (f"infeasible: max_acceleration {A:g} m/s^2 is at most the static limit "
+               f"mu_s g/nu = {cf['static_limit_acceleration']:.6g} m/s^2: the point cannot "
+               "push the body off its rest, no law moves it")
+        summary.update(status="infeasible", message=msg,
+                       total_seconds=time.perf_counter() - t_start)
+        return TravelPlan(task, "infeasible", msg, summary)
+    ev = Evaluator(task)
+    scale = cf["speed"]
+    best = {"f": math.inf}
+
+    def f(theta):
+        law = law_of(theta, A, L, U)
+        if law is None:
+            return 1.0
+        got = ev.run(law)
+        val = -got["forward_speed"] / scale if got["status"] == "done" else 1.0
+        if val < best["f"]:
+            best.update(f=val, theta=np.array(theta), law=law, got=got)
+            if progress:
+                import sys
+                print(f"  travel: evaluation {ev.evaluations}: {-val * scale:.6g} m/s",
+                      file=sys.stderr)
+        return val
+
+    x0 = np.array(guess(task))
+    steps = np.array([-0.05, -0.03 * x0[1], 0.3, 0.5, 0.3])
+    simplex = np.vstack([x0] + [x0 + np.eye(5)[k] * steps[k] for k in range(5)])
+    res = minimize(f, x0, method="Nelder-Mead",
+                   options={"maxiter": task.max_iterations, "initial_simplex": simplex,
+                            "xatol": 1e-3, "fatol": 1e-5})
+    search = {"method": "Nelder-Mead (scipy) over 5 unknowns, each candidate run by the "
+                        f"base model's C runtime for {PERIODS} periods from rest",
+              "iterations": int(res.nit), "evaluations": ev.evaluations,
+              "seconds": ev.seconds, "stopped": str(res.message)}
+    summary["search"] = search
+    if "law" not in best or best["f"] >= 0:
+        msg = "failed: no law of the class moved the body forward (every candidate's run " \
+              "stopped or went back)"
+        summary.update(status="failed", message=msg, total_seconds=time.perf_counter() - t_start)
+        return TravelPlan(task, "failed", msg, summary)
+    law, got = best["law"], best["got"]
+    ext = law.extremes()
+    table = law.rows(task.region_center, task.direction)
+    doc = scene_document(sc, {"table": "law.csv", "ends": "periodic"},
+                         RUN_PERIODS * law.period)
+    text = scene_toml(doc)
+    achieved = _achieved(table, text)
+    summary.update({
+        "status": "solved", "message": "the fastest law of the class found",
+        "law": {"kind": "four phases of constant acceleration along the guide, linear "
+                        "corners", "period": law.period, "phases": law.phases,
+                "direction": [float(x) for x in task.direction],
+                "guide_center": [float(x) for x in task.region_center],
+                "breakpoints": [[float(t), float(a)] for t, a in zip(law.t, law.a)],
+                "max_acceleration": ext["max_acceleration"],
+                "max_velocity": ext["max_velocity"], "range": ext["range"],
+                "table_rows": int(table.shape[0])},
+        "mean_velocity": got["mean_velocity"], "mean_speed": got["mean_speed"],
+        "forward_speed": got["forward_speed"],
+        "ratio": got["forward_speed"] / cf["speed"],
+        "ratio_unbounded_acceleration": got["forward_speed"] / cf["speed_unbounded_acceleration"],
+        "achieved": achieved, "total_seconds": time.perf_counter() - t_start})
+    return TravelPlan(task, "solved", summary["message"], summary, law=law, table=table,
+                      scene_toml=text)
+
+
+def _achieved(table: np.ndarray, text: str) -> dict:
+    """The written scene.toml and law.csv run by derive.simulate's path (the runtime, the
+    table read back): its summary's travel, per period over RUN_PERIODS periods."""
+    from ..runtime import base_report
+    from ..runtime.driver import simulate
+    from .outputs import write_table
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "scene.toml"
+        write_table(Path(tmp) / "law.csv", table)
+        path.write_text(text, encoding="utf-8")
+        res = simulate(str(path))
+        tr = base_report.travel(res) if res.status == "done" else {}
+    return {"runtime": {"status": res.status, "model": res.model,
+                        "whole_periods": tr.get("whole_periods"),
+                        "mean_velocity": tr.get("mean_velocity"),
+                        "last_period_displacement": tr.get("last_period_displacement")}}
