@@ -49,6 +49,24 @@ ramp back at ``kappa mu_s g/nu`` (kappa here counts in ``a_k``: the sticking lim
 at a given range this r is the best of the class and V grows with kappa, as for the jump
 (a scan of r, kappa and beta checks both: tests/test_travel.py).  ``beta -> 0`` gives the
 formulas above.
+
+**The sawtooth: the return overlapping the slide** (what the planner's search found
+faster, started from the class above).  The point's velocity is a sawtooth: the throw at
+``-A`` from ``w/2`` to ``-w/2``, then at once the return at ``a = kappa a_k`` back to
+``w/2``, no rests.  The body slides forward from the throw, braked by friction and by the
+return together (``nu (a_k + a)``), and sticks until the next throw (the slide,
+``w (1 - beta)/(a_k + a)``, ends within the return, ``w/a``).  In units ``a_k = 1``:
+
+    D = nu w^2 (1 - beta) (beta + (1 - beta)/(1 + kappa))/2,   period w (beta + 1/kappa),
+    L = w^2 (beta + 1/kappa)/8 (the negative lobe of a zero-mean triangle wave),
+    u1 = u2 = w/2 <= U,
+
+so ``V = nu w (1 - beta) (beta + (1 - beta)/(1 + kappa))/(2 (beta + 1/kappa))``, growing
+with kappa (the scan again): at the sticking limit, for the jump (beta = 0, mu_s = mu),
+``V = min(sqrt(nu mu g L/2), nu U/2)``, 1.5 times V* above.  Braking the slide by the
+return costs distance, but the return no longer waits for the rest, and a zero-mean
+sawtooth needs less stroke than the class above for the same velocity jump.  Neither
+class is proved the best of all laws.
 """
 from __future__ import annotations
 
@@ -147,3 +165,24 @@ def optimum_bounded(M: float, m: float, mu: float, L: float | None = None,
     if U is not None:
         w = min(w, U / (1 - r))
     return nu * w * (1 - beta) * kappa / (2 * (kappa + 1))
+
+
+def sawtooth_bounded(M: float, m: float, mu: float, L: float | None = None,
+                     U: float | None = None, A: float | None = None,
+                     mu_s: float | None = None, g: float = 9.81,
+                     kappa: float | None = None) -> float:
+    """V of the sawtooth (the return at ``kappa a_k`` at once after the throw, default the
+    sticking limit mu_s/mu) under the bounds given; 0 when ``A`` cannot break the rest."""
+    nu = m / (M + m)
+    mu_s = mu if mu_s is None else mu_s
+    a_k = mu * g / nu
+    if A is not None and A <= mu_s * g / nu:
+        return 0.0
+    beta = 0.0 if A is None else a_k / A
+    kappa = mu_s / mu if kappa is None else kappa
+    w = math.inf
+    if L is not None:
+        w = min(w, math.sqrt(8 * L * a_k / (beta + 1 / kappa)))
+    if U is not None:
+        w = min(w, 2 * U)
+    return nu * w * (1 - beta) * (beta + (1 - beta) / (1 + kappa)) / (2 * (beta + 1 / kappa))

@@ -123,6 +123,7 @@ def travel_lines(result, message: bool = True) -> list[str]:
             lines.append(f"  {s['message']}")
         return lines
     law, ph = s["law"], s["law"]["phases"]
+    other = "rest" if cf["class"] == "sawtooth" else "sawtooth"
     u = "none" if b["max_velocity"] is None else f"{b['max_velocity']:.4g}"
     lines += [
         f"  law: period {law['period']:.6g} s along {_vec(law['direction'])} through "
@@ -134,9 +135,11 @@ def travel_lines(result, message: bool = True) -> list[str]:
         f"{law['max_velocity']:.4g} m/s (limit {u}), max |OP''| "
         f"{law['max_acceleration']:.4g} m/s^2 (limit {b['max_acceleration']:.4g})",
         f"  mean speed {s['mean_speed']:.6g} m/s (forward {s['forward_speed']:.6g}); closed "
-        f"form for the same bounds {cf['speed']:.6g} m/s (derive/capsule.py), ratio "
-        f"{s['ratio']:.4f}; without the acceleration bound {cf['speed_unbounded_acceleration']:.6g}"
-        f" m/s, ratio {s['ratio_unbounded_acceleration']:.4f}"]
+        f"form for the same bounds {cf['speed']:.6g} m/s (derive/capsule.py, the "
+        f"{cf['class']} class), ratio {s['ratio']:.4f}",
+        f"  the other class ({other}) {cf[other]['speed']:.6g} m/s; without the acceleration "
+        f"bound {cf['speed_unbounded_acceleration']:.6g} m/s, ratio "
+        f"{s['ratio_unbounded_acceleration']:.4f}"]
     rt = s["achieved"]["runtime"]
     if rt["mean_velocity"] is not None:
         lines.append(f"  achieved (runtime, re-simulated scene.toml): mean velocity "

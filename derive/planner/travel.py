@@ -22,12 +22,13 @@ the last one along the guide (a steady crawl: the capsule's body comes to rest e
 period; a run that stops early, tipping say, scores nothing).  ``max_iterations`` caps
 the simplex's iterations.
 
-**The comparison.**  :func:`derive.capsule.optimum_bounded`: the best law of the class
-derived there (a throw at ``-A``, a slide, a return at the static limit), with the same
-``L``, ``U``, ``A``, ``mu``, ``mu_s``, at the sticking limit (a supremum: its return on
-the edge of the friction cone; the search's corners have a width and its return stays
-inside the cone).  The search of Chernousko's own closed forms (J. Appl. Math. Mech. 66,
-2002; Meccanica 2016) found no text of them, so they are not quoted.
+**The comparison.**  The better of derive/capsule.py's two derived classes with the same
+``L``, ``U``, ``A``, ``mu``, ``mu_s``, each at the sticking limit (a supremum: the return on
+the edge of the friction cone): :func:`~derive.capsule.optimum_bounded` (the throw, the
+slide, the return at rest) and :func:`~derive.capsule.sawtooth_bounded` (the return at once,
+overlapping the slide).  The search's class holds both but for its corners (at least
+``MIN_CORNER`` of the period each).  The search of Chernousko's own closed forms (J. Appl.
+Math. Mech. 66, 2002; Meccanica 2016) found no text of them, so they are not quoted.
 """
 from __future__ import annotations
 
@@ -112,12 +113,15 @@ def law_of(theta, A: float, L: float, U: float | None) -> Law | None:
     e = math.exp(le)
     e = max(e, MIN_CORNER * (d1 + d2 + d4 + A1 / a3 + 4 * e))
     d3 = A1 * (d1 + e) / a3 - e
+    # a hold or coast shorter than half a corner is empty: the spline through its knots,
+    # from positions, would amplify their round-off by 1/h^2 in the acceleration
+    d2, d4 = (d if d >= 0.5 * e else 0.0 for d in (d2, d4))
     if d3 < 0 or not all(math.isfinite(x) for x in (d2, d4, e)):
         return None
     spans = [d4, e, d1, e, d2, e, d3, e]
     levels = [0.0, 0.0, -A1, -A1, 0.0, 0.0, a3, a3, 0.0]
     t = np.r_[0.0, np.cumsum(spans)]
-    keep = np.r_[True, np.diff(t) > 1e-9 * t[-1]]         # an empty hold or coast
+    keep = np.r_[True, np.diff(t) > 0.0]                  # an empty hold or coast
     t, acc = t[keep], np.array(levels)[keep]
     h = np.diff(t)
     v = np.r_[0.0, np.cumsum(h * (acc[:-1] + acc[1:]) / 2)]
@@ -224,17 +228,30 @@ class TravelPlan:
 
 
 def closed_form(task) -> dict:
-    """derive/capsule.py's optimum for the task's bounds (and without the acceleration
-    bound, the jump's)."""
+    """derive/capsule.py's two classes for the task's bounds (and without the
+    acceleration bound): the better one is the comparison."""
     sc = task.scene
     L, U, A = 2 * task.region_radius, task.max_velocity, task.max_acceleration
     kw = dict(M=sc.M, m=sc.m, mu=sc.friction, L=L, U=U, mu_s=sc.mu_static, g=sc.g)
     nu = sc.m / (sc.M + sc.m)
-    return {"source": "derive/capsule.py (derived there; Chernousko's closed forms not found)",
-            "class": "a throw at -A, a slide at rest velocity, a return at the static "
-                     "limit mu_s g/nu (its supremum, on the edge of the friction cone)",
-            "speed": capsule.optimum_bounded(A=A, **kw),
-            "speed_unbounded_acceleration": capsule.optimum_bounded(A=None, **kw),
+    classes = {"sawtooth": (capsule.sawtooth_bounded(A=A, **kw),
+                            capsule.sawtooth_bounded(A=None, **kw)),
+               "rest": (capsule.optimum_bounded(A=A, **kw),
+                        capsule.optimum_bounded(A=None, **kw))}
+    best = max(classes, key=lambda k: classes[k][0])
+    return {"source": "derive/capsule.py (derived there; Chernousko's closed forms were "
+                      "not found, so not quoted)",
+            "class": best, "speed": classes[best][0],
+            "speed_unbounded_acceleration": max(v[1] for v in classes.values()),
+            "sawtooth": {"speed": classes["sawtooth"][0],
+                         "speed_unbounded_acceleration": classes["sawtooth"][1],
+                         "what": "the throw at -A, at once the return at the static limit "
+                                 "mu_s g/nu overlapping the slide, no rests"},
+            "rest": {"speed": classes["rest"][0],
+                     "speed_unbounded_acceleration": classes["rest"][1],
+                     "what": "the throw at -A, the slide, the return at the static limit "
+                             "with the body at rest (V* = min(sqrt(2 nu mu g L)/3, nu U/3) "
+                             "for the jump)"},
             "static_limit_acceleration": sc.mu_static * sc.g / nu}
 
 
