@@ -219,6 +219,8 @@ BAD = [
     (("plane", "friction"), 0.0, "[plane].friction"),
     (("body", "shape"), "sphere", "[body].shape"),
     (("initial", "com_velocity"), [0.1, 0.0, 0.0], "[initial].com_velocity"),
+    (("plan", "circle"), {"radius": 0.03}, "[plan].circle"),
+    (("control", "mode"), "replan", "[control]"),
 ]
 
 
@@ -228,8 +230,12 @@ def test_bad_travel_keys_name_the_field(path, value, where):
     table, key = path
     if value is None:
         del doc[table][key]
+    elif table == "control":
+        doc["control"] = {"mode": "replan"}
     else:
         doc[table][key] = copy.deepcopy(value)
+    if key == "circle":
+        del doc["plan"]["region"]
     if key == "shape":
         del doc["body"]["half_extents"]
         doc["body"]["radius"] = 0.05

@@ -281,6 +281,10 @@ def _travel(p: _Plan) -> None:
         return
     if p.bodies:
         raise SceneError("[plan].goal", "travel plans one [point]'s law (a [point] task)")
+    for table in ("control", "disturbance"):
+        if table in p.v["__tables__"]:
+            raise SceneError(f"[{table}]", "travel plans an open-loop periodic law: derive "
+                                           "control does not close a loop around it")
     for key, why in TRAVEL_UNREAD.items():
         if p.has(key):
             raise SceneError(f"[plan].{key}", f"is not read by travel: {why}")

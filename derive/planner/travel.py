@@ -272,6 +272,7 @@ def plan(task, progress: bool = False) -> TravelPlan:
                        total_seconds=time.perf_counter() - t_start)
         return TravelPlan(task, "infeasible", msg, summary)
     ev = Evaluator(task)
+    stops = []
     scale = cf["speed"]
     best = {"f": math.inf}
 
@@ -280,6 +281,8 @@ def plan(task, progress: bool = False) -> TravelPlan:
         if law is None:
             return 1.0
         got = ev.run(law)
+        if got["status"] != "done":
+            stops.append(got)
         val = -got["forward_speed"] / scale if got["status"] == "done" else 1.0
         if val < best["f"]:
             best.update(f=val, theta=np.array(theta), law=law, got=got)
@@ -290,6 +293,16 @@ def plan(task, progress: bool = False) -> TravelPlan:
         return val
 
     x0 = np.array(guess(task))
+    # a guess whose run stops (a throw that tips the body, say) throws softer, down to
+    # the static limit, before the search starts
+    lowest = cf["static_limit_acceleration"] / A
+    while True:
+        law = law_of(x0, A, L, U)
+        got = ev.run(law) if law is not None else {"status": "no law"}
+        stops.append(got)
+        if got["status"] == "done" or x0[0] * 0.8 <= lowest:
+            break
+        x0[0] *= 0.8
     steps = np.array([-0.05, -0.03 * x0[1], 0.3, 0.5, 0.3])
     simplex = np.vstack([x0] + [x0 + np.eye(5)[k] * steps[k] for k in range(5)])
     res = minimize(f, x0, method="Nelder-Mead",
@@ -301,8 +314,10 @@ def plan(task, progress: bool = False) -> TravelPlan:
               "seconds": ev.seconds, "stopped": str(res.message)}
     summary["search"] = search
     if "law" not in best or best["f"] >= 0:
-        msg = "failed: no law of the class moved the body forward (every candidate's run " \
-              "stopped or went back)"
+        why = next((f"{g['status']} at t = {g['t']:.6g} s" for g in stops
+                    if g["status"] not in ("done", "no law")), "or went back")
+        msg = ("failed: no law of the class moved the body forward (the guess's runs, their "
+               f"throw softened down to the static limit, stopped: {why})")
         summary.update(status="failed", message=msg, total_seconds=time.perf_counter() - t_start)
         return TravelPlan(task, "failed", msg, summary)
     law, got = best["law"], best["got"]
