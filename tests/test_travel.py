@@ -171,12 +171,14 @@ def test_the_plan_meets_the_closed_form_and_the_runtime_is_right(planned):
     assert plan.ok, plan.message
     s = plan.summary
     # the class searched holds both closed forms' but for its corners (each at least
-    # 1e-3 of the period: they cost 0.3 %, 3 % at 1e-2 and 0.03 % at 1e-4, so the search
-    # meets the supremum as the corners go; derive/docs/planning.md): it finds the
-    # sawtooth from the rest class's law, and beats the rest class by a third
+    # 1e-3 of the period; without its brake phase the search met the sawtooth to 0.3 %,
+    # the corners' cost), and a brake at +A while the body slides, which beats both
+    # (derive/docs/planning.md): 1.16 times the sawtooth after 100 iterations, 1.175
+    # converged
     cf = s["closed_form"]
-    assert cf["class"] == "sawtooth" and s["ratio"] >= 0.99, s["ratio"]
-    assert s["forward_speed"] > 1.3 * cf["rest"]["speed"]
+    assert cf["class"] == "sawtooth" and s["ratio"] >= 1.1, s["ratio"]
+    assert s["forward_speed"] > 1.5 * cf["rest"]["speed"]
+    assert s["law"]["phases"]["brake_acceleration"] > 0.9 * task.max_acceleration
     law = plan.law
     ext = law.extremes()
     L, U, A = 2 * task.region_radius, task.max_velocity, task.max_acceleration

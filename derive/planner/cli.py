@@ -128,7 +128,8 @@ def travel_lines(result, message: bool = True) -> list[str]:
     lines += [
         f"  law: period {law['period']:.6g} s along {_vec(law['direction'])} through "
         f"{_vec(law['guide_center'])}: hold {ph['hold']:.4g} s, throw {ph['throw']:.4g} s at "
-        f"{ph['throw_acceleration']:.5g} m/s^2, coast {ph['coast']:.4g} s, return "
+        f"{ph['throw_acceleration']:.5g} m/s^2, coast {ph['coast']:.4g} s, brake "
+        f"{ph['brake']:.4g} s at {ph['brake_acceleration']:.5g} m/s^2, return "
         f"{ph['return']:.4g} s at {ph['return_acceleration']:.5g} m/s^2, corners "
         f"{ph['corner']:.3g} s",
         f"  bounds: range {law['range']:.5g} m (limit {b['range']:.5g}), max |OP'| "

@@ -107,25 +107,25 @@ class Law:
 
 def law_of(theta, A: float, L: float, U: float | None) -> Law | None:
     """The law of the class for the unknowns ``theta`` (None: not a law of it)."""
-    q1, q3, l2, l4, le = theta
-    A1, a3 = A * min(max(q1, 0.01), 1.0), A * min(max(q3, 1e-3), 1.0)
-    d1, d2, d4 = 1.0, math.exp(l2), math.exp(l4)
+    q1, q2, q3, l_coast, l_hold, l_brake, le = theta
+    A1, a2, a3 = (A * min(max(q, lo), 1.0) for q, lo in ((q1, 0.01), (q2, 1e-3), (q3, 1e-3)))
+    d1, d2, d4, db = 1.0, math.exp(l_coast), math.exp(l_hold), math.exp(l_brake)
     e = math.exp(le)
-    e = max(e, MIN_CORNER * (d1 + d2 + d4 + A1 / a3 + 4 * e))
-    d3 = A1 * (d1 + e) / a3 - e
-    # a hold or coast shorter than half a corner is empty: the spline through its knots,
-    # from positions, would amplify their round-off by 1/h^2 in the acceleration
-    d2, d4 = (d if d >= 0.5 * e else 0.0 for d in (d2, d4))
-    if d3 < 0 or not all(math.isfinite(x) for x in (d2, d4, e)):
+    e = max(e, MIN_CORNER * (d1 + d2 + d4 + db + A1 / a3 + 5 * e))
+    # a hold, coast or brake shorter than half a corner is empty: the spline through its
+    # knots, from positions, would amplify their round-off by 1/h^2 in the acceleration
+    d2, d4, db = (d if d >= 0.5 * e else 0.0 for d in (d2, d4, db))
+    d3 = (A1 * (d1 + e) - a2 * (db + e)) / a3 - e         # the velocity periodic
+    if d3 < 0.5 * e or not all(math.isfinite(x) for x in (d2, d4, db, e)):
         return None
-    spans = [d4, e, d1, e, d2, e, d3, e]
-    levels = [0.0, 0.0, -A1, -A1, 0.0, 0.0, a3, a3, 0.0]
+    spans = [d4, e, d1, e, d2, e, db, e, d3, e]
+    levels = [0.0, 0.0, -A1, -A1, 0.0, 0.0, a2, a2, a3, a3, 0.0]
     t = np.r_[0.0, np.cumsum(spans)]
-    keep = np.r_[True, np.diff(t) > 0.0]                  # an empty hold or coast
+    keep = np.r_[True, np.diff(t) > 0.0]                  # an empty phase
     t, acc = t[keep], np.array(levels)[keep]
     h = np.diff(t)
     v = np.r_[0.0, np.cumsum(h * (acc[:-1] + acc[1:]) / 2)]
-    v[-1] = 0.0                                           # A1 (d1 + e) = a3 (d3 + e)
+    v[-1] = 0.0                                           # (round-off of the balance)
     s = np.r_[0.0, np.cumsum(v[:-1] * h + h * h * (2 * acc[:-1] + acc[1:]) / 6)]
     mean = s[-1] / t[-1]                                  # the constant of x'
     v, s = v - mean, s - mean * t
@@ -135,14 +135,16 @@ def law_of(theta, A: float, L: float, U: float | None) -> Law | None:
     if U is not None:
         c = min(c, U / ext["max_velocity"])
     mid = (ext["min"] + ext["max"]) / 2 * c * c
-    phases = {"hold": d4 * c, "throw": d1 * c, "coast": d2 * c, "return": d3 * c,
-              "corner": e * c, "throw_acceleration": -A1, "return_acceleration": a3}
+    phases = {"hold": d4 * c, "throw": d1 * c, "coast": d2 * c, "brake": db * c,
+              "return": d3 * c, "corner": e * c, "throw_acceleration": -A1,
+              "brake_acceleration": a2, "return_acceleration": a3}
     return Law(t * c, s * c * c - mid, v * c, acc, phases)
 
 
 def guess(task) -> list:
-    """The closed form's law (derive/capsule.py) for the task's bounds, its return at
-    GUESS_KAPPA of the static limit, in the unknowns of :func:`law_of`."""
+    """The closed form's law (derive/capsule.py's rest class) for the task's bounds, its
+    return at GUESS_KAPPA of the static limit and no brake, in the unknowns of
+    :func:`law_of`."""
     sc, A = task.scene, task.max_acceleration
     nu = sc.m / (sc.M + sc.m)
     a_k, a_st = sc.friction * sc.g / nu, sc.mu_static * sc.g / nu
@@ -150,8 +152,9 @@ def guess(task) -> list:
     kappa = GUESS_KAPPA * a_st / a_k          # counted in a_k, as in capsule.py
     e = 0.02 * beta
     throw = beta - e                          # units of w/a_k: the throw, the slide,
-    coast = (1 - beta) - e                    # the return, an empty hold
-    return [1.0, min(kappa * a_k / A, 1.0), math.log(max(coast, 1e-3) / throw),
+    coast = (1 - beta) - e                    # the return, an empty hold and brake
+    q3 = min(kappa * a_k / A, 1.0)
+    return [1.0, q3, q3, math.log(max(coast, 1e-3) / throw), math.log(1e-3),
             math.log(1e-3), math.log(e / throw)]
 
 
@@ -303,12 +306,13 @@ def plan(task, progress: bool = False) -> TravelPlan:
         if got["status"] == "done" or x0[0] * 0.8 <= lowest:
             break
         x0[0] *= 0.8
-    steps = np.array([-0.05, -0.03 * x0[1], 0.3, 0.5, 0.3])
-    simplex = np.vstack([x0] + [x0 + np.eye(5)[k] * steps[k] for k in range(5)])
+    steps = np.array([-0.05, 0.3, -0.03 * x0[2], 0.3, 0.5, 3.0, 0.3])
+    n = len(steps)
+    simplex = np.vstack([x0] + [x0 + np.eye(n)[k] * steps[k] for k in range(n)])
     res = minimize(f, x0, method="Nelder-Mead",
                    options={"maxiter": task.max_iterations, "initial_simplex": simplex,
-                            "xatol": 1e-3, "fatol": 1e-5})
-    search = {"method": "Nelder-Mead (scipy) over 5 unknowns, each candidate run by the "
+                            "xatol": 1e-3, "fatol": 1e-5, "adaptive": True})
+    search = {"method": "Nelder-Mead (scipy) over 7 unknowns, each candidate run by the "
                         f"base model's C runtime for {PERIODS} periods from rest",
               "iterations": int(res.nit), "evaluations": ev.evaluations,
               "seconds": ev.seconds, "stopped": str(res.message)}
