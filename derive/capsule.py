@@ -65,8 +65,17 @@ so ``V = nu w (1 - beta) (beta + (1 - beta)/(1 + kappa))/(2 (beta + 1/kappa))``,
 with kappa (the scan again): at the sticking limit, for the jump (beta = 0, mu_s = mu),
 ``V = min(sqrt(nu mu g L/2), nu U/2)``, 1.5 times V* above.  Braking the slide by the
 return costs distance, but the return no longer waits for the rest, and a zero-mean
-sawtooth needs less stroke than the class above for the same velocity jump.  Neither
-class is proved the best of all laws.
+sawtooth needs less stroke than the class above for the same velocity jump.
+
+**The brake** (what the planner's search found faster still, with a phase of its own):
+the throw at ``-A`` for t1, a coast for t2 while the body slides, a brake at ``+A`` for
+``tb`` ending just as the body stops (``nu (A - a_k) t1 = nu a_k t2 + nu (A + a_k) tb``),
+then the return at the static limit with the body at rest, for ``A (t1 - tb)/a_st``.  The
+brake cuts the slow tail of the slide and does part of the return while the body still
+slides (the static limit does not bind then).  The integral of x' over the period is
+linear in u1, which the periodic position fixes; :func:`brake_bounded` scans the coast's
+share ``rho = t2/t_stop`` (1: no brake, the rest class with t4 = t5 = 0).  None of the
+three classes is proved the best of all laws.
 """
 from __future__ import annotations
 
@@ -186,3 +195,56 @@ def sawtooth_bounded(M: float, m: float, mu: float, L: float | None = None,
     if U is not None:
         w = min(w, 2 * U)
     return nu * w * (1 - beta) * (beta + (1 - beta) / (1 + kappa)) / (2 * (beta + 1 / kappa))
+
+
+def brake_bounded(M: float, m: float, mu: float, A: float, L: float | None = None,
+                  U: float | None = None, mu_s: float | None = None, g: float = 9.81,
+                  samples: int = 2001) -> tuple[float, float]:
+    """The brake class (the planner's find): the throw at ``-A`` for t1, a coast for t2
+    while the body slides, a brake at ``+A`` for tb ending as the body stops, the return
+    at the static limit ``mu_s g/nu`` with the body at rest.  Returns (V, rho): the best
+    mean speed over the coast's share ``rho = t2/t_stop`` (t_stop: the coast to the
+    body's own stop; rho = 1 is the rest class) on a grid of ``samples``, each shape
+    scaled in time (the accelerations kept) until the stroke or the velocity bound is
+    met.  In units t1 = 1: V1 = nu (A - a_k), tb = (V1 - nu a_k t2)/(nu (A + a_k)), the
+    return lasts A (t1 - tb)/a_st, and the periodic position fixes u1 (the integral of
+    x' is linear in it)."""
+    nu = m / (M + m)
+    mu_s = mu if mu_s is None else mu_s
+    a_k, a = mu * g / nu, mu_s * g / nu
+    if A <= a:
+        return 0.0, 0.0
+    best = (0.0, 0.0)
+    for rho in [k / (samples - 1) for k in range(samples)]:
+        t1 = 1.0
+        V1 = nu * (A - a_k) * t1
+        t2 = rho * V1 / (nu * a_k)
+        V2 = V1 - nu * a_k * t2
+        tb = V2 / (nu * (A + a_k))
+        tr = A * (t1 - tb) / a
+        P = t1 + t2 + tb + tr
+        const = (-A * t1 * t1 / 2 - A * t1 * t2 - A * t1 * tb + A * tb * tb / 2
+                 - A * (t1 - tb) * tr + a * tr * tr / 2)
+        u1 = -const / P
+        # x' at the breakpoints, linear between: the stroke from its zeros
+        ts = [0.0, t1, t1 + t2, t1 + t2 + tb, P]
+        vs = [u1, u1 - A * t1, u1 - A * t1, u1 - A * t1 + A * tb, u1]
+        xs, x = [0.0], 0.0
+        for i in range(4):
+            h, v0, v1 = ts[i + 1] - ts[i], vs[i], vs[i + 1]
+            if v0 * v1 < 0:                              # a turning point inside
+                s0 = h * v0 / (v0 - v1)
+                xs.append(x + v0 * s0 / 2)
+            x += h * (v0 + v1) / 2
+            xs.append(x)
+        stroke = max(xs) - min(xs)
+        D = V1 * t1 / 2 + (V1 + V2) * t2 / 2 + V2 * tb / 2
+        c = math.inf
+        if L is not None:
+            c = math.sqrt(L / stroke)
+        if U is not None:
+            c = min(c, U / max(abs(v) for v in vs))
+        V = c * D / P
+        if V > best[0]:
+            best = (V, rho)
+    return best

@@ -5,11 +5,14 @@ its face, against things computed another way.
   integration written here (exact on each piece: the law's acceleration is linear there,
   the body's velocity quadratic), on the class's own law (a throw, a slide, a return);
   its choice of r against a scan of the class's periods;
+* derive/capsule.py's three classes (rest, sawtooth, brake) against that integration on
+  their own laws (1e-9);
 * the planned law (derive/planner/examples/travel.toml, a short search): its mean speed
-  as the runtime measured it against the 1-D integration of the same law (1e-7), its
+  as the runtime measured it against the 1-D integration of the same law (1e-6), its
   bounds exact, law.csv read back as the runtime's spline is the law (1e-12), and it
-  meets or beats the closed form for the same bounds (the class searched contains the
-  closed form's, but for corners of 1e-3 of the period);
+  meets the best closed form for the same bounds (the brake class) to 1.5 % (the class
+  searched contains the three, but for corners of 1e-3 of the period) and beats the
+  other two;
 * malformed travel keys: exit 2, one line naming the field.
 """
 import copy
@@ -119,6 +122,56 @@ def test_the_sawtooth_is_the_crawl_of_its_class(A, kappa):
         (m / (M + m)) * mu * G * L / 2)) < 1e-12
 
 
+def stroke_and_peak(pieces, period):
+    """The stroke of x and max |x'| for piecewise-constant x'' (x' piecewise linear,
+    its mean removed): x at the breakpoints and at x''s zeros."""
+    v, x, pts = [0.0], 0.0, [(0.0, 0.0)]
+    for t0, t1, a, _ in pieces:
+        h = t1 - t0
+        x += v[-1] * h + a * h * h / 2
+        v.append(v[-1] + a * h)
+        pts.append((t1, x))
+    mean = x / period
+    xs, vs = [], [u - mean for u in v]
+    for (t0, t1, a, _), u0, (tb, xb) in zip(pieces, vs, pts):
+        xs.append(xb - mean * tb)
+        if a != 0 and 0 < -u0 / a < t1 - t0:                     # x' = 0 inside
+            s_ = -u0 / a
+            xs.append(xb - mean * tb + u0 * s_ + a * s_ * s_ / 2)
+    return max(xs) - min(xs), max(abs(u) for u in vs)
+
+
+@pytest.mark.parametrize("A, U", [(40.0, 1.0), (100.0, None)])
+def test_the_brake_class_is_the_crawl_of_its_class(A, U):
+    """brake_bounded's speed against the 1-D integration of its law (throw -A, coast,
+    brake +A to the body's stop, return at the static limit), scaled to the bounds here
+    (1e-9); at the coast share 1 (no brake) it is the rest class."""
+    M, m, mu, L = 1.0, 0.4, 0.3, 0.06
+    nu = m / (M + m)
+    a_k = mu * G / nu
+    V, rho = capsule.brake_bounded(M, m, mu, A, L=L, U=U)
+    assert 0 <= rho < 1
+    t1, V1 = 1.0, nu * (A - a_k)
+    t2 = rho * V1 / (nu * a_k)
+    tb = (V1 - nu * a_k * t2) / (nu * (A + a_k))
+    edges = np.cumsum([0.0, t1, t2, tb, A * (t1 - tb) / a_k])
+    acc = (-A, 0.0, A, a_k)
+    pieces = [(edges[i], edges[i + 1], acc[i], acc[i]) for i in range(4)]
+    stroke, peak = stroke_and_peak(pieces, edges[-1])
+    c = min(math.sqrt(L / stroke), U / peak if U else math.inf)
+    pieces = [(a * c, b * c, x, y) for a, b, x, y in pieces]
+    X = T_crawl(pieces, edges[-1] * c, nu, mu)
+    assert abs((X[1] - X[0]) / (edges[-1] * c) - V) < 1e-9 * V
+    one = capsule.brake_bounded(M, m, mu, A, L=L, U=U, samples=2)    # rho = 0 and 1
+    assert V >= one[0]
+    rest = capsule.optimum_bounded(M, m, mu, L=L, U=U, A=A)
+    assert one[1] in (0.0, 1.0) and V > rest
+
+
+def T_crawl(pieces, period, nu, mu):
+    return crawl_1d(pieces, period, nu, mu, mu, periods=2)
+
+
 @pytest.mark.parametrize("A, kappa", [(40.0, 0.9), (25.0, 0.8), (400.0, 0.95)])
 def test_the_closed_form_is_the_crawl_of_its_class(A, kappa):
     """optimum_bounded's mean speed (return at kappa a_k) against the 1-D integration of
@@ -170,15 +223,14 @@ def test_the_plan_meets_the_closed_form_and_the_runtime_is_right(planned):
     task, plan, out = planned
     assert plan.ok, plan.message
     s = plan.summary
-    # the class searched holds both closed forms' but for its corners (each at least
-    # 1e-3 of the period; without its brake phase the search met the sawtooth to 0.3 %,
-    # the corners' cost), and a brake at +A while the body slides, which beats both
-    # (derive/docs/planning.md): 1.16 times the sawtooth after 100 iterations, 1.175
-    # converged
+    # the class searched holds the three closed forms' but for its corners (each at
+    # least 1e-3 of the period: they cost 0.3 % of the sawtooth, 3 % at 1e-2); from the
+    # brake class's law the search reaches 0.990 of it in 100 iterations, 0.995
+    # converged (derive/docs/planning.md); and it beats the other two
     cf = s["closed_form"]
-    assert cf["class"] == "sawtooth" and s["ratio"] >= 1.1, s["ratio"]
-    assert s["forward_speed"] > 1.5 * cf["rest"]["speed"]
-    assert s["law"]["phases"]["brake_acceleration"] > 0.9 * task.max_acceleration
+    assert cf["class"] == "brake" and 0.985 <= s["ratio"] <= 1.001, s["ratio"]
+    assert s["forward_speed"] > 1.15 * cf["sawtooth"]["speed"] > 1.15 * cf["rest"]["speed"]
+    assert s["law"]["phases"]["brake_acceleration"] > 0.99 * task.max_acceleration
     law = plan.law
     ext = law.extremes()
     L, U, A = 2 * task.region_radius, task.max_velocity, task.max_acceleration
@@ -189,7 +241,9 @@ def test_the_plan_meets_the_closed_form_and_the_runtime_is_right(planned):
     pieces = [(law.t[i], law.t[i + 1], law.a[i], law.a[i + 1]) for i in range(len(law.t) - 1)]
     X = crawl_1d(pieces, law.period, sc.m / (sc.M + sc.m), sc.friction, sc.mu_static)
     v1d = (X[1] - X[0]) / law.period
-    assert abs(s["forward_speed"] - v1d) < 1e-7 * v1d, (s["forward_speed"], v1d)
+    # (1e-6: 5e-9 m a period, the runtime's stops to 1e-9 in time as its checks hold them,
+    # at a stop that falls within a corner of the brake's end)
+    assert abs(s["forward_speed"] - v1d) < 1e-6 * v1d, (s["forward_speed"], v1d)
     # the written scene run over ten periods by the runtime: its summary's mean velocity
     rt = s["achieved"]["runtime"]
     assert rt["status"] == "done" and rt["model"] == "base" and rt["whole_periods"] == 10

@@ -123,7 +123,8 @@ def travel_lines(result, message: bool = True) -> list[str]:
             lines.append(f"  {s['message']}")
         return lines
     law, ph = s["law"], s["law"]["phases"]
-    other = "rest" if cf["class"] == "sawtooth" else "sawtooth"
+    others = ", ".join(f"{k} {cf[k]['speed']:.6g} m/s" for k in ("brake", "sawtooth", "rest")
+                       if k != cf["class"])
     u = "none" if b["max_velocity"] is None else f"{b['max_velocity']:.4g}"
     lines += [
         f"  law: period {law['period']:.6g} s along {_vec(law['direction'])} through "
@@ -138,9 +139,7 @@ def travel_lines(result, message: bool = True) -> list[str]:
         f"  mean speed {s['mean_speed']:.6g} m/s (forward {s['forward_speed']:.6g}); closed "
         f"form for the same bounds {cf['speed']:.6g} m/s (derive/capsule.py, the "
         f"{cf['class']} class), ratio {s['ratio']:.4f}",
-        f"  the other class ({other}) {cf[other]['speed']:.6g} m/s; without the acceleration "
-        f"bound {cf['speed_unbounded_acceleration']:.6g} m/s, ratio "
-        f"{s['ratio_unbounded_acceleration']:.4f}"]
+        f"  the other classes: {others}"]
     rt = s["achieved"]["runtime"]
     if rt["mean_velocity"] is not None:
         lines.append(f"  achieved (runtime, re-simulated scene.toml): mean velocity "

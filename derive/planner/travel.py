@@ -3,32 +3,33 @@ resting on its face crawl fastest, under bounds on the point's displacement (the
 ``region``), velocity (``max_velocity``) and acceleration (``max_acceleration``).
 
 **The class.**  The point's acceleration along the guide is periodic and piecewise linear
-through the breakpoints of four phases: a hold (``x'' = 0``), a throw (``-A1``), a coast
-(0) and a return (``+a3``), joined by linear corners of width ``e``; the throw and the
-return balance (``A1 (d1 + e) = a3 (d3 + e)``, so the velocity is periodic) and the
-velocity's constant makes the position periodic.  Such a law is a C^2 piecewise cubic
-whose knots are the breakpoints, so the runtime's periodic cubic spline through its
-values at those knots (``law.csv``, ``ends = "periodic"``) *is* the law, to round-off:
-the printed law runs as the scene it writes.  Its extremes are exact: ``|x''|`` at the
-breakpoints, ``|x'|`` at the knots (the acceleration keeps one sign on each piece), the
-range at the roots of ``x'`` on each piece.  Time is scaled (the accelerations kept) until
-the range or the velocity bound is met: a crawl covers more the larger its stroke.
+through the breakpoints of five phases: a hold (``x'' = 0``), a throw (``-A1``), a coast
+(0), a brake (``+a2``) and a return (``+a3``), joined by linear corners of width ``e``; the
+return's length makes the velocity periodic and the velocity's constant the position.
+Such a law is a C^2 piecewise cubic whose knots are the breakpoints, so the runtime's
+periodic cubic spline through its values at those knots (``law.csv``, ``ends =
+"periodic"``) *is* the law, to round-off: the printed law runs as the scene it writes.
+Its extremes are exact: ``|x''|`` at the breakpoints, ``|x'|`` at the knots (the
+acceleration keeps one sign on each piece), the stroke at the roots of ``x'`` on each
+piece.  Time is scaled (the accelerations kept) until the stroke or the velocity bound is
+met: a crawl covers more the larger its stroke.
 
-**The search.**  Five unknowns (``A1/A``, ``a3/A``, the coast, hold and corner durations
-over the throw's), Nelder-Mead from the closed-form optimum of :mod:`derive.capsule` for
-the same bounds at 97 % of its return's limit; every candidate is run by the base
+**The search.**  Seven unknowns (``A1/A``, ``a2/A``, ``a3/A``, the coast, hold, brake and
+corner over the throw), adaptive Nelder-Mead from the law of the best of
+:mod:`derive.capsule`'s classes for the same bounds; every candidate is run by the base
 model's C runtime from rest for ``PERIODS`` periods and scored by C's displacement over
-the last one along the guide (a steady crawl: the capsule's body comes to rest each
-period; a run that stops early, tipping say, scores nothing).  ``max_iterations`` caps
-the simplex's iterations.
+the last one along the guide (a run that stops early, tipping say, scores nothing; a
+start that stops throws softer first).  ``max_iterations`` caps the simplex's iterations.
 
-**The comparison.**  The better of derive/capsule.py's two derived classes with the same
-``L``, ``U``, ``A``, ``mu``, ``mu_s``, each at the sticking limit (a supremum: the return on
-the edge of the friction cone): :func:`~derive.capsule.optimum_bounded` (the throw, the
-slide, the return at rest) and :func:`~derive.capsule.sawtooth_bounded` (the return at once,
-overlapping the slide).  The search's class holds both but for its corners (at least
-``MIN_CORNER`` of the period each).  The search of Chernousko's own closed forms (J. Appl.
-Math. Mech. 66, 2002; Meccanica 2016) found no text of them, so they are not quoted.
+**The comparison.**  The best of derive/capsule.py's three derived classes with the same
+``L``, ``U``, ``A``, ``mu``, ``mu_s``, each at the sticking limit (a supremum: the return
+on the edge of the friction cone): :func:`~derive.capsule.optimum_bounded` (rest: the
+throw, the slide, the return at rest), :func:`~derive.capsule.sawtooth_bounded` (the
+return at once, overlapping the slide) and :func:`~derive.capsule.brake_bounded` (a coast
+and a brake at +A ending the slide, the return at rest).  The search's class holds all
+three but for its corners (at least ``MIN_CORNER`` of the period each).  The search of
+Chernousko's own closed forms (J. Appl. Math. Mech. 66, 2002; Meccanica 2016) found no
+text of them, so they are not quoted.
 """
 from __future__ import annotations
 
@@ -141,21 +142,27 @@ def law_of(theta, A: float, L: float, U: float | None) -> Law | None:
     return Law(t * c, s * c * c - mid, v * c, acc, phases)
 
 
-def guess(task) -> list:
-    """The closed form's law (derive/capsule.py's rest class) for the task's bounds, its
-    return at GUESS_KAPPA of the static limit and no brake, in the unknowns of
-    :func:`law_of`."""
+def guess(task, cf: dict) -> list:
+    """The law of the best of derive/capsule.py's classes for the task's bounds (``cf``:
+    :func:`closed_form`), in the unknowns of :func:`law_of`, with corners of 2 % of the
+    throw and the return at GUESS_KAPPA of the static limit."""
     sc, A = task.scene, task.max_acceleration
     nu = sc.m / (sc.M + sc.m)
     a_k, a_st = sc.friction * sc.g / nu, sc.mu_static * sc.g / nu
-    beta = min(a_k / A, 0.9)
-    kappa = GUESS_KAPPA * a_st / a_k          # counted in a_k, as in capsule.py
-    e = 0.02 * beta
-    throw = beta - e                          # units of w/a_k: the throw, the slide,
-    coast = (1 - beta) - e                    # the return, an empty hold and brake
-    q3 = min(kappa * a_k / A, 1.0)
-    return [1.0, q3, q3, math.log(max(coast, 1e-3) / throw), math.log(1e-3),
-            math.log(1e-3), math.log(e / throw)]
+    q3 = min(GUESS_KAPPA * a_st / A, 1.0)
+    t1 = 1.0                                  # the throw; the body slides nu (A - a_k) t1
+    V1 = nu * (A - a_k) * t1
+    if cf["class"] == "brake":                # a coast, then a brake at +A to the stop
+        t2 = cf["brake"]["coast_share"] * V1 / (nu * a_k)
+        tb, q2 = (V1 - nu * a_k * t2) / (nu * (A + a_k)), 1.0
+    elif cf["class"] == "sawtooth":           # the return at once
+        t2, tb, q2 = 0.0, 0.0, q3
+    else:                                     # the slide to rest, then the return
+        t2, tb, q2 = V1 / (nu * a_k), 0.0, q3
+    e = 0.02 * t1
+    d1 = t1 - e
+    return [1.0, q2, q3, math.log(max(t2 - e, 1e-3 * d1) / d1), math.log(1e-3),
+            math.log(max(tb - e, 1e-3 * d1) / d1), math.log(e / d1)]
 
 
 @dataclass
@@ -237,21 +244,21 @@ def closed_form(task) -> dict:
     L, U, A = 2 * task.region_radius, task.max_velocity, task.max_acceleration
     kw = dict(M=sc.M, m=sc.m, mu=sc.friction, L=L, U=U, mu_s=sc.mu_static, g=sc.g)
     nu = sc.m / (sc.M + sc.m)
-    classes = {"sawtooth": (capsule.sawtooth_bounded(A=A, **kw),
-                            capsule.sawtooth_bounded(A=None, **kw)),
-               "rest": (capsule.optimum_bounded(A=A, **kw),
-                        capsule.optimum_bounded(A=None, **kw))}
-    best = max(classes, key=lambda k: classes[k][0])
+    brake, rho = capsule.brake_bounded(A=A, **kw)
+    classes = {"brake": brake, "sawtooth": capsule.sawtooth_bounded(A=A, **kw),
+               "rest": capsule.optimum_bounded(A=A, **kw)}
+    best = max(classes, key=lambda k: classes[k])
     return {"source": "derive/capsule.py (derived there; Chernousko's closed forms were "
                       "not found, so not quoted)",
-            "class": best, "speed": classes[best][0],
-            "speed_unbounded_acceleration": max(v[1] for v in classes.values()),
-            "sawtooth": {"speed": classes["sawtooth"][0],
-                         "speed_unbounded_acceleration": classes["sawtooth"][1],
+            "class": best, "speed": classes[best],
+            "brake": {"speed": brake, "coast_share": rho,
+                      "what": "the throw at -A, a coast, a brake at +A ending as the body "
+                              "stops, the return at the static limit at rest (the best "
+                              "coast share on a grid of 2001)"},
+            "sawtooth": {"speed": classes["sawtooth"],
                          "what": "the throw at -A, at once the return at the static limit "
                                  "mu_s g/nu overlapping the slide, no rests"},
-            "rest": {"speed": classes["rest"][0],
-                     "speed_unbounded_acceleration": classes["rest"][1],
+            "rest": {"speed": classes["rest"],
                      "what": "the throw at -A, the slide, the return at the static limit "
                              "with the body at rest (V* = min(sqrt(2 nu mu g L)/3, nu U/3) "
                              "for the jump)"},
@@ -295,7 +302,7 @@ def plan(task, progress: bool = False) -> TravelPlan:
                       file=sys.stderr)
         return val
 
-    x0 = np.array(guess(task))
+    x0 = np.array(guess(task, cf))
     # a guess whose run stops (a throw that tips the body, say) throws softer, down to
     # the static limit, before the search starts
     lowest = cf["static_limit_acceleration"] / A
@@ -306,7 +313,8 @@ def plan(task, progress: bool = False) -> TravelPlan:
         if got["status"] == "done" or x0[0] * 0.8 <= lowest:
             break
         x0[0] *= 0.8
-    steps = np.array([-0.05, 0.3, -0.03 * x0[2], 0.3, 0.5, 3.0, 0.3])
+    steps = np.array([-0.05, -0.05 if x0[1] == 1.0 else 0.3, -0.03 * x0[2], 0.3, 0.5,
+                      0.3 if x0[1] == 1.0 else 3.0, 0.3])
     n = len(steps)
     simplex = np.vstack([x0] + [x0 + np.eye(n)[k] * steps[k] for k in range(n)])
     res = minimize(f, x0, method="Nelder-Mead",
@@ -344,7 +352,6 @@ def plan(task, progress: bool = False) -> TravelPlan:
         "mean_velocity": got["mean_velocity"], "mean_speed": got["mean_speed"],
         "forward_speed": got["forward_speed"],
         "ratio": got["forward_speed"] / cf["speed"],
-        "ratio_unbounded_acceleration": got["forward_speed"] / cf["speed_unbounded_acceleration"],
         "achieved": achieved, "total_seconds": time.perf_counter() - t_start})
     return TravelPlan(task, "solved", summary["message"], summary, law=law, table=table,
                       scene_toml=text)
