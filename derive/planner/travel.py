@@ -303,8 +303,8 @@ def plan(task, progress: bool = False) -> TravelPlan:
         return val
 
     x0 = np.array(guess(task, cf))
-    # a guess whose run stops (a throw that tips the body, say) throws softer, down to
-    # the static limit, before the search starts
+    # a guess whose run stops (a throw or a brake that tips the body, say) throws and
+    # brakes softer, down to the static limit, before the search starts
     lowest = cf["static_limit_acceleration"] / A
     while True:
         law = law_of(x0, A, L, U)
@@ -312,7 +312,8 @@ def plan(task, progress: bool = False) -> TravelPlan:
         stops.append(got)
         if got["status"] == "done" or x0[0] * 0.8 <= lowest:
             break
-        x0[0] *= 0.8
+        x0[0] *= 0.8                          # the throw, and a brake above the return
+        x0[1] = max(x0[1] * 0.8, x0[2])
     steps = np.array([-0.05, -0.05 if x0[1] == 1.0 else 0.3, -0.03 * x0[2], 0.3, 0.5,
                       0.3 if x0[1] == 1.0 else 3.0, 0.3])
     n = len(steps)
