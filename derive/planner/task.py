@@ -262,7 +262,7 @@ TRAVEL_UNREAD = {
     "horizon": "the period is the plan's (the bounds fix it)",
     "rest_at_ends": "the law is periodic",
     "objective": "the objective is the mean speed",
-    "intervals": "the law is four phases of constant acceleration with linear corners",
+    "intervals": "the law is five phases of constant acceleration with linear corners",
     "substeps": "each candidate is run by the base model's C runtime, not RK4",
     "tolerance": "the search stops at max_iterations or when its simplex has shrunk",
 }

@@ -59,7 +59,7 @@ class Law:
     s: np.ndarray
     v: np.ndarray
     a: np.ndarray
-    phases: dict                 # durations (s) and levels (m/s^2) of the four phases
+    phases: dict                 # durations (s) and levels (m/s^2) of the five phases
 
     @property
     def period(self) -> float:
@@ -238,8 +238,8 @@ class TravelPlan:
 
 
 def closed_form(task) -> dict:
-    """derive/capsule.py's two classes for the task's bounds (and without the
-    acceleration bound): the better one is the comparison."""
+    """derive/capsule.py's three classes for the task's bounds: the best one is the
+    comparison."""
     sc = task.scene
     L, U, A = 2 * task.region_radius, task.max_velocity, task.max_acceleration
     kw = dict(M=sc.M, m=sc.m, mu=sc.friction, L=L, U=U, mu_s=sc.mu_static, g=sc.g)
@@ -342,7 +342,7 @@ def plan(task, progress: bool = False) -> TravelPlan:
     achieved = _achieved(table, text)
     summary.update({
         "status": "solved", "message": "the fastest law of the class found",
-        "law": {"kind": "four phases of constant acceleration along the guide, linear "
+        "law": {"kind": "five phases of constant acceleration along the guide, linear "
                         "corners", "period": law.period, "phases": law.phases,
                 "direction": [float(x) for x in task.direction],
                 "guide_center": [float(x) for x in task.region_center],
