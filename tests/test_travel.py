@@ -245,6 +245,8 @@ def test_the_plan_meets_the_closed_form_and_the_runtime_is_right(planned):
     # at a stop that falls within a corner of the brake's end)
     assert abs(s["forward_speed"] - v1d) < 1e-6 * v1d, (s["forward_speed"], v1d)
     # the written scene run over ten periods by the runtime: its summary's mean velocity
+    assert {p.name for p in out.iterdir()} == {"law.csv", "scene.toml", "plan.json",
+                                               "law.png", "motion.png"}
     rt = s["achieved"]["runtime"]
     assert rt["status"] == "done" and rt["model"] == "base" and rt["whole_periods"] == 10
     assert abs(rt["mean_velocity"][0] - s["forward_speed"]) < 1e-3 * v1d

@@ -205,7 +205,7 @@ class Evaluator:
 @dataclass(repr=False)
 class TravelPlan:
     """A travel plan: ``summary`` is plan.json; ``write(dir)`` writes law.csv,
-    scene.toml and plan.json."""
+    scene.toml, plan.json, law.png and motion.png."""
     task: object
     status: str
     message: str
@@ -234,7 +234,10 @@ class TravelPlan:
             (out / "scene.toml").write_text(self.scene_toml, encoding="utf-8")
             written += [out / "law.csv", out / "scene.toml"]
         (out / "plan.json").write_text(json_text.dumps(self.summary), encoding="utf-8")
-        return written + [out / "plan.json"]
+        written.append(out / "plan.json")
+        if self.ok:
+            written += plot(self, out)
+        return written
 
 
 def closed_form(task) -> dict:
@@ -339,7 +342,7 @@ def plan(task, progress: bool = False) -> TravelPlan:
     doc = scene_document(sc, {"table": "law.csv", "ends": "periodic"},
                          RUN_PERIODS * law.period)
     text = scene_toml(doc)
-    achieved = _achieved(table, text)
+    achieved, run = _achieved(table, text)
     summary.update({
         "status": "solved", "message": "the fastest law of the class found",
         "law": {"kind": "five phases of constant acceleration along the guide, linear "
@@ -355,10 +358,57 @@ def plan(task, progress: bool = False) -> TravelPlan:
         "ratio": got["forward_speed"] / cf["speed"],
         "achieved": achieved, "total_seconds": time.perf_counter() - t_start})
     return TravelPlan(task, "solved", summary["message"], summary, law=law, table=table,
-                      scene_toml=text)
+                      scene_toml=text, extra={"run": run})
 
 
-def _achieved(table: np.ndarray, text: str) -> dict:
+def plot(plan: "TravelPlan", out: Path) -> list[Path]:
+    """law.png (s, s', s'' over a period with their bounds) and motion.png (O along the
+    fixed axes and its velocity over the written scene's run, stick and slip as the
+    runtime found them)."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    law, task, cf = plan.law, plan.task, plan.summary["closed_form"]
+    ts = np.linspace(0.0, law.period, 2001)
+    s, v, a = law.at(ts)
+    fig, ax = plt.subplots(3, 1, figsize=(7, 7), sharex=True)
+    r, U, A = task.region_radius, task.max_velocity, task.max_acceleration
+    for k, (y, name, lim) in enumerate(((s, "s (m) along the guide", r), (v, "s' (m/s)", U),
+                                        (a, "s'' (m/s^2)", A))):
+        ax[k].plot(ts, y)
+        if lim is not None:
+            for sign in (1, -1):
+                ax[k].axhline(sign * lim, color="k", ls="--", lw=0.8)
+        ax[k].set_ylabel(name)
+    ax[2].axhline(cf["static_limit_acceleration"], color="C3", ls=":", lw=0.8,
+                  label="static limit mu_s g/nu")
+    ax[2].legend(loc="best")
+    ax[2].set_xlabel("t (s)")
+    fig.suptitle(f"planned law (travel): {plan.summary['forward_speed']:.4g} m/s, "
+                 f"{plan.summary['ratio']:.4f} of the {cf['class']} class")
+    fig.subplots_adjust(left=0.13, right=0.97, top=0.93, bottom=0.08, hspace=0.12)
+    fig.savefig(out / "law.png", dpi=110)
+    plt.close(fig)
+    paths = [out / "law.png"]
+    run = plan.extra.get("run")
+    if run is not None:
+        fig, ax = plt.subplots(2, 1, figsize=(7, 6), sharex=True)
+        ax[0].plot(run["t"], run["x"], label="X_O")
+        ax[0].plot(run["t"], run["y"], label="Y_O")
+        ax[0].set_ylabel("O (m), fixed axes")
+        ax[0].legend(loc="best")
+        ax[1].plot(run["t"], run["vx"], label="X_O'")
+        ax[1].set_ylabel("m/s")
+        ax[1].set_xlabel("t (s)")
+        fig.suptitle("scene.toml run by the base model (derive simulate's runtime)")
+        fig.subplots_adjust(left=0.13, right=0.97, top=0.92, bottom=0.09, hspace=0.12)
+        fig.savefig(out / "motion.png", dpi=110)
+        plt.close(fig)
+        paths.append(out / "motion.png")
+    return paths
+
+
+def _achieved(table: np.ndarray, text: str) -> tuple[dict, dict | None]:
     """The written scene.toml and law.csv run by derive.simulate's path (the runtime, the
     table read back): its summary's travel, per period over RUN_PERIODS periods."""
     from ..runtime import base_report
@@ -370,7 +420,9 @@ def _achieved(table: np.ndarray, text: str) -> dict:
         path.write_text(text, encoding="utf-8")
         res = simulate(str(path))
         tr = base_report.travel(res) if res.status == "done" else {}
+    q = np.asarray(res.model_q)          # X_O, Y_O, psi and their rates
+    run = {"t": np.asarray(res.t), "x": q[:, 0], "y": q[:, 1], "vx": q[:, 3]}
     return {"runtime": {"status": res.status, "model": res.model,
                         "whole_periods": tr.get("whole_periods"),
                         "mean_velocity": tr.get("mean_velocity"),
-                        "last_period_displacement": tr.get("last_period_displacement")}}
+                        "last_period_displacement": tr.get("last_period_displacement")}}, run
