@@ -61,18 +61,32 @@ def contact(result) -> dict:
 
 
 def law_period(scene) -> float | None:
-    """The common period of every body's law given as formulas (None: a table, or not
-    periodic)."""
+    """The common period of every body's law: the formulas' common period, a periodic
+    table's span (a plan's law; every periodic table of a scene has one span), both when
+    the span is a whole number of the formulas' periods (None: not periodic)."""
     from ..scene.law.period import NotPeriodic, common_period
-    exprs = []
+    exprs, spans = [], set()
     for body in (*scene.points, *scene.rotors):
-        if not hasattr(body.law, "sympy"):
+        law = body.law
+        if getattr(law, "kind", None) == "table":
+            if not law.periodic:
+                return None
+            spans.add(law.t_last - law.t_first)
+            continue
+        if not hasattr(law, "sympy"):
             return None
-        exprs += list(body.law.sympy())
+        exprs += list(law.sympy())
+    span = max(spans) if spans else None
+    if not exprs:
+        return span
     try:
-        return common_period(exprs)
+        T = common_period(exprs)
     except NotPeriodic:
         return None
+    if span is None:
+        return T
+    k = round(span / T)
+    return span if k >= 1 and abs(span - k * T) <= 1e-9 * span else None
 
 
 def _c_at_end(scene, t_end: float) -> np.ndarray | None:

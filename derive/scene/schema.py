@@ -224,8 +224,9 @@ SCENE_FIELDS = (
 
 # ``[plan]`` of a planning task (derive plan): the goals, bounds and options of the OCP
 PLAN_FIELDS = (
-    F("plan", "goal", "choice", REQUIRED, "what the carrier should do",
-      choices=("reorient", "land", "hop")),
+    F("plan", "goal", "choice", REQUIRED, "what the carrier should do (travel: the fastest "
+      "periodic crawl of a body on its face, derive/docs/planning.md)",
+      choices=("reorient", "land", "hop", "travel")),
     F("plan", "horizon", "number", None, "s; reorient: the duration (objective = time: its "
       "upper bound); land, hop: optional upper bound of the touchdown time / the period",
       0, MAX_DURATION, True, when="required for reorient"),
@@ -262,6 +263,12 @@ PLAN_FIELDS = (
       when="required with [[point]] or [[rotor]]"),
     F("plan", "max_acceleration", "number", None, "bound on |OP''| of each decided point",
       0, MAX_MASS, True, when="required when a point is decided"),
+    F("plan", "direction", "vector", None, "travel: the guide P moves along (body axes, "
+      "horizontal with the face on the plane; normalised), through region.center",
+      -MAX_LENGTH, MAX_LENGTH, size=3, when='required for goal = "travel"'),
+    F("plan", "max_velocity", "number", None, "travel: bound on |OP'| (absent: the region "
+      "and max_acceleration bound the law alone)", 0, MAX_MASS, True,
+      when='goal = "travel"'),
     F("plan", "max_rotor_rate", "number", None, "bound on |psi'| of each decided rotor "
       "(rad/s: the wheel's speed limit)", 0, MAX_MASS, True,
       when="required when a rotor is decided"),
@@ -760,7 +767,9 @@ _TASK_SCENE = tuple(f for f in SCENE_FIELDS
                     or (f.table, f.key) in (("point", "mass"), ("point", "law"),
                                             ("rotor", "axis"), ("rotor", "inertia"),
                                             ("rotor", "law"), ("plane", "restitution"),
-                                            ("run", "g")))
+                                            ("plane", "friction"),
+                                            ("plane", "static_friction"),
+                                            ("plane", "pressure"), ("run", "g")))
 TASK = Schema(_TASK_SCENE + PLAN_FIELDS + CONTROL_FIELDS + DISTURBANCE_FIELDS,
               ("", "body", "point", "rotor", "plane", "initial", "run", "plan", "control",
                "disturbance"), "task", ARRAYS)
