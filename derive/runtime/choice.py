@@ -227,9 +227,24 @@ def choose(scene: Scene) -> tuple[str, str]:
     return kind, why
 
 
+# [run]'s keys the base model does not read (its own DOPRI5 in the time and in s, no
+# attitude to keep orthonormal), refused by name when given: key -> why
+BASE_UNREAD = {
+    "method": "the base model integrates with its own DOPRI5 (in t, and in s = the slip's "
+              "arc near a stop: derive/docs/bodies.md)",
+    "step": "is RK4's step, and the base model integrates with its own DOPRI5",
+    "keep_orthonormal": "the base model has no attitude matrix to keep orthonormal (the yaw "
+                        "is one angle)",
+}
+
+
 def _base_keys(scene: Scene, kind: str) -> None:
     """The keys only the base model reads are refused by name on the others; and what the
     base model does not read on it."""
+    if kind != "base" and not scene.restitution_given and scene.plane:
+        raise SceneError("[plane].restitution", f"is required: this run is model {kind} "
+                                                "(only the base model, a body resting on "
+                                                "its face, may leave it out)")
     if kind != "base":
         for key, value in (("static_friction", scene.static_friction),
                            ("pressure", scene.pressure)):
@@ -249,6 +264,9 @@ def _base_keys(scene: Scene, kind: str) -> None:
     if scene.disturbance is not None:
         raise SceneError("[disturbance]", "is not read by the base model (a push would tilt "
                                           "the body off its face): remove it")
+    for key, why in BASE_UNREAD.items():
+        if f"[run].{key}" in scene.given:
+            raise SceneError(f"[run].{key}", f"is not read by the base model: {why}; remove it")
 
 
 # ---- what a model reads ------------------------------------------------------------------------
@@ -358,7 +376,8 @@ def parameters(scene: Scene, constants: dict) -> np.ndarray:
     made an array once (an item set on an array costs ten times a list's); rows of them
     for a Scene whose numbers are a study's columns."""
     prm = [0.0] * len(abi.PARAMETERS)
-    for k, x in zip(_P_BODY, (scene.M, scene.m, *scene.J, scene.g, scene.e)):
+    e = scene.e if scene.restitution_given or not scene.plane else 0.0   # (NaN: not read)
+    for k, x in zip(_P_BODY, (scene.M, scene.m, *scene.J, scene.g, e)):
         prm[k] = x
     if scene.friction:
         prm[_P["friction"]] = scene.friction
