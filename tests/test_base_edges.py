@@ -1,19 +1,30 @@
 """The base model's edges (issue 33): every key of a base scene acts or is refused.
 
 * ``[plane].restitution`` may be left out by a box or a cylinder started on its face on a
-  rough plane (the base model reads it only after a lift-off), and is required by every
+  rough plane (the base model reads it not), and is required by every
   other scene, as a parse error or, where the start looked like a face's but the model
   chosen is another, by the choice; either way one line naming the field, exit 2,
   nothing written;
-* the ``[run]`` keys the base model does not read (method, step, keep_orthonormal) are
-  refused by name when given, and accepted (their defaults) when not.
+* the keys the base model does not read ([run].method, step, keep_orthonormal, zeno_dt,
+  [plane].restitution and restitution_model: the run stops at a lift-off, so it meets no
+  impact) are refused by name when given, and taken by the other models.
 """
+from pathlib import Path
+
+import numpy as np
 import pytest
 
+from derive import abi
 from derive.cli import main
 from derive.runtime import choice
 from derive.runtime.driver import simulate
 from derive.scene.parse import parse_scene
+
+import test_base_closed_forms as cf
+import test_base_runtime as tbr
+import test_base_scene as tbs
+
+EXAMPLE = Path(__file__).parents[1] / "derive" / "scene" / "examples" / "capsule-crawler.toml"
 
 _SCENE = """
 [body]
@@ -50,9 +61,6 @@ def test_a_base_scene_runs_without_restitution():
     assert not scene.restitution_given
     r = simulate(scene)
     assert r.model == "base" and r.status == "done"
-    # the same run as with a restitution given (nothing of it is read on the face)
-    with_e = simulate(parse_scene(_text(plane="restitution = 0.7")))
-    assert (with_e.model_q == r.model_q).all() and (with_e.t == r.t).all()
 
 
 @pytest.mark.parametrize("kw, field, says", [
@@ -62,11 +70,13 @@ def test_a_base_scene_runs_without_restitution():
     (dict(on_plane="false", initial="com = [0, 0, 1]"), "[plane].restitution", "is required"),
     # a face's start that the base model cannot run (omega off the vertical): the choice
     (dict(initial="omega = [0.5, 0, 1]"), "[plane].restitution", "model rough"),
-    # the [run] keys the base model does not read
-    (dict(plane="restitution = 0.5", run='method = "dopri5"'), "[run].method", "DOPRI5"),
-    (dict(plane="restitution = 0.5", run="step = 1e-3"), "[run].step", "RK4"),
-    (dict(plane="restitution = 0.5", run="keep_orthonormal = true"), "[run].keep_orthonormal",
-     "no attitude"),
+    # the keys the base model does not read
+    (dict(run='method = "dopri5"'), "[run].method", "DOPRI5"),
+    (dict(run="step = 1e-3"), "[run].step", "RK4"),
+    (dict(run="keep_orthonormal = true"), "[run].keep_orthonormal", "no attitude"),
+    (dict(plane="restitution = 0.5"), "[plane].restitution", "no impacts"),
+    (dict(plane='restitution_model = "poisson"'), "[plane].restitution_model", "lifts off"),
+    (dict(run="zeno_dt = 1e-6"), "[run].zeno_dt", "no impacts"),
 ])
 def test_an_unread_or_missing_key_is_refused_in_one_line(tmp_path, capsys, kw, field, says):
     path = tmp_path / "bad.toml"
@@ -83,3 +93,52 @@ def test_the_unread_run_keys_are_read_elsewhere():
     scene = parse_scene(_text(plane="restitution = 0.5", run='method = "dopri5"',
                               initial="omega = [0.5, 0, 1]"))
     assert choice.choose(scene)[0] == "rough"
+
+
+# ---- linear pressure (Sakharov 2015): the C against closed forms -------------------------------
+def _stops_x(raw, closed):
+    """X at each stop of the closed form: the row after the event (a stick) or before the
+    next slip's start."""
+    after = raw.kinds == abi.ROW_KIND["after_event"]
+    before = raw.kinds == abi.ROW_KIND["before_event"]
+    X = []
+    for t, kind, _ in (e for e in closed if len(e) == 3):
+        rows = np.flatnonzero((before | after) & (np.abs(raw.t - t) < 1e-12))
+        X.append(raw.q[rows[-1 if kind == "stick" else 0], 0])
+    return np.array(X)
+
+
+def test_a_translation_under_linear_pressure_crawls_as_under_uniform():
+    """A pure translation's friction is mu N whatever the pressure (its line of action moves
+    with cp, and cp stays on the box's axis of symmetry, so no torque turns it): the 1-D
+    stick-slip closed form holds under linear pressure to 1e-9, as long as cp stays in the
+    kern (a box 0.3 m long: cp reaches 0.053 m of the kern's 0.1), and psi stays 0."""
+    law = (f'law = ["{cf.A}*(sin({cf.W}*t) + {cf.BETA}*sin({2 * cf.W}*t))", "0", '
+           f'"{cf.Z0}"]')
+    scene = tbr._scene(f'mass = {cf.M}\ninertia = [0.01, 0.02, 0.025]\nshape = "box"\n'
+                       'half_extents = [0.3, 0.06, 0.04]', f"mass = {cf.m}\n{law}", cf.MU_K,
+                       1.6)
+    raw = tbr.run_base(scene, np.zeros(6), mu_s=cf.MU_S, pressure="linear")
+    closed = cf.closed_form_1d(1.6)
+    got = tbr._events(raw)
+    assert raw.status == "done"
+    assert [k for _, k in got] == [e[1] for e in closed]
+    assert np.abs(np.array([t for t, _ in got]) - [e[0] for e in closed]).max() < 1e-9
+    assert np.abs(_stops_x(raw, closed) - [e[2] for e in closed if len(e) == 3]).max() < 1e-9
+    assert np.abs(raw.q[:, [1, 2, 4, 5]]).max() < 1e-12
+
+
+@pytest.mark.parametrize("pressure, status, reach", [("uniform", "tipping", 0.1),
+                                                     ("linear", "face_lifting", 0.1 / 3)])
+def test_the_face_lifts_at_the_kern_and_tips_at_the_edge(pressure, status, reach):
+    """A point walking out at a constant speed c along x at O's height: the rest needs no
+    friction and cp = m x/(M + m) reaches the edge a at t = a (M + m)/(m c), and (linear
+    pressure) the kern's a/3 at a third of that: face_lifting, the run's stop, to 1e-9."""
+    Mb, mp, c = 1.0, 0.5, 0.2
+    scene = tbr._scene(f'mass = {Mb}\ninertia = [0.01, 0.01, 0.01]\nshape = "box"\n'
+                       'half_extents = [0.1, 0.06, 0.04]',
+                       f'mass = {mp}\nlaw = ["{c}*t", "0", "0"]', 0.5, 2.0)
+    raw = tbr.run_base(scene, np.zeros(6), pressure=pressure)
+    assert raw.status == status
+    (t, kind), = tbr._events(raw)
+    assert kind == status and abs(t - reach * (Mb + mp) / (mp * c)) < 1e-9

@@ -16,7 +16,9 @@ from .. import abi
 from . import bodies, choice
 
 STOPS = {"lift_off": "N reached 0: the body leaves the plane (lift-off)",
-         "tipping": "the centre of pressure reached the face's edge: the body tips"}
+         "tipping": "the centre of pressure reached the face's edge: the body tips",
+         "face_lifting": "the centre of pressure left the face's kern: the linear pressure "
+                         "reaches 0 at an edge, and the face starts to lift there"}
 METHOD = "dopri5 (slips in arc time; the base model's own integrator)"
 _SLIDING, _STICKING = abi.MODE["sliding"], abi.MODE["sticking"]
 
@@ -53,7 +55,7 @@ def contact(result) -> dict:
     kinds = [ev["kind"] for ev in result.events]
     N = normal_force(result)
     return {"face": face.kind, "friction": s.friction, "static_friction": s.mu_static,
-            "pressure": "uniform", "sticks": kinds.count("stick"),
+            "pressure": s.pressure or "uniform", "sticks": kinds.count("stick"),
             "slips": kinds.count("slip"), "reversals": kinds.count("reversal"),
             "time_sticking": float(dt[m == _STICKING].sum()),
             "time_sliding": float(dt[m == _SLIDING].sum()),
@@ -134,7 +136,7 @@ def lines(result, tr: dict | None = None) -> list[str]:
     c = contact(result)
     mu = f"mu = {c['friction']:g}" + (f", mu_s = {c['static_friction']:g}"
                                       if c["static_friction"] != c["friction"] else "")
-    out.append(f"  friction over the {c['face']} ({mu}, uniform pressure): {c['slips']} "
+    out.append(f"  friction over the {c['face']} ({mu}, {c['pressure']} pressure): {c['slips']} "
                f"slips, {c['sticks']} sticks, {c['reversals']} reversals; sticking "
                f"{c['time_sticking']:.4g} s, sliding {c['time_sliding']:.4g} s; smallest N "
                f"{c['min_normal_force']:.4g} N")

@@ -41,7 +41,7 @@ from .schema import (ARRAY_ONLY, ARRAYS, AXIS_TOLERANCE, FIELDS, MAX_ROWS, MIN_D
                      REQUIRED, as_rotation)
 
 REQUIRED_FIELDS = tuple(f for f in FIELDS if f.default is REQUIRED)
-RESTITUTION = "[plane].restitution"      # required but by a body started on a face
+RESTITUTION = "[plane].restitution"      # required, but by a body started on a face
 BASE_SHAPES = ("box", "cylinder")        # the shapes with a face to rest on (the base model)
 # tables a scene may leave out: their required fields are required when they are given
 OPTIONAL_TABLES = frozenset(("plane", "stability", "plan", "control", "disturbance"))
@@ -191,10 +191,6 @@ def _face_keys(d: Draft) -> None:
                                                         f"({mu_s:g} < {d.friction:g})")
         d.static_friction = mu_s
     if "[plane].pressure" in given and d.plane:
-        if v["[plane].pressure"] == "linear":
-            raise SceneError("[plane].pressure", '"linear" (the distribution that balances '
-                                                 'the tipping moment) is not yet modelled: '
-                                                 'give "uniform" or leave it out')
         d.pressure = v["[plane].pressure"]
 
 
@@ -587,9 +583,9 @@ def _start_bulk(d: Draft):
 
 def _restitution(d: Draft) -> None:
     """[plane].restitution is required with [plane], but by a box or a cylinder started on
-    the plane (on_plane) of a rough plane: the base model, which reads e only if the body
-    lifts off and lands (derive/runtime/choice.py refuses its absence on any other
-    model)."""
+    the plane (on_plane) of a rough plane: the base model, which meets no impact (it stops
+    where the body lifts off) and refuses e; derive/runtime/choice.py refuses its absence
+    on any other model."""
     v = d.v
     if not d.plane or RESTITUTION in d.given:
         return
@@ -604,7 +600,7 @@ STATE_RULES = (
          "carrier_velocity gives O's velocity instead of com_velocity (C's)", _start,
          bulk=_start_bulk),
     Rule("[plane].restitution: required, but by a box or a cylinder started on its face "
-         "(on_plane) on a rough plane (the base model reads it only after a lift-off)",
+         "(on_plane) on a rough plane (the base model, which has no impacts)",
          _restitution, bulk=_as_for_one(_restitution)),
     Rule("[run]: at most 1e8 RK4 steps", _rk4_step, law=True, bulk=_rk4_step_bulk),
     Rule("[initial]: S starts on or above the plane", _above_plane, bulk=_above_plane_bulk),
