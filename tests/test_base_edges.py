@@ -165,3 +165,30 @@ def test_the_capsule_crawlers_energy_balance_closes_with_the_friction_of_the_clo
     assert abs(e["work_of_friction"] - want) < 1e-8 * abs(want)
     assert abs(e["residual"]) < 1e-6 * abs(want)
     assert abs(e["change"] - e["drive_work"] - e["work_of_friction"] - e["residual"]) < 1e-15
+
+
+# ---- robustness over flat bodies: a seeded subset of derive verify robustness --plane face ----
+@pytest.mark.parametrize("k, status", [(1, "done"), (19, "lift_off"), (20, "tipping"),
+                                       (31, "face_lifting"), (2, "lift_off")])
+def test_random_bodies_on_a_face_stop_when_the_reference_says(k, status):
+    """Scenes k of ``derive verify robustness --plane face`` (seed 11), one of each end:
+    the judge holds N on a grid before the end (no lift-off missed), and a stop's N or the
+    centre of pressure's margin to the edge or the kern to 1e-8 at the reported time, as
+    derive/base_reference.py's Newton-Euler balance has them."""
+    from derive.verify import robustness as rb
+    seed = 11 * 1_000_003 + rb.PLANE_SEEDS["face"] + k
+    out = rb.run_one((k, seed, 3.0, "face"))
+    assert (out.verdict, out.status) == ("ok", status), out.detail
+
+
+@pytest.mark.parametrize("k, verdict", [(19, "lift_off"), (26, "stop")])
+def test_the_face_judge_fails_a_stop_reported_early(k, verdict):
+    """The same runs with their stop moved 1e-4 s early: the judge says so."""
+    import dataclasses
+    from derive.verify import generators, judges, robustness as rb
+    seed = 11 * 1_000_003 + rb.PLANE_SEEDS["face"] + k
+    r = simulate(parse_scene(generators.random_face_scene(np.random.default_rng(seed), 3.0),
+                             "random"))
+    early = dataclasses.replace(r, t=np.append(r.t[:-1], r.t[-1] - 1e-4))
+    assert judges.judge_face_run(r)[0] == "ok"
+    assert judges.judge_face_run(early)[0] == verdict

@@ -66,6 +66,9 @@ static void crt_contact_start(crt_session *s)
   s->bs.stamp = -1;
   s->bs.xi[0] = s->bs.xi[1] = s->bs.xi[2] = 0.0;
   s->bs.eps = 1e-11 * s->bs.body.v_scale;
+  /* a twist below the slip's end (round-off of a start at rest: C's velocity less the
+     bodies' share) is the end's: at rest (a slip from it would stop before a step) */
+  if (crt_base_rho(&s->bs.body, s->q) <= s->bs.eps) s->q[3] = s->q[4] = s->q[5] = 0.0;
   s->bs.mode = crt_base_rho(&s->bs.body, s->q) > 0.0 ? CRT_BASE_SLIP : CRT_BASE_REST;
   s->bs.hs = 0.0;
   s->phase = CRT_CONTACT;
@@ -341,6 +344,17 @@ static void crt_base_slip_step(crt_session *s, crt_out *o, double t_end)
   for (i = 0; i < NQ; ++i) z0[1 + i] = s->q[i];
   crt_base_zrhs(s, z0, f0, &N, cp, &rho);
   crt_base_slip_g(s, t_end, z0, N, cp, rho, g0);
+  /* a stop already reached where the step starts: N or cp jumped there (the friction of
+     a slip's onset against the rest's wrench moves cp at once) */
+  if (g0[CRT_BASE_LIFT] <= 0.0) { crt_base_end(s, o, CRT_LIFT_OFF, CRT_EV_LIFTOFF, N); return; }
+  if (g0[CRT_BASE_TIP] <= 0.0) {
+    crt_base_end(s, o, CRT_TIPPING, CRT_EV_TIPPING, g0[CRT_BASE_TIP]);
+    return;
+  }
+  if (g0[CRT_BASE_KERN] <= 0.0) {
+    crt_base_end(s, o, CRT_FACE_LIFTING, CRT_EV_FACE_LIFTING, g0[CRT_BASE_KERN]);
+    return;
+  }
   if (!(s->bs.hs > 0.0)) s->bs.hs = 1e-3 * s->bs.body.t_scale / crt_max(rho, 1e-300);
   hs = s->bs.hs;
   for (;;) {
