@@ -139,15 +139,14 @@ def test_a_body_not_on_a_face_or_mu_s_below_mu_is_refused(which):
 @pytest.mark.slow
 @pytest.mark.parametrize("seed, shape, n, pressure, duration", [
     (1, "box", (0.0, -1.0, 0.0), "uniform", 0.25),
-    (2, "cylinder", (0.0, 0.0, -1.0), "uniform", 0.25),
-    (3, "box", (1.0, 0.0, 0.0), "linear", 0.04),
-    (4, "cylinder", (0.0, 0.0, 1.0), "linear", 0.04)])
+    (2, "cylinder", (0.0, 0.0, -1.0), "uniform", 0.25)])
 def test_random_bodies_as_the_reference_integrator_runs_them(seed, shape, n, pressure,
                                                             duration):
     """Two points on harmonic laws and a tilted rotor, the face under a vertical other than
-    +z (the moments turned into the face frame), uniform or linear pressure: the C's events
-    and final state against derive/base_reference.py (Newton-Euler of every body, adaptive
-    quadrature, linear pressure's centre iterated to its fixed point), 1e-8."""
+    +z (the moments turned into the face frame): the C's events and final state against
+    derive/base_reference.py (Newton-Euler of every body, adaptive quadrature), 1e-8.
+    (Under linear pressure the reference iterates its centre at every evaluation, minutes
+    a run: tests/test_base_edges.py holds the C's slip rates to it instead.)"""
     from derive import base_reference as br
     from derive import face as fc
     import base_cases as bc
@@ -184,8 +183,6 @@ on_plane = true
 duration = {duration}
 """.format(duration=duration))
     q0 = np.array([0.01, -0.02, 0.3, 0.15, -0.1, 1.5])
-    if pressure == "linear":                 # (a slip that stops within the shorter run)
-        q0[3:] *= 0.1
     prm = choice.parameters(scene, {})
     prm[_P["pressure"]] = abi.names(abi.PRESSURES).index(pressure)
     raw = _run_prm(scene, q0, prm, n)
@@ -195,7 +192,7 @@ duration = {duration}
                        mu=0.4, pressure=pressure)
     ref = br.Integrator(system).run(q0, 0.0, duration)
     got = _events(raw)
-    assert raw.status == ref.status
+    assert raw.status == ref.status == "done"
     want = [("stick" if k == "stick" else k, t) for t, k in ref.events]
     assert [k for _, k in got] == [k for k, _ in want] and len(got) >= 1
     assert np.abs(np.array([t for t, _ in got]) - [t for _, t in want]).max() < 1e-8
