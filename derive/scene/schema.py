@@ -145,7 +145,9 @@ SCENE_FIELDS = (
       example="free", when="table"),
     F("plane", "restitution", "number", REQUIRED, "e of Newton's law v_n+ = -e v_n- (E1.13); "
       "with friction, e of restitution_model", 0, 1, example=0.9,
-      when="[plane] given (absent: free flight)"),
+      when="[plane] given (absent: free flight); a box or a cylinder started on its face "
+      "(on_plane) on a rough plane leaves it out: the base model has no impacts and "
+      "refuses it"),
     F("plane", "friction", "number", 0.0, "mu_f, Coulomb's coefficient of friction at S (0: "
       "the paper's smooth plane; > 0: the rough model, one coefficient for static and "
       "kinetic friction: derive/docs/friction.md)", 0, 100),
@@ -167,8 +169,10 @@ SCENE_FIELDS = (
       "it needs is within the limit surface of mu_s (derive/docs/bodies.md); refused on "
       "the other models", 0, 100),
     F("plane", "pressure", "choice", "uniform", "the pressure over a face on the plane (the "
-      "base model): uniform; linear (Sakharov's, balancing the tipping moment) is not yet "
-      "modelled and is refused; refused on the other models", choices=("uniform", "linear")),
+      "base model): uniform, or linear (Sakharov's: affine, its centroid at the centre of "
+      "pressure the tipping moment needs; the run stops with face_lifting where that "
+      "centre leaves the face's kern); refused on the other models",
+      choices=abi.names(abi.PRESSURES)),
     F("initial", "time", "number", 0.0, "t0", -1e9, 1e9),
     F("initial", "com", "vector", [0.0, 0.0, 0.0], "X_C, Y_C, Z_C: C, the centre of mass of "
       "the whole system (the carrier and its points), fixed axes; with on_plane, Z_C is "

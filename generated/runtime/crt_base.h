@@ -11,19 +11,20 @@
  *    rest needs (crt_face_gauge, mu_s) is below 1 (or at 1 and not rising); else the slip
  *    starts against the gauge's maximiser, along the stable direction of the slip's flow,
  *    by its Taylor series (twist = G0 d + G1 d^2/2 until it reaches 1e2 eps);
- *  - stick: the state is constant; the event functions 1 - gamma, N and the centre of
- *    pressure's edge margin are sampled every opt[CRT_OPT_HMAX]/8 and a sign change is
- *    located by the Illinois method (break-away: the slip starts; N: status lift_off;
- *    the edge: status tipping);
+ *  - stick: the state is constant; the event functions 1 - gamma, N, the centre of
+ *    pressure's edge margin and (linear pressure) its kern margin are sampled every
+ *    opt[CRT_OPT_HMAX]/8 and a sign change is located by the Illinois method (break-away:
+ *    the slip starts; N: status lift_off; the edge: status tipping; the kern: status
+ *    face_lifting);
  *  - slip: integrated in the time s with dt/ds = rho = |(V_O, ell psi')| (the state z = (t,
  *    q)), so the end of the slip is approached without the friction's direction flipping:
  *    rho decays exponentially in s, the event rho = eps (1e-11 sqrt(g ell)) ends it and
  *    the linear decay's last rho/|rho'| is added; then rest (a stick, or a reversal).  Each
  *    step DOPRI5 (the tableau of crt_base_steps.h) with the error of rtol, atol on z; the
- *    events (t_end, the stop, N, the edge) located inside a step by re-stepping from its
- *    start (Illinois on the step's fraction).
- * A run never goes on past lift-off or tipping: it stops there with that status and an
- * event at its time.  The closed loop (crt_set_control) is refused (CRT_BAD_CONTROL).
+ *    events (t_end, the stop, N, the edge, the kern) located inside a step by re-stepping
+ *    from its start (Illinois on the step's fraction).
+ * A run never goes on past lift-off, tipping or the face lifting: it stops there with that
+ * status and an event at its time.  The closed loop (crt_set_control) is refused (CRT_BAD_CONTROL).
  */
 #ifndef CRT_BASE_H
 #define CRT_BASE_H
@@ -35,7 +36,9 @@
 
 enum crt_base_mode { CRT_BASE_REST = 0, CRT_BASE_STICK = 1, CRT_BASE_SLIP = 2 };
 enum crt_base_event { CRT_BASE_NONE = -1, CRT_BASE_END = 0, CRT_BASE_STOP = 1,
-                      CRT_BASE_LIFT = 2, CRT_BASE_TIP = 3, CRT_BASE_BREAK = 4 };
+                      CRT_BASE_LIFT = 2, CRT_BASE_TIP = 3, CRT_BASE_KERN = 4 };
+#define CRT_BASE_NG 5             /* the slip's event functions */
+#define CRT_BASE_NG_STICK 4       /* the stick's: 1 - gamma, N, the edge, the kern */
 
 /* the moments in the face frame at t (summed once per evaluation of the law) */
 static const double *crt_base_u(crt_session *s, double t)
@@ -63,6 +66,9 @@ static void crt_contact_start(crt_session *s)
   s->bs.stamp = -1;
   s->bs.xi[0] = s->bs.xi[1] = s->bs.xi[2] = 0.0;
   s->bs.eps = 1e-11 * s->bs.body.v_scale;
+  /* a twist below the slip's end (round-off of a start at rest: C's velocity less the
+     bodies' share) is the end's: at rest (a slip from it would stop before a step) */
+  if (crt_base_rho(&s->bs.body, s->q) <= s->bs.eps) s->q[3] = s->q[4] = s->q[5] = 0.0;
   s->bs.mode = crt_base_rho(&s->bs.body, s->q) > 0.0 ? CRT_BASE_SLIP : CRT_BASE_REST;
   s->bs.hs = 0.0;
   s->phase = CRT_CONTACT;
@@ -119,7 +125,8 @@ static double crt_base_step(crt_session *s, const double *z0, const double *f0, 
   return sqrt(err / CRT_BASE_NZ);
 }
 
-/* the slip's event functions at a state: t_end - t, rho - eps, N, the edge margin */
+/* the slip's event functions at a state: t_end - t, rho - eps, N, the edge margin, the
+   kern margin (linear pressure; 1 under uniform pressure: no event) */
 static void crt_base_slip_g(const crt_session *s, double t_end, const double *z, double N,
                             const double *cp, double rho, double *g)
 {
@@ -127,20 +134,24 @@ static void crt_base_slip_g(const crt_session *s, double t_end, const double *z,
   g[CRT_BASE_STOP] = rho - s->bs.eps;
   g[CRT_BASE_LIFT] = N;
   g[CRT_BASE_TIP] = crt_face_edge_margin(&s->bs.body.face, cp[0], cp[1]);
+  g[CRT_BASE_KERN] = s->bs.body.linear ? crt_face_kern_margin(&s->bs.body.face, cp[0], cp[1])
+                                       : 1.0;
 }
 
 /* ---- the rest ------------------------------------------------------------------------------ */
-/* the stick's event functions at t (the state is constant): 1 - gamma, N, the margin */
+/* the stick's event functions at t (the state is constant): 1 - gamma, N, the edge
+   margin, the kern margin (linear pressure, whose slope the gauge reads; else 1) */
 static void crt_base_stick_g(crt_session *s, double t, double *g, double *xi)
 {
-  static const double k0[2] = {0.0, 0.0};
-  double W[3], N, cp[2];
+  double W[3], N, cp[2], k[2];
   crt_base_rest(&s->bs.body, crt_base_u(s, t), W, &N, cp);
   ++s->stat[CRT_STAT_EVENT_FUNCTION_EVALUATIONS];
-  g[0] = 1.0 - crt_face_gauge(&s->bs.body.face, crt_max(N, 0.0), k0, s->bs.body.mu_s, W, xi,
+  crt_base_slope(&s->bs.body, crt_max(N, 0.0), cp, k);
+  g[0] = 1.0 - crt_face_gauge(&s->bs.body.face, crt_max(N, 0.0), k, s->bs.body.mu_s, W, xi,
                               &s->stat[CRT_STAT_EVENT_FUNCTION_EVALUATIONS]);
   g[1] = N;
   g[2] = crt_face_edge_margin(&s->bs.body.face, cp[0], cp[1]);
+  g[3] = s->bs.body.linear ? crt_face_kern_margin(&s->bs.body.face, cp[0], cp[1]) : 1.0;
 }
 
 /* the scaled twist's rate at rest at (t, q) with the friction of the unit direction d */
@@ -221,14 +232,19 @@ static void crt_base_end(crt_session *s, crt_out *o, int status, int event, doub
 }
 
 /* At rest at s->t (after a stop of the slip when after_stop, else at the start): stick,
-   or slip off (a slip, or a reversal after a stop), or stop (lift-off, tipping). */
+   or slip off (a slip, or a reversal after a stop), or stop (lift-off, tipping, the face
+   lifting). */
 static void crt_base_settle(crt_session *s, crt_out *o, int after_stop)
 {
-  double g[3], later[3], xi[3];
+  double g[CRT_BASE_NG_STICK], later[CRT_BASE_NG_STICK], xi[3];
   int i, stick;
   crt_base_stick_g(s, s->t, g, s->bs.xi);
   if (g[1] <= 0.0) { crt_base_end(s, o, CRT_LIFT_OFF, CRT_EV_LIFTOFF, g[1]); return; }
   if (g[2] <= 0.0) { crt_base_end(s, o, CRT_TIPPING, CRT_EV_TIPPING, g[2]); return; }
+  if (g[3] <= 0.0) {
+    crt_base_end(s, o, CRT_FACE_LIFTING, CRT_EV_FACE_LIFTING, g[3]);
+    return;
+  }
   stick = g[0] > 1e-12;
   if (!stick && g[0] >= -1e-12) {          /* at 1: sticks unless the gauge is rising */
     for (i = 0; i < 3; ++i) xi[i] = s->bs.xi[i];
@@ -256,7 +272,7 @@ static void crt_base_settle(crt_session *s, crt_out *o, int after_stop)
     ++s->stat[CRT_STAT_STICKS];
   }
   s->bs.mode = CRT_BASE_STICK;
-  for (i = 0; i < 3; ++i) s->bs.g[i] = g[i];
+  for (i = 0; i < CRT_BASE_NG_STICK; ++i) s->bs.g[i] = g[i];
 }
 
 /* Illinois' root of one of the functions from [x0: g0 > 0] to [x1: g1 <= 0]; eval(k, x)
@@ -280,11 +296,11 @@ static void crt_base_stick_step(crt_session *s, crt_out *o, double t_end)
 {
   const double h = crt_min(s->opt[CRT_OPT_HMAX] / 8.0, t_end - s->t);
   const double t1 = s->t + h, tol = 1e-15 * crt_max(1.0, fabs(t1)) + 1e-15 * s->bs.body.t_scale;
-  double g1[3], xi[3], first = HUGE_VAL, g[3];
+  double g1[CRT_BASE_NG_STICK], xi[3], first = HUGE_VAL, g[CRT_BASE_NG_STICK];
   int k, which = -1, i;
   for (i = 0; i < 3; ++i) xi[i] = s->bs.xi[i];
   crt_base_stick_g(s, t1, g1, xi);
-  for (k = 0; k < 3; ++k) {
+  for (k = 0; k < CRT_BASE_NG_STICK; ++k) {
     if (s->bs.g[k] > 0.0 && g1[k] <= 0.0) {
       double root;
 #define CRT_BASE_STICK_EVAL(x) (crt_base_stick_g(s, (x), g, xi), g[k])
@@ -296,7 +312,8 @@ static void crt_base_stick_step(crt_session *s, crt_out *o, double t_end)
   ++s->stat[CRT_STAT_STEPS];
   if (which < 0) {
     s->t = t1;
-    for (i = 0; i < 3; ++i) { s->bs.g[i] = g1[i]; s->bs.xi[i] = xi[i]; }
+    for (i = 0; i < CRT_BASE_NG_STICK; ++i) s->bs.g[i] = g1[i];
+    for (i = 0; i < 3; ++i) s->bs.xi[i] = xi[i];
     crt_emit(o, s->t, s->q, CRT_ROW_STEP);
     return;
   }
@@ -304,11 +321,12 @@ static void crt_base_stick_step(crt_session *s, crt_out *o, double t_end)
   crt_base_stick_g(s, s->t, g, s->bs.xi);  /* the maximiser at the event */
   if (which == 1) { crt_base_end(s, o, CRT_LIFT_OFF, CRT_EV_LIFTOFF, g[1]); return; }
   if (which == 2) { crt_base_end(s, o, CRT_TIPPING, CRT_EV_TIPPING, g[2]); return; }
+  if (which == 3) { crt_base_end(s, o, CRT_FACE_LIFTING, CRT_EV_FACE_LIFTING, g[3]); return; }
   crt_emit(o, s->t, s->q, CRT_ROW_BEFORE_EVENT);
   crt_event(o, s->t, CRT_EV_SLIP, 1.0 - g[0], 0.0, 0.0, 0.0);
   ++s->stat[CRT_STAT_SLIPS];
   if (!crt_base_onset(s)) {                /* no slip after all: the stick goes on */
-    for (i = 0; i < 3; ++i) s->bs.g[i] = g[i];
+    for (i = 0; i < CRT_BASE_NG_STICK; ++i) s->bs.g[i] = g[i];
     s->bs.g[0] = crt_max(g[0], 0.0);
     return;
   }
@@ -319,12 +337,24 @@ static void crt_base_stick_step(crt_session *s, crt_out *o, double t_end)
 static void crt_base_slip_step(crt_session *s, crt_out *o, double t_end)
 {
   double z0[CRT_BASE_NZ], f0[CRT_BASE_NZ], z1[CRT_BASE_NZ], f1[CRT_BASE_NZ], zt[CRT_BASE_NZ];
-  double ft[CRT_BASE_NZ], g0[4], g1[4], gt[4], N, cp[2], rho, err, hs, first = HUGE_VAL;
+  double ft[CRT_BASE_NZ], g0[CRT_BASE_NG], g1[CRT_BASE_NG], gt[CRT_BASE_NG], N, cp[2], rho;
+  double err, hs, first = HUGE_VAL;
   int k, which = -1, i;
   z0[0] = s->t;
   for (i = 0; i < NQ; ++i) z0[1 + i] = s->q[i];
   crt_base_zrhs(s, z0, f0, &N, cp, &rho);
   crt_base_slip_g(s, t_end, z0, N, cp, rho, g0);
+  /* a stop already reached where the step starts: N or cp jumped there (the friction of
+     a slip's onset against the rest's wrench moves cp at once) */
+  if (g0[CRT_BASE_LIFT] <= 0.0) { crt_base_end(s, o, CRT_LIFT_OFF, CRT_EV_LIFTOFF, N); return; }
+  if (g0[CRT_BASE_TIP] <= 0.0) {
+    crt_base_end(s, o, CRT_TIPPING, CRT_EV_TIPPING, g0[CRT_BASE_TIP]);
+    return;
+  }
+  if (g0[CRT_BASE_KERN] <= 0.0) {
+    crt_base_end(s, o, CRT_FACE_LIFTING, CRT_EV_FACE_LIFTING, g0[CRT_BASE_KERN]);
+    return;
+  }
   if (!(s->bs.hs > 0.0)) s->bs.hs = 1e-3 * s->bs.body.t_scale / crt_max(rho, 1e-300);
   hs = s->bs.hs;
   for (;;) {
@@ -339,7 +369,7 @@ static void crt_base_slip_step(crt_session *s, crt_out *o, double t_end)
   }
   ++s->stat[CRT_STAT_STEPS];
   crt_base_slip_g(s, t_end, z1, N, cp, rho, g1);
-  for (k = 0; k < 4; ++k) {
+  for (k = 0; k < CRT_BASE_NG; ++k) {
     if (g0[k] > 0.0 && g1[k] <= 0.0) {
       double root;
 #define CRT_BASE_SLIP_EVAL(x) (crt_base_step(s, z0, f0, (x) * hs, zt, ft, &N, cp, &rho), \
@@ -369,6 +399,9 @@ static void crt_base_slip_step(crt_session *s, crt_out *o, double t_end)
   } else if (which == CRT_BASE_TIP) {
     crt_base_end(s, o, CRT_TIPPING, CRT_EV_TIPPING,
                  crt_face_edge_margin(&s->bs.body.face, cp[0], cp[1]));
+  } else if (which == CRT_BASE_KERN) {
+    crt_base_end(s, o, CRT_FACE_LIFTING, CRT_EV_FACE_LIFTING,
+                 crt_face_kern_margin(&s->bs.body.face, cp[0], cp[1]));
   } else {                                 /* the stop: the linear decay's last part */
     const double rate = ft[0] > 0.0
         ? (s->q[3] * ft[4] + s->q[4] * ft[5] + s->bs.body.ell * s->bs.body.ell * s->q[5]

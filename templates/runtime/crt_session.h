@@ -69,7 +69,7 @@ typedef struct {
   long stamp;                             /* uf: the moments in the face frame of this */
   double uf[MODEL_MOMENTS_COUNT];         /* evaluation of the law (-1: none) */
   double xi[3];                           /* the gauge's last maximiser (a warm start) */
-  double g[3];                            /* the stick's event functions at t */
+  double g[4];                            /* the stick's event functions at t */
   double eps;                             /* the slip ends at rho = eps */
   double hs;                              /* the slip's step in s (0: to be chosen) */
 } crt_base_memory;
