@@ -278,7 +278,6 @@ BAD = [
     (("body", "shape"), "sphere", "[body].shape"),
     (("initial", "com_velocity"), [0.1, 0.0, 0.0], "[initial].com_velocity"),
     (("plan", "circle"), {"radius": 0.03}, "[plan].circle"),
-    (("plane", "pressure"), "linear", "[plane].pressure"),
     (("plane", "static_friction"), 0.2, "[plane].static_friction"),
     (("control", "mode"), "replan", "[control]"),
 ]

@@ -294,6 +294,14 @@ def _travel(p: _Plan) -> None:
                                              "along, in body axes")
     if np.linalg.norm(d) < 1e-12:
         raise SceneError("[plan].direction", "must not be zero")
+    # the base model's own conditions first: the scene's rules would otherwise ask for what
+    # a body off its face needs ([plane].restitution) and name that field instead
+    if p.v["[body].shape"] not in ("box", "cylinder"):
+        raise SceneError("[body].shape", "travel plans a body on its face (the base model): "
+                                         "a box or a cylinder")
+    if "plane" in p.v["__tables__"] and not p.v["[plane].friction"] > 0.0:
+        raise SceneError("[plane].friction", "travel needs friction > 0: it holds the body "
+                                             "while its point returns")
 
 
 PLAN_RULES = (

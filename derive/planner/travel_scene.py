@@ -19,7 +19,7 @@ def scene_document(sc, point: dict, duration: float) -> dict:
     body = {"mass": sc.M, "inertia": list(sc.J), "shape": sc.shape}
     body.update(shapes.fields_of(shapes.of(sc.shape), sc.size))
     body["center"] = list(sc.center)
-    plane = {"restitution": sc.e, "friction": sc.friction}
+    plane = {"friction": sc.friction}
     if sc.static_friction is not None:
         plane["static_friction"] = sc.static_friction
     if sc.pressure is not None:
