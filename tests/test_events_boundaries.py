@@ -1,0 +1,118 @@
+"""The flight's decisions at a plane (crt_events.h's crt_collide) at 2 % of their thresholds.
+
+Each scene puts one decision within 2 % of its bound, on either side, so that a bound off
+by a few percent changes an asserted outcome (``derive verify mutants`` checks that it
+does).  The scene is the classical ball (a sphere with its point fixed at its centre,
+tests/test_runtime.py's ``ball``), whose flights are a closed form: dropped from H, it
+lands at v1 = sqrt(2 g H), and after its k-th impact it leaves at e^k v1, rises
+e^(2k) H and flies 2 e^k v1 / g; the flights left after it sum to 2 e^k v1 / (g (1 - e)).
+
+* impacts accumulate: the runtime enters contact after the impact whose remaining
+  flights sum to less than zeno_dt x duration; zeno_dt is set so that after the K-th
+  they sum to 0.98 of it (contact after K impacts) or 1.02 of it (after K + 1), for
+  e = 0.5 and for e = 0.96 (the ratio of successive flights within 5 % of 1);
+* or whose rise is below the height resolution h_res (derive/docs/runtime.md: ten times
+  atol + rtol (|Z_C| + L)): H is set so that the K-th rise is 0.98 or 1.02 of it;
+* a start on the plane moving down at 0.98 of the speed below which a normal speed is
+  round-off (1e3 eps (|Z_C'| + sqrt(g L)) for the ball) touches the plane and rests on it
+  at once, with no impact; at 1.02 of it, it is an impact first.
+
+The count of impacts before contact and the time of entry are the closed form's; each
+test also asserts that its scene's decision falls in its band.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from derive import abi
+from derive.runtime.driver import options, simulate
+from derive.scene import load
+from test_runtime import ball
+
+G, R = 9.81, 0.5
+EPS = np.finfo(float).eps
+RTOL, ATOL = 1e-10, 1e-12
+
+
+def run(e: float, H: float, duration: float, **extra):
+    doc = ball(e=e, z0=R + H, duration=duration, rtol=RTOL, atol=ATOL, method="dopri5",
+               **extra)
+    res = simulate(doc, progress=False)
+    assert res.status == "done" and res.model == "translational"
+    return res
+
+
+def entry(res) -> tuple[int, float]:
+    """(impacts before the runtime entered contact, the time it did)."""
+    contact = [ev for ev in res.events if ev["kind"] == "contact"]
+    assert len(contact) == 1, [ev["kind"] for ev in res.events]
+    t = contact[0]["t"]
+    return int(np.sum(res.impacts[:, 0] <= t)), t
+
+
+def impact_times(e: float, H: float, n: int) -> np.ndarray:
+    v1 = math.sqrt(2 * G * H)
+    flights = [math.sqrt(2 * H / G)] + [2 * e ** k * v1 / G for k in range(1, n)]
+    return np.cumsum(flights)
+
+
+@pytest.mark.parametrize("e, K, duration", [(0.5, 6, 3.0), (0.96, 60, 20.0)])
+@pytest.mark.parametrize("band", [0.98, 1.02])
+def test_accumulating_impacts_enter_contact_where_the_flights_left_reach_zeno_dt(
+        e, K, duration, band):
+    H = 0.5
+    remaining = 2 * e ** K * math.sqrt(2 * G * H) / (G * (1 - e))
+    zeno_dt = remaining / (band * duration)
+    res = run(e, H, duration, zeno_dt=zeno_dt)
+    n, t = entry(res)
+    expected = K if band < 1 else K + 1
+    assert n == expected and len(res.impacts) == expected
+    # the decision's band, from the run's own K-th impact: the flights left after it
+    left = 2 * res.impacts[K - 1, 3] / (G * (1 - e))
+    assert abs(left / (zeno_dt * duration) - band) < 1e-6
+    np.testing.assert_allclose(res.impacts[:, 0], impact_times(e, H, expected),
+                               rtol=0, atol=1e-8)
+    assert t == res.impacts[-1, 0]
+
+
+@pytest.mark.parametrize("band", [0.98, 1.02])
+def test_impacts_enter_contact_where_the_rise_reaches_the_height_resolution(band):
+    e, K = 0.5, 15
+    probe = ball(e=e, rtol=RTOL, atol=ATOL, method="dopri5")
+    L = options(load(probe)[0], "translational")[abi.OPT["length_scale"]]
+    h_res = 10 * max(ATOL + RTOL * (R + L), 64 * EPS * (R + L))
+    H = band * h_res / e ** (2 * K)
+    t_inf = math.sqrt(2 * H / G) * (1 + 2 * e / (1 - e))
+    # zeno_dt far below the flights left: the rise decides alone
+    res = run(e, H, 1.2 * t_inf, zeno_dt=1e-15)
+    n, t = entry(res)
+    expected = K if band < 1 else K + 1
+    assert n == expected
+    # the decision's band, from the run's own K-th impact: the rise after it
+    rise = res.impacts[K - 1, 3] ** 2 / (2 * G)
+    assert abs(rise / h_res - band) < 1e-6
+    np.testing.assert_allclose(res.impacts[:, 0], impact_times(e, H, expected),
+                               rtol=1e-8, atol=0)
+
+
+@pytest.mark.parametrize("band", [0.98, 1.02])
+def test_a_start_moving_down_at_round_off_speed_touches_and_rests(band):
+    L = R
+    # v = band x 1e3 eps (v + sqrt(g L)): the runtime's speed noise of the ball at rest
+    v = band * 1e3 * EPS * math.sqrt(G * L) / (1 - band * 1e3 * EPS)
+    doc = ball(e=0.5, z0=R, duration=0.1, rtol=RTOL, atol=ATOL, method="dopri5")
+    doc["initial"]["com_velocity"] = [0.0, 0.0, -v]
+    res = simulate(doc, progress=False)
+    assert res.status == "done"
+    kinds = [(ev["kind"], ev["t"]) for ev in res.events]
+    if band < 1:
+        assert kinds == [("contact", 0.0)] and len(res.impacts) == 0
+    else:
+        assert kinds == [("impact", 0.0), ("contact", 0.0)] and len(res.impacts) == 1
+        np.testing.assert_allclose(res.impacts[0, 2:], [-v, 0.5 * v], rtol=1e-6)
+    assert res.stats["grazes"] == 0
+    # resting: the ball's centre stays at R
+    assert np.max(np.abs(res.q[:, 2] - R)) < 1e-12
