@@ -23,6 +23,11 @@ e^(2k) H and flies 2 e^k v1 / g; the flights left after it sum to 2 e^k v1 / (g 
   round-off (1e3 eps (|Z_C'| + sqrt(g L)) for the ball) touches the plane and rests on it
   at once, with no impact; at 1.02 of it, it is an impact first.
 
+And the search's own decision: a dip of S below the plane shorter than the spacing of
+its samples (S comes down and goes up again between two of them, both above the plane)
+is found by the cubic through their heights and rates, subdivided; the first crossing
+is the closed form's.
+
 The count of impacts before contact and the time of entry are the closed form's; each
 test also asserts that its scene's decision falls in its band.
 """
@@ -164,3 +169,32 @@ def test_a_start_moving_down_at_round_off_speed_touches_and_rests(band):
     assert res.stats["grazes"] == 0
     # resting: the ball's centre stays at R
     assert np.max(np.abs(res.q[:, 2] - R)) < 1e-12
+
+
+def test_a_dip_below_the_plane_between_two_samples_is_found():
+    """The point swings the ball's centre down and up (z = A cos(W t), nu A W^2 > g): S's
+    height h(t) = nu A (1 - cos W t) - delta - g (t - t_m)^2 / 2 dips 1 micrometre below
+    the plane around t_m = 2 pi / W for 0.43 ms, in the middle of a quarter of a fixed
+    RK4 step of 4 ms (the search's samples, 1 ms apart, all above it).  The impact is at
+    the closed form's first root of h (brentq), not at a later crossing or none."""
+    from scipy.optimize import brentq
+    nu, A, W, delta, step = 0.2 / 1.2, 0.2, 40.0, 1e-6, 0.004
+    tm = 2 * math.pi / W
+    t0 = tm - (20 * step + step / 8)
+
+    def h(t):
+        return nu * A * (1 - math.cos(W * t)) - delta - 0.5 * G * (t - tm) ** 2
+    t_cross = brentq(h, tm - 0.3 / W, tm, xtol=1e-16)
+    assert 0.4e-3 < 2 * (tm - t_cross) < step / 8 and h(t0) > 0
+    # C's parabola: Z_C = R + nu A - delta - g (t - t_m)^2 / 2 (Z_C'' = -g)
+    doc = ball(e=0.5, z0=R + nu * A - delta - 0.5 * G * (t0 - tm) ** 2,
+               law=("0", "0", f"{A}*cos({W}*t)"), duration=tm - t0 + 0.01, method="rk4",
+               step=step)
+    doc["initial"]["time"] = t0
+    doc["initial"]["com_velocity"] = [0.0, 0.0, G * (tm - t0)]
+    res = simulate(doc, progress=False)
+    assert res.status == "done" and res.model == "translational"
+    assert abs(res.impacts[0, 0] - t_cross) < 1e-9
+    # its approach speed: h'(t_cross)
+    v = nu * A * W * math.sin(W * t_cross) - G * (t_cross - tm)
+    assert abs(res.impacts[0, 2] - v) < 1e-6 * abs(v)
