@@ -171,6 +171,39 @@ def test_a_start_moving_down_at_round_off_speed_touches_and_rests(band):
     assert np.max(np.abs(res.q[:, 2] - R)) < 1e-12
 
 
+def swing(delta: float, t0_before: float, step: float, duration_after: float = 0.01):
+    """The ball whose point swings its centre down and up (z = A cos(W t), nu A W^2 > g),
+    started at t_m - t0_before so that S's height is h(t) = nu A (1 - cos W t) - delta
+    - g (t - t_m)^2 / 2 around t_m = 2 pi / W (C on the parabola Z_C'' = -g through
+    R + nu A - delta at t_m, at rest there), run by RK4 with a fixed step; (result, h)."""
+    nu, A, W = 0.2 / 1.2, 0.2, 40.0
+    tm = 2 * math.pi / W
+    t0 = tm - t0_before
+
+    def h(t):
+        return nu * A * (1 - math.cos(W * t)) - delta - 0.5 * G * (t - tm) ** 2
+    doc = ball(e=0.5, z0=R + nu * A - delta - 0.5 * G * (t0 - tm) ** 2,
+               law=("0", "0", f"{A}*cos({W}*t)"), duration=t0_before + duration_after,
+               method="rk4", step=step)
+    doc["initial"]["time"] = t0
+    doc["initial"]["com_velocity"] = [0.0, 0.0, G * (tm - t0)]
+    res = simulate(doc, progress=False)
+    assert res.status == "done" and res.model == "translational"
+    return res, h, tm
+
+
+def test_a_near_miss_reports_its_least_height():
+    """S passes 1 micrometre above the plane at t_m, one of the search's samples (a
+    quarter of a fixed 4 ms step): no event, and the summary's least height of S is the
+    closed form's 1e-6 m, not the least of the steps' ends (2e-5 m higher)."""
+    step = 0.004
+    res, h, tm = swing(-1e-6, 20 * step + step / 4, step)
+    assert len(res.impacts) == 0 and not res.events
+    assert min(h(tm - step / 4), h(tm + step * 3 / 4)) > 1e-6 + 1e-5
+    assert abs(res.min_height - 1e-6) < 1e-12
+    assert abs(res.summary["t_min_height"] - tm) < 1e-12
+
+
 def test_a_dip_below_the_plane_between_two_samples_is_found():
     """The point swings the ball's centre down and up (z = A cos(W t), nu A W^2 > g): S's
     height h(t) = nu A (1 - cos W t) - delta - g (t - t_m)^2 / 2 dips 1 micrometre below
@@ -178,22 +211,10 @@ def test_a_dip_below_the_plane_between_two_samples_is_found():
     RK4 step of 4 ms (the search's samples, 1 ms apart, all above it).  The impact is at
     the closed form's first root of h (brentq), not at a later crossing or none."""
     from scipy.optimize import brentq
-    nu, A, W, delta, step = 0.2 / 1.2, 0.2, 40.0, 1e-6, 0.004
-    tm = 2 * math.pi / W
-    t0 = tm - (20 * step + step / 8)
-
-    def h(t):
-        return nu * A * (1 - math.cos(W * t)) - delta - 0.5 * G * (t - tm) ** 2
+    nu, A, W, step = 0.2 / 1.2, 0.2, 40.0, 0.004
+    res, h, tm = swing(1e-6, 20 * step + step / 8, step)
     t_cross = brentq(h, tm - 0.3 / W, tm, xtol=1e-16)
-    assert 0.4e-3 < 2 * (tm - t_cross) < step / 8 and h(t0) > 0
-    # C's parabola: Z_C = R + nu A - delta - g (t - t_m)^2 / 2 (Z_C'' = -g)
-    doc = ball(e=0.5, z0=R + nu * A - delta - 0.5 * G * (t0 - tm) ** 2,
-               law=("0", "0", f"{A}*cos({W}*t)"), duration=tm - t0 + 0.01, method="rk4",
-               step=step)
-    doc["initial"]["time"] = t0
-    doc["initial"]["com_velocity"] = [0.0, 0.0, G * (tm - t0)]
-    res = simulate(doc, progress=False)
-    assert res.status == "done" and res.model == "translational"
+    assert 0.4e-3 < 2 * (tm - t_cross) < step / 8
     assert abs(res.impacts[0, 0] - t_cross) < 1e-9
     # its approach speed: h'(t_cross)
     v = nu * A * W * math.sin(W * t_cross) - G * (t_cross - tm)
