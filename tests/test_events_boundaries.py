@@ -192,14 +192,16 @@ def swing(delta: float, t0_before: float, step: float, duration_after: float = 0
     return res, h, tm
 
 
-def test_a_near_miss_reports_its_least_height():
+@pytest.mark.parametrize("where", [0.25, 0.0])
+def test_a_near_miss_reports_its_least_height(where):
     """S passes 1 micrometre above the plane at t_m, one of the search's samples (a
-    quarter of a fixed 4 ms step): no event, and the summary's least height of S is the
-    closed form's 1e-6 m, not the least of the steps' ends (2e-5 m higher)."""
+    quarter of a fixed 4 ms step into it, or a step's end): no event, and the summary's
+    least height of S is the closed form's 1e-6 m, not the least of the other samples
+    (2e-5 m higher)."""
     step = 0.004
-    res, h, tm = swing(-1e-6, 20 * step + step / 4, step)
+    res, h, tm = swing(-1e-6, 20 * step + where * step, step)
     assert len(res.impacts) == 0 and not res.events
-    assert min(h(tm - step / 4), h(tm + step * 3 / 4)) > 1e-6 + 1e-5
+    assert min(h(tm - step / 4), h(tm + step / 4)) > 1e-6 + 1e-5
     assert abs(res.min_height - 1e-6) < 1e-12
     assert abs(res.summary["t_min_height"] - tm) < 1e-12
 
