@@ -144,3 +144,30 @@ def test_contact_falls_back_to_the_classical_method():
     assert "contact" in kinds and "liftoff" in kinds
     assert np.max(np.abs(np.array([e["t"] for e in res.events])
                          - np.array([e["t"] for e in ref.events]))) < 1e-7
+
+
+@pytest.mark.parametrize("band, coefficients", [(0.98, "lie8"), (1.02, "lie5")])
+def test_lie_takes_the_coefficients_its_tolerance_names(band, coefficients):
+    """``lie`` runs the coefficients of lie8 below rtol 1e-6 and those of lie5 from it
+    (derive/abi.py's METHODS): at 0.98 and 1.02 of the switch its rows are the named
+    method's, to the bit."""
+    rtol = band * 1e-6
+    got = run(free(), "lie", rtol)
+    named = run(free(), coefficients, rtol)
+    other = run(free(), "lie5" if coefficients == "lie8" else "lie8", rtol)
+    assert np.array_equal(got.general, named.general)
+    assert not np.array_equal(got.general, other.general)
+
+
+def test_each_method_takes_the_steps_of_its_order():
+    """At rtol 1e-10 a method of order 8 takes a fraction of the steps of one of order 5
+    on the same flight (steps grow as rtol^(-1/p): (1e-10)^(1/5 - 1/8) = 0.18 of them, up
+    to the methods' constants): DOP853 against DOPRI5, lie8 against lie5, each run as
+    named (the classical and the Lie methods, and the Lie methods' two orders, told
+    apart by the runtime's dispatch)."""
+    steps = {m: run(free(), m, 1e-10).stats["steps"]
+             for m in ("dopri5", "dop853", "lie5", "lie8")}
+    assert steps["dop853"] < 0.5 * steps["dopri5"], steps
+    assert steps["lie8"] < 0.5 * steps["lie5"], steps
+    # the Lie methods are not the classical ones under another name
+    assert steps["lie5"] != steps["dopri5"] and steps["lie8"] != steps["dop853"], steps

@@ -11,6 +11,7 @@
 """
 from __future__ import annotations
 
+import json
 import re
 import subprocess
 import sys
@@ -123,3 +124,28 @@ def test_the_command_kills_the_issues_mutant_reports_a_survivor_and_fails():
     assert re.search(r"survived \w+ runtime/crt_rough_api.h:\d+ crt_eval_impact flip", out)
     assert "kill rate 1/2 = 50.0%" in out and "FAIL" in out
     assert {p.name: p.read_bytes() for p in (GENERATED / "runtime").iterdir()} == before
+
+
+def test_the_screen_is_the_journals_best_killers_among_a_mutants_own_tests(tmp_path):
+    """``killers`` counts the tests a journal records as killing (crashes, timeouts and
+    survivors are no test's); ``screen_of`` takes the most frequent of them that are among
+    the mutant's tests (a file, a test id, a test's parameters), ties by name."""
+    journal = tmp_path / "j.jsonl"
+    rows = [("killed", "tests/test_a.py::test_x[1]")] * 3 + \
+        [("killed", "tests/test_b.py::test_y")] * 2 + \
+        [("killed", "tests/test_c.py::test_z")] * 5 + \
+        [("killed", "crashed (signal 11)"), ("survived", ""), ("killed", "ran past 120 s")] + \
+        [("equivalent", "tests/test_c.py::test_z")] * 9
+    journal.write_text("\n".join(json.dumps({"status": s, "detail": d}) for s, d in rows)
+                       + "\nnot json\n", encoding="utf-8")
+    kills = mu.killers(journal)
+    assert kills == {"tests/test_a.py::test_x[1]": 3, "tests/test_b.py::test_y": 2,
+                     "tests/test_c.py::test_z": 5}
+    chosen = ["tests/test_a.py::test_x", "tests/test_b.py"]
+    assert mu.screen_of(chosen, kills, 6) == ["tests/test_a.py::test_x[1]",
+                                              "tests/test_b.py::test_y"]
+    assert mu.screen_of(chosen, kills, 1) == ["tests/test_a.py::test_x[1]"]
+    assert mu.screen_of(["tests/test_c.py", "tests/test_b.py"], kills, 6) == [
+        "tests/test_c.py::test_z", "tests/test_b.py::test_y"]
+    assert mu.screen_of(["tests/test_d.py"], kills, 6) == []
+    assert mu.killers(tmp_path / "none.jsonl") == {}

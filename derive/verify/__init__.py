@@ -30,6 +30,7 @@ from ..commands import Arg, Command, count, positive_float
 
 CASES = count(1, 10_000_000)
 WORKERS = count(1, 4096)
+SCREENS = count(0, 1000)
 
 COMMANDS = (
     Command("fuzz", "seeded hostile scenes through the parser, the runtime and the "
@@ -94,6 +95,10 @@ COMMANDS = (
                 Arg.of("--test", dest="tests", action="append", metavar="PYTEST_ARG",
                        help="run these tests against every mutant (a file or a test id; "
                             "repeatable) instead of the tests of what each one reaches"),
+                Arg.of("--screen", type=SCREENS, metavar="N",
+                       help="run first, on their own, the N tests that killed most mutants "
+                            "(the journal's and this run's), the rest of a mutant's tests "
+                            "only if they pass (default 6; 0: none)"),
                 Arg.of("--list", dest="listing", action="store_true",
                        help="list the selected mutants, run nothing"),
             )),

@@ -87,6 +87,7 @@ UNIT_TESTS = {
     ),
     "model_general.c": (
         "tests/test_runtime.py",
+        "tests/test_lie_runtime.py",
         "tests/test_bouncing.py",
         "tests/test_contact_newton_euler.py",
         "tests/test_runtime_status.py",
@@ -98,9 +99,10 @@ UNIT_TESTS = {
         _BODIES + "test_the_examples_of_several_bodies_do_what_the_readme_says",
     ),
     "model_moments.c": ("tests/test_multibody.py",),
-    "model_vertical.c": ("tests/test_runtime.py", "tests/test_bouncing.py"),
-    "model_attitude.c": ("tests/test_runtime.py",),
-    "model_translational.c": ("tests/test_runtime.py",),
+    "model_vertical.c": ("tests/test_runtime.py", "tests/test_bouncing.py",
+                         "tests/test_lie_runtime.py"),
+    "model_attitude.c": ("tests/test_runtime.py", "tests/test_lie_runtime.py"),
+    "model_translational.c": ("tests/test_events_boundaries.py", "tests/test_runtime.py"),
     "model_planar.c": ("tests/test_runtime.py",),
     "model_axisymmetric.c": ("tests/test_runtime.py",),
     "model_variational.c": ("tests/test_stability.py",),
@@ -122,6 +124,16 @@ UNIT_TESTS = {
         _REPLAN + "test_c_controller_returns_the_python_routes_law",
         _REPLAN + "test_closed_loop_replayed_with_its_realised_law",
     ),
+}
+
+
+# Tests of what one header does that the tests of the units it is compiled into do not
+# reach (a controller sets the law during a run; rows on a uniform grid of output_dt):
+# run for that header's mutants too.
+HEADER_TESTS = {
+    "crt_events.h": (
+        _HOP + "test_a_controllers_wider_gait_does_not_let_s_through_the_plane",),
+    "crt_step.h": ("tests/test_outputs.py::test_tables_have_plain_names_and_a_uniform_grid",),
 }
 
 
@@ -324,14 +336,18 @@ def units_of(mutants: list[Mutant], folder: Path) -> dict[str, tuple]:
     return out
 
 
-def tests_for(units: tuple) -> list[str]:
+def tests_for(units: tuple, files: tuple = ()) -> list[str]:
     """The pytest arguments of a mutant reaching ``units`` (in UNIT_TESTS' order, each
     once: the paper's models' tests before those of several bodies, which build one more
-    model)."""
+    model), then those of HEADER_TESTS for the mutated ``files``."""
     out: list[str] = []
     for unit in sorted(units, key=lambda u: (list(UNIT_TESTS).index(u) if u in UNIT_TESTS
                                              else len(UNIT_TESTS), u)):
         for t in UNIT_TESTS.get(unit, ()):
+            if t not in out:
+                out.append(t)
+    for name in files:
+        for t in HEADER_TESTS.get(name, ()):
             if t not in out:
                 out.append(t)
     return out
@@ -539,14 +555,51 @@ def _read_journal(path: Path | None, basis: str) -> dict:
     return out
 
 
+SCREEN = 6          # the tests that killed most mutants, run first on their own
+_TEST_ID = re.compile(r"tests/\S+\.py::\S+")
+
+
+def killers(path: Path | None):
+    """How many mutants each test has killed, as a journal records it (under any C: a
+    test that caught many mutants is likely to catch the next)."""
+    from collections import Counter
+    count: Counter = Counter()
+    if path is None or not path.is_file():
+        return count
+    for line in path.read_text(encoding="utf-8").splitlines():
+        try:
+            entry = json.loads(line)
+        except ValueError:
+            continue
+        detail = entry.get("detail", "")
+        if entry.get("status") == "killed" and _TEST_ID.fullmatch(detail):
+            count[detail] += 1
+    return count
+
+
+def screen_of(chosen: list[str], kills, n: int = SCREEN) -> list[str]:
+    """The ``n`` tests that killed most mutants (``kills``: test id -> count) among the
+    mutant's tests ``chosen`` (a file, a test id, or one of a test's parameters)."""
+    out = []
+    for t, _ in sorted(kills.items(), key=lambda kv: (-kv[1], kv[0])):
+        if any(t == c or t.startswith(c + "::") or t.startswith(c + "[") for c in chosen):
+            out.append(t)
+            if len(out) == n:
+                break
+    return out
+
+
 def run(files=None, kinds=None, match=None, sample=None, seed: int = 36,
         workers: int | None = None, journal: str | None = None, listing: bool = False,
-        tests: list | None = None, progress=None) -> Report:
+        tests: list | None = None, screen: int | None = None, progress=None) -> Report:
     """Build and test each selected mutant (``listing``: only list the catalogue).
     ``journal``: a file of verdicts (JSON lines) that a later run reuses for the mutants
     killed under the same C (a survivor is always run again: a new test may kill it).
-    ``tests``: pytest arguments run against every mutant instead of UNIT_TESTS'."""
+    ``tests``: pytest arguments run against every mutant instead of UNIT_TESTS'.
+    ``screen``: how many of the tests that killed most mutants (the journal's, and this
+    run's) run first on their own, the rest of the subset only if they pass (0: none)."""
     check_twins()
+    screen = SCREEN if screen is None else screen
     every = catalogue()
     mutants = select(every, files, kinds, match, sample, seed)
     report = Report(catalogue_size=len(every))
@@ -557,6 +610,7 @@ def run(files=None, kinds=None, match=None, sample=None, seed: int = 36,
     basis = _basis()
     jpath = Path(journal) if journal else None
     done = _read_journal(jpath, basis)
+    kills = killers(None if tests else jpath)   # grows as this run kills
     workers = max(1, min(workers or os.cpu_count() or 1, len(mutants) or 1))
     with tempfile.TemporaryDirectory(prefix="derive-mutants-") as tmp:
         scratches = [Scratch(Path(tmp) / f"w{k}") for k in range(workers)]
@@ -565,7 +619,8 @@ def run(files=None, kinds=None, match=None, sample=None, seed: int = 36,
         units = units_of(mutants, scratches[0].c / "runtime")
         todo = [m for m in mutants if m.key not in done]
         needed = list(tests) if tests else \
-            tests_for(tuple(sorted({u for m in todo for u in units[m.id]})))
+            tests_for(tuple(sorted({u for m in todo for u in units[m.id]})),
+                      tuple(sorted({m.file for m in todo if units[m.id]})))
         # the unmutated C passes the tests (and its libraries are built once, shared)
         if needed:
             if progress:
@@ -594,9 +649,11 @@ def run(files=None, kinds=None, match=None, sample=None, seed: int = 36,
             us = units[m.id]
             if not us:
                 return Outcome(m, "not compiled", "in no model (its #if blocks)")
-            chosen = list(tests) if tests else tests_for(us)
+            chosen = list(tests) if tests else tests_for(us, (m.file,))
             if not chosen:
                 return Outcome(m, "untested", f"no tests for {', '.join(us)}", 0.0, us)
+            with _LOCK:
+                first = screen_of(chosen, kills, screen) if screen else []
             sc = free.get()
             path = _scratch_file(sc, m)
             original = path.read_text(encoding="utf-8")
@@ -605,7 +662,17 @@ def run(files=None, kinds=None, match=None, sample=None, seed: int = 36,
                 err = _compiles(sc, us[0])
                 if err:
                     return Outcome(m, "stillborn", err, 0.0, us)
-                status, detail, secs = _pytest(sc, chosen, timeout)
+                # a screen first (the tests that killed most mutants, collected alone),
+                # then the rest of the subset without them; the mutant's libraries are
+                # built once, in the screen, and reused (the scratch cache is kept)
+                rest, secs = chosen, 0.0
+                if first:
+                    status, detail, secs = _pytest(sc, first, timeout)
+                    if status != "error":
+                        rest = chosen + [f"--deselect={t}" for t in first]
+                if not first or status == "survived" or status == "error":
+                    status, detail, more = _pytest(sc, rest, timeout)
+                    secs += more
             finally:
                 path.write_text(original, encoding="utf-8")
                 sc.forget()
@@ -622,6 +689,9 @@ def run(files=None, kinds=None, match=None, sample=None, seed: int = 36,
             for k, fut in enumerate(as_completed(futures), 1):
                 o = fut.result()
                 got[futures[fut]] = o
+                if o.status == "killed" and not tests and _TEST_ID.fullmatch(o.detail):
+                    with _LOCK:
+                        kills[o.detail] += 1
                 if jpath is not None and "journal" not in o.detail:
                     with jpath.open("a", encoding="utf-8") as f:
                         f.write(json.dumps({"key": o.mutant.key, "id": o.mutant.id,
@@ -688,5 +758,14 @@ def report(rep: Report) -> str:
                  + f"; kill rate {counts['killed']}/{judged} = {100 * rep.kill_rate:.1f}% "
                  f"({counts['equivalent']} survivors recorded as equivalent); the unmutated "
                  f"tests took {rep.baseline_seconds:.0f} s")
+    ran = [o for o in rep.outcomes if o.seconds > 0.0]
+    if ran:
+        def mean(xs):
+            return f"{sum(xs) / len(xs):.1f} s" if xs else "-"
+        lines.append(
+            f"cost: {mean([o.seconds for o in ran])} a mutant run ({len(ran)}): killed "
+            + mean([o.seconds for o in ran if o.status == "killed"]) + ", survived or "
+            "equivalent " + mean([o.seconds for o in ran
+                                  if o.status in ("survived", "equivalent")]))
     lines.append("goal: " + "; ".join(str(t) for t in targets(rep)))
     return "\n".join(lines)
