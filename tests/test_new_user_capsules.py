@@ -57,3 +57,48 @@ def test_an_early_stopped_face_run_writes_its_files_and_says_why(tmp_path, capsy
     assert traj[-1, 0] <= t_stop + 1e-12 and t_stop < 5.0
     if plots:
         assert t_stop == 0.0
+
+
+TRAVEL = Path(__file__).parents[1] / "derive" / "planner" / "examples" / "travel.toml"
+
+
+def _hard_travel(tmp_path, cap=30):
+    """The user's task: a 1.5 kg box 0.3 x 0.1 x 0.08 m, max_acceleration 800, max_velocity
+    10; its first laws crawl fast for two periods and slow (or tip) later."""
+    text = (TRAVEL.read_text().replace("mass = 1.0", "mass = 1.5")
+            .replace("half_extents = [0.1, 0.06, 0.04]", "half_extents = [0.15, 0.05, 0.04]")
+            .replace("max_velocity = 1.0", "max_velocity = 10.0")
+            .replace("max_acceleration = 40.0", "max_acceleration = 800.0"))
+    path = tmp_path / "task.toml"
+    path.write_text(text + f"max_iterations = {cap}\n")
+    return path
+
+
+def test_a_solved_travel_plan_delivers_its_speed_in_the_scene_it_writes(tmp_path, capsys):
+    from derive.runtime import base_report
+    from derive.runtime.driver import simulate
+    out = tmp_path / "plan"
+    rc = main(["plan", str(_hard_travel(tmp_path)), "-o", str(out), "-q"])
+    said = capsys.readouterr().out
+    assert "stopped at its iteration cap ([plan].max_iterations = 30)" in said
+    plan = __import__("json").loads((out / "plan.json").read_text())
+    assert (rc == 0) == (plan["status"] == "solved")
+    res = simulate(str(out / "scene.toml"))      # the written scene, run apart
+    tr = base_report.travel(res)
+    if rc == 0:
+        assert res.status == "done"
+        last = tr["last_period_displacement"][0] / plan["law"]["period"]
+        assert abs(last - plan["forward_speed"]) <= 0.02 * plan["forward_speed"]
+    else:
+        assert "the written scene.toml, run as derive simulate runs it" in plan["message"]
+
+
+def test_a_travel_plan_that_its_scene_does_not_deliver_fails_in_words(tmp_path, capsys,
+                                                                      monkeypatch):
+    from derive.planner import travel
+    monkeypatch.setattr(travel, "DELIVERED", -1.0)       # no re-run can deliver
+    rc = main(["plan", str(_hard_travel(tmp_path, cap=10)), "-o", str(tmp_path / "o"), "-q"])
+    cap = capsys.readouterr()
+    assert rc == 1 and cap.out.startswith("travel: failed")
+    assert "derive plan: failed: the written scene.toml, run as derive simulate runs it, " \
+           "crawls" in cap.err
