@@ -102,3 +102,34 @@ def test_a_travel_plan_that_its_scene_does_not_deliver_fails_in_words(tmp_path, 
     assert rc == 1 and cap.out.startswith("travel: failed")
     assert "derive plan: failed: the written scene.toml, run as derive simulate runs it, " \
            "crawls" in cap.err
+
+
+_TILT = "[[0.984807753, 0.0, 0.173648178], [0.0, 1.0, 0.0], [-0.173648178, 0.0, 0.984807753]]"
+FALLS_OUT = [  # (a change to the crawler, the field said, the cause said)
+    ("[initial]\n", f"[initial]\nmatrix = {_TILT}\n", "[plane].restitution",
+     "[initial]'s attitude puts no face on the plane"),
+    ("[initial]\n", "[initial]\nomega = [0.0, 1.0, 0.0]\n", "[plane].restitution",
+     "[initial].omega is not along the vertical"),
+    ("carrier_velocity = [0.0, 0.0, 0.0]", "carrier_velocity = [0.0, 0.0, 0.3]",
+     "[plane].restitution", "O starts with a vertical velocity"),
+    ("friction = 0.3 ", "friction = 0.0 ", "[plane].restitution", "[plane].friction = 0"),
+    ("static_friction = 0.35 ", "", "[disturbance]", "a push would tilt the body"),
+]
+
+
+@pytest.mark.parametrize("old, new, field, cause", FALLS_OUT)
+def test_a_scene_that_falls_out_of_the_face_down_model_names_the_cause(tmp_path, capsys, old,
+                                                                       new, field, cause):
+    text = EXAMPLE.read_text()
+    assert old in text
+    text = text.replace(old, new, 1)
+    if field == "[disturbance]":
+        text += ("\n[disturbance]\npushes = [{time = 0.2, impulse = [0.0, 0.05, 0.0], "
+                 "at = [0.05, 0.0, 0.0]}]\n")
+    path = tmp_path / "scene.toml"
+    path.write_text(text)
+    out = tmp_path / "out"
+    assert main(["simulate", str(path), "-o", str(out), "--no-plots", "-q"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith(f"derive simulate: {field}: ")
+    assert cause in err[0] and not out.exists()
