@@ -133,3 +133,36 @@ def test_a_scene_that_falls_out_of_the_face_down_model_names_the_cause(tmp_path,
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith(f"derive simulate: {field}: ")
     assert cause in err[0] and not out.exists()
+
+
+TASK_SLIPS = [  # (a change to the travel example, the field said, what it says)
+    ("friction = 0.3\n", "friction = 0.3\nspin_friction = 0.01\n", "[plane].spin_friction",
+     "is a scene key that a task does not read"),
+    ("friction = 0.3\n", "friction = 0.3\nrestitution = 0.0\n", "[plane].restitution",
+     "is not read by travel"),
+    ("on_plane = true\n", "on_plane = true\ncarrier_velocity = [0.0, 0.0, 0.0]\n",
+     "[initial].carrier_velocity", "which the planner makes"),
+]
+
+
+@pytest.mark.parametrize("old, new, field, says", TASK_SLIPS)
+def test_a_travel_tasks_slips_are_said_whole(tmp_path, capsys, old, new, field, says):
+    text = TRAVEL.read_text()
+    assert old in text
+    path = tmp_path / "task.toml"
+    path.write_text(text.replace(old, new, 1))
+    out = tmp_path / "out"
+    assert main(["plan", str(path), "-o", str(out), "-q"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith(f"derive plan: {field}: ") and says in err[0]
+    assert not out.exists()
+
+
+def test_planning_md_travel_task_is_one_the_planner_takes():
+    """planning.md's travel task, as printed, parses (it gave restitution, which the scene
+    the plan writes refuses)."""
+    from derive.planner.task import parse_task
+    doc = (Path(__file__).parents[1] / "derive" / "docs" / "planning.md").read_text()
+    start = doc.index("```toml\n", doc.index('goal = "travel"') - 1200) + len("```toml\n")
+    task = parse_task(doc[start:doc.index("```", start)])
+    assert task.goal == "travel"

@@ -547,8 +547,9 @@ def _start(d: Draft) -> None:
                                                        "carrier_velocity (O's), not both")
     if carrier is not None and not d.with_law:
         raise SceneError("[initial].carrier_velocity", "a task gives C's velocity "
-                                                       "(com_velocity): the planner makes "
-                                                       "the point's")
+                                                       "([initial].com_velocity): O's "
+                                                       "depends on the point's law, which "
+                                                       "the planner makes")
     if on_plane:
         if not d.plane or v["[body].shape"] == "none":
             raise SceneError("[initial].on_plane", "needs [plane] and a body with a shape")
