@@ -282,7 +282,8 @@ def _simulate_sweep(args, start: float) -> int:
         raise UsageError(f"--sweep: every variant was refused, e.g. {first}")
     folder = Path(args.output)
     folder.mkdir(parents=True, exist_ok=True)
-    out.to_csv(folder / "sweep.csv")
+    out.to_csv(folder / "sweep.csv", {k: v for k, v in grid.items()
+                                      if isinstance(v, overrides.Formulas)})
     statuses = {}
     for r in out.rows:
         key = r.get("status", "refused")

@@ -166,3 +166,27 @@ def test_planning_md_travel_task_is_one_the_planner_takes():
     start = doc.index("```toml\n", doc.index('goal = "travel"') - 1200) + len("```toml\n")
     task = parse_task(doc[start:doc.index("```", start)])
     assert task.goal == "travel"
+
+
+def test_a_capsules_law_is_swept_by_its_element_and_sweep_csv_says_w(tmp_path, capsys):
+    """point[1].law[0] names [[point]] 1's first formula (point.law[0] the only one's);
+    sweep.csv carries W's own column, and a base run's impact columns are empty."""
+    two = EXAMPLE.parent / "two-mass-capsule.toml"
+    sweep = "point.law[0]=0.05*sin(W*t) for W=10,20"
+    assert main(["simulate", str(two), "--sweep", sweep, "-o", str(tmp_path / "x")]) == 2
+    assert "name one, as point[1].law[0]" in capsys.readouterr().err
+    rows = {}
+    for name in ("point", "point[1]"):
+        out = tmp_path / name
+        assert main(["simulate", str(EXAMPLE), "--sweep", sweep.replace("point", name, 1),
+                     "-o", str(out), "-q", "--no-plots"]) == 0
+        lines = (out / "sweep.csv").read_text().splitlines()
+        head = lines[0].split(",")
+        assert head[1] == "W"
+        rows[name] = [dict(zip(head, line.split(","))) for line in lines[1:]]
+    for r, w in zip(rows["point"], ("10.0", "20.0")):
+        assert r["W"] == w and r["status"] == "done" and r["model"] == "base"
+        assert r["impacts"] == r["contacts"] == r["min_height"] == r["first_contact_t"] == ""
+    # the two sweeps ran the same laws: the same travel (the one formula set two ways)
+    assert [r["X_C_end"] for r in rows["point"]] == [r["X_C_end"] for r in rows["point[1]"]]
+    assert rows["point"][0]["X_C_end"] != rows["point"][1]["X_C_end"]
