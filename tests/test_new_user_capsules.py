@@ -190,3 +190,13 @@ def test_a_capsules_law_is_swept_by_its_element_and_sweep_csv_says_w(tmp_path, c
     # the two sweeps ran the same laws: the same travel (the one formula set two ways)
     assert [r["X_C_end"] for r in rows["point"]] == [r["X_C_end"] for r in rows["point[1]"]]
     assert rows["point"][0]["X_C_end"] != rows["point"][1]["X_C_end"]
+
+
+def test_a_signed_sweep_colours_a_slow_crawl_forward_beside_a_fast_slide_back():
+    """README's capsule sweep: 6.6 mm/s forward, 71 mm/s back; on the old symmetric scale
+    the forward cell sat at 0.55 of the colour range (white)."""
+    from derive.runtime.sweep_plot import signed_norm
+    Z = np.ma.masked_invalid(np.array([[-0.0709, 0.0, 0.0066], [0.0052, -0.01, np.nan]]))
+    norm = signed_norm(Z)
+    assert float(norm(0.0066)) == 1.0 and float(norm(-0.0709)) == 0.0
+    assert float(norm(0.0)) == 0.5 and float(norm(0.0052)) > 0.89
