@@ -200,3 +200,35 @@ def test_a_signed_sweep_colours_a_slow_crawl_forward_beside_a_fast_slide_back():
     norm = signed_norm(Z)
     assert float(norm(0.0066)) == 1.0 and float(norm(-0.0709)) == 0.0
     assert float(norm(0.0)) == 0.5 and float(norm(0.0052)) > 0.89
+
+
+def test_chart_modes_runs_another_scene_of_the_papers_kind_and_refuses_others(tmp_path,
+                                                                              capsys):
+    """derive chart modes --scene: a point on another circle (r 0.04 m about x = 0.01,
+    w = 15 rad/s, another phase) maps the same types cell by cell as the example, as
+    the motion depends on mu and beta alone; a law off a circle, or a second friction
+    coefficient, is refused by field."""
+    bp = EXAMPLE.parent / "bardin-panev.toml"
+    law = 'law = ["0.05*cos(20*t)", "0", "0.05*sin(20*t)"]'
+    text = bp.read_text()
+    assert law in text
+    other = tmp_path / "other.toml"
+    other.write_text(text.replace(law, 'law = ["0.01 + 0.04*sin(15*t + 1.5707963267948966)"'
+                                       ', "0", "0.04*sin(15*t)"]'))
+    grid = ["--x", "mu=0.1,0.5", "--y", "beta=0.3,0.6", "--periods", "10", "-q"]
+    types = {}
+    for name, scene in (("example", []), ("other", ["--scene", str(other)])):
+        assert main(["chart", "modes", *scene, *grid, "-o", str(tmp_path / name)]) == 0
+        lines = (tmp_path / name / "modes.csv").read_text().splitlines()[1:]
+        types[name] = [line.split(",")[4] for line in lines]
+    assert types["other"] == types["example"]
+    assert {"two reversals", "at rest", "a rest and a reversal"} <= set(types["example"])
+    capsys.readouterr()
+    off = tmp_path / "off.toml"
+    off.write_text(text.replace("0.05*sin(20*t)", "0.03*sin(20*t)"))
+    two = tmp_path / "two.toml"
+    two.write_text(text.replace("friction = 0.3 ", "friction = 0.3\nstatic_friction = 0.4 "))
+    for path, field in ((off, "[point].law"), (two, "[plane].static_friction")):
+        assert main(["chart", "modes", "--scene", str(path), *grid,
+                     "-o", str(tmp_path / "x")]) == 2
+        assert capsys.readouterr().err.startswith(f"derive chart: {field}: ")
