@@ -282,7 +282,8 @@ def _simulate_sweep(args, start: float) -> int:
         raise UsageError(f"--sweep: every variant was refused, e.g. {first}")
     folder = Path(args.output)
     folder.mkdir(parents=True, exist_ok=True)
-    out.to_csv(folder / "sweep.csv")
+    out.to_csv(folder / "sweep.csv", {k: v for k, v in grid.items()
+                                      if isinstance(v, overrides.Formulas)})
     statuses = {}
     for r in out.rows:
         key = r.get("status", "refused")
@@ -424,6 +425,8 @@ def cmd_chart(args: argparse.Namespace) -> int:
         return _chart_modes(args)
     if args.periods is not None:
         raise UsageError("--periods: only with modes (the length of each run)")
+    if args.scene is not None:
+        raise UsageError("--scene: only with modes (a stability family is its own model)")
     args.family = args.family or "C4.1"
     from .stability import chart, sweep
     from .stability.families import FamilyError, family
@@ -471,9 +474,9 @@ def _chart_modes(args) -> int:
     for flag, given in (("--family", args.family), ("--set", args.set),
                         ("--scheduler", args.scheduler)):
         if given:
-            raise UsageError(f"{flag}: not read by chart modes (its scene is "
-                             "derive/scene/examples/bardin-panev.toml; it runs on local "
-                             "threads)")
+            raise UsageError(f"{flag}: not read by chart modes (its scene is --scene, "
+                             "by default derive/scene/examples/bardin-panev.toml; it runs "
+                             "on local threads)")
     if args.workers is not None and args.workers < 1:
         raise UsageError(f"--workers: must be >= 1 (got {args.workers})")
     periods = 40 if args.periods is None else args.periods
@@ -482,7 +485,12 @@ def _chart_modes(args) -> int:
     mus = _modes_axis(args.x or "mu=0.02:0.8:27", "mu", "--x", 0.0, 100.0)
     betas = _modes_axis(args.y or "beta=0.05:0.95:19", "beta", "--y", 0.0, 1.0)
     from .runtime import modes
-    result = modes.chart(mus, betas, periods, workers=args.workers, progress=not args.quiet)
+    from .scene import SceneError
+    try:
+        result = modes.chart(mus, betas, periods, workers=args.workers,
+                             progress=not args.quiet, scene=args.scene)
+    except SceneError as exc:
+        raise UsageError(str(exc)) from None
     paths = modes.write(result, args.output)
     found = ", ".join(f"{n} {t}" for t, n in modes.counts(result).items())
     print(f"modes: {len(mus)} values of mu against {len(betas)} of beta, {periods} periods "
@@ -664,6 +672,9 @@ def build_parser() -> argparse.ArgumentParser:
                    "e=0.1:0.9:17; modes: mu=0.02:0.8:27)")
     p.add_argument("--y", help="y axis, name=lo:hi:n (default J_z=0.03:0.22:39; bounce: "
                    "Gamma=0.5:3.5:21; modes: beta=0.05:0.95:19)")
+    p.add_argument("--scene", help="modes: the scene run (default derive/scene/examples/"
+                   "bardin-panev.toml): one point on a vertical circle at a constant rate, "
+                   "one friction coefficient; mu and beta vary its friction and body mass")
     p.add_argument("--periods", type=int, help="modes: periods of the point each run "
                    "lasts (default 40; the type compares the last two)")
     p.add_argument("--set", action="append", metavar="NAME=VALUE",

@@ -31,6 +31,10 @@ def run_scene(scene, progress: bool = False) -> Result:
     docstring).  A closed loop's Result carries its :class:`~derive.control.closed.
     ClosedLoop` as ``result.loop``."""
     sc = load_scene(scene)
+    if (sc.control is not None or sc.disturbance is not None) and sc.on_plane:
+        from ..runtime import choice        # a body on its face: the base model's refusal
+        if choice.base_refusal(sc) is None:  # of [control] and [disturbance], by name
+            choice.choose(sc)
     if sc.control is not None:
         from .closed import simulate_closed
         closed = simulate_closed(sc)

@@ -118,10 +118,15 @@ def travel_lines(result, message: bool = True) -> list[str]:
         head += (f"; Nelder-Mead {se['iterations']} iterations, {se['evaluations']} runs of "
                  f"the base model ({se['seconds']:.1f} s)")
     lines = [head + f", total {s['total_seconds']:.1f} s"]
+    if s.get("search", {}).get("capped"):
+        lines.append(f"  the search stopped at its iteration cap ([plan].max_iterations = "
+                     f"{s['search']['max_iterations']}): \"{s['search']['stopped']}\"; "
+                     "a higher cap may find a faster law")
     if not result.ok:
         if message:
             lines.append(f"  {s['message']}")
-        return lines
+        if "law" not in s:
+            return lines
     law, ph = s["law"], s["law"]["phases"]
     others = ", ".join(f"{k} {cf[k]['speed']:.6g} m/s" for k in ("brake", "sawtooth", "rest")
                        if k != cf["class"])

@@ -26,7 +26,7 @@ from ..scene import Scene, SceneError, build_body, parse_scene
 from ..scene.bodies import describe, point_elements, rotor_elements
 from ..scene.parse import read_document, read_file
 from ..scene.rules import Rule
-from ..scene.schema import TASK, body_name
+from ..scene.schema import SCENE, TASK, body_name
 
 
 @dataclass(frozen=True)
@@ -172,7 +172,9 @@ def _bounds(p: _Plan) -> None:
                                                 "target_matrix (at_touchdown = \"attitude\")")
     if "[initial].carrier_velocity" in p.given:
         raise SceneError("[initial].carrier_velocity", "a task gives C's velocity "
-                                                       "(com_velocity)")
+                                                       "([initial].com_velocity): O's "
+                                                       "depends on the point's law, which "
+                                                       "the planner makes")
     if not p.decides_point:
         for key in ("region", "start"):
             if p.has(key):
@@ -299,6 +301,11 @@ def _travel(p: _Plan) -> None:
     if p.v["[body].shape"] not in ("box", "cylinder"):
         raise SceneError("[body].shape", "travel plans a body on its face (the base model): "
                                          "a box or a cylinder")
+    if "[plane].restitution" in p.given:
+        raise SceneError("[plane].restitution", "is not read by travel: the body rests on its "
+                                                "face, where the base model meets no impact "
+                                                "(derive simulate refuses it on the scene "
+                                                "the plan writes): remove it")
     if "plane" in p.v["__tables__"] and not p.v["[plane].friction"] > 0.0:
         raise SceneError("[plane].friction", "travel needs friction > 0: it holds the body "
                                              "while its point returns")
@@ -330,6 +337,11 @@ PLAN_RULES = (
 )
 
 
+# a scene's [plane] keys that no task reads (said so, not "not a known key")
+_PLANE_SCENE_ONLY = ({f.key.split(".")[0] for f in SCENE.fields if f.table == "plane"}
+                     - {f.key.split(".")[0] for f in TASK.fields if f.table == "plane"})
+
+
 def _no_law(doc: dict) -> None:
     """A task's [point] and [run] say what a task has instead of 'not a known key'."""
     if "plan" not in doc:
@@ -348,6 +360,14 @@ def _no_law(doc: dict) -> None:
                     raise SceneError(f"[[{name}]] {i}: {key}", "a task's body keeps a law "
                                      "given as a formula (law), or the plan makes it "
                                      "([plan].decide)")
+    plane = doc.get("plane")
+    scene_only = sorted(set(plane) & _PLANE_SCENE_ONLY) if isinstance(plane, dict) else []
+    if scene_only:
+        raise SceneError(f"[plane].{scene_only[0]}", "is a scene key that a task does not "
+                                                    "read: travel's body rests on its face "
+                                                    "(no impacts; the face's friction gives "
+                                                    "its torques), and the other goals plan "
+                                                    "over a smooth plane")
     if isinstance(run, dict):
         extra = sorted(set(run) - {"g"})
         if extra:

@@ -253,7 +253,7 @@ def panels(ax_x, ax_v, ax_psi, result, mo) -> None:
         ax.tick_params(labelsize=8)
         ax.grid(True, lw=0.4, color="0.9")
         _mode_spans(ax, t, m)
-        ax.set_xlim(t[0], t[-1])
+        ax.set_xlim(t[0], max(t[-1], t[0] + 1e-9))   # (a run stopped at its start: one instant)
     for k, (name, style) in enumerate((("X", "-"), ("Y", "--"))):
         ax_x.plot(t, mo.r_C[:, k], style, lw=1, color="k")
         ax_x.plot(t, mo.r_O[:, k], style, lw=1, color="#3182bd")

@@ -121,19 +121,37 @@ class Batch:
         axes as typed)."""
         return list(dict.fromkeys(k for v in self.variants for k in v))
 
-    def to_csv(self, path) -> None:
-        """One row per variant: the fields it overrides, ``error``, then the summary
-        columns; a value a row does not have (a refused variant's counts, the error of
-        one that ran) is an empty cell."""
+    def to_csv(self, path, swept_by: dict | None = None) -> None:
+        """One row per variant: the fields it overrides (a formula swept by one of its
+        numbers, ``swept_by`` {field: :class:`~derive.scene.overrides.Formulas`}, followed
+        by that number's column, W say), ``error``, then the summary columns; a value a
+        row does not have (a refused variant's counts, the error of one that ran, a base
+        run's impacts, contacts, min_height and first_contact_t: a body on its face has
+        no impact and no point S) is an empty cell."""
         names = self._fields()
-        cols = list(names) + ["error", *SUMMARY_COLUMNS]
+        swept_by = swept_by or {}
+        head = []
+        for n in names:
+            head.append(n.replace(".", "_").replace("[", "_").replace("]", ""))
+            if n in swept_by:
+                head.append(swept_by[n].symbol)
+        number = {n: dict(zip(f, f.numbers)) for n, f in swept_by.items()}
         with open(path, "w", encoding="utf-8") as fh:
-            fh.write(",".join(c.replace(".", "_").replace("[", "_").replace("]", "")
-                              for c in cols) + "\n")
+            fh.write(",".join(head + ["error", *SUMMARY_COLUMNS]) + "\n")
             for v, r in zip(self.variants, self.rows):
-                vals = [v.get(n, "") for n in names] + [r.get("error", "")] + \
-                    [r.get(c, "") for c in SUMMARY_COLUMNS]
+                vals = []
+                for n in names:
+                    vals.append(v.get(n, ""))
+                    if n in number:
+                        vals.append(number[n].get(v.get(n), ""))
+                blank = BASE_BLANK if r.get("model") == "base" else ()
+                vals += [r.get("error", "")] + [
+                    "" if c in blank else r.get(c, "") for c in SUMMARY_COLUMNS]
                 fh.write(",".join(_csv(x) for x in vals) + "\n")
+
+
+# the summary columns that mean nothing for a base run (no impact, no point S)
+BASE_BLANK = frozenset(("impacts", "contacts", "min_height", "first_contact_t"))
 
 
 def _objects(values: list) -> np.ndarray:

@@ -143,7 +143,9 @@ def base_refusal(scene: Scene) -> str | None:
     try:
         base_face(scene)
     except ValueError as exc:
-        return f"[initial]'s attitude puts no face on the plane: {exc}"
+        side = (" (a cylinder on its side touches the plane along a line, not a face: "
+                "only its ends are faces)" if scene.shape == "cylinder" else "")
+        return f"[initial]'s attitude puts no face on the plane: {exc}{side}"
     n = np.asarray(scene.A0[2], dtype=float)
     w = np.asarray(scene.omega, dtype=float)
     if np.linalg.norm(np.cross(w, n)) > 1e-12 * max(np.linalg.norm(w), 1e-300):
@@ -248,7 +250,9 @@ def _base_keys(scene: Scene, kind: str) -> None:
     """The keys only the base model reads are refused by name on the others; and what the
     base model does not read on it."""
     if kind != "base" and not scene.restitution_given and scene.plane:
-        raise SceneError("[plane].restitution", f"is required: this run is model {kind} "
+        why = base_refusal(scene)
+        why = f", not base: {why}" if why else ""
+        raise SceneError("[plane].restitution", f"is required: this run is model {kind}{why} "
                                                 "(only the base model, a body resting on "
                                                 "its face, may leave it out)")
     if kind != "base":

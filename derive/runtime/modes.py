@@ -100,18 +100,44 @@ class Setting:
         return self.m * self.r * self.w ** 2 / ((M + self.m) * self.g)
 
 
-def example() -> tuple[dict, Setting]:
-    """The example scene's dict and its point's setting: r = x(0) and w = 2 pi/T from its
-    law x = r cos(w t) (T the law's period)."""
-    from ..scene import parse_scene
+def example(path=None) -> tuple[dict, Setting]:
+    """The scene's dict (the example's by default) and its point's setting: r = x(0) and
+    w = 2 pi/T from its law x = r cos(w t) (T the law's period).  Another scene must be
+    the paper's: one point on a vertical circle in the body's x-z plane at a constant
+    rate, x = r cos(w t), z = r sin(w t) (a phase and a centre may differ), y = 0, and one
+    friction coefficient (SceneError names the field otherwise)."""
+    import sympy as sp
+
+    from ..scene import SceneError, parse_scene
     from ..scene.law.period import common_period
-    doc = tomllib.loads(EXAMPLE.read_text(encoding="utf-8"))
-    scene = parse_scene(doc, str(EXAMPLE))
-    x, _, _ = scene.points[0].law.sympy()
-    t = sorted(x.free_symbols, key=str)[0]
-    T = float(common_period([x]))
-    return doc, Setting(scene.points[0].mass, float(x.subs(t, 0)), 2 * math.pi / T,
-                        scene.g)
+    path = Path(path) if path is not None else EXAMPLE
+    doc = tomllib.loads(path.read_text(encoding="utf-8"))
+    scene = parse_scene(doc, str(path))
+    if len(scene.points) != 1 or scene.rotors:
+        raise SceneError("[point]", "chart modes needs one point (Bardin and Panev's) and "
+                                    "no rotor")
+    if "[plane].static_friction" in scene.given:
+        raise SceneError("[plane].static_friction", "chart modes maps one coefficient, "
+                                                    "rest and slip alike (the paper's): mu_s "
+                                                    "is not swept with mu; remove it")
+    x, y, z = scene.points[0].law.sympy()
+    syms = sorted((x + z).free_symbols, key=str)
+    if len(syms) != 1 or y.free_symbols:
+        raise SceneError("[point].law", "chart modes needs a point on a vertical circle: "
+                                        "x = r cos(w t), y constant, z = r sin(w t)")
+    t = syms[0]
+    T = float(common_period([x, z]))
+    w = 2 * math.pi / T
+    xc, zc = sp.diff(x, t, 2) / -w ** 2, sp.diff(z, t, 2) / -w ** 2   # the circular part
+    r2 = [float((xc ** 2 + zc ** 2).subs(t, k * T / 7)) for k in range(7)]
+    turn = [float((xc * sp.diff(zc, t) - zc * sp.diff(xc, t)).subs(t, k * T / 7))
+            for k in range(7)]
+    if (min(r2) <= 0 or max(r2) - min(r2) > 1e-9 * max(r2)
+            or max(abs(v - w * r2[0]) for v in turn) > 1e-9 * w * r2[0]):
+        raise SceneError("[point].law", "chart modes needs a point on a vertical circle at "
+                                        "a constant rate, turning from +x to +z: x = r "
+                                        "cos(w t), z = r sin(w t) (about any centre)")
+    return doc, Setting(scene.points[0].mass, math.sqrt(r2[0]), w, scene.g)
 
 
 # ---- the map ----------------------------------------------------------------------------
@@ -126,16 +152,17 @@ class ModeMap:
     periods: int
     seconds: float
     workers: int
+    scene: str = "derive/scene/examples/bardin-panev.toml"
 
 
 def run(cells, periods: int = 40, workers: int | None = None,
-        progress: bool = False) -> tuple[list, list, list, Setting, object]:
+        progress: bool = False, scene=None) -> tuple[list, list, list, Setting, object]:
     """Run the example at each (mu, beta) of ``cells`` for ``periods`` periods of the point,
     from rest: (the types, the statuses, the Results, the setting, the Batch)."""
     from .batch import simulate_many
     if periods < 2:
         raise ValueError("periods: must be >= 2 (a type compares the last two)")
-    doc, setting = example()
+    doc, setting = example(scene)
     T = setting.period
     doc["run"]["duration"] = periods * T
     doc["run"]["output_dt"] = T                    # the events are what is read
@@ -148,12 +175,12 @@ def run(cells, periods: int = 40, workers: int | None = None,
 
 
 def chart(mus, betas, periods: int = 40, workers: int | None = None,
-          progress: bool = False) -> ModeMap:
+          progress: bool = False, scene=None) -> ModeMap:
     """Run the example over the grid (beta the outer loop, mu the inner) and classify
     every cell."""
     start = time.perf_counter()
     cells = [(mu, beta) for beta in betas for mu in mus]
-    types, statuses, results, setting, batch = run(cells, periods, workers, progress)
+    types, statuses, results, setting, batch = run(cells, periods, workers, progress, scene)
     T = setting.period
     last = []
     for res in results:
@@ -161,7 +188,9 @@ def chart(mus, betas, periods: int = 40, workers: int | None = None,
         last.append([((e["t"] - lo) / T, e["kind"]) for e in res.events
                      if e["kind"] in _STOPS and e["t"] > lo])
     return ModeMap(list(mus), list(betas), types, statuses, last, setting, periods,
-                   time.perf_counter() - start, batch.workers)
+                   time.perf_counter() - start, batch.workers,
+                   str(scene) if scene is not None else "derive/scene/examples/"
+                                                        "bardin-panev.toml")
 
 
 def counts(mm: ModeMap) -> dict:
@@ -200,7 +229,7 @@ def write(mm: ModeMap, folder) -> list[Path]:
                             mm.statuses[k], mm.types[k], stops_text])
                 k += 1
     (folder / "modes.json").write_text(json_text.dumps({
-        "scene": "derive/scene/examples/bardin-panev.toml",
+        "scene": mm.scene,
         "point": {"m": s.m, "r": s.r, "w": s.w, "g": s.g}, "periods": mm.periods,
         "mu": mm.mus, "beta": mm.betas, "counts": counts(mm), "seconds": mm.seconds,
         "workers": mm.workers}), encoding="utf-8")

@@ -159,11 +159,16 @@ def event_table(result: Result, header: list, table: np.ndarray) -> tuple[np.nda
     ``Result.events``: flight after an impact that a contact then follows at once), and
     a ``before`` row's the previous event's."""
     pairs = {id(ev): i for i, ev in event_rows(result)}
+    after_kind = abi.ROW_KIND["after_event"]
+
+    def after_of(i):                         # a run's ending event has no after row: its
+        j = i + 1                            # before row stands for both
+        return j if j < len(table) and result.row_kind[j] == after_kind else i
     picked, kinds, sides, modes = [], [], [], []
     last_after = None
     for ev in result.events:
         i = pairs.get(id(ev))
-        before, after = (i, i + 1) if i is not None else (last_after, last_after)
+        before, after = (i, after_of(i)) if i is not None else (last_after, last_after)
         if before is None:                   # (no row at all: nothing to show)
             continue
         picked += [before, after]
@@ -173,7 +178,7 @@ def event_table(result: Result, header: list, table: np.ndarray) -> tuple[np.nda
         last_after = after
     for i, ev in event_rows(result):         # pairs the events list does not name
         if ev["kind"] == "event":
-            picked += [i, i + 1]
+            picked += [i, after_of(i)]
             kinds += ["event", "event"]
             sides += ["before", "after"]
             modes.append(None)

@@ -522,7 +522,7 @@ def overview(result, mo: Motion, path: Path, dpi: int = 80, steps=None) -> Path:
         ax.set_ylim(0.0, 1.1 * max(imp[:, 1].max(), 1e-300))
     else:
         ax.text(0.5, 0.5, "no impacts", ha="center", va="center", transform=ax.transAxes)
-    ax.set_xlim(t[0], t[-1])
+    ax.set_xlim(t[0], max(t[-1], t[0] + 1e-9))   # (a run stopped at its start: one instant)
     ax.set_ylabel("impulse I [N s]", fontsize=9)
     ax.set_title(f"impulses ({count(len(imp), 'impact')})", **_TITLE)
 
@@ -570,10 +570,10 @@ def overview(result, mo: Motion, path: Path, dpi: int = 80, steps=None) -> Path:
     ax.set_ylabel("relative drift", fontsize=9)
     ax.set_title(f"| |K| - |K| at phase start | / |K| in flight (E1.9), max {worst:.1e}"
                  + (" (at the steps' ends)" if steps is not result else ""), **_TITLE)
-    ax.set_xlim(t[0], t[-1])
+    ax.set_xlim(t[0], max(t[-1], t[0] + 1e-9))   # (a run stopped at its start: one instant)
 
     for ax in panels[:4]:
-        ax.set_xlim(t[0], t[-1])
+        ax.set_xlim(t[0], max(t[-1], t[0] + 1e-9))   # (a run stopped at its start: one instant)
     if result.model == "base":          # a body on its face: no flight, no impacts
         from .base_report import panels as base_panels
         base_panels(panels[0], panels[4], panels[5], result, mo)

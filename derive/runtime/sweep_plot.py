@@ -49,6 +49,14 @@ def category_ticks(n: int) -> list[int]:
     return list(range(0, n, step))
 
 
+def signed_norm(Z):
+    """The colour scale of a column of both signs: each sign to its own extreme, 0 white
+    (a crawl forward of mm/s beside a slide back of cm/s is white on one symmetric
+    scale)."""
+    from matplotlib.colors import TwoSlopeNorm
+    return TwoSlopeNorm(vmin=float(Z.min()), vcenter=0.0, vmax=float(Z.max()))
+
+
 def sweep_plot(batch, grid: dict, folder: Path, column: str = "impacts") -> Path:
     """sweep.png: ``column`` (a key of :data:`PLOTTABLE`) against the swept values."""
     import matplotlib
@@ -95,11 +103,15 @@ def sweep_plot(batch, grid: dict, folder: Path, column: str = "impacts") -> Path
         Z = np.ma.masked_invalid(impacts.reshape(nx, ny).T)
         fig, ax = plt.subplots(figsize=(6.5, 5))
         signed = column in _SIGNED and Z.count() and Z.min() < 0 < Z.max()
-        top = float(np.abs(Z).max()) if signed else None
+        norm = signed_norm(Z) if signed else None
         mesh = ax.pcolormesh(np.arange(nx + 1) - 0.5, np.arange(ny + 1) - 0.5, Z,
                              shading="flat", cmap="RdBu_r" if signed else "viridis",
-                             **({"vmin": -top, "vmax": top} if signed else {}))
-        fig.colorbar(mesh, ax=ax, label=label)
+                             norm=norm)
+        bar = fig.colorbar(mesh, ax=ax, label=label + (" (each sign to its own extreme)"
+                                                       if signed else ""))
+        if signed:
+            bar.set_ticks(np.r_[np.linspace(norm.vmin, 0.0, 5)[:-1], 0.0,
+                                np.linspace(0.0, norm.vmax, 5)[1:]])
         for axis, values in ((ax.xaxis, xs), (ax.yaxis, ys)):
             ticks = category_ticks(len(values))
             axis.set_ticks(ticks, [value_text(values[k]) for k in ticks])
@@ -110,7 +122,7 @@ def sweep_plot(batch, grid: dict, folder: Path, column: str = "impacts") -> Path
             for i in range(nx):
                 for j in range(ny):
                     if not missing[j, i]:
-                        dark = (abs(Z[j, i]) > 0.6 * top if signed else
+                        dark = (abs(float(norm(Z[j, i])) - 0.5) > 0.3 if signed else
                                 hi > lo and (Z[j, i] - lo) / (hi - lo) < 0.6)
                         text = (f"{int(Z[j, i])}" if column in _COUNTS else
                                 f"{Z[j, i]:.3g}" if abs(Z[j, i]) > 1e-9 * big else "0")

@@ -33,11 +33,19 @@ class Target:
     name: str
     field: Field
     index: int | None
+    element: int | None = None     # point[2].law: [[point]] 2 (from 1, as messages count)
 
     @property
     def where(self) -> str:
-        """How messages name it: ``[initial].com[2]``, as for a scene file's fields."""
-        return self.field.where + ("" if self.index is None else f"[{self.index}]")
+        """How messages name it: ``[initial].com[2]``, as for a scene file's fields
+        (``[[point]] 2: law[0]`` for an element of an array of tables)."""
+        entry = "" if self.index is None else f"[{self.index}]"
+        if self.element is not None:
+            return f"[[{self.field.table}]] {self.element}: {self.field.key}{entry}"
+        return self.field.where + entry
+
+
+_ELEMENT = re.compile(r"([a-z]+)\[([0-9]{1,3})\]\.(.+)\Z")
 
 
 def _unknown(name: str, schema: Schema) -> str:
@@ -62,6 +70,14 @@ def target(name: str, where: str | None = None, schema: Schema = SCENE) -> Targe
     if not isinstance(name, str):
         raise OverrideError(where or "override", f"a field name must be a string, not "
                                                  f"{type(name).__name__}")
+    element = None
+    m = _ELEMENT.match(name)
+    if m and m.group(1) in schema.arrays:     # point[2].law[0]: one of [[point]]
+        element = int(m.group(2))
+        if element < 1:
+            raise OverrideError(where or name, f"{m.group(1)}[{element}]: the elements of "
+                                              f"[[{m.group(1)}]] are numbered from 1")
+        name = f"{m.group(1)}.{m.group(3)}"
     path, bracket, rest = name.partition("[")
     f = schema.by_path.get(path)
     if f is None:
@@ -75,7 +91,22 @@ def target(name: str, where: str | None = None, schema: Schema = SCENE) -> Targe
         if f.kind not in ("vector", "laws", "choices"):
             raise OverrideError(f"{f.where}[{rest}", "has no entries: set it whole")
         index = int(text)
-    return Target(name, f, index)
+    return Target(name, f, index, element)
+
+
+def _one_of(t: Target, count: int) -> int:
+    """The element of ``[[table]]`` (``count`` given) that ``t`` sets, from 1: its own,
+    or the only one when the name gives none."""
+    table = t.field.table
+    if t.element is None:
+        if count == 1:
+            return 1
+        raise OverrideError(t.where, f"the scene gives {count} [[{table}]]: name one, as "
+                                     f"{table}[1].{t.name.partition('.')[2]} (numbered from "
+                                     f"1, as [[{table}]] 1)")
+    if t.element > count:
+        raise OverrideError(t.where, f"the scene gives {count} [[{table}]] (numbered from 1)")
+    return t.element
 
 
 def parse_value(text: str):
@@ -212,6 +243,11 @@ def apply_to_doc(doc: dict, name: str, value) -> None:
     f = t.field
     table, key = f.table, f.key
     holder = doc.setdefault(table, {}) if table else doc
+    if isinstance(holder, list) and holder:   # [[point]]: one of its elements
+        holder = holder[_one_of(t, len(holder)) - 1]
+    elif t.element is not None:
+        raise OverrideError(t.where, f"the scene gives no [[{table}]] (a single [{table}] "
+                                     f"is set as {table}.{key})")
     if not isinstance(holder, dict):
         raise OverrideError(f"[{table}]", "is not a table in the base scene")
     if t.index is not None:
@@ -232,6 +268,12 @@ def apply_to_values(v: dict, given: set, name: str, value, schema: Schema = SCEN
     (``Schema.read``); returns the field it set (``[table].key``)."""
     t = target(name, schema=schema)
     f = t.field
+    elements = v.get(f"[[{f.table}]]") if f.table else None
+    if elements:                            # [[point]]: one of its elements
+        return _element_value(v, t, elements, value)
+    if t.element is not None:
+        raise OverrideError(t.where, f"the scene gives no [[{f.table}]] (a single "
+                                     f"[{f.table}] is set as {f.table}.{f.key})")
     if t.index is not None:
         current = v[f.where]
         k = t.index
@@ -255,6 +297,27 @@ def apply_to_values(v: dict, given: set, name: str, value, schema: Schema = SCEN
     if f.table and f.table not in v["__tables__"]:
         v["__tables__"] = v["__tables__"] | {f.table}
     return f.where
+
+
+def _element_value(v: dict, t: Target, elements: tuple, value) -> str:
+    """apply_to_values for a field of one element of ``[[table]]``."""
+    from dataclasses import replace
+    f = t.field
+    k = _one_of(t, len(elements))
+    el = elements[k - 1]
+    current = el.values.get(f.key)
+    if t.index is not None:
+        if not isinstance(current, tuple) or not 0 <= t.index < len(current):
+            have = f" (it has {len(current)})" if isinstance(current, tuple) else ""
+            raise OverrideError(el.where(f"{f.key}[{t.index}]"), f"has no entry "
+                                                                 f"{t.index}{have}")
+        whole = list(current)
+        whole[t.index] = value
+        value = whole
+    values = {**el.values, f.key: check_value(f, value, el.where(f.key))}
+    new = replace(el, values=values, given=el.given | {f.key})
+    v[f"[[{f.table}]]"] = elements[:k - 1] + (new,) + elements[k:]
+    return f"[[{f.table}]]"
 
 
 # ---- raw paths (the fuzzers' hostile documents) ------------------------------------------

@@ -547,8 +547,9 @@ def _start(d: Draft) -> None:
                                                        "carrier_velocity (O's), not both")
     if carrier is not None and not d.with_law:
         raise SceneError("[initial].carrier_velocity", "a task gives C's velocity "
-                                                       "(com_velocity): the planner makes "
-                                                       "the point's")
+                                                       "([initial].com_velocity): O's "
+                                                       "depends on the point's law, which "
+                                                       "the planner makes")
     if on_plane:
         if not d.plane or v["[body].shape"] == "none":
             raise SceneError("[initial].on_plane", "needs [plane] and a body with a shape")
@@ -589,9 +590,15 @@ def _restitution(d: Draft) -> None:
     v = d.v
     if not d.plane or RESTITUTION in d.given:
         return
-    if not (v["[initial].on_plane"] and v["[body].shape"] in BASE_SHAPES and d.friction > 0):
-        raise SceneError(RESTITUTION, "is required (only a box or a cylinder started on its "
-                                      "face, on_plane, on a rough plane may leave it out)")
+    shape = v["[body].shape"]
+    why = ("[initial].on_plane is not true" if not v["[initial].on_plane"] else
+           f"[body].shape {shape!r} has no flat face" if shape not in BASE_SHAPES else
+           f"[plane].friction = {d.friction:g}: a face rests and slides by friction"
+           if not d.friction > 0 else None)
+    if why is not None:
+        raise SceneError(RESTITUTION, f"is required: {why}, so the base model cannot run it "
+                                      "(only a box or a cylinder started on its face, "
+                                      "on_plane, on a rough plane may leave it out)")
 
 
 STATE_RULES = (
