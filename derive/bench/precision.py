@@ -330,7 +330,9 @@ def matched_ratios(points: list[Point], bouncing: bool) -> list[dict]:
         row = {"level": level, "runtime_best_s": best_ours}
         for peer in [n for n in names if not n.startswith("runtime")]:
             tp = time_at(points, peer, level, bouncing)
-            row[peer] = tp / best_ours if np.isfinite(tp) and np.isfinite(best_ours) else None
+            # a time read as 0 (below the clock's resolution under load) gives no ratio
+            row[peer] = (tp / best_ours if np.isfinite(tp) and np.isfinite(best_ours)
+                         and best_ours > 0.0 else None)
         rows.append(row)
     return rows
 
