@@ -56,6 +56,8 @@ static void crt_rhs(crt_session *s, double t, const double *q, double *dq)
   crt_base_rates(&s->bs.body, crt_base_u(s, t), q, 0, dq, &N, cp);
 }
 
+static void crt_base_line_start(crt_session *s);
+
 /* crt_init: the body on its face (a fault: CRT_BAD_PARAMETERS), the mode of the start */
 static void crt_contact_start(crt_session *s)
 {
@@ -65,6 +67,7 @@ static void crt_contact_start(crt_session *s)
   s->bs.eps = 1e-11 * s->bs.body.v_scale;
   s->bs.mode = crt_base_rho(&s->bs.body, s->q) > 0.0 ? CRT_BASE_SLIP : CRT_BASE_REST;
   s->bs.hs = 0.0;
+  crt_base_line_start(s);
   s->phase = CRT_CONTACT;
   if (fault >= 0) {
     s->bad_parameter = fault;
@@ -78,14 +81,71 @@ static double crt_first_step(crt_session *s)
   return 1e-3 * s->bs.body.t_scale;
 }
 
-/* ---- the slip in s ---------------------------------------------------------------------- */
-/* dz/ds at z = (t, q), with N, cp and rho */
+/* ---- the slip ---------------------------------------------------------------------------- */
+/* The slip's scaled twist in the face frame, xi = (v_x, v_y, ell w), at q */
+static void crt_base_xi(const crt_base_body *b, const double *q, double *xi)
+{
+  double sn, cs;
+  crt_sincos(q[2], &sn, &cs);
+  xi[0] = cs * q[3] + sn * q[4];
+  xi[1] = -sn * q[3] + cs * q[4];
+  xi[2] = b->ell * q[5];
+}
+
+/* How far the flow of xi at (q, dq) turns off the line d: |xi' - (xi'.d) d| / |xi'| (0
+   when xi' = 0), xi' = (a_f + w (v_y, -v_x), ell w'), a_f O's acceleration in the face frame
+   (the frame turns with psi) */
+static double crt_base_lateral(const crt_base_body *b, const double *q, const double *dq,
+                               const double *d)
+{
+  double sn, cs, G[3], along, lat = 0.0, nG = 0.0;
+  int i;
+  crt_sincos(q[2], &sn, &cs);
+  G[0] = cs * dq[3] + sn * dq[4] + q[5] * (-sn * q[3] + cs * q[4]);
+  G[1] = -sn * dq[3] + cs * dq[4] - q[5] * (cs * q[3] + sn * q[4]);
+  G[2] = b->ell * dq[5];
+  along = G[0] * d[0] + G[1] * d[1] + G[2] * d[2];
+  for (i = 0; i < 3; ++i) {
+    const double r = G[i] - along * d[i];
+    lat += r * r;
+    nG += G[i] * G[i];
+  }
+  return nG > 0.0 ? sqrt(lat / nG) : 0.0;
+}
+
+/* A slip from q starts along one line: its direction xi/|xi| (face frame) */
+static void crt_base_line_start(crt_session *s)
+{
+  double xi[3], n;
+  int i;
+  crt_base_xi(&s->bs.body, s->q, xi);
+  n = sqrt(xi[0] * xi[0] + xi[1] * xi[1] + xi[2] * xi[2]);
+  s->bs.line = n > 0.0;
+  for (i = 0; i < 3; ++i) s->bs.dir[i] = n > 0.0 ? xi[i] / n : 0.0;
+}
+
+/* The slip's rate at z = (t, q), with N, cp and rho.  Along a line (s->bs.line): in t,
+   dz/dt = (1, dq/dt) with the friction of the held direction dir (the slip's own while
+   xi stays on its line, and smooth through xi = 0), rho the signed speed xi.dir, and
+   s->bs.lateral the largest turn of the flow off the line.  Else in s, dz/ds = rho (1,
+   dq/dt) with the slip's own friction, rho = |xi|. */
 static void crt_base_zrhs(crt_session *s, const double *z, double *dz, double *N, double *cp,
                           double *rho)
 {
   double dq[NQ];
   int i;
   ++s->stat[CRT_STAT_RHS_EVALUATIONS];
+  if (s->bs.line) {
+    double xi[3], lat;
+    crt_base_rates(&s->bs.body, crt_base_u(s, z[0]), z + 1, s->bs.dir, dq, N, cp);
+    crt_base_xi(&s->bs.body, z + 1, xi);
+    *rho = xi[0] * s->bs.dir[0] + xi[1] * s->bs.dir[1] + xi[2] * s->bs.dir[2];
+    lat = crt_base_lateral(&s->bs.body, z + 1, dq, s->bs.dir);
+    if (lat > s->bs.lateral) s->bs.lateral = lat;
+    dz[0] = 1.0;
+    for (i = 0; i < NQ; ++i) dz[1 + i] = dq[i];
+    return;
+  }
   crt_base_rates(&s->bs.body, crt_base_u(s, z[0]), z + 1, 0, dq, N, cp);
   *rho = crt_base_rho(&s->bs.body, z + 1);
   dz[0] = *rho;
@@ -119,12 +179,13 @@ static double crt_base_step(crt_session *s, const double *z0, const double *f0, 
   return sqrt(err / CRT_BASE_NZ);
 }
 
-/* the slip's event functions at a state: t_end - t, rho - eps, N, the edge margin */
+/* the slip's event functions at a state: t_end - t, the stop (rho - eps in s; along a line
+   the signed speed rho), N, the edge margin */
 static void crt_base_slip_g(const crt_session *s, double t_end, const double *z, double N,
                             const double *cp, double rho, double *g)
 {
   g[CRT_BASE_END] = t_end - z[0];
-  g[CRT_BASE_STOP] = rho - s->bs.eps;
+  g[CRT_BASE_STOP] = s->bs.line ? rho : rho - s->bs.eps;
   g[CRT_BASE_LIFT] = N;
   g[CRT_BASE_TIP] = crt_face_edge_margin(&s->bs.body.face, cp[0], cp[1]);
 }
@@ -208,6 +269,7 @@ static int crt_base_onset(crt_session *s)
   crt_changed(s);
   s->bs.mode = CRT_BASE_SLIP;
   s->bs.hs = 0.0;
+  crt_base_line_start(s);
   return 1;
 }
 
@@ -323,12 +385,21 @@ static void crt_base_slip_step(crt_session *s, crt_out *o, double t_end)
   int k, which = -1, i;
   z0[0] = s->t;
   for (i = 0; i < NQ; ++i) z0[1 + i] = s->q[i];
+  s->bs.lateral = 0.0;
   crt_base_zrhs(s, z0, f0, &N, cp, &rho);
   crt_base_slip_g(s, t_end, z0, N, cp, rho, g0);
-  if (!(s->bs.hs > 0.0)) s->bs.hs = 1e-3 * s->bs.body.t_scale / crt_max(rho, 1e-300);
+  if (!(s->bs.hs > 0.0))
+    s->bs.hs = 1e-3 * s->bs.body.t_scale / (s->bs.line ? 1.0 : crt_max(rho, 1e-300));
   hs = s->bs.hs;
   for (;;) {
     err = crt_base_step(s, z0, f0, hs, z1, f1, &N, cp, &rho);
+    if (s->bs.line && s->bs.lateral > 1e-12) {
+      /* the flow turns off the line: this slip in s from here (the step in s that covers
+         as much time) */
+      s->bs.line = 0;
+      s->bs.hs = hs / crt_max(crt_base_rho(&s->bs.body, s->q), 1e-300);
+      return;
+    }
     if (err <= 1.0 && crt_finite(z1 + 1) && z1[0] - z1[0] == 0.0) break;
     ++s->stat[CRT_STAT_REJECTED];
     hs *= (err > 1.0 && err - err == 0.0) ? crt_max(0.2, 0.9 * pow(err, -0.2)) : 0.25;
@@ -369,6 +440,14 @@ static void crt_base_slip_step(crt_session *s, crt_out *o, double t_end)
   } else if (which == CRT_BASE_TIP) {
     crt_base_end(s, o, CRT_TIPPING, CRT_EV_TIPPING,
                  crt_face_edge_margin(&s->bs.body.face, cp[0], cp[1]));
+  } else if (s->bs.line) {                 /* the stop of a slip along a line: xi = 0 */
+    crt_emit(o, s->t, s->q, CRT_ROW_BEFORE_EVENT);
+    for (i = 3; i < NQ; ++i) s->q[i] = 0.0;
+    crt_changed(s);
+    s->bs.mode = CRT_BASE_REST;
+    crt_base_settle(s, o, 1);
+    if (s->status == CRT_PAUSED && s->bs.mode == CRT_BASE_STICK)
+      crt_emit(o, s->t, s->q, CRT_ROW_AFTER_EVENT);
   } else {                                 /* the stop: the linear decay's last part */
     const double rate = ft[0] > 0.0
         ? (s->q[3] * ft[4] + s->q[4] * ft[5] + s->bs.body.ell * s->bs.body.ell * s->q[5]

@@ -71,7 +71,10 @@ typedef struct {
   double xi[3];                           /* the gauge's last maximiser (a warm start) */
   double g[3];                            /* the stick's event functions at t */
   double eps;                             /* the slip ends at rho = eps */
-  double hs;                              /* the slip's step in s (0: to be chosen) */
+  double hs;                              /* the slip's step in s or t (0: to be chosen) */
+  int line;                               /* 1: a slip along one line in t (crt_base.h) */
+  double dir[3];                          /* its unit scaled twist, face frame */
+  double lateral;                         /* the largest lateral flow of its step */
 } crt_base_memory;
 #endif
 
