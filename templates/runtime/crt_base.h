@@ -29,7 +29,7 @@
 #define CRT_BASE_H
 
 #include "crt_control.h"
-#include "crt_base_steps.h"       /* crt_base_a, crt_base_c, crt_base_e */
+#include "crt_base_steps.h"       /* crt_base_a, crt_base_e5, crt_base_e3: DOP853 */
 
 #define CRT_BASE_NZ (NQ + 1)      /* the slip's state in s: (t, q) */
 
@@ -152,15 +152,17 @@ static void crt_base_zrhs(crt_session *s, const double *z, double *dz, double *N
   for (i = 0; i < NQ; ++i) dz[1 + i] = *rho * dq[i];
 }
 
-/* one DOPRI5 step of h in s from z0 (f0 its rate): z1, f1 and N, cp, rho at z1; returns
-   the error norm */
+/* one DOP853 step of h (in s, or in t along a line) from z0 (f0 its rate): z1, f1 and N,
+   cp, rho at z1, the stages in k; returns the error norm (Hairer's: the 5th-order
+   estimate, tempered by the 3rd-order one) */
 static double crt_base_step(crt_session *s, const double *z0, const double *f0, double h,
-                            double *z1, double *f1, double *N, double *cp, double *rho)
+                            double (*k)[CRT_BASE_NZ], double *z1, double *f1, double *N,
+                            double *cp, double *rho)
 {
-  double k[7][CRT_BASE_NZ], tmp[CRT_BASE_NZ], err = 0.0;
+  double tmp[CRT_BASE_NZ], err3 = 0.0, err5 = 0.0, denom;
   int i, j, st;
   for (i = 0; i < CRT_BASE_NZ; ++i) k[0][i] = f0[i];
-  for (st = 1; st < 7; ++st) {
+  for (st = 1; st < 13; ++st) {            /* the stage 12 is at z1 (FSAL) */
     for (i = 0; i < CRT_BASE_NZ; ++i) {
       double acc = 0.0;
       for (j = 0; j < st; ++j) acc += crt_base_a[st][j] * k[j][i];
@@ -168,15 +170,58 @@ static double crt_base_step(crt_session *s, const double *z0, const double *f0, 
     }
     crt_base_zrhs(s, tmp, k[st], N, cp, rho);
   }
-  for (i = 0; i < CRT_BASE_NZ; ++i) {        /* the stage 6 is at z1 (FSAL) */
-    double e = 0.0, sc;
+  for (i = 0; i < CRT_BASE_NZ; ++i) {
+    double e3 = 0.0, e5 = 0.0, sc;
     z1[i] = tmp[i];
-    f1[i] = k[6][i];
-    for (j = 0; j < 7; ++j) e += crt_base_e[j] * k[j][i];
+    f1[i] = k[12][i];
+    for (j = 0; j < 13; ++j) {
+      e3 += crt_base_e3[j] * k[j][i];
+      e5 += crt_base_e5[j] * k[j][i];
+    }
     sc = s->opt[CRT_OPT_ATOL] + s->opt[CRT_OPT_RTOL] * crt_max(fabs(z0[i]), fabs(z1[i]));
-    err += (h * e / sc) * (h * e / sc);
+    err3 += (e3 / sc) * (e3 / sc);
+    err5 += (e5 / sc) * (e5 / sc);
   }
-  return sqrt(err / CRT_BASE_NZ);
+  denom = err5 + 0.01 * err3;
+  return denom > 0.0 ? fabs(h) * err5 / sqrt(denom * CRT_BASE_NZ) : 0.0;
+}
+
+/* DOP853's dense output of the step of h from z0 to z1 (its 13 stages in k): the three
+   extra stages, then F (7 rows), z(x) = z0 + x (F0 + (1 - x) (F1 + x (F2 + ...))) */
+static void crt_base_dense(crt_session *s, const double *z0, const double *z1, double h,
+                           double (*k)[CRT_BASE_NZ], double (*F)[CRT_BASE_NZ])
+{
+  double tmp[CRT_BASE_NZ], N, cp[2], rho;
+  int i, j, st, r;
+  for (st = 13; st < 16; ++st) {
+    for (i = 0; i < CRT_BASE_NZ; ++i) {
+      double acc = 0.0;
+      for (j = 0; j < st; ++j) acc += crt_base_a[st][j] * k[j][i];
+      tmp[i] = z0[i] + h * acc;
+    }
+    crt_base_zrhs(s, tmp, k[st], &N, cp, &rho);
+  }
+  for (i = 0; i < CRT_BASE_NZ; ++i) {
+    const double dz = z1[i] - z0[i];
+    F[0][i] = dz;
+    F[1][i] = h * k[0][i] - dz;
+    F[2][i] = 2.0 * dz - h * (k[0][i] + k[12][i]);
+    for (r = 0; r < 4; ++r) {
+      double acc = 0.0;
+      for (j = 0; j < 16; ++j) acc += crt_base_d[r][j] * k[j][i];
+      F[3 + r][i] = h * acc;
+    }
+  }
+}
+
+/* z at the fraction x of the step from the dense output */
+static void crt_base_interp(const double *z0, double (*F)[CRT_BASE_NZ], double x, double *z)
+{
+  const double y = 1.0 - x;
+  int i;
+  for (i = 0; i < CRT_BASE_NZ; ++i)
+    z[i] = z0[i] + x * (F[0][i] + y * (F[1][i] + x * (F[2][i] + y * (F[3][i]
+           + x * (F[4][i] + y * (F[5][i] + x * F[6][i]))))));
 }
 
 /* the slip's event functions at a state: t_end - t, the stop (rho - eps in s; along a line
@@ -381,8 +426,9 @@ static void crt_base_stick_step(crt_session *s, crt_out *o, double t_end)
 static void crt_base_slip_step(crt_session *s, crt_out *o, double t_end)
 {
   double z0[CRT_BASE_NZ], f0[CRT_BASE_NZ], z1[CRT_BASE_NZ], f1[CRT_BASE_NZ], zt[CRT_BASE_NZ];
-  double ft[CRT_BASE_NZ], g0[4], g1[4], gt[4], N, cp[2], rho, err, hs, first = HUGE_VAL;
-  int k, which = -1, i;
+  double ft[CRT_BASE_NZ], k[16][CRT_BASE_NZ], F[7][CRT_BASE_NZ], g0[4], g1[4], gt[4], N, cp[2];
+  double rho, err, hs, first = HUGE_VAL;
+  int k_, which = -1, i, dense = 0;
   z0[0] = s->t;
   for (i = 0; i < NQ; ++i) z0[1 + i] = s->q[i];
   s->bs.lateral = 0.0;
@@ -392,7 +438,7 @@ static void crt_base_slip_step(crt_session *s, crt_out *o, double t_end)
     s->bs.hs = 1e-3 * s->bs.body.t_scale / (s->bs.line ? 1.0 : crt_max(rho, 1e-300));
   hs = s->bs.hs;
   for (;;) {
-    err = crt_base_step(s, z0, f0, hs, z1, f1, &N, cp, &rho);
+    err = crt_base_step(s, z0, f0, hs, k, z1, f1, &N, cp, &rho);
     if (s->bs.line && s->bs.lateral > 1e-12) {
       /* the flow turns off the line: this slip in s from here (the step in s that covers
          as much time) */
@@ -402,7 +448,7 @@ static void crt_base_slip_step(crt_session *s, crt_out *o, double t_end)
     }
     if (err <= 1.0 && crt_finite(z1 + 1) && z1[0] - z1[0] == 0.0) break;
     ++s->stat[CRT_STAT_REJECTED];
-    hs *= (err > 1.0 && err - err == 0.0) ? crt_max(0.2, 0.9 * pow(err, -0.2)) : 0.25;
+    hs *= (err > 1.0 && err - err == 0.0) ? crt_max(0.2, 0.9 * pow(err, -0.125)) : 0.25;
     if (hs * crt_max(f0[0], 1e-300) < 1e-14 * s->bs.body.t_scale) {
       s->status = CRT_STEP_UNDERFLOW;
       return;
@@ -410,17 +456,20 @@ static void crt_base_slip_step(crt_session *s, crt_out *o, double t_end)
   }
   ++s->stat[CRT_STAT_STEPS];
   crt_base_slip_g(s, t_end, z1, N, cp, rho, g1);
-  for (k = 0; k < 4; ++k) {
-    if (g0[k] > 0.0 && g1[k] <= 0.0) {
+  for (k_ = 0; k_ < 4; ++k_) {             /* located on the dense output */
+    if (g0[k_] > 0.0 && g1[k_] <= 0.0) {
       double root;
-#define CRT_BASE_SLIP_EVAL(x) (crt_base_step(s, z0, f0, (x) * hs, zt, ft, &N, cp, &rho), \
-                               crt_base_slip_g(s, t_end, zt, N, cp, rho, gt), gt[k])
-      CRT_BASE_ILLINOIS(0.0, g0[k], 1.0, g1[k], root, 1e-15, CRT_BASE_SLIP_EVAL);
+      if (!dense) crt_base_dense(s, z0, z1, hs, k, F);
+      dense = 1;
+#define CRT_BASE_SLIP_EVAL(x) (crt_base_interp(z0, F, (x), zt), \
+                               crt_base_zrhs(s, zt, ft, &N, cp, &rho), \
+                               crt_base_slip_g(s, t_end, zt, N, cp, rho, gt), gt[k_])
+      CRT_BASE_ILLINOIS(0.0, g0[k_], 1.0, g1[k_], root, 1e-15, CRT_BASE_SLIP_EVAL);
 #undef CRT_BASE_SLIP_EVAL
-      if (root < first) { first = root; which = k; }
+      if (root < first) { first = root; which = k_; }
     }
   }
-  s->bs.hs = hs * crt_min(10.0, crt_max(0.2, 0.9 * pow(crt_max(err, 1e-10), -0.2)));
+  s->bs.hs = hs * crt_min(6.0, crt_max(0.333, 0.9 * pow(crt_max(err, 1e-10), -0.125)));
   if (which < 0) {
     s->t = z1[0];
     for (i = 0; i < NQ; ++i) s->q[i] = z1[1 + i];
@@ -428,7 +477,7 @@ static void crt_base_slip_step(crt_session *s, crt_out *o, double t_end)
     crt_emit(o, s->t, s->q, CRT_ROW_STEP);
     return;
   }
-  crt_base_step(s, z0, f0, first * hs, zt, ft, &N, cp, &rho);
+  crt_base_step(s, z0, f0, first * hs, k, zt, ft, &N, cp, &rho);   /* the state there */
   s->t = zt[0];
   for (i = 0; i < NQ; ++i) s->q[i] = zt[1 + i];
   crt_changed(s);
