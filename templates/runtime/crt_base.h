@@ -67,6 +67,7 @@ static void crt_contact_start(crt_session *s)
   s->bs.eps = 1e-11 * s->bs.body.v_scale;
   s->bs.mode = crt_base_rho(&s->bs.body, s->q) > 0.0 ? CRT_BASE_SLIP : CRT_BASE_REST;
   s->bs.hs = 0.0;
+  s->bs.ht = 0.0;
   crt_base_line_start(s);
   s->phase = CRT_CONTACT;
   if (fault >= 0) {
@@ -434,8 +435,10 @@ static void crt_base_slip_step(crt_session *s, crt_out *o, double t_end)
   s->bs.lateral = 0.0;
   crt_base_zrhs(s, z0, f0, &N, cp, &rho);
   crt_base_slip_g(s, t_end, z0, N, cp, rho, g0);
-  if (!(s->bs.hs > 0.0))
-    s->bs.hs = 1e-3 * s->bs.body.t_scale / (s->bs.line ? 1.0 : crt_max(rho, 1e-300));
+  if (!(s->bs.hs > 0.0))                   /* a slip's first step: along a line the last
+                                              slip's, else a thousandth of the time scale */
+    s->bs.hs = s->bs.line ? (s->bs.ht > 0.0 ? s->bs.ht : 1e-3 * s->bs.body.t_scale)
+                          : 1e-3 * s->bs.body.t_scale / crt_max(rho, 1e-300);
   hs = s->bs.hs;
   for (;;) {
     err = crt_base_step(s, z0, f0, hs, k, z1, f1, &N, cp, &rho);
@@ -471,13 +474,15 @@ static void crt_base_slip_step(crt_session *s, crt_out *o, double t_end)
   }
   s->bs.hs = hs * crt_min(6.0, crt_max(0.333, 0.9 * pow(crt_max(err, 1e-10), -0.125)));
   if (which < 0) {
+    if (s->bs.line) s->bs.ht = s->bs.hs;
     s->t = z1[0];
     for (i = 0; i < NQ; ++i) s->q[i] = z1[1 + i];
     crt_changed(s);
     crt_emit(o, s->t, s->q, CRT_ROW_STEP);
     return;
   }
-  crt_base_step(s, z0, f0, first * hs, k, zt, ft, &N, cp, &rho);   /* the state there */
+  crt_base_interp(z0, F, first, zt);       /* the state there, its rate, N and cp */
+  crt_base_zrhs(s, zt, ft, &N, cp, &rho);
   s->t = zt[0];
   for (i = 0; i < NQ; ++i) s->q[i] = zt[1 + i];
   crt_changed(s);

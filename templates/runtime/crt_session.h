@@ -75,6 +75,7 @@ typedef struct {
   int line;                               /* 1: a slip along one line in t (crt_base.h) */
   double dir[3];                          /* its unit scaled twist, face frame */
   double lateral;                         /* the largest lateral flow of its step */
+  double ht;                              /* the last step along a line (0: none yet) */
 } crt_base_memory;
 #endif
 
