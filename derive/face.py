@@ -115,7 +115,9 @@ def face_on(shape: str, size, center, n) -> Face:
     e = np.eye(3)
     third = sign * e[k]
     first = e[(k + 1) % 3]
-    second = np.cross(third, first)
+    second = np.array([third[1] * first[2] - third[2] * first[1],     # third x first
+                       third[2] * first[0] - third[0] * first[2],
+                       third[0] * first[1] - third[1] * first[0]])
     Q = np.vstack([first, second, third])
     c = Q @ np.asarray(center, dtype=float)
     if shape == "box":

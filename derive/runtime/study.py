@@ -242,11 +242,18 @@ def run_part(part: Part, ready: list) -> dict:
     cols["first_contact_t"][:] = out["first_contact"]
     if part.scenes is None:                 # a model whose state holds Z_C (or attitude)
         cols["Z_C_end"][:] = choice.height_of_c(None, part.kind, last[:, 0], last[:, 1:])
+        travel = choice.travel(part.kind, part.t0, last[:, 0], last[:, 1:], part.c0)
+    elif part.kind == "base":               # C = O + A OC at each run's end, once
+        ends = np.array([choice.base_c_at(sc, float(r[0]), r[1:])
+                         for sc, r in zip(part.scenes, last)]).reshape(-1, 3)
+        cols["Z_C_end"][:] = ends[:, 2]
+        travel = choice.displacement(ends[:, 0], ends[:, 1], part.c0)
     else:
         cols["Z_C_end"][:] = [choice.height_of_c(sc, part.kind, float(r[0]), r[1:])
                               for sc, r in zip(part.scenes, last)]
-    for name, col in choice.travel(part.kind, part.t0, last[:, 0], last[:, 1:], part.c0,
-                                   part.scenes).items():
+        travel = choice.travel(part.kind, part.t0, last[:, 0], last[:, 1:], part.c0,
+                               part.scenes)
+    for name, col in travel.items():
         cols[name][:] = col
     cols["run_ms"][:] = 1e3 * out["seconds"] / n
     for k in np.flatnonzero(out["init_status"] != _OK):
