@@ -120,7 +120,7 @@ BASE_SHAPES = ("box", "cylinder")
 def _base_offset(scene: Scene) -> tuple:
     """OC and OC' at t0 (body axes): where the internal bodies put C, and how fast."""
     from . import bodies
-    c, cd, _ = bodies.offsets(scene, bodies.moments(bodies.along(scene, [scene.t0])))
+    c, cd, _ = bodies.offsets_at(scene, [scene.t0])
     return c[0], cd[0]
 
 
@@ -332,7 +332,7 @@ def base_c(scene: Scene, st: Start, t, Q) -> tuple:
     run: r_C = r_O + A OC, V_C = V_O + A (omega x OC + OC')."""
     from . import bodies
     A, r_O, v_O, omega = base_pose(scene, st, t, Q)
-    c, cd, _ = bodies.offsets(scene, bodies.moments(bodies.along(scene, t)))
+    c, cd, _ = bodies.offsets_at(scene, t)
     r_C = r_O + np.einsum("nij,nj->ni", A, c)
     v_C = v_O + np.einsum("nij,nj->ni", A, cross(omega, c) + cd)
     return r_C, v_C, A, omega
