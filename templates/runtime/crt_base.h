@@ -8,7 +8,7 @@
  *
  * Three modes (s->bs.mode):
  *  - rest: the body is at rest at t; sticking holds if the gauge gamma of the wrench the
- *    rest needs (crt_face_gauge, mu_s) is below 1 (or at 1 and not rising); else the slip
+ *    rest needs (crt_face_gauge or its bounds, mu_s) is below 1 (or at 1 and not rising); else the slip
  *    starts against the gauge's maximiser, along the stable direction of the slip's flow,
  *    by its Taylor series (twist = G0 d + G1 d^2/2 until it reaches 1e2 eps);
  *  - stick: the state is constant; the event functions 1 - gamma, N and the centre of
@@ -237,15 +237,22 @@ static void crt_base_slip_g(const crt_session *s, double t_end, const double *z,
 }
 
 /* ---- the rest ------------------------------------------------------------------------------ */
-/* the stick's event functions at t (the state is constant): 1 - gamma, N, the margin */
+/* the stick's event functions at t (the state is constant): 1 - gamma, N, the margin.
+   Where the gauge's bounds (crt_face_gauge_bounds) put gamma below 1 - 1e-3, 1 - their
+   upper bound (the sign is all a sample needs, and a root is located only where gamma is
+   near 1: computed there); else the gauge itself, its maximiser in xi. */
 static void crt_base_stick_g(crt_session *s, double t, double *g, double *xi)
 {
   static const double k0[2] = {0.0, 0.0};
-  double W[3], N, cp[2];
+  double W[3], N, cp[2], lo, hi;
+  int part;
   crt_base_rest(&s->bs.body, crt_base_u(s, t), W, &N, cp);
   ++s->stat[CRT_STAT_EVENT_FUNCTION_EVALUATIONS];
-  g[0] = 1.0 - crt_face_gauge(&s->bs.body.face, crt_max(N, 0.0), k0, s->bs.body.mu_s, W, xi,
-                              &s->stat[CRT_STAT_EVENT_FUNCTION_EVALUATIONS]);
+  crt_face_gauge_bounds(&s->bs.body.face, crt_max(N, 0.0), k0, s->bs.body.mu_s, W, &lo, &hi,
+                        &part);
+  if (hi <= 1.0 - 1e-3) g[0] = 1.0 - hi;
+  else g[0] = 1.0 - crt_face_gauge(&s->bs.body.face, crt_max(N, 0.0), k0, s->bs.body.mu_s, W,
+                                   xi, &s->stat[CRT_STAT_EVENT_FUNCTION_EVALUATIONS]);
   g[1] = N;
   g[2] = crt_face_edge_margin(&s->bs.body.face, cp[0], cp[1]);
 }
