@@ -468,9 +468,10 @@ def height_of_c(scene: Scene, kind: str, t: float, q) -> float:
     return math.nan
 
 
-def base_c_at(scene: Scene, t: float, q) -> np.ndarray:
-    """C's position at time t from one state of the base model."""
-    st = start(scene, "base")
+def base_c_at(scene: Scene, t: float, q, st: Start | None = None) -> np.ndarray:
+    """C's position at time t from one state of the base model (``st``: the run's start,
+    if at hand)."""
+    st = start(scene, "base") if st is None else st
     return base_c(scene, st, np.array([float(t)]), np.asarray(q, dtype=float)[None])[0][0]
 
 
