@@ -68,6 +68,7 @@ static void crt_contact_start(crt_session *s)
   s->bs.mode = crt_base_rho(&s->bs.body, s->q) > 0.0 ? CRT_BASE_SLIP : CRT_BASE_REST;
   s->bs.hs = 0.0;
   s->bs.ht = 0.0;
+  s->bs.fsal = 0;
   crt_base_line_start(s);
   s->phase = CRT_CONTACT;
   if (fault >= 0) {
@@ -93,17 +94,20 @@ static void crt_base_xi(const crt_base_body *b, const double *q, double *xi)
   xi[2] = b->ell * q[5];
 }
 
-/* How far the flow of xi at (q, dq) turns off the line d: |xi' - (xi'.d) d| / |xi'| (0
-   when xi' = 0), xi' = (a_f + w (v_y, -v_x), ell w'), a_f O's acceleration in the face frame
-   (the frame turns with psi) */
-static double crt_base_lateral(const crt_base_body *b, const double *q, const double *dq,
-                               const double *d)
+/* Along the line d at (q, dq): the signed speed xi.d, and how far the flow of xi turns off
+   the line, |xi' - (xi'.d) d| / |xi'| (0 when xi' = 0), xi' = (a_f + w (v_y, -v_x), ell w'),
+   a_f O's acceleration in the face frame (the frame turns with psi) */
+static double crt_base_line_flow(const crt_base_body *b, const double *q, const double *dq,
+                                 const double *d, double *speed)
 {
-  double sn, cs, G[3], along, lat = 0.0, nG = 0.0;
+  double sn, cs, vx, vy, G[3], along, lat = 0.0, nG = 0.0;
   int i;
   crt_sincos(q[2], &sn, &cs);
-  G[0] = cs * dq[3] + sn * dq[4] + q[5] * (-sn * q[3] + cs * q[4]);
-  G[1] = -sn * dq[3] + cs * dq[4] - q[5] * (cs * q[3] + sn * q[4]);
+  vx = cs * q[3] + sn * q[4];
+  vy = -sn * q[3] + cs * q[4];
+  *speed = vx * d[0] + vy * d[1] + b->ell * q[5] * d[2];
+  G[0] = cs * dq[3] + sn * dq[4] + q[5] * vy;
+  G[1] = -sn * dq[3] + cs * dq[4] - q[5] * vx;
   G[2] = b->ell * dq[5];
   along = G[0] * d[0] + G[1] * d[1] + G[2] * d[2];
   for (i = 0; i < 3; ++i) {
@@ -120,6 +124,7 @@ static void crt_base_line_start(crt_session *s)
   double xi[3], n;
   int i;
   crt_base_xi(&s->bs.body, s->q, xi);
+  s->bs.fsal = 0;                          /* (the last step's rate: another direction's) */
   n = sqrt(xi[0] * xi[0] + xi[1] * xi[1] + xi[2] * xi[2]);
   s->bs.line = n > 0.0;
   for (i = 0; i < 3; ++i) s->bs.dir[i] = n > 0.0 ? xi[i] / n : 0.0;
@@ -137,11 +142,9 @@ static void crt_base_zrhs(crt_session *s, const double *z, double *dz, double *N
   int i;
   ++s->stat[CRT_STAT_RHS_EVALUATIONS];
   if (s->bs.line) {
-    double xi[3], lat;
+    double lat;
     crt_base_rates(&s->bs.body, crt_base_u(s, z[0]), z + 1, s->bs.dir, dq, N, cp);
-    crt_base_xi(&s->bs.body, z + 1, xi);
-    *rho = xi[0] * s->bs.dir[0] + xi[1] * s->bs.dir[1] + xi[2] * s->bs.dir[2];
-    lat = crt_base_lateral(&s->bs.body, z + 1, dq, s->bs.dir);
+    lat = crt_base_line_flow(&s->bs.body, z + 1, dq, s->bs.dir, rho);
     if (lat > s->bs.lateral) s->bs.lateral = lat;
     dz[0] = 1.0;
     for (i = 0; i < NQ; ++i) dz[1 + i] = dq[i];
@@ -436,11 +439,19 @@ static void crt_base_slip_step(crt_session *s, crt_out *o, double t_end)
   double z0[CRT_BASE_NZ], f0[CRT_BASE_NZ], z1[CRT_BASE_NZ], f1[CRT_BASE_NZ], zt[CRT_BASE_NZ];
   double ft[CRT_BASE_NZ], k[16][CRT_BASE_NZ], F[7][CRT_BASE_NZ], g0[4], g1[4], gt[4], N, cp[2];
   double rho, err, hs, first = HUGE_VAL;
-  int k_, which = -1, i, dense = 0;
+  int k_, which = -1, i, dense = 0, same;
   z0[0] = s->t;
   for (i = 0; i < NQ; ++i) z0[1 + i] = s->q[i];
   s->bs.lateral = 0.0;
-  crt_base_zrhs(s, z0, f0, &N, cp, &rho);
+  same = s->bs.fsal;                       /* the last step ended here: its rate (FSAL) */
+  for (i = 0; same && i < CRT_BASE_NZ; ++i) same = s->bs.fz[i] == z0[i];
+  if (same) {
+    for (i = 0; i < CRT_BASE_NZ; ++i) f0[i] = s->bs.ff[i];
+    N = s->bs.fN; cp[0] = s->bs.fcp[0]; cp[1] = s->bs.fcp[1]; rho = s->bs.frho;
+  } else {
+    crt_base_zrhs(s, z0, f0, &N, cp, &rho);
+  }
+  s->bs.fsal = 0;
   crt_base_slip_g(s, t_end, z0, N, cp, rho, g0);
   if (!(s->bs.hs > 0.0))                   /* a slip's first step: along a line the last
                                               slip's, else a thousandth of the time scale */
@@ -453,6 +464,7 @@ static void crt_base_slip_step(crt_session *s, crt_out *o, double t_end)
       /* the flow turns off the line: this slip in s from here (the step in s that covers
          as much time) */
       s->bs.line = 0;
+      s->bs.fsal = 0;
       s->bs.hs = hs / crt_max(crt_base_rho(&s->bs.body, s->q), 1e-300);
       return;
     }
@@ -482,6 +494,9 @@ static void crt_base_slip_step(crt_session *s, crt_out *o, double t_end)
   s->bs.hs = hs * crt_min(6.0, crt_max(0.333, 0.9 * pow(crt_max(err, 1e-10), -0.125)));
   if (which < 0) {
     if (s->bs.line) s->bs.ht = s->bs.hs;
+    s->bs.fsal = 1;
+    for (i = 0; i < CRT_BASE_NZ; ++i) { s->bs.fz[i] = z1[i]; s->bs.ff[i] = f1[i]; }
+    s->bs.fN = N; s->bs.fcp[0] = cp[0]; s->bs.fcp[1] = cp[1]; s->bs.frho = rho;
     s->t = z1[0];
     for (i = 0; i < NQ; ++i) s->q[i] = z1[1 + i];
     crt_changed(s);

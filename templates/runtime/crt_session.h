@@ -76,6 +76,8 @@ typedef struct {
   double dir[3];                          /* its unit scaled twist, face frame */
   double lateral;                         /* the largest lateral flow of its step */
   double ht;                              /* the last step along a line (0: none yet) */
+  int fsal;                               /* 1: the last step's end z, its rate, N, cp */
+  double fz[NQ + 1], ff[NQ + 1], fN, fcp[2], frho;   /* and rho (the next step's start) */
 } crt_base_memory;
 #endif
 
