@@ -8,20 +8,29 @@
  *
  * Three modes (s->bs.mode):
  *  - rest: the body is at rest at t; sticking holds if the gauge gamma of the wrench the
- *    rest needs (crt_face_gauge or its bounds, mu_s) is below 1 (or at 1 and not rising); else the slip
- *    starts against the gauge's maximiser, along the stable direction of the slip's flow,
- *    by its Taylor series (twist = G0 d + G1 d^2/2 until it reaches 1e2 eps);
+ *    rest needs (crt_face_gauge, mu_s) is below 1 (or at 1 and not rising); else the
+ *    slip starts against the gauge's maximiser, along the stable direction of the slip's
+ *    flow, by its Taylor series (twist = G0 d + G1 d^2/2 until it reaches 1e2 eps);
  *  - stick: the state is constant; the event functions 1 - gamma, N and the centre of
- *    pressure's edge margin are sampled every opt[CRT_OPT_HMAX]/8 and a sign change is
- *    located by the Illinois method (break-away: the slip starts; N: status lift_off;
- *    the edge: status tipping);
- *  - slip: integrated in the time s with dt/ds = rho = |(V_O, ell psi')| (the state z = (t,
- *    q)), so the end of the slip is approached without the friction's direction flipping:
- *    rho decays exponentially in s, the event rho = eps (1e-11 sqrt(g ell)) ends it and
- *    the linear decay's last rho/|rho'| is added; then rest (a stick, or a reversal).  Each
- *    step DOPRI5 (the tableau of crt_base_steps.h) with the error of rtol, atol on z; the
- *    events (t_end, the stop, N, the edge) located inside a step by re-stepping from its
- *    start (Illinois on the step's fraction).
+ *    pressure's edge margin are sampled every opt[CRT_OPT_HMAX]/8 (gamma by the gauge's
+ *    bounds where they put it below 1 - 1e-3) and a sign change is located by the
+ *    Illinois method (break-away: the slip starts; N: status lift_off; the edge: status
+ *    tipping);
+ *  - slip, along a line (s->bs.line): while the scaled twist xi = (V_O, ell psi') keeps
+ *    its direction d (a translation along a fixed line, a spin in place: the flow's part
+ *    off d below 1e-12 of it at every stage), integrated in t with the friction of d held,
+ *    which is the slip's own friction while xi.d > 0 and smooth through 0, so the stop is
+ *    the sign change of xi.d, located as the other events, and xi = 0 there;
+ *  - slip, else: integrated in the time s with dt/ds = rho = |xi| (the state z = (t, q)),
+ *    so the end of the slip is approached without the friction's direction flipping: rho
+ *    decays exponentially in s, the event rho = eps (1e-11 sqrt(g ell)) ends it and the
+ *    linear decay's last rho/|rho'| is added.  A slip starts along a line and goes on in s
+ *    from the first step whose flow turns off it.
+ *    After a stop: rest (a stick, or a reversal).  Each step DOP853 (the tableau of
+ *    crt_base_steps.h, Hairer's error norm and step control) with the error of rtol, atol
+ *    on z, the first step of a slip along a line the last such slip's; the events (t_end,
+ *    the stop, N, the edge) located inside a step on DOP853's dense output (Illinois on
+ *    the step's fraction), the state at an event the dense output's there.
  * A run never goes on past lift-off or tipping: it stops there with that status and an
  * event at its time.  The closed loop (crt_set_control) is refused (CRT_BAD_CONTROL).
  */
