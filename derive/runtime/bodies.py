@@ -40,7 +40,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import layout
-from .geometry import cross
 
 
 @dataclass
@@ -122,8 +121,8 @@ def moments(b: Bodies) -> Moments:
     theta = _sum(m[..., None] * (rr[..., None, None] * E - outer), n, (3, 3))
     theta_d = _sum(m[..., None] * (2.0 * rv[..., None, None] * E - outer_d), n, (3, 3))
     spin = b.inertias[:, None, None] * b.axes[:, None, :]               # (R, 1, 3)
-    h = _sum(m * cross(b.r, b.v), n) + _sum(spin * b.psi[:, :, 1:2], n)
-    hd = _sum(m * cross(b.r, b.a), n) + _sum(spin * b.psi[:, :, 2:3], n)
+    h = _sum(m * np.cross(b.r, b.v), n) + _sum(spin * b.psi[:, :, 1:2], n)
+    hd = _sum(m * np.cross(b.r, b.a), n) + _sum(spin * b.psi[:, :, 2:3], n)
     return Moments(float(b.masses.sum()), _sum(m * b.r, n), _sum(m * b.v, n),
                    _sum(m * b.a, n), theta, theta_d, h, hd)
 
@@ -156,8 +155,8 @@ def inertia(scene, mo: Moments) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.
         - (ss * E - mo.s[:, :, None] * mo.s[:, None, :]) / mt
     Jd = mo.theta_d - (2.0 * ssd * E - mo.sd[:, :, None] * mo.s[:, None, :]
                        - mo.s[:, :, None] * mo.sd[:, None, :]) / mt
-    k = mo.h - cross(mo.s, mo.sd) / mt
-    kd = mo.hd - cross(mo.s, mo.sdd) / mt
+    k = mo.h - np.cross(mo.s, mo.sd) / mt
+    kd = mo.hd - np.cross(mo.s, mo.sdd) / mt
     return J, Jd, k, kd
 
 
@@ -172,7 +171,7 @@ def omega_rate_in_flight(scene, b: Bodies, omega) -> np.ndarray:
     axes)."""
     J, Jd, k, kd = inertia(scene, moments(b))
     K = np.einsum("nij,nj->ni", J, omega) + k
-    rhs = -cross(omega, K) - np.einsum("nij,nj->ni", Jd, omega) - kd
+    rhs = -np.cross(omega, K) - np.einsum("nij,nj->ni", Jd, omega) - kd
     return np.linalg.solve(J, rhs[:, :, None])[:, :, 0]
 
 
@@ -180,8 +179,8 @@ def body_velocities(scene, b: Bodies, omega, A, v_C) -> tuple[np.ndarray, np.nda
     """(V_O (n, 3), V_j (N, n, 3)) in body axes."""
     c, cd, _ = offsets(scene, moments(b))
     V = np.einsum("nji,nj->ni", A, v_C)
-    V_O = V - cd - cross(omega, c)
-    return V_O, V_O[None] + b.v + cross(omega[None], b.r)
+    V_O = V - cd - np.cross(omega, c)
+    return V_O, V_O[None] + b.v + np.cross(omega[None], b.r)
 
 
 def energies(scene, b: Bodies, omega, A, v_C) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -210,10 +209,10 @@ def drive_powers(scene, b: Bodies, omega, omega_dot, force=None) -> np.ndarray:
     mo = moments(b)
     c, cd, cdd = offsets(scene, mo)
     w, wd = omega, omega_dot
-    c_abs = cdd + 2.0 * cross(w, cd) + cross(wd, c) + cross(w, cross(w, c))
+    c_abs = cdd + 2.0 * np.cross(w, cd) + np.cross(wd, c) + np.cross(w, np.cross(w, c))
     base = -c_abs if force is None else force / (scene.M + mo.m) - c_abs
-    rel = b.a + 2.0 * cross(w[None], b.v) + cross(wd[None], b.r) \
-        + cross(w[None], cross(w[None], b.r))
+    rel = b.a + 2.0 * np.cross(w[None], b.v) + np.cross(wd[None], b.r) \
+        + np.cross(w[None], np.cross(w[None], b.r))
     F = b.masses[:, None, None] * (base[None] + rel)
     points = np.einsum("jni,jni->jn", F, b.v)
     rate, acc = b.psi[:, :, 1], b.psi[:, :, 2]
