@@ -101,7 +101,7 @@ static void crt_base_face_moments(const crt_base_body *b, const double *u, doubl
   static const int vectors[] = MODEL_MOMENTS_VECTORS;
   static const int tensors[] = MODEL_MOMENTS_TENSORS;
   static const int row[6] = {0, 0, 0, 1, 1, 2}, col[6] = {0, 1, 2, 1, 2, 2};
-  static const int upper[3][3] = {{0, 1, 2}, {1, 3, 4}, {2, 4, 5}};   /* S_ij's entry */
+  static const int upper[3][3] = { {0, 1, 2}, {1, 3, 4}, {2, 4, 5} };   /* S_ij's entry */
   int v, i;
   for (v = 0; v < (int)(sizeof vectors / sizeof vectors[0]); ++v) {
     const int o = vectors[v];
