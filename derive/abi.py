@@ -103,6 +103,8 @@ PARAMETERS = _names(
                            "(0: none)"),
     ("static_friction", "base model: mu_s, the static coefficient over the face (>= "
                         "friction, which is the kinetic one)"),
+    ("pressure", "base model: the pressure over the face (enum crt_pressure: uniform, or "
+                 "linear: affine with its centroid at the centre of pressure)"),
     *_BODY_PARAMETERS,
 )
 
@@ -114,6 +116,14 @@ RESTITUTION_MODELS = _names(
     ("poisson", "the normal impulse of restitution is e times that of compression"),
     ("newton", "v_n+ = -e v_n-; only where it is energy-consistent (mu_f |W_tn| = 0 at the "
                "impact), else the run stops with restitution_refused"),
+)
+
+# Values of prm[CRT_P_pressure] (derive/face.py's PRESSURES, in its order): the base model's
+# pressure over the face.
+PRESSURES = _names(
+    ("uniform", "N / A over the face"),
+    ("linear", "affine over the face, its centroid at the centre of pressure (a rigid face "
+               "on an elastic floor, Sakharov 2015); positive while cp is in the face's kern"),
 )
 
 METHODS = _names(
@@ -157,6 +167,9 @@ STATUSES = (
                           "body leaves the plane; the run stops there)"),
     Status("tipping", 6, "base model: the centre of pressure reached the face's edge (the "
                          "body tips about it; the run stops there)"),
+    Status("face_lifting", 7, "base model, linear pressure: the centre of pressure left the "
+                              "face's kern (the affine pressure would turn negative at an "
+                              "edge: the face starts to lift there; the run stops there)"),
     Status("max_steps", -1, "max_steps steps were taken before the end time"),
     Status("step_underflow", -2, "the step size fell below 1e-14 of the time scale"),
     Status("nonfinite", -3, "the state or the right-hand side became NaN or infinite"),
@@ -225,6 +238,8 @@ EVENT_KINDS = _names(
                    "stopped): the body rolls from rest against it (value: |T_t|/(mu_r N))"),
     ("tipping", "base model: the centre of pressure reached the face's edge (value: its "
                 "distance from the face's centroid)"),
+    ("face_lifting", "base model, linear pressure: the centre of pressure reached the "
+                     "face's kern (the pressure reaches 0 at an edge; value: the kern margin)"),
 )
 
 STATS = _names(
@@ -375,7 +390,8 @@ def c_context() -> dict:
     """What ``templates/runtime/crt_abi.h.jinja`` renders."""
     return {"options": OPTIONS, "parameters": PARAMETERS, "methods": METHODS,
             "statuses": STATUSES, "phases": PHASES, "modes": MODES,
-            "restitution_models": RESTITUTION_MODELS, "event_kinds": EVENT_KINDS,
+            "restitution_models": RESTITUTION_MODELS, "pressures": PRESSURES,
+            "event_kinds": EVENT_KINDS,
             "stats": STATS, "row_kinds": ROW_KINDS, "summary": SUMMARY,
             "law_kinds": LAW_KINDS, "opcodes": OPCODES, "law_max_nodes": LAW_MAX_NODES,
             "law_max_points": LAW_MAX_POINTS, "law_max_rotors": LAW_MAX_ROTORS,

@@ -290,6 +290,8 @@ def _simulate_sweep(args, start: float) -> int:
     from .json_text import dumps
     (folder / "sweep.json").write_text(dumps(
         {"scene": origin, "sweep": {k: list(v) for k, v in grid.items()},
+         "swept_by": {k: {"name": v.symbol, "values": v.numbers} for k, v in grid.items()
+                      if isinstance(v, overrides.Formulas)},
          "variants": len(out.rows), "statuses": statuses, "seconds": out.seconds,
          "executor": out.executor, "workers": out.workers, "tasks": out.tasks}),
         encoding="utf-8")
@@ -418,6 +420,11 @@ def cmd_stability(args: argparse.Namespace) -> int:
 
 
 def cmd_chart(args: argparse.Namespace) -> int:
+    if args.what == "modes":
+        return _chart_modes(args)
+    if args.periods is not None:
+        raise UsageError("--periods: only with modes (the length of each run)")
+    args.family = args.family or "C4.1"
     from .stability import chart, sweep
     from .stability.families import FamilyError, family
     try:
@@ -439,6 +446,48 @@ def cmd_chart(args: argparse.Namespace) -> int:
           (f", {c['no_body']} with {chart.missing_name(args.family)}" if c["no_body"]
            else "") +
           f"; {result.seconds:.2g} s on {result.executor} ({_workers(result.workers)})")
+    print("wrote " + ", ".join(str(p) for p in paths))
+    return 0
+
+
+def _modes_axis(text: str, name: str, flag: str, lo: float, hi: float) -> list:
+    """``mu=0.02:0.8:27`` (or ``=0.1,0.3``): the values, each in (lo, hi)."""
+    from .scene import overrides
+    given, sep, spec = text.partition("=")
+    if not sep or given.strip() != name:
+        raise UsageError(f"{flag}: must be {name}=lo:hi:n or {name}=a,b,c (got {text!r})")
+    try:
+        values = overrides.parse_sweep(f"body.mass={spec}")[1]
+    except overrides.OverrideError as exc:
+        raise UsageError(f"{flag}: {exc.rule.replace('body.mass', name)}") from None
+    bad = [v for v in values if not lo < v < hi]
+    if bad:
+        raise UsageError(f"{flag}: {name} must be in ({lo:g}, {hi:g}) (got {bad[0]:g})")
+    return values
+
+
+def _chart_modes(args) -> int:
+    """``derive chart modes``: Bardin and Panev's mode types over (mu, beta)."""
+    for flag, given in (("--family", args.family), ("--set", args.set),
+                        ("--scheduler", args.scheduler)):
+        if given:
+            raise UsageError(f"{flag}: not read by chart modes (its scene is "
+                             "derive/scene/examples/bardin-panev.toml; it runs on local "
+                             "threads)")
+    if args.workers is not None and args.workers < 1:
+        raise UsageError(f"--workers: must be >= 1 (got {args.workers})")
+    periods = 40 if args.periods is None else args.periods
+    if not 2 <= periods <= 10_000:
+        raise UsageError(f"--periods: must be a whole number in [2, 10000] (got {periods})")
+    mus = _modes_axis(args.x or "mu=0.02:0.8:27", "mu", "--x", 0.0, 100.0)
+    betas = _modes_axis(args.y or "beta=0.05:0.95:19", "beta", "--y", 0.0, 1.0)
+    from .runtime import modes
+    result = modes.chart(mus, betas, periods, workers=args.workers, progress=not args.quiet)
+    paths = modes.write(result, args.output)
+    found = ", ".join(f"{n} {t}" for t, n in modes.counts(result).items())
+    print(f"modes: {len(mus)} values of mu against {len(betas)} of beta, {periods} periods "
+          f"each: {len(result.types)} cells: {found}; {result.seconds:.3g} s on "
+          f"{_workers(result.workers)}")
     print("wrote " + ", ".join(str(p) for p in paths))
     return 0
 
@@ -565,15 +614,16 @@ def build_parser() -> argparse.ArgumentParser:
                         "initial.com[2]=2.0 (repeatable)")
     p.add_argument("--sweep", action="append", metavar="TABLE.KEY=LO:HI:N",
                    help="run every combination of the swept values (lo:hi:n or a,b,c; "
-                        "repeatable): sweep.csv, sweep.json and a plot")
+                        "repeatable): sweep.csv, sweep.json and a plot; a formula by one "
+                        "of its numbers: 'point.law[0]=0.05*sin(W*t) for W=8:16:9'")
     p.add_argument("--workers", type=int, help="--sweep: local threads (default: every "
                    "core; 1: serial)")
     p.add_argument("--scheduler", metavar="tcp://HOST:PORT", help="--sweep: run the "
                    "variants on the Dask cluster of this scheduler instead (pip install -e "
                    "'.[cluster]'); many variants per task")
     p.add_argument("--plot", metavar="COLUMN", help="--sweep: the column sweep.png draws "
-                   "against the swept values (default impacts; e.g. distance, X_C_end, "
-                   "Z_C_end, min_height)")
+                   "against the swept values (default impacts; e.g. distance, "
+                   "mean_speed, X_C_end, Z_C_end, min_height)")
     p.set_defaults(func=cmd_simulate)
 
     p = sub.add_parser("scene", help="scene files: a commented template, a check, the "
@@ -602,19 +652,24 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_stability)
 
-    p = sub.add_parser("chart", help="stability charts: sweep two parameters of a family")
-    p.add_argument("what", choices=["stability"], help="stability: max |rho| of a "
-                   "family's periodic motions (stationary rotations or bouncing) over a grid")
-    p.add_argument("--family", default="C4.1", help="C4.1 (default), C4.2 or C4.3 "
+    p = sub.add_parser("chart", help="charts over two parameters: a family's stability, "
+                       "Bardin and Panev's mode types")
+    p.add_argument("what", choices=["stability", "modes"], help="stability: max |rho| of a "
+                   "family's periodic motions (stationary rotations or bouncing) over a "
+                   "grid; modes: the type of Bardin and Panev's periodic mode over (mu, "
+                   "beta), from runs of derive/scene/examples/bardin-panev.toml")
+    p.add_argument("--family", help="stability: C4.1 (default), C4.2 or C4.3 "
                    "(stationary rotations), or bounce (periodic bouncing of reference [5])")
     p.add_argument("--x", help="x axis, name=lo:hi:n (default a=0:0.8:41; bounce: "
-                   "e=0.1:0.9:17)")
+                   "e=0.1:0.9:17; modes: mu=0.02:0.8:27)")
     p.add_argument("--y", help="y axis, name=lo:hi:n (default J_z=0.03:0.22:39; bounce: "
-                   "Gamma=0.5:3.5:21)")
+                   "Gamma=0.5:3.5:21; modes: beta=0.05:0.95:19)")
+    p.add_argument("--periods", type=int, help="modes: periods of the point each run "
+                   "lasts (default 40; the type compares the last two)")
     p.add_argument("--set", action="append", metavar="NAME=VALUE",
                    help="fix a parameter (repeatable); others keep their defaults")
-    p.add_argument("--workers", type=int, help="local processes (default: every core; 1: "
-                   "serial)")
+    p.add_argument("--workers", type=int, help="local processes (modes: threads; default: "
+                   "every core; 1: serial)")
     p.add_argument("--scheduler", help="a Dask scheduler address (tcp://host:port): run "
                    "the sweep on that cluster instead")
     p.add_argument("-o", "--output", default="chart-out", help="output folder")

@@ -46,9 +46,9 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import minimize
 
-from . import shapes
+from . import abi, shapes
 
-PRESSURES = ("uniform", "linear")
+PRESSURES = abi.names(abi.PRESSURES)     # ("uniform", "linear")
 FAR = 8.0                  # the instant centre this many sizes away: the product rule
 ANGLE_ORDER = 32           # the instant-centre rule's order (Friction.n; crt_face.h's)
 FAR_ORDER = 12             # crt_face.h's product rule where r0 is FAR (converged there)

@@ -47,11 +47,12 @@ duration = {duration}
 """)
 
 
-def run_base(scene, q0, mu_s=None, hmax=None):
+def run_base(scene, q0, mu_s=None, hmax=None, pressure="uniform"):
     """The base model's run of a scene on its face (n = e_z of the body): its raw result."""
     prm = choice.parameters(scene, {})
     prm[_P["n0_z"]] = 1.0
     prm[_P["static_friction"]] = scene.friction if mu_s is None else mu_s
+    prm[_P["pressure"]] = abi.names(abi.PRESSURES).index(pressure)
     opt = np.zeros(len(abi.OPTIONS))
     opt[_O["method"]] = 1
     opt[_O["rtol"]], opt[_O["atol"]] = 1e-12, 1e-14
@@ -161,12 +162,16 @@ def test_a_body_not_on_a_face_or_mu_s_below_mu_is_refused(which):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("seed, shape, n", [(1, "box", (0.0, -1.0, 0.0)),
-                                            (2, "cylinder", (0.0, 0.0, -1.0))])
-def test_random_bodies_as_the_reference_integrator_runs_them(seed, shape, n):
+@pytest.mark.parametrize("seed, shape, n, pressure, duration", [
+    (1, "box", (0.0, -1.0, 0.0), "uniform", 0.25),
+    (2, "cylinder", (0.0, 0.0, -1.0), "uniform", 0.25)])
+def test_random_bodies_as_the_reference_integrator_runs_them(seed, shape, n, pressure,
+                                                            duration):
     """Two points on harmonic laws and a tilted rotor, the face under a vertical other than
     +z (the moments turned into the face frame): the C's events and final state against
-    derive/base_reference.py (Newton-Euler of every body, adaptive quadrature), 1e-8."""
+    derive/base_reference.py (Newton-Euler of every body, adaptive quadrature), 1e-8.
+    (Under linear pressure the reference iterates its centre at every evaluation, minutes
+    a run: tests/test_base_edges.py holds the C's slip rates to it instead.)"""
     from derive import base_reference as br
     from derive import face as fc
     import base_cases as bc
@@ -200,16 +205,17 @@ restitution = 0.0
 [initial]
 on_plane = true
 [run]
-duration = 0.25
-""")
+duration = {duration}
+""".format(duration=duration))
     q0 = np.array([0.01, -0.02, 0.3, 0.15, -0.1, 1.5])
     prm = choice.parameters(scene, {})
+    prm[_P["pressure"]] = abi.names(abi.PRESSURES).index(pressure)
     raw = _run_prm(scene, q0, prm, n)
     system = br.System(M=1.0, J=tuple(np.diag(Q @ np.diag(J) @ Q.T)), face=face,
                        points=tuple(points),
                        rotors=(br.Rotor(inertia, tuple(Q @ axis), bc.spinning(amp, rate)),),
-                       mu=0.4)
-    ref = br.Integrator(system).run(q0, 0.0, 0.25)
+                       mu=0.4, pressure=pressure)
+    ref = br.Integrator(system).run(q0, 0.0, duration)
     got = _events(raw)
     assert raw.status == ref.status == "done"
     want = [("stick" if k == "stick" else k, t) for t, k in ref.events]

@@ -9,8 +9,8 @@ refused by name.
   point's law, S (the face) on the plane, the attitude a rotation about the vertical;
 * the choice: auto picks base and says why; each condition it reads, missed, refuses a
   forced ``[run].model = "base"`` with that condition; the face keys (static_friction,
-  pressure) act on base and are refused by name elsewhere, pressure = "linear" is not
-  yet modelled; [control] and the rough model's couples refused on a base scene.
+  pressure) act on base and are refused by name elsewhere; [control] and the rough
+  model's couples refused on a base scene.
 """
 import json
 import math
@@ -85,7 +85,6 @@ half_length = 0.03
 mass = 0.3
 law = ["0.04*cos(9*t)", "0.04*sin(9*t)", "0.01"]
 [plane]
-restitution = 0.0
 friction = 0.4
 [initial]
 on_plane = true
@@ -125,7 +124,6 @@ shape = "{shape}"
 mass = 0.4
 law = ["{amp}*sin(12*t)", "0", "{z}"]
 [plane]
-restitution = 0.0
 friction = {mu}
 {plane}
 [initial]
@@ -139,10 +137,13 @@ model = "{model}"
 """
 
 
-def _scene(**kw):
+def _scene(e=None, **kw):
+    """The scene of _BOX; ``e``: a restitution, which every model but base needs."""
     v = dict(amp=0.05, shape="box", sizes="half_extents = [0.1, 0.06, 0.04]", z="0.02", mu=0.3,
              plane="", on_plane="true", vz=0.0, initial="", model="auto", extra="")
     v.update(kw)
+    if e is not None:
+        v["plane"] += f"\nrestitution = {e}"
     if v["shape"] == "ellipsoid":
         v["sizes"] = "semi_axes = [0.1, 0.06, 0.04]"
     return parse_scene(_BOX.format(**v))
@@ -154,14 +155,15 @@ def test_auto_chooses_base_and_says_why():
     kind, why = choice.choose(_scene(plane="static_friction = 0.4"))
     assert kind == "base" and "mu_s = 0.4" in why
     # a body on a face on a smooth plane, or in the air, is not the base model's
-    assert choice.choose(_scene(mu=0.0))[0] != "base"
-    assert choice.choose(_scene(on_plane="false", initial="com = [0, 0, 1]"))[0] != "base"
+    assert choice.choose(_scene(mu=0.0, e=0.0))[0] != "base"
+    assert choice.choose(_scene(on_plane="false", initial="com = [0, 0, 1]", e=0.0))[0] \
+        != "base"
 
 
 @pytest.mark.parametrize("kw, says", [
-    (dict(shape="ellipsoid"), "needs a box or a cylinder"),
-    (dict(mu=0.0), "needs [plane].friction > 0"),
-    (dict(on_plane="false", initial="com = [0, 0, 1]"), "on_plane = true"),
+    (dict(shape="ellipsoid", e=0.0), "needs a box or a cylinder"),
+    (dict(mu=0.0, e=0.0), "needs [plane].friction > 0"),
+    (dict(on_plane="false", initial="com = [0, 0, 1]", e=0.0), "on_plane = true"),
     (dict(initial="quaternion = [0.9, 0.1, 0, 0]"), "along no face normal"),
     (dict(initial="omega = [0.1, 0, 1]"), "omega is not along the vertical"),
     (dict(vz=0.1), "O starts with a vertical velocity"),
@@ -175,10 +177,9 @@ def test_forced_base_is_refused_with_the_condition_missed(kw, says):
 
 @pytest.mark.parametrize("kw, field, says", [
     (dict(plane="static_friction = 0.2"), "[plane].static_friction", "must be >= "),
-    (dict(plane='pressure = "linear"'), "[plane].pressure", "not yet modelled"),
-    (dict(plane="static_friction = 0.4", model="rough"), "[plane].static_friction",
+    (dict(plane="static_friction = 0.4", model="rough", e=0.0), "[plane].static_friction",
      "base model only"),
-    (dict(plane='pressure = "uniform"', initial="quaternion = [0.9, 0.1, 0, 0]"),
+    (dict(plane='pressure = "uniform"', initial="quaternion = [0.9, 0.1, 0, 0]", e=0.0),
      "[plane].pressure", "base model only"),
     (dict(plane="spin_friction = 0.01"), "[plane].spin_friction", "remove it"),
     (dict(extra='[control]\nmode = "replan"'), "[control]", ""),
@@ -198,3 +199,26 @@ def test_static_friction_acts():
     for ev, mu_s in zip(first, (0.3, 0.35)):
         t = math.asin(mu_s * 1.4 * 9.81 / (0.4 * 0.1 * 144)) / 12
         assert abs(ev["t"] - t) < 1e-9
+
+
+def test_linear_pressure_acts_and_is_said():
+    """pressure = "linear" reaches the C (a point walking out lifts the face at the kern,
+    where uniform pressure runs on) and summary's contact says which pressure ran."""
+    walk = dict(amp=0.0, z="0", extra="", plane="")
+    law = '["0.2*t", "0", "0"]'
+    runs = {}
+    for pressure in ("uniform", "linear"):
+        text = _BOX.format(**{**dict(shape="box", sizes="half_extents = [0.1, 0.06, 0.04]",
+                                     mu=0.5, on_plane="true", vz=0.0, initial="",
+                                     model="auto"), **walk,
+                              "plane": f'pressure = "{pressure}"'})
+        text = text.replace('law = ["0.0*sin(12*t)", "0", "0"]', f"law = {law}")
+        text = text.replace("duration = 0.5", "duration = 1.0")
+        runs[pressure] = simulate(parse_scene(text))
+    lin, uni = runs["linear"], runs["uniform"]
+    assert uni.status == "done" and lin.status == "face_lifting"
+    # cp = m x/(M + m) = 0.4 * 0.2 t / 1.4 reaches a/3 at t = 1.4/(3 * 0.8)
+    assert abs(lin.t[-1] - 0.1 / 3 * 1.4 / 0.08) < 1e-9
+    from derive.runtime import base_report
+    assert base_report.contact(lin)["pressure"] == "linear"
+    assert base_report.contact(uni)["pressure"] == "uniform"

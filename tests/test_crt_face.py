@@ -58,6 +58,14 @@ double shim_edge(int kind, const double *geom, double x, double y)
   crt_face_set(&f, kind, geom[0], geom[1], geom[2], geom[3]);
   return crt_face_edge_margin(&f, x, y);
 }
+double shim_kern(int kind, const double *geom, double x, double y, double N, double *k)
+{
+  crt_face f;
+  const double cp[2] = {x, y};
+  crt_face_set(&f, kind, geom[0], geom[1], geom[2], geom[3]);
+  crt_face_slope(&f, 1, N, cp, k);
+  return crt_face_kern_margin(&f, x, y);
+}
 """
 DP = ctypes.POINTER(ctypes.c_double)
 
@@ -75,6 +83,9 @@ def shim():
     lib.shim_bounds.argtypes = [ctypes.c_int, DP, ctypes.c_double, DP, ctypes.c_double, DP, DP]
     lib.shim_edge.restype = ctypes.c_double
     lib.shim_edge.argtypes = [ctypes.c_int, DP, ctypes.c_double, ctypes.c_double]
+    lib.shim_kern.restype = ctypes.c_double
+    lib.shim_kern.argtypes = [ctypes.c_int, DP, ctypes.c_double, ctypes.c_double,
+                              ctypes.c_double, DP]
     return lib
 
 
@@ -152,6 +163,23 @@ def test_the_edge_margin_is_face_pys(shim):
         for p in RNG.uniform(-0.3, 0.3, (50, 2)):
             assert shim.shim_edge(kind, _ptr(geom), *p) == pytest.approx(f.edge_margin(p),
                                                                         abs=1e-15)
+
+
+def test_the_kern_margin_and_the_linear_slope_are_face_pys(shim):
+    """Linear pressure's kern (where the run stops with face_lifting) and its slope k from
+    the centre of pressure, as derive/face.py has them; and k's pressure has its centroid
+    at cp (the first moments of the product rule, a third way)."""
+    N = 2.5
+    for f, _, _ in _faces():
+        kind, geom, _ = _face_args(f, 1.0, None, "uniform")
+        rl = fc.rule(f, 12)
+        for p in RNG.uniform(-0.1, 0.1, (30, 2)):
+            k = _arr([0.0, 0.0])
+            margin = shim.shim_kern(kind, _ptr(geom), *p, N, _ptr(k))
+            assert margin == pytest.approx(f.kern_margin(p), abs=1e-15)
+            assert np.allclose(k, fc.pressure_slope(f, N, p, "linear")[1], rtol=1e-14, atol=0)
+            pw = rl.weights * (N / f.area + rl.offsets @ k)
+            assert np.allclose(pw @ rl.nodes / N, p, rtol=0, atol=1e-14)
 
 
 def test_the_gauge_closed_forms_and_face_pys(shim):

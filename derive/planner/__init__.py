@@ -12,7 +12,9 @@ instance per task, defect correction), ``continuation`` (a loose acceleration bo
 approached from a working one), ``diagnose`` (which limit blocks an infeasible task),
 ``goals`` (one object per goal: what differs between reorient, land and hop),
 ``summary`` (plan.json), ``outputs`` (the files), ``cemit`` (law.c, law.h), ``core``
-(the pipeline), ``cli``.
+(the pipeline), ``cli``.  The travel goal (the fastest periodic crawl of a body on its
+face) has no NLP: ``travel`` searches a class of laws with the base model's C runtime,
+``travel_scene`` builds the scene it runs and writes.
 
 Importing this package is cheap; CasADi and SciPy load on the first call.
 """

@@ -13,7 +13,7 @@ import sys
 def add_parser(subparsers):
     p = subparsers.add_parser(
         "plan", help="plan the point's law with optimal control (CasADi + IPOPT): reorient, "
-                     "land or hop")
+                     "land or hop; or the fastest crawl of a body on its face (travel)")
     p.add_argument("task", help="task TOML: a scene with a [plan] table instead of a point law")
     p.add_argument("-o", "--output", default="plan-out", help="output folder (default: "
                    "plan-out)")
@@ -48,6 +48,8 @@ def run(args) -> int:
 def report_lines(result, message: bool = True) -> list[str]:
     """The lines the CLI prints about a plan (from its summary); `message`: with the
     message of a plan that failed (the CLI prints it once, to stderr)."""
+    if result.task.goal == "travel":
+        return travel_lines(result, message)
     from .goals import goal_of
     s = result.summary
     sv = s.solver
@@ -103,3 +105,50 @@ def _bodies_law_lines(law, task) -> list[str]:
                          f"{b['max_distance_from_region_center']:.4g} m from the region's "
                          "centre")
     return lines
+
+
+def travel_lines(result, message: bool = True) -> list[str]:
+    """The lines of a travel plan (derive/planner/travel.py): the law, its mean speed,
+    the closed form's for the same bounds and their ratio."""
+    s = result.summary
+    cf, b = s["closed_form"], s["bounds"]
+    head = f"travel: {s['status']}"
+    if "search" in s:
+        se = s["search"]
+        head += (f"; Nelder-Mead {se['iterations']} iterations, {se['evaluations']} runs of "
+                 f"the base model ({se['seconds']:.1f} s)")
+    lines = [head + f", total {s['total_seconds']:.1f} s"]
+    if not result.ok:
+        if message:
+            lines.append(f"  {s['message']}")
+        return lines
+    law, ph = s["law"], s["law"]["phases"]
+    others = ", ".join(f"{k} {cf[k]['speed']:.6g} m/s" for k in ("brake", "sawtooth", "rest")
+                       if k != cf["class"])
+    u = "none" if b["max_velocity"] is None else f"{b['max_velocity']:.4g}"
+    lines += [
+        f"  law: period {law['period']:.6g} s along {_vec(law['direction'])} through "
+        f"{_vec(law['guide_center'])}: hold {ph['hold']:.4g} s, throw {ph['throw']:.4g} s at "
+        f"{ph['throw_acceleration']:.5g} m/s^2, coast {ph['coast']:.4g} s, brake "
+        f"{ph['brake']:.4g} s at {ph['brake_acceleration']:.5g} m/s^2, return "
+        f"{ph['return']:.4g} s at {ph['return_acceleration']:.5g} m/s^2, corners "
+        f"{ph['corner']:.3g} s",
+        f"  bounds: range {law['range']:.5g} m (limit {b['range']:.5g}), max |OP'| "
+        f"{law['max_velocity']:.4g} m/s (limit {u}), max |OP''| "
+        f"{law['max_acceleration']:.4g} m/s^2 (limit {b['max_acceleration']:.4g})",
+        f"  mean speed {s['mean_speed']:.6g} m/s (forward {s['forward_speed']:.6g}); closed "
+        f"form for the same bounds {cf['speed']:.6g} m/s (derive/capsule.py, the "
+        f"{cf['class']} class), ratio {s['ratio']:.4f}",
+        f"  the other classes: {others}"]
+    rt = s["achieved"]["runtime"]
+    if rt["mean_velocity"] is not None:
+        lines.append(f"  achieved (runtime, re-simulated scene.toml): mean velocity "
+                     f"{_vec(rt['mean_velocity'], '.6g')} m/s over {rt['whole_periods']} "
+                     "periods")
+    else:
+        lines.append(f"  achieved (runtime, re-simulated scene.toml): {rt['status']}")
+    return lines
+
+
+def _vec(v, fmt: str = ".3g") -> str:
+    return "(" + ", ".join(format(float(x), fmt) for x in v) + ")"

@@ -122,6 +122,9 @@ def plan(task, progress: bool = False, runtime: bool = True) -> Plan:
     """Plan the point's law for a task (a path, a dict or a :class:`Task`)."""
     t_start = time.perf_counter()
     task = load_task(task)
+    if task.goal == "travel":               # no NLP: a search over the base model's runs
+        from .travel import plan as plan_travel
+        return plan_travel(task, progress=progress)
     goal = goal_of(task)
     report = solve(task, goal, progress=progress)
     stability, attempts = None, []

@@ -69,6 +69,9 @@ class Task:
     decided: tuple = ()
     max_rotor_rate: float | None = None
     max_rotor_acceleration: float | None = None
+    # travel: the guide P moves along (body axes, a unit vector) and the bound on |OP'|
+    direction: np.ndarray | None = None
+    max_velocity: float | None = None
 
     @property
     def bodies(self) -> bool:
@@ -179,6 +182,8 @@ def _bounds(p: _Plan) -> None:
 
 def _tables(p: _Plan) -> None:
     tables = p.v["__tables__"]
+    if p.goal == "travel" and "plane" not in tables:
+        raise SceneError("[plane]", "is required for travel (the floor the body crawls on)")
     if p.goal in ("land", "hop") and "plane" not in tables:
         raise SceneError("[plane]", f"is required for {p.goal}")
     if p.goal == "reorient" and "plane" in tables:
@@ -199,6 +204,12 @@ def _where_p_moves(p: _Plan) -> None:
     region, circle = p["region"], p["circle"]
     if region is not None and circle is not None:
         raise SceneError("[plan].circle", "give region or circle, not both")
+    if p.goal == "travel" and circle is not None:
+        raise SceneError("[plan].circle", "travel moves P along a line (direction, through "
+                                          "region.center): give region")
+    if p.goal == "travel" and p.has("start"):
+        raise SceneError("[plan].start", "travel plans a periodic law: its phase is the "
+                                         "plan's, P's guide is region.center along direction")
     if circle is not None:
         if p.goal == "hop":
             raise SceneError("[plan].circle", "hop plans P in a region, not on a circle")
@@ -233,8 +244,8 @@ def _attitude(p: _Plan) -> None:
         raise SceneError("[plan].at_touchdown", "belongs to goal = \"land\"")
     if p.goal != "land" and p.has("spin_weight"):
         raise SceneError("[plan].spin_weight", "belongs to goal = \"land\"")
-    if p.goal == "hop" and target is not None:
-        raise SceneError("[plan].target_matrix", "a hop has no target attitude")
+    if p.goal in ("hop", "travel") and target is not None:
+        raise SceneError("[plan].target_matrix", f"a {p.goal} has no target attitude")
 
 
 def _hop(p: _Plan) -> None:
@@ -244,6 +255,53 @@ def _hop(p: _Plan) -> None:
         for key in ("apex_height", "require_stable"):
             if p.has(key):
                 raise SceneError(f"[plan].{key}", "belongs to goal = \"hop\"")
+
+
+# the keys travel does not read: the law's class, its search and its bounds are its own
+TRAVEL_UNREAD = {
+    "horizon": "the period is the plan's (the bounds fix it)",
+    "rest_at_ends": "the law is periodic",
+    "objective": "the objective is the mean speed",
+    "intervals": "the law is five phases of constant acceleration with linear corners",
+    "substeps": "each candidate is run by the base model's C runtime, not RK4",
+    "tolerance": "the search stops at max_iterations or when its simplex has shrunk",
+}
+FRICTION_KEYS = ("friction", "static_friction", "pressure")
+
+
+def _travel(p: _Plan) -> None:
+    if p.goal != "travel":
+        for key in ("direction", "max_velocity"):
+            if p.has(key):
+                raise SceneError(f"[plan].{key}", "belongs to goal = \"travel\"")
+        for key in FRICTION_KEYS:
+            if f"[plane].{key}" in p.given:
+                raise SceneError(f"[plane].{key}", "belongs to goal = \"travel\" (the other "
+                                                   "goals plan over a smooth plane)")
+        return
+    if p.bodies:
+        raise SceneError("[plan].goal", "travel plans one [point]'s law (a [point] task)")
+    for table in ("control", "disturbance"):
+        if table in p.v["__tables__"]:
+            raise SceneError(f"[{table}]", "travel plans an open-loop periodic law: derive "
+                                           "control does not close a loop around it")
+    for key, why in TRAVEL_UNREAD.items():
+        if p.has(key):
+            raise SceneError(f"[plan].{key}", f"is not read by travel: {why}")
+    d = p["direction"]
+    if d is None:
+        raise SceneError("[plan].direction", "is required for travel: the guide P moves "
+                                             "along, in body axes")
+    if np.linalg.norm(d) < 1e-12:
+        raise SceneError("[plan].direction", "must not be zero")
+    # the base model's own conditions first: the scene's rules would otherwise ask for what
+    # a body off its face needs ([plane].restitution) and name that field instead
+    if p.v["[body].shape"] not in ("box", "cylinder"):
+        raise SceneError("[body].shape", "travel plans a body on its face (the base model): "
+                                         "a box or a cylinder")
+    if "plane" in p.v["__tables__"] and not p.v["[plane].friction"] > 0.0:
+        raise SceneError("[plane].friction", "travel needs friction > 0: it holds the body "
+                                             "while its point returns")
 
 
 PLAN_RULES = (
@@ -265,6 +323,10 @@ PLAN_RULES = (
          _attitude),
     Rule("[plan].apex_height: required for hop; apex_height and require_stable only for hop",
          _hop),
+    Rule("travel: [plan].direction required (not zero), [plane] given, one [point]; "
+         "horizon, rest_at_ends, objective, intervals, substeps, tolerance refused; "
+         "direction, max_velocity and [plane].friction, static_friction, pressure only "
+         "for travel", _travel),
 )
 
 
@@ -309,6 +371,10 @@ def parse_task(source, origin: str = "task") -> Task:
         raise SceneError("[body].shape", f"{p.goal} needs a shape that can touch the plane")
     if p.goal == "hop" and scene.g <= 0:
         raise SceneError("[run].g", "hop needs gravity (g > 0)")
+    direction = None
+    if p.goal == "travel":
+        direction = _travel_scene(scene, np.asarray(p["direction"], dtype=float), p.start,
+                                  origin)
     require_stable = p["require_stable"] if p["require_stable"] is not None else False
     rest = p["rest_at_ends"] if p["rest_at_ends"] is not None else p.goal != "hop"
     return Task(scene=scene, goal=p.goal, horizon=p["horizon"], target=p["target_matrix"],
@@ -320,7 +386,44 @@ def parse_task(source, origin: str = "task") -> Task:
                 substeps=p["substeps"], tolerance=p["tolerance"],
                 max_iterations=p["max_iterations"], source=origin, decided=p.decided,
                 max_rotor_rate=p["max_rotor_rate"],
-                max_rotor_acceleration=p["max_rotor_acceleration"])
+                max_rotor_acceleration=p["max_rotor_acceleration"],
+                direction=direction, max_velocity=p["max_velocity"])
+
+
+# where the base model's refusal points (choice.base_refusal's sentences)
+_BASE_FIELDS = (("box or a cylinder", "[body].shape"), ("on [plane]", "[body].shape"),
+                ("on_plane", "[initial].on_plane"),
+                ("friction", "[plane].friction"), ("omega", "[initial].omega"),
+                ("vertical velocity", "[initial].carrier_velocity"),
+                ("attitude", "[initial].quaternion"))
+
+
+def _travel_scene(scene: Scene, d: np.ndarray, start: np.ndarray, origin: str) -> np.ndarray:
+    """The task's scene runs the base model (a box or cylinder on its face on a rough
+    plane) and the guide is horizontal there: the unit direction, or a SceneError.  The
+    scene the plan will write is parsed with the point held at the guide's middle."""
+    from ..runtime.choice import base_refusal
+    from .travel_scene import scene_document
+    if scene.g <= 0:
+        raise SceneError("[run].g", "travel needs gravity (g > 0): friction holds the body")
+    for key, value in (("com_velocity", scene.com_velocity), ("omega", scene.omega)):
+        if any(c != 0.0 for c in value):
+            raise SceneError(f"[initial].{key}", "travel starts the body at rest on its face "
+                                                 "(the periodic crawl it plans forgets the "
+                                                 "start): give zeros or leave it out")
+    why = "it needs a box or a cylinder on [plane]"
+    if scene.shape != "none" and scene.plane:
+        held = scene_document(scene, {"law": [repr(float(c)) for c in start]}, 1.0)
+        why = base_refusal(parse_scene(held, origin))
+    if why is not None:
+        field = next((f for word, f in _BASE_FIELDS if word in why), "[plan].goal")
+        raise SceneError(field, f"travel plans a body on its face (the base model), and {why}")
+    d = d / np.linalg.norm(d)
+    up = float((scene.A0 @ d)[2])
+    if abs(up) > 1e-9:
+        raise SceneError("[plan].direction", f"must be horizontal with the face on the plane "
+                                             f"(its vertical part in fixed axes is {up:.3g})")
+    return d
 
 
 PROOF_MARGIN = 1.1     # the kept laws are proved over this times the horizon

@@ -12,11 +12,13 @@ import math
 
 import numpy as np
 
-from .. import abi
+from .. import abi, face as faces
 from . import bodies, choice
 
 STOPS = {"lift_off": "N reached 0: the body leaves the plane (lift-off)",
-         "tipping": "the centre of pressure reached the face's edge: the body tips"}
+         "tipping": "the centre of pressure reached the face's edge: the body tips",
+         "face_lifting": "the centre of pressure left the face's kern: the linear pressure "
+                         "reaches 0 at an edge, and the face starts to lift there"}
 METHOD = "dopri5 (slips in arc time; the base model's own integrator)"
 _SLIDING, _STICKING = abi.MODE["sliding"], abi.MODE["sticking"]
 
@@ -53,7 +55,7 @@ def contact(result) -> dict:
     kinds = [ev["kind"] for ev in result.events]
     N = normal_force(result)
     return {"face": face.kind, "friction": s.friction, "static_friction": s.mu_static,
-            "pressure": "uniform", "sticks": kinds.count("stick"),
+            "pressure": s.pressure or "uniform", "sticks": kinds.count("stick"),
             "slips": kinds.count("slip"), "reversals": kinds.count("reversal"),
             "time_sticking": float(dt[m == _STICKING].sum()),
             "time_sliding": float(dt[m == _SLIDING].sum()),
@@ -61,18 +63,32 @@ def contact(result) -> dict:
 
 
 def law_period(scene) -> float | None:
-    """The common period of every body's law given as formulas (None: a table, or not
-    periodic)."""
+    """The common period of every body's law: the formulas' common period, a periodic
+    table's span (a plan's law; every periodic table of a scene has one span), both when
+    the span is a whole number of the formulas' periods (None: not periodic)."""
     from ..scene.law.period import NotPeriodic, common_period
-    exprs = []
+    exprs, spans = [], set()
     for body in (*scene.points, *scene.rotors):
-        if not hasattr(body.law, "sympy"):
+        law = body.law
+        if getattr(law, "kind", None) == "table":
+            if not law.periodic:
+                return None
+            spans.add(law.t_last - law.t_first)
+            continue
+        if not hasattr(law, "sympy"):
             return None
-        exprs += list(body.law.sympy())
+        exprs += list(law.sympy())
+    span = max(spans) if spans else None
+    if not exprs:
+        return span
     try:
-        return common_period(exprs)
+        T = common_period(exprs)
     except NotPeriodic:
         return None
+    if span is None:
+        return T
+    k = round(span / T)
+    return span if k >= 1 and abs(span - k * T) <= 1e-9 * span else None
 
 
 def _c_at_end(scene, t_end: float) -> np.ndarray | None:
@@ -115,13 +131,102 @@ def travel(result) -> dict:
 
 
 def energy(result, mo) -> dict:
-    """The energy at the start and the end; the friction over the face and the drives' work
-    are not split (their sum is the change)."""
+    """The energy at the start and the end, and where the change went: each drive's work
+    and the work of friction over the face (uniform pressure), with the residual that
+    closes the balance up to the integration's and the quadrature's error.
+
+    On rows dense enough for the quadrature (motion.for_balance), split at the events
+    (the accelerations jump where a slip starts or stops):
+
+    * the drives' power (bodies.drive_powers) with O's acceleration from the C's rates
+      on a slipping row (the slip's own friction) and 0 on a sticking one (the state is
+      constant while the body sticks);
+    * friction's power -D(v, w) = -mu int p |v + w e_z x r| dA over the face, from
+      derive/face.py's instant-centre integrals (apart from the C's crt_face.h) with N =
+      (M + m) g + n.s'' (normal_force), 0 while sticking (the face's points do not move).
+
+    Under linear pressure D needs the centre of pressure the slip gives, which the rows do
+    not hold: the friction's work is then the change less the drives' (not split)."""
+    from . import motion as mm
+    result, mo = mm.for_balance(result, mo)
+    s, t = result.scene, result.t
     E = mo.T + mo.U
-    return {"start": float(E[0]), "end": float(E[-1]), "change": float(E[-1] - E[0]),
-            "kinetic_start": float(mo.T[0]), "kinetic_end": float(mo.T[-1]),
-            "not_split": "the base model's friction over the face and the drives' work are "
-                         "not split yet: the change is their sum"}
+    Q = result.model_q
+    face = choice.base_face(s)
+    ell = face.size
+    moving = np.hypot(np.hypot(Q[:, 3], Q[:, 4]), ell * Q[:, 5]) > 0.0
+    rates = np.zeros_like(Q)
+    kinds = result.row_kind
+    at = Q.copy()
+    # a stop's row (before its event) reads the slip's rates as their limit from the
+    # slip's side: a slip along a line stops where its speed changes sign, so its last
+    # row's velocity is round-off of either sign (the friction's direction then reversed);
+    # the last row's direction, scaled to 1e-150, gives the limit's friction
+    for i in np.flatnonzero(kinds == abi.ROW_KIND["before_event"]):
+        if i > 0 and moving[i - 1] and float(np.dot(Q[i, 3:6], Q[i - 1, 3:6])) <= \
+                1e-3 * float(np.dot(Q[i - 1, 3:6], Q[i - 1, 3:6])):
+            v = Q[i - 1, 3:6]
+            at[i, 3:6] = 1e-150 * v / np.linalg.norm(v)
+            moving[i] = True
+    if moving.any():
+        rates[moving] = result.session.rhs_rows(t[moving], at[moving])
+    n_up = np.asarray(s.A0[2], dtype=float)
+    a_O = np.column_stack([rates[:, 3], rates[:, 4], np.full(len(t), s.g)])  # + g e_Z
+    carrier = np.einsum("nji,nj->ni", mo.A, a_O)                             # A^T (...)
+    b = bodies.along(s, t)
+    power = bodies.drive_powers(s, b, mo.omega, rates[:, 5:6] * n_up[None], carrier=carrier)
+    linear = s.pressure == "linear"
+    friction = np.zeros(len(t))
+    if not linear:
+        N = normal_force(result)
+        for i in np.flatnonzero(moving):
+            c, sn = math.cos(Q[i, 2]), math.sin(Q[i, 2])
+            twist = (c * Q[i, 3] + sn * Q[i, 4], -sn * Q[i, 3] + c * Q[i, 4], Q[i, 5])
+            friction[i] = -faces.centre_wrench(face, float(N[i]), None, "uniform",
+                                               s.friction, twist)[1]
+    cuts = [0]
+    for i in range(1, len(t) - 1):
+        if kinds[i] == abi.ROW_KIND["before_event"]:
+            cuts.append(i)
+        elif kinds[i] == abi.ROW_KIND["after_event"] and cuts[-1] != i:
+            cuts.append(i)
+    cuts.append(len(t) - 1)
+    drives = np.zeros(len(power))
+    work_f = 0.0
+    dense = s.output_dt if s.output_dt > 0 else s.law_summary.time_scale / mm.ROWS_PER_SCALE
+    for a, z in zip(cuts[:-1], cuts[1:]):
+        if kinds[a] == abi.ROW_KIND["before_event"] and \
+                kinds[z] == abi.ROW_KIND["after_event"]:
+            continue                          # across an event (a slip's Taylor start)
+        seg = slice(a, z + 1)
+        if moving[a + 1:z].any() or z - a < 2 or t[z] <= t[a]:
+            drives += [mm.integrate(t[seg], p[seg]) for p in power]
+            work_f += mm.integrate(t[seg], friction[seg])
+            continue
+        # sticking: the state is constant, the drives' power is the laws'; the C samples
+        # a stick coarsely (its events are functions of t alone), so on a grid of its own
+        tg = np.linspace(t[a], t[z], max(int(np.ceil((t[z] - t[a]) / dense)), 8) + 1)
+        at_rest = np.repeat(mo.A[a][None], len(tg), axis=0)
+        p_rest = bodies.drive_powers(s, bodies.along(s, tg), np.zeros((len(tg), 3)),
+                                     np.zeros((len(tg), 3)), carrier=np.einsum(
+                                         "nji,j->ni", at_rest, [0.0, 0.0, s.g]))
+        drives += [mm.integrate(tg, p) for p in p_rest]
+    E0, E1 = float(E[0]), float(E[-1])
+    names = mm.drive_names(s)
+    out = {"start": E0, "end": E1, "change": E1 - E0,
+           "kinetic_start": float(mo.T[0]), "kinetic_end": float(mo.T[-1]),
+           "drive_work": float(drives.sum()),
+           "drive_work_by_body": dict(zip(names, drives.tolist())),
+           "quadrature_rows": int(len(t))}
+    if linear:
+        out.update({"work_of_friction": None,
+                    "not_split": "under linear pressure the friction's work is the change "
+                                 "less the drives' (the rows do not hold the centre of "
+                                 "pressure D needs)"})
+    else:
+        out.update({"work_of_friction": work_f,
+                    "residual": E1 - E0 - float(drives.sum()) - work_f})
+    return out
 
 
 def lines(result, tr: dict | None = None) -> list[str]:
@@ -134,7 +239,7 @@ def lines(result, tr: dict | None = None) -> list[str]:
     c = contact(result)
     mu = f"mu = {c['friction']:g}" + (f", mu_s = {c['static_friction']:g}"
                                       if c["static_friction"] != c["friction"] else "")
-    out.append(f"  friction over the {c['face']} ({mu}, uniform pressure): {c['slips']} "
+    out.append(f"  friction over the {c['face']} ({mu}, {c['pressure']} pressure): {c['slips']} "
                f"slips, {c['sticks']} sticks, {c['reversals']} reversals; sticking "
                f"{c['time_sticking']:.4g} s, sliding {c['time_sliding']:.4g} s; smallest N "
                f"{c['min_normal_force']:.4g} N")

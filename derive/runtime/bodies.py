@@ -203,14 +203,17 @@ def positions(scene, b: Bodies, r_C, A) -> tuple[np.ndarray, np.ndarray]:
     return r_O, r_O[None] + np.einsum("nij,knj->kni", A, b.r)
 
 
-def drive_powers(scene, b: Bodies, omega, omega_dot, force=None) -> np.ndarray:
+def drive_powers(scene, b: Bodies, omega, omega_dot, force=None, carrier=None) -> np.ndarray:
     """(N + R, n): the power of each drive (the points', then the rotors'); ``force``:
-    the plane's force at S in body axes, A^T R, along the rows (None: flight)."""
+    the plane's force at S in body axes, A^T R, along the rows (None: flight);
+    ``carrier``: in place of force, O's absolute acceleration plus g e_Z in body axes (the
+    base model's rows, which hold O's motion)."""
     mo = moments(b)
     c, cd, cdd = offsets(scene, mo)
     w, wd = omega, omega_dot
     c_abs = cdd + 2.0 * np.cross(w, cd) + np.cross(wd, c) + np.cross(w, np.cross(w, c))
-    base = -c_abs if force is None else force / (scene.M + mo.m) - c_abs
+    base = carrier if carrier is not None else -c_abs if force is None \
+        else force / (scene.M + mo.m) - c_abs
     rel = b.a + 2.0 * np.cross(w[None], b.v) + np.cross(wd[None], b.r) \
         + np.cross(w[None], np.cross(w[None], b.r))
     F = b.masses[:, None, None] * (base[None] + rel)

@@ -36,7 +36,8 @@ from ..scene.schema import SCENE
 
 SUMMARY_COLUMNS = ("status", "model", "t_end", "impacts", "contacts", "liftoffs", "steps",
                    "rhs_evaluations", "min_height", "first_contact_t", "X_C_end", "Y_C_end",
-                   "Z_C_end", "distance", "run_ms")
+                   "Z_C_end", "distance", "mean_speed", "mean_velocity_X", "mean_velocity_Y",
+                   "run_ms")
 TEXT_COLUMNS = ("error", "status", "model")
 COUNT_COLUMNS = ("impacts", "contacts", "liftoffs", "steps", "rhs_evaluations")
 _STAT = {name: k for k, name in enumerate(abi.names(abi.STATS))}
@@ -73,16 +74,34 @@ def summary_row(result) -> dict:
     contact = ev[ev[:, 1] == abi.index(abi.EVENT_KINDS, "contact")] if len(ev) else ev
     s = result.stats
     t_end = float(result.t[-1])
+    c0 = choice.start_of_c(result.scene)
+    travel = choice.travel(result.model, result.scene.t0, t_end, result.model_q[-1], c0,
+                           result.scene)
     return {"status": result.status, "model": result.model, "t_end": t_end,
             "impacts": s["impacts"], "contacts": s["contacts"], "liftoffs": s["liftoffs"],
             "steps": s["steps"], "rhs_evaluations": s["rhs_evaluations"],
             "min_height": result.min_height,
             "first_contact_t": float(contact[0, 0]) if len(contact) else math.nan,
-            **choice.travel(result.model, result.scene.t0, t_end, result.model_q[-1],
-                            choice.start_of_c(result.scene), result.scene),
+            **travel, **means(travel, c0, result.scene.t0, t_end),
             "Z_C_end": choice.height_of_c(result.scene, result.model, t_end,
                                           result.model_q[-1]),
             "run_ms": 1e3 * result.timings.get("run_s", math.nan)}
+
+
+def means(travel: dict, c0, t0, t_end) -> dict:
+    """C's net horizontal displacement over the run's time: the mean speed and velocity
+    (X, Y), per period of a periodic law when the run is whole periods of it (nan for a
+    run of no time); of one run or column by column."""
+    span = np.asarray(t_end, dtype=float) - t0
+    c0 = np.asarray(c0, dtype=float)
+    out = {}
+    with np.errstate(divide="ignore", invalid="ignore"):
+        for name, moved in (("mean_speed", travel["distance"]),
+                            ("mean_velocity_X", travel["X_C_end"] - c0[..., 0]),
+                            ("mean_velocity_Y", travel["Y_C_end"] - c0[..., 1])):
+            v = np.where(span > 0, np.asarray(moved, dtype=float) / span, np.nan)
+            out[name] = float(v) if np.ndim(v) == 0 else v
+    return out
 
 
 # ---- the plan ----------------------------------------------------------------------------
@@ -257,6 +276,8 @@ def run_part(part: Part, ready: list) -> dict:
         travel = choice.travel(part.kind, part.t0, last[:, 0], last[:, 1:], part.c0,
                                part.scenes)
     for name, col in travel.items():
+        cols[name][:] = col
+    for name, col in means(cols, part.c0, part.t0, last[:, 0]).items():
         cols[name][:] = col
     cols["run_ms"][:] = 1e3 * out["seconds"] / n
     for k in np.flatnonzero(out["init_status"] != _OK):

@@ -20,15 +20,26 @@ PLOTTABLE = {"impacts": "impacts", "contacts": "contact phases", "liftoffs": "li
              "min_height": "lowest height of S [m]", "first_contact_t":
              "time of first resting contact [s]", "X_C_end": "X_C at the end [m]",
              "Y_C_end": "Y_C at the end [m]", "Z_C_end": "Z_C at the end [m]",
-             "distance": "horizontal distance C travelled [m]", "t_end": "t at the end [s]",
+             "distance": "horizontal distance C travelled [m]", "mean_speed":
+             "C's mean horizontal speed (distance / duration) [m/s]", "mean_velocity_X":
+             "C's mean velocity along X [m/s]", "mean_velocity_Y":
+             "C's mean velocity along Y [m/s]", "t_end": "t at the end [s]",
              "run_ms": "run time [ms]"}
 _COUNTS = ("impacts", "contacts", "liftoffs", "steps", "rhs_evaluations")
+_SIGNED = ("X_C_end", "Y_C_end", "mean_velocity_X", "mean_velocity_Y")   # about 0: RdBu
 
 
 def value_text(v: float) -> str:
     """A swept value as written: the shortest form that reads back as the same float."""
     text = f"{v:.15g}"
     return text if float(text) == v else repr(float(v))
+
+
+def axis_name(name: str, values) -> str:
+    """An axis's label: the field, or for a formula swept by one of its numbers
+    (:class:`derive.scene.overrides.Formulas`) that number's name in it."""
+    symbol = getattr(values, "symbol", None)
+    return name if symbol is None else f"{symbol} in {name}"
 
 
 def category_ticks(n: int) -> list[int]:
@@ -44,7 +55,8 @@ def sweep_plot(batch, grid: dict, folder: Path, column: str = "impacts") -> Path
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     from matplotlib.ticker import MaxNLocator
-    names = list(grid)
+    names = [axis_name(name, values) for name, values in grid.items()]
+    grid = {n: list(getattr(v, "numbers", v)) for n, v in zip(names, grid.values())}
     label = PLOTTABLE[column]
     impacts = batch.column(column).astype(float).filled(np.nan)
     first = batch.column("first_contact_t").filled(np.nan)
@@ -82,8 +94,11 @@ def sweep_plot(batch, grid: dict, folder: Path, column: str = "impacts") -> Path
         nx, ny = len(xs), len(ys)
         Z = np.ma.masked_invalid(impacts.reshape(nx, ny).T)
         fig, ax = plt.subplots(figsize=(6.5, 5))
+        signed = column in _SIGNED and Z.count() and Z.min() < 0 < Z.max()
+        top = float(np.abs(Z).max()) if signed else None
         mesh = ax.pcolormesh(np.arange(nx + 1) - 0.5, np.arange(ny + 1) - 0.5, Z,
-                             shading="flat", cmap="viridis")
+                             shading="flat", cmap="RdBu_r" if signed else "viridis",
+                             **({"vmin": -top, "vmax": top} if signed else {}))
         fig.colorbar(mesh, ax=ax, label=label)
         for axis, values in ((ax.xaxis, xs), (ax.yaxis, ys)):
             ticks = category_ticks(len(values))
@@ -91,11 +106,14 @@ def sweep_plot(batch, grid: dict, folder: Path, column: str = "impacts") -> Path
         if nx * ny <= 64:                # few cells: the count written in each
             missing = np.ma.getmaskarray(Z)
             lo, hi = mesh.norm.vmin, mesh.norm.vmax
+            big = float(np.abs(Z).max())        # round-off of a variant at rest: 0
             for i in range(nx):
                 for j in range(ny):
                     if not missing[j, i]:
-                        dark = hi > lo and (Z[j, i] - lo) / (hi - lo) < 0.6
-                        text = f"{int(Z[j, i])}" if column in _COUNTS else f"{Z[j, i]:.3g}"
+                        dark = (abs(Z[j, i]) > 0.6 * top if signed else
+                                hi > lo and (Z[j, i] - lo) / (hi - lo) < 0.6)
+                        text = (f"{int(Z[j, i])}" if column in _COUNTS else
+                                f"{Z[j, i]:.3g}" if abs(Z[j, i]) > 1e-9 * big else "0")
                         ax.text(i, j, text, ha="center", va="center",
                                 fontsize=8, color="white" if dark else "black")
         bad = (~ok).reshape(nx, ny).T

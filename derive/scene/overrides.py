@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import difflib
 import math
+import re
 import tomllib
 from dataclasses import dataclass
 
@@ -97,14 +98,61 @@ def parse_assignment(text: str, flag: str = "--set") -> tuple[str, object]:
     return name, parse_value(value)
 
 
+class Formulas(list):
+    """The values of a formula swept by one of its numbers (``point.law[0]=0.05*sin(W*t)
+    for W=8:16:9``): the formulas with the number written in, in the order swept, and
+    ``symbol`` and ``numbers`` (the values the number takes) for tables and axes."""
+
+    def __init__(self, formulas, symbol: str, numbers):
+        super().__init__(formulas)
+        self.symbol, self.numbers = symbol, list(numbers)
+
+
+_SYMBOL = re.compile(r"[A-Za-z_][A-Za-z0-9_]*\Z")
+_RESERVED = {"t", "pi", "e"}
+
+
+def _sweep_formula(t: Target, text: str) -> Formulas:
+    """``FORMULA for NAME=lo:hi:n`` (or ``=a,b,c``): the formula once per value of NAME,
+    written in as the shortest decimal that reads back as the same float."""
+    from .law.ops import FUNCTIONS
+    formula, _, spec = text.rpartition(" for ")
+    symbol, sep, values = spec.partition("=")
+    symbol = symbol.strip()
+    if not sep or not _SYMBOL.match(symbol) or symbol in _RESERVED or symbol in FUNCTIONS:
+        raise OverrideError("--sweep", f"{t.name}: a formula is swept as 'FORMULA for "
+                                    f"NAME=lo:hi:n', NAME a name that is not t, pi or a "
+                                    f"function (got {spec.strip()!r})")
+    word = re.compile(rf"(?<![A-Za-z0-9_.]){re.escape(symbol)}(?![A-Za-z0-9_(])")
+    if not word.search(formula):
+        raise OverrideError("--sweep", f"{t.name}: {symbol} does not appear in the formula "
+                                    f"{formula.strip()!r}")
+    numbers = _numbers(t.name, values)
+    texts = [f"{v:.17g}" if float(f"{v:.15g}") != v else f"{v:.15g}" for v in numbers]
+    return Formulas([word.sub(f"({x})", formula.strip()) for x in texts], symbol, numbers)
+
+
 def parse_sweep(text: str) -> tuple[str, list]:
-    """``body.mass=0.5:2:7`` (n points from lo to hi) or ``plane.restitution=0.1,0.5,0.9``."""
+    """``body.mass=0.5:2:7`` (n points from lo to hi) or ``plane.restitution=0.1,0.5,0.9``;
+    a formula by one of its numbers, ``point.law[0]=0.05*sin(W*t) for W=8:16:9``
+    (:class:`Formulas`)."""
     name, sep, spec = text.partition("=")
     name = name.strip()
     if not sep:
         raise OverrideError("--sweep", f"must be table.key=lo:hi:n or table.key=a,b,c "
                                     f"(got {text!r})")
-    target(name, "--sweep")
+    t = target(name, "--sweep")
+    if (t.field.kind == "laws" and t.index is not None) or t.field.kind == "formula":
+        if " for " not in spec:
+            raise OverrideError("--sweep", f"{name}: a formula is swept by one of its "
+                                        f"numbers: 'FORMULA for NAME=lo:hi:n', e.g. "
+                                        f"{name}=0.05*sin(W*t) for W=8:16:9")
+        return name, _sweep_formula(t, spec)
+    return name, _numbers(name, spec)
+
+
+def _numbers(name: str, spec: str) -> list:
+    """The values of ``lo:hi:n`` or ``a,b,c``."""
     if ":" in spec:
         parts = spec.split(":")
         if len(parts) != 3:
@@ -130,7 +178,7 @@ def parse_sweep(text: str) -> tuple[str, list]:
                                         f"(got {spec!r})") from None
     if not values or not all(math.isfinite(v) for v in values):
         raise OverrideError("--sweep", f"{name}: values must be finite numbers")
-    return name, values
+    return values
 
 
 def decimal_grid(lo, hi, n: int) -> list[float]:

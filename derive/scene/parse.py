@@ -118,7 +118,8 @@ def scene_fields(v: dict, d: Draft, origin: str = "scene", with_law: bool = True
                 law_summary=d.summary, max_distance=d.max_distance,
                 control=_control(v, d.given), disturbance=_disturbance(v, d.given),
                 internal=None if not with_law or d.one_point else (d.points, d.rotors),
-                bodies_law=d.bodies)
+                bodies_law=d.bodies,
+                given=tuple(sorted(g for g in d.given if not g.startswith("[initial]"))))
 
 
 def _control(v: dict, given: set) -> Control | None:

@@ -41,6 +41,8 @@ from .schema import (ARRAY_ONLY, ARRAYS, AXIS_TOLERANCE, FIELDS, MAX_ROWS, MIN_D
                      REQUIRED, as_rotation)
 
 REQUIRED_FIELDS = tuple(f for f in FIELDS if f.default is REQUIRED)
+RESTITUTION = "[plane].restitution"      # required, but by a body started on a face
+BASE_SHAPES = ("box", "cylinder")        # the shapes with a face to rest on (the base model)
 # tables a scene may leave out: their required fields are required when they are given
 OPTIONAL_TABLES = frozenset(("plane", "stability", "plan", "control", "disturbance"))
 
@@ -141,8 +143,8 @@ def most(xs):
 def _required(d: Draft) -> None:
     v, given = d.v, d.given
     for f in REQUIRED_FIELDS:
-        if f.where not in v or v[f.where] is not REQUIRED:
-            continue
+        if f.where not in v or v[f.where] is not REQUIRED or f.where == RESTITUTION:
+            continue                  # (restitution: a state rule, _restitution)
         if f.table in OPTIONAL_TABLES and f.table not in v["__tables__"]:
             continue                  # a table given whole or not at all
         if f.table in ARRAYS and (f.table in ARRAY_ONLY or f"[[{f.table}]]" in v or (
@@ -153,7 +155,7 @@ def _required(d: Draft) -> None:
             raise SceneError(f"[{f.table}]", "is required")
         raise SceneError(f.where, "is required" + (f" ({f.rule})" if f.choices else ""))
     d.plane = "plane" in v["__tables__"]
-    d.e = v["[plane].restitution"] if d.plane else 1.0
+    d.e = (v[RESTITUTION] if RESTITUTION in given else math.nan) if d.plane else 1.0
     d.friction = v.get("[plane].friction", 0.0) if d.plane else 0.0
     d.restitution_model = v.get("[plane].restitution_model", "energetic") if d.plane \
         else "energetic"
@@ -189,10 +191,6 @@ def _face_keys(d: Draft) -> None:
                                                         f"({mu_s:g} < {d.friction:g})")
         d.static_friction = mu_s
     if "[plane].pressure" in given and d.plane:
-        if v["[plane].pressure"] == "linear":
-            raise SceneError("[plane].pressure", '"linear" (the distribution that balances '
-                                                 'the tipping moment) is not yet modelled: '
-                                                 'give "uniform" or leave it out')
         d.pressure = v["[plane].pressure"]
 
 
@@ -583,11 +581,27 @@ def _start_bulk(d: Draft):
     return False
 
 
+def _restitution(d: Draft) -> None:
+    """[plane].restitution is required with [plane], but by a box or a cylinder started on
+    the plane (on_plane) of a rough plane: the base model, which meets no impact (it stops
+    where the body lifts off) and refuses e; derive/runtime/choice.py refuses its absence
+    on any other model."""
+    v = d.v
+    if not d.plane or RESTITUTION in d.given:
+        return
+    if not (v["[initial].on_plane"] and v["[body].shape"] in BASE_SHAPES and d.friction > 0):
+        raise SceneError(RESTITUTION, "is required (only a box or a cylinder started on its "
+                                      "face, on_plane, on a rough plane may leave it out)")
+
+
 STATE_RULES = (
     Rule("[initial]: quaternion or matrix, not both", _orientation),
     Rule("[initial]: on_plane puts S on the plane (Z_C computed, needs [plane] and a shape); "
          "carrier_velocity gives O's velocity instead of com_velocity (C's)", _start,
          bulk=_start_bulk),
+    Rule("[plane].restitution: required, but by a box or a cylinder started on its face "
+         "(on_plane) on a rough plane (the base model, which has no impacts)",
+         _restitution, bulk=_as_for_one(_restitution)),
     Rule("[run]: at most 1e8 RK4 steps", _rk4_step, law=True, bulk=_rk4_step_bulk),
     Rule("[initial]: S starts on or above the plane", _above_plane, bulk=_above_plane_bulk),
 )

@@ -111,6 +111,9 @@ class Scene:
     static_friction: float | None = None   # the base model's mu_s (None: not given)
     pressure: str | None = None      # the base model's pressure over the face (None: not given)
     on_plane: bool = False           # [initial].on_plane: S on the plane at the start
+    # the fields the scene gave outside [initial] ("[run].method", ...): a model that
+    # does not read a key refuses it by name only when it was given (choice.py)
+    given: tuple = ()                # (sorted: a Scene compares and prints the same)
     # the internal bodies other than one point (derive/scene/bodies.py): None for one
     # point (the paper's carrier, its law in ``law``), else (points, rotors), the proved
     # Point and Rotor objects, with ``law`` None, ``m`` the points' total mass and
@@ -175,6 +178,12 @@ class Scene:
     def rough(self) -> bool:
         """Contact is possible and the plane has friction (the rough model)."""
         return self.contact_possible and self.friction > 0.0
+
+    @property
+    def restitution_given(self) -> bool:
+        """[plane].restitution was given (a base scene may leave it out: then ``e`` is
+        NaN, and nothing but a flight after a lift-off would read it)."""
+        return "[plane].restitution" in self.given
 
     @property
     def mu_static(self) -> float:

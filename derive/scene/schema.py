@@ -145,7 +145,9 @@ SCENE_FIELDS = (
       example="free", when="table"),
     F("plane", "restitution", "number", REQUIRED, "e of Newton's law v_n+ = -e v_n- (E1.13); "
       "with friction, e of restitution_model", 0, 1, example=0.9,
-      when="[plane] given (absent: free flight)"),
+      when="[plane] given (absent: free flight); a box or a cylinder started on its face "
+      "(on_plane) on a rough plane leaves it out: the base model has no impacts and "
+      "refuses it"),
     F("plane", "friction", "number", 0.0, "mu_f, Coulomb's coefficient of friction at S (0: "
       "the paper's smooth plane; > 0: the rough model, one coefficient for static and "
       "kinetic friction: derive/docs/friction.md)", 0, 100),
@@ -167,8 +169,10 @@ SCENE_FIELDS = (
       "it needs is within the limit surface of mu_s (derive/docs/bodies.md); refused on "
       "the other models", 0, 100),
     F("plane", "pressure", "choice", "uniform", "the pressure over a face on the plane (the "
-      "base model): uniform; linear (Sakharov's, balancing the tipping moment) is not yet "
-      "modelled and is refused; refused on the other models", choices=("uniform", "linear")),
+      "base model): uniform, or linear (Sakharov's: affine, its centroid at the centre of "
+      "pressure the tipping moment needs; the run stops with face_lifting where that "
+      "centre leaves the face's kern); refused on the other models",
+      choices=abi.names(abi.PRESSURES)),
     F("initial", "time", "number", 0.0, "t0", -1e9, 1e9),
     F("initial", "com", "vector", [0.0, 0.0, 0.0], "X_C, Y_C, Z_C: C, the centre of mass of "
       "the whole system (the carrier and its points), fixed axes; with on_plane, Z_C is "
@@ -224,8 +228,9 @@ SCENE_FIELDS = (
 
 # ``[plan]`` of a planning task (derive plan): the goals, bounds and options of the OCP
 PLAN_FIELDS = (
-    F("plan", "goal", "choice", REQUIRED, "what the carrier should do",
-      choices=("reorient", "land", "hop")),
+    F("plan", "goal", "choice", REQUIRED, "what the carrier should do (travel: the fastest "
+      "periodic crawl of a body on its face, derive/docs/planning.md)",
+      choices=("reorient", "land", "hop", "travel")),
     F("plan", "horizon", "number", None, "s; reorient: the duration (objective = time: its "
       "upper bound); land, hop: optional upper bound of the touchdown time / the period",
       0, MAX_DURATION, True, when="required for reorient"),
@@ -262,6 +267,12 @@ PLAN_FIELDS = (
       when="required with [[point]] or [[rotor]]"),
     F("plan", "max_acceleration", "number", None, "bound on |OP''| of each decided point",
       0, MAX_MASS, True, when="required when a point is decided"),
+    F("plan", "direction", "vector", None, "travel: the guide P moves along (body axes, "
+      "horizontal with the face on the plane; normalised), through region.center",
+      -MAX_LENGTH, MAX_LENGTH, size=3, when='required for goal = "travel"'),
+    F("plan", "max_velocity", "number", None, "travel: bound on |OP'| (absent: the region "
+      "and max_acceleration bound the law alone)", 0, MAX_MASS, True,
+      when='goal = "travel"'),
     F("plan", "max_rotor_rate", "number", None, "bound on |psi'| of each decided rotor "
       "(rad/s: the wheel's speed limit)", 0, MAX_MASS, True,
       when="required when a rotor is decided"),
@@ -760,7 +771,9 @@ _TASK_SCENE = tuple(f for f in SCENE_FIELDS
                     or (f.table, f.key) in (("point", "mass"), ("point", "law"),
                                             ("rotor", "axis"), ("rotor", "inertia"),
                                             ("rotor", "law"), ("plane", "restitution"),
-                                            ("run", "g")))
+                                            ("plane", "friction"),
+                                            ("plane", "static_friction"),
+                                            ("plane", "pressure"), ("run", "g")))
 TASK = Schema(_TASK_SCENE + PLAN_FIELDS + CONTROL_FIELDS + DISTURBANCE_FIELDS,
               ("", "body", "point", "rotor", "plane", "initial", "run", "plan", "control",
                "disturbance"), "task", ARRAYS)

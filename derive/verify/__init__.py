@@ -55,11 +55,13 @@ COMMANDS = (
             "cost", "derive.verify.robustness", (
                 Arg.of("-n", "--cases", dest="n", type=CASES, default=10_000,
                        help="number of scenes on each plane (default 10000)"),
-                Arg.of("--plane", choices=["smooth", "rough", "couples", "both"],
+                Arg.of("--plane", choices=["smooth", "rough", "couples", "both", "face"],
                        default="both",
                        help="the smooth plane's scenes, the rough plane's (friction; up to "
                             "20 s each), the rough plane's with spin friction and rolling "
-                            "resistance (couples), or smooth and rough (both, default)"),
+                            "resistance (couples), smooth and rough (both, default), or "
+                            "boxes and cylinders on a face (face: the base model, up to 3 s "
+                            "each, its stops judged against the reference)"),
                 Arg.of("--seed", type=int, default=11, help="the generator's seed"),
                 Arg.of("--duration", dest="max_duration", type=positive_float, metavar="SECONDS",
                        default=60.0, help="longest scene duration in s (default 60)"),

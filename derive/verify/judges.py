@@ -452,3 +452,94 @@ def classify(run: Run, ref: Run, scene_has_plane: bool) -> tuple[str, float]:
     if len(run.impacts) < len(ref.impacts):
         return "missed events", err
     return "wrong", err
+
+
+# ---- a body on its face (the base model) ---------------------------------------------------
+FACE_STOPS = ("lift_off", "tipping", "face_lifting")
+FACE_GRID = 400            # samples of N(t) over the run (N is the laws' alone)
+FACE_MARGIN = 1e-8         # a stop's margin (N, the edge's or the kern's) within this of 0,
+                           # of (M + m) g or of the face's size
+
+
+def face_system(scene):
+    """The scene as derive/base_reference.py's System (Newton-Euler of every body in the
+    face frame, apart from the runtime's moments and crt_base_model.h): the laws read
+    through derive/runtime/bodies.py (the NumPy twin of crt_law.h) and turned by Q."""
+    from .. import base_reference as br
+    from ..runtime import bodies as bm, choice
+    face = choice.base_face(scene)
+    Q = face.frame
+    memo = {}
+
+    def at(t):
+        if t not in memo:
+            memo.clear()
+            memo[t] = bm.along(scene, [t])
+        return memo[t]
+
+    def point(j):
+        return lambda t: tuple(Q @ x[j, 0] for x in (at(t).r, at(t).v, at(t).a))
+
+    def rotor(k):
+        return lambda t: (float(at(t).psi[k, 0, 1]), float(at(t).psi[k, 0, 2]))
+    b = at(scene.t0)
+    return br.System(M=scene.M, J=tuple(np.diag(Q @ np.diag(scene.J) @ Q.T)), face=face,
+                     points=tuple(br.Point(float(m), point(j)) for j, m in enumerate(b.masses)),
+                     rotors=tuple(br.Rotor(float(i), tuple(Q @ a), rotor(k))
+                                  for k, (i, a) in enumerate(zip(b.inertias, b.axes))),
+                     mu=scene.friction, mu_static=scene.static_friction,
+                     pressure=scene.pressure or "uniform", g=scene.g)
+
+
+def _face_balance(system, t: float, q):
+    """N and the centre of pressure at (t, q) by the reference: the rest's balance where
+    the body is at rest, the slip's (its friction over the face by adaptive quadrature,
+    linear pressure's centre iterated) where it moves."""
+    from .. import base_reference as br
+    if not np.any(q[3:6]):
+        return br.balance_stick(system, t)
+    return br.Integrator(system).rates(t, np.asarray(q, dtype=float))[1]
+
+
+def judge_face_run(result) -> tuple[str, str]:
+    """A random body on its face: ``ok``, or ``status`` (not done nor an honest stop, or
+    done before the end), ``nan``, ``lift_off`` (N reached 0 where no lift-off was
+    reported, or one reported where N is not 0), ``stop`` (tipping or the face lifting
+    reported where cp is not on the edge or the kern, or cp past them at the end)."""
+    scene, status = result.scene, result.status
+    if status not in ("done", *FACE_STOPS):
+        return "status", f"ended with {status} at t = {result.t[-1]:.6g}"
+    t_end = float(result.t[-1])
+    if status == "done" and abs(t_end - (scene.t0 + scene.duration)) > 1e-9 * max(
+            1.0, scene.duration):
+        return "status", f"says done but ended at t = {t_end:.9g}"
+    if not np.all(np.isfinite(result.model_q)):
+        return "nan", "non-finite state"
+    system = face_system(scene)
+    weight = system.mass * system.g
+    from .. import base_reference as br
+    grid = np.linspace(scene.t0, t_end, FACE_GRID)
+    N = np.array([br.balance_stick(system, float(t)).N for t in grid])
+    before = N[:-1] if status == "lift_off" else N
+    if before.min() <= 0.0:
+        k = int(np.argmin(before))
+        return "lift_off", f"N = {before[k]:.3g} N at t = {grid[k]:.6g} and no lift-off there"
+    if status == "lift_off":               # (N is the laws' alone; the slip's balance is
+        N_end = br.balance_stick(system, t_end).N   # singular where N = 0)
+        if abs(N_end) > FACE_MARGIN * weight:
+            return "lift_off", f"lift_off at t = {t_end:.9g} where N = {N_end:.3g} N"
+        return "ok", status
+    bal = _face_balance(system, t_end, result.model_q[-1])
+    face = system.face
+    edge, kern = face.edge_margin(bal.cp), face.kern_margin(bal.cp)
+    if status in ("tipping", "face_lifting"):
+        # on the edge or the kern; or past it where cp jumped (at the start, or at a
+        # slip's onset, where the friction changes at once)
+        margin = edge if status == "tipping" else kern
+        if margin > FACE_MARGIN * face.size:
+            return "stop", f"{status} at t = {t_end:.9g} where the margin is {margin:.3g} m"
+        return "ok", status
+    if edge < -FACE_MARGIN * face.size or (system.pressure == "linear"
+                                           and kern < -FACE_MARGIN * face.size):
+        return "stop", f"done, but cp at the end is past the {'edge' if edge < 0 else 'kern'}"
+    return "ok", status

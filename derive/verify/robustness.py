@@ -16,7 +16,17 @@ start), held against a reaction recomputed apart from the runtime
 work never positive, no energy gain beyond the point's drive, and a ``painleve`` stop only where
 sliding friction can make k_f vanish (an honest status, counted apart).  The goal: no
 falls, no wrong status or invariant, no valid scene refused, no run past 10x the median
-cost per simulated second (each plane's own median).  ``tests/test_contact_properties.py`` runs a
+cost per simulated second (each plane's own median).
+
+``--plane face``: random boxes and cylinders on a face (the base model,
+:func:`~derive.verify.generators.random_face_scene`: any face down, one to three points and
+a rotor, friction, static friction, uniform or linear pressure, at rest or sliding and
+spinning; up to 3 s), judged by :func:`~derive.verify.judges.judge_face_run`: status
+done or an honest stop (lift_off, tipping, face_lifting), no NaN, N(t) positive on a grid
+before the end (no lift-off missed), and each stop at its time: N, or the centre of
+pressure's margin to the edge or the kern, within 1e-8 of 0 at the reported time, as
+derive/base_reference.py's Newton-Euler balance (its friction by adaptive quadrature) has
+them at the run's last state.  ``tests/test_contact_properties.py`` runs a
 seeded subset in CI.
 """
 from __future__ import annotations
@@ -31,8 +41,8 @@ import numpy as np
 
 from ..commands import Target
 from ..progress import count
-from .generators import random_rough_scene, random_scene, with_rk4_step
-from .judges import judge_run
+from .generators import random_face_scene, random_rough_scene, random_scene, with_rk4_step
+from .judges import judge_face_run, judge_run
 
 
 @dataclass
@@ -50,6 +60,7 @@ class Outcome:
 
 
 ROUGH_MAX_DURATION = 20.0    # rough scenes: their contact phases cost more per second
+FACE_MAX_DURATION = 3.0      # bodies on a face: the judge's reference is Python's
 
 
 def run_one(args) -> Outcome:
@@ -60,6 +71,8 @@ def run_one(args) -> Outcome:
     from ..runtime.driver import simulate
     from ..scene import SceneError, parse_scene
     rng = np.random.default_rng(seed)
+    if plane == "face":
+        return _run_face(index, rng, min(max_duration, FACE_MAX_DURATION))
     doc = with_rk4_step(random_scene(rng, max_duration) if plane == "smooth" else
                         random_rough_scene(rng, min(max_duration, ROUGH_MAX_DURATION),
                                            couples=plane == "couples"), rng)
@@ -92,15 +105,47 @@ def run_one(args) -> Outcome:
                    scene.duration, detail, plane)
 
 
-PLANES = ("smooth", "rough", "couples", "both")
+def _run_face(index: int, rng, max_duration: float) -> Outcome:
+    """A random body on its face (generators.random_face_scene), run by the base model and
+    judged by judges.judge_face_run (its stops at their times, against the reference)."""
+    from ..runtime.driver import simulate
+    from ..scene import SceneError, parse_scene
+    doc = random_face_scene(rng, max_duration)
+    body = doc["body"]
+    size = max(body.get("half_extents") or [body["radius"], body["half_length"]])
+    start = time.perf_counter()
+    try:
+        scene = parse_scene(doc, "random")
+    except SceneError as exc:
+        return Outcome(index, "refused", "", 0.0, math.nan, size, doc["run"]["duration"],
+                       str(exc), "face")
+    result = simulate(scene)
+    seconds = time.perf_counter() - start
+    if result.model != "base":
+        return Outcome(index, "model", result.status, seconds, math.nan, size,
+                       scene.duration, f"ran model {result.model}, not base", "face")
+    verdict, detail = judge_face_run(result)
+    import collections
+    kinds = collections.Counter(e["kind"] for e in result.events)
+    detail = (detail if verdict != "ok" else
+              f"{body['shape']}, {scene.pressure} pressure, mu {scene.friction:.3g}: "
+              f"{result.status}, {count(kinds.get('stick', 0), 'stick')}, "
+              f"{count(kinds.get('slip', 0), 'slip')}, "
+              f"{count(kinds.get('reversal', 0), 'reversal')}")
+    return Outcome(index, verdict, result.status, seconds, 0.0, size, scene.duration,
+                   detail, "face")
+
+
+PLANES = ("smooth", "rough", "couples", "both", "face")
 # the planes a run reports on, and their seeds' offsets
-PLANE_SEEDS = {"smooth": 0, "rough": 500_009, "couples": 700_001}
+PLANE_SEEDS = {"smooth": 0, "rough": 500_009, "couples": 700_001, "face": 900_007}
 
 
 def run(n: int = 10_000, seed: int = 11, max_duration: float = 60.0,
         workers: int | None = None, plane: str = "both", progress=None) -> list[Outcome]:
     """n random scenes on each plane asked (``plane``: smooth, rough, couples (rough with
-    spin friction and rolling resistance) or both (smooth and rough); scene k from the seed
+    spin friction and rolling resistance), both (smooth and rough) or face (bodies on a
+    face: the base model); scene k from the seed
     ``seed * 1000003 + PLANE_SEEDS[plane] + k``), ``workers`` forked processes at once
     (default: every core)."""
     planes = ("smooth", "rough") if plane == "both" else (plane,)
@@ -109,7 +154,7 @@ def run(n: int = 10_000, seed: int = 11, max_duration: float = 60.0,
     n = len(tasks)
     workers = workers or os.cpu_count() or 1
     from ..runtime.build import library
-    for kind in ("general", "rough"):   # built (or loaded) once, before the workers fork
+    for kind in ("general", "rough", "base"):   # built (or loaded) once, before the fork
         library(kind)
     out = []
     if workers == 1:
@@ -167,8 +212,14 @@ def report(outcomes: list[Outcome]) -> str:
         if mine:
             where = {"couples": "rough plane with spin friction and rolling resistance"}.get(
                 plane, f"{plane} plane")
-            lines.append(f"{sum(mine.values())} random bouncing scenes on the {where}: "
+            what = ("random bodies on a face (boxes and cylinders, the base model: stops "
+                    "judged against the reference)" if plane == "face"
+                    else f"random bouncing scenes on the {where}")
+            ends = Counter(o.status for o in outcomes if o.plane == plane)
+            lines.append(f"{sum(mine.values())} {what}: "
                          + ", ".join(f"{k} {v}" for k, v in sorted(mine.items()))
+                         + (" (ended " + ", ".join(f"{k} {v}" for k, v in sorted(ends.items()))
+                            + ")" if plane == "face" else "")
                          + (" (painleve: honest stops where sliding friction can make N's "
                             "coefficient vanish)"
                             if mine.get("painleve") else ""))

@@ -58,57 +58,58 @@ enum crt_parameter {
   CRT_P_spin_friction = 21,  /* rough model: mu_s, a length: |T_Z| <= mu_s N in contact (0: none) */
   CRT_P_rolling_resistance = 22,  /* rough model: mu_r, a length: |(T_X, T_Y)| <= mu_r N in contact (0: none) */
   CRT_P_static_friction = 23,  /* base model: mu_s, the static coefficient over the face (>= friction, which is the kinetic one) */
-  CRT_P_n_points = 24,  /* the internal points ([point]: 1; [[point]]: 0 to LAW_MAX_POINTS) */
-  CRT_P_n_rotors = 25,  /* the rotors ([[rotor]]: 0 to LAW_MAX_ROTORS) */
-  CRT_P_m_1 = 26,  /* mass of point 1 */
-  CRT_P_m_2 = 27,  /* ... */
-  CRT_P_m_3 = 28,  /* ... */
-  CRT_P_m_4 = 29,  /* ... */
-  CRT_P_m_5 = 30,  /* ... */
-  CRT_P_m_6 = 31,  /* ... */
-  CRT_P_m_7 = 32,  /* ... */
-  CRT_P_m_8 = 33,  /* ... */
-  CRT_P_m_9 = 34,  /* ... */
-  CRT_P_m_10 = 35,  /* ... */
-  CRT_P_m_11 = 36,  /* ... */
-  CRT_P_m_12 = 37,  /* ... */
-  CRT_P_m_13 = 38,  /* ... */
-  CRT_P_m_14 = 39,  /* ... */
-  CRT_P_m_15 = 40,  /* ... */
-  CRT_P_m_16 = 41,  /* ... */
-  CRT_P_a_1_x = 42,  /* unit axis of rotor 1 in body axes */
-  CRT_P_a_1_y = 43,  /* ... */
-  CRT_P_a_1_z = 44,  /* ... */
-  CRT_P_a_2_x = 45,  /* ... */
-  CRT_P_a_2_y = 46,  /* ... */
-  CRT_P_a_2_z = 47,  /* ... */
-  CRT_P_a_3_x = 48,  /* ... */
-  CRT_P_a_3_y = 49,  /* ... */
-  CRT_P_a_3_z = 50,  /* ... */
-  CRT_P_a_4_x = 51,  /* ... */
-  CRT_P_a_4_y = 52,  /* ... */
-  CRT_P_a_4_z = 53,  /* ... */
-  CRT_P_a_5_x = 54,  /* ... */
-  CRT_P_a_5_y = 55,  /* ... */
-  CRT_P_a_5_z = 56,  /* ... */
-  CRT_P_a_6_x = 57,  /* ... */
-  CRT_P_a_6_y = 58,  /* ... */
-  CRT_P_a_6_z = 59,  /* ... */
-  CRT_P_a_7_x = 60,  /* ... */
-  CRT_P_a_7_y = 61,  /* ... */
-  CRT_P_a_7_z = 62,  /* ... */
-  CRT_P_a_8_x = 63,  /* ... */
-  CRT_P_a_8_y = 64,  /* ... */
-  CRT_P_a_8_z = 65,  /* ... */
-  CRT_P_I_1 = 66,  /* axial moment of inertia of rotor 1 */
-  CRT_P_I_2 = 67,  /* ... */
-  CRT_P_I_3 = 68,  /* ... */
-  CRT_P_I_4 = 69,  /* ... */
-  CRT_P_I_5 = 70,  /* ... */
-  CRT_P_I_6 = 71,  /* ... */
-  CRT_P_I_7 = 72,  /* ... */
-  CRT_P_I_8 = 73,  /* ... */
-  CRT_P_COUNT = 74
+  CRT_P_pressure = 24,  /* base model: the pressure over the face (enum crt_pressure: uniform, or linear: affine with its centroid at the centre of pressure) */
+  CRT_P_n_points = 25,  /* the internal points ([point]: 1; [[point]]: 0 to LAW_MAX_POINTS) */
+  CRT_P_n_rotors = 26,  /* the rotors ([[rotor]]: 0 to LAW_MAX_ROTORS) */
+  CRT_P_m_1 = 27,  /* mass of point 1 */
+  CRT_P_m_2 = 28,  /* ... */
+  CRT_P_m_3 = 29,  /* ... */
+  CRT_P_m_4 = 30,  /* ... */
+  CRT_P_m_5 = 31,  /* ... */
+  CRT_P_m_6 = 32,  /* ... */
+  CRT_P_m_7 = 33,  /* ... */
+  CRT_P_m_8 = 34,  /* ... */
+  CRT_P_m_9 = 35,  /* ... */
+  CRT_P_m_10 = 36,  /* ... */
+  CRT_P_m_11 = 37,  /* ... */
+  CRT_P_m_12 = 38,  /* ... */
+  CRT_P_m_13 = 39,  /* ... */
+  CRT_P_m_14 = 40,  /* ... */
+  CRT_P_m_15 = 41,  /* ... */
+  CRT_P_m_16 = 42,  /* ... */
+  CRT_P_a_1_x = 43,  /* unit axis of rotor 1 in body axes */
+  CRT_P_a_1_y = 44,  /* ... */
+  CRT_P_a_1_z = 45,  /* ... */
+  CRT_P_a_2_x = 46,  /* ... */
+  CRT_P_a_2_y = 47,  /* ... */
+  CRT_P_a_2_z = 48,  /* ... */
+  CRT_P_a_3_x = 49,  /* ... */
+  CRT_P_a_3_y = 50,  /* ... */
+  CRT_P_a_3_z = 51,  /* ... */
+  CRT_P_a_4_x = 52,  /* ... */
+  CRT_P_a_4_y = 53,  /* ... */
+  CRT_P_a_4_z = 54,  /* ... */
+  CRT_P_a_5_x = 55,  /* ... */
+  CRT_P_a_5_y = 56,  /* ... */
+  CRT_P_a_5_z = 57,  /* ... */
+  CRT_P_a_6_x = 58,  /* ... */
+  CRT_P_a_6_y = 59,  /* ... */
+  CRT_P_a_6_z = 60,  /* ... */
+  CRT_P_a_7_x = 61,  /* ... */
+  CRT_P_a_7_y = 62,  /* ... */
+  CRT_P_a_7_z = 63,  /* ... */
+  CRT_P_a_8_x = 64,  /* ... */
+  CRT_P_a_8_y = 65,  /* ... */
+  CRT_P_a_8_z = 66,  /* ... */
+  CRT_P_I_1 = 67,  /* axial moment of inertia of rotor 1 */
+  CRT_P_I_2 = 68,  /* ... */
+  CRT_P_I_3 = 69,  /* ... */
+  CRT_P_I_4 = 70,  /* ... */
+  CRT_P_I_5 = 71,  /* ... */
+  CRT_P_I_6 = 72,  /* ... */
+  CRT_P_I_7 = 73,  /* ... */
+  CRT_P_I_8 = 74,  /* ... */
+  CRT_P_COUNT = 75
 };
 
 /* Values of prm[CRT_P_shape]: the surfaces of derive/shapes.py, in their order. */
@@ -144,6 +145,7 @@ enum crt_status {
   CRT_STOPPED = 4,  /* the controller stopped the run (its call returned a negative value) */
   CRT_LIFT_OFF = 5,  /* base model: the normal force N under the face reached 0 (the body leaves the plane; the run stops there) */
   CRT_TIPPING = 6,  /* base model: the centre of pressure reached the face's edge (the body tips about it; the run stops there) */
+  CRT_FACE_LIFTING = 7,  /* base model, linear pressure: the centre of pressure left the face's kern (the affine pressure would turn negative at an edge: the face starts to lift there; the run stops there) */
   CRT_MAX_STEPS = -1,  /* max_steps steps were taken before the end time */
   CRT_STEP_UNDERFLOW = -2,  /* the step size fell below 1e-14 of the time scale */
   CRT_NONFINITE = -3,  /* the state or the right-hand side became NaN or infinite */
@@ -182,6 +184,13 @@ enum crt_restitution {
   CRT_RESTITUTION_COUNT = 3
 };
 
+/* Values of prm[CRT_P_pressure] (the base model's pressure over the face). */
+enum crt_pressure {
+  CRT_PRESSURE_UNIFORM = 0,  /* N / A over the face */
+  CRT_PRESSURE_LINEAR = 1,  /* affine over the face, its centroid at the centre of pressure (a rigid face on an elastic floor, Sakharov 2015); positive while cp is in the face's kern */
+  CRT_PRESSURE_COUNT = 2
+};
+
 /* Column 1 of the event rows written by crt_advance (CRT_EVENT_COLUMNS below). */
 enum crt_event_kind {
   CRT_EV_NONE = 0,  /* (unused) */
@@ -198,7 +207,8 @@ enum crt_event_kind {
   CRT_EV_ROLL_STOP = 11,  /* the rolling (the horizontal angular velocity) reached 0 and the rolling resistance holds it (value: |T_t|/(mu_r N)) */
   CRT_EV_ROLL_START = 12,  /* the rolling resistance reached mu_r N (or cannot hold the rolling it stopped): the body rolls from rest against it (value: |T_t|/(mu_r N)) */
   CRT_EV_TIPPING = 13,  /* base model: the centre of pressure reached the face's edge (value: its distance from the face's centroid) */
-  CRT_EV_COUNT = 14
+  CRT_EV_FACE_LIFTING = 14,  /* base model, linear pressure: the centre of pressure reached the face's kern (the pressure reaches 0 at an edge; value: the kern margin) */
+  CRT_EV_COUNT = 15
 };
 
 /* Counters read with crt_stats (long[CRT_STAT_COUNT]). */
@@ -357,7 +367,7 @@ const char *crt_option_name(int i)
 
 const char *crt_parameter_name(int i)
 {
-  static const char names[74][19] = {
+  static const char names[75][19] = {
     "M",
     "m",
     "J_x",
@@ -382,6 +392,7 @@ const char *crt_parameter_name(int i)
     "spin_friction",
     "rolling_resistance",
     "static_friction",
+    "pressure",
     "n_points",
     "n_rotors",
     "m_1",
@@ -433,7 +444,7 @@ const char *crt_parameter_name(int i)
     "I_7",
     "I_8"
   };
-  return (i >= 0 && i < 74) ? names[i] : "";
+  return (i >= 0 && i < 75) ? names[i] : "";
 }
 
 const char *crt_method_name(int i)
@@ -460,6 +471,7 @@ const char *crt_status_name(int code)
     case CRT_STOPPED: return "stopped";
     case CRT_LIFT_OFF: return "lift_off";
     case CRT_TIPPING: return "tipping";
+    case CRT_FACE_LIFTING: return "face_lifting";
     case CRT_MAX_STEPS: return "max_steps";
     case CRT_STEP_UNDERFLOW: return "step_underflow";
     case CRT_NONFINITE: return "nonfinite";
@@ -478,7 +490,7 @@ const char *crt_status_name(int code)
 
 const char *crt_event_name(int i)
 {
-  static const char names[14][11] = {
+  static const char names[15][13] = {
     "none",
     "impact",
     "contact",
@@ -492,9 +504,10 @@ const char *crt_event_name(int i)
     "spin_start",
     "roll_stop",
     "roll_start",
-    "tipping"
+    "tipping",
+    "face_lifting"
   };
-  return (i >= 0 && i < 14) ? names[i] : "";
+  return (i >= 0 && i < 15) ? names[i] : "";
 }
 
 const char *crt_stat_name(int i)

@@ -8,19 +8,21 @@
  *
  * Three modes (s->bs.mode):
  *  - rest: the body is at rest at t; sticking holds if the gauge gamma of the wrench the
- *    rest needs (crt_face_gauge, mu_s) is below 1 (or at 1 and not rising); else the
- *    slip starts against the gauge's maximiser, along the stable direction of the slip's
- *    flow, by its Taylor series (twist = G0 d + G1 d^2/2 until it reaches 1e2 eps);
- *  - stick: the state is constant; the event functions 1 - gamma, N and the centre of
- *    pressure's edge margin are sampled every opt[CRT_OPT_HMAX]/8 (gamma by the gauge's
- *    bounds where they put it below 1 - 1e-3) and a sign change is located by the
- *    Illinois method (break-away: the slip starts; N: status lift_off; the edge: status
- *    tipping);
+ *    rest needs (crt_face_gauge, mu_s) is below 1 (or at 1 and not rising); else the slip
+ *    starts against the gauge's maximiser, along the stable direction of the slip's flow,
+ *    by its Taylor series (twist = G0 d + G1 d^2/2 until it reaches 1e2 eps);
+ *  - stick: the state is constant; the event functions 1 - gamma, N, the centre of
+ *    pressure's edge margin and (linear pressure) its kern margin are sampled every
+ *    opt[CRT_OPT_HMAX]/8 (gamma by the gauge's bounds where they put it below 1 - 1e-3,
+ *    under uniform pressure) and a sign change is located by the Illinois method
+ *    (break-away: the slip starts; N: status lift_off; the edge: status tipping; the kern:
+ *    status face_lifting);
  *  - slip, along a line (s->bs.line): while the scaled twist xi = (V_O, ell psi') keeps
  *    its direction d (a translation along a fixed line, a spin in place: the flow's part
  *    off d below 1e-12 of it at every stage), integrated in t with the friction of d held,
  *    which is the slip's own friction while xi.d > 0 and smooth through 0, so the stop is
- *    the sign change of xi.d, located as the other events, and xi = 0 there;
+ *    the sign change of xi.d, located as the other events, and xi = 0 there (under linear
+ *    pressure the friction of d at its consistent centre of pressure, as in s);
  *  - slip, else: integrated in the time s with dt/ds = rho = |xi| (the state z = (t, q)),
  *    so the end of the slip is approached without the friction's direction flipping: rho
  *    decays exponentially in s, the event rho = eps (1e-11 sqrt(g ell)) ends it and the
@@ -29,10 +31,11 @@
  *    After a stop: rest (a stick, or a reversal).  Each step DOP853 (the tableau of
  *    crt_base_steps.h, Hairer's error norm and step control) with the error of rtol, atol
  *    on z, the first step of a slip along a line the last such slip's; the events (t_end,
- *    the stop, N, the edge) located inside a step on DOP853's dense output (Illinois on
- *    the step's fraction), the state at an event the dense output's there.
- * A run never goes on past lift-off or tipping: it stops there with that status and an
- * event at its time.  The closed loop (crt_set_control) is refused (CRT_BAD_CONTROL).
+ *    the stop, N, the edge, the kern) located inside a step on DOP853's dense output
+ *    (Illinois on the step's fraction), the state at an event the dense output's there.
+ * A run never goes on past lift-off, tipping or the face lifting: it stops there with that
+ * status and an event at its time.  The closed loop (crt_set_control) is refused
+ * (CRT_BAD_CONTROL).
  */
 #ifndef CRT_BASE_H
 #define CRT_BASE_H
@@ -44,7 +47,9 @@
 
 enum crt_base_mode { CRT_BASE_REST = 0, CRT_BASE_STICK = 1, CRT_BASE_SLIP = 2 };
 enum crt_base_event { CRT_BASE_NONE = -1, CRT_BASE_END = 0, CRT_BASE_STOP = 1,
-                      CRT_BASE_LIFT = 2, CRT_BASE_TIP = 3, CRT_BASE_BREAK = 4 };
+                      CRT_BASE_LIFT = 2, CRT_BASE_TIP = 3, CRT_BASE_KERN = 4 };
+#define CRT_BASE_NG 5             /* the slip's event functions */
+#define CRT_BASE_NG_STICK 4       /* the stick's: 1 - gamma, N, the edge, the kern */
 
 /* the moments in the face frame at t (summed once per evaluation of the law) */
 static const double *crt_base_u(crt_session *s, double t)
@@ -74,6 +79,9 @@ static void crt_contact_start(crt_session *s)
   s->bs.stamp = -1;
   s->bs.xi[0] = s->bs.xi[1] = s->bs.xi[2] = 0.0;
   s->bs.eps = 1e-11 * s->bs.body.v_scale;
+  /* a twist below the slip's end (round-off of a start at rest: C's velocity less the
+     bodies' share) is the end's: at rest (a slip from it would stop before a step) */
+  if (crt_base_rho(&s->bs.body, s->q) <= s->bs.eps) s->q[3] = s->q[4] = s->q[5] = 0.0;
   s->bs.mode = crt_base_rho(&s->bs.body, s->q) > 0.0 ? CRT_BASE_SLIP : CRT_BASE_REST;
   s->bs.hs = 0.0;
   s->bs.ht = 0.0;
@@ -238,7 +246,8 @@ static void crt_base_interp(const double *z0, double (*F)[CRT_BASE_NZ], double x
 }
 
 /* the slip's event functions at a state: t_end - t, the stop (rho - eps in s; along a line
-   the signed speed rho), N, the edge margin */
+   the signed speed rho), N, the edge margin, the kern margin (linear pressure; 1 under
+   uniform pressure: no event) */
 static void crt_base_slip_g(const crt_session *s, double t_end, const double *z, double N,
                             const double *cp, double rho, double *g)
 {
@@ -246,27 +255,33 @@ static void crt_base_slip_g(const crt_session *s, double t_end, const double *z,
   g[CRT_BASE_STOP] = s->bs.line ? rho : rho - s->bs.eps;
   g[CRT_BASE_LIFT] = N;
   g[CRT_BASE_TIP] = crt_face_edge_margin(&s->bs.body.face, cp[0], cp[1]);
+  g[CRT_BASE_KERN] = s->bs.body.linear ? crt_face_kern_margin(&s->bs.body.face, cp[0], cp[1])
+                                       : 1.0;
 }
 
 /* ---- the rest ------------------------------------------------------------------------------ */
-/* the stick's event functions at t (the state is constant): 1 - gamma, N, the margin.
-   Where the gauge's bounds (crt_face_gauge_bounds) put gamma below 1 - 1e-3, 1 - their
-   upper bound (the sign is all a sample needs, and a root is located only where gamma is
-   near 1: computed there); else the gauge itself, its maximiser in xi. */
+/* the stick's event functions at t (the state is constant): 1 - gamma, N, the edge
+   margin, the kern margin (linear pressure, whose slope the gauge reads; else 1).  Where
+   the gauge's bounds (crt_face_gauge_bounds) put gamma below 1 - 1e-3, 1 - their upper
+   bound (the sign is all a sample needs, and a root is located only where gamma is near
+   1: computed there); else the gauge itself, its maximiser in xi.  The bounds hold under
+   uniform pressure only: with a nonzero slope they are (0, inf) and the gauge is
+   computed. */
 static void crt_base_stick_g(crt_session *s, double t, double *g, double *xi)
 {
-  static const double k0[2] = {0.0, 0.0};
-  double W[3], N, cp[2], lo, hi;
+  double W[3], N, cp[2], k[2], lo, hi;
   int part;
   crt_base_rest(&s->bs.body, crt_base_u(s, t), W, &N, cp);
   ++s->stat[CRT_STAT_EVENT_FUNCTION_EVALUATIONS];
-  crt_face_gauge_bounds(&s->bs.body.face, crt_max(N, 0.0), k0, s->bs.body.mu_s, W, &lo, &hi,
+  crt_base_slope(&s->bs.body, crt_max(N, 0.0), cp, k);
+  crt_face_gauge_bounds(&s->bs.body.face, crt_max(N, 0.0), k, s->bs.body.mu_s, W, &lo, &hi,
                         &part);
   if (hi <= 1.0 - 1e-3) g[0] = 1.0 - hi;
-  else g[0] = 1.0 - crt_face_gauge(&s->bs.body.face, crt_max(N, 0.0), k0, s->bs.body.mu_s, W,
+  else g[0] = 1.0 - crt_face_gauge(&s->bs.body.face, crt_max(N, 0.0), k, s->bs.body.mu_s, W,
                                    xi, &s->stat[CRT_STAT_EVENT_FUNCTION_EVALUATIONS]);
   g[1] = N;
   g[2] = crt_face_edge_margin(&s->bs.body.face, cp[0], cp[1]);
+  g[3] = s->bs.body.linear ? crt_face_kern_margin(&s->bs.body.face, cp[0], cp[1]) : 1.0;
 }
 
 /* the scaled twist's rate at rest at (t, q) with the friction of the unit direction d */
@@ -348,14 +363,19 @@ static void crt_base_end(crt_session *s, crt_out *o, int status, int event, doub
 }
 
 /* At rest at s->t (after a stop of the slip when after_stop, else at the start): stick,
-   or slip off (a slip, or a reversal after a stop), or stop (lift-off, tipping). */
+   or slip off (a slip, or a reversal after a stop), or stop (lift-off, tipping, the face
+   lifting). */
 static void crt_base_settle(crt_session *s, crt_out *o, int after_stop)
 {
-  double g[3], later[3], xi[3];
+  double g[CRT_BASE_NG_STICK], later[CRT_BASE_NG_STICK], xi[3];
   int i, stick;
   crt_base_stick_g(s, s->t, g, s->bs.xi);
   if (g[1] <= 0.0) { crt_base_end(s, o, CRT_LIFT_OFF, CRT_EV_LIFTOFF, g[1]); return; }
   if (g[2] <= 0.0) { crt_base_end(s, o, CRT_TIPPING, CRT_EV_TIPPING, g[2]); return; }
+  if (g[3] <= 0.0) {
+    crt_base_end(s, o, CRT_FACE_LIFTING, CRT_EV_FACE_LIFTING, g[3]);
+    return;
+  }
   stick = g[0] > 1e-12;
   if (!stick && g[0] >= -1e-12) {          /* at 1: sticks unless the gauge is rising */
     for (i = 0; i < 3; ++i) xi[i] = s->bs.xi[i];
@@ -383,7 +403,7 @@ static void crt_base_settle(crt_session *s, crt_out *o, int after_stop)
     ++s->stat[CRT_STAT_STICKS];
   }
   s->bs.mode = CRT_BASE_STICK;
-  for (i = 0; i < 3; ++i) s->bs.g[i] = g[i];
+  for (i = 0; i < CRT_BASE_NG_STICK; ++i) s->bs.g[i] = g[i];
 }
 
 /* Illinois' root of one of the functions from [x0: g0 > 0] to [x1: g1 <= 0]; eval(k, x)
@@ -402,16 +422,83 @@ static void crt_base_settle(crt_session *s, crt_out *o, int after_stop)
     (root) = xb_;                                                                      \
   } while (0)
 
+/* ---- rows every output_dt ---------------------------------------------------------------- */
+/* The grid rows t_first + k output_dt (k >= out_k) before until: how many (up to cap + 1) */
+static long crt_base_rows_before(const crt_session *s, double until, long cap)
+{
+  const double out_dt = s->opt[CRT_OPT_OUTPUT_DT];
+  double k = s->out_k;
+  long n = 0;
+  if (!(out_dt > 0.0)) return 0;
+  while (s->t_first + k * out_dt < until && n <= cap) { ++n; k += 1.0; }
+  return n;
+}
+
+/* Room for n grid rows and a step's own rows (CRT_MIN_ROWS); else, with the buffer empty,
+   0 and the step too long for any buffer (*shrink: the share of it that fits), or 0 and
+   *shrink = 1: the step is taken again, the same, once the caller has emptied the buffer
+   (s->bs.full ends this call) */
+static int crt_base_rows_fit(crt_session *s, const crt_out *o, long n, double *shrink)
+{
+  const long room = (long)o->cap - (long)o->n - CRT_MIN_ROWS;
+  *shrink = 1.0;
+  if (n <= room) return 1;
+  if (o->n == 0) *shrink = crt_max((double)room, 1.0) / (double)n;
+  else s->bs.full = 1;
+  return 0;
+}
+
+/* The grid rows before until: from the step's dense output (z0, F: t at the row's fraction
+   x found by Illinois on t(x), monotone in a step), or the constant state s->q (F = 0); a
+   grid time at or before the step's start (a stop's last linear part, a slip's Taylor
+   start, 1e-9 s at most) reads its start.  A grid time at until is the step's own row. */
+static void crt_base_rows(crt_session *s, crt_out *o, double until, const double *z0,
+                          double (*F)[CRT_BASE_NZ])
+{
+  const double out_dt = s->opt[CRT_OPT_OUTPUT_DT];
+  double z[CRT_BASE_NZ];
+  if (!(out_dt > 0.0)) return;
+  while (s->next_output < until) {
+    const double at = s->next_output;
+    if (!F) {
+      crt_emit(o, at, s->q, CRT_ROW_STEP);
+    } else {
+      double x = 0.0;
+      crt_base_interp(z0, F, 1.0, z);
+      if (at > z0[0] && at < z[0]) {
+#define CRT_BASE_T_EVAL(x_) (crt_base_interp(z0, F, (x_), z), at - z[0])
+        CRT_BASE_ILLINOIS(0.0, at - z0[0], 1.0, at - z[0], x, 1e-15, CRT_BASE_T_EVAL);
+#undef CRT_BASE_T_EVAL
+      } else if (at >= z[0]) {
+        x = 1.0;
+      }
+      crt_base_interp(z0, F, x, z);
+      crt_emit(o, at, z + 1, CRT_ROW_STEP);
+    }
+    s->out_k += 1.0;
+    s->next_output = s->t_first + s->out_k * out_dt;
+  }
+  if (s->next_output == until) {
+    s->out_k += 1.0;
+    s->next_output = s->t_first + s->out_k * out_dt;
+  }
+}
+
 /* one sample of the stick: its events located in [t, t + h] */
 static void crt_base_stick_step(crt_session *s, crt_out *o, double t_end)
 {
-  const double h = crt_min(s->opt[CRT_OPT_HMAX] / 8.0, t_end - s->t);
-  const double t1 = s->t + h, tol = 1e-15 * crt_max(1.0, fabs(t1)) + 1e-15 * s->bs.body.t_scale;
-  double g1[3], xi[3], first = HUGE_VAL, g[3];
+  double h = crt_min(s->opt[CRT_OPT_HMAX] / 8.0, t_end - s->t), t1, tol, shrink;
+  double g1[CRT_BASE_NG_STICK], xi[3], first = HUGE_VAL, g[CRT_BASE_NG_STICK];
   int k, which = -1, i;
+  if (!crt_base_rows_fit(s, o, crt_base_rows_before(s, s->t + h, o->cap), &shrink)) {
+    if (shrink == 1.0) return;             /* (taken again, the same, with room) */
+    h *= shrink;                           /* (no buffer holds its rows: a shorter sample) */
+  }
+  t1 = s->t + h;
+  tol = 1e-15 * crt_max(1.0, fabs(t1)) + 1e-15 * s->bs.body.t_scale;
   for (i = 0; i < 3; ++i) xi[i] = s->bs.xi[i];
   crt_base_stick_g(s, t1, g1, xi);
-  for (k = 0; k < 3; ++k) {
+  for (k = 0; k < CRT_BASE_NG_STICK; ++k) {
     if (s->bs.g[k] > 0.0 && g1[k] <= 0.0) {
       double root;
 #define CRT_BASE_STICK_EVAL(x) (crt_base_stick_g(s, (x), g, xi), g[k])
@@ -420,10 +507,12 @@ static void crt_base_stick_step(crt_session *s, crt_out *o, double t_end)
       if (root < first) { first = root; which = k; }
     }
   }
+  crt_base_rows(s, o, which < 0 ? t1 : first, 0, 0);
   ++s->stat[CRT_STAT_STEPS];
   if (which < 0) {
     s->t = t1;
-    for (i = 0; i < 3; ++i) { s->bs.g[i] = g1[i]; s->bs.xi[i] = xi[i]; }
+    for (i = 0; i < CRT_BASE_NG_STICK; ++i) s->bs.g[i] = g1[i];
+    for (i = 0; i < 3; ++i) s->bs.xi[i] = xi[i];
     crt_emit(o, s->t, s->q, CRT_ROW_STEP);
     return;
   }
@@ -431,11 +520,12 @@ static void crt_base_stick_step(crt_session *s, crt_out *o, double t_end)
   crt_base_stick_g(s, s->t, g, s->bs.xi);  /* the maximiser at the event */
   if (which == 1) { crt_base_end(s, o, CRT_LIFT_OFF, CRT_EV_LIFTOFF, g[1]); return; }
   if (which == 2) { crt_base_end(s, o, CRT_TIPPING, CRT_EV_TIPPING, g[2]); return; }
+  if (which == 3) { crt_base_end(s, o, CRT_FACE_LIFTING, CRT_EV_FACE_LIFTING, g[3]); return; }
   crt_emit(o, s->t, s->q, CRT_ROW_BEFORE_EVENT);
   crt_event(o, s->t, CRT_EV_SLIP, 1.0 - g[0], 0.0, 0.0, 0.0);
   ++s->stat[CRT_STAT_SLIPS];
   if (!crt_base_onset(s)) {                /* no slip after all: the stick goes on */
-    for (i = 0; i < 3; ++i) s->bs.g[i] = g[i];
+    for (i = 0; i < CRT_BASE_NG_STICK; ++i) s->bs.g[i] = g[i];
     s->bs.g[0] = crt_max(g[0], 0.0);
     return;
   }
@@ -446,8 +536,8 @@ static void crt_base_stick_step(crt_session *s, crt_out *o, double t_end)
 static void crt_base_slip_step(crt_session *s, crt_out *o, double t_end)
 {
   double z0[CRT_BASE_NZ], f0[CRT_BASE_NZ], z1[CRT_BASE_NZ], f1[CRT_BASE_NZ], zt[CRT_BASE_NZ];
-  double ft[CRT_BASE_NZ], k[16][CRT_BASE_NZ], F[7][CRT_BASE_NZ], g0[4], g1[4], gt[4], N, cp[2];
-  double rho, err, hs, first = HUGE_VAL;
+  double ft[CRT_BASE_NZ], k[16][CRT_BASE_NZ], F[7][CRT_BASE_NZ], g0[CRT_BASE_NG];
+  double g1[CRT_BASE_NG], gt[CRT_BASE_NG], N, cp[2], rho, err, hs, first = HUGE_VAL;
   int k_, which = -1, i, dense = 0, same;
   z0[0] = s->t;
   for (i = 0; i < NQ; ++i) z0[1 + i] = s->q[i];
@@ -462,6 +552,17 @@ static void crt_base_slip_step(crt_session *s, crt_out *o, double t_end)
   }
   s->bs.fsal = 0;
   crt_base_slip_g(s, t_end, z0, N, cp, rho, g0);
+  /* a stop already reached where the step starts: N or cp jumped there (the friction of
+     a slip's onset against the rest's wrench moves cp at once) */
+  if (g0[CRT_BASE_LIFT] <= 0.0) { crt_base_end(s, o, CRT_LIFT_OFF, CRT_EV_LIFTOFF, N); return; }
+  if (g0[CRT_BASE_TIP] <= 0.0) {
+    crt_base_end(s, o, CRT_TIPPING, CRT_EV_TIPPING, g0[CRT_BASE_TIP]);
+    return;
+  }
+  if (g0[CRT_BASE_KERN] <= 0.0) {
+    crt_base_end(s, o, CRT_FACE_LIFTING, CRT_EV_FACE_LIFTING, g0[CRT_BASE_KERN]);
+    return;
+  }
   if (!(s->bs.hs > 0.0))                   /* a slip's first step: along a line the last
                                               slip's, else a thousandth of the time scale */
     s->bs.hs = s->bs.line ? (s->bs.ht > 0.0 ? s->bs.ht : 1e-3 * s->bs.body.t_scale)
@@ -485,9 +586,8 @@ static void crt_base_slip_step(crt_session *s, crt_out *o, double t_end)
       return;
     }
   }
-  ++s->stat[CRT_STAT_STEPS];
   crt_base_slip_g(s, t_end, z1, N, cp, rho, g1);
-  for (k_ = 0; k_ < 4; ++k_) {             /* located on the dense output */
+  for (k_ = 0; k_ < CRT_BASE_NG; ++k_) {   /* located on the dense output */
     if (g0[k_] > 0.0 && g1[k_] <= 0.0) {
       double root;
       if (!dense) crt_base_dense(s, z0, z1, hs, k, F);
@@ -500,6 +600,24 @@ static void crt_base_slip_step(crt_session *s, crt_out *o, double t_end)
       if (root < first) { first = root; which = k_; }
     }
   }
+  {                                        /* the grid rows up to the step's end or event */
+    double until = z1[0], shrink;
+    long n;
+    if (which >= 0) {
+      crt_base_interp(z0, F, first, zt);
+      until = zt[0];
+    }
+    n = crt_base_rows_before(s, until, o->cap);
+    if (!crt_base_rows_fit(s, o, n, &shrink)) {
+      s->bs.fsal = same;                   /* the step again: the same start and step */
+      if (shrink < 1.0) s->bs.hs = hs * shrink;
+      return;
+    }
+    if (n > 0 && !dense) crt_base_dense(s, z0, z1, hs, k, F);
+    dense = 1;
+    crt_base_rows(s, o, until, z0, F);
+  }
+  ++s->stat[CRT_STAT_STEPS];
   s->bs.hs = hs * crt_min(6.0, crt_max(0.333, 0.9 * pow(crt_max(err, 1e-10), -0.125)));
   if (which < 0) {
     if (s->bs.line) s->bs.ht = s->bs.hs;
@@ -525,6 +643,9 @@ static void crt_base_slip_step(crt_session *s, crt_out *o, double t_end)
   } else if (which == CRT_BASE_TIP) {
     crt_base_end(s, o, CRT_TIPPING, CRT_EV_TIPPING,
                  crt_face_edge_margin(&s->bs.body.face, cp[0], cp[1]));
+  } else if (which == CRT_BASE_KERN) {
+    crt_base_end(s, o, CRT_FACE_LIFTING, CRT_EV_FACE_LIFTING,
+                 crt_face_kern_margin(&s->bs.body.face, cp[0], cp[1]));
   } else if (s->bs.line) {                 /* the stop of a slip along a line: xi = 0 */
     crt_emit(o, s->t, s->q, CRT_ROW_BEFORE_EVENT);
     for (i = 3; i < NQ; ++i) s->q[i] = 0.0;
@@ -568,8 +689,10 @@ static void crt_integrate(crt_session *s, double t_end, crt_out *o)
   if (s->stat[CRT_STAT_STEPS] == 0 && s->t_first == s->t && s->out_k == 0.0) {
     crt_emit(o, s->t, s->q, CRT_ROW_STEP);
     s->out_k = 1.0;
+    s->next_output = s->t_first + s->opt[CRT_OPT_OUTPUT_DT];
   }
-  while (s->t < t_end && s->status == CRT_PAUSED) {
+  s->bs.full = 0;
+  while (s->t < t_end && s->status == CRT_PAUSED && !s->bs.full) {
     if (o->n + CRT_MIN_ROWS > o->cap || o->ev_n + CRT_MIN_EVENTS > o->ev_cap) return;
     if ((double)s->stat[CRT_STAT_STEPS] >= s->opt[CRT_OPT_MAX_STEPS]) {
       s->status = CRT_MAX_STEPS;

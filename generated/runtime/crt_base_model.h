@@ -14,7 +14,12 @@
  * axes) along a face normal of the box, or along the axis of the cylinder (to 1e-9); its
  * rows Q (a signed permutation of the body axes) turn body components into face ones,
  * so J stays diagonal and the moments are permuted: s -> Q s, Theta -> Q Theta Q^T.
- * Pressure: uniform (N/A).  State q = (X_O, Y_O, psi, X_O', Y_O', psi'), fixed axes.
+ * Pressure (prm pressure, enum crt_pressure): uniform (N/A), or linear (affine, its
+ * centroid at the centre of pressure cp: Sakharov 2015).  With linear pressure the slip's
+ * friction depends on cp and cp (from the horizontal angular momentum) on the friction;
+ * both affine, so the consistent cp is the root of an affine map in the plane, found
+ * exactly from three evaluations (crt_base_linear).  State q = (X_O, Y_O, psi, X_O', Y_O',
+ * psi'), fixed axes.
  */
 #ifndef CRT_BASE_MODEL_H
 #define CRT_BASE_MODEL_H
@@ -32,13 +37,15 @@ typedef struct {
   double pf[6];                 /* base_*'s p: M, m, J_x, J_y, J_z (face frame), g */
   double h;                     /* O's height above the plane */
   double mu, mu_s;              /* the kinetic and the static coefficient */
+  int linear;                   /* the pressure is linear (else uniform) */
   double ell;                   /* the face's size: the scaled twist is (v, ell w) */
   double v_scale, t_scale;      /* sqrt(g ell), ell / v_scale */
 } crt_base_body;
 
 /* The body on its face from the parameters; returns -1, or the index (CRT_P_*) of the
    parameter at fault (n0_x: the vertical along no face normal; static_friction below
-   friction; shape: neither a box nor a cylinder).  The body is usable either way. */
+   friction; shape: neither a box nor a cylinder; pressure: no crt_pressure).  The body
+   is usable either way. */
 static int crt_base_body_set(crt_base_body *b, const double *prm)
 {
   const int shape = (int)prm[CRT_P_shape];
@@ -86,6 +93,9 @@ static int crt_base_body_set(crt_base_body *b, const double *prm)
   b->mu = prm[CRT_P_friction];
   b->mu_s = prm[CRT_P_static_friction];
   if (!(b->mu_s >= b->mu) && fault < 0) fault = CRT_P_static_friction;
+  b->linear = prm[CRT_P_pressure] == (double)CRT_PRESSURE_LINEAR;
+  if (!b->linear && prm[CRT_P_pressure] != (double)CRT_PRESSURE_UNIFORM && fault < 0)
+    fault = CRT_P_pressure;
   b->ell = b->face.size;
   b->v_scale = sqrt(b->pf[5] * b->ell);
   b->t_scale = b->ell / b->v_scale;
@@ -115,12 +125,60 @@ static void crt_base_face_moments(const crt_base_body *b, const double *u, doubl
   }
 }
 
+/* The pressure's gradient k over the face under N with its centre at cp (0: uniform) */
+static void crt_base_slope(const crt_base_body *b, double N, const double *cp, double *k)
+{
+  crt_face_slope(&b->face, b->linear, N, cp, k);
+}
+
 /* At rest: the friction wrench W = (F_x, F_y, T_z) the rest needs, N and the centre of
    pressure cp (face frame, from O's vertical) */
 static void crt_base_rest(const crt_base_body *b, const double *uf, double *W, double *N,
                           double *cp)
 {
   base_stick(uf, b->pf, b->h, W, N, cp);
+}
+
+/* The slip's rates under linear pressure at the twist tw: the centre of pressure c that
+   the slip's own friction gives back.  The friction is linear in the pressure, so
+   affine in c (crt_face_slope); base_slip's cp is affine in the friction (the planar
+   mass matrix solved, then the horizontal angular momentum): F(c) = cp(W(c)) - c is an
+   affine map of the plane, known exactly from its values at the face's centroid c0 and
+   at c0 + ell e_x, c0 + ell e_y; its root c* = c0 - A^-1 F(c0), and the rates are those
+   at c*.  A singular A (no consistent pressure: cp's own shift by the friction's moment
+   equal to c's) gives NaN rates, a nonfinite stop. */
+static void crt_base_linear(const crt_base_body *b, const double *uf, const double *q,
+                            const double *tw, double N0, double *dq, double *N,
+                            double *cp)
+{
+  const double ell = b->ell;
+  double c[3][2], F[3][2], k[2], W[3], det, x0, x1;
+  int j;
+  for (j = 0; j < 3; ++j) {
+    c[j][0] = b->face.cx + (j == 1 ? ell : 0.0);
+    c[j][1] = b->face.cy + (j == 2 ? ell : 0.0);
+    crt_base_slope(b, N0, c[j], k);
+    crt_face_wrench(&b->face, N0, k, b->mu, tw, W);
+    base_slip(q, uf, b->pf, b->h, W, dq, N, cp);
+    F[j][0] = cp[0] - c[j][0];
+    F[j][1] = cp[1] - c[j][1];
+  }
+  {                                         /* A's columns: (F_j - F_0) / ell */
+    const double a00 = (F[1][0] - F[0][0]) / ell, a10 = (F[1][1] - F[0][1]) / ell;
+    const double a01 = (F[2][0] - F[0][0]) / ell, a11 = (F[2][1] - F[0][1]) / ell;
+    det = a00 * a11 - a01 * a10;
+    if (!(fabs(det) > 1e-12 * (fabs(a00 * a11) + fabs(a01 * a10)))) {
+      for (j = 0; j < NQ; ++j) dq[j] = NAN;
+      return;
+    }
+    x0 = -(a11 * F[0][0] - a01 * F[0][1]) / det;
+    x1 = -(-a10 * F[0][0] + a00 * F[0][1]) / det;
+  }
+  c[0][0] += x0;
+  c[0][1] += x1;
+  crt_base_slope(b, N0, c[0], k);
+  crt_face_wrench(&b->face, N0, k, b->mu, tw, W);
+  base_slip(q, uf, b->pf, b->h, W, dq, N, cp);
 }
 
 /* The slip's rates dq/dt at q, with N and cp; the friction that of the slip's own twist
@@ -135,6 +193,10 @@ static void crt_base_rates(const crt_base_body *b, const double *uf, const doubl
     tw[0] = dir[0]; tw[1] = dir[1]; tw[2] = dir[2] / b->ell;
   } else {
     base_twist(q, tw);
+  }
+  if (b->linear) {
+    crt_base_linear(b, uf, q, tw, N0, dq, N, cp);
+    return;
   }
   crt_face_wrench(&b->face, N0, k0, b->mu, tw, W);
   base_slip(q, uf, b->pf, b->h, W, dq, N, cp);

@@ -37,6 +37,10 @@
  *   CRT_TIPPING          6  crt_advance, the base model: the centre of pressure reached the
  *                           face's edge (the body tips); the run stops there, with an
  *                           event tipping at its time
+ *   CRT_FACE_LIFTING     7  crt_advance, the base model with linear pressure: the centre
+ *                           of pressure left the face's kern (the pressure would turn
+ *                           negative at an edge); the run stops there, with an event
+ *                           face_lifting at its time
  *   CRT_MAX_STEPS       -1  crt_advance: opt[CRT_OPT_MAX_STEPS] steps before t_end (an
  *                           error, as CVODE's CV_TOO_MUCH_WORK)
  *   CRT_STEP_UNDERFLOW  -2  crt_advance: the step fell below 1e-14 of the time scale

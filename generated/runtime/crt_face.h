@@ -11,7 +11,9 @@
  * upward vertical): the rectangle |x - c_x| <= a, |y - c_y| <= b or the disc |r - c| <= R,
  * positions from O's vertical.  A face point r slips at u(r) = v + w e_z x r (the twist
  * (v_x, v_y, w): O's velocity and the yaw rate), and friction there is -mu p(r) u/|u|,
- * with the pressure p affine, p = P_c + k.(r - c) (uniform: k = 0, P_c = N/A).
+ * with the pressure p affine, p = P_c + k.(r - c) (uniform: k = 0, P_c = N/A; linear: k
+ * from the centre of pressure, crt_face_slope, and positive while the centre is in the
+ * face's kern, crt_face_kern_margin).
  *
  * crt_face_wrench gives the friction's force (F_x, F_y) and torque T_z about O's vertical
  * summed over the face, and the power it takes, D = mu int p |u| dA (a norm of the twist,
@@ -89,6 +91,28 @@ static double crt_face_edge_margin(const crt_face *f, double x, double y)
     return mx < my ? mx : my;
   }
   return f->a - sqrt(dx * dx + dy * dy);
+}
+
+/* Linear pressure (affine, its centroid at the centre of pressure cp = (x, y) from O's
+   vertical) stays positive over the face while this is >= 0, scaled as a length: cp in
+   the kern |x'|/a + |y'|/b <= 1/3 of a rectangle (min(a, b) times the margin), |r'| <= R/4
+   of a disc (r' = cp less the centroid); derive/face.py's kern_margin */
+static double crt_face_kern_margin(const crt_face *f, double x, double y)
+{
+  const double dx = x - f->cx, dy = y - f->cy;
+  if (f->kind == CRT_FACE_RECTANGLE)
+    return (f->a < f->b ? f->a : f->b) * (1.0 / 3.0 - fabs(dx) / f->a - fabs(dy) / f->b);
+  return f->a / 4.0 - sqrt(dx * dx + dy * dy);
+}
+
+/* The gradient k of the pressure over the face under N with its centre at cp: 0 for
+   uniform pressure; linear, p = N/A + k.(r - c) with int p (r - c) dA = N (cp - c), so
+   k = N (cp - c) / (I_x, I_y) */
+static void crt_face_slope(const crt_face *f, int linear, double N, const double *cp,
+                           double *k)
+{
+  k[0] = linear ? N * (cp[0] - f->cx) / f->Ix : 0.0;
+  k[1] = linear ? N * (cp[1] - f->cy) / f->Iy : 0.0;
 }
 
 /* The primitives along an edge (tau the coordinate along it, eta the constant distance
