@@ -403,6 +403,7 @@ static void crt_base_settle(crt_session *s, crt_out *o, int after_stop)
     ++s->stat[CRT_STAT_STICKS];
   }
   s->bs.mode = CRT_BASE_STICK;
+  s->bs.has_p = 0;
   for (i = 0; i < CRT_BASE_NG_STICK; ++i) s->bs.g[i] = g[i];
 }
 
@@ -484,25 +485,63 @@ static void crt_base_rows(crt_session *s, crt_out *o, double until, const double
   }
 }
 
-/* one sample of the stick: its events located in [t, t + h] */
+/* One sample of the stick: its events located in [t, t + h].  The stick's functions
+   (1 - gamma, N, the margins) depend on t alone, and a short excursion of one below 0 (a
+   break of a few ms, gamma just past 1 near its maximum) must not fall between two
+   samples.  Two rules, from the samples themselves:
+   - the step: h <= 2 g_k / r_k for every g_k > 0 falling at the observed rate r_k (the
+     secant of the last two samples; at a stick's start the previous one is taken 1/100
+     of a sample earlier).  At the linear rate the sample lands where g_k = -g_k, past a
+     crossing; approaching a minimum (g_k convex) the secant is steeper than the tangent,
+     so the sample lands before the tangent's g = -g_k: for g = b (t - tm)^2 - a the
+     tangent's step from tm - T ends at tm - a/(b T), inside the excursion |t - tm| <
+     sqrt(a/b) whenever T is past it; the steps shrink towards a minimum and grow past it
+     (at least 1e-6 of a sample: a tangency g_min = 0 exactly is not stepped into forever);
+   - the minimum: where the parabola through the last three samples has its minimum
+     inside the step, g is evaluated there too, and a value <= 0 is a crossing before it
+     (an excursion the step spans whole).
+   A sample is at most opt[CRT_OPT_HMAX]/8 long. */
 static void crt_base_stick_step(crt_session *s, crt_out *o, double t_end)
 {
-  double h = crt_min(s->opt[CRT_OPT_HMAX] / 8.0, t_end - s->t), t1, tol, shrink;
+  const double hmax = s->opt[CRT_OPT_HMAX] / 8.0;
+  double h = crt_min(hmax, t_end - s->t), t1, tol, shrink;
   double g1[CRT_BASE_NG_STICK], xi[3], first = HUGE_VAL, g[CRT_BASE_NG_STICK];
   int k, which = -1, i;
+  for (i = 0; i < 3; ++i) xi[i] = s->bs.xi[i];
+  if (!s->bs.has_p) {                      /* the previous sample: 1/100 of one earlier */
+    s->bs.tp = s->t - 1e-2 * hmax;
+    crt_base_stick_g(s, s->bs.tp, s->bs.gp, xi);
+    s->bs.has_p = 1;
+  }
+  for (k = 0; k < CRT_BASE_NG_STICK; ++k) {
+    const double r = (s->bs.gp[k] - s->bs.g[k]) / (s->t - s->bs.tp);
+    if (s->bs.g[k] > 0.0 && r > 0.0) h = crt_min(h, crt_max(2.0 * s->bs.g[k] / r, 1e-6 * hmax));
+  }
   if (!crt_base_rows_fit(s, o, crt_base_rows_before(s, s->t + h, o->cap), &shrink)) {
     if (shrink == 1.0) return;             /* (taken again, the same, with room) */
     h *= shrink;                           /* (no buffer holds its rows: a shorter sample) */
   }
   t1 = s->t + h;
   tol = 1e-15 * crt_max(1.0, fabs(t1)) + 1e-15 * s->bs.body.t_scale;
-  for (i = 0; i < 3; ++i) xi[i] = s->bs.xi[i];
   crt_base_stick_g(s, t1, g1, xi);
   for (k = 0; k < CRT_BASE_NG_STICK; ++k) {
-    if (s->bs.g[k] > 0.0 && g1[k] <= 0.0) {
-      double root;
+    double end = t1, gend = g1[k], root;
+    if (!(s->bs.g[k] > 0.0)) continue;
+    if (gend > 0.0) {                      /* a minimum inside the step: g there */
+      const double d1 = (s->bs.g[k] - s->bs.gp[k]) / (s->t - s->bs.tp);
+      const double d2 = (g1[k] - s->bs.g[k]) / h, a = (d2 - d1) / (t1 - s->bs.tp);
+      const double tv = a > 0.0 ? 0.5 * (s->t + t1) - d2 / (2.0 * a) : s->t;
+      if (tv > s->t && tv < t1) {
+        double gv[CRT_BASE_NG_STICK], xv[3];
+        for (i = 0; i < 3; ++i) xv[i] = xi[i];
+        crt_base_stick_g(s, tv, gv, xv);
+        end = tv;
+        gend = gv[k];
+      }
+    }
+    if (gend <= 0.0) {
 #define CRT_BASE_STICK_EVAL(x) (crt_base_stick_g(s, (x), g, xi), g[k])
-      CRT_BASE_ILLINOIS(s->t, s->bs.g[k], t1, g1[k], root, tol, CRT_BASE_STICK_EVAL);
+      CRT_BASE_ILLINOIS(s->t, s->bs.g[k], end, gend, root, tol, CRT_BASE_STICK_EVAL);
 #undef CRT_BASE_STICK_EVAL
       if (root < first) { first = root; which = k; }
     }
@@ -510,6 +549,8 @@ static void crt_base_stick_step(crt_session *s, crt_out *o, double t_end)
   crt_base_rows(s, o, which < 0 ? t1 : first, 0, 0);
   ++s->stat[CRT_STAT_STEPS];
   if (which < 0) {
+    s->bs.tp = s->t;
+    for (i = 0; i < CRT_BASE_NG_STICK; ++i) s->bs.gp[i] = s->bs.g[i];
     s->t = t1;
     for (i = 0; i < CRT_BASE_NG_STICK; ++i) s->bs.g[i] = g1[i];
     for (i = 0; i < 3; ++i) s->bs.xi[i] = xi[i];
@@ -525,6 +566,7 @@ static void crt_base_stick_step(crt_session *s, crt_out *o, double t_end)
   crt_event(o, s->t, CRT_EV_SLIP, 1.0 - g[0], 0.0, 0.0, 0.0);
   ++s->stat[CRT_STAT_SLIPS];
   if (!crt_base_onset(s)) {                /* no slip after all: the stick goes on */
+    s->bs.has_p = 0;
     for (i = 0; i < CRT_BASE_NG_STICK; ++i) s->bs.g[i] = g[i];
     s->bs.g[0] = crt_max(g[0], 0.0);
     return;

@@ -70,6 +70,8 @@ typedef struct {
   double uf[MODEL_MOMENTS_COUNT];         /* evaluation of the law (-1: none) */
   double xi[3];                           /* the gauge's last maximiser (a warm start) */
   double g[4];                            /* the stick's event functions at t */
+  double tp, gp[4];                       /* and at the previous sample (the stick's rate) */
+  int has_p;                              /* 1: tp, gp hold a sample */
   double eps;                             /* the slip ends at rho = eps */
   double hs;                              /* the slip's step in s or t (0: to be chosen) */
   int line;                               /* 1: a slip along one line in t (crt_base.h) */
