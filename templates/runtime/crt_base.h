@@ -203,7 +203,8 @@ static double crt_base_step(crt_session *s, const double *z0, const double *f0, 
     err3 += (e3 / sc) * (e3 / sc);
     err5 += (e5 / sc) * (e5 / sc);
   }
-  denom = err5 + 0.01 * err3;
+  denom = err5 + 0.01 * err3;            /* (a stage's overflow: NaN, a rejection) */
+  if (!(denom - denom == 0.0)) return HUGE_VAL;
   return denom > 0.0 ? fabs(h) * err5 / sqrt(denom * CRT_BASE_NZ) : 0.0;
 }
 
@@ -579,7 +580,7 @@ static void crt_base_slip_step(crt_session *s, crt_out *o, double t_end)
 {
   double z0[CRT_BASE_NZ], f0[CRT_BASE_NZ], z1[CRT_BASE_NZ], f1[CRT_BASE_NZ], zt[CRT_BASE_NZ];
   double ft[CRT_BASE_NZ], k[16][CRT_BASE_NZ], F[7][CRT_BASE_NZ], g0[CRT_BASE_NG];
-  double g1[CRT_BASE_NG], gt[CRT_BASE_NG], N, cp[2], rho, err, hs, first = HUGE_VAL;
+  double g1[CRT_BASE_NG], gt[CRT_BASE_NG], N, cp[2], rho, err, hs, span, first = HUGE_VAL;
   int k_, which = -1, i, dense = 0, same;
   z0[0] = s->t;
   for (i = 0; i < NQ; ++i) z0[1 + i] = s->q[i];
@@ -614,15 +615,27 @@ static void crt_base_slip_step(crt_session *s, crt_out *o, double t_end)
     err = crt_base_step(s, z0, f0, hs, k, z1, f1, &N, cp, &rho);
     if (s->bs.line && s->bs.lateral > 1e-12) {
       /* the flow turns off the line: this slip in s from here (the step in s that covers
-         as much time) */
+         as much time at the start's rate, at most a slip's first step: a slip from rest
+         starts at rho ~ 1e-9, and grows exponentially in s) */
       s->bs.line = 0;
       s->bs.fsal = 0;
-      s->bs.hs = hs / crt_max(crt_base_rho(&s->bs.body, s->q), 1e-300);
+      s->bs.hs = crt_min(hs, 1e-3 * s->bs.body.t_scale)
+                 / crt_max(crt_base_rho(&s->bs.body, s->q), 1e-300);
       return;
     }
-    if (err <= 1.0 && crt_finite(z1 + 1) && z1[0] - z1[0] == 0.0) break;
+    /* a step covers at most opt[CRT_OPT_HMAX] of time: in s, a step from a slip's tiny
+       start (rho ~ 1e-9: a slip from rest that turned off its line at once) can cover an
+       exponential growth of rho in s, to 1e89 with an error norm below 1 (relative to
+       z1's own size); a longer one is shrunk by hmax over its time (less than the share
+       that fits: t grows faster than linearly in s while rho grows), by 1e-3 at most */
+    span = z1[0] - z0[0];
+    if (err <= 1.0 && crt_finite(z1 + 1) && span - span == 0.0 && span <= s->opt[CRT_OPT_HMAX])
+      break;
     ++s->stat[CRT_STAT_REJECTED];
-    hs *= (err > 1.0 && err - err == 0.0) ? crt_max(0.2, 0.9 * pow(err, -0.125)) : 0.25;
+    if (span - span == 0.0 && span > s->opt[CRT_OPT_HMAX])
+      hs *= crt_max(1e-3, crt_min(0.9 * s->opt[CRT_OPT_HMAX] / span, 0.9));
+    else
+      hs *= (err > 1.0 && err - err == 0.0) ? crt_max(0.2, 0.9 * pow(err, -0.125)) : 0.25;
     if (hs * crt_max(f0[0], 1e-300) < 1e-14 * s->bs.body.t_scale) {
       s->status = CRT_STEP_UNDERFLOW;
       return;
