@@ -112,11 +112,11 @@ def face_on(shape: str, size, center, n) -> Face:
         raise ValueError(f"the vertical {n.tolist()} is along no face normal of "
                          f"{shapes.with_article(shape)}")
     sign = 1.0 if n[k] > 0 else -1.0
-    e = np.eye(3)
-    third = sign * e[k]
-    first = e[(k + 1) % 3]
-    second = np.cross(third, first)
-    Q = np.vstack([first, second, third])
+    third, first, second = [0.0] * 3, [0.0] * 3, [0.0] * 3
+    third[k] = sign                              # sign e_k
+    first[(k + 1) % 3] = 1.0                     # e_(k+1)
+    second[(k + 2) % 3] = sign                   # third x first
+    Q = np.array([first, second, third])
     c = Q @ np.asarray(center, dtype=float)
     if shape == "box":
         ext = np.abs(Q) @ np.asarray(size, dtype=float)

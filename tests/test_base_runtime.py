@@ -5,6 +5,8 @@ integrator written apart (derive/base_reference.py), on scenes read as a user wr
 
 * 1-D stick-slip of a box (x = A (sin W t + 0.4 sin 2 W t), mu_s = 0.35 > mu = 0.3):
   every event's kind and time to 1e-9, X at each stop to 1e-9 (0.478 mm net a period);
+* the same box at mu_s = 0.13, mu = 0.12, which slides back at once where it stops:
+  every event and X there to 1e-9;
 * a disc spinning down: the stop at J w0/((2/3) mu N R) to 1e-9, having turned w0 t*/2;
 * lift-off: a point thrown upward so that N = (M + m) g + m z'' reaches 0 at the
   closed-form time;
@@ -91,6 +93,29 @@ def test_a_box_crawls_by_stick_and_slip_as_the_closed_form_says():
     assert np.abs(np.array(X) - [e[2] for e in stops]).max() < 1e-9
     sticks = np.array([x for x, e in zip(X, stops) if e[1] == "stick"])
     assert abs((sticks[2:] - sticks[:-2])[0] - 4.7774e-4) < 1e-7
+
+
+def test_on_low_friction_the_box_reverses_as_the_closed_form_says(monkeypatch):
+    """mu_s = 0.13 > mu = 0.12: the slip stops where the rest would need more than mu_s N,
+    and slides back at once (a reversal: the stop along a line, then a slip the other
+    way).  (At mu_s = mu the closed form's slip starts with zero acceleration and its
+    root finder takes the start for a stop.)"""
+    monkeypatch.setattr(cf, "MU_S", 0.13)
+    monkeypatch.setattr(cf, "MU_K", 0.12)
+    law = (f'law = ["{cf.A}*(sin({cf.W}*t) + {cf.BETA}*sin({2 * cf.W}*t))", "0", '
+           f'"{cf.Z0}"]')
+    scene = _scene(f'mass = {cf.M}\ninertia = [0.01, 0.02, 0.025]\nshape = "box"\n'
+                   'half_extents = [0.1, 0.06, 0.04]', f"mass = {cf.m}\n{law}", 0.12, 1.2)
+    raw = run_base(scene, np.zeros(6), mu_s=0.13)
+    closed = cf.closed_form_1d(1.2)
+    got = _events(raw)
+    kinds = [e[1] for e in closed]
+    assert raw.status == "done" and kinds.count("reversal") >= 3
+    assert [k for _, k in got] == kinds
+    assert np.abs(np.array([t for t, _ in got]) - [e[0] for e in closed]).max() < 1e-9
+    stops = [e for e in closed if len(e) == 3]
+    X = [raw.q[np.flatnonzero(np.abs(raw.t - t) < 1e-12)[0], 0] for t, _, _ in stops]
+    assert np.abs(np.array(X) - [e[2] for e in stops]).max() < 1e-9
 
 
 def test_a_disc_spins_down_and_stops_when_the_closed_form_says():

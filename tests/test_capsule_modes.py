@@ -153,18 +153,20 @@ def test_the_rest_holds_below_its_closed_form_boundary():
     assert types[1] != modes.AT_REST and modes.stops(results[1].events)
 
 
-# Events the base runtime does not write (reported for crt_base.h): the 1-D model has 80
-# stops in 40 periods at both cells.  At mu = 0.08, beta = 0.4 O's velocity changes sign at
-# t = 39.502 T, as it does a period earlier with the event, but no reversal is written
-# (stats["reversals"] one short).  At mu = 0.8, beta = 0.625, 1.0005 times the rest's edge,
-# the rest breaks twice a period for 4.7 ms each (1.5 % of it: phases 0.102-0.117 and
-# 0.388-0.403 in the 1-D model); the runtime never slips at the first and misses the second
-# in the first period (39 stops): a break shorter than the stick's sampling, it seems.
-@pytest.mark.xfail(strict=True, reason="the base runtime misses these stops (see above)")
+# Stops against the 1-D model at two cells where the base runtime had missed one (80 stops
+# in 40 periods at both).  At mu = 0.08, beta = 0.4 O's velocity changed sign at t = 39.502 T
+# with no reversal written, a slip in arc time ending at rho = eps; the slip along a line in
+# t (crt_base.h: its stop the sign change of the speed along the line) writes all 80, to
+# 7e-13 s.  At mu = 0.8, beta = 0.625, 1.0005 times the rest's edge, the rest breaks twice a
+# period for 4.7 ms each (1.5 % of it: phases 0.102-0.117 and 0.388-0.403 in the 1-D model),
+# shorter than the stick's sample (hmax/8, 6 ms here): the stick's samples now shrink by
+# each function's distance to 0 over its observed rate and look at the minimum inside a
+# sample (crt_base_stick_step), and all 80 are written, to 4e-10 s.
 @pytest.mark.parametrize("cell", [(0.08, 0.4), (0.8, 0.625)])
 def test_no_stop_is_missed(cell):
     (mu, beta, status, typ, ref_type, ours, theirs), = _cells_against_the_closed_form([cell])
     assert len(ours) == len(theirs)
+    assert np.abs(np.array(ours) - theirs).max() < 1e-8
 
 
 def test_the_type_is_read_from_the_last_two_periods():

@@ -9,7 +9,10 @@ header exported to ctypes).
   linear pressure: a rectangle to 1e-12 of the largest component, a disc to 1e-12.
 * The gauge: the closed forms (a force through the pressure centre |F|/(mu N), a torque
   on a centred disc |T|/((2/3) mu N R)), face.gauge's on random wrenches to 1e-10, and
-  the support property (the slip's friction at xi* is -W/gamma).
+  the support property (the slip's friction at xi* is -W/gamma); under uniform pressure
+  its bounds from the force's and the torque's parts bracket face.gauge's, the mean
+  distance they read is the D of a unit spin about the centroid (the wrench's integrals),
+  and a wrench that is one part to round-off takes the closed form, no evaluation.
 """
 import ctypes
 import math
@@ -39,6 +42,16 @@ double shim_gauge(int kind, const double *geom, double N, const double *k, doubl
   crt_face_set(&f, kind, geom[0], geom[1], geom[2], geom[3]);
   return crt_face_gauge(&f, N, k, mu, W, xi, evaluations);
 }
+double shim_bounds(int kind, const double *geom, double N, const double *k, double mu,
+                   const double *W, double *lohi)
+{
+  crt_face f;
+  int part;
+  crt_face_set(&f, kind, geom[0], geom[1], geom[2], geom[3]);
+  crt_face_gauge_bounds(&f, N, k, mu, W, lohi, lohi + 1, &part);
+  lohi[2] = part;
+  return f.rbar;
+}
 double shim_edge(int kind, const double *geom, double x, double y)
 {
   crt_face f;
@@ -66,6 +79,8 @@ def shim():
         fn = getattr(lib, name)
         fn.restype = ctypes.c_double
         fn.argtypes = [ctypes.c_int, DP, ctypes.c_double, DP, ctypes.c_double, DP, DP, *extra]
+    lib.shim_bounds.restype = ctypes.c_double
+    lib.shim_bounds.argtypes = [ctypes.c_int, DP, ctypes.c_double, DP, ctypes.c_double, DP, DP]
     lib.shim_edge.restype = ctypes.c_double
     lib.shim_edge.argtypes = [ctypes.c_int, DP, ctypes.c_double, ctypes.c_double]
     lib.shim_kern.restype = ctypes.c_double
@@ -192,3 +207,36 @@ def test_the_gauge_closed_forms_and_face_pys(shim):
             evaluations.append((count, warm))
     cold, warm = np.mean(evaluations, axis=0)
     assert warm < cold
+
+
+def test_the_gauge_bounds_bracket_it_and_the_closed_forms_take_no_evaluation(shim):
+    mu, N = 0.4, 3.0
+    for f, mode, cp in _faces():
+        if mode != "uniform":
+            continue
+        kind, geom, k = _face_args(f, N, cp, mode)
+        lohi = np.zeros(3)
+        # the mean distance from the centroid: D of the unit spin about it, over mu N
+        rbar = shim.shim_bounds(kind, _ptr(geom), N, _ptr(k), mu, _ptr(_arr([1.0, 0, 0])),
+                                _ptr(lohi))
+        c = f.centre
+        _, D = fc.centre_wrench(f, N, cp, mode, mu, (c[1], -c[0], 1.0))
+        assert math.isclose(rbar, D / (mu * N), rel_tol=1e-12)
+        fr = fc.Friction(f, N, cp, mode, mu)
+        for _ in range(8):
+            W = RNG.normal(size=3) * np.array([1, 1, f.size])
+            shim.shim_bounds(kind, _ptr(geom), N, _ptr(k), mu, _ptr(_arr(W)), _ptr(lohi))
+            gam_py, _ = fc.gauge(fr, W, f.size)
+            assert lohi[0] <= gam_py * (1 + 1e-10) and gam_py <= lohi[1] * (1 + 1e-10)
+            assert lohi[0] < lohi[1]
+        # one part alone, the other at 1e-16 of it: the closed form, with its maximiser
+        F = np.array([0.7, -0.4])
+        Tc = 1e-16 * np.hypot(*F) / (mu * N) * (mu * N * rbar)
+        for W, want in ((np.array([*F, c[0] * F[1] - c[1] * F[0] + Tc]),
+                         np.hypot(*F) / (mu * N)),
+                        (np.array([1e-17, 0.0, 0.05]), 0.05 / (mu * N * rbar))):
+            gam, xi, count = c_gauge(shim, f, N, cp, mode, mu, W)
+            gam_py, xi_py = fc.gauge(fr, W, f.size)
+            assert count == 0 and math.isclose(gam, want, rel_tol=1e-14)
+            assert math.isclose(gam, gam_py, rel_tol=1e-10)
+            assert np.allclose(xi, xi_py, atol=1e-6)

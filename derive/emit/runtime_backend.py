@@ -234,7 +234,11 @@ def tableau_context() -> dict:
                                for row in T.DOP853_A],
                    "c": [_c(v) for v in T.DOP853_C], "b_pairs": _pairs(T.DOP853_B),
                    "e3_pairs": _pairs(T.DOP853_E3), "e5_pairs": _pairs(T.DOP853_E5),
-                   "d_pairs": [_pairs(row) for row in T.DOP853_D]},
+                   "d_pairs": [_pairs(row) for row in T.DOP853_D],
+                   # the stages and the weights as full rows (crt_base_steps.h)
+                   "a": dense_rows(T.DOP853_A, 16),
+                   "e3": [_c(v) for v in T.DOP853_E3], "e5": [_c(v) for v in T.DOP853_E5],
+                   "d": [[_c(v) for v in row] for row in T.DOP853_D]},
     }
 
 

@@ -156,8 +156,20 @@ def energy(result, mo) -> dict:
     ell = face.size
     moving = np.hypot(np.hypot(Q[:, 3], Q[:, 4]), ell * Q[:, 5]) > 0.0
     rates = np.zeros_like(Q)
+    kinds = result.row_kind
+    at = Q.copy()
+    # a stop's row (before its event) reads the slip's rates as their limit from the
+    # slip's side: a slip along a line stops where its speed changes sign, so its last
+    # row's velocity is round-off of either sign (the friction's direction then reversed);
+    # the last row's direction, scaled to 1e-150, gives the limit's friction
+    for i in np.flatnonzero(kinds == abi.ROW_KIND["before_event"]):
+        if i > 0 and moving[i - 1] and float(np.dot(Q[i, 3:6], Q[i - 1, 3:6])) <= \
+                1e-3 * float(np.dot(Q[i - 1, 3:6], Q[i - 1, 3:6])):
+            v = Q[i - 1, 3:6]
+            at[i, 3:6] = 1e-150 * v / np.linalg.norm(v)
+            moving[i] = True
     if moving.any():
-        rates[moving] = result.session.rhs_rows(t[moving], Q[moving])
+        rates[moving] = result.session.rhs_rows(t[moving], at[moving])
     n_up = np.asarray(s.A0[2], dtype=float)
     a_O = np.column_stack([rates[:, 3], rates[:, 4], np.full(len(t), s.g)])  # + g e_Z
     carrier = np.einsum("nji,nj->ni", mo.A, a_O)                             # A^T (...)
@@ -172,7 +184,6 @@ def energy(result, mo) -> dict:
             twist = (c * Q[i, 3] + sn * Q[i, 4], -sn * Q[i, 3] + c * Q[i, 4], Q[i, 5])
             friction[i] = -faces.centre_wrench(face, float(N[i]), None, "uniform",
                                                s.friction, twist)[1]
-    kinds = result.row_kind
     cuts = [0]
     for i in range(1, len(t) - 1):
         if kinds[i] == abi.ROW_KIND["before_event"]:

@@ -133,6 +133,18 @@ def offsets(scene, mo: Moments) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return mo.s / mt, mo.sd / mt, mo.sdd / mt
 
 
+def offsets_at(scene, t) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """OC, OC', OC'' at the times ``t`` (rows, body axes): offsets of the moments of the
+    bodies there; of one point, m (r, r', r'')/(M + m) straight from its law's jets (the
+    same numbers, without the moments' other entries)."""
+    if not scene.one_point:
+        return offsets(scene, moments(along(scene, t)))
+    jets = scene.law.jets(np.asarray(t, dtype=float))
+    mt = scene.M + scene.m
+    return tuple(scene.m * jets[list(k)].T / mt for k in (layout.JET_R, layout.JET_V,
+                                                         layout.JET_A))
+
+
 def inertia(scene, mo: Moments) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """(J, J', k, k') of K = J omega + k about C, along rows."""
     mt = scene.M + mo.m

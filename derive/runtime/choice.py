@@ -37,7 +37,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import abi, face as faces, layout, shapes
-from .geometry import kinetic_moment, lowest_point_numeric, momentum_frame, rotation_x, rotation_z
+from .geometry import (cross, kinetic_moment, lowest_point_numeric, momentum_frame, rotation_x,
+                       rotation_z)
 from ..scene import Scene, SceneError
 from ..scene.rules import most
 
@@ -69,17 +70,17 @@ def _translational_reason(scene: Scene, still: bool) -> str | None:
         return None
     _, vals = _samples(scene)
     r, a = vals[list(layout.JET_R)], vals[list(layout.JET_A)]
-    cross = np.cross(r.T, a.T)
+    ra = cross(r.T, a.T)
     scale = max(np.max(np.linalg.norm(r, axis=0)) * np.max(np.linalg.norm(a, axis=0)), 1e-300)
-    if np.max(np.abs(cross)) > 1e-12 * scale:
+    if np.max(np.abs(ra)) > 1e-12 * scale:
         return None
     why = "omega(0) = 0 and the law satisfies (2.1), OP x A_r = 0 (C2.1, C2.3)"
     if scene.contact_possible:
         n0 = scene.A0[2]
-        rn = np.cross(r.T, n0)
+        rn = cross(r.T, n0)
         size = max(max(scene.size), np.max(np.linalg.norm(r, axis=0)), 1e-300)
         s0 = lowest_point_numeric(scene, n0)
-        if np.max(np.abs(rn)) > 1e-12 * size or np.max(np.abs(np.cross(s0, n0))) > 1e-12 * size:
+        if np.max(np.abs(rn)) > 1e-12 * size or np.max(np.abs(cross(s0, n0))) > 1e-12 * size:
             return None
         why += "; P and S stay on the vertical through O, so d = 0 at impacts (C2.4)"
     return why
@@ -120,7 +121,7 @@ BASE_SHAPES = ("box", "cylinder")
 def _base_offset(scene: Scene) -> tuple:
     """OC and OC' at t0 (body axes): where the internal bodies put C, and how fast."""
     from . import bodies
-    c, cd, _ = bodies.offsets(scene, bodies.moments(bodies.along(scene, [scene.t0])))
+    c, cd, _ = bodies.offsets_at(scene, [scene.t0])
     return c[0], cd[0]
 
 
@@ -148,11 +149,11 @@ def base_refusal(scene: Scene) -> str | None:
         return f"[initial]'s attitude puts no face on the plane: {exc}{side}"
     n = np.asarray(scene.A0[2], dtype=float)
     w = np.asarray(scene.omega, dtype=float)
-    if np.linalg.norm(np.cross(w, n)) > 1e-12 * max(np.linalg.norm(w), 1e-300):
+    if np.linalg.norm(cross(w, n)) > 1e-12 * max(np.linalg.norm(w), 1e-300):
         return ("[initial].omega is not along the vertical (a body on its face turns only "
                 "about it)")
     c, cd = _base_offset(scene)
-    v_O = np.asarray(scene.com_velocity, dtype=float) - scene.A0 @ (np.cross(w, c) + cd)
+    v_O = np.asarray(scene.com_velocity, dtype=float) - scene.A0 @ (cross(w, c) + cd)
     scale = math.sqrt(scene.g * faces.face_on(scene.shape, scene.size, scene.center, n).size)
     if abs(v_O[2]) > 1e-12 * max(np.linalg.norm(v_O), scale):
         return (f"O starts with a vertical velocity ({v_O[2]:.3g} m/s): a body on its face "
@@ -333,7 +334,7 @@ def _base_start(scene: Scene, n0: dict) -> Start:
     c, cd = _base_offset(scene)
     w = np.asarray(scene.omega, dtype=float)
     r_O = np.asarray(scene.com, dtype=float) - A0 @ c
-    v_O = np.asarray(scene.com_velocity, dtype=float) - A0 @ (np.cross(w, c) + cd)
+    v_O = np.asarray(scene.com_velocity, dtype=float) - A0 @ (cross(w, c) + cd)
     F = A0 @ face.frame.T
     psi = math.atan2(F[1, 0], F[0, 0])
     q0 = np.array([r_O[0], r_O[1], psi, v_O[0], v_O[1], float(A0[2] @ w)])
@@ -361,9 +362,9 @@ def base_c(scene: Scene, st: Start, t, Q) -> tuple:
     run: r_C = r_O + A OC, V_C = V_O + A (omega x OC + OC')."""
     from . import bodies
     A, r_O, v_O, omega = base_pose(scene, st, t, Q)
-    c, cd, _ = bodies.offsets(scene, bodies.moments(bodies.along(scene, t)))
+    c, cd, _ = bodies.offsets_at(scene, t)
     r_C = r_O + np.einsum("nij,nj->ni", A, c)
-    v_C = v_O + np.einsum("nij,nj->ni", A, np.cross(omega, c) + cd)
+    v_C = v_O + np.einsum("nij,nj->ni", A, cross(omega, c) + cd)
     return r_C, v_C, A, omega
 
 
@@ -498,9 +499,10 @@ def height_of_c(scene: Scene, kind: str, t: float, q) -> float:
     return math.nan
 
 
-def base_c_at(scene: Scene, t: float, q) -> np.ndarray:
-    """C's position at time t from one state of the base model."""
-    st = start(scene, "base")
+def base_c_at(scene: Scene, t: float, q, st: Start | None = None) -> np.ndarray:
+    """C's position at time t from one state of the base model (``st``: the run's start,
+    if at hand)."""
+    st = start(scene, "base") if st is None else st
     return base_c(scene, st, np.array([float(t)]), np.asarray(q, dtype=float)[None])[0][0]
 
 
@@ -533,7 +535,11 @@ def start_of_c(scene) -> np.ndarray:
 def travel(kind: str, t0, t_end, q, c0, scenes=None) -> dict:
     """Where C ends horizontally and how far it went from its start (the net horizontal
     displacement), of one run or entry by entry (``scenes``: horizontal_of_c's)."""
-    x, y = horizontal_of_c(kind, t0, t_end, q, c0, scenes)
+    return displacement(*horizontal_of_c(kind, t0, t_end, q, c0, scenes), c0)
+
+
+def displacement(x, y, c0) -> dict:
+    """travel's columns from where C ends horizontally (x, y) and its start ``c0``."""
     c0 = np.asarray(c0, dtype=float)
     distance = np.hypot(x - c0[..., 0], y - c0[..., 1])
     one = np.ndim(distance) == 0

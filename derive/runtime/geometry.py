@@ -6,6 +6,15 @@ import numpy as np
 from .. import layout, shapes
 
 
+def cross(a, b) -> np.ndarray:
+    """a x b over the last axis, broadcast: np.cross's result without its axis handling,
+    which costs ten times the product on the few rows a study's variant reads."""
+    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    return np.stack([a[..., 1] * b[..., 2] - a[..., 2] * b[..., 1],
+                     a[..., 2] * b[..., 0] - a[..., 0] * b[..., 2],
+                     a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]], axis=-1)
+
+
 def lowest_point_numeric(scene, n) -> np.ndarray:
     """OS for the vertical ``n`` (body axes; rows or one): the support point of ``-n`` on
     the scene's shape (derive/shapes.py, the map derive.surfaces derives from)."""

@@ -109,7 +109,8 @@ def means(travel: dict, c0, t0, t_end) -> dict:
 class Part:
     """Variants of one model and law, their inputs built (one entry or row per variant).
     ``scenes``: their Scenes, where Z_C at the end needs them (the axisymmetric model's
-    state does not hold it; the per-variant path's parts only)."""
+    state does not hold it; the per-variant path's parts only), and ``starts`` their
+    models' starts (choice.Start: the base model's places C from them)."""
     kind: str
     law: object
     index: np.ndarray          # the variants' numbers in the study
@@ -120,6 +121,7 @@ class Part:
     prm: np.ndarray
     c0: np.ndarray             # C's start (X, Y, Z, X', Y', Z') per variant: its travel
     scenes: list | None = None
+    starts: list | None = None
 
     def __len__(self) -> int:
         return len(self.index)
@@ -128,7 +130,7 @@ class Part:
         """The part in chunks of at most ``size`` variants."""
         return [Part(self.kind, self.law, *(a[k:k + size] for a in (
                     self.index, self.t0, self.t_end, self.q0, self.opt, self.prm, self.c0)),
-                     None if self.scenes is None else self.scenes[k:k + size])
+                     *(None if x is None else x[k:k + size] for x in (self.scenes, self.starts)))
                 for k in range(0, len(self), size)]
 
 
@@ -261,11 +263,19 @@ def run_part(part: Part, ready: list) -> dict:
     cols["first_contact_t"][:] = out["first_contact"]
     if part.scenes is None:                 # a model whose state holds Z_C (or attitude)
         cols["Z_C_end"][:] = choice.height_of_c(None, part.kind, last[:, 0], last[:, 1:])
+        travel = choice.travel(part.kind, part.t0, last[:, 0], last[:, 1:], part.c0)
+    elif part.kind == "base":               # C = O + A OC at each run's end, once
+        starts = part.starts or [None] * len(part.scenes)
+        ends = np.array([choice.base_c_at(sc, float(r[0]), r[1:], st)
+                         for sc, r, st in zip(part.scenes, last, starts)]).reshape(-1, 3)
+        cols["Z_C_end"][:] = ends[:, 2]
+        travel = choice.displacement(ends[:, 0], ends[:, 1], part.c0)
     else:
         cols["Z_C_end"][:] = [choice.height_of_c(sc, part.kind, float(r[0]), r[1:])
                               for sc, r in zip(part.scenes, last)]
-    for name, col in choice.travel(part.kind, part.t0, last[:, 0], last[:, 1:], part.c0,
-                                   part.scenes).items():
+        travel = choice.travel(part.kind, part.t0, last[:, 0], last[:, 1:], part.c0,
+                               part.scenes)
+    for name, col in travel.items():
         cols[name][:] = col
     for name, col in means(cols, part.c0, part.t0, last[:, 0]).items():
         cols[name][:] = col
@@ -311,7 +321,8 @@ def run_singles(base: dict, origin, items: list, keep: str, ready: list) -> tupl
                     np.array([p.scene.t0 + p.scene.duration for p in preps]),
                     np.array([p.start.q0 for p in preps]), np.array([p.options for p in preps]),
                     np.array([p.parameters for p in preps]),
-                    np.array([choice.start_of_c(p.scene) for p in preps]), [p.scene for p in preps])
+                    np.array([choice.start_of_c(p.scene) for p in preps]), [p.scene for p in preps],
+                    [p.start for p in preps])
         got = run_part(part, ready)
         at = np.array([k for k, _, _ in members])
         for name, col in got.items():

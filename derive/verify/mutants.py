@@ -99,6 +99,8 @@ UNIT_TESTS = {
         _BODIES + "test_the_examples_of_several_bodies_do_what_the_readme_says",
     ),
     "model_moments.c": ("tests/test_multibody.py",),
+    "model_base.c": ("tests/test_base_runtime.py", "tests/test_crt_face.py",
+                     "tests/test_base_scene.py"),
     "model_vertical.c": ("tests/test_runtime.py", "tests/test_bouncing.py",
                          "tests/test_lie_runtime.py"),
     "model_attitude.c": ("tests/test_runtime.py", "tests/test_lie_runtime.py"),

@@ -32,6 +32,8 @@
 typedef struct {
   crt_face face;
   double Q[9];                  /* rows: the face frame's axes in body axes */
+  int qcol[3];                  /* Q as a signed permutation: row i is qsign[i] e_qcol[i] */
+  double qsign[3];
   double pf[6];                 /* base_*'s p: M, m, J_x, J_y, J_z (face frame), g */
   double h;                     /* O's height above the plane */
   double mu, mu_s;              /* the kinetic and the static coefficient */
@@ -62,6 +64,9 @@ static int crt_base_body_set(crt_base_body *b, const double *prm)
   b->Q[(k + 1) % 3] = 1.0;
   b->Q[3 + (k + 2) % 3] = sign;
   b->Q[6 + k] = sign;
+  for (i = 0; i < 3; ++i)
+    for (j = 0; j < 3; ++j)
+      if (b->Q[3 * i + j] != 0.0) { b->qcol[i] = j; b->qsign[i] = b->Q[3 * i + j]; }
   for (i = 0; i < 3; ++i) {
     c[i] = 0.0;
     for (j = 0; j < 3; ++j) c[i] += b->Q[3 * i + j] * prm[CRT_P_center_x + j];
@@ -99,35 +104,25 @@ static int crt_base_body_set(crt_base_body *b, const double *prm)
 
 /* The moments u (body axes, derive/layout.py's MOMENTS) in the face frame: each vector
    (MODEL_MOMENTS_VECTORS) turned by Q, each symmetric tensor's upper triangle
-   (MODEL_MOMENTS_TENSORS, entries 00 01 02 11 12 22) by Q . Q^T. */
+   (MODEL_MOMENTS_TENSORS, entries 00 01 02 11 12 22) by Q . Q^T -- Q a signed permutation,
+   so each entry is one entry of u with a sign: (Q S Q^T)_rc = sign_r sign_c S_(col_r col_c) */
 static void crt_base_face_moments(const crt_base_body *b, const double *u, double *uf)
 {
   static const int vectors[] = MODEL_MOMENTS_VECTORS;
   static const int tensors[] = MODEL_MOMENTS_TENSORS;
   static const int row[6] = {0, 0, 0, 1, 1, 2}, col[6] = {0, 1, 2, 1, 2, 2};
-  const double *Q = b->Q;
-  int v, i, j, a, c;
+  static const int upper[3][3] = { {0, 1, 2}, {1, 3, 4}, {2, 4, 5} };   /* S_ij's entry */
+  int v, i;
   for (v = 0; v < (int)(sizeof vectors / sizeof vectors[0]); ++v) {
     const int o = vectors[v];
-    for (i = 0; i < 3; ++i)
-      uf[o + i] = Q[3 * i] * u[o] + Q[3 * i + 1] * u[o + 1] + Q[3 * i + 2] * u[o + 2];
+    for (i = 0; i < 3; ++i) uf[o + i] = b->qsign[i] * u[o + b->qcol[i]];
   }
   for (v = 0; v < (int)(sizeof tensors / sizeof tensors[0]); ++v) {
     const int o = tensors[v];
-    double S[9];
-    for (i = 0; i < 6; ++i) {
-      S[3 * row[i] + col[i]] = u[o + i];
-      S[3 * col[i] + row[i]] = u[o + i];
-    }
-    for (i = 0; i < 6; ++i) {              /* (Q S Q^T)_(row, col) */
-      double acc = 0.0;
-      for (a = 0; a < 3; ++a)
-        for (c = 0; c < 3; ++c)
-          acc += Q[3 * row[i] + a] * S[3 * a + c] * Q[3 * col[i] + c];
-      uf[o + i] = acc;
-    }
+    for (i = 0; i < 6; ++i)
+      uf[o + i] = b->qsign[row[i]] * b->qsign[col[i]]
+                  * u[o + upper[b->qcol[row[i]]][b->qcol[col[i]]]];
   }
-  (void)j;
 }
 
 /* The pressure's gradient k over the face under N with its centre at cp (0: uniform) */

@@ -13,24 +13,35 @@
  *    by its Taylor series (twist = G0 d + G1 d^2/2 until it reaches 1e2 eps);
  *  - stick: the state is constant; the event functions 1 - gamma, N, the centre of
  *    pressure's edge margin and (linear pressure) its kern margin are sampled every
- *    opt[CRT_OPT_HMAX]/8 and a sign change is located by the Illinois method (break-away:
- *    the slip starts; N: status lift_off; the edge: status tipping; the kern: status
- *    face_lifting);
- *  - slip: integrated in the time s with dt/ds = rho = |(V_O, ell psi')| (the state z = (t,
- *    q)), so the end of the slip is approached without the friction's direction flipping:
- *    rho decays exponentially in s, the event rho = eps (1e-11 sqrt(g ell)) ends it and
- *    the linear decay's last rho/|rho'| is added; then rest (a stick, or a reversal).  Each
- *    step DOPRI5 (the tableau of crt_base_steps.h) with the error of rtol, atol on z; the
- *    events (t_end, the stop, N, the edge, the kern) located inside a step by re-stepping
- *    from its start (Illinois on the step's fraction).
+ *    opt[CRT_OPT_HMAX]/8 (gamma by the gauge's bounds where they put it below 1 - 1e-3,
+ *    under uniform pressure) and a sign change is located by the Illinois method
+ *    (break-away: the slip starts; N: status lift_off; the edge: status tipping; the kern:
+ *    status face_lifting);
+ *  - slip, along a line (s->bs.line): while the scaled twist xi = (V_O, ell psi') keeps
+ *    its direction d (a translation along a fixed line, a spin in place: the flow's part
+ *    off d below 1e-12 of it at every stage), integrated in t with the friction of d held,
+ *    which is the slip's own friction while xi.d > 0 and smooth through 0, so the stop is
+ *    the sign change of xi.d, located as the other events, and xi = 0 there (under linear
+ *    pressure the friction of d at its consistent centre of pressure, as in s);
+ *  - slip, else: integrated in the time s with dt/ds = rho = |xi| (the state z = (t, q)),
+ *    so the end of the slip is approached without the friction's direction flipping: rho
+ *    decays exponentially in s, the event rho = eps (1e-11 sqrt(g ell)) ends it and the
+ *    linear decay's last rho/|rho'| is added.  A slip starts along a line and goes on in s
+ *    from the first step whose flow turns off it.
+ *    After a stop: rest (a stick, or a reversal).  Each step DOP853 (the tableau of
+ *    crt_base_steps.h, Hairer's error norm and step control) with the error of rtol, atol
+ *    on z, the first step of a slip along a line the last such slip's; the events (t_end,
+ *    the stop, N, the edge, the kern) located inside a step on DOP853's dense output
+ *    (Illinois on the step's fraction), the state at an event the dense output's there.
  * A run never goes on past lift-off, tipping or the face lifting: it stops there with that
- * status and an event at its time.  The closed loop (crt_set_control) is refused (CRT_BAD_CONTROL).
+ * status and an event at its time.  The closed loop (crt_set_control) is refused
+ * (CRT_BAD_CONTROL).
  */
 #ifndef CRT_BASE_H
 #define CRT_BASE_H
 
 #include "crt_control.h"
-#include "crt_base_steps.h"       /* crt_base_a, crt_base_c, crt_base_e */
+#include "crt_base_steps.h"       /* crt_base_a, crt_base_e5, crt_base_e3: DOP853 */
 
 #define CRT_BASE_NZ (NQ + 1)      /* the slip's state in s: (t, q) */
 
@@ -59,6 +70,8 @@ static void crt_rhs(crt_session *s, double t, const double *q, double *dq)
   crt_base_rates(&s->bs.body, crt_base_u(s, t), q, 0, dq, &N, cp);
 }
 
+static void crt_base_line_start(crt_session *s);
+
 /* crt_init: the body on its face (a fault: CRT_BAD_PARAMETERS), the mode of the start */
 static void crt_contact_start(crt_session *s)
 {
@@ -71,6 +84,9 @@ static void crt_contact_start(crt_session *s)
   if (crt_base_rho(&s->bs.body, s->q) <= s->bs.eps) s->q[3] = s->q[4] = s->q[5] = 0.0;
   s->bs.mode = crt_base_rho(&s->bs.body, s->q) > 0.0 ? CRT_BASE_SLIP : CRT_BASE_REST;
   s->bs.hs = 0.0;
+  s->bs.ht = 0.0;
+  s->bs.fsal = 0;
+  crt_base_line_start(s);
   s->phase = CRT_CONTACT;
   if (fault >= 0) {
     s->bad_parameter = fault;
@@ -84,29 +100,90 @@ static double crt_first_step(crt_session *s)
   return 1e-3 * s->bs.body.t_scale;
 }
 
-/* ---- the slip in s ---------------------------------------------------------------------- */
-/* dz/ds at z = (t, q), with N, cp and rho */
+/* ---- the slip ---------------------------------------------------------------------------- */
+/* The slip's scaled twist in the face frame, xi = (v_x, v_y, ell w), at q */
+static void crt_base_xi(const crt_base_body *b, const double *q, double *xi)
+{
+  double sn, cs;
+  crt_sincos(q[2], &sn, &cs);
+  xi[0] = cs * q[3] + sn * q[4];
+  xi[1] = -sn * q[3] + cs * q[4];
+  xi[2] = b->ell * q[5];
+}
+
+/* Along the line d at (q, dq): the signed speed xi.d, and how far the flow of xi turns off
+   the line, |xi' - (xi'.d) d| / |xi'| (0 when xi' = 0), xi' = (a_f + w (v_y, -v_x), ell w'),
+   a_f O's acceleration in the face frame (the frame turns with psi) */
+static double crt_base_line_flow(const crt_base_body *b, const double *q, const double *dq,
+                                 const double *d, double *speed)
+{
+  double sn, cs, vx, vy, G[3], along, lat = 0.0, nG = 0.0;
+  int i;
+  crt_sincos(q[2], &sn, &cs);
+  vx = cs * q[3] + sn * q[4];
+  vy = -sn * q[3] + cs * q[4];
+  *speed = vx * d[0] + vy * d[1] + b->ell * q[5] * d[2];
+  G[0] = cs * dq[3] + sn * dq[4] + q[5] * vy;
+  G[1] = -sn * dq[3] + cs * dq[4] - q[5] * vx;
+  G[2] = b->ell * dq[5];
+  along = G[0] * d[0] + G[1] * d[1] + G[2] * d[2];
+  for (i = 0; i < 3; ++i) {
+    const double r = G[i] - along * d[i];
+    lat += r * r;
+    nG += G[i] * G[i];
+  }
+  return nG > 0.0 ? sqrt(lat / nG) : 0.0;
+}
+
+/* A slip from q starts along one line: its direction xi/|xi| (face frame) */
+static void crt_base_line_start(crt_session *s)
+{
+  double xi[3], n;
+  int i;
+  crt_base_xi(&s->bs.body, s->q, xi);
+  s->bs.fsal = 0;                          /* (the last step's rate: another direction's) */
+  n = sqrt(xi[0] * xi[0] + xi[1] * xi[1] + xi[2] * xi[2]);
+  s->bs.line = n > 0.0;
+  for (i = 0; i < 3; ++i) s->bs.dir[i] = n > 0.0 ? xi[i] / n : 0.0;
+}
+
+/* The slip's rate at z = (t, q), with N, cp and rho.  Along a line (s->bs.line): in t,
+   dz/dt = (1, dq/dt) with the friction of the held direction dir (the slip's own while
+   xi stays on its line, and smooth through xi = 0), rho the signed speed xi.dir, and
+   s->bs.lateral the largest turn of the flow off the line.  Else in s, dz/ds = rho (1,
+   dq/dt) with the slip's own friction, rho = |xi|. */
 static void crt_base_zrhs(crt_session *s, const double *z, double *dz, double *N, double *cp,
                           double *rho)
 {
   double dq[NQ];
   int i;
   ++s->stat[CRT_STAT_RHS_EVALUATIONS];
+  if (s->bs.line) {
+    double lat;
+    crt_base_rates(&s->bs.body, crt_base_u(s, z[0]), z + 1, s->bs.dir, dq, N, cp);
+    lat = crt_base_line_flow(&s->bs.body, z + 1, dq, s->bs.dir, rho);
+    if (lat > s->bs.lateral) s->bs.lateral = lat;
+    dz[0] = 1.0;
+    for (i = 0; i < NQ; ++i) dz[1 + i] = dq[i];
+    return;
+  }
   crt_base_rates(&s->bs.body, crt_base_u(s, z[0]), z + 1, 0, dq, N, cp);
   *rho = crt_base_rho(&s->bs.body, z + 1);
   dz[0] = *rho;
   for (i = 0; i < NQ; ++i) dz[1 + i] = *rho * dq[i];
 }
 
-/* one DOPRI5 step of h in s from z0 (f0 its rate): z1, f1 and N, cp, rho at z1; returns
-   the error norm */
+/* one DOP853 step of h (in s, or in t along a line) from z0 (f0 its rate): z1, f1 and N,
+   cp, rho at z1, the stages in k; returns the error norm (Hairer's: the 5th-order
+   estimate, tempered by the 3rd-order one) */
 static double crt_base_step(crt_session *s, const double *z0, const double *f0, double h,
-                            double *z1, double *f1, double *N, double *cp, double *rho)
+                            double (*k)[CRT_BASE_NZ], double *z1, double *f1, double *N,
+                            double *cp, double *rho)
 {
-  double k[7][CRT_BASE_NZ], tmp[CRT_BASE_NZ], err = 0.0;
+  double tmp[CRT_BASE_NZ], err3 = 0.0, err5 = 0.0, denom;
   int i, j, st;
   for (i = 0; i < CRT_BASE_NZ; ++i) k[0][i] = f0[i];
-  for (st = 1; st < 7; ++st) {
+  for (st = 1; st < 13; ++st) {            /* the stage 12 is at z1 (FSAL) */
     for (i = 0; i < CRT_BASE_NZ; ++i) {
       double acc = 0.0;
       for (j = 0; j < st; ++j) acc += crt_base_a[st][j] * k[j][i];
@@ -114,24 +191,69 @@ static double crt_base_step(crt_session *s, const double *z0, const double *f0, 
     }
     crt_base_zrhs(s, tmp, k[st], N, cp, rho);
   }
-  for (i = 0; i < CRT_BASE_NZ; ++i) {        /* the stage 6 is at z1 (FSAL) */
-    double e = 0.0, sc;
+  for (i = 0; i < CRT_BASE_NZ; ++i) {
+    double e3 = 0.0, e5 = 0.0, sc;
     z1[i] = tmp[i];
-    f1[i] = k[6][i];
-    for (j = 0; j < 7; ++j) e += crt_base_e[j] * k[j][i];
+    f1[i] = k[12][i];
+    for (j = 0; j < 13; ++j) {
+      e3 += crt_base_e3[j] * k[j][i];
+      e5 += crt_base_e5[j] * k[j][i];
+    }
     sc = s->opt[CRT_OPT_ATOL] + s->opt[CRT_OPT_RTOL] * crt_max(fabs(z0[i]), fabs(z1[i]));
-    err += (h * e / sc) * (h * e / sc);
+    err3 += (e3 / sc) * (e3 / sc);
+    err5 += (e5 / sc) * (e5 / sc);
   }
-  return sqrt(err / CRT_BASE_NZ);
+  denom = err5 + 0.01 * err3;            /* (a stage's overflow: NaN, a rejection) */
+  if (!(denom - denom == 0.0)) return HUGE_VAL;
+  return denom > 0.0 ? fabs(h) * err5 / sqrt(denom * CRT_BASE_NZ) : 0.0;
 }
 
-/* the slip's event functions at a state: t_end - t, rho - eps, N, the edge margin, the
-   kern margin (linear pressure; 1 under uniform pressure: no event) */
+/* DOP853's dense output of the step of h from z0 to z1 (its 13 stages in k): the three
+   extra stages, then F (7 rows), z(x) = z0 + x (F0 + (1 - x) (F1 + x (F2 + ...))) */
+static void crt_base_dense(crt_session *s, const double *z0, const double *z1, double h,
+                           double (*k)[CRT_BASE_NZ], double (*F)[CRT_BASE_NZ])
+{
+  double tmp[CRT_BASE_NZ], N, cp[2], rho;
+  int i, j, st, r;
+  for (st = 13; st < 16; ++st) {
+    for (i = 0; i < CRT_BASE_NZ; ++i) {
+      double acc = 0.0;
+      for (j = 0; j < st; ++j) acc += crt_base_a[st][j] * k[j][i];
+      tmp[i] = z0[i] + h * acc;
+    }
+    crt_base_zrhs(s, tmp, k[st], &N, cp, &rho);
+  }
+  for (i = 0; i < CRT_BASE_NZ; ++i) {
+    const double dz = z1[i] - z0[i];
+    F[0][i] = dz;
+    F[1][i] = h * k[0][i] - dz;
+    F[2][i] = 2.0 * dz - h * (k[0][i] + k[12][i]);
+    for (r = 0; r < 4; ++r) {
+      double acc = 0.0;
+      for (j = 0; j < 16; ++j) acc += crt_base_d[r][j] * k[j][i];
+      F[3 + r][i] = h * acc;
+    }
+  }
+}
+
+/* z at the fraction x of the step from the dense output */
+static void crt_base_interp(const double *z0, double (*F)[CRT_BASE_NZ], double x, double *z)
+{
+  const double y = 1.0 - x;
+  int i;
+  for (i = 0; i < CRT_BASE_NZ; ++i)
+    z[i] = z0[i] + x * (F[0][i] + y * (F[1][i] + x * (F[2][i] + y * (F[3][i]
+           + x * (F[4][i] + y * (F[5][i] + x * F[6][i]))))));
+}
+
+/* the slip's event functions at a state: t_end - t, the stop (rho - eps in s; along a line
+   the signed speed rho), N, the edge margin, the kern margin (linear pressure; 1 under
+   uniform pressure: no event) */
 static void crt_base_slip_g(const crt_session *s, double t_end, const double *z, double N,
                             const double *cp, double rho, double *g)
 {
   g[CRT_BASE_END] = t_end - z[0];
-  g[CRT_BASE_STOP] = rho - s->bs.eps;
+  g[CRT_BASE_STOP] = s->bs.line ? rho : rho - s->bs.eps;
   g[CRT_BASE_LIFT] = N;
   g[CRT_BASE_TIP] = crt_face_edge_margin(&s->bs.body.face, cp[0], cp[1]);
   g[CRT_BASE_KERN] = s->bs.body.linear ? crt_face_kern_margin(&s->bs.body.face, cp[0], cp[1])
@@ -140,15 +262,24 @@ static void crt_base_slip_g(const crt_session *s, double t_end, const double *z,
 
 /* ---- the rest ------------------------------------------------------------------------------ */
 /* the stick's event functions at t (the state is constant): 1 - gamma, N, the edge
-   margin, the kern margin (linear pressure, whose slope the gauge reads; else 1) */
+   margin, the kern margin (linear pressure, whose slope the gauge reads; else 1).  Where
+   the gauge's bounds (crt_face_gauge_bounds) put gamma below 1 - 1e-3, 1 - their upper
+   bound (the sign is all a sample needs, and a root is located only where gamma is near
+   1: computed there); else the gauge itself, its maximiser in xi.  The bounds hold under
+   uniform pressure only: with a nonzero slope they are (0, inf) and the gauge is
+   computed. */
 static void crt_base_stick_g(crt_session *s, double t, double *g, double *xi)
 {
-  double W[3], N, cp[2], k[2];
+  double W[3], N, cp[2], k[2], lo, hi;
+  int part;
   crt_base_rest(&s->bs.body, crt_base_u(s, t), W, &N, cp);
   ++s->stat[CRT_STAT_EVENT_FUNCTION_EVALUATIONS];
   crt_base_slope(&s->bs.body, crt_max(N, 0.0), cp, k);
-  g[0] = 1.0 - crt_face_gauge(&s->bs.body.face, crt_max(N, 0.0), k, s->bs.body.mu_s, W, xi,
-                              &s->stat[CRT_STAT_EVENT_FUNCTION_EVALUATIONS]);
+  crt_face_gauge_bounds(&s->bs.body.face, crt_max(N, 0.0), k, s->bs.body.mu_s, W, &lo, &hi,
+                        &part);
+  if (hi <= 1.0 - 1e-3) g[0] = 1.0 - hi;
+  else g[0] = 1.0 - crt_face_gauge(&s->bs.body.face, crt_max(N, 0.0), k, s->bs.body.mu_s, W,
+                                   xi, &s->stat[CRT_STAT_EVENT_FUNCTION_EVALUATIONS]);
   g[1] = N;
   g[2] = crt_face_edge_margin(&s->bs.body.face, cp[0], cp[1]);
   g[3] = s->bs.body.linear ? crt_face_kern_margin(&s->bs.body.face, cp[0], cp[1]) : 1.0;
@@ -219,6 +350,7 @@ static int crt_base_onset(crt_session *s)
   crt_changed(s);
   s->bs.mode = CRT_BASE_SLIP;
   s->bs.hs = 0.0;
+  crt_base_line_start(s);
   return 1;
 }
 
@@ -272,6 +404,7 @@ static void crt_base_settle(crt_session *s, crt_out *o, int after_stop)
     ++s->stat[CRT_STAT_STICKS];
   }
   s->bs.mode = CRT_BASE_STICK;
+  s->bs.has_p = 0;
   for (i = 0; i < CRT_BASE_NG_STICK; ++i) s->bs.g[i] = g[i];
 }
 
@@ -291,26 +424,134 @@ static void crt_base_settle(crt_session *s, crt_out *o, int after_stop)
     (root) = xb_;                                                                      \
   } while (0)
 
-/* one sample of the stick: its events located in [t, t + h] */
+/* ---- rows every output_dt ---------------------------------------------------------------- */
+/* The grid rows t_first + k output_dt (k >= out_k) before until: how many (up to cap + 1) */
+static long crt_base_rows_before(const crt_session *s, double until, long cap)
+{
+  const double out_dt = s->opt[CRT_OPT_OUTPUT_DT];
+  double k = s->out_k;
+  long n = 0;
+  if (!(out_dt > 0.0)) return 0;
+  while (s->t_first + k * out_dt < until && n <= cap) { ++n; k += 1.0; }
+  return n;
+}
+
+/* Room for n grid rows and a step's own rows (CRT_MIN_ROWS); else, with the buffer empty,
+   0 and the step too long for any buffer (*shrink: the share of it that fits), or 0 and
+   *shrink = 1: the step is taken again, the same, once the caller has emptied the buffer
+   (s->bs.full ends this call) */
+static int crt_base_rows_fit(crt_session *s, const crt_out *o, long n, double *shrink)
+{
+  const long room = (long)o->cap - (long)o->n - CRT_MIN_ROWS;
+  *shrink = 1.0;
+  if (n <= room) return 1;
+  if (o->n == 0) *shrink = crt_max((double)room, 1.0) / (double)n;
+  else s->bs.full = 1;
+  return 0;
+}
+
+/* The grid rows before until: from the step's dense output (z0, F: t at the row's fraction
+   x found by Illinois on t(x), monotone in a step), or the constant state s->q (F = 0); a
+   grid time at or before the step's start (a stop's last linear part, a slip's Taylor
+   start, 1e-9 s at most) reads its start.  A grid time at until is the step's own row. */
+static void crt_base_rows(crt_session *s, crt_out *o, double until, const double *z0,
+                          double (*F)[CRT_BASE_NZ])
+{
+  const double out_dt = s->opt[CRT_OPT_OUTPUT_DT];
+  double z[CRT_BASE_NZ];
+  if (!(out_dt > 0.0)) return;
+  while (s->next_output < until) {
+    const double at = s->next_output;
+    if (!F) {
+      crt_emit(o, at, s->q, CRT_ROW_STEP);
+    } else {
+      double x = 0.0;
+      crt_base_interp(z0, F, 1.0, z);
+      if (at > z0[0] && at < z[0]) {
+#define CRT_BASE_T_EVAL(x_) (crt_base_interp(z0, F, (x_), z), at - z[0])
+        CRT_BASE_ILLINOIS(0.0, at - z0[0], 1.0, at - z[0], x, 1e-15, CRT_BASE_T_EVAL);
+#undef CRT_BASE_T_EVAL
+      } else if (at >= z[0]) {
+        x = 1.0;
+      }
+      crt_base_interp(z0, F, x, z);
+      crt_emit(o, at, z + 1, CRT_ROW_STEP);
+    }
+    s->out_k += 1.0;
+    s->next_output = s->t_first + s->out_k * out_dt;
+  }
+  if (s->next_output == until) {
+    s->out_k += 1.0;
+    s->next_output = s->t_first + s->out_k * out_dt;
+  }
+}
+
+/* One sample of the stick: its events located in [t, t + h].  The stick's functions
+   (1 - gamma, N, the margins) depend on t alone, and a short excursion of one below 0 (a
+   break of a few ms, gamma just past 1 near its maximum) must not fall between two
+   samples.  Two rules, from the samples themselves:
+   - the step: h <= 2 g_k / r_k for every g_k > 0 falling at the observed rate r_k (the
+     secant of the last two samples; at a stick's start the previous one is taken 1/100
+     of a sample earlier).  At the linear rate the sample lands where g_k = -g_k, past a
+     crossing; approaching a minimum (g_k convex) the secant is steeper than the tangent,
+     so the sample lands before the tangent's g = -g_k: for g = b (t - tm)^2 - a the
+     tangent's step from tm - T ends at tm - a/(b T), inside the excursion |t - tm| <
+     sqrt(a/b) whenever T is past it; the steps shrink towards a minimum and grow past it
+     (at least 1e-6 of a sample: a tangency g_min = 0 exactly is not stepped into forever);
+   - the minimum: where the parabola through the last three samples has its minimum
+     inside the step, g is evaluated there too, and a value <= 0 is a crossing before it
+     (an excursion the step spans whole).
+   A sample is at most opt[CRT_OPT_HMAX]/8 long. */
 static void crt_base_stick_step(crt_session *s, crt_out *o, double t_end)
 {
-  const double h = crt_min(s->opt[CRT_OPT_HMAX] / 8.0, t_end - s->t);
-  const double t1 = s->t + h, tol = 1e-15 * crt_max(1.0, fabs(t1)) + 1e-15 * s->bs.body.t_scale;
+  const double hmax = s->opt[CRT_OPT_HMAX] / 8.0;
+  double h = crt_min(hmax, t_end - s->t), t1, tol, shrink;
   double g1[CRT_BASE_NG_STICK], xi[3], first = HUGE_VAL, g[CRT_BASE_NG_STICK];
   int k, which = -1, i;
   for (i = 0; i < 3; ++i) xi[i] = s->bs.xi[i];
+  if (!s->bs.has_p) {                      /* the previous sample: 1/100 of one earlier */
+    s->bs.tp = s->t - 1e-2 * hmax;
+    crt_base_stick_g(s, s->bs.tp, s->bs.gp, xi);
+    s->bs.has_p = 1;
+  }
+  for (k = 0; k < CRT_BASE_NG_STICK; ++k) {
+    const double r = (s->bs.gp[k] - s->bs.g[k]) / (s->t - s->bs.tp);
+    if (s->bs.g[k] > 0.0 && r > 0.0) h = crt_min(h, crt_max(2.0 * s->bs.g[k] / r, 1e-6 * hmax));
+  }
+  if (!crt_base_rows_fit(s, o, crt_base_rows_before(s, s->t + h, o->cap), &shrink)) {
+    if (shrink == 1.0) return;             /* (taken again, the same, with room) */
+    h *= shrink;                           /* (no buffer holds its rows: a shorter sample) */
+  }
+  t1 = s->t + h;
+  tol = 1e-15 * crt_max(1.0, fabs(t1)) + 1e-15 * s->bs.body.t_scale;
   crt_base_stick_g(s, t1, g1, xi);
   for (k = 0; k < CRT_BASE_NG_STICK; ++k) {
-    if (s->bs.g[k] > 0.0 && g1[k] <= 0.0) {
-      double root;
+    double end = t1, gend = g1[k], root;
+    if (!(s->bs.g[k] > 0.0)) continue;
+    if (gend > 0.0) {                      /* a minimum inside the step: g there */
+      const double d1 = (s->bs.g[k] - s->bs.gp[k]) / (s->t - s->bs.tp);
+      const double d2 = (g1[k] - s->bs.g[k]) / h, a = (d2 - d1) / (t1 - s->bs.tp);
+      const double tv = a > 0.0 ? 0.5 * (s->t + t1) - d2 / (2.0 * a) : s->t;
+      if (tv > s->t && tv < t1) {
+        double gv[CRT_BASE_NG_STICK], xv[3];
+        for (i = 0; i < 3; ++i) xv[i] = xi[i];
+        crt_base_stick_g(s, tv, gv, xv);
+        end = tv;
+        gend = gv[k];
+      }
+    }
+    if (gend <= 0.0) {
 #define CRT_BASE_STICK_EVAL(x) (crt_base_stick_g(s, (x), g, xi), g[k])
-      CRT_BASE_ILLINOIS(s->t, s->bs.g[k], t1, g1[k], root, tol, CRT_BASE_STICK_EVAL);
+      CRT_BASE_ILLINOIS(s->t, s->bs.g[k], end, gend, root, tol, CRT_BASE_STICK_EVAL);
 #undef CRT_BASE_STICK_EVAL
       if (root < first) { first = root; which = k; }
     }
   }
+  crt_base_rows(s, o, which < 0 ? t1 : first, 0, 0);
   ++s->stat[CRT_STAT_STEPS];
   if (which < 0) {
+    s->bs.tp = s->t;
+    for (i = 0; i < CRT_BASE_NG_STICK; ++i) s->bs.gp[i] = s->bs.g[i];
     s->t = t1;
     for (i = 0; i < CRT_BASE_NG_STICK; ++i) s->bs.g[i] = g1[i];
     for (i = 0; i < 3; ++i) s->bs.xi[i] = xi[i];
@@ -326,6 +567,7 @@ static void crt_base_stick_step(crt_session *s, crt_out *o, double t_end)
   crt_event(o, s->t, CRT_EV_SLIP, 1.0 - g[0], 0.0, 0.0, 0.0);
   ++s->stat[CRT_STAT_SLIPS];
   if (!crt_base_onset(s)) {                /* no slip after all: the stick goes on */
+    s->bs.has_p = 0;
     for (i = 0; i < CRT_BASE_NG_STICK; ++i) s->bs.g[i] = g[i];
     s->bs.g[0] = crt_max(g[0], 0.0);
     return;
@@ -337,12 +579,21 @@ static void crt_base_stick_step(crt_session *s, crt_out *o, double t_end)
 static void crt_base_slip_step(crt_session *s, crt_out *o, double t_end)
 {
   double z0[CRT_BASE_NZ], f0[CRT_BASE_NZ], z1[CRT_BASE_NZ], f1[CRT_BASE_NZ], zt[CRT_BASE_NZ];
-  double ft[CRT_BASE_NZ], g0[CRT_BASE_NG], g1[CRT_BASE_NG], gt[CRT_BASE_NG], N, cp[2], rho;
-  double err, hs, first = HUGE_VAL;
-  int k, which = -1, i;
+  double ft[CRT_BASE_NZ], k[16][CRT_BASE_NZ], F[7][CRT_BASE_NZ], g0[CRT_BASE_NG];
+  double g1[CRT_BASE_NG], gt[CRT_BASE_NG], N, cp[2], rho, err, hs, span, first = HUGE_VAL;
+  int k_, which = -1, i, dense = 0, same;
   z0[0] = s->t;
   for (i = 0; i < NQ; ++i) z0[1 + i] = s->q[i];
-  crt_base_zrhs(s, z0, f0, &N, cp, &rho);
+  s->bs.lateral = 0.0;
+  same = s->bs.fsal;                       /* the last step ended here: its rate (FSAL) */
+  for (i = 0; same && i < CRT_BASE_NZ; ++i) same = s->bs.fz[i] == z0[i];
+  if (same) {
+    for (i = 0; i < CRT_BASE_NZ; ++i) f0[i] = s->bs.ff[i];
+    N = s->bs.fN; cp[0] = s->bs.fcp[0]; cp[1] = s->bs.fcp[1]; rho = s->bs.frho;
+  } else {
+    crt_base_zrhs(s, z0, f0, &N, cp, &rho);
+  }
+  s->bs.fsal = 0;
   crt_base_slip_g(s, t_end, z0, N, cp, rho, g0);
   /* a stop already reached where the step starts: N or cp jumped there (the friction of
      a slip's onset against the rest's wrench moves cp at once) */
@@ -355,39 +606,87 @@ static void crt_base_slip_step(crt_session *s, crt_out *o, double t_end)
     crt_base_end(s, o, CRT_FACE_LIFTING, CRT_EV_FACE_LIFTING, g0[CRT_BASE_KERN]);
     return;
   }
-  if (!(s->bs.hs > 0.0)) s->bs.hs = 1e-3 * s->bs.body.t_scale / crt_max(rho, 1e-300);
+  if (!(s->bs.hs > 0.0))                   /* a slip's first step: along a line the last
+                                              slip's, else a thousandth of the time scale */
+    s->bs.hs = s->bs.line ? (s->bs.ht > 0.0 ? s->bs.ht : 1e-3 * s->bs.body.t_scale)
+                          : 1e-3 * s->bs.body.t_scale / crt_max(rho, 1e-300);
   hs = s->bs.hs;
   for (;;) {
-    err = crt_base_step(s, z0, f0, hs, z1, f1, &N, cp, &rho);
-    if (err <= 1.0 && crt_finite(z1 + 1) && z1[0] - z1[0] == 0.0) break;
+    err = crt_base_step(s, z0, f0, hs, k, z1, f1, &N, cp, &rho);
+    if (s->bs.line && s->bs.lateral > 1e-12) {
+      /* the flow turns off the line: this slip in s from here (the step in s that covers
+         as much time at the start's rate, at most a slip's first step: a slip from rest
+         starts at rho ~ 1e-9, and grows exponentially in s) */
+      s->bs.line = 0;
+      s->bs.fsal = 0;
+      s->bs.hs = crt_min(hs, 1e-3 * s->bs.body.t_scale)
+                 / crt_max(crt_base_rho(&s->bs.body, s->q), 1e-300);
+      return;
+    }
+    /* a step covers at most opt[CRT_OPT_HMAX] of time: in s, a step from a slip's tiny
+       start (rho ~ 1e-9: a slip from rest that turned off its line at once) can cover an
+       exponential growth of rho in s, to 1e89 with an error norm below 1 (relative to
+       z1's own size); a longer one is shrunk by hmax over its time (less than the share
+       that fits: t grows faster than linearly in s while rho grows), by 1e-3 at most */
+    span = z1[0] - z0[0];
+    if (err <= 1.0 && crt_finite(z1 + 1) && span - span == 0.0 && span <= s->opt[CRT_OPT_HMAX])
+      break;
     ++s->stat[CRT_STAT_REJECTED];
-    hs *= (err > 1.0 && err - err == 0.0) ? crt_max(0.2, 0.9 * pow(err, -0.2)) : 0.25;
+    if (span - span == 0.0 && span > s->opt[CRT_OPT_HMAX])
+      hs *= crt_max(1e-3, crt_min(0.9 * s->opt[CRT_OPT_HMAX] / span, 0.9));
+    else
+      hs *= (err > 1.0 && err - err == 0.0) ? crt_max(0.2, 0.9 * pow(err, -0.125)) : 0.25;
     if (hs * crt_max(f0[0], 1e-300) < 1e-14 * s->bs.body.t_scale) {
       s->status = CRT_STEP_UNDERFLOW;
       return;
     }
   }
-  ++s->stat[CRT_STAT_STEPS];
   crt_base_slip_g(s, t_end, z1, N, cp, rho, g1);
-  for (k = 0; k < CRT_BASE_NG; ++k) {
-    if (g0[k] > 0.0 && g1[k] <= 0.0) {
+  for (k_ = 0; k_ < CRT_BASE_NG; ++k_) {   /* located on the dense output */
+    if (g0[k_] > 0.0 && g1[k_] <= 0.0) {
       double root;
-#define CRT_BASE_SLIP_EVAL(x) (crt_base_step(s, z0, f0, (x) * hs, zt, ft, &N, cp, &rho), \
-                               crt_base_slip_g(s, t_end, zt, N, cp, rho, gt), gt[k])
-      CRT_BASE_ILLINOIS(0.0, g0[k], 1.0, g1[k], root, 1e-15, CRT_BASE_SLIP_EVAL);
+      if (!dense) crt_base_dense(s, z0, z1, hs, k, F);
+      dense = 1;
+#define CRT_BASE_SLIP_EVAL(x) (crt_base_interp(z0, F, (x), zt), \
+                               crt_base_zrhs(s, zt, ft, &N, cp, &rho), \
+                               crt_base_slip_g(s, t_end, zt, N, cp, rho, gt), gt[k_])
+      CRT_BASE_ILLINOIS(0.0, g0[k_], 1.0, g1[k_], root, 1e-15, CRT_BASE_SLIP_EVAL);
 #undef CRT_BASE_SLIP_EVAL
-      if (root < first) { first = root; which = k; }
+      if (root < first) { first = root; which = k_; }
     }
   }
-  s->bs.hs = hs * crt_min(10.0, crt_max(0.2, 0.9 * pow(crt_max(err, 1e-10), -0.2)));
+  {                                        /* the grid rows up to the step's end or event */
+    double until = z1[0], shrink;
+    long n;
+    if (which >= 0) {
+      crt_base_interp(z0, F, first, zt);
+      until = zt[0];
+    }
+    n = crt_base_rows_before(s, until, o->cap);
+    if (!crt_base_rows_fit(s, o, n, &shrink)) {
+      s->bs.fsal = same;                   /* the step again: the same start and step */
+      if (shrink < 1.0) s->bs.hs = hs * shrink;
+      return;
+    }
+    if (n > 0 && !dense) crt_base_dense(s, z0, z1, hs, k, F);
+    dense = 1;
+    crt_base_rows(s, o, until, z0, F);
+  }
+  ++s->stat[CRT_STAT_STEPS];
+  s->bs.hs = hs * crt_min(6.0, crt_max(0.333, 0.9 * pow(crt_max(err, 1e-10), -0.125)));
   if (which < 0) {
+    if (s->bs.line) s->bs.ht = s->bs.hs;
+    s->bs.fsal = 1;
+    for (i = 0; i < CRT_BASE_NZ; ++i) { s->bs.fz[i] = z1[i]; s->bs.ff[i] = f1[i]; }
+    s->bs.fN = N; s->bs.fcp[0] = cp[0]; s->bs.fcp[1] = cp[1]; s->bs.frho = rho;
     s->t = z1[0];
     for (i = 0; i < NQ; ++i) s->q[i] = z1[1 + i];
     crt_changed(s);
     crt_emit(o, s->t, s->q, CRT_ROW_STEP);
     return;
   }
-  crt_base_step(s, z0, f0, first * hs, zt, ft, &N, cp, &rho);
+  crt_base_interp(z0, F, first, zt);       /* the state there, its rate, N and cp */
+  crt_base_zrhs(s, zt, ft, &N, cp, &rho);
   s->t = zt[0];
   for (i = 0; i < NQ; ++i) s->q[i] = zt[1 + i];
   crt_changed(s);
@@ -402,6 +701,14 @@ static void crt_base_slip_step(crt_session *s, crt_out *o, double t_end)
   } else if (which == CRT_BASE_KERN) {
     crt_base_end(s, o, CRT_FACE_LIFTING, CRT_EV_FACE_LIFTING,
                  crt_face_kern_margin(&s->bs.body.face, cp[0], cp[1]));
+  } else if (s->bs.line) {                 /* the stop of a slip along a line: xi = 0 */
+    crt_emit(o, s->t, s->q, CRT_ROW_BEFORE_EVENT);
+    for (i = 3; i < NQ; ++i) s->q[i] = 0.0;
+    crt_changed(s);
+    s->bs.mode = CRT_BASE_REST;
+    crt_base_settle(s, o, 1);
+    if (s->status == CRT_PAUSED && s->bs.mode == CRT_BASE_STICK)
+      crt_emit(o, s->t, s->q, CRT_ROW_AFTER_EVENT);
   } else {                                 /* the stop: the linear decay's last part */
     const double rate = ft[0] > 0.0
         ? (s->q[3] * ft[4] + s->q[4] * ft[5] + s->bs.body.ell * s->bs.body.ell * s->q[5]
@@ -437,8 +744,10 @@ static void crt_integrate(crt_session *s, double t_end, crt_out *o)
   if (s->stat[CRT_STAT_STEPS] == 0 && s->t_first == s->t && s->out_k == 0.0) {
     crt_emit(o, s->t, s->q, CRT_ROW_STEP);
     s->out_k = 1.0;
+    s->next_output = s->t_first + s->opt[CRT_OPT_OUTPUT_DT];
   }
-  while (s->t < t_end && s->status == CRT_PAUSED) {
+  s->bs.full = 0;
+  while (s->t < t_end && s->status == CRT_PAUSED && !s->bs.full) {
     if (o->n + CRT_MIN_ROWS > o->cap || o->ev_n + CRT_MIN_EVENTS > o->ev_cap) return;
     if ((double)s->stat[CRT_STAT_STEPS] >= s->opt[CRT_OPT_MAX_STEPS]) {
       s->status = CRT_MAX_STEPS;

@@ -34,7 +34,9 @@
  * twists xi of W.xi / D(xi) (at most 1: static friction can supply W), and the unit
  * scaled twist xi* = (v_x, v_y, size w) that attains it, as 1 / min D over the plane
  * W.xi = 1 (a convex problem in two coordinates) by BFGS, warm-started from the last
- * maximiser.
+ * maximiser -- or in closed form under uniform pressure when W is a force through the
+ * centroid or a torque alone (to round-off).  crt_face_gauge_bounds brackets it there
+ * from those two parts (a caller needing only to know that gamma < 1 may stop at them).
  */
 #ifndef CRT_FACE_H
 #define CRT_FACE_H
@@ -52,6 +54,7 @@ typedef struct {
   double size;                  /* the half-diagonal or the radius: scales w in a twist */
   double area;
   double Ix, Iy;                /* int x^2 dA, int y^2 dA about the centroid */
+  double rbar;                  /* the mean distance from the centroid, int |r - c| dA / A */
 } crt_face;
 
 static void crt_face_set(crt_face *f, int kind, double a, double b, double cx, double cy)
@@ -67,10 +70,14 @@ static void crt_face_set(crt_face *f, int kind, double a, double b, double cx, d
     f->area = 4.0 * a * b;
     f->Ix = 4.0 * a * a * a * b / 3.0;
     f->Iy = 4.0 * a * b * b * b / 3.0;
+    /* a quarter's int |r| dA = (2 a b d + a^3 ln((b + d)/a) + b^3 ln((a + d)/b))/6 */
+    f->rbar = (2.0 * a * b * f->size + a * a * a * log((b + f->size) / a)
+               + b * b * b * log((a + f->size) / b)) / (6.0 * a * b);
   } else {
     f->size = a;
     f->area = pi * a * a;
     f->Ix = f->Iy = pi * a * a * a * a / 4.0;
+    f->rbar = 2.0 * a / 3.0;
   }
 }
 
@@ -307,6 +314,31 @@ static double crt_face_plane_value(const crt_face *f, double N, const double *k,
   return D;
 }
 
+/* Bounds on the gauge under uniform pressure (k = 0; else none: 0 and HUGE_VAL), with
+   Tc = T_z - (c x F)_z the torque about the centroid (the pressure's centre) and the two
+   parts gF = |F|/(mu N), gT = |Tc|/(mu N rbar) -- each the gauge of its part alone, the
+   face being symmetric about its centroid (a translation attains gF, a spin about the
+   centroid gT: D(v, w) >= D(0, w) by the symmetry and D's convexity):
+   max(gF, gT) <= gamma <= gF + gT (the gauge is a norm).  *part: 1 when gF holds all of
+   gamma to round-off (gT <= 1e-15 gF), 2 when gT does, else 0. */
+static void crt_face_gauge_bounds(const crt_face *f, double N, const double *k, double mu,
+                                  const double *W, double *lo, double *hi, int *part)
+{
+  const double Tc = W[2] - (f->cx * W[1] - f->cy * W[0]);
+  const double gF = sqrt(W[0] * W[0] + W[1] * W[1]) / (mu * N);
+  const double gT = fabs(Tc) / (mu * N * f->rbar);
+  *part = 0;
+  if (k[0] != 0.0 || k[1] != 0.0 || !(N > 0.0)) {
+    *lo = 0.0;
+    *hi = HUGE_VAL;
+    return;
+  }
+  *lo = gF > gT ? gF : gT;
+  *hi = gF + gT;
+  if (gF > 0.0 && gT <= 1e-15 * gF) *part = 1;
+  else if (gT > 0.0 && gF <= 1e-15 * gT) *part = 2;
+}
+
 /* The gauge of the limit surface at the wrench W = (F_x, F_y, T_z): gamma = max W.xi /
    D(xi) (D with the coefficient mu), and xi[3] the unit scaled twist (v_x, v_y, size w)
    attaining it.  xi on entry: the last maximiser (a warm start when it has W.xi > 0),
@@ -314,8 +346,20 @@ static double crt_face_plane_value(const crt_face *f, double N, const double *k,
 static double crt_face_gauge(const crt_face *f, double N, const double *k, double mu,
                              const double *W, double *xi, long *evaluations)
 {
-  double Ws[3], e0[3], e1[3], e2[3], x0[3], c[2], g[2], Hi[4], nW, D, sx;
-  int i, it, kmin = 0, stalls = 0;
+  double Ws[3], e0[3], e1[3], e2[3], x0[3], c[2], g[2], Hi[4], nW, D, sx, lo, hi;
+  int i, it, kmin = 0, stalls = 0, part;
+  crt_face_gauge_bounds(f, N, k, mu, W, &lo, &hi, &part);
+  if (part == 1) {                         /* a force through the centroid: a translation */
+    const double F = sqrt(W[0] * W[0] + W[1] * W[1]);
+    xi[0] = W[0] / F; xi[1] = W[1] / F; xi[2] = 0.0;
+    return lo;
+  }
+  if (part == 2) {                         /* a torque alone: the spin about the centroid */
+    const double w = W[2] - (f->cx * W[1] - f->cy * W[0]) > 0.0 ? 1.0 : -1.0;
+    const double n = sqrt(f->cx * f->cx + f->cy * f->cy + f->size * f->size);
+    xi[0] = w * f->cy / n; xi[1] = -w * f->cx / n; xi[2] = w * f->size / n;
+    return lo;
+  }
   Ws[0] = W[0]; Ws[1] = W[1]; Ws[2] = W[2] / f->size;
   nW = sqrt(Ws[0] * Ws[0] + Ws[1] * Ws[1] + Ws[2] * Ws[2]);
   if (nW == 0.0) {

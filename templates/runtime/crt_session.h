@@ -70,8 +70,17 @@ typedef struct {
   double uf[MODEL_MOMENTS_COUNT];         /* evaluation of the law (-1: none) */
   double xi[3];                           /* the gauge's last maximiser (a warm start) */
   double g[4];                            /* the stick's event functions at t */
+  double tp, gp[4];                       /* and at the previous sample (the stick's rate) */
+  int has_p;                              /* 1: tp, gp hold a sample */
   double eps;                             /* the slip ends at rho = eps */
-  double hs;                              /* the slip's step in s (0: to be chosen) */
+  double hs;                              /* the slip's step in s or t (0: to be chosen) */
+  int line;                               /* 1: a slip along one line in t (crt_base.h) */
+  double dir[3];                          /* its unit scaled twist, face frame */
+  double lateral;                         /* the largest lateral flow of its step */
+  double ht;                              /* the last step along a line (0: none yet) */
+  int fsal;                               /* 1: the last step's end z, its rate, N, cp */
+  double fz[NQ + 1], ff[NQ + 1], fN, fcp[2], frho;   /* and rho (the next step's start) */
+  int full;                               /* 1: no room for a step's output_dt rows */
 } crt_base_memory;
 #endif
 

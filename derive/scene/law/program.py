@@ -80,10 +80,10 @@ class Program:
         n = ts.size
         with np.errstate(all="ignore"):
             val = self._jets(Arrays, ts, np.ones(n), np.zeros(n))
-        out = []
-        for node in self.outputs:
-            out.extend(np.broadcast_to(v, (n,)) for v in val[node])
-        return np.array(out)
+        out = np.empty((3 * len(self.outputs), n))
+        for r, v in enumerate(v for node in self.outputs for v in val[node]):
+            out[r] = v                       # (a constant's entries broadcast)
+        return out
 
     def point(self, t: float) -> np.ndarray:
         """u = (x, y, z, x', y', z', x'', y'', z'') at one time (float arithmetic: for a
