@@ -58,8 +58,8 @@ def closed_form(t: np.ndarray):
     return z0 + v0 * s - 0.5 * G * s * s, v0 - G * s
 
 
-def check_rows(t, q, kinds, t0, T):
-    grid = t0 + np.arange(0, 60) * DT
+def check_rows(t, q, kinds, t0, T, dt=DT):
+    grid = t0 + np.arange(0, 60) * dt
     end = t0 + T
     expected = np.append(grid[grid < end], end)
     step = kinds == STEP
@@ -91,6 +91,29 @@ def test_rows_every_output_dt_are_the_grid_and_the_closed_form_flights(t0, T):
     assert np.array_equal(chunked.t, res.t) and np.array_equal(chunked.row_kind, res.row_kind)
     np.testing.assert_array_equal(chunked.model_q, res.model_q)
     session_for(prep.kind)                               # the thread's own is untouched
+
+
+@pytest.mark.parametrize("t0", [0.0, -30.0])
+def test_rows_left_pending_at_an_impact_are_the_grids(t0):
+    """A grid point 1e-12 s after the first impact (within the last flush's slack of
+    1e-9 output_dt, but not the end), the impact in the last 5 % of the run: in
+    buffers of 8 to 19 rows the flush at the impact is left pending at some size, and
+    the next call writes the rows before the impact only, the row after it from the
+    flight that follows (its time the grid's, its speed upward, the closed form's), as
+    the run in one buffer does."""
+    t1 = math.sqrt(2 * (Z0 - R) / G)
+    dt = (t1 + 1e-12) / 40                    # the impact step holds many rows
+    duration = t1 / 0.97
+    doc = ball(e=E, z0=Z0, duration=duration, output_dt=dt, rtol=1e-10, atol=1e-12)
+    doc["initial"]["time"] = t0
+    res = simulate(doc, progress=False)
+    assert res.status == "done" and len(res.impacts) == 1
+    check_rows(res.t, res.model_q, res.row_kind, t0, duration, dt)
+    prep = prepare(doc)
+    for chunk in range(8, 20):
+        run = run_prepared(prep, session=Session(prep.library, chunk=chunk))
+        assert np.array_equal(run.t, res.t) and np.array_equal(run.row_kind, res.row_kind)
+        np.testing.assert_array_equal(run.model_q, res.model_q)
 
 
 def test_the_step_after_an_impact_is_at_most_a_quarter_of_the_hop():
