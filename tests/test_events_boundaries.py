@@ -250,3 +250,52 @@ def test_a_spinning_ellipsoids_impact_is_the_closed_forms():
     res = simulate(doc, progress=False)
     assert res.status == "done" and len(res.impacts) >= 1
     assert abs(res.impacts[0, 0] - t_impact) < bound
+
+
+def test_a_start_on_the_plane_pulled_up_grazes_and_lands_where_the_closed_form_does():
+    """The ball started on the plane moving down at 1 % of the speed noise while its point
+    pulls it up (z = A cos(W t): Z_C'' = -g + nu A W^2 cos(W t) > 0 at t = 0): a graze,
+    no impact and no rest, and no cut of the step (the cut after a graze is for S pressed
+    onto the plane); S then rises and lands at the first root of its height h(t) = nu A
+    (1 - cos W t) - v t - g t^2 / 2, found by SciPy's brentq."""
+    from scipy.optimize import brentq
+    nu, A, W = 0.2 / 1.2, 0.2, 40.0
+    assert nu * A * W ** 2 > G
+    v = 0.01 * 1e3 * EPS * math.sqrt(G * R)
+    doc = ball(e=0.5, z0=R + nu * A, law=("0", "0", f"{A}*cos({W}*t)"), duration=0.12,
+               rtol=RTOL, atol=ATOL, method="dopri5")
+    doc["initial"]["com_velocity"] = [0.0, 0.0, -v]
+    res = simulate(doc, progress=False)
+    assert res.status == "done", res.status
+    assert [ev["kind"] for ev in res.events] == ["graze", "impact"]
+    assert res.events[0]["t"] == 0.0
+
+    def h(t):
+        return nu * A * (1 - math.cos(W * t)) - v * t - 0.5 * G * t * t
+    landing = brentq(h, 0.05, 0.12, xtol=1e-15)
+    assert abs(res.impacts[0, 0] - landing) < 1e-9, (res.impacts[0, 0], landing)
+
+
+def test_a_hop_that_ends_inside_the_first_step_is_found_before_s_rises_again():
+    """The ball started on the plane (1e-15 m below it, round-off: the search starts
+    unarmed) moving up at 1 m/s while its point presses it down (z = -A cos(W t):
+    Z_C'' = -g - nu A W^2 cos(W t)), by RK4 with a fixed step of 0.2 s.  S lands at the
+    first root of h(t) = v t - g t^2 / 2 - nu A (1 - cos W t) (SciPy's brentq, 0.037 s),
+    then would dip 18 mm below the plane and rise above it again at 0.12 s, inside the
+    first step: a sample below the plane before S was seen above it retries the step
+    shorter, and the landing is the closed form's; taken for S's next rise, the dip
+    (and the impact) would be missed."""
+    from scipy.optimize import brentq
+    nu, A, W, v = 0.2 / 1.2, 0.2, 40.0, 1.0
+
+    def h(t):
+        return v * t - 0.5 * G * t * t - nu * A * (1 - math.cos(W * t))
+    assert h(0.05) < -1e-3 and h(0.15) > 1e-2             # the dip, and S above again
+    doc = ball(e=0.5, z0=R - nu * A - 1e-15, law=("0", "0", f"-{A}*cos({W}*t)"),
+               duration=0.3, method="rk4", step=0.2)
+    doc["initial"]["com_velocity"] = [0.0, 0.0, v]
+    res = simulate(doc, progress=False)
+    assert res.status == "done"
+    assert res.stats["rejected"] >= 1                      # the first step, retried
+    landing = brentq(h, 0.01, 0.06, xtol=1e-15)
+    assert abs(res.impacts[0, 0] - landing) < 1e-8, (res.impacts[0, 0], landing)
