@@ -71,7 +71,7 @@ def test_a_base_scene_runs_without_restitution():
     # a face's start that the base model cannot run (omega off the vertical): the choice
     (dict(initial="omega = [0.5, 0, 1]"), "[plane].restitution", "model rough"),
     # the keys the base model does not read
-    (dict(run='method = "dopri5"'), "[run].method", "DOPRI5"),
+    (dict(run='method = "dopri5"'), "[run].method", "DOP853"),
     (dict(run="step = 1e-3"), "[run].step", "RK4"),
     (dict(run="keep_orthonormal = true"), "[run].keep_orthonormal", "no attitude"),
     (dict(plane="restitution = 0.5"), "[plane].restitution", "no impacts"),

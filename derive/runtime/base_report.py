@@ -19,7 +19,7 @@ STOPS = {"lift_off": "N reached 0: the body leaves the plane (lift-off)",
          "tipping": "the centre of pressure reached the face's edge: the body tips",
          "face_lifting": "the centre of pressure left the face's kern: the linear pressure "
                          "reaches 0 at an edge, and the face starts to lift there"}
-METHOD = "dopri5 (slips in arc time; the base model's own integrator)"
+METHOD = "dop853 (slips along a line in t, others in arc time; the base model's own integrator)"
 _SLIDING, _STICKING = abi.MODE["sliding"], abi.MODE["sticking"]
 
 
@@ -251,37 +251,3 @@ def lines(result, tr: dict | None = None) -> list[str]:
                    f" whole periods of {tr['period']:.6g} s (mean speed {tr['mean_speed']:.6g}"
                    f" m/s); the last period ({last[0]:.6g}, {last[1]:.6g}) m")
     return out
-
-
-def panels(ax_x, ax_v, ax_psi, result, mo) -> None:
-    """The overview's base panels: C's and O's horizontal position, O's speed and the yaw
-    rate, the yaw; sticking and sliding shaded."""
-    from .plots import _TITLE, _labels, _mode_spans
-    t = result.t
-    m = modes(result)
-    for ax in (ax_x, ax_v, ax_psi):
-        ax.clear()
-        ax.tick_params(labelsize=8)
-        ax.grid(True, lw=0.4, color="0.9")
-        _mode_spans(ax, t, m)
-        ax.set_xlim(t[0], max(t[-1], t[0] + 1e-9))   # (a run stopped at its start: one instant)
-    for k, (name, style) in enumerate((("X", "-"), ("Y", "--"))):
-        ax_x.plot(t, mo.r_C[:, k], style, lw=1, color="k")
-        ax_x.plot(t, mo.r_O[:, k], style, lw=1, color="#3182bd")
-    ax_x.set_ylabel("[m]", fontsize=9)
-    ax_x.set_title("C and O horizontally (X solid, Y dashed)", **_TITLE)
-    _labels(ax_x, [("C", "k"), ("O", "#3182bd"), ("sliding", "#e6550d"),
-                   ("sticking", "#41ab5d")])
-    q = result.model_q
-    ax_v.plot(t, np.hypot(q[:, 3], q[:, 4]), lw=1, color="#3182bd")
-    ax_v.set_ylabel("|V_O| [m/s]", fontsize=9)
-    tw = ax_v.twinx()
-    tw.plot(t, q[:, 5], lw=1, color="C3")
-    tw.tick_params(labelsize=8)
-    tw.set_ylabel("psi' [rad/s]", fontsize=9, color="C3")
-    ax_v.set_title("O's speed and the yaw rate", **_TITLE)
-    ax_psi.plot(t, np.degrees(q[:, 2]), lw=1, color="C3")
-    ax_psi.set_ylabel("psi [deg]", fontsize=9)
-    ax_psi.set_title("yaw of the face frame", **_TITLE)
-    ax_psi.set_xlabel("t [s]", fontsize=9)
-    ax_v.set_xlabel("t [s]", fontsize=9)

@@ -412,7 +412,7 @@ def overview(result, mo: Motion, path: Path, dpi: int = 80, steps=None) -> Path:
                           bottom=0.45 / height, wspace=0.45, hspace=0.42)
     n_contact = len(contact_intervals(result))
     phases_text = f", {count(n_contact, 'contact phase')}" if n_contact else ""
-    method = "dopri5" if result.model == "base" else s.method
+    method = "dop853" if result.model == "base" else s.method   # (base_report.METHOD)
     fig.suptitle(f"{s.name}: {result.model} model, {method}, {result.status}; "
                  f"{count(len(imp), 'impact')}{phases_text}", fontsize=12, y=1 - 0.15 / height,
                  va="top")
@@ -575,8 +575,41 @@ def overview(result, mo: Motion, path: Path, dpi: int = 80, steps=None) -> Path:
     for ax in panels[:4]:
         ax.set_xlim(t[0], max(t[-1], t[0] + 1e-9))   # (a run stopped at its start: one instant)
     if result.model == "base":          # a body on its face: no flight, no impacts
-        from .base_report import panels as base_panels
-        base_panels(panels[0], panels[4], panels[5], result, mo)
+        _base_panels(panels[0], panels[4], panels[5], result, mo)
     scale_into_labels(fig)
     fig.savefig(path, dpi=dpi)
     return path
+
+
+def _base_panels(ax_x, ax_v, ax_psi, result, mo) -> None:
+    """The overview's base panels: C's and O's horizontal position, O's speed and the yaw
+    rate, the yaw; sticking and sliding shaded."""
+    from .base_report import modes
+    t = result.t
+    m = modes(result)
+    for ax in (ax_x, ax_v, ax_psi):
+        ax.clear()
+        ax.tick_params(labelsize=8)
+        ax.grid(True, lw=0.4, color="0.9")
+        _mode_spans(ax, t, m)
+        ax.set_xlim(t[0], max(t[-1], t[0] + 1e-9))   # (a run stopped at its start: one instant)
+    for k, (name, style) in enumerate((("X", "-"), ("Y", "--"))):
+        ax_x.plot(t, mo.r_C[:, k], style, lw=1, color="k")
+        ax_x.plot(t, mo.r_O[:, k], style, lw=1, color="#3182bd")
+    ax_x.set_ylabel("[m]", fontsize=9)
+    ax_x.set_title("C and O horizontally (X solid, Y dashed)", **_TITLE)
+    _labels(ax_x, [("C", "k"), ("O", "#3182bd"), ("sliding", "#e6550d"),
+                   ("sticking", "#41ab5d")])
+    q = result.model_q
+    ax_v.plot(t, np.hypot(q[:, 3], q[:, 4]), lw=1, color="#3182bd")
+    ax_v.set_ylabel("|V_O| [m/s]", fontsize=9)
+    tw = ax_v.twinx()
+    tw.plot(t, q[:, 5], lw=1, color="C3")
+    tw.tick_params(labelsize=8)
+    tw.set_ylabel("psi' [rad/s]", fontsize=9, color="C3")
+    ax_v.set_title("O's speed and the yaw rate", **_TITLE)
+    ax_psi.plot(t, np.degrees(q[:, 2]), lw=1, color="C3")
+    ax_psi.set_ylabel("psi [deg]", fontsize=9)
+    ax_psi.set_title("yaw of the face frame", **_TITLE)
+    ax_psi.set_xlabel("t [s]", fontsize=9)
+    ax_v.set_xlabel("t [s]", fontsize=9)
