@@ -63,26 +63,28 @@ def contact(result) -> dict:
 
 
 def law_period(scene) -> float | None:
-    """The common period of every body's law: the formulas' common period, a periodic
-    table's span (a plan's law; every periodic table of a scene has one span), both when
-    the span is a whole number of the formulas' periods (None: not periodic)."""
-    from ..scene.law.period import NotPeriodic, common_period
-    exprs, spans = [], set()
+    """The common period of every body's law: the formulas' common period (read from the
+    compiled laws, no SymPy), a periodic table's span (a plan's law; every periodic table
+    of a scene has one span), both when the span is a whole number of the formulas'
+    periods (None: not periodic)."""
+    from ..scene.law.period import NotPeriodic, program_period
+    programs, spans = [], set()
     for body in (*scene.points, *scene.rotors):
         law = body.law
-        if getattr(law, "kind", None) == "table":
+        kind = getattr(law, "kind", None)
+        if kind == "table":
             if not law.periodic:
                 return None
             spans.add(law.t_last - law.t_first)
             continue
-        if not hasattr(law, "sympy"):
+        if kind != "program":
             return None
-        exprs += list(law.sympy())
+        programs.append(law)
     span = max(spans) if spans else None
-    if not exprs:
+    if not programs:
         return span
     try:
-        T = common_period(exprs)
+        T = program_period(programs)
     except NotPeriodic:
         return None
     if span is None:

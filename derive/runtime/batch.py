@@ -33,7 +33,7 @@ from .. import parallel
 from ..progress import count
 from . import study
 from .driver import prepare
-from .study import COUNT_COLUMNS, SUMMARY_COLUMNS, TEXT_COLUMNS  # noqa: F401 (the API's names)
+from .study import COUNT_COLUMNS, FACE_COLUMNS, SUMMARY_COLUMNS, TEXT_COLUMNS  # noqa: F401 (the API's names)
 from ..scene import Scene, SceneError, load_scene, overrides, parse_scene
 
 
@@ -96,15 +96,19 @@ class Batch:
         """One value per variant.  Text (``status``, ``model``, ``error``): an object
         array with None where there is none (a refused variant has no status, one that
         ran no error).  Numbers: a NumPy masked array, integers for the counts and
-        floats for times and heights, masked where the variant was refused
-        (``first_contact_t`` is NaN, not masked, when a run had no resting contact).  A
+        floats for times and heights, masked where the variant was refused (and the
+        face's ``slips``, ``sticks``, ``reversals`` where it was not a base run;
+        ``first_contact_t`` is NaN, not masked, when a run had no resting contact).  A
         field the variants override (``"body.mass"``): its values, a masked float array
         when they are numbers (masked where a variant leaves the field alone), else an
         object array with None."""
         if name in TEXT_COLUMNS:
             return self.columns[name].copy()
         if name in SUMMARY_COLUMNS:
-            return np.ma.MaskedArray(self.columns[name].copy(), mask=self._refused)
+            mask = self._refused
+            if name in FACE_COLUMNS:
+                mask = mask | (self.columns["model"] != "base")
+            return np.ma.MaskedArray(self.columns[name].copy(), mask=mask)
         if any(name in v for v in self.variants):
             values = [v.get(name) for v in self.variants]
             if all(v is None or (isinstance(v, (int, float, np.integer, np.floating))
@@ -127,7 +131,8 @@ class Batch:
         by that number's column, W say), ``error``, then the summary columns; a value a
         row does not have (a refused variant's counts, the error of one that ran, a base
         run's impacts, contacts, min_height and first_contact_t: a body on its face has
-        no impact and no point S) is an empty cell."""
+        no impact and no point S; the face's slips, sticks and reversals of a run of
+        another model) is an empty cell."""
         names = self._fields()
         swept_by = swept_by or {}
         head = []
@@ -144,7 +149,7 @@ class Batch:
                     vals.append(v.get(n, ""))
                     if n in number:
                         vals.append(number[n].get(v.get(n), ""))
-                blank = BASE_BLANK if r.get("model") == "base" else ()
+                blank = BASE_BLANK if r.get("model") == "base" else FACE_COLUMNS
                 vals += [r.get("error", "")] + [
                     "" if c in blank else r.get(c, "") for c in SUMMARY_COLUMNS]
                 fh.write(",".join(_csv(x) for x in vals) + "\n")

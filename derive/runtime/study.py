@@ -34,12 +34,16 @@ from .driver import options, prepare, run_prepared, session_for
 from ..scene import SceneError, build_scene, bulk, overrides
 from ..scene.schema import SCENE
 
-SUMMARY_COLUMNS = ("status", "model", "t_end", "impacts", "contacts", "liftoffs", "steps",
-                   "rhs_evaluations", "min_height", "first_contact_t", "X_C_end", "Y_C_end",
-                   "Z_C_end", "distance", "mean_speed", "mean_velocity_X", "mean_velocity_Y",
-                   "run_ms")
+SUMMARY_COLUMNS = ("status", "model", "t_end", "impacts", "contacts", "liftoffs", "slips",
+                   "sticks", "reversals", "steps", "rhs_evaluations", "min_height",
+                   "first_contact_t", "X_C_end", "Y_C_end", "Z_C_end", "distance",
+                   "mean_speed", "mean_velocity_X", "mean_velocity_Y", "run_ms")
 TEXT_COLUMNS = ("error", "status", "model")
-COUNT_COLUMNS = ("impacts", "contacts", "liftoffs", "steps", "rhs_evaluations")
+COUNT_COLUMNS = ("impacts", "contacts", "liftoffs", "slips", "sticks", "reversals", "steps",
+                 "rhs_evaluations")
+# the face's slip events, stick events and reversals (the counts of a base run's
+# summary.json): a column of base runs alone, empty (masked) for the other models
+FACE_COLUMNS = ("slips", "sticks", "reversals")
 _STAT = {name: k for k, name in enumerate(abi.names(abi.STATS))}
 _SUMMARY = {name: k for k, name in enumerate(abi.names(abi.SUMMARY))}
 _OK = abi.STATUS["ok"]
@@ -79,7 +83,8 @@ def summary_row(result) -> dict:
                            result.scene)
     return {"status": result.status, "model": result.model, "t_end": t_end,
             "impacts": s["impacts"], "contacts": s["contacts"], "liftoffs": s["liftoffs"],
-            "steps": s["steps"], "rhs_evaluations": s["rhs_evaluations"],
+            **{name: s[name] for name in FACE_COLUMNS}, "steps": s["steps"],
+            "rhs_evaluations": s["rhs_evaluations"],
             "min_height": result.min_height,
             "first_contact_t": float(contact[0, 0]) if len(contact) else math.nan,
             **travel, **means(travel, c0, result.scene.t0, t_end),
