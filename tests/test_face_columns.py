@@ -71,9 +71,10 @@ def test_a_face_sweep_has_each_variants_slips_sticks_and_reversals(tmp_path):
     each variant's own run's, as its summary counts its events; empty for a flight run."""
     src = EXAMPLES / "capsule-crawler.toml"
     proc = subprocess.run([sys.executable, "-m", "derive", "simulate", str(src), "-q",
-                           "-o", str(tmp_path / "s"), "--sweep", "plane.friction=0.05,0.3"],
-                          capture_output=True, text=True)
+                           "-o", str(tmp_path / "s"), "--sweep", "plane.friction=0.05,0.3",
+                           "--plot", "sticks"], capture_output=True, text=True)
     assert proc.returncode == 0, proc.stderr
+    assert (tmp_path / "s" / "sweep.png").stat().st_size > 0      # the counts can be drawn
     with open(tmp_path / "s" / "sweep.csv", encoding="utf-8") as fh:
         rows = list(csv.DictReader(fh))
     assert [r["plane_friction"] for r in rows] == ["0.05", "0.3"]
