@@ -152,6 +152,18 @@ def optimum(M: float, m: float, mu: float, L: float | None = None, U: float | No
     return out
 
 
+def _throw(M: float, m: float, mu: float, A: float | None, mu_s: float | None, g: float,
+           kappa: float | None) -> tuple[float, float, float, float] | None:
+    """The bounded classes' constants: (nu, a_k, beta = a_k/A (0 for the jump), kappa
+    (default the sticking limit mu_s/mu)), or None when ``A`` cannot break the rest."""
+    nu = m / (M + m)
+    mu_s = mu if mu_s is None else mu_s
+    a_k = mu * g / nu
+    if A is not None and A <= mu_s * g / nu:
+        return None
+    return nu, a_k, 0.0 if A is None else a_k / A, mu_s / mu if kappa is None else kappa
+
+
 def optimum_bounded(M: float, m: float, mu: float, L: float | None = None,
                     U: float | None = None, A: float | None = None,
                     mu_s: float | None = None, g: float = 9.81,
@@ -160,13 +172,10 @@ def optimum_bounded(M: float, m: float, mu: float, L: float | None = None,
     jump) and the static coefficient ``mu_s`` (default mu), at the sticking limit (or
     with the return at ``kappa a_k``, kappa <= mu_s/mu); 0 when ``A`` cannot break the
     rest."""
-    nu = m / (M + m)
-    mu_s = mu if mu_s is None else mu_s
-    a_k = mu * g / nu
-    if A is not None and A <= mu_s * g / nu:
+    throw = _throw(M, m, mu, A, mu_s, g, kappa)
+    if throw is None:
         return 0.0
-    beta = 0.0 if A is None else a_k / A
-    kappa = mu_s / mu if kappa is None else kappa
+    nu, a_k, beta, kappa = throw
     r = (kappa * beta + 1) / (2 * (kappa + 1))
     w = math.inf
     if L is not None:
@@ -182,13 +191,10 @@ def sawtooth_bounded(M: float, m: float, mu: float, L: float | None = None,
                      kappa: float | None = None) -> float:
     """V of the sawtooth (the return at ``kappa a_k`` at once after the throw, default the
     sticking limit mu_s/mu) under the bounds given; 0 when ``A`` cannot break the rest."""
-    nu = m / (M + m)
-    mu_s = mu if mu_s is None else mu_s
-    a_k = mu * g / nu
-    if A is not None and A <= mu_s * g / nu:
+    throw = _throw(M, m, mu, A, mu_s, g, kappa)
+    if throw is None:
         return 0.0
-    beta = 0.0 if A is None else a_k / A
-    kappa = mu_s / mu if kappa is None else kappa
+    nu, a_k, beta, kappa = throw
     w = math.inf
     if L is not None:
         w = min(w, math.sqrt(8 * L * a_k / (beta + 1 / kappa)))

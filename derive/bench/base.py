@@ -23,7 +23,8 @@ from pathlib import Path
 import numpy as np
 
 from ..commands import Target
-from .timing import AT_MOST, SPREAD_NOTE, Spread, interleaved, judge, ratios
+from .timing import (AT_MOST, SPREAD_NOTE, PreparedRun, Spread, interleaved, judge,
+                     ratios)
 
 EXAMPLE = Path(__file__).parents[1] / "scene" / "examples" / "capsule-crawler.toml"
 PERIODS = 20
@@ -45,25 +46,8 @@ def scene(flight: bool = False) -> dict:
     return doc
 
 
-class _Run:
-    """One scene ready to run in C: one call per run."""
-
-    def __init__(self, doc: dict):
-        from ..runtime.driver import prepare
-        from ..runtime.session import Session
-        self.prep = prepare(doc)
-        self.session = Session(self.prep.library)
-        self.session.set_law(self.prep.scene.runtime_law)
-        self.raw = self()
-
-    def __call__(self):
-        p = self.prep
-        return self.session.run(p.scene.t0, p.scene.duration, p.start.q0, p.options,
-                                p.parameters)
-
-
 def per_second(samples: int) -> dict:
-    base, flight = _Run(scene()), _Run(scene(flight=True))
+    base, flight = PreparedRun(scene()), PreparedRun(scene(flight=True))
     got = interleaved({"base": base, "flight": flight}, samples, block=3)
     T = base.prep.scene.duration
     return {"base": Spread.of(got["base"]).scaled(1.0 / T),

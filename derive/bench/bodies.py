@@ -37,7 +37,8 @@ import numpy as np
 from .. import layout
 from ..commands import Target
 from ..scene.bodies import describe
-from .timing import AT_LEAST, CPU, SPREAD_NOTE, Spread, interleaved, judge, ratios
+from .timing import (AT_LEAST, CPU, SPREAD_NOTE, PreparedRun, Spread, interleaved, judge,
+                     ratios)
 
 POINTS = range(1, 9)
 ROTORS = range(0, 5)
@@ -119,23 +120,6 @@ def operations() -> dict:
 
 
 # ---- the C run ---------------------------------------------------------------------------
-class _Run:
-    """One scene ready to run in C: one call per run, timed by its CPU time."""
-
-    def __init__(self, doc: dict):
-        from ..runtime.driver import prepare
-        from ..runtime.session import Session
-        self.prep = prepare(doc)
-        self.session = Session(self.prep.library)
-        self.session.set_law(self.prep.scene.runtime_law)
-        self.raw = self()
-
-    def __call__(self):
-        p = self.prep
-        return self.session.run(p.scene.t0, p.scene.duration, p.start.q0, p.options,
-                                p.parameters)
-
-
 def grid_costs(repeats: int, progress) -> dict:
     """Per (N, R): the library, steps, RHS evaluations and the C's CPU time per simulated
     second (a Spread), and per evaluation."""
@@ -143,11 +127,11 @@ def grid_costs(repeats: int, progress) -> dict:
     for n in POINTS:
         for r in ROTORS:
             progress(f"the C run of {describe(n, r)}")
-            run = _Run(scene(n, r))
+            run = PreparedRun(scene(n, r))
             if n == 1 and r == 0:
                 forced = copy.deepcopy(scene(1, 0))
                 forced["run"]["model"] = "moments"
-                run = _Run(forced)
+                run = PreparedRun(forced)
             times = Spread.of([min(_cpu(run) for _ in range(3)) for _ in range(repeats)])
             evals = run.raw.stats["rhs_evaluations"]
             out[(n, r)] = {"library": str(run.prep.library.path), "model": run.prep.kind,
@@ -179,7 +163,7 @@ def breakdown(n_points: int, n_rotors: int, rows: int = 100_000) -> dict:
     over ``rows`` times): the law alone (crt_law_rows), the law and the moments' sum
     (crt_eval_u_rows), and the whole right-hand side (crt_eval_rhs_rows)."""
     from ..runtime.build import DP
-    run = _Run(scene(n_points, n_rotors))
+    run = PreparedRun(scene(n_points, n_rotors))
     s, lib, p = run.session, run.prep.library.lib, run.prep
     s.init(p.options, p.parameters, p.scene.t0, p.start.q0)
     t = np.linspace(p.scene.t0, p.scene.t0 + p.scene.duration, rows)
@@ -196,7 +180,7 @@ def breakdown(n_points: int, n_rotors: int, rows: int = 100_000) -> dict:
 def against_one_point(samples: int) -> Spread:
     """Paired samples of the run of 8 points and 4 rotors over the one-point run by the
     general model (the same ball, interleaved rounds)."""
-    many, one = _Run(scene(8, 4)), _Run(scene(1, 0))
+    many, one = PreparedRun(scene(8, 4)), PreparedRun(scene(1, 0))
     got = interleaved({"many": many, "one": one}, samples, block=3)
     return ratios(got["many"], got["one"])
 
@@ -281,7 +265,7 @@ def peer(repeats: int, progress) -> list | None:
             doc = scene(n, r, plane=False, rtol=rtol)
             doc["run"]["method"] = "dop853"
             doc["run"]["model"] = "moments"
-            runs[rtol] = _Run(doc)
+            runs[rtol] = PreparedRun(doc)
         sc = runs[1e-9].prep.scene
         pin_fast, pin_ref = _pinocchio_route(sc, 1e-9), _pinocchio_route(sc, 1e-13)
         ref = pin_ref()

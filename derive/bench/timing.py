@@ -115,6 +115,24 @@ def interleaved(fns: dict, samples: int, block: int = 1, wall: tuple = ()) -> di
     return out
 
 
+class PreparedRun:
+    """One scene ready to run in C (prepared, its session built and its law set once): a
+    call is one run of the C alone, what the benches time; ``raw`` is the first run's."""
+
+    def __init__(self, doc: dict):
+        from ..runtime.driver import prepare
+        from ..runtime.session import Session
+        self.prep = prepare(doc)
+        self.session = Session(self.prep.library)
+        self.session.set_law(self.prep.scene.runtime_law)
+        self.raw = self()
+
+    def __call__(self):
+        p = self.prep
+        return self.session.run(p.scene.t0, p.scene.duration, p.start.q0, p.options,
+                                p.parameters)
+
+
 def ratios(a: list, b: list) -> Spread:
     """The spread of the ratio of paired samples a_k / b_k."""
     return Spread.of(np.asarray(a, dtype=float) / np.asarray(b, dtype=float))
