@@ -181,9 +181,11 @@ def _differing_field(a: Scene, b: Scene) -> str | None:
         x, y = getattr(a, f.name), getattr(b, f.name)
         if f.name == "A0":
             same = np.array_equal(x, y)
-        elif f.name == "law":
-            same = a.law_text == b.law_text and (bool(a.law_text) or (
-                np.array_equal(x.knots, y.knots) and np.array_equal(x.coef, y.coef)))
+        elif f.name == "law":               # None for the moments family ([[point]] lists)
+            same = a.law_text == b.law_text and (bool(a.law_text) or (x is None and y is None)
+                                                 or (x is not None and y is not None and
+                                                     np.array_equal(x.knots, y.knots) and
+                                                     np.array_equal(x.coef, y.coef)))
         else:
             same = x == y
         if not same:

@@ -508,11 +508,12 @@ def base_c_at(scene: Scene, t: float, q, st: Start | None = None) -> np.ndarray:
 
 def horizontal_of_c(kind: str, t0, t, q, c0, scenes=None) -> tuple:
     """(X_C, Y_C) at time t from a state of a model and C's start ``c0`` (X, Y, Z, X', Y',
-    Z'), of one run or entry by entry of rows.  The general and rough models hold them;
-    every other model runs on a smooth plane or in free flight, where nothing horizontal
-    acts on the system, so C moves uniformly: X_C = X_C0 + X_C0' (t - t0).  The base model
-    (friction over a face) reads the scene (``scenes``: one, or one per row): C = O + A OC."""
-    if kind in ("general", "rough"):
+    Z'), of one run or entry by entry of rows.  A model whose state holds them (the
+    general state: general, rough, moments, moments_rough) is read; every other model runs
+    on a smooth plane or in free flight, where nothing horizontal acts on the system, so C
+    moves uniformly: X_C = X_C0 + X_C0' (t - t0).  The base model (friction over a face)
+    reads the scene (``scenes``: one, or one per row): C = O + A OC."""
+    if "horizontal" in layout.of(kind).parts:
         h = q[..., layout.of(kind).horizontal]
         return h[..., 0], h[..., 1]
     if kind == "base":
