@@ -593,8 +593,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="only this section (repeatable)")
     p.add_argument("--id", action="append", help="only this ID (repeatable)")
     p.add_argument("--report", metavar="DIR",
-                   help="also write DIR/prove.md and DIR/prove.tex (claims, derived "
-                        "expressions, verdicts, errata)")
+                   help="also write DIR/prove.md, prove.tex (claims, derived "
+                        "expressions, verdicts, errata), prove.json and prove.xml (JUnit, "
+                        "for CI dashboards)")
     p.set_defaults(func=cmd_prove)
 
     p = sub.add_parser("emit", help="render generated/ (CasADi functions, standalone C)")

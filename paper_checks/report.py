@@ -1,6 +1,11 @@
-"""``derive prove --report DIR``: a Markdown and a LaTeX summary of the checks."""
+"""``derive prove --report DIR``: a Markdown and a LaTeX summary of the checks, and the same
+verdicts for machines: ``prove.json`` and a JUnit XML file (``prove.xml``) that CI dashboards
+read (a fail or an error is a JUnit failure or error; an erratum passes, its correction in the
+case's output)."""
 from __future__ import annotations
 
+import json
+import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import sympy as sp
@@ -103,4 +108,41 @@ def write_report(out_dir, entries, outcomes) -> list[Path]:
     tex.append(r"\end{document}")
     tex_path = out / "prove.tex"
     tex_path.write_text("\n".join(tex) + "\n", encoding="utf-8")
-    return [md_path, tex_path]
+    return [md_path, tex_path, *_write_machine(out, entries, by_id)]
+
+
+def _erratum(er) -> dict:
+    return {"id": er.id, "printed": er.printed, "correct": er.correct,
+            "consequence": er.consequence}
+
+
+def _write_machine(out: Path, entries, by_id) -> list[Path]:
+    """prove.json (one record per ID, in the catalogue's order) and prove.xml (JUnit: one
+    test case per ID, classname its section)."""
+    records = [{"id": e.id, "section": e.section, "claim": e.what, "status": by_id[e.id].status,
+                "seconds": round(by_id[e.id].seconds, 4), "detail": by_id[e.id].detail or "",
+                "errata": [_erratum(er) for er in by_id[e.id].errata]} for e in entries]
+    json_path = out / "prove.json"
+    json_path.write_text(json.dumps({"checks": records}, indent=1, ensure_ascii=False) + "\n",
+                         encoding="utf-8")
+    failed = sum(r["status"] in ("fail", "missing") for r in records)
+    errors = sum(r["status"] == "error" for r in records)
+    suite = ET.Element("testsuite", name="derive prove", tests=str(len(records)),
+                       failures=str(failed), errors=str(errors),
+                       time=f"{sum(r['seconds'] for r in records):.3f}")
+    for r in records:
+        case = ET.SubElement(suite, "testcase", classname=f"paper_checks.{r['section']}",
+                             name=r["id"], time=f"{r['seconds']:.3f}")
+        if r["status"] in ("fail", "missing"):
+            ET.SubElement(case, "failure", message=r["status"]).text = r["detail"]
+        elif r["status"] == "error":
+            ET.SubElement(case, "error", message="error").text = r["detail"]
+        lines = [r["detail"]] + [f"erratum {er['id']}: printed {er['printed']}; correct "
+                                 f"{er['correct']}; {er['consequence']}" for er in r["errata"]]
+        ET.SubElement(case, "system-out").text = "\n".join(x for x in lines if x)
+    xml_path = out / "prove.xml"
+    root = ET.Element("testsuites")
+    root.append(suite)
+    ET.indent(root)
+    xml_path.write_bytes(ET.tostring(root, encoding="utf-8", xml_declaration=True) + b"\n")
+    return [json_path, xml_path]

@@ -168,3 +168,32 @@ def test_x2_1_catches_a_point_share_with_a_wrong_inertia(monkeypatch):
         return moments.Share(tuple(values), share.inputs)
     monkeypatch.setattr(moments, "point_share", wrong)
     assert run("X1.2").status == "fail"
+
+
+def test_the_machine_reports_carry_every_verdict(tmp_path, monkeypatch):
+    """prove.json and the JUnit prove.xml: a failed check is a JUnit failure, an error an
+    error, an erratum a pass with its correction in the output; read back by json and by
+    ElementTree, not by the writer."""
+    import json
+    import xml.etree.ElementTree as ET
+
+    from derive.cli import main
+    from paper_checks import catalogue, runner
+    from paper_checks.registry import Erratum
+    ids = [e.id for e in catalogue.entries()[:4]]
+    verdicts = dict(zip(ids, ("pass", "fail", "error", "erratum")))
+    wrong = Erratum(ids[3], "a & <b>", "c", "d")
+    monkeypatch.setattr(runner, "run", lambda i: runner.Outcome(
+        i, verdicts[i], 0.5, f"detail of {i}", [wrong] if verdicts[i] == "erratum" else []))
+    assert main(["prove", *(a for i in ids for a in ("--id", i)),
+                 "--report", str(tmp_path)]) == 1
+    records = json.loads((tmp_path / "prove.json").read_text())["checks"]
+    assert [(r["id"], r["status"]) for r in records] == list(verdicts.items())
+    assert records[3]["errata"][0]["printed"] == "a & <b>"
+    suite = ET.parse(tmp_path / "prove.xml").getroot().find("testsuite")
+    assert (suite.get("tests"), suite.get("failures"), suite.get("errors")) == ("4", "1", "1")
+    cases = {c.get("name"): c for c in suite.iter("testcase")}
+    assert cases[ids[1]].find("failure").text == f"detail of {ids[1]}"
+    assert cases[ids[2]].find("error") is not None
+    assert cases[ids[0]].find("failure") is None and cases[ids[3]].find("failure") is None
+    assert "printed a & <b>" in cases[ids[3]].find("system-out").text
