@@ -255,3 +255,17 @@ def _reading(path: Path, text: str):
     def read_text(self, *args, **kwargs):
         return text if self == path else real(self, *args, **kwargs)
     return read_text
+
+
+def test_the_first_command_prints_what_the_readme_says():
+    """The lines the README shows under its first command are derive simulate's report of
+    the built-in scene (derive.runtime.report.lines, which the command prints)."""
+    import derive
+    from derive.runtime import report
+    from derive.scene.docs import builtin_doc
+    from derive.scene.parse import parse_scene
+    block = re.search(r"<!-- prints: derive simulate -->\n```\n(.*?)```", read(README), re.S)
+    assert block, "README: the first command's output block is missing"
+    scene = parse_scene(builtin_doc(), "built-in")
+    printed = report.lines(scene, derive.simulate(scene))
+    assert block.group(1).splitlines() == printed
