@@ -257,15 +257,35 @@ def _reading(path: Path, text: str):
     return read_text
 
 
-def test_the_first_command_prints_what_the_readme_says():
-    """The lines the README shows under its first command are derive simulate's report of
-    the built-in scene (derive.runtime.report.lines, which the command prints)."""
+PRINTS = re.compile(r"<!-- prints: derive simulate (\S+|\(the built-in scene\)) -->\n```\n(.*?)```", re.S)
+
+
+def test_the_shown_runs_print_what_the_docs_say(tmp_path):
+    """Every block marked `<!-- prints: derive simulate X -->` (the README's first command
+    on the built-in scene, two.toml, the capsule crawler) is derive simulate's report of X
+    (derive.runtime.report.lines, which the command prints) from the scene's own line on;
+    a line the docs cut with '...' is compared up to the cut."""
     import derive
     from derive.runtime import report
     from derive.scene.docs import builtin_doc
-    from derive.scene.parse import parse_scene
-    block = re.search(r"<!-- prints: derive simulate -->\n```\n(.*?)```", read(README), re.S)
-    assert block, "README: the first command's output block is missing"
-    scene = parse_scene(builtin_doc(), "built-in")
-    printed = report.lines(scene, derive.simulate(scene))
-    assert block.group(1).splitlines() == printed
+    from derive.scene.parse import load_scene, parse_scene
+    files = dict(FILE.findall(read(README)))
+    shown = [(doc, *m) for doc in documents() for m in PRINTS.findall(read(doc))]
+    assert len(shown) >= 3 and shown[0][0] == README and "built-in" in shown[0][1]
+    for doc, what, block in shown:
+        if "built-in" in what:
+            scene = parse_scene(builtin_doc(), "built-in")
+        elif what in files:
+            (tmp_path / what).write_text(files[what], encoding="utf-8")
+            scene = load_scene(tmp_path / what)
+        else:
+            scene = load_scene(ROOT / what)
+        printed = report.lines(scene, derive.simulate(scene))
+        lines = block.splitlines()
+        lines = lines[next(k for k, line in enumerate(lines)
+                           if line.startswith(f"{scene.name}: ")):]
+        for said, got in zip(lines, printed):
+            cut = said.split("...")[0]
+            assert got == said or ("..." in said and got.startswith(cut)), (
+                f"{name(doc)}: shows {said!r}, derive simulate {what} prints {got!r}")
+        assert len(lines) <= len(printed), f"{name(doc)}: {what} shows lines it does not print"
