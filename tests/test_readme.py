@@ -257,7 +257,8 @@ def _reading(path: Path, text: str):
     return read_text
 
 
-PRINTS = re.compile(r"<!-- prints: derive simulate (\S+|\(the built-in scene\)) -->\n```\n(.*?)```", re.S)
+PRINTS = re.compile(r"<!-- prints: derive simulate (\S+|\(the built-in scene\)) -->\n"
+                    r"```\n(.*?)```", re.S)
 
 
 def test_the_shown_runs_print_what_the_docs_say(tmp_path):
