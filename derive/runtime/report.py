@@ -58,8 +58,10 @@ def summary(result, mo: Motion | None = None) -> dict:
     steps, events = (np.flatnonzero(result.row_kind == abi.ROW_KIND["step"]),
                      np.flatnonzero(result.row_kind != abi.ROW_KIND["step"]))
     base = result.model == "base"
-    energy = base_report.energy(result, mo) if base else energy_balance(result, mo)
-    return {
+    handed = result.handover
+    energy = (base_report.energy(result, mo) if base else handed.energy()
+              if handed is not None else energy_balance(result, mo))
+    out = {
         "scene": s.name,
         "status": result.status,
         "model": result.model,
@@ -84,6 +86,10 @@ def summary(result, mo: Motion | None = None) -> dict:
         "machine": {"processor": platform.processor() or platform.machine(),
                     "cpus": os.cpu_count()},
     }
+    if handed is not None:           # the face's contact before the lift-off, and where
+        out["contact"]["face"] = base_report.contact(handed.base)
+        out["handover"] = handed.summary()
+    return out
 
 
 def travel_of(result, mo: Motion) -> dict:
@@ -145,6 +151,8 @@ def lines(scene, result, loop: str | None = None) -> list[str]:
         out += _friction_lines(scene, result)
     if base:
         out += base_report.lines(result)
+    if result.handover is not None:
+        out += result.handover.lines()
     end = choice.travel(result.model, scene.t0, float(result.t[-1]), result.model_q[-1],
                         choice.start_of_c(scene), scene)
     if end["distance"] > 0.0:                  # C moved horizontally: how far
