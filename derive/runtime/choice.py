@@ -23,9 +23,11 @@ chooses one and fills its numbers:
   face on a rough plane (``[initial].on_plane`` with the vertical along a face normal,
   omega(0) along it, O moving horizontally): the face stays on the plane, so its
   horizontal motion and yaw are the whole motion, with friction over the face (Coulomb
-  and Contensou) in place of one point's; the run stops with ``lift_off``, ``tipping`` or
-  (linear pressure) ``face_lifting`` where N reaches 0, the centre of pressure the face's
-  edge or its kern.
+  and Contensou) in place of one point's; the run stops with ``tipping`` or (linear
+  pressure) ``face_lifting`` where the centre of pressure reaches the face's edge or its
+  kern, and with ``lift_off`` where N reaches 0, unless the scene gives
+  ``[plane].restitution``: then the driver hands the run over to the general model
+  (derive/runtime/handover.py).
 
 The conditions read the law's program (``is_zero``) and its samples; nothing symbolic.
 """
