@@ -266,6 +266,17 @@ def test_the_cli_writes_one_run(tmp_path, capsys):
         "flat_landing"
     assert abs(info["handover"]["t"] - float(events[0][2])) == 0.0
     assert info["t_end"] == float(events[-1][2])
-    assert abs(info["energy"]["at_handover"]) <= 1e-12
+    energy = info["energy"]
+    assert abs(energy["at_handover"]) <= 1e-12
+    assert abs(energy["base"]["residual"]) <= 1e-9 and abs(energy["flight"]["residual"]) \
+        <= 1e-9
+    assert abs(energy["change"] - energy["base"]["change"] - energy["flight"]["change"]) \
+        <= 1e-12
+    # |K| of the flight constant (E1.9): the base rows are no flight of its
+    assert info["invariants"]["K_norm_relative_drift_between_events"] <= 1e-12
+    header = (out / "trajectory.csv").read_text().splitlines()[0].split(",")
     traj = np.loadtxt(out / "trajectory.csv", delimiter=",", skiprows=1, ndmin=2)
     assert traj[0, 0] == 0.0 and traj[-1, 0] <= info["t_end"]
+    on_face = traj[:, 0] < info["handover"]["t"]
+    mode = traj[:, header.index("mode")]
+    assert on_face.any() and set(mode[on_face]) <= {2.0, 3.0} and set(mode[~on_face]) == {0.0}

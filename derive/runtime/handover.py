@@ -87,12 +87,16 @@ def hand_over(base, run_flight) -> object:
     """The run of ``base`` (a base Result that stopped with ``lift_off``) continued in
     the general model to the end time: a Result of the flight's model whose rows, events
     and counters are the base run's (in the general layout) then the flight's, with
-    ``handover`` saying where and what.  ``run_flight(scene) -> Result`` runs a scene."""
+    ``handover`` saying where and what.  ``run_flight(scene) -> Result`` runs a scene
+    in its model, with no hand-over (driver.run_prepared of driver.prepare)."""
     scene = base.scene
     t_l = float(base.t[-1])
     state = general_state(scene, base.start, t_l, base.model_q[-1])
     fscene = flight_scene(scene, t_l, state)
     flight, landing = fly(fscene, run_flight)
+    # each part's denser rows (the balance's, the pictures') from its own runs: the base
+    # alone (simulate of the scene would hand over again), the flight as it was made
+    base.rerun = lambda output_dt: run_flight(dataclasses.replace(scene, output_dt=output_dt))
     flight.rerun = lambda output_dt: fly(dataclasses.replace(fscene, output_dt=output_dt),
                                          run_flight)[0]
     return _stitch(base, flight, state, landing)
@@ -165,9 +169,12 @@ def _stitch(base, flight, state, landing):
     out.rerun = lambda output_dt: _rerun(base.scene, output_dt)
     out.handover = Handover(base=base, flight=flight, t=float(base.t[-1]), state=state,
                             landing=landing)
-    for name in ("general", "omega", "modes", "events", "momentum", "height", "session",
-                 "slip", "couples", "impacts", "impacts_friction"):
-        out.__dict__.pop(name, None)          # (cached on the flight's rows)
+    # the face's mode on the base rows (sliding or sticking: base_report.modes), the
+    # flight's after; no slip of S on the base rows (the face slides, not a point)
+    from .base_report import modes
+    out.__dict__["modes"] = np.concatenate([modes(base), flight.modes])
+    if flight.slip is not None:
+        out.__dict__["slip"] = np.vstack([np.full((len(base.t), 2), math.nan), flight.slip])
     return out
 
 

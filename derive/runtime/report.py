@@ -81,7 +81,8 @@ def summary(result, mo: Motion | None = None) -> dict:
                     **(base_report.contact(result) if base else {})},
         "travel": {**travel_of(result, mo), **(base_report.travel(result) if base else {})},
         "energy": energy,
-        "invariants": invariant_drift(result, base),
+        # (after a hand-over, the flight's: the body on its face before it never flies)
+        "invariants": invariant_drift(handed.flight if handed is not None else result, base),
         "timings_s": dict(result.timings),
         "machine": {"processor": platform.processor() or platform.machine(),
                     "cpus": os.cpu_count()},
