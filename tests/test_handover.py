@@ -280,3 +280,20 @@ def test_the_cli_writes_one_run(tmp_path, capsys):
     on_face = traj[:, 0] < info["handover"]["t"]
     mode = traj[:, header.index("mode")]
     assert on_face.any() and set(mode[on_face]) <= {2.0, 3.0} and set(mode[~on_face]) == {0.0}
+
+
+def test_the_robustness_judge_of_a_handover_can_fail(up):
+    """derive verify robustness --plane face's judge: the run as it is passes; a state
+    that jumps at the hand-over, or a flat landing whose face is tilted by 1e-3 rad, fail."""
+    from derive.verify.judges import judge_handover
+    h = up.handover
+    assert judge_handover(up) == ("ok", "lift_off, then flat_landing")
+    q = up.model_q.copy()
+    q[len(h.base.t), G.Z] += 1e-6
+    assert judge_handover(dataclasses.replace(up, model_q=q))[0] == "handover"
+    fq = h.flight.model_q.copy()
+    c, s = math.cos(1e-3), math.sin(1e-3)
+    fq[-1, G.A] = (fq[-1, G.A].reshape(3, 3) @ np.array([[1, 0, 0], [0, c, -s], [0, s, c]])
+                   ).ravel()
+    tilted = dataclasses.replace(h, flight=dataclasses.replace(h.flight, model_q=fq))
+    assert judge_handover(dataclasses.replace(up, handover=tilted))[0] == "landing"
