@@ -184,6 +184,15 @@ def test_a_tilted_lift_off_lands_on_a_corner_and_goes_on(tilt):
     assert len(alone.events) == len(tilt.events) - len(h.base.events)
 
 
+@pytest.mark.parametrize("late, status", [(0.0, "done"), (1e-9, "done"), (1e-6, "done")])
+def test_a_lift_off_at_or_just_before_the_end(late, status):
+    """A flight of no time is none (the run is the base one); one of 1e-11 s, whose first
+    touch has v_n >= 0, lands nowhere."""
+    run = simulate(_scene(UP, spin=0.0, duration=math.pi / 240 * (1 + late)))
+    assert run.status == status and (run.handover is None) == (late == 0.0)
+    assert abs(run.t[-1] - math.pi / 240 * (1 + late)) < 1e-15
+
+
 def test_without_restitution_the_run_stops_at_lift_off():
     scene = parse_scene(_SCENE.format(name="h", M=M, m=m, law=UP, spin=0.0, duration=0.3)
                         .replace("restitution = 0.3\n", ""))

@@ -91,6 +91,8 @@ def hand_over(base, run_flight) -> object:
     in its model, with no hand-over (driver.run_prepared of driver.prepare)."""
     scene = base.scene
     t_l = float(base.t[-1])
+    if scene.t0 + scene.duration - t_l <= 1e-12 * max(1.0, abs(t_l)):
+        return base                          # lifted off at the end time: no flight
     state = general_state(scene, base.start, t_l, base.model_q[-1])
     fscene = flight_scene(scene, t_l, state)
     flight, landing = fly(fscene, run_flight)
@@ -108,7 +110,7 @@ def fly(fscene, run_flight) -> tuple:
     whole flight (the same steps to that event)."""
     first = run_flight(dataclasses.replace(fscene, max_events=1))
     touch = _first_touch(first)
-    if touch is not None:
+    if touch is not None and touch[1]["v_minus"] < 0.0:   # (coming down: a landing)
         i, ev = touch
         spread = flat_spread(fscene, first.model_q[i, G.A])
         resolution = height_resolution(fscene, float(first.model_q[i, G.Z]))
@@ -122,8 +124,9 @@ def fly(fscene, run_flight) -> tuple:
 
 
 def _first_touch(run):
-    """(the index of the before row, the event) of the flight's first impact or contact,
-    or None."""
+    """(the index of the before row, the event) of the flight's first impact, contact or
+    graze, or None (a touch with v_n >= 0 at once after the lift-off, in a flight of
+    1e-11 s, is no landing: the caller reads v_minus)."""
     from .events import event_rows
     for i, ev in event_rows(run):
         if ev["kind"] in ("impact", "contact", "graze"):

@@ -575,7 +575,9 @@ def judge_handover(result) -> tuple[str, str]:
     if not np.all(np.isfinite(result.model_q)):
         return "nan", "non-finite state in the flight"
     touch = next((ev for ev in h.flight.events
-                  if ev["kind"] in ("impact", "contact", "flat_landing")), None)
+                  if ev["kind"] in ("impact", "contact", "graze", "flat_landing")), None)
+    if touch is not None and not touch["v_minus"] < 0.0:
+        touch = None                         # (not coming down: no landing)
     if touch is not None:
         j = int(np.searchsorted(h.flight.t, touch["t"]))
         q = h.flight.model_q[j]
