@@ -5,9 +5,10 @@
   other scene, as a parse error or, where the start looked like a face's but the model
   chosen is another, by the choice; either way one line naming the field, exit 2,
   nothing written;
-* the keys the base model does not read ([run].method, step, keep_orthonormal, zeno_dt,
-  [plane].restitution and restitution_model: the run stops at a lift-off, so it meets no
-  impact) are refused by name when given, and taken by the other models.
+* the keys the base model does not read ([run].method, step, keep_orthonormal) are
+  refused by name when given, and taken by the other models; [plane].restitution,
+  restitution_model and [run].zeno_dt are taken: the flight after a lift-off reads them
+  (derive/runtime/handover.py; tests/test_handover.py).
 """
 from pathlib import Path
 
@@ -74,9 +75,6 @@ def test_a_base_scene_runs_without_restitution():
     (dict(run='method = "dopri5"'), "[run].method", "DOP853"),
     (dict(run="step = 1e-3"), "[run].step", "RK4"),
     (dict(run="keep_orthonormal = true"), "[run].keep_orthonormal", "no attitude"),
-    (dict(plane="restitution = 0.5"), "[plane].restitution", "no impacts"),
-    (dict(plane='restitution_model = "poisson"'), "[plane].restitution_model", "lifts off"),
-    (dict(run="zeno_dt = 1e-6"), "[run].zeno_dt", "no impacts"),
 ])
 def test_an_unread_or_missing_key_is_refused_in_one_line(tmp_path, capsys, kw, field, says):
     path = tmp_path / "bad.toml"
@@ -171,10 +169,12 @@ def test_the_capsule_crawlers_energy_balance_closes_with_the_friction_of_the_clo
 
 
 # ---- robustness over flat bodies: a seeded subset of derive verify robustness --plane face ----
-@pytest.mark.parametrize("k, status", [(1, "done"), (19, "lift_off"), (20, "tipping"),
-                                       (31, "face_lifting"), (2, "lift_off"), (161, "done")])
+@pytest.mark.parametrize("k, status", [(1, "done"), (19, "lift_off, flat_landing"),
+                                       (20, "tipping"), (31, "face_lifting"), (2, "lift_off"),
+                                       (161, "done")])
 def test_random_bodies_on_a_face_stop_when_the_reference_says(k, status):
-    """Scenes k of ``derive verify robustness --plane face`` (seed 11), one of each end:
+    """Scenes k of ``derive verify robustness --plane face`` (seed 11), one of each end
+    (19, odd, gives restitution: its lift-off goes on in flight and lands flat):
     the judge holds N on a grid before the end (no lift-off missed), and a stop's N or the
     centre of pressure's margin to the edge or the kern to 1e-8 at the reported time, as
     derive/base_reference.py's Newton-Euler balance has them.  Scene 161 slips from rest

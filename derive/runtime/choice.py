@@ -23,9 +23,11 @@ chooses one and fills its numbers:
   face on a rough plane (``[initial].on_plane`` with the vertical along a face normal,
   omega(0) along it, O moving horizontally): the face stays on the plane, so its
   horizontal motion and yaw are the whole motion, with friction over the face (Coulomb
-  and Contensou) in place of one point's; the run stops with ``lift_off``, ``tipping`` or
-  (linear pressure) ``face_lifting`` where N reaches 0, the centre of pressure the face's
-  edge or its kern.
+  and Contensou) in place of one point's; the run stops with ``tipping`` or (linear
+  pressure) ``face_lifting`` where the centre of pressure reaches the face's edge or its
+  kern, and with ``lift_off`` where N reaches 0, unless the scene gives
+  ``[plane].restitution``: then the driver hands the run over to the general model
+  (derive/runtime/handover.py).
 
 The conditions read the law's program (``is_zero``) and its samples; nothing symbolic.
 """
@@ -233,18 +235,15 @@ def choose(scene: Scene) -> tuple[str, str]:
 
 # the keys the base model does not read (its own DOP853 in the time and in s, no attitude
 # to keep orthonormal, no impacts), refused by name when given: key -> why
-_IMPACTS = ("a face on the plane has no impacts, and the run stops where the body lifts "
-            "off (handing over to flight is later work)")
 BASE_UNREAD = {
     "[run].method": "the base model integrates with its own DOP853 (in t along a line, "
                     "else in s = the slip's arc: derive/docs/bodies.md)",
     "[run].step": "is RK4's step, and the base model integrates with its own DOP853",
     "[run].keep_orthonormal": "the base model has no attitude matrix to keep orthonormal "
                               "(the yaw is one angle)",
-    "[plane].restitution": _IMPACTS,
-    "[plane].restitution_model": _IMPACTS,
-    "[run].zeno_dt": _IMPACTS,
 }
+# [plane].restitution, restitution_model and [run].zeno_dt are read by the flight after a
+# lift-off (derive/runtime/handover.py): a face on the plane has no impacts itself
 
 
 def _base_keys(scene: Scene, kind: str) -> None:

@@ -124,6 +124,8 @@ class Result:
     # and the energy balance's denser rows; None: driver.simulate of the scene, which is
     # the run unless it had pushes or a closed loop (their producers set it)
     rerun: object = field(repr=False, default=None)
+    # a base run that lifted off and went on in the general model (runtime/handover.py)
+    handover: object = field(repr=False, default=None)
 
     @cached_property
     def session(self) -> Session:
@@ -294,6 +296,9 @@ def simulate(scene, progress: bool = False) -> Result:
         from ..progress import Bar
         bar = Bar("simulating")
     result = run_prepared(prep, progress=bar.update if bar else None)
+    if result.status == "lift_off" and prep.scene.restitution_given:
+        from .handover import hand_over        # the flight from the lift-off on
+        result = hand_over(result, lambda sc: run_prepared(prepare(sc)))
     if bar:
         bar.close()
     result.timings = {"prepare_s": t_prepare, **result.timings,

@@ -536,6 +536,8 @@ def energy_balance(result, mo: Motion) -> dict | None:
     rough = result.rough
     for i, ev in event_rows(result):
         kind = ev["kind"]
+        if i + 1 >= len(E):                  # the run's ending event (a flat landing)
+            continue
         jumps[kind] = jumps.get(kind, 0.0) + float(E[i + 1] - E[i])
         if kind == "impact":
             if rough:       # the work of the impulse, normal and tangential (Darboux-Keller)

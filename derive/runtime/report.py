@@ -58,8 +58,10 @@ def summary(result, mo: Motion | None = None) -> dict:
     steps, events = (np.flatnonzero(result.row_kind == abi.ROW_KIND["step"]),
                      np.flatnonzero(result.row_kind != abi.ROW_KIND["step"]))
     base = result.model == "base"
-    energy = base_report.energy(result, mo) if base else energy_balance(result, mo)
-    return {
+    handed = result.handover
+    energy = (base_report.energy(result, mo) if base else handed.energy()
+              if handed is not None else energy_balance(result, mo))
+    out = {
         "scene": s.name,
         "status": result.status,
         "model": result.model,
@@ -79,11 +81,16 @@ def summary(result, mo: Motion | None = None) -> dict:
                     **(base_report.contact(result) if base else {})},
         "travel": {**travel_of(result, mo), **(base_report.travel(result) if base else {})},
         "energy": energy,
-        "invariants": invariant_drift(result, base),
+        # (after a hand-over, the flight's: the body on its face before it never flies)
+        "invariants": invariant_drift(handed.flight if handed is not None else result, base),
         "timings_s": dict(result.timings),
         "machine": {"processor": platform.processor() or platform.machine(),
                     "cpus": os.cpu_count()},
     }
+    if handed is not None:           # the face's contact before the lift-off, and where
+        out["contact"]["face"] = base_report.contact(handed.base)
+        out["handover"] = handed.summary()
+    return out
 
 
 def travel_of(result, mo: Motion) -> dict:
@@ -145,6 +152,8 @@ def lines(scene, result, loop: str | None = None) -> list[str]:
         out += _friction_lines(scene, result)
     if base:
         out += base_report.lines(result)
+    if result.handover is not None:
+        out += result.handover.lines()
     end = choice.travel(result.model, scene.t0, float(result.t[-1]), result.model_q[-1],
                         choice.start_of_c(scene), scene)
     if end["distance"] > 0.0:                  # C moved horizontally: how far

@@ -584,9 +584,10 @@ def _start_bulk(d: Draft):
 
 def _restitution(d: Draft) -> None:
     """[plane].restitution is required with [plane], but by a box or a cylinder started on
-    the plane (on_plane) of a rough plane: the base model, which meets no impact (it stops
-    where the body lifts off) and refuses e; derive/runtime/choice.py refuses its absence
-    on any other model."""
+    the plane (on_plane) of a rough plane: the base model, which meets no impact (without
+    e it stops where the body lifts off; with it, the flight after the lift-off reads e:
+    derive/runtime/handover.py); derive/runtime/choice.py refuses its absence on any other
+    model."""
     v = d.v
     if not d.plane or RESTITUTION in d.given:
         return
@@ -607,7 +608,8 @@ STATE_RULES = (
          "carrier_velocity gives O's velocity instead of com_velocity (C's)", _start,
          bulk=_start_bulk),
     Rule("[plane].restitution: required, but by a box or a cylinder started on its face "
-         "(on_plane) on a rough plane (the base model, which has no impacts)",
+         "(on_plane) on a rough plane (the base model, which has no impacts; read by the "
+         "flight after a lift-off)",
          _restitution, bulk=_as_for_one(_restitution)),
     Rule("[run]: at most 1e8 RK4 steps", _rk4_step, law=True, bulk=_rk4_step_bulk),
     Rule("[initial]: S starts on or above the plane", _above_plane, bulk=_above_plane_bulk),

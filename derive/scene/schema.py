@@ -146,8 +146,9 @@ SCENE_FIELDS = (
     F("plane", "restitution", "number", REQUIRED, "e of Newton's law v_n+ = -e v_n- (E1.13); "
       "with friction, e of restitution_model", 0, 1, example=0.9,
       when="[plane] given (absent: free flight); a box or a cylinder started on its face "
-      "(on_plane) on a rough plane leaves it out: the base model has no impacts and "
-      "refuses it"),
+      "(on_plane) on a rough plane may leave it out: the base model has no impacts, and "
+      "its run then stops where the body lifts off (given, the flight after a lift-off "
+      "reads it)"),
     F("plane", "friction", "number", 0.0, "mu_f, Coulomb's coefficient of friction at S (0: "
       "the paper's smooth plane; > 0: the rough model, one coefficient for static and "
       "kinetic friction: derive/docs/friction.md)", 0, 100),

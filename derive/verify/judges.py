@@ -543,3 +543,47 @@ def judge_face_run(result) -> tuple[str, str]:
                                            and kern < -FACE_MARGIN * face.size):
         return "stop", f"done, but cp at the end is past the {'edge' if edge < 0 else 'kern'}"
     return "ok", status
+
+
+# the general model's honest ends after a hand-over (the flat landing the driver's)
+FLIGHT_ENDS = ("done", "flat_landing", "surface_jump", "painleve")
+
+
+def judge_handover(result) -> tuple[str, str]:
+    """A face run that lifted off and went on in the general model
+    (derive/runtime/handover.py): the base part as :func:`judge_face_run` judges it (its
+    lift-off at N = 0); then ``handover`` where the rows on both sides of it differ
+    beyond round-off or from the base state's C = O + A OC (derive.runtime.choice's
+    base_c, against the general state handed over), ``status`` where the flight ends
+    otherwise than done or an honest stop, ``landing`` where a flat landing's corners are
+    not within the height resolution, or the first touch of a flight that goes on is."""
+    from ..runtime import handover as ho
+    from ..runtime.choice import base_c
+    h = result.handover
+    verdict, detail = judge_face_run(h.base)
+    if verdict != "ok" or h.base.status != "lift_off":
+        return verdict if verdict != "ok" else "status", detail or h.base.status
+    i = len(h.base.t)
+    scale = max(float(np.max(np.abs(h.state[:6]))), 1.0)
+    jump = float(np.max(np.abs(result.model_q[i] - result.model_q[i - 1])))
+    r_C, v_C, _, _ = base_c(h.base.scene, h.base.start, h.base.t[-1:], h.base.model_q[-1:])
+    off = float(np.max(np.abs(np.concatenate([r_C[0], v_C[0]]) - h.state[:6])))
+    if jump > 1e-12 * scale or off > 1e-12 * scale:
+        return "handover", f"at t = {h.t:.9g} the state jumps by {max(jump, off):.3g}"
+    if result.status not in FLIGHT_ENDS:
+        return "status", f"the flight ended with {result.status} at t = {result.t[-1]:.6g}"
+    if not np.all(np.isfinite(result.model_q)):
+        return "nan", "non-finite state in the flight"
+    touch = next((ev for ev in h.flight.events
+                  if ev["kind"] in ("impact", "contact", "graze", "flat_landing")), None)
+    if touch is not None and not touch["v_minus"] < 0.0:
+        touch = None                         # (not coming down: no landing)
+    if touch is not None:
+        j = int(np.searchsorted(h.flight.t, touch["t"]))
+        q = h.flight.model_q[j]
+        spread = ho.flat_spread(result.scene, q[ho.G.A])
+        res = ho.height_resolution(result.scene, float(q[ho.G.Z]))
+        if (touch["kind"] == "flat_landing") != (spread <= res):
+            return "landing", (f"{touch['kind']} at t = {touch['t']:.9g} with the corners "
+                               f"{spread:.3g} m apart (resolution {res:.3g} m)")
+    return "ok", f"lift_off, then {result.status}"

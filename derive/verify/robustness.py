@@ -26,8 +26,12 @@ done or an honest stop (lift_off, tipping, face_lifting), no NaN, N(t) positive 
 before the end (no lift-off missed), and each stop at its time: N, or the centre of
 pressure's margin to the edge or the kern, within 1e-8 of 0 at the reported time, as
 derive/base_reference.py's Newton-Euler balance (its friction by adaptive quadrature) has
-them at the run's last state.  ``tests/test_contact_properties.py`` runs a
-seeded subset in CI.
+them at the run's last state.  Every odd scene gives ``[plane].restitution``, so that its
+lift-off goes on in the general model (derive/runtime/handover.py): judged by
+:func:`~derive.verify.judges.judge_handover` (the lift-off as above, the state continuous
+across the hand-over and equal to the base state's C = O + A OC, the flight's end honest,
+a flat landing's corners within the height resolution and no other first touch's).
+``tests/test_contact_properties.py`` runs a seeded subset in CI.
 """
 from __future__ import annotations
 
@@ -42,7 +46,7 @@ import numpy as np
 from ..commands import Target
 from ..progress import count
 from .generators import random_face_scene, random_rough_scene, random_scene, with_rk4_step
-from .judges import judge_face_run, judge_run
+from .judges import judge_face_run, judge_handover, judge_run
 
 
 @dataclass
@@ -111,6 +115,8 @@ def _run_face(index: int, rng, max_duration: float) -> Outcome:
     from ..runtime.driver import simulate
     from ..scene import SceneError, parse_scene
     doc = random_face_scene(rng, max_duration)
+    if index % 2:              # a lift-off goes on in the general model (runtime/handover.py)
+        doc["plane"]["restitution"] = 0.3
     body = doc["body"]
     size = max(body.get("half_extents") or [body["radius"], body["half_length"]])
     start = time.perf_counter()
@@ -121,6 +127,10 @@ def _run_face(index: int, rng, max_duration: float) -> Outcome:
                        str(exc), "face")
     result = simulate(scene)
     seconds = time.perf_counter() - start
+    if result.handover is not None:
+        verdict, detail = judge_handover(result)
+        return Outcome(index, verdict, f"lift_off, {result.status}", seconds, 0.0, size,
+                       scene.duration, detail, "face")
     if result.model != "base":
         return Outcome(index, "model", result.status, seconds, math.nan, size,
                        scene.duration, f"ran model {result.model}, not base", "face")

@@ -146,6 +146,7 @@ enum crt_status {
   CRT_LIFT_OFF = 5,  /* base model: the normal force N under the face reached 0 (the body leaves the plane; the run stops there) */
   CRT_TIPPING = 6,  /* base model: the centre of pressure reached the face's edge (the body tips about it; the run stops there) */
   CRT_FACE_LIFTING = 7,  /* base model, linear pressure: the centre of pressure left the face's kern (the affine pressure would turn negative at an edge: the face starts to lift there; the run stops there) */
+  CRT_FLAT_LANDING = 8,  /* a base run's flight after a lift-off (the driver's hand-over, derive/runtime/handover.py) landed flat: every corner of the face at once, within the height resolution, a multi-point impact no model makes; the run stops at the touch */
   CRT_MAX_STEPS = -1,  /* max_steps steps were taken before the end time */
   CRT_STEP_UNDERFLOW = -2,  /* the step size fell below 1e-14 of the time scale */
   CRT_NONFINITE = -3,  /* the state or the right-hand side became NaN or infinite */
@@ -208,7 +209,8 @@ enum crt_event_kind {
   CRT_EV_ROLL_START = 12,  /* the rolling resistance reached mu_r N (or cannot hold the rolling it stopped): the body rolls from rest against it (value: |T_t|/(mu_r N)) */
   CRT_EV_TIPPING = 13,  /* base model: the centre of pressure reached the face's edge (value: its distance from the face's centroid) */
   CRT_EV_FACE_LIFTING = 14,  /* base model, linear pressure: the centre of pressure reached the face's kern (the pressure reaches 0 at an edge; value: the kern margin) */
-  CRT_EV_COUNT = 15
+  CRT_EV_FLAT_LANDING = 15,  /* a flight after a base run's lift-off touched the plane with the face flat (the driver's hand-over; value: the corners' spread in height, v_minus: v_n; no impact applied, the run stops) */
+  CRT_EV_COUNT = 16
 };
 
 /* Counters read with crt_stats (long[CRT_STAT_COUNT]). */
@@ -472,6 +474,7 @@ const char *crt_status_name(int code)
     case CRT_LIFT_OFF: return "lift_off";
     case CRT_TIPPING: return "tipping";
     case CRT_FACE_LIFTING: return "face_lifting";
+    case CRT_FLAT_LANDING: return "flat_landing";
     case CRT_MAX_STEPS: return "max_steps";
     case CRT_STEP_UNDERFLOW: return "step_underflow";
     case CRT_NONFINITE: return "nonfinite";
@@ -490,7 +493,7 @@ const char *crt_status_name(int code)
 
 const char *crt_event_name(int i)
 {
-  static const char names[15][13] = {
+  static const char names[16][13] = {
     "none",
     "impact",
     "contact",
@@ -505,9 +508,10 @@ const char *crt_event_name(int i)
     "roll_stop",
     "roll_start",
     "tipping",
-    "face_lifting"
+    "face_lifting",
+    "flat_landing"
   };
-  return (i >= 0 && i < 15) ? names[i] : "";
+  return (i >= 0 && i < 16) ? names[i] : "";
 }
 
 const char *crt_stat_name(int i)

@@ -1,0 +1,231 @@
+"""A base run that lifts off goes on in the general model (issue 33, "honest ends").
+
+At lift-off N falls to 0 continuously and the face leaves the plane flat, v_n = 0: the
+general model is exact there.  The base model's state (X_O, Y_O, psi and their rates)
+gives the general state of the same body, points and rotors at that instant
+(:func:`general_state`: ``A = R_z(psi) Q_face``, ``r_C = r_O + A OC(t)``, ``V_C = V_O +
+A (omega x OC + OC')``, ``omega = psi' e_z``, the laws at the same time), and the scene
+goes on from there in the model the general choice gives it (``rough`` for one point,
+``moments_rough`` else) to the end time: one run, one trajectory, one timeline.
+
+The hand-over is the driver's, not the C's: each model is its own library, compiled once
+per machine, and one who embeds the base model's C gets ``lift_off`` with the state at
+the located time, from which these formulas give the 18 numbers the general model's
+library starts from (derive/docs/bodies.md).  It needs ``[plane].restitution`` (the
+flight may land on a corner); without it the run stops at lift-off as before.
+
+Landing flat is a multi-point impact (every corner of the face at once) that the general
+model does not make: where the first touch of the flight finds the touching face's
+corners (a disc's rim) within the runtime's height resolution of each other, the run
+stops there with status ``flat_landing`` (:func:`flat_spread`).  A landing on one corner,
+an edge's middle or a rim point goes on in the general model.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+
+from .. import abi, face as faces, layout
+from . import choice
+
+G = layout.GENERAL
+_BEFORE, _AFTER = abi.ROW_KIND["before_event"], abi.ROW_KIND["after_event"]
+_EV = {name: k for k, name in enumerate(abi.names(abi.EVENT_KINDS))}
+_MODE_COL = abi.EVENT_COLUMNS.index("mode")
+# the face's mode after each base event, written in the events' mode column (the general
+# model's timeline reads it)
+_BASE_MODES = {"slip": abi.MODE["sliding"], "reversal": abi.MODE["sliding"],
+               "stick": abi.MODE["sticking"], "liftoff": abi.MODE["flight"]}
+
+
+def general_state(scene, st: choice.Start, t: float, q) -> np.ndarray:
+    """The 18 numbers of the general state from one state of the base model at time t."""
+    return choice.to_general(scene, "base", st, np.array([float(t)]),
+                             np.asarray(q, dtype=float)[None], None)[0]
+
+
+def flight_scene(scene, t: float, state) -> "object":
+    """The scene from time t on, started in the general state ``state`` off the face
+    (the base model's own keys dropped: the general model refuses them)."""
+    state = np.asarray(state, dtype=float)
+    return dataclasses.replace(
+        scene, on_plane=False, t0=float(t), duration=scene.t0 + scene.duration - float(t),
+        com=tuple(state[G.com]), com_velocity=tuple(state[G.com_velocity]),
+        omega=tuple(state[G.omega]), A0=state[G.A].reshape(3, 3).copy(),
+        static_friction=None, pressure=None, model="auto")
+
+
+def height_resolution(scene, Z: float) -> float:
+    """The heights the runtime does not resolve (crt_plane.h's crt_height_resolution:
+    the integrator's own error in Z_C, or round-off), at C's height Z."""
+    size = abs(Z) + choice.length_scale(scene)
+    return 10.0 * max(scene.atol + scene.rtol * size, 64.0 * np.finfo(float).eps * size)
+
+
+def flat_spread(scene, A) -> float:
+    """How far apart in height the corners (a disc: the rim) of the face nearest to the
+    plane are, under attitude A: 2 (a |u_1| + b |u_2|) for a rectangle, 2 R |u_12| for
+    a disc, u the vertical in the face's frame; inf where no face is down (the vertical
+    more than 45 degrees from every face normal)."""
+    n = np.asarray(A, dtype=float).reshape(3, 3)[2]
+    k = int(np.argmax(np.abs(n)))
+    if scene.shape == "cylinder" and k != 2:
+        return math.inf
+    axis = np.zeros(3)
+    axis[k] = math.copysign(1.0, n[k])
+    face = faces.face_on(scene.shape, scene.size, scene.center, axis)
+    u = face.frame @ n
+    if face.kind == "rectangle":
+        a, b = face.half
+        return 2.0 * (a * abs(u[0]) + b * abs(u[1]))
+    return 2.0 * face.half[0] * math.hypot(u[0], u[1])
+
+
+def hand_over(base, run_flight) -> object:
+    """The run of ``base`` (a base Result that stopped with ``lift_off``) continued in
+    the general model to the end time: a Result of the flight's model whose rows, events
+    and counters are the base run's (in the general layout) then the flight's, with
+    ``handover`` saying where and what.  ``run_flight(scene) -> Result`` runs a scene
+    in its model, with no hand-over (driver.run_prepared of driver.prepare)."""
+    scene = base.scene
+    t_l = float(base.t[-1])
+    if scene.t0 + scene.duration - t_l <= 1e-12 * max(1.0, abs(t_l)):
+        return base                          # lifted off at the end time: no flight
+    state = general_state(scene, base.start, t_l, base.model_q[-1])
+    fscene = flight_scene(scene, t_l, state)
+    flight, landing = fly(fscene, run_flight)
+    # each part's denser rows (the balance's, the pictures') from its own runs: the base
+    # alone (simulate of the scene would hand over again), the flight as it was made
+    base.rerun = lambda output_dt: run_flight(dataclasses.replace(scene, output_dt=output_dt))
+    flight.rerun = lambda output_dt: fly(dataclasses.replace(fscene, output_dt=output_dt),
+                                         run_flight)[0]
+    return _stitch(base, flight, state, landing)
+
+
+def fly(fscene, run_flight) -> tuple:
+    """The flight from the hand-over (a Result) and its flat landing (None: none): a
+    first run to the first event, stopped there if the face touches flat, else the
+    whole flight (the same steps to that event)."""
+    first = run_flight(dataclasses.replace(fscene, max_events=1))
+    touch = _first_touch(first)
+    if touch is not None and touch[1]["v_minus"] < 0.0:   # (coming down: a landing)
+        i, ev = touch
+        spread = flat_spread(fscene, first.model_q[i, G.A])
+        resolution = height_resolution(fscene, float(first.model_q[i, G.Z]))
+        if spread <= resolution:
+            landing = {"t": float(first.t[i]), "spread": float(spread),
+                       "resolution": resolution, "v_n": float(ev["v_minus"])}
+            return _cut(first, i, ev, spread), landing
+    if first.status == "max_events" and fscene.max_events != 1:
+        return run_flight(fscene), None
+    return first, None
+
+
+def _first_touch(run):
+    """(the index of the before row, the event) of the flight's first impact, contact or
+    graze, or None (a touch with v_n >= 0 at once after the lift-off, in a flight of
+    1e-11 s, is no landing: the caller reads v_minus)."""
+    from .events import event_rows
+    for i, ev in event_rows(run):
+        if ev["kind"] in ("impact", "contact", "graze"):
+            return i, ev
+    return None
+
+
+def _cut(run, i: int, ev: dict, spread: float):
+    """The flight up to the touch's before row, ending there with flat_landing (the
+    touch's event kept as a flat_landing event: the impact is not applied)."""
+    keep = run.event_rows[run.event_rows[:, 0] < ev["t"]]
+    row = run.event_rows[run.event_rows[:, 0] == ev["t"]][:1].copy()
+    row[:, 1] = _EV["flat_landing"]
+    row[:, 2], row[:, 4] = spread, math.nan     # no impact made: no v_n after
+    return dataclasses.replace(
+        run, t=run.t[:i + 1], model_q=run.model_q[:i + 1], row_kind=run.row_kind[:i + 1],
+        event_rows=np.vstack([keep, row]), status="flat_landing",
+        stats={**run.stats, "impacts": run.stats["impacts"] - 1 if ev["kind"] == "impact"
+               else run.stats["impacts"]})
+
+
+def _stitch(base, flight, state, landing):
+    """One Result: the base rows in the general layout, then the flight's (its first row,
+    the hand-over's state, the lift-off's after row)."""
+    general = base.general
+    ev = base.event_rows.copy()
+    kinds = abi.names(abi.EVENT_KINDS)
+    for r in ev:
+        r[_MODE_COL] = _BASE_MODES.get(kinds[int(r[1])], r[_MODE_COL])
+    row_kind = flight.row_kind.copy()
+    row_kind[0] = _AFTER
+    stats = {k: base.stats.get(k, 0.0) + flight.stats.get(k, 0.0) for k in flight.stats}
+    out = dataclasses.replace(
+        flight, t=np.concatenate([base.t, flight.t]),
+        model_q=np.vstack([general, flight.model_q]),
+        row_kind=np.concatenate([base.row_kind, row_kind]),
+        event_rows=np.vstack([ev, flight.event_rows]) if len(flight.event_rows) else ev,
+        stats=stats, scene=base.scene,
+        timings={k: base.timings.get(k, 0.0) + flight.timings.get(k, 0.0)
+                 for k in set(base.timings) | set(flight.timings)})
+    t_l = float(base.t[-1])
+    out.why = (f"base until the lift-off at t = {t_l:.6g} s ({base.why}); then {flight.why}")
+    out.rerun = lambda output_dt: _rerun(base.scene, output_dt)
+    out.handover = Handover(base=base, flight=flight, t=float(base.t[-1]), state=state,
+                            landing=landing)
+    # the face's mode on the base rows (sliding or sticking: base_report.modes), the
+    # flight's after; no slip of S on the base rows (the face slides, not a point)
+    from .base_report import modes
+    out.__dict__["modes"] = np.concatenate([modes(base), flight.modes])
+    if flight.slip is not None:
+        out.__dict__["slip"] = np.vstack([np.full((len(base.t), 2), math.nan), flight.slip])
+    return out
+
+
+def _rerun(scene, output_dt: float):
+    """The stitched run again with rows every output_dt (the pictures', the balance's)."""
+    from .driver import simulate
+    return simulate(dataclasses.replace(scene, output_dt=output_dt))
+
+
+@dataclasses.dataclass
+class Handover:
+    """Where a base run handed over: its own Result (``base``, status lift_off), the
+    flight's (``flight``, from the hand-over's state), the time and the 18 numbers, and
+    the flat landing that stopped the flight (t, the corners' spread and the height
+    resolution, v_n), if one did."""
+    base: object
+    flight: object
+    t: float
+    state: np.ndarray
+    landing: dict | None = None
+
+    def summary(self) -> dict:
+        return {"t": self.t, "model": self.flight.model, "why": self.flight.why,
+                "state": dict(zip(choice.GENERAL_LABELS, self.state.tolist())),
+                "flight_status": self.flight.status,
+                "flat_landing": self.landing}
+
+    def energy(self) -> dict:
+        """The base run's balance (base_report.energy), the flight's (energy_balance) and
+        the energy on both sides of the hand-over (the same state: equal to round-off)."""
+        from . import base_report
+        from .motion import energy_balance, motion
+        base = base_report.energy(self.base, motion(self.base))
+        flight = energy_balance(self.flight, motion(self.flight))
+        return {"start": base["start"], "end": flight["end"],
+                "change": flight["end"] - base["start"],
+                "at_handover": flight["start"] - base["end"],
+                "base": base, "flight": flight}
+
+    def lines(self) -> list[str]:
+        from . import base_report
+        out = [f"  lifted off at t = {self.t:.6g} s (N reached 0): handed over to the "
+               f"{self.flight.model} model, the face flat and v_n = 0"]
+        out += [line for line in base_report.lines(self.base) if "stopped at" not in line]
+        if self.landing is not None:
+            out.append(f"  landed flat at t = {self.landing['t']:.6g} s (v_n = "
+                       f"{self.landing['v_n']:.4g} m/s, the face's corners within "
+                       f"{self.landing['spread']:.3g} m of each other, the height resolution "
+                       f"{self.landing['resolution']:.3g} m): a multi-point impact no "
+                       "model makes; the run stops there")
+        return out
