@@ -701,7 +701,13 @@ static void crt_base_slip_step(crt_session *s, crt_out *o, double t_end)
     crt_base_rows(s, o, until, z0, F);
   }
   ++s->stat[CRT_STAT_STEPS];
-  s->bs.hs = hs * crt_min(6.0, crt_max(0.333, 0.9 * pow(crt_max(err, 1e-10), -0.125)));
+  {                                        /* PI control (Hairer's beta = 0.04, as the
+                                              flight's Lie steps, crt_loop_next_size) */
+    const double beta = 0.04, alpha = 0.125 - 0.75 * beta;
+    const double fac = 0.9 * pow(crt_max(err, 1e-10), -alpha) * pow(s->err_old, beta);
+    s->bs.hs = hs * crt_min(6.0, crt_max(0.333, fac));
+    s->err_old = crt_max(err, 1e-4);
+  }
   if (which < 0) {
     if (s->bs.line) s->bs.ht = s->bs.hs;
     s->bs.fsal = 1;
