@@ -13,8 +13,8 @@
  *    by its Taylor series (twist = G0 d + G1 d^2/2 until it reaches 1e2 eps);
  *  - stick: the state is constant; the event functions 1 - gamma, N, the centre of
  *    pressure's edge margin and (linear pressure) its kern margin are sampled every
- *    opt[CRT_OPT_HMAX]/8 (gamma by the gauge's bounds where they put it below 1 - 1e-3,
- *    under uniform pressure) and a sign change is located by the Illinois method
+ *    opt[CRT_OPT_HMAX]/8 (gamma by the gauge's bounds where they put it below 1 - 1e-3)
+ *    and a sign change is located by the Illinois method
  *    (break-away: the slip starts; N: status lift_off; the edge: status tipping; the kern:
  *    status face_lifting);
  *  - slip, along a line (s->bs.line): while the scaled twist xi = (V_O, ell psi') keeps
@@ -294,9 +294,9 @@ static double crt_base_slip_g_at(crt_session *s, double t_end, const double *z, 
    margin, the kern margin (linear pressure, whose slope the gauge reads; else 1).  Where
    the gauge's bounds (crt_face_gauge_bounds) put gamma below 1 - 1e-3, 1 - their upper
    bound (the sign is all a sample needs, and a root is located only where gamma is near
-   1: computed there); else the gauge itself, its maximiser in xi.  The bounds hold under
-   uniform pressure only: with a nonzero slope they are (0, inf) and the gauge is
-   computed. */
+   1: computed there); else the gauge itself, its maximiser in xi.  Under linear pressure
+   the upper bound is scaled by the pressure's mean over its least on the face (none where
+   the least is 0: the gauge computed). */
 static void crt_base_stick_g(crt_session *s, double t, double *g, double *xi)
 {
   double W[3], N, cp[2], k[2], lo, hi;
