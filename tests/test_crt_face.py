@@ -240,3 +240,43 @@ def test_the_gauge_bounds_bracket_it_and_the_closed_forms_take_no_evaluation(shi
             assert count == 0 and math.isclose(gam, want, rel_tol=1e-14)
             assert math.isclose(gam, gam_py, rel_tol=1e-10)
             assert np.allclose(xi, xi_py, atol=1e-6)
+
+
+def test_the_gauge_bounds_under_linear_pressure_bracket_it(shim):
+    """Linear pressure: max(gF, gT) <= gamma <= (P_c / p_min)(gF + gT), against face.py's
+    gauge (its own minimisation), with p_min, the least of the pressure over the face's
+    corners or rim, computed here apart; no upper bound where the pressure reaches 0."""
+    mu, N = 0.4, 3.0
+    seen = 0
+    for f, mode, _ in _faces():
+        if mode != "linear":
+            continue
+        c = np.asarray(f.centre)
+        reach = np.asarray(f.half[:2]) if f.kind == "rectangle" else np.full(2, f.half[0])
+        for off in ((0.0, 0.0), (0.3, -0.2), (0.9, 0.4), (2.0, 1.5)):
+            cp = c + np.asarray(off) * reach / 8.0
+            kind, geom, k = _face_args(f, N, cp, mode)
+            if f.kind == "rectangle":
+                rim = c + np.array([[sx * reach[0], sy * reach[1]] for sx in (-1, 1)
+                                    for sy in (-1, 1)])
+            else:
+                th = np.linspace(0, 2 * np.pi, 4001)
+                rim = c + reach[0] * np.column_stack([np.cos(th), np.sin(th)])
+            P_c = N / f.area
+            p_min = float(np.min(P_c + (rim - c) @ k))
+            fr = fc.Friction(f, N, cp, mode, mu)
+            lohi = np.zeros(3)
+            for _ in range(6):
+                W = RNG.normal(size=3) * np.array([1, 1, f.size])
+                rbar = shim.shim_bounds(kind, _ptr(geom), N, _ptr(k), mu, _ptr(_arr(W)),
+                                        _ptr(lohi))
+                if p_min <= 0.0:
+                    assert lohi[1] == np.inf
+                    continue
+                gF = np.hypot(W[0], W[1]) / (mu * N)
+                gT = abs(W[2] - (c[0] * W[1] - c[1] * W[0])) / (mu * N * rbar)
+                assert math.isclose(lohi[1], (gF + gT) * P_c / p_min, rel_tol=1e-6)
+                gam_py, _ = fc.gauge(fr, W, f.size)
+                assert lohi[0] <= gam_py * (1 + 1e-10) and gam_py <= lohi[1] * (1 + 1e-10)
+                seen += 1
+    assert seen >= 30

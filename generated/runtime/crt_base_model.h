@@ -34,6 +34,7 @@ typedef struct {
   double Q[9];                  /* rows: the face frame's axes in body axes */
   int qcol[3];                  /* Q as a signed permutation: row i is qsign[i] e_qcol[i] */
   double qsign[3];
+  int identity;                 /* Q = E: the moments are already in the face frame */
   double pf[6];                 /* base_*'s p: M, m, J_x, J_y, J_z (face frame), g */
   double h;                     /* O's height above the plane */
   double mu, mu_s;              /* the kinetic and the static coefficient */
@@ -67,6 +68,8 @@ static int crt_base_body_set(crt_base_body *b, const double *prm)
   for (i = 0; i < 3; ++i)
     for (j = 0; j < 3; ++j)
       if (b->Q[3 * i + j] != 0.0) { b->qcol[i] = j; b->qsign[i] = b->Q[3 * i + j]; }
+  b->identity = 1;
+  for (i = 0; i < 3; ++i) b->identity &= b->qcol[i] == i && b->qsign[i] == 1.0;
   for (i = 0; i < 3; ++i) {
     c[i] = 0.0;
     for (j = 0; j < 3; ++j) c[i] += b->Q[3 * i + j] * prm[CRT_P_center_x + j];

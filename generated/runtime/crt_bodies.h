@@ -75,8 +75,12 @@ static void crt_bodies_sum(const crt_law *L, const double *prm, const double *b,
   double share[MODEL_MOMENTS_COUNT], spin[6];
   int n_points, n_rotors, i, j;
   crt_bodies_count(L, &n_points, &n_rotors);
-  for (i = 0; i < MODEL_MOMENTS_COUNT; ++i) u[i] = 0.0;
-  for (j = 0; j < n_points; ++j) {
+  /* the first point's share written in place (no zeroing, no sum of one: the stores and
+     their loads alike in width, which a vectorised zero-and-add was not) */
+  if (n_points > 0) point_moments(prm[CRT_P_m_1], b, u);
+  else
+    for (i = 0; i < MODEL_MOMENTS_COUNT; ++i) u[i] = 0.0;
+  for (j = 1; j < n_points; ++j) {
     point_moments(prm[CRT_P_m_1 + j], b + 9 * j, share);
     for (i = 0; i < MODEL_MOMENTS_COUNT; ++i) u[i] += share[i];
   }

@@ -35,8 +35,9 @@
  * scaled twist xi* = (v_x, v_y, size w) that attains it, as 1 / min D over the plane
  * W.xi = 1 (a convex problem in two coordinates) by BFGS, warm-started from the last
  * maximiser -- or in closed form under uniform pressure when W is a force through the
- * centroid or a torque alone (to round-off).  crt_face_gauge_bounds brackets it there
- * from those two parts (a caller needing only to know that gamma < 1 may stop at them).
+ * centroid or a torque alone (to round-off).  crt_face_gauge_bounds brackets it from
+ * those two parts (a caller needing only to know that gamma < 1 may stop at them), under
+ * linear pressure too (the upper bound scaled by the pressure's mean over its least).
  */
 #ifndef CRT_FACE_H
 #define CRT_FACE_H
@@ -314,13 +315,18 @@ static double crt_face_plane_value(const crt_face *f, double N, const double *k,
   return D;
 }
 
-/* Bounds on the gauge under uniform pressure (k = 0; else none: 0 and HUGE_VAL), with
-   Tc = T_z - (c x F)_z the torque about the centroid (the pressure's centre) and the two
-   parts gF = |F|/(mu N), gT = |Tc|/(mu N rbar) -- each the gauge of its part alone, the
-   face being symmetric about its centroid (a translation attains gF, a spin about the
-   centroid gT: D(v, w) >= D(0, w) by the symmetry and D's convexity):
-   max(gF, gT) <= gamma <= gF + gT (the gauge is a norm).  *part: 1 when gF holds all of
-   gamma to round-off (gT <= 1e-15 gF), 2 when gT does, else 0. */
+/* Bounds on the gauge, with Tc = T_z - (c x F)_z the torque about the centroid and the
+   two parts gF = |F|/(mu N), gT = |Tc|/(mu N rbar).  Under uniform pressure (k = 0) each
+   is the gauge of its part alone, the face being symmetric about its centroid (a
+   translation attains gF, a spin about the centroid gT: D(v, w) >= D(0, w) by the
+   symmetry and D's convexity): max(gF, gT) <= gamma <= gF + gT (the gauge is a norm).
+   Under linear pressure p = P_c + k.(r - c) >= p_min > 0 over the face, D_p(xi) >=
+   (p_min / P_c) D(xi) for every twist (D the uniform pressure's under the same N), so
+   gamma <= (P_c / p_min) (gF + gT); the lower bound max(gF, gT) still holds (the
+   translation's D is mu N |v| under any pressure, the spin's about the centroid mu N
+   rbar |w|: int k.(r - c) |r - c| dA = 0); with p_min <= 0, or N <= 0, no upper bound
+   (HUGE_VAL).  *part: under uniform pressure 1 when gF holds all of gamma to round-off
+   (gT <= 1e-15 gF), 2 when gT does, else 0 (and 0 under linear pressure). */
 static void crt_face_gauge_bounds(const crt_face *f, double N, const double *k, double mu,
                                   const double *W, double *lo, double *hi, int *part)
 {
@@ -328,12 +334,20 @@ static void crt_face_gauge_bounds(const crt_face *f, double N, const double *k, 
   const double gF = sqrt(W[0] * W[0] + W[1] * W[1]) / (mu * N);
   const double gT = fabs(Tc) / (mu * N * f->rbar);
   *part = 0;
-  if (k[0] != 0.0 || k[1] != 0.0 || !(N > 0.0)) {
+  if (!(N > 0.0)) {
     *lo = 0.0;
     *hi = HUGE_VAL;
     return;
   }
   *lo = gF > gT ? gF : gT;
+  if (k[0] != 0.0 || k[1] != 0.0) {
+    const double P_c = N / f->area;
+    const double p_min = P_c - (f->kind == CRT_FACE_RECTANGLE
+                                ? fabs(k[0]) * f->a + fabs(k[1]) * f->b
+                                : f->a * sqrt(k[0] * k[0] + k[1] * k[1]));
+    *hi = p_min > 0.0 ? (gF + gT) * (P_c / p_min) : HUGE_VAL;
+    return;
+  }
   *hi = gF + gT;
   if (gF > 0.0 && gT <= 1e-15 * gF) *part = 1;
   else if (gT > 0.0 && gF <= 1e-15 * gT) *part = 2;

@@ -13,8 +13,8 @@
  *    by its Taylor series (twist = G0 d + G1 d^2/2 until it reaches 1e2 eps);
  *  - stick: the state is constant; the event functions 1 - gamma, N, the centre of
  *    pressure's edge margin and (linear pressure) its kern margin are sampled every
- *    opt[CRT_OPT_HMAX]/8 (gamma by the gauge's bounds where they put it below 1 - 1e-3,
- *    under uniform pressure) and a sign change is located by the Illinois method
+ *    opt[CRT_OPT_HMAX]/8 (gamma by the gauge's bounds where they put it below 1 - 1e-3)
+ *    and a sign change is located by the Illinois method
  *    (break-away: the slip starts; N: status lift_off; the edge: status tipping; the kern:
  *    status face_lifting);
  *  - slip, along a line (s->bs.line): while the scaled twist xi = (V_O, ell psi') keeps
@@ -51,10 +51,12 @@ enum crt_base_event { CRT_BASE_NONE = -1, CRT_BASE_END = 0, CRT_BASE_STOP = 1,
 #define CRT_BASE_NG 5             /* the slip's event functions */
 #define CRT_BASE_NG_STICK 4       /* the stick's: 1 - gamma, N, the edge, the kern */
 
-/* the moments in the face frame at t (summed once per evaluation of the law) */
+/* the moments in the face frame at t (summed once per evaluation of the law; the body's
+   own when the face frame is the body's) */
 static const double *crt_base_u(crt_session *s, double t)
 {
   const double *u = crt_u(s, t);
+  if (s->bs.body.identity) return u;
   if (s->bs.stamp != s->stat[CRT_STAT_LAW_EVALUATIONS]) {
     crt_base_face_moments(&s->bs.body, u, s->bs.uf);
     s->bs.stamp = s->stat[CRT_STAT_LAW_EVALUATIONS];
@@ -111,18 +113,27 @@ static void crt_base_xi(const crt_base_body *b, const double *q, double *xi)
   xi[2] = b->ell * q[5];
 }
 
+/* The signed speed xi.d at q along the unit direction d (face frame), with sin and cos of
+   psi and O's velocity in the face frame (v_x, v_y) */
+static double crt_base_speed(const crt_base_body *b, const double *q, const double *d,
+                             double *sn, double *cs, double *vx, double *vy)
+{
+  crt_sincos(q[2], sn, cs);
+  *vx = *cs * q[3] + *sn * q[4];
+  *vy = -*sn * q[3] + *cs * q[4];
+  return *vx * d[0] + *vy * d[1] + b->ell * q[5] * d[2];
+}
+
 /* Along the line d at (q, dq): the signed speed xi.d, and how far the flow of xi turns off
-   the line, |xi' - (xi'.d) d| / |xi'| (0 when xi' = 0), xi' = (a_f + w (v_y, -v_x), ell w'),
+   the line, squared, |xi' - (xi'.d) d|^2 / |xi'|^2 (0 when at most 1e-24, xi' = 0 among
+   them: the only test is against (1e-12)^2), xi' = (a_f + w (v_y, -v_x), ell w'),
    a_f O's acceleration in the face frame (the frame turns with psi) */
 static double crt_base_line_flow(const crt_base_body *b, const double *q, const double *dq,
                                  const double *d, double *speed)
 {
   double sn, cs, vx, vy, G[3], along, lat = 0.0, nG = 0.0;
   int i;
-  crt_sincos(q[2], &sn, &cs);
-  vx = cs * q[3] + sn * q[4];
-  vy = -sn * q[3] + cs * q[4];
-  *speed = vx * d[0] + vy * d[1] + b->ell * q[5] * d[2];
+  *speed = crt_base_speed(b, q, d, &sn, &cs, &vx, &vy);
   G[0] = cs * dq[3] + sn * dq[4] + q[5] * vy;
   G[1] = -sn * dq[3] + cs * dq[4] - q[5] * vx;
   G[2] = b->ell * dq[5];
@@ -132,7 +143,7 @@ static double crt_base_line_flow(const crt_base_body *b, const double *q, const 
     lat += r * r;
     nG += G[i] * G[i];
   }
-  return nG > 0.0 ? sqrt(lat / nG) : 0.0;
+  return lat > 1e-24 * nG ? lat / nG : 0.0;     /* (a turn below 1e-12: 0, no division) */
 }
 
 /* A slip from q starts along one line: its direction xi/|xi| (face frame) */
@@ -150,8 +161,8 @@ static void crt_base_line_start(crt_session *s)
 /* The slip's rate at z = (t, q), with N, cp and rho.  Along a line (s->bs.line): in t,
    dz/dt = (1, dq/dt) with the friction of the held direction dir (the slip's own while
    xi stays on its line, and smooth through xi = 0), rho the signed speed xi.dir, and
-   s->bs.lateral the largest turn of the flow off the line.  Else in s, dz/ds = rho (1,
-   dq/dt) with the slip's own friction, rho = |xi|. */
+   s->bs.lateral the largest turn of the flow off the line (squared).  Else in s, dz/ds =
+   rho (1, dq/dt) with the slip's own friction, rho = |xi|. */
 static void crt_base_zrhs(crt_session *s, const double *z, double *dz, double *N, double *cp,
                           double *rho)
 {
@@ -162,7 +173,7 @@ static void crt_base_zrhs(crt_session *s, const double *z, double *dz, double *N
     double lat;
     crt_base_rates(&s->bs.body, crt_base_u(s, z[0]), z + 1, s->bs.dir, dq, N, cp);
     lat = crt_base_line_flow(&s->bs.body, z + 1, dq, s->bs.dir, rho);
-    if (lat > s->bs.lateral) s->bs.lateral = lat;
+    if (lat > s->bs.lateral) s->bs.lateral = lat;       /* (squared) */
     dz[0] = 1.0;
     for (i = 0; i < NQ; ++i) dz[1 + i] = dq[i];
     return;
@@ -260,14 +271,32 @@ static void crt_base_slip_g(const crt_session *s, double t_end, const double *z,
                                        : 1.0;
 }
 
+/* The slip's event function k at the state z: the end and the stop from z alone (t; the
+   signed speed along a line, |xi| in s: what crt_base_zrhs gives as rho), the others
+   (N, the margins of cp) through the slip's rate (dz: its room) */
+static double crt_base_slip_g_at(crt_session *s, double t_end, const double *z, int k,
+                                 double *dz, double *g)
+{
+  double N, cp[2], rho;
+  if (k == CRT_BASE_END) return t_end - z[0];
+  if (k == CRT_BASE_STOP) {
+    double sn, cs, vx, vy;
+    return s->bs.line ? crt_base_speed(&s->bs.body, z + 1, s->bs.dir, &sn, &cs, &vx, &vy)
+                      : crt_base_rho(&s->bs.body, z + 1) - s->bs.eps;
+  }
+  crt_base_zrhs(s, z, dz, &N, cp, &rho);
+  crt_base_slip_g(s, t_end, z, N, cp, rho, g);
+  return g[k];
+}
+
 /* ---- the rest ------------------------------------------------------------------------------ */
 /* the stick's event functions at t (the state is constant): 1 - gamma, N, the edge
    margin, the kern margin (linear pressure, whose slope the gauge reads; else 1).  Where
    the gauge's bounds (crt_face_gauge_bounds) put gamma below 1 - 1e-3, 1 - their upper
    bound (the sign is all a sample needs, and a root is located only where gamma is near
-   1: computed there); else the gauge itself, its maximiser in xi.  The bounds hold under
-   uniform pressure only: with a nonzero slope they are (0, inf) and the gauge is
-   computed. */
+   1: computed there); else the gauge itself, its maximiser in xi.  Under linear pressure
+   the upper bound is scaled by the pressure's mean over its least on the face (none where
+   the least is 0: the gauge computed). */
 static void crt_base_stick_g(crt_session *s, double t, double *g, double *xi)
 {
   double W[3], N, cp[2], k[2], lo, hi;
@@ -613,7 +642,7 @@ static void crt_base_slip_step(crt_session *s, crt_out *o, double t_end)
   hs = s->bs.hs;
   for (;;) {
     err = crt_base_step(s, z0, f0, hs, k, z1, f1, &N, cp, &rho);
-    if (s->bs.line && s->bs.lateral > 1e-12) {
+    if (s->bs.line && s->bs.lateral > 1e-24) {   /* (lateral: the turn squared) */
       /* the flow turns off the line: this slip in s from here (the step in s that covers
          as much time at the start's rate, at most a slip's first step: a slip from rest
          starts at rho ~ 1e-9, and grows exponentially in s) */
@@ -648,8 +677,7 @@ static void crt_base_slip_step(crt_session *s, crt_out *o, double t_end)
       if (!dense) crt_base_dense(s, z0, z1, hs, k, F);
       dense = 1;
 #define CRT_BASE_SLIP_EVAL(x) (crt_base_interp(z0, F, (x), zt), \
-                               crt_base_zrhs(s, zt, ft, &N, cp, &rho), \
-                               crt_base_slip_g(s, t_end, zt, N, cp, rho, gt), gt[k_])
+                               crt_base_slip_g_at(s, t_end, zt, k_, ft, gt))
       CRT_BASE_ILLINOIS(0.0, g0[k_], 1.0, g1[k_], root, 1e-15, CRT_BASE_SLIP_EVAL);
 #undef CRT_BASE_SLIP_EVAL
       if (root < first) { first = root; which = k_; }
@@ -673,7 +701,13 @@ static void crt_base_slip_step(crt_session *s, crt_out *o, double t_end)
     crt_base_rows(s, o, until, z0, F);
   }
   ++s->stat[CRT_STAT_STEPS];
-  s->bs.hs = hs * crt_min(6.0, crt_max(0.333, 0.9 * pow(crt_max(err, 1e-10), -0.125)));
+  {                                        /* PI control (Hairer's beta = 0.04, as the
+                                              flight's Lie steps, crt_loop_next_size) */
+    const double beta = 0.04, alpha = 0.125 - 0.75 * beta;
+    const double fac = 0.9 * pow(crt_max(err, 1e-10), -alpha) * pow(s->err_old, beta);
+    s->bs.hs = hs * crt_min(6.0, crt_max(0.333, fac));
+    s->err_old = crt_max(err, 1e-4);
+  }
   if (which < 0) {
     if (s->bs.line) s->bs.ht = s->bs.hs;
     s->bs.fsal = 1;
