@@ -157,6 +157,7 @@ def context(scene) -> dict:
         "session_bytes": -(-(size + size // 4) // SESSION_QUANTUM) * SESSION_QUANTUM,
         "statuses": abi.STATUSES, "row_kinds": abi.ROW_KINDS, "stats": abi.STATS,
         "event_columns": abi.EVENT_COLUMNS, "summary": abi.SUMMARY,
+        "event_column_width": 1 + max(len(c) for c in abi.EVENT_COLUMNS),
         "min_rows": abi.MIN_ROWS, "min_events": abi.MIN_EVENTS,
         "rows": ROWS, "events": EVENTS, "versions": versions(),
         "flags": " ".join(RUNTIME_FLAGS),
