@@ -48,7 +48,10 @@ shape = "sphere"
 radius = 0.1
 [point]  # "\" \\ evil
 mass = 0.2
-law = ["0.03*sin(9*t)", "0.01*cos(5*t)", "0.02*sin(11*t + 0.3)"]
+law = ["0.03*sin(9*t) + 0.002*sqrt(1 + t**2) - 0.001*log(2 + t) + 0.001*tan(t/4)",
+       "0.01*cos(5*t)*tanh(t) + 0.001*atan(t) + 0.001*asin(t/4) - 0.001*acos(t/4)",
+       """0.02*sin(11*t + 0.3) + 0.001*(1 + t)**1.5 + 0.001*sinh(t/3)/cosh(t/5) \
+          + 0.0005*t**3/(1 + t) + 0.001*(1.5 + t)**(t/3) - 0.001*exp(-t)"""]
 [plane]
 restitution = 0.6
 [initial]
@@ -61,26 +64,52 @@ duration = 1.5
 
 
 def _bodies_doc() -> dict:
-    """Two points (a formula and a periodic table) and a rotor in a ball on a rough plane
-    that bounces and comes to rest: the moments_rough model."""
+    """Two points and a rotor in a ball on a rough plane that bounces and comes to rest:
+    the moments_rough model."""
     doc = ball(e=0.3, z0=0.7, law=("0.05*sin(7*t)", "0", "0.3*sin(20*t)"), duration=1.0,
                rtol=1e-9, atol=1e-11)
     doc["initial"]["omega"] = [0.3, 0.0, 0.5]
     doc["plane"]["friction"] = 0.4
-    ts = np.linspace(0.0, 0.5, 11)
-    rows = [[float(t), 0.05 * np.sin(4 * np.pi * t), 0.0, 0.1 * np.cos(4 * np.pi * t)]
-            for t in ts]
-    rows[-1][1:] = rows[0][1:]
     doc["point"] = [{"mass": 0.2, "law": ["0.05*sin(7*t)", "0", "0.3*sin(20*t)"]},
-                    {"mass": 0.1, "samples": rows, "ends": "periodic"}]
+                    {"mass": 0.1, "law": ["0.1*cos(4*t)**2", "0.02*t/(1 + t)", "0"]}]
     doc["rotor"] = [{"axis": [0.6, 0.8, 0.0], "inertia": 0.002, "law": "30*t + sin(5*t)"}]
     return doc
 
 
 def _crawler_doc() -> dict:
+    """The capsule crawler for 1 s, its point's law a periodic table (the base model)."""
     doc = copy.deepcopy(load_scene(ROOT / "derive/scene/examples/capsule-crawler.toml").doc)
     doc["run"]["duration"] = 1.0
+    ts = np.linspace(0.0, 2 * np.pi / 12, 25)
+    rows = [[float(t), 0.05 * (np.sin(12 * t) + 0.4 * np.sin(24 * t)), 0.0, 0.02]
+            for t in ts]
+    rows[-1][1:] = rows[0][1:]
+    doc["point"] = [{"mass": 0.4, "samples": rows, "ends": "periodic"}]
     return doc
+
+
+JETS = r"""
+#include <stdio.h>
+#include "scene.h"
+
+int main(void)
+{
+  scene_memory s;
+  double u[SCENE_LAW_WIDTH], w[SCENE_LAW_WIDTH];
+  int k, i;
+  if (scene_start(&s) != SCENE_OK) return 1;
+  for (k = 0; k <= 200; ++k) {
+    const double t = SCENE_T0 + (SCENE_T_END - SCENE_T0) * k / 200.0;
+    scene_law(&s, t, u);
+    scene_law_jets(t, w);
+    printf("%.17g", t);
+    for (i = 0; i < SCENE_LAW_WIDTH; ++i) printf(",%.17g", u[i]);
+    for (i = 0; i < SCENE_LAW_WIDTH; ++i) printf(",%.17g", w[i]);
+    printf("\n");
+  }
+  return 0;
+}
+"""
 
 
 def _build(folder: Path) -> None:
@@ -185,6 +214,38 @@ def test_nothing_of_the_scene_files_text_reaches_the_source(projects):
         assert b"evil" not in data, name
         if name.startswith(("crt_", "model_")):
             assert data == (ROOT / "generated" / "runtime" / name).read_bytes()
+
+
+@pytest.mark.parametrize("name", ["smooth", "bodies"])
+def test_the_law_jets_from_the_tree(projects, name, tmp_path):
+    """scene_law_jets (C written from the law's expression tree: every function of the
+    law compiler in the smooth scene's law; two points and a rotor's psi, psi', psi'')
+    against the runtime's interpreted jets (scene_law) and NumPy's jets of the same tree,
+    at 201 times; a law with a table has no such function."""
+    folder, scene, _ = projects[name]
+    src = tmp_path / "jets.c"
+    src.write_text(JETS)
+    exe = tmp_path / "jets"
+    proc = subprocess.run([CC, *STRICT, "-O2", "-I", str(folder), str(src),
+                           str(folder / "scene.o"), "-o", str(exe), "-lm"],
+                          capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    rows = np.array([[float(x) for x in line.split(",")] for line in
+                     subprocess.run([str(exe)], capture_output=True, text=True,
+                                    check=True).stdout.splitlines()])
+    law = scene.runtime_law
+    width = (rows.shape[1] - 1) // 2
+    t, interpreted, emitted = rows[:, 0], rows[:, 1:1 + width], rows[:, 1 + width:]
+    scale = np.maximum(1.0, np.abs(interpreted).max(axis=0))
+    assert np.all(np.abs(emitted - interpreted) <= 1e-12 * scale)
+    if name == "bodies":                    # (width, N) in u's order
+        numpy = law.u(t).T
+    else:                                    # (9, N): x, x', x'', y, ...
+        numpy = law.jets(t)[[0, 3, 6, 1, 4, 7, 2, 5, 8]].T
+    assert np.all(np.abs(emitted - numpy) <= 1e-12 * scale)
+    assert np.ptp(emitted[:, 0]) > 0 and "#define SCENE_LAW_JETS 1" in \
+        (folder / "scene.h").read_text()
+    assert "#define SCENE_LAW_JETS 0" in (projects["crawler"][0] / "scene.h").read_text()
 
 
 def test_only_the_models_runtime_is_copied(projects):

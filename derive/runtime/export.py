@@ -32,6 +32,7 @@ import numpy as np
 from .. import abi
 from ..cbuild import RUNTIME_FLAGS, BuildError, compiler
 from ..scene import SceneError, load_scene
+from . import law_c
 from .build import runtime_dir
 from .driver import prepare
 
@@ -153,6 +154,7 @@ def context(scene) -> dict:
         "t0": _c_double(sc.t0, "[run].t0"),
         "t_end": _c_double(sc.t0 + sc.duration, "[run].duration"),
         "law": _law(sc.runtime_law), "law_width": law_width(sc.runtime_law),
+        "law_jets": law_c.function(sc.runtime_law, lambda v: _c_double(v, "law")),
         "runtime": included(prep.kind),
         "session_bytes": -(-(size + size // 4) // SESSION_QUANTUM) * SESSION_QUANTUM,
         "statuses": abi.STATUSES, "row_kinds": abi.ROW_KINDS, "stats": abi.STATS,
