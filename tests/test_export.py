@@ -179,6 +179,7 @@ def test_the_program_runs_the_scene_as_python_does(projects, name, model):
     assert kinds == [e["kind"] for e in res.events]
     np.testing.assert_allclose(ev, np.delete(res.event_rows, 1, axis=1), rtol=0, atol=1e-12)
     assert f"impacts {len(res.impacts)}" in stdout or len(res.impacts) == 0
+    assert f"{len(res.t)} rows" in stdout and len(res.t) > 64    # main.c paused, resumed
 
 
 def export_plain(label: str) -> str:

@@ -41,7 +41,7 @@ TEMPLATE_DIR = "export"
 # model fits in it on LP64 machines with a quarter to spare; scene.c checks it at compile
 # time
 SESSION_QUANTUM = 4096
-ROWS, EVENTS = 256, 64          # the example program's buffers (crt_advance pauses on them)
+ROWS, EVENTS = 64, 16            # the example program's buffers (crt_advance pauses on them)
 
 
 def refusal(scene) -> str | None:
