@@ -338,9 +338,9 @@ def cmd_export(args: argparse.Namespace) -> int:
     from .scene import SceneError, parse_scene
     from pathlib import Path
     out = Path(args.output)
+    _check_output_folder(args.output)
     if out.exists() and not args.force:
         raise UsageError(f"-o {args.output}: exists (--force writes into it)")
-    _check_output_folder(args.output)
     try:
         doc, base, origin = _scene_doc(args)
         project = export.files(parse_scene(doc, origin, base=base))
@@ -656,7 +656,15 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("export", help="a scene as a standalone C project (the runtime, the "
                        "scene's numbers, an example main.c, a Makefile and CMakeLists.txt): "
-                       "no Python at run time")
+                       "no Python at run time", description=(
+                           "Write DIR: the runtime of the model the scene chooses "
+                           "(model_<kind>.c and the crt_*.h it includes), scene.h and scene.c "
+                           "(its options, parameters, initial state and law as C data; "
+                           "scene_law_jets for a law of formulas), main.c (runs the scene, "
+                           "writes trajectory.csv, event_states.csv, events.csv), a Makefile, "
+                           "a CMakeLists.txt and a README.md with the calls in order.  "
+                           "[control] and [disturbance] are refused: a loop Python closes "
+                           "runs them.  See derive/docs/embedding.md."))
     p.add_argument("scene", help="scene TOML file")
     p.add_argument("-o", "--output", required=True, metavar="DIR",
                    help="the project's folder (refused if it exists, unless --force)")
