@@ -124,15 +124,14 @@ def _law(law) -> dict:
 def law_width(law) -> int:
     """The numbers of the law's u at a time (crt_law_width): 9 for one point, 9 per point
     and 3 per rotor for a law of bodies."""
-    if getattr(law, "kind", "") == "bodies":
-        return 9 * int(law.n_points) + 3 * int(law.n_rotors)
-    return 9
+    return int(law.width) if getattr(law, "kind", "") == "bodies" else 9
 
 
 def context(scene) -> dict:
     """Everything the templates render for ``scene`` (a path, a dict or a Scene)."""
     from .build import library
-    why = refusal(load_scene(scene))
+    scene = load_scene(scene)
+    why = refusal(scene)
     if why is not None:
         table, rule = why.split(": ", 1)
         raise SceneError(table, rule)
@@ -146,10 +145,8 @@ def context(scene) -> dict:
                                           _doubles(prep.parameters, "parameters"))]
     q0 = list(zip(labels, _doubles(prep.start.q0, "initial")))
     from ..emit.render import versions
-    from .outputs import plain
     return {
         "kind": prep.kind, "nq": len(labels), "labels": labels,
-        "columns": [plain(n) for n in labels],
         "options": options, "parameters": params, "q0": q0,
         "t0": _c_double(sc.t0, "[run].t0"),
         "t_end": _c_double(sc.t0 + sc.duration, "[run].duration"),
