@@ -17,6 +17,7 @@ from __future__ import annotations
 import copy
 import shutil
 import subprocess
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -144,16 +145,16 @@ def projects(tmp_path_factory):
                                     base=root),
               "bodies": parse_scene(_bodies_doc(), "bodies"),
               "crawler": parse_scene(_crawler_doc(), "crawler")}
-    out = {}
     for name, scene in scenes.items():
         folder = root / name
         if name == "smooth":        # through the command, from the file
             assert main(["export", str(root / "hostile.toml"), "-o", str(folder)]) == 0
         else:
             export.write(export.files(scene), folder)
-        _build(folder)
-        out[name] = (folder, scene, _run(folder / "scene", folder))
-    return out
+    with ThreadPoolExecutor(2) as pool:          # two compilers at a time
+        list(pool.map(_build, [root / name for name in scenes]))
+    return {name: (root / name, scene, _run(root / name / "scene", root / name))
+            for name, scene in scenes.items()}
 
 
 @pytest.mark.parametrize("name, model", [("smooth", "general"), ("bodies", "moments_rough"),
