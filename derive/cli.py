@@ -332,6 +332,26 @@ def _simulate_sweep(args, start: float) -> int:
 
 
 # ---- scene --------------------------------------------------------------------------
+def cmd_export(args: argparse.Namespace) -> int:
+    """``derive export SCENE -o DIR``: the scene as a standalone C project."""
+    from .runtime import export
+    from .scene import SceneError, parse_scene
+    from pathlib import Path
+    out = Path(args.output)
+    _check_output_folder(args.output)
+    if out.exists() and not args.force:
+        raise UsageError(f"-o {args.output}: exists (--force writes into it)")
+    try:
+        doc, base, origin = _scene_doc(args)
+        project = export.files(parse_scene(doc, origin, base=base))
+    except SceneError as exc:
+        raise UsageError(str(exc)) from None
+    export.write(project, out, force=args.force)
+    print(f"wrote {len(project)} files to {args.output}: make -C {args.output} && "
+          f"{args.output}/scene {args.output} (README.md there: the calls)")
+    return 0
+
+
 def cmd_scene(args: argparse.Namespace) -> int:
     from .scene import SceneError, load_scene, schema_table, template
     if args.action == "schema":
@@ -634,6 +654,26 @@ def build_parser() -> argparse.ArgumentParser:
                    "against the swept values (default impacts; e.g. distance, "
                    "mean_speed, X_C_end, Z_C_end, min_height)")
     p.set_defaults(func=cmd_simulate)
+
+    p = sub.add_parser("export", help="a scene as a standalone C project (the runtime, the "
+                       "scene's numbers, an example main.c, a Makefile and CMakeLists.txt): "
+                       "no Python at run time", description=(
+                           "Write DIR: the runtime of the model the scene chooses "
+                           "(model_<kind>.c and the crt_*.h it includes), scene.h and scene.c "
+                           "(its options, parameters, initial state and law as C data; "
+                           "scene_law_jets for a law of formulas), main.c (runs the scene, "
+                           "writes trajectory.csv, event_states.csv, events.csv), a Makefile, "
+                           "a CMakeLists.txt and a README.md with the calls in order.  "
+                           "[control] and [disturbance] are refused: a loop Python closes "
+                           "runs them.  See derive/docs/embedding.md."))
+    p.add_argument("scene", help="scene TOML file")
+    p.add_argument("-o", "--output", required=True, metavar="DIR",
+                   help="the project's folder (refused if it exists, unless --force)")
+    p.add_argument("--force", action="store_true", help="write into DIR even if it exists "
+                   "(its files of the same names are replaced, the others left)")
+    p.add_argument("--set", action="append", metavar="TABLE.KEY=VALUE",
+                   help="override a field of the scene, as derive simulate's --set")
+    p.set_defaults(func=cmd_export)
 
     p = sub.add_parser("scene", help="scene files: a commented template, a check, the "
                                      "schema table")
