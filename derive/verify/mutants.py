@@ -118,7 +118,9 @@ UNIT_TESTS = {
         _HOP + "test_feedback_holds_an_orbit_unstable_open_loop_at_the_predicted_rate",
     ),
     "control/ctl_qp.h": (
+        "tests/test_qp_boundaries.py",
         _REPLAN + "test_qp_against_qpoases",
+        _REPLAN + "test_soft_qp_against_qpoases_with_explicit_slacks",
         _REPLAN + "test_c_controller_returns_the_python_routes_law",
         _REPLAN + "test_closed_loop_replayed_with_its_realised_law",
         _REPLAN + "test_seeded_landings_upright_closed_not_open",
