@@ -14,9 +14,9 @@ same iterations in both (the NumPy route states the C's method step for step):
   solved as the closed form says;
 * two equalities at an angle below DEPENDENT_TOL and a bound that together leave no
   point: the drift of the skipped one past FINAL_TOL says infeasible, as the closed form;
-* a partial step and a full one 2 % apart, and two active multipliers that reach zero 2 %
-  apart: the one that comes first is the one dropped (else the answer keeps a negative
-  multiplier), against qpOASES.
+* a partial step and a full one 2 % apart (the wrong one keeps a negative multiplier in
+  the answer), and two active multipliers that reach zero 2 % apart (the wrong one costs
+  iterations): the one that comes first is taken, against qpOASES.
 
 Together about a second: one C build (cached by content), no controller set up.
 """
@@ -145,11 +145,13 @@ def _qpoases(H, g, A, lba, uba, lbx, ubx):
 @pytest.mark.parametrize("share", [0.98, 1.02])
 def test_a_partial_step_and_a_full_step_two_percent_apart(solvers, share):
     """x0 >= 1 active (multiplier 1), then x0 + x1 >= 1 + share: the full step's length
-    is share, the step at which x0 >= 1's multiplier reaches 0 is 1.  Below 1 the row is
+    is share, the step at which x0 >= 1's multiplier reaches 0 is 1 (the row scaled by 0.1,
+    which changes no answer, so that x0 >= 1 is the first added).  Below 1 the row is
     added with both active, x = (1, share); above it x0 >= 1 is dropped first and the
     answer is the row's projection (1 + share)/2 (1, 1).  Against the closed form and
     qpOASES."""
-    qp = (np.eye(2), np.zeros(2), np.array([[1.0, 1.0]]), np.array([1.0 + share]),
+    k = 0.1                     # the row scaled: its miss (0.1 (1 + share)) after x0's (1)
+    qp = (np.eye(2), np.zeros(2), np.array([[k, k]]), np.array([k * (1.0 + share)]),
           np.array([INF]), np.array([1.0, -INF]), np.array([INF, INF]))
     x, status = _both(solvers, *qp)
     assert status == SOLVED
@@ -163,8 +165,10 @@ def test_of_two_multipliers_reaching_zero_two_percent_apart_the_first_is_dropped
         solvers, case):
     """x0 >= 1 and x1 >= 0.98 active (added in that order, the larger miss first), then
     a . x >= beta with a = (a0, 1, 1), whose direction lowers their multipliers (1 and
-    0.98) at rates a0 and 1, and whose full step is past both zeros: the one reaching 0
-    first is dropped (kept, it would turn negative).  a0 = 1: x1's, the later one
+    0.98) at rates a0 and 1 (the row scaled by 0.1: added after the bounds), and whose
+    full step is past both zeros: the one reaching 0 first is dropped, in the NumPy
+    route's iterations (dropping the other leaves this one a negative multiplier, which
+    costs two more to undo).  a0 = 1: x1's, the later one
     (zeros at 0.98 and 1); a0 = 1.04: x0's, the earlier one (zeros at 0.9615 and 0.98).
     The answers' closed forms (the KKT conditions with the other bound active):
     x = (1, c, c), and x = (a0 lam, 0.98, lam); against qpOASES too."""
@@ -174,7 +178,7 @@ def test_of_two_multipliers_reaching_zero_two_percent_apart_the_first_is_dropped
     else:
         a0, lam = 1.04, 0.975
         closed = np.array([a0 * lam, 0.98, lam])
-    a = np.array([a0, 1.0, 1.0])
+    a = 0.1 * np.array([a0, 1.0, 1.0])     # scaled: its miss (0.3) after the bounds'
     beta = float(a @ closed)
     qp = (np.eye(3), np.zeros(3), a[None, :], np.array([beta]), np.array([INF]),
           np.array([1.0, 0.98, -INF]), np.full(3, INF))

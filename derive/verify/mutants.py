@@ -110,6 +110,8 @@ UNIT_TESTS = {
     "model_axisymmetric.c": ("tests/test_runtime.py",),
     "model_variational.c": ("tests/test_stability.py",),
     "control/crt_hop.c": (
+        _HOP + "test_the_gait_correction_is_clamped_at_its_limit_and_a_law_renewed_a_period_"
+        "before_its_end",
         _HOP + "test_the_c_controller_writes_the_python_routes_law_to_the_bit",
         _HOP + "test_where_impacts_stop_the_gait_goes_on_bounded_in_both_routes",
         _HOP + "test_the_apex_a_target_sets_is_the_runs",
