@@ -343,13 +343,15 @@ def _call_c(ctrl, t, reason, event, q, u):
 @pytest.mark.parametrize("sign", [1.0, -1.0])
 def test_the_gait_correction_is_clamped_at_its_limit_and_a_law_renewed_a_period_before_its_end(
         unstable, share, sign):
-    """crt_hop.c called directly, beside HopController: an impact at the orbit's phase and
-    gait whose velocity deviation asks a correction delta = sign * share * limit * a*:
+    """crt_hop.c called directly, beside HopController (the same law to the bit at each
+    call).  The start, from a law off the axis: x and y go from its value and rate to 0
+    over the first piece and stay there.  Before any impact, and again after one, a
+    sample 2 % of a period before the law's end less a period leaves the law alone (0),
+    and 2 % after renews it.  An impact at the orbit's phase and gait whose velocity
+    deviation asks a correction delta = sign * share * limit * a*:
     within the limit the new gait's amplitude is a* + delta, beyond it a* +- limit a* (the
-    law's z at its last knot, past the blend, is a sin(W t): the closed form).  Then,
-    with no impact, a sample 2 % of a period before the law's end less a period leaves
-    the law alone (0), and 2 % after renews it, in both routes; the start is late (t
-    about 3 s, many periods) so that the thresholds' own 5 % would move either call."""
+    law's z at its last knot, past the blend, is a sin(W t): the closed form).  The
+    start is late (30 periods in) so that 5 % of a threshold would move either sample."""
     from derive.layout import VERTICAL
     from derive.runtime.loop import EVENTS, Call
     hm, d = unstable
@@ -360,11 +362,26 @@ def test_the_gait_correction_is_clamped_at_its_limit_and_a_law_renewed_a_period_
     q = np.zeros(VERTICAL.nq)
     u = np.zeros(9)
     u[2], u[5] = g.jet(t0)[0], g.jet(t0)[1]
-    r, knots, _ = _call_c(c, t0, 0, 0, q, u)                   # the start: the design's gait
+    u[[0, 1, 3, 4]] = 0.01, -0.02, 0.3, 0.1         # the law in use off the axis
+    r, knots, coef = _call_c(c, t0, 0, 0, q, u)                # the start: the design's gait
     law = py(Call(t0, "start", "", q, u, 0))
-    assert r == 1 and np.array_equal(knots, law.knots)
-    # an impact a whole number of periods on: phase and gait deviations 0
-    ti = t0 + T
+    assert r == 1 and np.array_equal(knots, law.knots) and np.array_equal(
+        coef, law.coef.reshape(-1, 3, 4))
+    # x and y: from the law's at t0 to the axis over the first piece, then on it
+    assert np.array_equal(law.at(t0)[[0, 1, 3, 4]], u[[0, 1, 3, 4]])
+    assert np.all(law.at(knots[1])[[0, 1, 3, 4]] == 0.0)
+    assert np.all(law.coef[1:, :2, :] == 0.0)
+    # before any impact: a sample 2 % of a period either side of (the start's law's end
+    # less a period) leaves it (0), or renews it
+    for offset, renewed in ((-0.02 * T, False), (0.02 * T, True)):
+        ts = knots[-1] - T + offset
+        r, _, _ = _call_c(c, ts, 1, 0, q, law.at(ts))
+        got = py(Call(ts, "sample", "", q, law.at(ts), 1))
+        assert (r == 1) == renewed and (got is not None) == renewed, (offset, r)
+    t0 = knots[-1] - T + 0.02 * T                              # the law renewed there
+    law = got
+    # an impact a whole number of periods after the orbit's: phase and gait deviations 0
+    ti = orbit.t + 33 * T
     delta = sign * share * limit * g.a
     q[VERTICAL.Zd] = orbit.v - delta / d.K[0, 1]
     u = law.at(ti)

@@ -138,6 +138,7 @@ UNIT_TESTS = {
 # reach (a controller sets the law during a run; rows on a uniform grid of output_dt):
 # run for that header's mutants too.
 HEADER_TESTS = {
+    "crt_law.h": ("tests/test_law_boundaries.py", "tests/test_law.py"),
     "crt_events.h": (
         _HOP + "test_a_controllers_wider_gait_does_not_let_s_through_the_plane",),
     "crt_step.h": ("tests/test_outputs.py::test_tables_have_plain_names_and_a_uniform_grid",),
