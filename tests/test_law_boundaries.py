@@ -463,12 +463,16 @@ def test_a_controllers_knots_join_the_next_knot_of_a_law_of_bodies(lib):
                                ar["n_const"], law.p(ar["code"], int), law.p(ar["consts"]),
                                len(ar["consts"]), len(knots), 1, law.p(knots),
                                law.p(np.zeros(12)), 0) == 0
-    ck = np.array([0.6, 0.62, 0.9])
-    lib.shim_set_control(law.L, len(ck), law.p(ck), law.p(np.zeros(24)),
+    ck = np.array([0.6, 0.62, 0.7, 0.8, 0.9])
+    lib.shim_set_control(law.L, len(ck), law.p(ck), law.p(np.zeros(12 * (len(ck) - 1))),
                          law.p([0, -1, -1], int))
-    m = 1e-12 * (0.6 + 0.3)
-    cases = {0.1: 0.25, 0.3: 0.5, 0.55: 0.6, 0.6 - 1e-9: 0.6, 0.6 - 0.5 * m: 0.62,
-             0.6 - 2 * m: 0.6, 0.6: 0.62, 0.7: 0.9, 0.9 - 1e-9: 0.9, 0.9: 1.0, 0.95: 1.0,
-             1.0: np.inf, 1.3: np.inf}
+
+    def m(t):                  # the controller's knots' margin at t
+        return 1e-12 * (abs(t) + ck[-1] - ck[0])
+    cases = {0.1: 0.25, 0.3: 0.5, 0.55: 0.6, 0.6 - 1e-9: 0.6, 0.6 - 0.5 * m(0.6): 0.62,
+             0.6 - 2 * m(0.6): 0.6, 0.6: 0.62, 0.63: 0.7, 0.62 - 0.5 * m(0.62): 0.7,
+             0.62 - 2 * m(0.62): 0.62, 0.75: 0.8, 0.8 - 0.5 * m(0.8): 0.9,
+             0.8 - 2 * m(0.8): 0.8, 0.9 - 1e-9: 0.9, 0.9 - 0.5 * m(0.9): 1.0,
+             0.9 - 2 * m(0.9): 0.9, 0.9: 1.0, 0.95: 1.0, 1.0: np.inf, 1.3: np.inf}
     got = law.next_knot(list(cases))
     assert list(got) == list(cases.values()), list(zip(cases, got))
