@@ -171,3 +171,36 @@ def test_a_session_runs_open_loop_again_after_a_closed_loop():
         run_prepared(prep, session=session_for(prep.kind), loop=Loop(controller, 0.1))
         again = run_prepared(prep, session=session_for(prep.kind))
         assert np.array_equal(again.q, first.q)
+
+
+def test_the_vertical_models_noise_is_on_z_and_its_rate_and_tilts_n():
+    """The vertical model (Z_C, Z_C', omega, n): position and velocity noise go to Z_C and
+    Z_C' once each (sample deviations those asked, within 15 % over 400 samples), omega's
+    to omega, and the attitude's tilts n by |delta_perp| of two normal deviates (mean
+    0.002 sqrt(pi/2), the Rayleigh mean), n staying a unit vector."""
+    from derive.stability import bouncing
+    V = layout.VERTICAL
+    doc = bouncing.bouncing_scene(a=0.1)
+    doc["run"]["duration"] = 2.0
+    prep = prepare(dataclasses.replace(parse_scene(doc), model="vertical"))
+    seen = []
+
+    def record(call):
+        if call.reason == "sample":
+            seen.append((call.t, call.q))
+        return None
+    true = run_prepared(prep, loop=Loop(record, period=0.005))
+    seen.clear()
+    run_prepared(prep, loop=Loop(record, period=0.005, seed=3,
+                                 noise=(0.01, 0.002, 0.001, 0.02)))
+    q = np.array([row for _, row in seen])
+    q_true = np.array([true.q[np.flatnonzero((true.t == t) & (true.row_kind == 0))[0]]
+                       for t, _ in seen])
+    d = q - q_true
+    assert len(d) >= 390
+    n, n_true = q[:, 5:8], q_true[:, 5:8]
+    for col, std in ((V.Z, 0.001), (V.Zd, 0.02), (2, 0.01), (3, 0.01), (4, 0.01)):
+        assert abs(np.std(d[:, col]) - std) < 0.15 * std, (col, np.std(d[:, col]))
+    assert np.allclose(np.linalg.norm(n, axis=1), 1.0, atol=1e-12)
+    tilt = np.arccos(np.clip(np.sum(n * n_true, axis=1), -1.0, 1.0))
+    assert abs(np.mean(tilt) - 0.002 * math.sqrt(math.pi / 2)) < 0.15 * 0.0025
