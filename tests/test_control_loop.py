@@ -204,3 +204,36 @@ def test_the_vertical_models_noise_is_on_z_and_its_rate_and_tilts_n():
     assert np.allclose(np.linalg.norm(n, axis=1), 1.0, atol=1e-12)
     tilt = np.arccos(np.clip(np.sum(n * n_true, axis=1), -1.0, 1.0))
     assert abs(np.mean(tilt) - 0.002 * math.sqrt(math.pi / 2)) < 0.15 * 0.0025
+
+
+def test_the_law_log_tiles_the_run_with_the_pieces_the_controller_set():
+    """A controller setting laws of four pieces each (0.04 s) every 0.03 s sample, so that
+    each law is cut inside its pieces: the log's rows (knot, from, to, coefficients) are
+    contiguous from the start to the end (each from the last one's to), each of positive
+    length, each within its piece (the last piece of the run's law may run on past its
+    knot) and with that piece's coefficients, against the Segments the controller
+    returned."""
+    scene = _scene(duration=0.5)
+    laws = []
+
+    def controller(call):
+        ts = call.t + 0.01 * np.arange(5)
+        u = [scene.law.point(t) for t in ts]
+        u[0] = call.u
+        coef = np.stack([hermite(ts[i], u[i][:3], u[i][3:6], ts[i + 1], u[i + 1][:3],
+                                 u[i + 1][3:6]) for i in range(4)])
+        laws.append(Segments(ts, coef))
+        return laws[-1]
+    loop = Loop(controller, period=0.03)
+    res = run_prepared(prepare(scene), loop=loop)
+    assert res.status == "done"
+    rows = loop.law_rows()
+    starts = [law.knots[0] for law in laws]
+    assert rows[0, 1] == scene.t0 and rows[-1, 2] == pytest.approx(scene.t0 + 0.5, abs=1e-12)
+    assert np.array_equal(rows[1:, 1], rows[:-1, 2]) and np.all(rows[:, 2] > rows[:, 1])
+    for row in rows:
+        law = laws[int(np.searchsorted(starts, row[1], side="right")) - 1]
+        i = int(np.flatnonzero(law.knots == row[0])[0])
+        assert row[1] >= law.knots[i] and (i == 3 or row[2] <= law.knots[i + 1]), row[:3]
+        assert np.array_equal(row[3:].reshape(3, 4), law.coef[i])
+    assert len(rows) > 2 * len(laws)
