@@ -206,14 +206,18 @@ def test_the_vertical_models_noise_is_on_z_and_its_rate_and_tilts_n():
     assert abs(np.mean(tilt) - 0.002 * math.sqrt(math.pi / 2)) < 0.15 * 0.0025
 
 
-def test_the_law_log_tiles_the_run_with_the_pieces_the_controller_set():
+@pytest.mark.parametrize("t0", [0.0, -2.0])
+def test_the_law_log_tiles_the_run_with_the_pieces_the_controller_set(t0):
     """A controller setting laws of four pieces each (0.04 s) every 0.03 s sample, so that
     each law is cut inside its pieces: the log's rows (knot, from, to, coefficients) are
     contiguous from the start to the end (each from the last one's to), each of positive
     length, each within its piece (the last piece of the run's law may run on past its
     knot) and with that piece's coefficients, against the Segments the controller
-    returned."""
-    scene = _scene(duration=0.5)
+    returned.  Also at negative times, where a sample is within 5 % of the one before."""
+    doc = builtin_doc()
+    doc["run"]["duration"] = 0.5
+    doc.setdefault("initial", {})["time"] = t0
+    scene = parse_scene(doc)
     laws = []
 
     def controller(call):
@@ -229,7 +233,7 @@ def test_the_law_log_tiles_the_run_with_the_pieces_the_controller_set():
     assert res.status == "done"
     rows = loop.law_rows()
     starts = [law.knots[0] for law in laws]
-    assert rows[0, 1] == scene.t0 and rows[-1, 2] == pytest.approx(scene.t0 + 0.5, abs=1e-12)
+    assert rows[0, 1] == t0 == scene.t0 and rows[-1, 2] == pytest.approx(t0 + 0.5, abs=1e-12)
     assert np.array_equal(rows[1:, 1], rows[:-1, 2]) and np.all(rows[:, 2] > rows[:, 1])
     for row in rows:
         law = laws[int(np.searchsorted(starts, row[1], side="right")) - 1]
