@@ -139,6 +139,10 @@ UNIT_TESTS = {
 # run for that header's mutants too.
 HEADER_TESTS = {
     "crt_law.h": ("tests/test_law_boundaries.py", "tests/test_law.py"),
+    "crt_control.h": ("tests/test_control_loop.py",
+                      _HOP + "test_the_c_controller_writes_the_python_routes_law_to_the_bit",
+                      _HOP + "test_where_impacts_stop_the_gait_goes_on_bounded_in_both_routes",
+                      "tests/test_control_wheels.py"),
     "crt_events.h": (
         _HOP + "test_a_controllers_wider_gait_does_not_let_s_through_the_plane",),
     "crt_step.h": ("tests/test_outputs.py::test_tables_have_plain_names_and_a_uniform_grid",),
