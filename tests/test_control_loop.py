@@ -90,6 +90,36 @@ def test_a_law_that_jumps_is_refused_naming_the_fault():
             run_prepared(prepare(scene), loop=Loop(fn, period=0.1))
 
 
+@pytest.mark.parametrize("share", [0.98, 1.02])
+@pytest.mark.parametrize("part", ["position", "velocity"])
+def test_a_jump_at_the_continuity_tolerance_is_taken_within_and_refused_beyond(part, share):
+    """The start's law off the law in use by share of the tolerance the runtime states
+    (x: 1e-12 (1 + |x| + the length scale), x': 1e-12 (1 + |x'|)), in each of x, y, z in
+    turn: within it the run goes on, beyond it the law is refused naming the fault."""
+    from derive import abi
+    doc = builtin_doc()
+    doc["run"]["duration"] = 0.2
+    prep = prepare(parse_scene(doc))
+    L = prep.options[abi.OPT["length_scale"]]
+    for c in range(3):
+        def offset(call, c=c):
+            if call.reason != "start":
+                return None
+            u0, v0 = call.u[:3].copy(), call.u[3:6].copy()
+            if part == "position":
+                u0[c] += share * 1e-12 * (1.0 + abs(u0[c]) + L)
+            else:
+                v0[c] += share * 1e-12 * (1.0 + abs(v0[c]))
+            t1 = call.t + 0.1
+            coef = hermite(call.t, u0, v0, t1, call.u[:3], call.u[3:6])
+            return Segments(np.array([call.t, t1]), coef[None])
+        if share < 1.0:
+            assert run_prepared(prep, loop=Loop(offset)).status == "done"
+        else:
+            with pytest.raises(ValueError, match=f"{part}_jump"):
+                run_prepared(prep, loop=Loop(offset))
+
+
 def test_a_controller_that_raises_or_stops():
     scene = _scene()
 
