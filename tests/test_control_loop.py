@@ -155,15 +155,17 @@ def test_a_push_changes_the_momenta_as_the_theorems_say():
 
 def test_pushes_before_the_start_are_not_applied_and_those_after_it_are():
     """A run from t0 = 1 with pushes at t0 - 0.02 (before the start: never applied), t0 +
-    0.02 and t0 + 0.3 (applied, at their times): two push events, at those times, each
-    the momentum its impulse gives (Q+ - Q- = P)."""
+    0.02 and t0 + 0.3 (applied, at their times, not at the samples every 0.03 s before
+    them): two push events, at those times, each the momentum its impulse gives (Q+ - Q-
+    = P)."""
     doc = builtin_doc()
     doc["run"].update({"duration": 0.5, "model": "general", "outputs": ["pose", "momentum"]})
     doc.setdefault("initial", {})["time"] = 1.0
     scene = parse_scene(doc)
     P = np.array([0.2, -0.3, 0.5])
     pushes = [[t, *(k * P), 0.1, -0.2, 0.3] for k, t in enumerate((0.98, 1.02, 1.3), 1)]
-    res = run_prepared(prepare(scene), loop=Loop(lambda call: None, pushes=pushes))
+    res = run_prepared(prepare(scene), loop=Loop(lambda call: None, period=0.03,
+                                                 pushes=pushes))
     assert res.stats["pushes"] == 2
     mass = scene.M + scene.m
     for k, t in ((2, 1.02), (3, 1.3)):
