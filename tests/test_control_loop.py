@@ -292,3 +292,55 @@ def test_the_law_log_tiles_the_run_with_the_pieces_the_controller_set(t0):
         assert row[1] >= law.knots[i] and (i == 3 or row[2] <= law.knots[i + 1]), row[:3]
         assert np.array_equal(row[3:].reshape(3, 4), law.coef[i])
     assert len(rows) > 2 * len(laws)
+
+
+def test_the_runtime_checks_the_loops_pushes_itself():
+    """crt_control_setup called directly (Python sorts the pushes before it): pushes in
+    time order, equal times included, accepted; one 2 % earlier than the one before, or
+    none given where one is counted, refused (bad_argument)."""
+    import ctypes
+    from derive import abi
+    from derive.runtime.loop import CONTROLLER_FN
+    prep = prepare(_scene(model="general"))
+    lib = prep.library.lib
+    mem = ctypes.create_string_buffer(lib.crt_control_sizeof() + 64)
+    handle = ctypes.c_void_p((ctypes.addressof(mem) + 63) // 64 * 64)
+    fn = CONTROLLER_FN(lambda *args: 0)
+    log = np.zeros((64 * 2 * abi.CTL_MAX_KNOTS, len(abi.LOG_COLUMNS)))
+    noise = np.zeros(4)
+    dp = ctypes.POINTER(ctypes.c_double)
+
+    def setup(times, n=None, given=True):
+        rows = np.zeros((len(times), 7))
+        rows[:, 0] = times
+        rows[:, 3] = 0.1
+        return lib.crt_control_setup(handle, ctypes.cast(fn, ctypes.c_void_p), None, 0.0,
+                                     noise.ctypes.data_as(dp), 0.0,
+                                     rows.ctypes.data_as(dp) if given else None,
+                                     len(times) if n is None else n,
+                                     log.ctypes.data_as(dp), len(log))
+    ok, bad = abi.STATUS["ok"], abi.STATUS["bad_argument"]
+    assert setup([1.0, 1.0, 1.02]) == ok and setup([-1.0, -0.98]) == ok
+    assert setup([1.0, 0.98]) == bad and setup([-0.98, -1.0]) == bad
+    assert setup([], n=1, given=False) == bad
+
+
+def test_a_seed_past_the_runtimes_range_is_seed_zero():
+    """The noise's seed is taken as given below 1.8e19 and as 0 from there (a double's
+    conversion to the generator's 64 bits): at 0.98 of it the noise is not seed 0's, at
+    1.02 it is."""
+    scene = _scene(model="general", duration=0.1)
+    seen = []
+
+    def record(call):
+        seen.append(call.q.copy())
+        return None
+
+    def noisy(seed):
+        seen.clear()
+        run_prepared(prepare(scene), loop=Loop(record, period=0.02, seed=seed,
+                                               noise=(0.01, 0.002, 0.001, 0.02)))
+        return np.array(seen)
+    zero = noisy(0)
+    assert not np.array_equal(noisy(int(0.98 * 1.8e19)), zero)
+    assert np.array_equal(noisy(int(1.02 * 1.8e19)), zero)
