@@ -294,10 +294,12 @@ def test_the_law_log_tiles_the_run_with_the_pieces_the_controller_set(t0):
     assert len(rows) > 2 * len(laws)
 
 
-def test_the_runtime_checks_the_loops_pushes_itself():
-    """crt_control_setup called directly (Python sorts the pushes before it): pushes in
-    time order, equal times included, accepted; one 2 % earlier than the one before, or
-    none given where one is counted, refused (bad_argument)."""
+def test_the_runtime_checks_the_loops_pushes_and_channels_itself():
+    """crt_control_setup and crt_control_channels called directly (Python sorts the pushes
+    before them): pushes in time order, equal times included, accepted; one 2 % earlier
+    than the one before, or none given where one is counted, refused (bad_argument).
+    Channels: 0 to 3 outputs, -1 (none) among them, accepted; -1 or 4 outputs, an output
+    below -1, or none given where some are counted, refused."""
     import ctypes
     from derive import abi
     from derive.runtime.loop import CONTROLLER_FN
@@ -324,6 +326,17 @@ def test_the_runtime_checks_the_loops_pushes_itself():
     assert setup([1.0, 0.98]) == bad and setup([-0.98, -1.0]) == bad
     assert setup([], n=1, given=False) == bad
 
+    def channels(outs, n=None, given=True):
+        arr = (ctypes.c_int * max(len(outs), 1))(*outs)
+        return lib.crt_control_channels(handle, len(outs) if n is None else n,
+                                        arr if given else None)
+    assert setup([]) == ok
+    for outs in ([], [0], [4, -1], [0, 1, 2], [-1, -1, 7]):
+        assert channels(outs) == ok, outs
+    for outs, n, given in (([0, 1, 2, 3], None, True), ([0], -1, True), ([0, -2], None, True),
+                           ([0], 1, False)):
+        assert channels(outs, n, given) == bad, (outs, n, given)
+
 
 def test_a_seed_past_the_runtimes_range_is_seed_zero():
     """The noise's seed is taken as given below 1.8e19 and as 0 from there (a double's
@@ -344,3 +357,15 @@ def test_a_seed_past_the_runtimes_range_is_seed_zero():
     zero = noisy(0)
     assert not np.array_equal(noisy(int(0.98 * 1.8e19)), zero)
     assert np.array_equal(noisy(int(1.02 * 1.8e19)), zero)
+
+
+def test_pushes_on_a_model_without_them_are_refused():
+    """The vertical model has no push map (MODEL_PUSH 0): a loop with a push is refused,
+    not run with the push dropped; without pushes it runs."""
+    from derive.stability import bouncing
+    doc = bouncing.bouncing_scene(a=0.1)
+    doc["run"]["duration"] = 0.2
+    prep = prepare(dataclasses.replace(parse_scene(doc), model="vertical"))
+    assert run_prepared(prep, loop=Loop(lambda call: None)).status == "done"
+    with pytest.raises(ValueError, match="pushes need the general model"):
+        run_prepared(prep, loop=Loop(lambda call: None, pushes=[[0.1, 0, 0, 0.1, 0, 0, 0]]))
