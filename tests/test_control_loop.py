@@ -369,3 +369,20 @@ def test_pushes_on_a_model_without_them_are_refused():
     assert run_prepared(prep, loop=Loop(lambda call: None)).status == "done"
     with pytest.raises(ValueError, match="pushes need the general model"):
         run_prepared(prep, loop=Loop(lambda call: None, pushes=[[0.1, 0, 0, 0.1, 0, 0, 0]]))
+
+
+def test_the_controller_is_called_after_each_contact_and_lift_off():
+    """A ball on a vibrating table that comes to rest and lifts off again (e = 0): the
+    controller is called once after each contact and each lift-off, as many times as
+    the run's counters say."""
+    from derive.stability import bouncing
+    doc = bouncing.bouncing_scene(a=0.1)
+    doc["plane"]["restitution"] = 0.0
+    doc["run"]["duration"] = 1.0
+    prep = prepare(dataclasses.replace(parse_scene(doc), model="vertical"))
+    calls = []
+    res = run_prepared(prep, loop=Loop(lambda c: calls.append((c.t, c.event)) or None))
+    got = {kind: [t for t, e in calls if e == kind] for kind in ("contact", "liftoff")}
+    assert len(got["contact"]) == res.stats["contacts"] >= 2
+    assert len(got["liftoff"]) == res.stats["liftoffs"] >= 2
+    assert {e for _, e in calls[1:]} <= {"impact", "contact", "liftoff"}
