@@ -386,3 +386,47 @@ def test_the_controller_is_called_after_each_contact_and_lift_off():
     assert len(got["contact"]) == res.stats["contacts"] >= 2
     assert len(got["liftoff"]) == res.stats["liftoffs"] >= 2
     assert {e for _, e in calls[1:]} <= {"impact", "contact", "liftoff"}
+
+
+def test_channels_read_and_drive_the_outputs_of_a_law_of_bodies():
+    """Two points and a rotor (the moments model), the controller's x, y, z on point 0's
+    y, none, and the rotor's psi (channels 1, -1, 6): what a call reads is those outputs
+    of the scene's law (its NumPy twin, BodiesLaw.u) until the controller sets a
+    law, and then that law's values at the call's time; the column with no output reads
+    0.  Channels past the law's outputs are refused."""
+    from derive.verify.generators import random_bodies_scene
+    scene = parse_scene(random_bodies_scene(np.random.default_rng(1), 1.0, n_points=2,
+                                            n_rotors=1))
+    prep = prepare(scene)
+    law = scene.bodies_law
+    slot = {1: (1, 3), 6: (18, 1)}                 # output -> (its value in u, step)
+    calls, laws = [], []
+
+    def controller(call):
+        calls.append(call)
+        if call.t < 0.45:
+            return None
+        t1 = call.t + 0.3
+        goal = call.u[:3] + 0.05 * np.array([1.0, 0.0, -2.0])
+        coef = hermite(call.t, call.u[:3], call.u[3:6], t1, goal, np.zeros(3))
+        laws.append(Segments(np.array([call.t, t1]), coef[None]))
+        return laws[-1]
+    res = run_prepared(prep, loop=Loop(controller, period=0.1, channels=(1, -1, 6)))
+    assert res.status == "done" and len(laws) >= 4
+    for call in calls[1:]:
+        before = [law for law in laws if law.knots[0] < call.t]
+        if before:
+            want = before[-1].at(call.t)
+        else:
+            u = law.u([call.t])[:, 0]
+            want = np.zeros(9)
+            for c, o in ((0, 1), (2, 6)):
+                at, step = slot[o]
+                want[[c, 3 + c, 6 + c]] = u[[at, at + step, at + 2 * step]]
+        for c in (0, 2):
+            assert np.allclose(call.u[[c, 3 + c, 6 + c]], want[[c, 3 + c, 6 + c]],
+                               rtol=1e-12, atol=1e-12), (call.t, c)
+        assert np.all(call.u[[1, 4, 7]] == 0.0)
+    for bad in ((8,), (0, 1, 9)):
+        with pytest.raises(ValueError):
+            run_prepared(prep, loop=Loop(controller, period=0.1, channels=bad))
