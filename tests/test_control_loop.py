@@ -430,3 +430,21 @@ def test_channels_read_and_drive_the_outputs_of_a_law_of_bodies():
     for bad in ((8,), (0, 1, 9)):
         with pytest.raises(ValueError):
             run_prepared(prep, loop=Loop(controller, period=0.1, channels=bad))
+
+
+@pytest.mark.parametrize("kind", ["table", "formula"])
+def test_a_loop_that_sets_no_law_leaves_the_run_as_it_was(kind):
+    """A point law given as formulas or as a table (its samples): a loop whose controller
+    never sets a law (no samples, so no step ends added) runs the same rows as the open
+    loop, bit for bit."""
+    doc = builtin_doc()
+    doc["run"]["duration"] = 0.5
+    if kind == "table":
+        ts = np.linspace(0.0, 0.6, 13)
+        doc["point"] = {"mass": 0.2, "ends": "free", "samples": np.column_stack(
+            [ts, 0.2 * np.sin(3 * ts), 0.1 + 0 * ts, 0.05 * np.cos(2 * ts)]).tolist()}
+    prep = prepare(parse_scene(doc))
+    open_loop = run_prepared(prep)
+    closed = run_prepared(prep, loop=Loop(lambda call: None))
+    assert closed.status == open_loop.status == "done"
+    assert np.array_equal(closed.t, open_loop.t) and np.array_equal(closed.q, open_loop.q)
