@@ -90,6 +90,36 @@ def test_a_law_that_jumps_is_refused_naming_the_fault():
             run_prepared(prepare(scene), loop=Loop(fn, period=0.1))
 
 
+@pytest.mark.parametrize("share", [0.98, 1.02])
+@pytest.mark.parametrize("part", ["position", "velocity"])
+def test_a_jump_at_the_continuity_tolerance_is_taken_within_and_refused_beyond(part, share):
+    """The start's law off the law in use by share of the tolerance the runtime states
+    (x: 1e-12 (1 + |x| + the length scale), x': 1e-12 (1 + |x'|)), in each of x, y, z in
+    turn: within it the run goes on, beyond it the law is refused naming the fault."""
+    from derive import abi
+    doc = builtin_doc()
+    doc["run"]["duration"] = 0.2
+    prep = prepare(parse_scene(doc))
+    L = prep.options[abi.OPT["length_scale"]]
+    for c in range(3):
+        def offset(call, c=c):
+            if call.reason != "start":
+                return None
+            u0, v0 = call.u[:3].copy(), call.u[3:6].copy()
+            if part == "position":
+                u0[c] += share * 1e-12 * (1.0 + abs(u0[c]) + L)
+            else:
+                v0[c] += share * 1e-12 * (1.0 + abs(v0[c]))
+            t1 = call.t + 0.1
+            coef = hermite(call.t, u0, v0, t1, call.u[:3], call.u[3:6])
+            return Segments(np.array([call.t, t1]), coef[None])
+        if share < 1.0:
+            assert run_prepared(prep, loop=Loop(offset)).status == "done"
+        else:
+            with pytest.raises(ValueError, match=f"{part}_jump"):
+                run_prepared(prep, loop=Loop(offset))
+
+
 def test_a_controller_that_raises_or_stops():
     scene = _scene()
 
@@ -121,6 +151,27 @@ def test_a_push_changes_the_momenta_as_the_theorems_say():
     r = scene.law.point(0.7)[:3]
     CA = A @ (at - scene.nu * r)                  # OC = nu OP: C's offset from O
     assert np.allclose(K[i + 1] - K[i], np.cross(CA, P), atol=1e-12)
+
+
+def test_pushes_before_the_start_are_not_applied_and_those_after_it_are():
+    """A run from t0 = 1 with pushes at t0 - 0.02 (before the start: never applied), t0 +
+    0.02 and t0 + 0.3 (applied, at their times, not at the samples every 0.03 s before
+    them): two push events, at those times, each the momentum its impulse gives (Q+ - Q-
+    = P)."""
+    doc = builtin_doc()
+    doc["run"].update({"duration": 0.5, "model": "general", "outputs": ["pose", "momentum"]})
+    doc.setdefault("initial", {})["time"] = 1.0
+    scene = parse_scene(doc)
+    P = np.array([0.2, -0.3, 0.5])
+    pushes = [[t, *(k * P), 0.1, -0.2, 0.3] for k, t in enumerate((0.98, 1.02, 1.3), 1)]
+    res = run_prepared(prepare(scene), loop=Loop(lambda call: None, period=0.03,
+                                                 pushes=pushes))
+    assert res.stats["pushes"] == 2
+    mass = scene.M + scene.m
+    for k, t in ((2, 1.02), (3, 1.3)):
+        i = int(np.flatnonzero((res.t == t) & (res.row_kind == 1))[0])
+        dv = res.general[i + 1][G.com_velocity] - res.general[i][G.com_velocity]
+        assert np.allclose(dv * mass, k * P, atol=1e-13), (t, dv * mass)
 
 
 def test_the_noise_has_the_deviations_asked_and_is_the_seeds():
@@ -171,3 +222,229 @@ def test_a_session_runs_open_loop_again_after_a_closed_loop():
         run_prepared(prep, session=session_for(prep.kind), loop=Loop(controller, 0.1))
         again = run_prepared(prep, session=session_for(prep.kind))
         assert np.array_equal(again.q, first.q)
+
+
+def test_the_vertical_models_noise_is_on_z_and_its_rate_and_tilts_n():
+    """The vertical model (Z_C, Z_C', omega, n): position and velocity noise go to Z_C and
+    Z_C' once each (sample deviations those asked, within 15 % over 400 samples), omega's
+    to omega, and the attitude's tilts n by |delta_perp| of two normal deviates (mean
+    0.002 sqrt(pi/2), the Rayleigh mean), n staying a unit vector."""
+    from derive.stability import bouncing
+    V = layout.VERTICAL
+    doc = bouncing.bouncing_scene(a=0.1)
+    doc["run"]["duration"] = 2.0
+    prep = prepare(dataclasses.replace(parse_scene(doc), model="vertical"))
+    seen = []
+
+    def record(call):
+        if call.reason == "sample":
+            seen.append((call.t, call.q))
+        return None
+    true = run_prepared(prep, loop=Loop(record, period=0.005))
+    seen.clear()
+    run_prepared(prep, loop=Loop(record, period=0.005, seed=3,
+                                 noise=(0.01, 0.002, 0.001, 0.02)))
+    q = np.array([row for _, row in seen])
+    q_true = np.array([true.q[np.flatnonzero((true.t == t) & (true.row_kind == 0))[0]]
+                       for t, _ in seen])
+    d = q - q_true
+    assert len(d) >= 390
+    n, n_true = q[:, 5:8], q_true[:, 5:8]
+    for col, std in ((V.Z, 0.001), (V.Zd, 0.02), (2, 0.01), (3, 0.01), (4, 0.01)):
+        assert abs(np.std(d[:, col]) - std) < 0.15 * std, (col, np.std(d[:, col]))
+    assert np.allclose(np.linalg.norm(n, axis=1), 1.0, atol=1e-12)
+    tilt = np.arccos(np.clip(np.sum(n * n_true, axis=1), -1.0, 1.0))
+    assert abs(np.mean(tilt) - 0.002 * math.sqrt(math.pi / 2)) < 0.15 * 0.0025
+
+
+@pytest.mark.parametrize("t0", [0.0, -2.0])
+def test_the_law_log_tiles_the_run_with_the_pieces_the_controller_set(t0):
+    """A controller setting laws of four pieces each (0.04 s) every 0.03 s sample, so that
+    each law is cut inside its pieces: the log's rows (knot, from, to, coefficients) are
+    contiguous from the start to the end (each from the last one's to), each of positive
+    length, each within its piece (the last piece of the run's law may run on past its
+    knot) and with that piece's coefficients, against the Segments the controller
+    returned.  Also at negative times, where a sample is within 5 % of the one before."""
+    doc = builtin_doc()
+    doc["run"]["duration"] = 0.5
+    doc.setdefault("initial", {})["time"] = t0
+    scene = parse_scene(doc)
+    laws = []
+
+    def controller(call):
+        ts = call.t + 0.01 * np.arange(5)
+        u = [scene.law.point(t) for t in ts]
+        u[0] = call.u
+        coef = np.stack([hermite(ts[i], u[i][:3], u[i][3:6], ts[i + 1], u[i + 1][:3],
+                                 u[i + 1][3:6]) for i in range(4)])
+        laws.append(Segments(ts, coef))
+        return laws[-1]
+    loop = Loop(controller, period=0.03)
+    res = run_prepared(prepare(scene), loop=loop)
+    assert res.status == "done"
+    rows = loop.law_rows()
+    starts = [law.knots[0] for law in laws]
+    assert rows[0, 1] == t0 == scene.t0 and rows[-1, 2] == pytest.approx(t0 + 0.5, abs=1e-12)
+    assert np.array_equal(rows[1:, 1], rows[:-1, 2]) and np.all(rows[:, 2] > rows[:, 1])
+    for row in rows:
+        law = laws[int(np.searchsorted(starts, row[1], side="right")) - 1]
+        i = int(np.flatnonzero(law.knots == row[0])[0])
+        assert row[1] >= law.knots[i] and (i == 3 or row[2] <= law.knots[i + 1]), row[:3]
+        assert np.array_equal(row[3:].reshape(3, 4), law.coef[i])
+    assert len(rows) > 2 * len(laws)
+
+
+def test_the_runtime_checks_the_loops_pushes_and_channels_itself():
+    """crt_control_setup and crt_control_channels called directly (Python sorts the pushes
+    before them): pushes in time order, equal times included, accepted; one 2 % earlier
+    than the one before, or none given where one is counted, refused (bad_argument).
+    Channels: 0 to 3 outputs, -1 (none) among them, accepted; -1 or 4 outputs, an output
+    below -1, or none given where some are counted, refused."""
+    import ctypes
+    from derive import abi
+    from derive.runtime.loop import CONTROLLER_FN
+    prep = prepare(_scene(model="general"))
+    lib = prep.library.lib
+    mem = ctypes.create_string_buffer(lib.crt_control_sizeof() + 64)
+    handle = ctypes.c_void_p((ctypes.addressof(mem) + 63) // 64 * 64)
+    fn = CONTROLLER_FN(lambda *args: 0)
+    log = np.zeros((64 * 2 * abi.CTL_MAX_KNOTS, len(abi.LOG_COLUMNS)))
+    noise = np.zeros(4)
+    dp = ctypes.POINTER(ctypes.c_double)
+
+    def setup(times, n=None, given=True):
+        rows = np.zeros((len(times), 7))
+        rows[:, 0] = times
+        rows[:, 3] = 0.1
+        return lib.crt_control_setup(handle, ctypes.cast(fn, ctypes.c_void_p), None, 0.0,
+                                     noise.ctypes.data_as(dp), 0.0,
+                                     rows.ctypes.data_as(dp) if given else None,
+                                     len(times) if n is None else n,
+                                     log.ctypes.data_as(dp), len(log))
+    ok, bad = abi.STATUS["ok"], abi.STATUS["bad_argument"]
+    assert setup([1.0, 1.0, 1.02]) == ok and setup([-1.0, -0.98]) == ok
+    assert setup([1.0, 0.98]) == bad and setup([-0.98, -1.0]) == bad
+    assert setup([], n=1, given=False) == bad
+
+    def channels(outs, n=None, given=True):
+        arr = (ctypes.c_int * max(len(outs), 1))(*outs)
+        return lib.crt_control_channels(handle, len(outs) if n is None else n,
+                                        arr if given else None)
+    assert setup([]) == ok
+    for outs in ([], [0], [4, -1], [0, 1, 2], [-1, -1, 7]):
+        assert channels(outs) == ok, outs
+    for outs, n, given in (([0, 1, 2, 3], None, True), ([0], -1, True), ([0, -2], None, True),
+                           ([0], 1, False)):
+        assert channels(outs, n, given) == bad, (outs, n, given)
+
+
+def test_a_seed_past_the_runtimes_range_is_seed_zero():
+    """The noise's seed is taken as given below 1.8e19 and as 0 from there (a double's
+    conversion to the generator's 64 bits): at 0.98 of it the noise is not seed 0's, at
+    1.02 it is."""
+    scene = _scene(model="general", duration=0.1)
+    seen = []
+
+    def record(call):
+        seen.append(call.q.copy())
+        return None
+
+    def noisy(seed):
+        seen.clear()
+        run_prepared(prepare(scene), loop=Loop(record, period=0.02, seed=seed,
+                                               noise=(0.01, 0.002, 0.001, 0.02)))
+        return np.array(seen)
+    zero = noisy(0)
+    assert not np.array_equal(noisy(int(0.98 * 1.8e19)), zero)
+    assert np.array_equal(noisy(int(1.02 * 1.8e19)), zero)
+
+
+def test_pushes_on_a_model_without_them_are_refused():
+    """The vertical model has no push map (MODEL_PUSH 0): a loop with a push is refused,
+    not run with the push dropped; without pushes it runs."""
+    from derive.stability import bouncing
+    doc = bouncing.bouncing_scene(a=0.1)
+    doc["run"]["duration"] = 0.2
+    prep = prepare(dataclasses.replace(parse_scene(doc), model="vertical"))
+    assert run_prepared(prep, loop=Loop(lambda call: None)).status == "done"
+    with pytest.raises(ValueError, match="pushes need the general model"):
+        run_prepared(prep, loop=Loop(lambda call: None, pushes=[[0.1, 0, 0, 0.1, 0, 0, 0]]))
+
+
+def test_the_controller_is_called_after_each_contact_and_lift_off():
+    """A ball on a vibrating table that comes to rest and lifts off again (e = 0): the
+    controller is called once after each contact and each lift-off, as many times as
+    the run's counters say."""
+    from derive.stability import bouncing
+    doc = bouncing.bouncing_scene(a=0.1)
+    doc["plane"]["restitution"] = 0.0
+    doc["run"]["duration"] = 1.0
+    prep = prepare(dataclasses.replace(parse_scene(doc), model="vertical"))
+    calls = []
+    res = run_prepared(prep, loop=Loop(lambda c: calls.append((c.t, c.event)) or None))
+    got = {kind: [t for t, e in calls if e == kind] for kind in ("contact", "liftoff")}
+    assert len(got["contact"]) == res.stats["contacts"] >= 2
+    assert len(got["liftoff"]) == res.stats["liftoffs"] >= 2
+    assert {e for _, e in calls[1:]} <= {"impact", "contact", "liftoff"}
+
+
+def test_channels_read_and_drive_the_outputs_of_a_law_of_bodies():
+    """Two points and a rotor (the moments model), the controller's x, y, z on point 0's
+    y, none, and the rotor's psi (channels 1, -1, 6): what a call reads is those outputs
+    of the scene's law (its NumPy twin, BodiesLaw.u) until the controller sets a
+    law, and then that law's values at the call's time; the column with no output reads
+    0.  Channels past the law's outputs are refused."""
+    from derive.verify.generators import random_bodies_scene
+    scene = parse_scene(random_bodies_scene(np.random.default_rng(1), 1.0, n_points=2,
+                                            n_rotors=1))
+    prep = prepare(scene)
+    law = scene.bodies_law
+    slot = {1: (1, 3), 6: (18, 1)}                 # output -> (its value in u, step)
+    calls, laws = [], []
+
+    def controller(call):
+        calls.append(call)
+        if call.t < 0.45:
+            return None
+        t1 = call.t + 0.3
+        goal = call.u[:3] + 0.05 * np.array([1.0, 0.0, -2.0])
+        coef = hermite(call.t, call.u[:3], call.u[3:6], t1, goal, np.zeros(3))
+        laws.append(Segments(np.array([call.t, t1]), coef[None]))
+        return laws[-1]
+    res = run_prepared(prep, loop=Loop(controller, period=0.1, channels=(1, -1, 6)))
+    assert res.status == "done" and len(laws) >= 4
+    for call in calls[1:]:
+        before = [law for law in laws if law.knots[0] < call.t]
+        if before:
+            want = before[-1].at(call.t)
+        else:
+            u = law.u([call.t])[:, 0]
+            want = np.zeros(9)
+            for c, o in ((0, 1), (2, 6)):
+                at, step = slot[o]
+                want[[c, 3 + c, 6 + c]] = u[[at, at + step, at + 2 * step]]
+        for c in (0, 2):
+            assert np.allclose(call.u[[c, 3 + c, 6 + c]], want[[c, 3 + c, 6 + c]],
+                               rtol=1e-12, atol=1e-12), (call.t, c)
+        assert np.all(call.u[[1, 4, 7]] == 0.0)
+    for bad in ((8,), (0, 1, 9)):
+        with pytest.raises(ValueError):
+            run_prepared(prep, loop=Loop(controller, period=0.1, channels=bad))
+
+
+@pytest.mark.parametrize("kind", ["table", "formula"])
+def test_a_loop_that_sets_no_law_leaves_the_run_as_it_was(kind):
+    """A point law given as formulas or as a table (its samples): a loop whose controller
+    never sets a law (no samples, so no step ends added) runs the same rows as the open
+    loop, bit for bit."""
+    doc = builtin_doc()
+    doc["run"]["duration"] = 0.5
+    if kind == "table":
+        ts = np.linspace(0.0, 0.6, 13)
+        doc["point"] = {"mass": 0.2, "ends": "free", "samples": np.column_stack(
+            [ts, 0.2 * np.sin(3 * ts), 0.1 + 0 * ts, 0.05 * np.cos(2 * ts)]).tolist()}
+    prep = prepare(parse_scene(doc))
+    open_loop = run_prepared(prep)
+    closed = run_prepared(prep, loop=Loop(lambda call: None))
+    assert closed.status == open_loop.status == "done"
+    assert np.array_equal(closed.t, open_loop.t) and np.array_equal(closed.q, open_loop.q)

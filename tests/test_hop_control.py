@@ -323,3 +323,83 @@ def test_a_controllers_wider_gait_does_not_let_s_through_the_plane():
     assert res.status == "done" and res.stats["law_changes"] > 1
     assert res.min_height > -1e-9, res.min_height
     assert float(np.min(res.height)) > -1e-9
+
+
+def _call_c(ctrl, t, reason, event, q, u):
+    """One call of a C controller (crt_controller_fn) from Python: (status, knots, coef)."""
+    import ctypes
+    from derive.runtime.loop import CONTROLLER_FN, MAX_KNOTS, CallStruct
+    dp = ctypes.POINTER(ctypes.c_double)
+    q, u = np.ascontiguousarray(q, dtype=float), np.ascontiguousarray(u, dtype=float)
+    call = CallStruct(t, reason, event, len(q), q.ctypes.data_as(dp), u.ctypes.data_as(dp), 0)
+    knots, coef, n = np.zeros(MAX_KNOTS), np.zeros(12 * MAX_KNOTS), ctypes.c_int(0)
+    fn = CONTROLLER_FN(ctrl.address)
+    r = fn(ctypes.addressof(ctrl.ctx), ctypes.byref(call), MAX_KNOTS, ctypes.byref(n),
+           knots.ctypes.data_as(dp), coef.ctypes.data_as(dp))
+    return r, knots[:n.value], coef[:12 * max(n.value - 1, 0)].reshape(-1, 3, 4)
+
+
+@pytest.mark.parametrize("share", [0.98, 1.02])
+@pytest.mark.parametrize("sign", [1.0, -1.0])
+def test_the_gait_correction_is_clamped_at_its_limit_and_a_law_renewed_a_period_before_its_end(
+        unstable, share, sign):
+    """crt_hop.c called directly, beside HopController (the same law to the bit at each
+    call).  The start, from a law off the axis: x and y go from its value and rate to 0
+    over the first piece and stay there.  Before any impact, and again after one, a
+    sample 2 % of a period before the law's end less a period leaves the law alone (0),
+    and 2 % after renews it.  An impact at the orbit's phase and gait whose velocity
+    deviation asks a correction delta = sign * share * limit * a*:
+    within the limit the new gait's amplitude is a* + delta, beyond it a* +- limit a* (the
+    law's z at its last knot, past the blend, is a sin(W t): the closed form).  The
+    start is late (30 periods in) so that 5 % of a threshold would move either sample."""
+    from derive.layout import VERTICAL
+    from derive.runtime.loop import EVENTS, Call
+    hm, d = unstable
+    orbit, g = d.orbit, d.orbit.gait
+    limit, T = 0.5, g.period
+    py, c = H.HopController(d), H.c_controller(d)
+    t0 = orbit.t + 30 * T
+    q = np.zeros(VERTICAL.nq)
+    u = np.zeros(9)
+    u[2], u[5] = g.jet(t0)[0], g.jet(t0)[1]
+    u[[0, 1, 3, 4]] = 0.01, -0.02, 0.3, 0.1         # the law in use off the axis
+    r, knots, coef = _call_c(c, t0, 0, 0, q, u)                # the start: the design's gait
+    law = py(Call(t0, "start", "", q, u, 0))
+    assert r == 1 and np.array_equal(knots, law.knots) and np.array_equal(
+        coef, law.coef.reshape(-1, 3, 4))
+    # x and y: from the law's at t0 to the axis over the first piece, then on it
+    assert np.array_equal(law.at(t0)[[0, 1, 3, 4]], u[[0, 1, 3, 4]])
+    assert np.all(law.at(knots[1])[[0, 1, 3, 4]] == 0.0)
+    assert np.all(law.coef[1:, :2, :] == 0.0)
+    # before any impact: a sample 2 % of a period either side of (the start's law's end
+    # less a period) leaves it (0), or renews it
+    for offset, renewed in ((-0.02 * T, False), (0.02 * T, True)):
+        ts = knots[-1] - T + offset
+        r, _, _ = _call_c(c, ts, 1, 0, q, law.at(ts))
+        got = py(Call(ts, "sample", "", q, law.at(ts), 1))
+        assert (r == 1) == renewed and (got is not None) == renewed, (offset, r)
+    t0 = knots[-1] - T + 0.02 * T                              # the law renewed there
+    law = got
+    # an impact a whole number of periods after the orbit's: phase and gait deviations 0
+    ti = orbit.t + 33 * T
+    delta = sign * share * limit * g.a
+    q[VERTICAL.Zd] = orbit.v - delta / d.K[0, 1]
+    u = law.at(ti)
+    impact = EVENTS.index("impact")
+    r, knots, coef = _call_c(c, ti, 2, impact, q, u)
+    law = py(Call(ti, "event", "impact", q, u, 1))
+    assert r == 1 and np.array_equal(knots, law.knots) and np.array_equal(
+        coef, law.coef.reshape(-1, 3, 4))
+    a_new = g.a + sign * min(share, 1.0) * limit * g.a
+    assert py.history[-1][2] == pytest.approx(sign * min(share, 1.0) * limit * g.a, rel=1e-9)
+    end = knots[-1]
+    assert law.at(end)[2] == pytest.approx(a_new * np.sin(g.W * end), rel=1e-6, abs=1e-9)
+    # no impact: a sample 2 % of a period either side of (the law's end - a period)
+    for offset, renewed in ((-0.02 * T, False), (0.02 * T, True)):
+        ts = end - T + offset
+        u = law.at(ts)
+        r, knots2, _ = _call_c(c, ts, 1, 0, q, u)
+        got = py(Call(ts, "sample", "", q, u, 2))
+        assert (r == 1) == renewed and (got is not None) == renewed, (offset, r)
+        if renewed:
+            assert np.array_equal(knots2, got.knots)

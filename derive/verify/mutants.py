@@ -110,6 +110,8 @@ UNIT_TESTS = {
     "model_axisymmetric.c": ("tests/test_runtime.py",),
     "model_variational.c": ("tests/test_stability.py",),
     "control/crt_hop.c": (
+        _HOP + "test_the_gait_correction_is_clamped_at_its_limit_and_a_law_renewed_a_period_"
+        "before_its_end",
         _HOP + "test_the_c_controller_writes_the_python_routes_law_to_the_bit",
         _HOP + "test_where_impacts_stop_the_gait_goes_on_bounded_in_both_routes",
         _HOP + "test_the_apex_a_target_sets_is_the_runs",
@@ -118,7 +120,9 @@ UNIT_TESTS = {
         _HOP + "test_feedback_holds_an_orbit_unstable_open_loop_at_the_predicted_rate",
     ),
     "control/ctl_qp.h": (
+        "tests/test_qp_boundaries.py",
         _REPLAN + "test_qp_against_qpoases",
+        _REPLAN + "test_soft_qp_against_qpoases_with_explicit_slacks",
         _REPLAN + "test_c_controller_returns_the_python_routes_law",
         _REPLAN + "test_closed_loop_replayed_with_its_realised_law",
         _REPLAN + "test_seeded_landings_upright_closed_not_open",
@@ -134,6 +138,11 @@ UNIT_TESTS = {
 # reach (a controller sets the law during a run; rows on a uniform grid of output_dt):
 # run for that header's mutants too.
 HEADER_TESTS = {
+    "crt_law.h": ("tests/test_law_boundaries.py", "tests/test_law.py"),
+    "crt_control.h": ("tests/test_control_loop.py",
+                      _HOP + "test_the_c_controller_writes_the_python_routes_law_to_the_bit",
+                      _HOP + "test_where_impacts_stop_the_gait_goes_on_bounded_in_both_routes",
+                      "tests/test_control_wheels.py"),
     "crt_events.h": (
         _HOP + "test_a_controllers_wider_gait_does_not_let_s_through_the_plane",),
     "crt_step.h": ("tests/test_outputs.py::test_tables_have_plain_names_and_a_uniform_grid",),
