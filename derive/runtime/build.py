@@ -114,6 +114,7 @@ class Library:
                     ("crt_eval_wrench_rows", None, [c.c_void_p, c.c_int, DP, DP, IP, DP, IP,
                                                     DP, DP, DP, DP]),
                     ("crt_eval_delassus", None, [c.c_void_p, c.c_double, DP, DP, DP]),
+                    ("crt_eval_slip_band", None, [c.c_void_p, c.c_double, DP, DP]),
                     ("crt_eval_contact_wrench", None, [c.c_void_p, c.c_double, DP, DP, DP, DP]),
                     ("crt_eval_impact", c.c_int, [c.c_void_p, DP, DP, DP])):
                 fn = getattr(lib, name)

@@ -44,7 +44,13 @@ numbers) plus the drive's impulsive work; in contact the drive's power has
 ``m/(m+M) (A^T R, V_r)`` for the normal term, and friction does the work ``(R, v_S)``
 (``-mu_f N |v_t|`` while sliding, 0 while sticking), with R, omega' and v_S from the
 runtime's contact equations (``Session.rough_rows``).  ``work_of_friction``, the sum over
-impacts and contact, is never positive.
+impacts and contact, is never positive.  Below ``v_freeze`` (``Session.slip_band``) the
+runtime's friction keeps the direction the slip had at the start of the step, and the
+rows there are evaluated along it, each such step integrated apart
+(:func:`frozen_sliding`); along the slip a dying 2-D slip had left 1.3e-7 J in the
+README's ``two.toml``.  The other events' jumps (``at_other_events``: a push, a stick's
+impulse at S that removes what is left of the slip) carry the drives' impulsive work,
+``drive_work_at_other_events``; the rest is the impulses' own work.
 """
 from __future__ import annotations
 
@@ -301,12 +307,16 @@ def resolved_directions(v: np.ndarray, scale: float, rtol: float) -> np.ndarray:
     return out
 
 
-def rough_contact_power(result, mo: Motion, a: int, b: int) -> tuple[np.ndarray, np.ndarray]:
+def rough_contact_power(result, mo: Motion, a: int, b: int, directions=None) -> tuple[
+        np.ndarray, np.ndarray]:
     """The rough model on rows [a, b) of a contact phase: each drive's power (as in
     :func:`drive_power_in_contact`, the force of the carrier on P gaining m/(m+M) A^T R;
     (drives, rows)) and the power of friction (R, v_S), with omega', R and v_S from the
-    runtime's sliding or sticking equations in each row's mode."""
+    runtime's sliding or sticking equations in each row's mode, sliding along
+    ``directions`` (rows of 2; None: :func:`sliding_directions`)."""
     s = result.scene
+    if directions is None:
+        directions = sliding_directions(result, a, b)
     q = result.model_q[a:b]
     A = q[:, G.A].reshape(-1, 3, 3)
     if result.couples_on:        # the couple's power (T, Omega) joins the friction's
@@ -315,13 +325,13 @@ def rough_contact_power(result, mo: Motion, a: int, b: int) -> tuple[np.ndarray,
         cdir = np.c_[resolved_directions(Om[:, 2:], scale, s.rtol),
                      resolved_directions(Om[:, :2], scale, s.rtol)]
         dq, w, u = result.session.wrench_rows(result.t[a:b], q, result.modes[a:b],
-                                              sliding_directions(result, a, b),
+                                              directions,
                                               result.couples[a:b], cdir)
         R, v_S = w[:, :3], u[:, :3]
         friction = np.einsum("ij,ij->i", w, u)
     else:
         dq, R, v_S = result.session.rough_rows(result.t[a:b], q, result.modes[a:b],
-                                               sliding_directions(result, a, b))
+                                               directions)
         friction = np.einsum("ij,ij->i", R, v_S)
     wd = dq[:, G.omega]
     if mo.bodies is not None:
@@ -359,6 +369,7 @@ QUADRATURE_POINTS = 6      # the order of integrate's rule
 ROWS_PER_SCALE = 64        # balance rows per time scale of the motion (law and spin)
 MAX_BALANCE_ROWS = 200_000
 MAX_PHASE_RUNS = 2000      # short phases resampled one by one, at most
+TURNED = 1e-6              # a held direction this far from the slip's: frozen_sliding
 _ROUGH_CONTACT = (abi.MODE["sliding"], abi.MODE["sticking"])   # the rough model's contact
 
 
@@ -475,6 +486,91 @@ def _resampled(result, a: int, b: int):
     return sub
 
 
+def step_rows(result):
+    """The run with a row at the end of every step (its own when ``output_dt`` is 0,
+    else the run again with it 0; None when it cannot be repeated or differs)."""
+    if result.scene.output_dt <= 0:
+        return result
+    again = rerun(result, 0.0)
+    return again if again is not None and _same_run(result, again) else None
+
+
+def frozen_sliding(result, steps, a: int, b: int, budget: list):
+    """A sliding phase [a, b) on the rows where the runtime's friction kept its reference:
+    below ``v_freeze`` (Session.slip_band, set as the mode began) the runtime slides along
+    the direction the slip had at the start of the step (crt_follow_dir), which turns
+    where the slip does not stay on one line (a 2-D slip dying out at the end of
+    accumulating impacts: the friction, and through omega' the drives' power, differs
+    from those along the slip itself, 3.1 W against 1.2 W on README's two.toml).  Rows:
+    the phase's, its steps' ends (``steps``: :func:`step_rows`; twice where a step that
+    reaches v_freeze begins or ends, with the direction of the step before and of the
+    next: the power jumps there) and, in a short phase, :func:`_resampled`'s rows in the
+    steps that stay above v_freeze (while ``budget`` lasts).  Returns (the rows as a
+    Result, their directions, pieces [i, j) to integrate apart), or None where no row is
+    frozen, the held directions are the slip's (a slip on one line) or nothing knows the
+    steps."""
+    if not result.rough or result.couples_on or steps is None \
+            or result.modes[a] != abi.MODE["sliding"]:
+        return None
+    band = result.session.slip_band(result.t[a], result.model_q[a])
+    if not np.any(np.hypot(*result.slip[a:b].T) <= band["freeze"]):
+        return None
+    t0, t1 = float(result.t[a]), float(result.t[b - 1])
+    eps = 1e-12 * max(abs(t1), 1.0)
+    inside = np.flatnonzero((steps.t > t0 + eps) & (steps.t < t1 - eps)
+                            & (steps.row_kind == abi.ROW_KIND["step"]))
+    starts = np.concatenate([[t0], steps.t[inside]])         # the steps' starts
+    start_slip = np.concatenate([result.slip[a:a + 1], steps.slip[inside]])
+    armed = np.hypot(*start_slip.T) > band["arm"]
+    end_slip = np.concatenate([steps.slip[inside], result.slip[b - 1:b]])
+    free = (np.hypot(*start_slip.T) > band["freeze"]) & (np.hypot(*end_slip.T) > band["freeze"])
+    t_rows, q_rows = [result.t[a:b]], [result.model_q[a:b]]
+    sub = None
+    if b - a < ROWS_PER_SCALE and budget[0] > 0:
+        budget[0] -= 1
+        sub = _resampled(result, a, b)
+    if sub is not None:     # its rows in the steps that stay above v_freeze (along the slip)
+        k = np.clip(np.searchsorted(starts, sub.t, side="left") - 1, 0, len(starts) - 1)
+        keep = free[k] & (sub.t > t0 + eps) & (sub.t < t1 - eps)
+        t_rows.append(sub.t[keep])
+        q_rows.append(sub.model_q[keep])
+    t_all, q_all = np.concatenate(t_rows), np.concatenate(q_rows)
+    if len(inside):         # the steps' ends are added below: not twice
+        ends = steps.t[inside]
+        j = np.clip(np.searchsorted(ends, t_all), 1, len(ends) - 1) if len(ends) > 1 \
+            else np.zeros(len(t_all), int)
+        near = np.minimum(np.abs(t_all - ends[j]), np.abs(t_all - ends[j - 1])) \
+            if len(ends) > 1 else np.abs(t_all - ends[0])
+        t_all, q_all = t_all[near > eps], q_all[near > eps]
+    # a step's end next to a step that reaches v_freeze twice: the power jumps there
+    cut = inside[~free[:-1] | ~free[1:]]
+    side = np.concatenate([np.zeros(len(t_all) + len(inside), int), np.ones(len(cut), int)])
+    t_all = np.concatenate([t_all, steps.t[inside], steps.t[cut]])
+    q_all = np.concatenate([q_all, steps.model_q[inside], steps.model_q[cut]])
+    order = np.lexsort((side, t_all))
+    t_all, q_all, side = t_all[order], q_all[order], side[order]
+    rows = replace(result, t=t_all, model_q=q_all,
+                   row_kind=np.zeros(len(t_all), dtype=np.intc),
+                   event_rows=np.zeros((0, result.event_rows.shape[1])), rates=None)
+    rows.__dict__["modes"] = np.full(len(t_all), abi.MODE["sliding"])
+    rows.__dict__["couples"] = np.zeros(len(t_all), dtype=int)
+    k = np.clip(np.searchsorted(starts, t_all, side="left") - 1 + side, 0, len(starts) - 1)
+    v = rows.slip
+    speed = np.hypot(*v.T)
+    along = sliding_directions(rows, 0, len(t_all))
+    directions = along.copy()
+    own = armed[k] & (speed > band["freeze"])
+    kept = armed[k] & ~own
+    directions[own] = v[own] / speed[own][:, None]
+    ref = start_slip[k[kept]]
+    directions[kept] = ref / np.hypot(*ref.T)[:, None]
+    if not np.any(np.hypot(*(directions - along).T) > TURNED):
+        return None     # a slip on one line (a capsule's): its rows as before, resampled
+    cuts = [0, *np.flatnonzero(side == 1).tolist(), len(t_all)]
+    pieces = [(i, j) for i, j in zip(cuts[:-1], cuts[1:]) if j - i > 1]
+    return rows, directions, pieces
+
+
 def _works(scene, t: np.ndarray, p: np.ndarray) -> np.ndarray:
     """Each drive's work: its row of ``p`` (drives, rows) integrated over ``t``."""
     return np.array([_integrate_pieces(scene, t, row) for row in p])
@@ -524,6 +620,7 @@ def energy_balance(result, mo: Motion) -> dict | None:
     ``residual`` closes the balance up to the integration error and the quadrature."""
     if mo.T is None:
         return None
+    run, steps = result, False          # (the steps' ends: read when a phase asks)
     result, mo = for_balance(result, mo)
     s = result.scene
     E = mo.T + mo.U
@@ -533,6 +630,7 @@ def energy_balance(result, mo: Motion) -> dict | None:
     names = drive_names(s)
     zero = np.zeros(len(names))
     drive_impacts, impulsive_known = zero.copy(), V_P is not None or mo.bodies is not None
+    drive_events = zero.copy()     # the drives' impulsive work at the other events' jumps
     rough = result.rough
     for i, ev in event_rows(result):
         kind = ev["kind"]
@@ -545,11 +643,13 @@ def energy_balance(result, mo: Motion) -> dict | None:
                 friction_impacts += ev["work_friction"]
             else:
                 restitution += 0.5 * ev["value"] * (ev["v_minus"] + ev["v_plus"])
-            works = _impulsive_work(result, mo, V_P, i)
-            if works is None:
-                impulsive_known = False
-            else:
-                drive_impacts += works
+        works = _impulsive_work(result, mo, V_P, i)
+        if works is None:
+            impulsive_known = False
+        elif kind == "impact":
+            drive_impacts += works
+        else:           # a stick's slip removed by an impulse at S, a contact's plastic cut
+            drive_events += works
     power = drive_powers_in_flight(s, mo)
     drive_flight, drive_contact, contact = zero.copy(), zero.copy(), 0.0
     unchecked = False
@@ -559,6 +659,17 @@ def energy_balance(result, mo: Motion) -> dict | None:
             drive_flight += _phase_work(result, mo, a, b, state, power[:, a:b], budget)
             continue
         if rough:
+            if steps is False:
+                steps = step_rows(run)
+            frozen = frozen_sliding(result, steps, a, b, budget)
+            if frozen is not None:
+                rows, directions, pieces = frozen
+                rm = motion(rows)
+                p, pf = rough_contact_power(rows, rm, 0, len(rows.t), directions)
+                for i, j in pieces:      # (_integrate_pieces: a table's knots too)
+                    drive_contact += _works(s, rm.t[i:j], p[:, i:j])
+                    friction_contact += _integrate_pieces(s, rm.t[i:j], pf[i:j])
+                continue
             fine, fm, fa, fb = result, mo, a, b
             # a phase of a few rows: a slip that a push or an impact starts decays on its
             # own time scale, shorter than the law's the rows were spaced for (a 32 ms slip
@@ -579,7 +690,8 @@ def energy_balance(result, mo: Motion) -> dict | None:
         else:
             drive_contact += _phase_work(result, mo, a, b, state, p, budget)
     E0, E1 = float(E[0]), float(E[-1])
-    by_drive = drive_flight + drive_contact + (drive_impacts if impulsive_known else 0.0)
+    by_drive = drive_flight + drive_contact + (drive_impacts + drive_events
+                                               if impulsive_known else 0.0)
     drive_flight, drive_contact = float(drive_flight.sum()), float(drive_contact.sum())
     out = {
         "start": E0, "end": E1, "change": E1 - E0,
@@ -594,6 +706,8 @@ def energy_balance(result, mo: Motion) -> dict | None:
         "drive_work_by_body": dict(zip(names, by_drive.tolist())),
         "change_in_contact_not_split": contact if unchecked else None,
         "at_other_events": sum(v for k, v in jumps.items() if k != "impact"),
+        # of which the drives' impulsive work (the rest: the impulse's own, second order)
+        "drive_work_at_other_events": float(drive_events.sum()) if impulsive_known else None,
         "quadrature_rows": int(len(mo.t)),
         "kinetic_by_body": kinetic_by_body(mo, names),
     }

@@ -52,7 +52,8 @@ def summary(result, mo: Motion | None = None) -> dict:
     at_other_events + residual``, and each
     impact's jump is ``restitution_at_impacts`` (the sum of I (v_n- + v_n+)/2, zero for
     e = 1) plus ``drive_work_at_impacts`` (the impulsive work of the point's drive, zero for
-    a point at rest in the body)."""
+    a point at rest in the body); ``drive_work_at_other_events`` is that work in the other
+    events' jumps (pushes, the impulse at S that ends a slip)."""
     s = result.scene
     mo = mo if mo is not None else motion(result)
     steps, events = (np.flatnonzero(result.row_kind == abi.ROW_KIND["step"]),

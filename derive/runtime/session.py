@@ -373,6 +373,16 @@ class Session:
         a, b, c, d, e, f = w6
         return np.array([[a, b, c], [b, d, e], [c, e, f]]), v
 
+    def slip_band(self, t: float, q) -> dict:
+        """The slip's speeds a contact mode entered at (t, q) sets (after ``init``):
+        ``scale``, ``eps`` (round-off), ``arm`` (resolved) and ``freeze`` (below it a
+        sliding friction keeps the direction the slip had at its step's start)."""
+        q = np.ascontiguousarray(q, dtype=float)
+        band = np.zeros(4)
+        self.library.lib.crt_eval_slip_band(self.handle, float(t), q.ctypes.data_as(DP),
+                                            band.ctypes.data_as(DP))
+        return dict(zip(("scale", "eps", "arm", "freeze"), band.tolist()))
+
     def impact(self, W, v0) -> tuple[str, dict]:
         """The rough model's Darboux-Keller impact for a Delassus matrix W (3x3) and a
         velocity of S v0 with the session's parameters (after ``init``): its status and

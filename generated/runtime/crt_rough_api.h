@@ -123,8 +123,7 @@ int crt_set_contact_mode(crt_session *s, int mode, const double *dir)
   s->fr.mode = mode;
   model_contact_velocity(s->prm, crt_u(s, s->t), s->q, v);
   if (mode == CRT_MODE_STICKING) {
-    s->q[Q_COM_VELOCITY] -= v[0];
-    s->q[Q_COM_VELOCITY + 1] -= v[1];
+    crt_rough_stop_slip(s, s->t, s->q);
   } else {
     const double r = sqrt(dir[0] * dir[0] + dir[1] * dir[1]);
     s->fr.dir[0] = dir[0] / r; s->fr.dir[1] = dir[1] / r;
@@ -136,6 +135,14 @@ int crt_set_contact_mode(crt_session *s, int mode, const double *dir)
   crt_rhs(s, s->t, s->q, s->f);
   s->f_valid = 1;
   return CRT_OK;
+}
+
+/* The slip's speeds a contact mode entered at (t, q) sets (crt_rough_band): band[4] =
+   (its scale, round-off, resolution v_arm, v_freeze: below v_freeze a sliding friction
+   keeps the reference direction the slip had at the start of the step, crt_follow_dir). */
+void crt_eval_slip_band(crt_session *s, double t, const double *q, double *band)
+{
+  crt_rough_band(s, t, q, band);
 }
 
 /* The Delassus matrix W (upper triangle w6[6], fixed axes) and the velocity of S v_S[3] at

@@ -158,11 +158,11 @@ static int crt_rough_onset(crt_session *s, double t, int which, const double *w6
   return found;
 }
 
-/* S on the plane with its slip at round-off, at (t, s->q): the slip set to 0 (in V_C); then
-   CRT_MODE_STICKING when the sticking reaction R is inside the cone, CRT_MODE_FLIGHT when
-   R_Z <= 0, else CRT_MODE_SLIDING from rest along the direction the slip takes
-   (crt_rough_onset; the mode is set), or CRT_MODE_FLIGHT where no direction can slide and
-   S leaves the plane unpushed, or status painleve where it cannot */
+/* S on the plane with its slip at round-off, at (t, s->q): the slip set to 0 (by an impulse
+   at S, crt_rough_stop_slip); then CRT_MODE_STICKING when the sticking reaction R is inside
+   the cone, CRT_MODE_FLIGHT when R_Z <= 0, else CRT_MODE_SLIDING from rest along the
+   direction the slip takes (crt_rough_onset; the mode is set), or CRT_MODE_FLIGHT where no
+   direction can slide and S leaves the plane unpushed, or status painleve where it cannot */
 static int crt_rough_at_rest(crt_session *s, double t, double *R)
 {
   const double *u = crt_u(s, t);
