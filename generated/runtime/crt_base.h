@@ -503,13 +503,14 @@ static int crt_base_onset_far(crt_session *s, crt_out *o, const double *d0, doub
 
 /* A slip from rest at s->t against the gauge's maximiser: the stable direction of the
    slip's flow from -xi*, then the start along the slow manifold to a seed of 1e-6 v_scale
-   (crt_base_onset_far) where that is exact and steps over no event, else the Taylor start
+   (crt_base_onset_far) where the flow turns off d and that start is exact and steps over
+   no event, else the Taylor start
    to 1e2 eps.  0 when no slip starts (the flow points back: the body stays). */
 static int crt_base_onset(crt_session *s, crt_out *o)
 {
   const double ell = s->bs.body.ell, h = 1e-7 * s->bs.body.t_scale, seed = 1e2 * s->bs.eps;
-  double d[3], G[3], Gp[3], Gm[3], a, bb, disc, delta, xi[3], moved[3], sn, cs;
-  double *q = s->q;
+  double d[3], G[3], Gp[3], Gm[3], a, bb, disc, delta, xi[3], moved[3], sn, cs, across;
+  double along, *q = s->q;
   int i;
   for (i = 0; i < 3; ++i) d[i] = -s->bs.xi[i];
   crt_base_stable_dir(s, s->t, q, d, G);
@@ -524,7 +525,16 @@ static int crt_base_onset(crt_session *s, crt_out *o)
   for (i = 0; i < 3; ++i) bb += (Gp[i] - Gm[i]) / (2.0 * h) * d[i];
   disc = a * a + 2.0 * bb * seed;
   if (disc < 0.0 || a + sqrt(crt_max(disc, 0.0)) <= 0.0) return 0;
-  if (!crt_base_onset_far(s, o, d, a, bb)) {
+  /* along a line (the flow at t* +- h along d, as crt_base_line_flow tests it): the slip
+     runs in t from the small seed, not stiff; else the start along the slow manifold */
+  across = along = 0.0;
+  for (i = 0; i < 3; ++i) {
+    const double gp = Gp[i] - (Gp[0] * d[0] + Gp[1] * d[1] + Gp[2] * d[2]) * d[i];
+    const double gm = Gm[i] - (Gm[0] * d[0] + Gm[1] * d[1] + Gm[2] * d[2]) * d[i];
+    across += gp * gp + gm * gm;
+    along += Gp[i] * Gp[i] + Gm[i] * Gm[i];
+  }
+  if (across <= 1e-24 * along || !crt_base_onset_far(s, o, d, a, bb)) {
     delta = 2.0 * seed / (a + sqrt(disc));
     for (i = 0; i < 3; ++i) {
       const double G1 = (Gp[i] - Gm[i]) / (2.0 * h);
