@@ -9,8 +9,11 @@
  * Three modes (s->bs.mode):
  *  - rest: the body is at rest at t; sticking holds if the gauge gamma of the wrench the
  *    rest needs (crt_face_gauge, mu_s) is below 1 (or at 1 and not rising); else the slip
- *    starts against the gauge's maximiser, along the stable direction of the slip's flow,
- *    by its Taylor series (twist = G0 d + G1 d^2/2 until it reaches 1e2 eps);
+ *    starts against the gauge's maximiser, along the stable direction of the slip's flow:
+ *    where the flow turns off that direction, along its slow manifold to a twist of 1e-6
+ *    v_scale (crt_base_onset_far: the stiff phase of a slip from rest, skipped); else (a
+ *    slip along a line, or that start not exact or over an event) by its Taylor series
+ *    (twist = G0 d + G1 d^2/2 until it reaches 1e2 eps);
  *  - stick: the state is constant; the event functions 1 - gamma, N, the centre of
  *    pressure's edge margin and (linear pressure) its kern margin are sampled every
  *    opt[CRT_OPT_HMAX]/8 (gamma by the gauge's bounds where they put it below 1 - 1e-3)
@@ -446,7 +449,7 @@ static int crt_base_onset_far(crt_session *s, crt_out *o, const double *d0, doub
   if (!(disc >= 0.0) || !(a0 + sqrt(disc) > 0.0)) return 0;
   tau = 2.0 * R / (a0 + sqrt(disc));
   for (i = 0; i < NQ; ++i) q0[i] = s->q[i];
-  for (it = 0; it < 8; ++it) {
+  for (it = 0; it < 12; ++it) {
     double dt;
     if (!(tau > 0.0) || !(t0 + tau < s->bs.t_end)) return 0;
     r = crt_base_far_at(s, t0, q0, d0, tau, dn, an, d, q1);
@@ -454,9 +457,9 @@ static int crt_base_onset_far(crt_session *s, crt_out *o, const double *d0, doub
     crt_base_flow(s, t0 + tau, q0, d, G);
     dt = (R - r) / (G[0] * d[0] + G[1] * d[1] + G[2] * d[2]);
     tau += dt;
-    if (fabs(dt) <= 1e-12 * tau) break;
+    if (fabs(dt) <= 1e-9 * tau) break;    /* (r within ~1e-9 R: below atol) */
   }
-  if (it == 8 || !(t0 + tau < s->bs.t_end)) return 0;
+  if (it == 12 || !(t0 + tau < s->bs.t_end)) return 0;
   r = crt_base_far_at(s, t0, q0, d0, tau, dn, an, d, q1);
   if (!(r > 0.0)) return 0;
   /* the truncation: the 2-point Gauss rule against the 3-point */
