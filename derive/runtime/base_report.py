@@ -197,13 +197,20 @@ def energy(result, mo) -> dict:
     work_f = 0.0
     dense = s.output_dt if s.output_dt > 0 else s.law_summary.time_scale / mm.ROWS_PER_SCALE
     for a, z in zip(cuts[:-1], cuts[1:]):
-        if kinds[a] == abi.ROW_KIND["before_event"] and \
-                kinds[z] == abi.ROW_KIND["after_event"]:
-            continue                          # across an event (a slip's Taylor start)
         seg = slice(a, z + 1)
-        if moving[a + 1:z].any() or z - a < 2 or t[z] <= t[a]:
+        # across an event: a slip's start from rest (crt_base.h's series, up to about a
+        # millisecond, the body's twist below 1e-6 sqrt(g ell)): the drives' power at rest
+        # on a grid of its own as a stick's below, plus the twist's share; friction's (of
+        # order mu N times the 1e-10 m moved) by the trapezoid of the two rows
+        start = (kinds[a] == abi.ROW_KIND["before_event"]
+                 and kinds[z] == abi.ROW_KIND["after_event"])
+        if start:
+            work_f += mm.integrate(t[seg], friction[seg])
+        if not start and (moving[a + 1:z].any() or z - a < 2 or t[z] <= t[a]):
             drives += [mm.integrate(t[seg], p[seg]) for p in power]
             work_f += mm.integrate(t[seg], friction[seg])
+            continue
+        if t[z] <= t[a]:
             continue
         # sticking: the state is constant, the drives' power is the laws'; the C samples
         # a stick coarsely (its events are functions of t alone), so on a grid of its own
@@ -213,6 +220,24 @@ def energy(result, mo) -> dict:
                                      np.zeros((len(tg), 3)), carrier=np.einsum(
                                          "nji,j->ni", at_rest, [0.0, 0.0, s.g]))
         drives += [mm.integrate(tg, p) for p in p_rest]
+        if start:
+            # the twist's share (the carrier's acceleration, which jumps at the start where
+            # mu_s > mu and grows about linearly): the trapezoid of the power less its
+            # value at rest, at the start's first row from the slip's side (the twist
+            # 1e-150 along the next row's)
+            ends = [a, z]
+            q_a = Q[a].copy()
+            q_a[3:6] = 1e-150 * Q[z, 3:6] / max(float(np.linalg.norm(Q[z, 3:6])), 1e-300)
+            r_a = result.session.rhs_rows(t[[a]], q_a[None])[0]
+            acc = np.column_stack([[r_a[3], rates[z, 3]], [r_a[4], rates[z, 4]],
+                                   [s.g, s.g]])
+            spin = np.array([r_a[5], rates[z, 5]])[:, None] * n_up[None]
+            p_ends = bodies.drive_powers(s, bodies.along(s, t[ends]), mo.omega[ends], spin,
+                                         carrier=np.einsum("nji,nj->ni", mo.A[ends], acc))
+            p_zero = bodies.drive_powers(s, bodies.along(s, t[ends]), np.zeros((2, 3)),
+                                         np.zeros((2, 3)), carrier=np.einsum(
+                                             "nji,j->ni", mo.A[[a, a]], [0.0, 0.0, s.g]))
+            drives += [mm.integrate(t[ends], pe - p0) for pe, p0 in zip(p_ends, p_zero)]
     E0, E1 = float(E[0]), float(E[-1])
     names = mm.drive_names(s)
     out = {"start": E0, "end": E1, "change": E1 - E0,

@@ -9,8 +9,11 @@
  * Three modes (s->bs.mode):
  *  - rest: the body is at rest at t; sticking holds if the gauge gamma of the wrench the
  *    rest needs (crt_face_gauge, mu_s) is below 1 (or at 1 and not rising); else the slip
- *    starts against the gauge's maximiser, along the stable direction of the slip's flow,
- *    by its Taylor series (twist = G0 d + G1 d^2/2 until it reaches 1e2 eps);
+ *    starts against the gauge's maximiser, along the stable direction of the slip's flow:
+ *    where the flow turns off that direction, along its slow manifold to a twist of 1e-6
+ *    v_scale (crt_base_onset_far: the stiff phase of a slip from rest, skipped); else (a
+ *    slip along a line, or that start not exact or over an event) by its Taylor series
+ *    (twist = G0 d + G1 d^2/2 until it reaches 1e2 eps);
  *  - stick: the state is constant; the event functions 1 - gamma, N, the centre of
  *    pressure's edge margin and (linear pressure) its kern margin are sampled every
  *    opt[CRT_OPT_HMAX]/8 (gamma by the gauge's bounds where they put it below 1 - 1e-3)
@@ -327,29 +330,193 @@ static void crt_base_flow(crt_session *s, double t, const double *q, const doubl
   G[2] = s->bs.body.ell * dq[5];
 }
 
+/* The flow's part across d in the plane across d (basis e1, e2) */
+static void crt_base_across(crt_session *s, double t, const double *q, const double *d,
+                            const double *e1, const double *e2, double *p, double *G)
+{
+  crt_base_flow(s, t, q, d, G);
+  p[0] = G[0] * e1[0] + G[1] * e1[1] + G[2] * e1[2];
+  p[1] = G[0] * e2[0] + G[1] * e2[1] + G[2] * e2[2];
+}
+
+/* The stable direction of the slip's flow at rest at (t, q), from d (in place): where the
+   scaled twist's rate G with the friction of d is along d, by Newton's method on G's part
+   across d (its 2 x 2 Jacobian by differences of 1e-7 rad), to 1e-12 of mu g (a
+   fixed-point iteration diverges there: the part across d varies with d at the rate of
+   the friction, mu g, while G is only the small excess of the wrench over the limit
+   surface); returns G.d (G in G) */
+static double crt_base_stable_dir(crt_session *s, double t, const double *q, double *d,
+                                  double *G)
+{
+  const double scale = 1e-12 * s->bs.body.mu * s->bs.body.pf[5], eta = 1e-7;
+  double e1[3], e2[3], p[2], pk[2][2], J[2][2], Gk[3], dk[3], det, x0, x1, n;
+  int i, it, k;
+  for (it = 0; it < 20; ++it) {
+    /* e1, e2: across d (e1 from the axis least along d) */
+    const int m = fabs(d[0]) <= fabs(d[1]) && fabs(d[0]) <= fabs(d[2]) ? 0
+                  : (fabs(d[1]) <= fabs(d[2]) ? 1 : 2);
+    for (i = 0; i < 3; ++i) e1[i] = (i == m) - d[m] * d[i];
+    n = sqrt(e1[0] * e1[0] + e1[1] * e1[1] + e1[2] * e1[2]);
+    for (i = 0; i < 3; ++i) e1[i] /= n;
+    e2[0] = d[1] * e1[2] - d[2] * e1[1];
+    e2[1] = d[2] * e1[0] - d[0] * e1[2];
+    e2[2] = d[0] * e1[1] - d[1] * e1[0];
+    crt_base_across(s, t, q, d, e1, e2, p, G);
+    if (sqrt(p[0] * p[0] + p[1] * p[1]) <= scale) break;
+    for (k = 0; k < 2; ++k) {
+      const double *e = k ? e2 : e1;
+      for (i = 0; i < 3; ++i) dk[i] = d[i] + eta * e[i];
+      crt_base_across(s, t, q, dk, e1, e2, pk[k], Gk);
+      J[0][k] = (pk[k][0] - p[0]) / eta;
+      J[1][k] = (pk[k][1] - p[1]) / eta;
+    }
+    det = J[0][0] * J[1][1] - J[0][1] * J[1][0];
+    if (!(fabs(det) > 0.0)) break;
+    x0 = -(J[1][1] * p[0] - J[0][1] * p[1]) / det;
+    x1 = -(-J[1][0] * p[0] + J[0][0] * p[1]) / det;
+    n = sqrt(x0 * x0 + x1 * x1);
+    if (n > 0.5) { x0 *= 0.5 / n; x1 *= 0.5 / n; }       /* (at most half a radian) */
+    for (i = 0; i < 3; ++i) d[i] += x0 * e1[i] + x1 * e2[i];
+    n = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+    for (i = 0; i < 3; ++i) d[i] /= n;
+  }
+  if (it == 20) crt_base_flow(s, t, q, d, G);
+  return G[0] * d[0] + G[1] * d[1] + G[2] * d[2];
+}
+
+/* The start along the slow manifold (crt_base_onset_far) at t0 + u from rest at q0: r(u)
+   = int_0^u a* by the 3-point Gauss-Legendre rule (its nodes' directions in dn, rates in
+   an, warm from d0), the distance moved int_0^u (u - v) a* d* by the same nodes; q the
+   state there with the twist r d (d: the direction at t0 + u, warm from dn[2]; NULL: the
+   twist along dn[2]).  Returns r, or 0 where a rate is not positive (no such start). */
+static const double crt_base_gx[3] = {0.1127016653792583, 0.5, 0.8872983346207417};
+static const double crt_base_gw[3] = {5.0 / 18.0, 8.0 / 18.0, 5.0 / 18.0};
+static double crt_base_far_at(crt_session *s, double t0, const double *q0, const double *d0,
+                              double u, double (*dn)[3], double *an, double *d, double *q)
+{
+  const double ell = s->bs.body.ell;
+  double r = 0.0, moved[3] = {0.0, 0.0, 0.0}, G[3], xi[3], sn, cs;
+  int i, j;
+  for (j = 0; j < 3; ++j) {
+    for (i = 0; i < 3; ++i) dn[j][i] = j ? dn[j - 1][i] : d0[i];
+    an[j] = crt_base_stable_dir(s, t0 + crt_base_gx[j] * u, q0, dn[j], G);
+    if (!(an[j] > 0.0)) return 0.0;
+    r += crt_base_gw[j] * an[j] * u;
+    for (i = 0; i < 3; ++i)
+      moved[i] += crt_base_gw[j] * u * (1.0 - crt_base_gx[j]) * u * an[j] * dn[j][i];
+  }
+  if (d) {
+    for (i = 0; i < 3; ++i) d[i] = dn[2][i];
+    if (!(crt_base_stable_dir(s, t0 + u, q0, d, G) > 0.0)) return 0.0;
+  }
+  for (i = 0; i < 3; ++i) xi[i] = r * (d ? d[i] : dn[2][i]);
+  crt_sincos(q0[2], &sn, &cs);
+  for (i = 0; i < NQ; ++i) q[i] = q0[i];
+  q[0] += cs * moved[0] - sn * moved[1];
+  q[1] += sn * moved[0] + cs * moved[1];
+  q[2] += moved[2] / ell;
+  crt_sincos(q[2], &sn, &cs);
+  q[3] = cs * xi[0] - sn * xi[1];
+  q[4] = sn * xi[0] + cs * xi[1];
+  q[5] = xi[2] / ell;
+  return r;
+}
+
+/* The slip from rest at t* = s->t carried to the seed R = CRT_BASE_FAR of v_scale along
+   its slow manifold: while |xi| is small the direction relaxes onto the flow's stable
+   direction d*(t) at a rate ~ mu g / |xi| (stiff: an explicit step there covers ~4.5 |xi|
+   of time, ~2,000 steps from the seed 1e2 eps), so xi = r d*(t) + O(r^2), with r(tau) =
+   int_0^tau a*(u) du and a*(u) = G(t* + u, d*(t* + u)).d*(t* + u) the along rate at rest
+   (an O(r) lag of the direction behind d* decays at that stiff rate and moves r by O(r^2)
+   only).  tau solves r(tau) = R by Newton's method (from the quadratic a0 tau + a1 tau^2
+   / 2 = R; crt_base_far_at).  Taken only where it is exact to the tolerance and steps
+   over no event: the 2-point Gauss rule's r within atol + rtol R of the 3-point's; N, the
+   edge and kern margins positive at the nodes and the end; t* + tau before this call's
+   end; the output_dt rows inside (from crt_base_far_at) fitting the buffer.  Else 0 (the
+   caller's start at the small seed). */
+#define CRT_BASE_FAR 1e-6
+static long crt_base_rows_before(const crt_session *s, double until, long cap);
+static int crt_base_rows_fit(crt_session *s, const crt_out *o, long n, double *shrink);
+static int crt_base_onset_far(crt_session *s, crt_out *o, const double *d0, double a0,
+                              double a1)
+{
+  const double R = CRT_BASE_FAR * s->bs.body.v_scale, t0 = s->t;
+  const double tol = s->opt[CRT_OPT_ATOL] + s->opt[CRT_OPT_RTOL] * R;
+  double tau = 0.0, d[3], dn[3][3], an[3], G[3], dq[NQ], N, cp[2], r = 0.0, r2, q1[NQ];
+  double q0[NQ], shrink;
+  int i, j, it;
+  const double disc = a0 * a0 + 2.0 * a1 * R;
+  if (!(disc >= 0.0) || !(a0 + sqrt(disc) > 0.0)) return 0;
+  tau = 2.0 * R / (a0 + sqrt(disc));
+  for (i = 0; i < NQ; ++i) q0[i] = s->q[i];
+  for (it = 0; it < 12; ++it) {
+    double dt;
+    if (!(tau > 0.0) || !(t0 + tau < s->bs.t_end)) return 0;
+    r = crt_base_far_at(s, t0, q0, d0, tau, dn, an, d, q1);
+    if (!(r > 0.0)) return 0;
+    crt_base_flow(s, t0 + tau, q0, d, G);
+    dt = (R - r) / (G[0] * d[0] + G[1] * d[1] + G[2] * d[2]);
+    tau += dt;
+    if (fabs(dt) <= 1e-9 * tau) break;    /* (r within ~1e-9 R: below atol) */
+  }
+  if (it == 12 || !(t0 + tau < s->bs.t_end)) return 0;
+  r = crt_base_far_at(s, t0, q0, d0, tau, dn, an, d, q1);
+  if (!(r > 0.0)) return 0;
+  /* the truncation: the 2-point Gauss rule against the 3-point */
+  {
+    const double x2[2] = {0.2113248654051871, 0.7886751345948129};
+    r2 = 0.0;
+    for (j = 0; j < 2; ++j) {
+      double dd[3];
+      for (i = 0; i < 3; ++i) dd[i] = dn[j][i];
+      r2 += 0.5 * crt_base_stable_dir(s, t0 + x2[j] * tau, q0, dd, G) * tau;
+    }
+    if (!(fabs(r2 - r) <= tol)) return 0;
+  }
+  /* no event inside: N and the margins at the nodes and at the end (rest's balance with
+     the friction of d*: the slip's at r -> 0) */
+  for (j = 0; j <= 3; ++j) {
+    crt_base_rates(&s->bs.body, crt_base_u(s, t0 + (j < 3 ? crt_base_gx[j] : 1.0) * tau), q0,
+                   j < 3 ? dn[j] : d, dq, &N, cp);
+    ++s->stat[CRT_STAT_RHS_EVALUATIONS];
+    if (!(N > 0.0) || !(crt_face_edge_margin(&s->bs.body.face, cp[0], cp[1]) > 0.0)) return 0;
+    if (s->bs.body.linear && !(crt_face_kern_margin(&s->bs.body.face, cp[0], cp[1]) > 0.0))
+      return 0;
+  }
+  /* the output_dt rows inside, from the same series (a run's steps do not depend on its
+     grid: derive/runtime/motion.py reruns a run on a finer one) */
+  if (!crt_base_rows_fit(s, o, crt_base_rows_before(s, t0 + tau, o->cap), &shrink)) {
+    s->bs.full = 0;
+    return 0;
+  }
+  while (s->opt[CRT_OPT_OUTPUT_DT] > 0.0 && s->next_output <= t0 + tau) {
+    if (s->next_output < t0 + tau) {
+      double qr[NQ], dr[3][3], ar[3];
+      const double u = s->next_output - t0;
+      if (u > 0.0) crt_base_far_at(s, t0, q0, d0, u, dr, ar, 0, qr);
+      crt_emit(o, s->next_output, u > 0.0 ? qr : q0, CRT_ROW_STEP);
+    }
+    s->out_k += 1.0;
+    s->next_output = s->t_first + s->out_k * s->opt[CRT_OPT_OUTPUT_DT];
+  }
+  for (i = 0; i < NQ; ++i) s->q[i] = q1[i];
+  s->t = t0 + tau;
+  return 1;
+}
+
 /* A slip from rest at s->t against the gauge's maximiser: the stable direction of the
-   slip's flow from -xi*, then the Taylor start.  0 when no slip starts (the flow points
-   back: the body stays). */
-static int crt_base_onset(crt_session *s)
+   slip's flow from -xi*, then the start along the slow manifold to a seed of 1e-6 v_scale
+   (crt_base_onset_far) where the flow turns off d and that start is exact and steps over
+   no event, else the Taylor start
+   to 1e2 eps.  0 when no slip starts (the flow points back: the body stays). */
+static int crt_base_onset(crt_session *s, crt_out *o)
 {
   const double ell = s->bs.body.ell, h = 1e-7 * s->bs.body.t_scale, seed = 1e2 * s->bs.eps;
-  double d[3], G[3], Gp[3], Gm[3], a, bb, disc, delta, xi[3], moved[3], sn, cs, nd;
-  double *q = s->q;
-  int i, it;
+  double d[3], G[3], Gp[3], Gm[3], a, bb, disc, delta, xi[3], moved[3], sn, cs, across;
+  double along, *q = s->q;
+  int i;
   for (i = 0; i < 3; ++i) d[i] = -s->bs.xi[i];
-  for (it = 0; it < 2000; ++it) {
-    double along, step[3], ns, nG;
-    crt_base_flow(s, s->t, q, d, G);
-    along = G[0] * d[0] + G[1] * d[1] + G[2] * d[2];
-    for (i = 0; i < 3; ++i) step[i] = G[i] - along * d[i];
-    ns = sqrt(step[0] * step[0] + step[1] * step[1] + step[2] * step[2]);
-    nG = sqrt(G[0] * G[0] + G[1] * G[1] + G[2] * G[2]);
-    if (ns <= 1e-13 * (fabs(along) + 1e-300)) break;
-    for (i = 0; i < 3; ++i) d[i] += 0.5 * step[i] / crt_max(nG, 1e-300);
-    nd = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
-    for (i = 0; i < 3; ++i) d[i] /= nd;
-  }
-  crt_base_flow(s, s->t, q, d, G);
+  crt_base_stable_dir(s, s->t, q, d, G);
   if (!(G[0] * d[0] + G[1] * d[1] + G[2] * d[2] > 0.0)) {
     for (i = 0; i < 3; ++i) d[i] = -s->bs.xi[i];
     crt_base_flow(s, s->t, q, d, G);
@@ -361,21 +528,32 @@ static int crt_base_onset(crt_session *s)
   for (i = 0; i < 3; ++i) bb += (Gp[i] - Gm[i]) / (2.0 * h) * d[i];
   disc = a * a + 2.0 * bb * seed;
   if (disc < 0.0 || a + sqrt(crt_max(disc, 0.0)) <= 0.0) return 0;
-  delta = 2.0 * seed / (a + sqrt(disc));
+  /* along a line (the flow at t* +- h along d, as crt_base_line_flow tests it): the slip
+     runs in t from the small seed, not stiff; else the start along the slow manifold */
+  across = along = 0.0;
   for (i = 0; i < 3; ++i) {
-    const double G1 = (Gp[i] - Gm[i]) / (2.0 * h);
-    xi[i] = G[i] * delta + G1 * delta * delta / 2.0;
-    moved[i] = G[i] * delta * delta / 2.0 + G1 * delta * delta * delta / 6.0;
+    const double gp = Gp[i] - (Gp[0] * d[0] + Gp[1] * d[1] + Gp[2] * d[2]) * d[i];
+    const double gm = Gm[i] - (Gm[0] * d[0] + Gm[1] * d[1] + Gm[2] * d[2]) * d[i];
+    across += gp * gp + gm * gm;
+    along += Gp[i] * Gp[i] + Gm[i] * Gm[i];
   }
-  crt_sincos(q[2], &sn, &cs);
-  q[0] += cs * moved[0] - sn * moved[1];
-  q[1] += sn * moved[0] + cs * moved[1];
-  q[2] += moved[2] / ell;
-  crt_sincos(q[2], &sn, &cs);
-  q[3] = cs * xi[0] - sn * xi[1];
-  q[4] = sn * xi[0] + cs * xi[1];
-  q[5] = xi[2] / ell;
-  s->t += delta;
+  if (across <= 1e-24 * along || !crt_base_onset_far(s, o, d, a, bb)) {
+    delta = 2.0 * seed / (a + sqrt(disc));
+    for (i = 0; i < 3; ++i) {
+      const double G1 = (Gp[i] - Gm[i]) / (2.0 * h);
+      xi[i] = G[i] * delta + G1 * delta * delta / 2.0;
+      moved[i] = G[i] * delta * delta / 2.0 + G1 * delta * delta * delta / 6.0;
+    }
+    crt_sincos(q[2], &sn, &cs);
+    q[0] += cs * moved[0] - sn * moved[1];
+    q[1] += sn * moved[0] + cs * moved[1];
+    q[2] += moved[2] / ell;
+    crt_sincos(q[2], &sn, &cs);
+    q[3] = cs * xi[0] - sn * xi[1];
+    q[4] = sn * xi[0] + cs * xi[1];
+    q[5] = xi[2] / ell;
+    s->t += delta;
+  }
   crt_changed(s);
   s->bs.mode = CRT_BASE_SLIP;
   s->bs.hs = 0.0;
@@ -422,7 +600,7 @@ static void crt_base_settle(crt_session *s, crt_out *o, int after_stop)
       crt_event(o, s->t, CRT_EV_SLIP, 1.0 - g[0], 0.0, 0.0, 0.0);
       ++s->stat[CRT_STAT_SLIPS];
     }
-    if (crt_base_onset(s)) {
+    if (crt_base_onset(s, o)) {
       crt_emit(o, s->t, s->q, CRT_ROW_AFTER_EVENT);
       return;
     }
@@ -595,7 +773,7 @@ static void crt_base_stick_step(crt_session *s, crt_out *o, double t_end)
   crt_emit(o, s->t, s->q, CRT_ROW_BEFORE_EVENT);
   crt_event(o, s->t, CRT_EV_SLIP, 1.0 - g[0], 0.0, 0.0, 0.0);
   ++s->stat[CRT_STAT_SLIPS];
-  if (!crt_base_onset(s)) {                /* no slip after all: the stick goes on */
+  if (!crt_base_onset(s, o)) {                /* no slip after all: the stick goes on */
     s->bs.has_p = 0;
     for (i = 0; i < CRT_BASE_NG_STICK; ++i) s->bs.g[i] = g[i];
     s->bs.g[0] = crt_max(g[0], 0.0);
@@ -781,6 +959,7 @@ static void crt_integrate(crt_session *s, double t_end, crt_out *o)
     s->next_output = s->t_first + s->opt[CRT_OPT_OUTPUT_DT];
   }
   s->bs.full = 0;
+  s->bs.t_end = t_end;
   while (s->t < t_end && s->status == CRT_PAUSED && !s->bs.full) {
     if (o->n + CRT_MIN_ROWS > o->cap || o->ev_n + CRT_MIN_EVENTS > o->ev_cap) return;
     if ((double)s->stat[CRT_STAT_STEPS] >= s->opt[CRT_OPT_MAX_STEPS]) {

@@ -81,6 +81,7 @@ typedef struct {
   int fsal;                               /* 1: the last step's end z, its rate, N, cp */
   double fz[NQ + 1], ff[NQ + 1], fN, fcp[2], frho;   /* and rho (the next step's start) */
   int full;                               /* 1: no room for a step's output_dt rows */
+  double t_end;                           /* this crt_integrate's end (the slip's start) */
 } crt_base_memory;
 #endif
 
