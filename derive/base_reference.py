@@ -331,6 +331,9 @@ def balance_slip(sys: System, t: float, v, w, wrench_of) -> Balance:
         A[2, :3], A[2, 4], b[2] = col_T[0], -N, h * Fy - known_T[0]
         A[3, :3], A[3, 3], b[3] = col_T[1], N, -h * Fx - known_T[1]
         A[4, :3], b[4] = col_T[2], Tz - known_T[2]
+        if N == 0.0:                      # (at the lift-off itself: no cp, the rates
+            acc = np.linalg.solve(A[[0, 1, 4], :3], b[[0, 1, 4]])   # without it)
+            return np.concatenate([acc, [math.nan, math.nan]])
         return np.linalg.solve(A, b)
     x = solve(np.asarray(sys.face.centre, dtype=float))
     if sys.pressure != "uniform":
@@ -349,8 +352,29 @@ def balance_stick(sys: System, t: float) -> Balance:
     N = known_F[2]
     h = sys.face.height
     Fx, Fy, Tz = known_F[0], known_F[1], known_T[2]
-    cp = np.array([(-h * Fx - known_T[1]) / N, (known_T[0] - h * Fy) / N])
+    with np.errstate(divide="ignore", invalid="ignore"):   # (N = 0: the lift-off itself)
+        cp = np.array([-h * Fx - known_T[1], known_T[0] - h * Fy]) / np.float64(N)
     return Balance(N=N, cp=cp, wrench=np.array([Fx, Fy, Tz]))
+
+
+def _margin(face: Face, bal: Balance, margin) -> float:
+    """A margin of cp as an event function: N times it while N > 0, negative where N < 0
+    (cp = moment/N means nothing there: past N = 0 it comes back into the face, and a step
+    ending past the lift-off would miss a tip before it).  N cp is the moment the face
+    gives, finite through N = 0."""
+    if bal.N > 0:
+        return bal.N * margin(bal.cp)
+    if bal.N == 0:
+        return 0.0
+    return bal.N * (face.size + math.hypot(bal.cp[0] - face.centre[0],
+                                           bal.cp[1] - face.centre[1]))
+
+
+def _tie(sys: System, name: str, N: float) -> str:
+    """A tip or the face lifting located where N is within 1e-9 of the weight of 0 is the
+    lift-off (cp in the face up to N = 0; at smaller N, cp is the moment's round-off)."""
+    small = not N > 1e-9 * sys.mass * sys.g
+    return "lift_off" if name in ("tipping", "face_lifting") and small else name
 
 
 # ---- the run -------------------------------------------------------------------------------------
@@ -575,7 +599,7 @@ class Integrator:
                 if name == "breakaway":
                     bal = balance_stick(sys, te)
                     _, memo["xi"] = limit_gauge(sys, bal.N, bal.cp, bal.wrench, memo["xi"])
-                return te, y, name, memo["xi"]
+                return te, y, _tie(sys, name, balance_stick(sys, te).N), memo["xi"]
         return stop, y, "mark", memo["xi"]
 
     def _end_events(self, balance_at):
@@ -586,12 +610,12 @@ class Integrator:
         lift.terminal, lift.direction = True, -1
 
         def tip(tt, *_):
-            return sys.face.edge_margin(balance_at(tt).cp)
+            return _margin(sys.face, balance_at(tt), sys.face.edge_margin)
         tip.terminal, tip.direction = True, -1
         evs = [lift, tip]
         if sys.pressure == "linear":
             def kern(tt, *_):
-                return sys.face.kern_margin(balance_at(tt).cp)
+                return _margin(sys.face, balance_at(tt), sys.face.kern_margin)
             kern.terminal, kern.direction = True, -1
             evs.append(kern)
         return evs
@@ -627,8 +651,8 @@ class Integrator:
                 if name == "lift":
                     return b.N
                 if name == "tip":
-                    return self.sys.face.edge_margin(b.cp)
-                return self.sys.face.kern_margin(b.cp)
+                    return _margin(self.sys.face, b, self.sys.face.edge_margin)
+                return _margin(self.sys.face, b, self.sys.face.kern_margin)
             wrapped.terminal, wrapped.direction = True, -1
             evs.append(wrapped)
         z0 = np.concatenate([[t], y])
@@ -654,5 +678,5 @@ class Integrator:
                     return z[0] + dt, yy, "stop"
                 if name == "mark":
                     return stop, z[1:], "mark"
-                return z[0], z[1:], name
+                return z[0], z[1:], _tie(self.sys, name, bal_of(z).N)
         raise RuntimeError(f"slip integration ended without an event: {sol.message}")

@@ -256,7 +256,9 @@ def test_random_lift_offs_are_handed_over_honestly():
             j = int(np.searchsorted(h.flight.t, touches[0]["t"]))
             res = handover.height_resolution(run.scene, float(h.flight.model_q[j, G.Z]))
             assert handover.flat_spread(run.scene, h.flight.model_q[j, G.A]) > res
-    assert handed >= 80 and flat >= 40, (handed, flat)
+    # (a sideways law, k % 4 == 3, in a spinning body tips before N reaches 0: the moment
+    # 2 mu w z rho'_h does not vanish with N; tests/test_base_tip_before_lift.py)
+    assert handed >= 60 and flat >= 40, (handed, flat)
 
 
 def test_the_cli_writes_one_run(tmp_path, capsys):

@@ -260,6 +260,32 @@ static void crt_base_interp(const double *z0, double (*F)[CRT_BASE_NZ], double x
            + x * (F[4][i] + y * (F[5][i] + x * F[6][i]))))));
 }
 
+/* N below which cp = (the moment)/N is not known (the moment's round-off over N: 1e-9 of
+   the weight leaves cp known to about 1e-7 of the face) */
+static double crt_base_n_res(const crt_base_body *b)
+{
+  return 1e-9 * (b->pf[0] + b->pf[1]) * b->pf[5];
+}
+
+/* A margin of cp (the edge's, the kern's) as an event function: itself while N is above
+   crt_base_n_res, minus the face's size below.  Past N = 0, cp jumps to the other side and
+   comes back into the face as |N| grows, so a step that ends past the lift-off would find
+   the margin positive at both ends and miss a tip before the lift-off (the moment the face
+   must give need not vanish with N: a point moving sideways in a body spinning at w needs
+   about 2 mu w z rho'_h, mu the reduced mass); near N = 0 cp is round-off.  A root located
+   where N is that small is the lift-off's (cp in the face up to N = 0): crt_base_tie. */
+static double crt_base_margin(const crt_base_body *b, double N, double margin)
+{
+  return N > crt_base_n_res(b) ? margin : -b->face.a;
+}
+
+/* 1 if the tip's or the kern's root located where N is N is the lift-off's (see
+   crt_base_margin) */
+static int crt_base_tie(const crt_base_body *b, double N)
+{
+  return !(N > crt_base_n_res(b));
+}
+
 /* the slip's event functions at a state: t_end - t, the stop (rho - eps in s; along a line
    the signed speed rho), N, the edge margin, the kern margin (linear pressure; 1 under
    uniform pressure: no event) */
@@ -269,9 +295,11 @@ static void crt_base_slip_g(const crt_session *s, double t_end, const double *z,
   g[CRT_BASE_END] = t_end - z[0];
   g[CRT_BASE_STOP] = s->bs.line ? rho : rho - s->bs.eps;
   g[CRT_BASE_LIFT] = N;
-  g[CRT_BASE_TIP] = crt_face_edge_margin(&s->bs.body.face, cp[0], cp[1]);
-  g[CRT_BASE_KERN] = s->bs.body.linear ? crt_face_kern_margin(&s->bs.body.face, cp[0], cp[1])
-                                       : 1.0;
+  g[CRT_BASE_TIP] = crt_base_margin(&s->bs.body, N, crt_face_edge_margin(&s->bs.body.face,
+                                                                              cp[0], cp[1]));
+  g[CRT_BASE_KERN] = s->bs.body.linear
+      ? crt_base_margin(&s->bs.body, N, crt_face_kern_margin(&s->bs.body.face, cp[0], cp[1]))
+      : 1.0;
 }
 
 /* The slip's event function k at the state z: the end and the stop from z alone (t; the
@@ -313,8 +341,11 @@ static void crt_base_stick_g(crt_session *s, double t, double *g, double *xi)
   else g[0] = 1.0 - crt_face_gauge(&s->bs.body.face, crt_max(N, 0.0), k, s->bs.body.mu_s, W,
                                    xi, &s->stat[CRT_STAT_EVENT_FUNCTION_EVALUATIONS]);
   g[1] = N;
-  g[2] = crt_face_edge_margin(&s->bs.body.face, cp[0], cp[1]);
-  g[3] = s->bs.body.linear ? crt_face_kern_margin(&s->bs.body.face, cp[0], cp[1]) : 1.0;
+  g[2] = crt_base_margin(&s->bs.body, N, crt_face_edge_margin(&s->bs.body.face, cp[0],
+                                                                   cp[1]));
+  g[3] = s->bs.body.linear
+      ? crt_base_margin(&s->bs.body, N, crt_face_kern_margin(&s->bs.body.face, cp[0], cp[1]))
+      : 1.0;
 }
 
 /* the scaled twist's rate at rest at (t, q) with the friction of the unit direction d */
@@ -579,8 +610,9 @@ static void crt_base_settle(crt_session *s, crt_out *o, int after_stop)
   int i, stick;
   crt_base_stick_g(s, s->t, g, s->bs.xi);
   if (g[1] <= 0.0) { crt_base_end(s, o, CRT_LIFT_OFF, CRT_EV_LIFTOFF, g[1]); return; }
-  if (g[2] <= 0.0) { crt_base_end(s, o, CRT_TIPPING, CRT_EV_TIPPING, g[2]); return; }
-  if (g[3] <= 0.0) {
+  if (crt_base_tie(&s->bs.body, g[1])) {}  /* (cp unknown: N's root is the stick's) */
+  else if (g[2] <= 0.0) { crt_base_end(s, o, CRT_TIPPING, CRT_EV_TIPPING, g[2]); return; }
+  else if (g[3] <= 0.0) {
     crt_base_end(s, o, CRT_FACE_LIFTING, CRT_EV_FACE_LIFTING, g[3]);
     return;
   }
@@ -751,6 +783,12 @@ static void crt_base_stick_step(crt_session *s, crt_out *o, double t_end)
 #define CRT_BASE_STICK_EVAL(x) (crt_base_stick_g(s, (x), g, xi), g[k])
       CRT_BASE_ILLINOIS(s->t, s->bs.g[k], end, gend, root, tol, CRT_BASE_STICK_EVAL);
 #undef CRT_BASE_STICK_EVAL
+      if (k == 2 || k == 3) {              /* N there: a tip or the lift-off */
+        double gr[CRT_BASE_NG_STICK], xr[3];
+        for (i = 0; i < 3; ++i) xr[i] = xi[i];
+        crt_base_stick_g(s, root, gr, xr);
+        if (crt_base_tie(&s->bs.body, gr[1])) continue;  /* (N's root: located, or later) */
+      }
       if (root < first) { first = root; which = k; }
     }
   }
@@ -805,11 +843,11 @@ static void crt_base_slip_step(crt_session *s, crt_out *o, double t_end)
   /* a stop already reached where the step starts: N or cp jumped there (the friction of
      a slip's onset against the rest's wrench moves cp at once) */
   if (g0[CRT_BASE_LIFT] <= 0.0) { crt_base_end(s, o, CRT_LIFT_OFF, CRT_EV_LIFTOFF, N); return; }
-  if (g0[CRT_BASE_TIP] <= 0.0) {
+  if (crt_base_tie(&s->bs.body, N)) {}     /* (cp unknown: N's root is the step's) */
+  else if (g0[CRT_BASE_TIP] <= 0.0) {
     crt_base_end(s, o, CRT_TIPPING, CRT_EV_TIPPING, g0[CRT_BASE_TIP]);
     return;
-  }
-  if (g0[CRT_BASE_KERN] <= 0.0) {
+  } else if (g0[CRT_BASE_KERN] <= 0.0) {
     crt_base_end(s, o, CRT_FACE_LIFTING, CRT_EV_FACE_LIFTING, g0[CRT_BASE_KERN]);
     return;
   }
@@ -858,6 +896,11 @@ static void crt_base_slip_step(crt_session *s, crt_out *o, double t_end)
                                crt_base_slip_g_at(s, t_end, zt, k_, ft, gt))
       CRT_BASE_ILLINOIS(0.0, g0[k_], 1.0, g1[k_], root, 1e-15, CRT_BASE_SLIP_EVAL);
 #undef CRT_BASE_SLIP_EVAL
+      if (k_ == CRT_BASE_TIP || k_ == CRT_BASE_KERN) {   /* N there: a tip or the lift-off */
+        crt_base_interp(z0, F, root, zt);
+        if (crt_base_tie(&s->bs.body, crt_base_slip_g_at(s, t_end, zt, CRT_BASE_LIFT, ft, gt)))
+          continue;                        /* (N's root: located, or the next step's) */
+      }
       if (root < first) { first = root; which = k_; }
     }
   }
