@@ -387,3 +387,24 @@ def test_the_manual_lists_every_code():
     got = {m[1].lower(): int(m[2])
            for m in re.finditer(r"^ \*   CRT_(\w+) +(-?\d+) ", manual, re.M)}
     assert got == S
+
+
+def test_a_run_stops_after_exactly_max_steps_steps():
+    """max_steps = 100 on the ball falling from 100 m by RK4 steps of 1 ms (no impact in
+    0.1 s): the status is max_steps after exactly 100 steps, a row each, the last at
+    t = 0.1 s and on the free fall's parabola (a count 5 % short or over, 96 or 105,
+    would show)."""
+    step, n, z0 = 1e-3, 100, 100.0
+    prep = prepare(ball(e=0.5, z0=z0, duration=1.0, method="rk4", step=step))
+    opt = np.array(prep.options, dtype=float)
+    opt[[o.name for o in abi.OPTIONS].index("max_steps")] = n
+    session = Session(prep.library)
+    session.set_law(prep.scene.law)
+    raw = session.run(0.0, 1.0, prep.start.q0, opt, prep.parameters)
+    assert raw.status == "max_steps" and raw.stats["steps"] == n
+    assert len(raw.t) == n + 1
+    np.testing.assert_allclose(raw.t, step * np.arange(n + 1), rtol=0, atol=1e-15)
+    # (Z_C, Z_C') of the vertical model
+    assert raw.q.shape[1] == 2
+    np.testing.assert_allclose(raw.q[-1], [z0 - 0.5 * 9.81 * raw.t[-1] ** 2, -9.81 * raw.t[-1]],
+                               rtol=0, atol=1e-12)
