@@ -328,9 +328,9 @@ def test_a_controllers_wider_gait_does_not_let_s_through_the_plane():
 def test_a_loop_stopped_by_max_events_logs_its_law_to_the_stop(unstable):
     """The C controller's loop stopped by [run].max_events = 4 (its fourth event, mid-
     run): the realised law's rows end at the stop, not at the last law change before it,
-    and on [t0, stop] it is the uninterrupted run's law (2 s, the same controller), to
-    1e-12 (its pieces re-expanded about other times where the logs split them): the law the loop ran up to its last row is written even when the run ends
-    early."""
+    and on [t0, stop] it is the uninterrupted run's law (2 s, the same controller) to
+    1e-12 (its pieces re-expanded about other times where the logs split them): the law
+    the loop ran is written to its end even when the run ends early."""
     from derive.runtime.loop import realised_law
     hm, d = unstable
     doc = bouncing.bouncing_scene(a=UNSTABLE)
