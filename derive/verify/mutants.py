@@ -139,7 +139,8 @@ HEADER_TESTS = {
         _HOP + "test_a_controllers_wider_gait_does_not_let_s_through_the_plane",),
     "crt_step.h": ("tests/test_outputs.py::test_tables_have_plain_names_and_a_uniform_grid",),
     "crt_loop.h": ("tests/test_law.py::test_rk4_steps_end_on_each_knot_never_longer",
-                   _HOP + "test_a_loop_stopped_by_max_events_logs_its_law_to_the_stop"),
+                   _HOP + "test_a_loop_stopped_by_max_events_logs_its_law_to_the_stop",
+                   "tests/test_control_loop.py"),
 }
 
 
