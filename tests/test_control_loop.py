@@ -205,21 +205,22 @@ def test_a_law_that_lifts_the_body_off_at_a_sample_tells_the_controller():
     assert res.min_height >= -1e-9 and len(res.impacts) == 1
 
 
-def test_pushes_act_at_their_times_also_far_from_t_0():
-    """The scene started at t0 = 10 s with a push at t0 itself (due at the loop's first
-    pass) and one at 10.2 s (a stop 2 % of t ahead, not due yet): each is applied at its
-    own time, once, and changes C's momentum by its impulse, Q+ - Q- = P."""
+@pytest.mark.parametrize("t0", [10.0, -10.0])
+def test_pushes_act_at_their_times_also_far_from_t_0(t0):
+    """The scene started at t0 = 10 s or -10 s with a push at t0 itself (due at the loop's
+    first pass) and one 0.2 s later (a stop 2 % of |t| ahead, not due yet): each is applied
+    at its own time, once, and changes C's momentum by its impulse, Q+ - Q- = P."""
     doc = builtin_doc()
-    doc["initial"]["time"] = 10.0
+    doc["initial"]["time"] = t0
     doc["run"].update({"duration": 0.5, "outputs": ["pose", "momentum"], "model": "general"})
     scene = parse_scene(doc)
     P = np.array([0.2, -0.3, 0.5])
-    loop = Loop(lambda call: None, pushes=[[10.0, *P, 0.0, 0.0, 0.0],
-                                           [10.2, *(-P), 0.0, 0.0, 0.0]])
+    loop = Loop(lambda call: None, pushes=[[t0, *P, 0.0, 0.0, 0.0],
+                                           [t0 + 0.2, *(-P), 0.0, 0.0, 0.0]])
     res = run_prepared(prepare(scene), loop=loop)
     assert res.status == "done" and res.stats["pushes"] == 2
     mass = scene.M + scene.m
-    for t, impulse in ((10.0, P), (10.2, -P)):
+    for t, impulse in ((t0, P), (t0 + 0.2, -P)):
         rows = np.flatnonzero((res.t == t) & (res.row_kind == 1))
         i = int(rows[0])
         jump = (res.general[i + 1][G.com_velocity] - res.general[i][G.com_velocity]) * mass
