@@ -15,6 +15,7 @@ from derive import layout
 from derive.runtime.driver import prepare, run_prepared
 from derive.runtime.loop import STOP, Loop, Segments, hermite, realised_law
 from derive.scene import builtin_doc, parse_scene
+from test_runtime import ball
 
 G = layout.GENERAL
 
@@ -448,3 +449,55 @@ def test_a_loop_that_sets_no_law_leaves_the_run_as_it_was(kind):
     closed = run_prepared(prep, loop=Loop(lambda call: None))
     assert closed.status == open_loop.status == "done"
     assert np.array_equal(closed.t, open_loop.t) and np.array_equal(closed.q, open_loop.q)
+
+def test_a_law_that_lifts_the_body_off_at_a_sample_tells_the_controller():
+    """The classical ball resting on the plane (landed at 1 mm/s with e = 0, in contact);
+    at the sample t = 0.1 s the controller sets z = -40 (t - 0.1)^2: the point
+    accelerates down at 80 m/s^2 and N = (M + m) g - 80 m < 0 at once, so the lift-off is
+    due at the start of the next step, at 0.1 s exactly, and the controller is called
+    with it (reason event, liftoff).  After it the system's centre C falls freely from
+    rest, Z_C = R - g (t - 0.1)^2 / 2, while the body rises about it."""
+    g, R, M, m, t_s = 9.81, 0.5, 1.0, 0.2, 0.1
+    doc = ball(e=0.0, z0=R, duration=0.3, method="dopri5", rtol=1e-10, atol=1e-12)
+    doc["initial"]["com_velocity"] = [0.0, 0.0, -1e-3]
+    assert doc["body"]["mass"] == M and doc["point"]["mass"] == m
+    calls = []
+
+    def controller(call):
+        calls.append((call.t, call.reason, call.event))
+        if call.reason == "sample" and abs(call.t - t_s) < 1e-12:
+            coef = np.zeros((1, 3, 4))
+            coef[0, 2, 1] = -40.0
+            return Segments(np.array([t_s, 1.0]), coef)
+        return None
+    res = run_prepared(prepare(parse_scene(doc)), loop=Loop(controller, period=t_s))
+    assert res.status == "done"
+    kinds = [(e["kind"], e["t"]) for e in res.events]
+    assert ("liftoff", t_s) in kinds and kinds[0][0] == "impact"
+    assert (t_s, "event", "liftoff") in calls
+    s = res.t[-1] - t_s
+    assert abs(res.q[-1, 2] - (R - 0.5 * g * s * s)) < 1e-9       # C, in free fall
+    # S above the plane: the body rises as the point goes down inside it
+    assert res.min_height >= -1e-9 and len(res.impacts) == 1
+
+
+@pytest.mark.parametrize("t0", [10.0, -10.0])
+def test_pushes_act_at_their_times_also_far_from_t_0(t0):
+    """The scene started at t0 = 10 s or -10 s with a push at t0 itself (due at the loop's
+    first pass) and one 0.2 s later (a stop 2 % of |t| ahead, not due yet): each is applied
+    at its own time, once, and changes C's momentum by its impulse, Q+ - Q- = P."""
+    doc = builtin_doc()
+    doc["initial"]["time"] = t0
+    doc["run"].update({"duration": 0.5, "outputs": ["pose", "momentum"], "model": "general"})
+    scene = parse_scene(doc)
+    P = np.array([0.2, -0.3, 0.5])
+    loop = Loop(lambda call: None, pushes=[[t0, *P, 0.0, 0.0, 0.0],
+                                           [t0 + 0.2, *(-P), 0.0, 0.0, 0.0]])
+    res = run_prepared(prepare(scene), loop=loop)
+    assert res.status == "done" and res.stats["pushes"] == 2
+    mass = scene.M + scene.m
+    for t, impulse in ((t0, P), (t0 + 0.2, -P)):
+        rows = np.flatnonzero((res.t == t) & (res.row_kind == 1))
+        i = int(rows[0])
+        jump = (res.general[i + 1][G.com_velocity] - res.general[i][G.com_velocity]) * mass
+        assert np.allclose(jump, impulse, atol=1e-13), (t, jump)

@@ -403,3 +403,27 @@ def test_the_gait_correction_is_clamped_at_its_limit_and_a_law_renewed_a_period_
         assert (r == 1) == renewed and (got is not None) == renewed, (offset, r)
         if renewed:
             assert np.array_equal(knots2, got.knots)
+
+def test_a_loop_stopped_by_max_events_logs_its_law_to_the_stop(unstable):
+    """The C controller's loop stopped by [run].max_events = 4 (its fourth event, mid-
+    run): the realised law's rows end at the stop, not at the last law change before it,
+    and on [t0, stop] it is the uninterrupted run's law (2 s, the same controller) to
+    1e-12 (its pieces re-expanded about other times where the logs split them): the law
+    the loop ran is written to its end even when the run ends early."""
+    from derive.runtime.loop import realised_law
+    hm, d = unstable
+    doc = bouncing.bouncing_scene(a=UNSTABLE)
+    doc["run"]["duration"] = 2.0
+    full_loop = Loop(H.c_controller(d))
+    full = run_prepared(prepare(parse_scene(doc)), loop=full_loop)
+    doc["run"]["max_events"] = 4
+    loop = Loop(H.c_controller(d))
+    run = run_prepared(prepare(parse_scene(doc)), loop=loop)
+    assert full.status == "done" and run.status == "max_events"
+    t_stop = run.events[3]["t"]
+    assert run.t[-1] == t_stop < full.t[-1]
+    rows = loop.law_rows()
+    assert rows[-1, 2] == t_stop
+    ts = np.linspace(rows[0, 1], t_stop, 401)
+    a, b = realised_law(rows).jets(ts), realised_law(full_loop.law_rows()).jets(ts)
+    assert np.max(np.abs(a - b)) <= 1e-12 * np.max(np.abs(b)), np.max(np.abs(a - b))

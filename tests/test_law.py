@@ -221,6 +221,33 @@ def test_a_tabulated_law_keeps_the_tolerance(knots, method):
     assert run.stats["rejected"] <= run.stats["steps"] // 4
 
 
+def test_rk4_steps_end_on_each_knot_never_longer():
+    """RK4 (no error control to catch a step across a knot) on table_flight's periodic
+    table of 41 knots, 52 ms apart, with a step of 4 ms: a row at every step, and the
+    rows' times are the grid computed here from the rule alone: steps of 4 ms from each
+    knot, the last one before the next knot cut to end on it, across the table's
+    periodic wrap at 2.09 s, then the end.  (crt_loop.h: a step that would end within 5 %
+    of a knot's time short of it is not stretched to the knot, and one that would cross
+    a knot by less than 5 % of its time, or by more than the step, is cut.)"""
+    from derive.runtime.driver import simulate
+    from cases import table_flight
+    period, step, duration = 2 * math.pi / 3, 0.004, 2.5
+    knots = np.linspace(0.0, period, 41)
+    doc = table_flight(knots, duration, method="rk4", step=step, output_dt=0.0)
+    res = simulate(doc, progress=False)
+    assert res.status == "done"
+    every = np.concatenate([knots[1:] + k * period for k in range(2)])
+    grid, t = [0.0], 0.0
+    while t < duration:
+        knot = every[np.searchsorted(every, t + 1e-9, side="right")]
+        t = min(t + step, knot, duration)
+        grid.append(t)
+    assert len(res.t) == len(grid)
+    np.testing.assert_allclose(res.t, grid, rtol=0, atol=1e-12)
+    assert np.max(np.diff(res.t)) <= step * (1 + 1e-12)
+    assert np.isin(np.round(every[every < duration], 9), np.round(res.t, 9)).all()
+
+
 def test_a_run_beyond_a_free_table_is_refused():
     ts = np.linspace(0.0, 1.0, 11)
     doc = _table_doc(np.column_stack([ts, 0 * ts, 0 * ts, 0 * ts]), "free", 2.0)

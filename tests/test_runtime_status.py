@@ -387,3 +387,50 @@ def test_the_manual_lists_every_code():
     got = {m[1].lower(): int(m[2])
            for m in re.finditer(r"^ \*   CRT_(\w+) +(-?\d+) ", manual, re.M)}
     assert got == S
+
+
+def test_a_run_stops_after_exactly_max_steps_steps():
+    """max_steps = 100 on the ball falling from 100 m by RK4 steps of 1 ms (no impact in
+    0.1 s): the status is max_steps after exactly 100 steps, a row each, the last at
+    t = 0.1 s and on the free fall's parabola (a count 5 % short or over, 96 or 105,
+    would show)."""
+    step, n, z0 = 1e-3, 100, 100.0
+    prep = prepare(ball(e=0.5, z0=z0, duration=1.0, method="rk4", step=step))
+    opt = np.array(prep.options, dtype=float)
+    opt[[o.name for o in abi.OPTIONS].index("max_steps")] = n
+    session = Session(prep.library)
+    session.set_law(prep.scene.law)
+    raw = session.run(0.0, 1.0, prep.start.q0, opt, prep.parameters)
+    assert raw.status == "max_steps" and raw.stats["steps"] == n
+    assert len(raw.t) == n + 1
+    np.testing.assert_allclose(raw.t, step * np.arange(n + 1), rtol=0, atol=1e-15)
+    # (Z_C, Z_C') of the vertical model
+    assert raw.q.shape[1] == 2
+    np.testing.assert_allclose(raw.q[-1], [z0 - 0.5 * 9.81 * raw.t[-1] ** 2, -9.81 * raw.t[-1]],
+                               rtol=0, atol=1e-12)
+
+
+def test_a_first_step_whose_stages_overflow_is_retried_not_a_nonfinite_stop():
+    """A torque-free body (no plane, g = 0, the point fixed at its centre of mass) spins
+    at 300 rad/s near its intermediate axis; DOP853's first step is asked to be 1 s long
+    (h0 = hmax = 1 through the options: 48 turns in one step), whose stages overflow to
+    inf: the step is retried a quarter as long until it is finite, then held to the error
+    control, and the run ends done (a non-finite step is the status nonfinite only at the
+    least step).  The torque-free invariants, 2 T = w.J w and |J w|, are the start's to
+    1e-9 at the end."""
+    O = [o.name for o in abi.OPTIONS]
+    J = np.array([0.1, 0.2, 0.3])
+    doc = {"name": "spin", "body": {"mass": 1.0, "inertia": J.tolist(), "shape": "none"},
+           "point": {"mass": 0.5, "law": ["0", "0", "0"]},
+           "initial": {"omega": [0.1, 300.0, 0.1]},
+           "run": {"duration": 1.0, "g": 0.0, "method": "dop853"}}
+    prep = prepare(doc)
+    opt = np.array(prep.options, dtype=float)
+    opt[O.index("h0")] = opt[O.index("hmax")] = 1.0
+    session = Session(prep.library)
+    session.set_law(prep.scene.law)
+    raw = session.run(0.0, 1.0, prep.start.q0, opt, prep.parameters)
+    assert raw.status == "done" and raw.stats["rejected"] >= 1
+    w0, w1 = raw.q[0, 6:9], raw.q[-1, 6:9]
+    assert abs(w1 @ (J * w1) / (w0 @ (J * w0)) - 1) < 1e-9
+    assert abs(np.linalg.norm(J * w1) / np.linalg.norm(J * w0) - 1) < 1e-9

@@ -135,7 +135,8 @@ UNIT_TESTS = {
 
 
 # Tests of what one header does that the tests of the units it is compiled into do not
-# reach (a controller sets the law during a run; rows on a uniform grid of output_dt):
+# reach (a controller sets the law during a run; rows on a uniform grid of output_dt;
+# steps that end on a table's knots; a loop's law logged to a stop):
 # run for that header's mutants too.
 HEADER_TESTS = {
     "crt_law.h": ("tests/test_law_boundaries.py", "tests/test_law.py"),
@@ -146,6 +147,9 @@ HEADER_TESTS = {
     "crt_events.h": (
         _HOP + "test_a_controllers_wider_gait_does_not_let_s_through_the_plane",),
     "crt_step.h": ("tests/test_outputs.py::test_tables_have_plain_names_and_a_uniform_grid",),
+    "crt_loop.h": ("tests/test_law.py::test_rk4_steps_end_on_each_knot_never_longer",
+                   _HOP + "test_a_loop_stopped_by_max_events_logs_its_law_to_the_stop",
+                   "tests/test_control_loop.py"),
 }
 
 
