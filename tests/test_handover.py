@@ -306,3 +306,31 @@ def test_the_robustness_judge_of_a_handover_can_fail(up):
                    ).ravel()
     tilted = dataclasses.replace(h, flight=dataclasses.replace(h.flight, model_q=fq))
     assert judge_handover(dataclasses.replace(up, handover=tilted))[0] == "landing"
+
+
+# ---- drawing a cylinder ---------------------------------------------------------------------
+@pytest.mark.filterwarnings("error")
+def test_a_cylinder_is_drawn_with_no_invalid_value(tmp_path):
+    """The principal sections drawing.body_pictures draws meet directions 1e-16 off the
+    cylinder's axis (cos(pi/2)), where (rr + 1) - 1 was 0 and R/0 times 0 NaN ("invalid
+    value encountered in matmul"): the support points of those directions against the
+    closed form (the rim at R (x, y)/|(x, y)| on the end face z = L sign(d_z), its centre
+    along the axis), then a cylinder's hop drawn as an overview, warnings as errors."""
+    from derive.runtime.plots import overview
+    from derive.shapes import SHAPES
+    R, L = 0.08, 0.03
+    ang = np.linspace(0.0, 2.0 * np.pi, 73)
+    d = np.column_stack([np.zeros(73), np.cos(ang), np.sin(ang)])     # the (y, z) section
+    d = np.vstack([d, [[0.0, 0.0, 1.0], [0.0, 0.0, -1.0], [1e-150, 0.0, 1.0]]])
+    got = SHAPES["cylinder"].support_rows(d, (R, L))
+    rho = np.hypot(d[:, 0], d[:, 1])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        rim = np.where(rho[:, None] > 0, R * d[:, :2] / rho[:, None], 0.0)
+    want = np.column_stack([rim, L * np.sign(d[:, 2])])
+    assert np.isfinite(got).all() and np.max(np.abs(got - want)) < 1e-15
+    text = _SCENE.format(name="cyl", M=M, m=m, law=UP, spin=SPIN, duration=0.1).replace(
+        'shape = "box"\nhalf_extents = [0.1, 0.06, 0.04]',
+        f'shape = "cylinder"\nradius = {R}\nhalf_length = {L}')
+    run = simulate(parse_scene(text))
+    assert run.handover is not None
+    assert overview(run, motion(run), tmp_path / "overview.png").stat().st_size > 0
