@@ -284,6 +284,17 @@ def run_prepared(prep: Prepared, session: Session | None = None, progress=None,
                   status=raw.status, start=prep.start, rates=rates, timings=timings)
 
 
+def run_scene(prep: Prepared, session: Session | None = None, progress=None) -> Result:
+    """The run of a prepared scene as :func:`simulate` makes it: a base run that lifts off
+    with ``[plane].restitution`` goes on in the general model (runtime/handover.py).  A
+    study's whole results (simulate_many's keep = "result") are these."""
+    result = run_prepared(prep, session, progress)
+    if result.status == "lift_off" and prep.scene.restitution_given:
+        from .handover import hand_over        # the flight from the lift-off on
+        result = hand_over(result, lambda sc: run_prepared(prepare(sc)))
+    return result
+
+
 def simulate(scene, progress: bool = False) -> Result:
     """Simulate a scene (a path, a dict of the schema, or a :class:`Scene`); see the
     README's recipes and derive/docs/runtime.md.  ``progress``: a bar on stderr for runs
@@ -295,10 +306,7 @@ def simulate(scene, progress: bool = False) -> Result:
     if progress:
         from ..progress import Bar
         bar = Bar("simulating")
-    result = run_prepared(prep, progress=bar.update if bar else None)
-    if result.status == "lift_off" and prep.scene.restitution_given:
-        from .handover import hand_over        # the flight from the lift-off on
-        result = hand_over(result, lambda sc: run_prepared(prepare(sc)))
+    result = run_scene(prep, progress=bar.update if bar else None)
     if bar:
         bar.close()
     result.timings = {"prepare_s": t_prepare, **result.timings,
