@@ -108,6 +108,31 @@ def test_a_box_pushed_straight_up_lifts_off_flies_and_lands_flat(up):
     assert up.events[-1]["kind"] == "flat_landing" and up.stats["impacts"] == 0
 
 
+@pytest.mark.parametrize("f, first", [(1.2, "contact"), (1.5, "graze")])
+def test_a_touch_at_the_hand_over_instant_is_no_landing(f, first):
+    """Pushed up at a peak of f g (f a little above 1), the C finds the face touching at
+    the hand-over's instant itself, v_n round-off (a contact it leaves at once, or a
+    graze): that is no landing (it was: a flight of 0 s, landed flat).  The flat landing
+    is later, at the root of the face's height with C on its parabola from the
+    hand-over's state (as for the box pushed up above)."""
+    Af = f * (M + m) * g / (m * W * W)
+    run = simulate(_scene(f'["0", "0", "{Af!r}*sin({W}*t)"]', duration=0.3))
+    h = run.handover
+    assert abs(h.t - math.asin(1.0 / f) / W) < 1e-9
+    at_once = [ev for ev in h.flight.events if ev["t"] - h.t < 1e-12]
+    assert at_once[0]["kind"] == first and abs(at_once[0]["v_minus"]) < 1e-15
+    Z0, V0 = h.state[G.Z], h.state[G.Zd]
+
+    def face(tt):
+        return Z0 + V0 * (tt - h.t) - 0.5 * g * (tt - h.t) ** 2 \
+            - m * Af * np.sin(W * tt) / (M + m) - 0.04
+    ts = np.linspace(h.t + 1e-6, h.t + 0.3, 30001)
+    k = int(np.flatnonzero(face(ts) < 0)[0])
+    t_land = brentq(face, ts[k - 1], ts[k], xtol=1e-15)
+    assert run.status == "flat_landing" and abs(h.landing["t"] - t_land) < 1e-9
+    assert h.landing["t"] - h.t > 0.05
+
+
 def _independent_state(scene, base) -> np.ndarray:
     """C's position and velocity and the attitude from the base state at lift-off, here
     from the law's formulas: OC = m OP/(M + m) (the body's centre at O), r_O = (X_O, Y_O,
@@ -252,6 +277,7 @@ def test_random_lift_offs_are_handed_over_honestly():
         if run.status == "flat_landing":
             flat += 1
             assert h.landing["spread"] <= h.landing["resolution"]
+            assert h.landing["t"] - h.t > 1e-6, k      # (a flight, not the C's touch at once)
         elif touches:                               # a corner or a rim point: not flat
             j = int(np.searchsorted(h.flight.t, touches[0]["t"]))
             res = handover.height_resolution(run.scene, float(h.flight.model_q[j, G.Z]))
@@ -334,3 +360,38 @@ def test_a_cylinder_is_drawn_with_no_invalid_value(tmp_path):
     run = simulate(parse_scene(text))
     assert run.handover is not None
     assert overview(run, motion(run), tmp_path / "overview.png").stat().st_size > 0
+
+
+# ---- studies hand over too ------------------------------------------------------------------
+def test_a_study_hands_over_as_simulate_does():
+    """derive.simulate_many (derive simulate --sweep) of variants either side of lift-off
+    (the push's peak m A W^2/(M + m) at 0.8 g and 1.5 g: one stays on its face, one lifts
+    off and lands flat) and the tilted one that lands on a corner and goes on (its whole
+    flight in the general model's batch): each row equals summary_row of derive.simulate
+    of that variant, bit for bit but the time it took, and keep = "result" gives that
+    Result's status and end."""
+    import tomllib
+
+    import derive
+    from derive.runtime.study import summary_row
+    from derive.scene.overrides import apply_to_doc
+    doc = tomllib.loads(_SCENE.format(name="hop", M=M, m=m, law=UP, spin=SPIN, duration=0.3))
+    laws = [["0", "0", f"{f * (M + m) * g / (m * W * W)!r}*sin({W}*t)"] for f in (0.8, 1.5)]
+    variants = [{"point.law": law} for law in laws] + [
+        {"point.law": json.loads(TILT), "initial.omega": [0.0, 0.0, 0.0]}]
+    batch = derive.simulate_many(doc, variants, workers=1)
+    kept = derive.simulate_many(doc, variants, workers=1, keep="result").results
+    statuses = []
+    for v, row, res in zip(variants, batch.rows, kept):
+        d = json.loads(json.dumps(doc))
+        for name, value in v.items():
+            apply_to_doc(d, name, value)
+        run = derive.simulate(d)
+        want = summary_row(run)
+        same = {k: row[k] == want[k] or (row[k] != row[k] and want[k] != want[k])
+                for k in want if k != "run_ms"}               # (NaN: no contact)
+        assert all(same.values()), (v, {k: (row[k], want[k]) for k in same if not same[k]})
+        assert (res.status, res.t[-1]) == (run.status, run.t[-1])
+        statuses.append((row["status"], row["model"], run.handover is not None))
+    assert statuses == [("done", "base", False), ("flat_landing", "rough", True),
+                        ("surface_jump", "rough", True)]

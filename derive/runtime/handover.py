@@ -106,10 +106,20 @@ def hand_over(base, run_flight) -> object:
 
 def fly(fscene, run_flight) -> tuple:
     """The flight from the hand-over (a Result) and its flat landing (None: none): a
-    first run to the first event, stopped there if the face touches flat, else the
-    whole flight (the same steps to that event)."""
-    first = run_flight(dataclasses.replace(fscene, max_events=1))
-    touch = _first_touch(first)
+    first run to the first touch, stopped there if the face comes down on the plane
+    flat, else the whole flight (the same steps to that touch).  The C may find the face
+    touching at the hand-over's instant itself, v_n round-off either side of 0 (a graze,
+    or a contact it leaves at once): no landing (the face leaves the plane there), and
+    the first run goes on to more events until a later touch or the end (up to 8)."""
+    at_once = fscene.t0 + 1e-12 * max(1.0, abs(fscene.t0))
+    n = 1
+    while True:
+        first = run_flight(dataclasses.replace(fscene, max_events=n))
+        touch = _first_touch(first, at_once)
+        if touch is not None or first.status != "max_events" or \
+                2 * n > min(fscene.max_events, 8):
+            break
+        n *= 2
     if touch is not None and touch[1]["v_minus"] < 0.0:   # (coming down: a landing)
         i, ev = touch
         spread = flat_spread(fscene, first.model_q[i, G.A])
@@ -118,18 +128,19 @@ def fly(fscene, run_flight) -> tuple:
             landing = {"t": float(first.t[i]), "spread": float(spread),
                        "resolution": resolution, "v_n": float(ev["v_minus"])}
             return _cut(first, i, ev, spread), landing
-    if first.status == "max_events" and fscene.max_events != 1:
+    if first.status == "max_events" and fscene.max_events != n:
         return run_flight(fscene), None
     return first, None
 
 
-def _first_touch(run):
+def _first_touch(run, after: float):
     """(the index of the before row, the event) of the flight's first impact, contact or
-    graze, or None (a touch with v_n >= 0 at once after the lift-off, in a flight of
-    1e-11 s, is no landing: the caller reads v_minus)."""
+    graze later than ``after`` (the hand-over's instant), or None (a touch with v_n >= 0
+    just after the lift-off, in a flight of 1e-11 s, is no landing: the caller reads
+    v_minus)."""
     from .events import event_rows
     for i, ev in event_rows(run):
-        if ev["kind"] in ("impact", "contact", "graze"):
+        if ev["kind"] in ("impact", "contact", "graze") and ev["t"] > after:
             return i, ev
     return None
 
