@@ -133,6 +133,26 @@ def test_a_touch_at_the_hand_over_instant_is_no_landing(f, first):
     assert h.landing["t"] - h.t > 0.05
 
 
+def test_the_flights_rows_are_on_the_runs_output_grid():
+    """With [run].output_dt the flight's rows are t0 + k output_dt, the run's grid (they
+    counted from the lift-off): every step row after the hand-over on it to 1e-12, each
+    grid time between the hand-over and the landing there once, and Z_C on those rows
+    on its parabola from the hand-over's state (the dense output read at them)."""
+    from derive import abi
+    dt = 0.01
+    run = simulate(dataclasses.replace(_scene(UP, duration=0.6), output_dt=dt))
+    h = run.handover
+    flight = (run.row_kind == abi.ROW_KIND["step"]) & (run.t > h.t)
+    t = run.t[flight]
+    k = np.round((t - run.scene.t0) / dt)
+    assert np.max(np.abs(t - (run.scene.t0 + k * dt))) < 1e-12
+    want = np.arange(math.floor(h.t / dt) + 1, math.ceil(run.t[-1] / dt))
+    assert np.array_equal(k, want) and len(k) >= 10
+    tau = t - h.t
+    Z = h.state[G.Z] + h.state[G.Zd] * tau - 0.5 * g * tau ** 2
+    assert np.max(np.abs(run.model_q[flight, G.Z] - Z)) < 1e-9
+
+
 def _independent_state(scene, base) -> np.ndarray:
     """C's position and velocity and the attitude from the base state at lift-off, here
     from the law's formulas: OC = m OP/(M + m) (the body's centre at O), r_O = (X_O, Y_O,
@@ -197,10 +217,11 @@ def test_a_tilted_lift_off_lands_on_a_corner_and_goes_on(tilt):
                      f"com = {s[G.com].tolist()}\ncom_velocity = {s[G.com_velocity].tolist()}\n"
                      f"omega = {s[G.omega].tolist()}\nmatrix = "
                      f"{s[G.A].reshape(3, 3).tolist()}\ntime = {h.t!r}"))
-    # (the flight keeps the whole run's law summary, whose time scale bounds the step:
-    # the same bound here, else the steps part in the impacts' accumulation, 1e-9 apart)
-    alone = simulate(dataclasses.replace(parse_scene(text),
-                                         law_summary=tilt.scene.law_summary))
+    # (the flight's law proved over the flight alone, as this scene proves it: the
+    # whole run's time scale, which bounds the step, parted them 1e-9 in the impacts'
+    # accumulation)
+    alone = simulate(parse_scene(text))
+    assert alone.scene.law_summary == h.flight.scene.law_summary
     assert alone.model == tilt.model and alone.status == tilt.status
     a = len(h.base.t)
     assert len(alone.t) == len(tilt.t) - a
@@ -379,6 +400,17 @@ def test_a_study_hands_over_as_simulate_does():
     laws = [["0", "0", f"{f * (M + m) * g / (m * W * W)!r}*sin({W}*t)"] for f in (0.8, 1.5)]
     variants = [{"point.law": law} for law in laws] + [
         {"point.law": json.loads(TILT), "initial.omega": [0.0, 0.0, 0.0]}]
+    rng = np.random.default_rng(36)        # and 12 seeded ones, as the random runs above
+    for k in range(12):
+        Wk, ratio = rng.uniform(20.0, 50.0), rng.uniform(0.3, 0.9)
+        Ak = (M + m) * g / (ratio * m * Wk * Wk)
+        side = ["0", "0"] if k % 3 else [
+            f"{0.01 * rng.uniform(0.2, 1)!r}*sin(25*(t - {math.asin(ratio) / Wk!r}))", "0"]
+        variants.append({"point.law": [*side, f"{Ak!r}*sin({Wk!r}*t)"],
+                         "initial.omega": [0.0, 0.0, float(rng.uniform(-4, 4))],
+                         "initial.carrier_velocity": [*map(float, rng.uniform(-0.3, 0.3, 2)),
+                                                      0.0],
+                         "plane.friction": float(rng.uniform(0.2, 1.0))})
     batch = derive.simulate_many(doc, variants, workers=1)
     kept = derive.simulate_many(doc, variants, workers=1, keep="result").results
     statuses = []
@@ -393,5 +425,6 @@ def test_a_study_hands_over_as_simulate_does():
         assert all(same.values()), (v, {k: (row[k], want[k]) for k in same if not same[k]})
         assert (res.status, res.t[-1]) == (run.status, run.t[-1])
         statuses.append((row["status"], row["model"], run.handover is not None))
-    assert statuses == [("done", "base", False), ("flat_landing", "rough", True),
-                        ("surface_jump", "rough", True)]
+    assert statuses[:3] == [("done", "base", False), ("flat_landing", "rough", True),
+                            ("surface_jump", "rough", True)]
+    assert sum(handed for _, _, handed in statuses[3:]) >= 8, statuses

@@ -351,9 +351,9 @@ def hand_over(part: Part, cols: dict, last: np.ndarray, ready: list) -> None:
     """The base variants of ``part`` that stopped at lift-off with ``[plane].restitution``
     go on in the general model, as :func:`derive.simulate`'s do (handover.hand_over): the
     flights from the hand-over's states in calls into C of their model, as handover.fly
-    makes them (a first run to the first event; then, unless that event is a landing on
-    the face, the whole flight), a flight whose first touch finds the face flat within
-    the height resolution through handover.fly itself (it may stop there, flat_landing).
+    makes them (a first run to the first event; then, where that event is an impact on
+    a face not flat, the whole flight), the others (their first event a touch at the
+    hand-over's instant, a graze, or a landing on the face) through handover.fly itself.
     Each such row then says the whole run, as summary_row of derive.simulate's Result:
     the flight's status, model, end, heights and first contact, the counts of both parts
     summed, C's travel and mean velocity from the base run's start.  In place; the other
@@ -374,12 +374,16 @@ def hand_over(part: Part, cols: dict, last: np.ndarray, ready: list) -> None:
         row, end = flights[k]
         if row["status"] != "max_events" or fs.max_events == 1:
             continue                         # the first run is the flight
+        # its one event an impact after the hand-over's instant (so coming down: fly's
+        # first landing) on a face not flat: the whole flight; any other (a touch at the
+        # instant, a graze, a contact, a flat face) through fly itself
         A, Z = end[1:][handover.G.A], float(end[1:][handover.G.Z])
-        touch_flat = handover.flat_spread(fs, A) <= handover.height_resolution(fs, Z)
-        (alone if touch_flat else whole).append((k, fs))
+        flat = handover.flat_spread(fs, A) <= handover.height_resolution(fs, Z)
+        later = end[0] > fs.t0 + 1e-12 * max(1.0, abs(fs.t0))
+        (whole if row["impacts"] == 1 and later and not flat else alone).append((k, fs))
     flights.update(_flights(whole, ready))
     for k, fs in alone:                      # (a flat landing's cut: the driver's own)
-        run = handover.fly(fs, lambda sc: run_prepared(prepare(sc)))[0]
+        run = handover.fly(fs, lambda sc, origin: run_prepared(prepare(sc)))[0]
         flights[k] = (summary_row(run), np.concatenate([[run.t[-1]], run.model_q[-1]]))
     for k, _ in todo:
         row, end = flights[k]
