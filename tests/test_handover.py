@@ -380,7 +380,7 @@ def test_a_cylinder_is_drawn_with_no_invalid_value(tmp_path):
         f'shape = "cylinder"\nradius = {R}\nhalf_length = {L}')
     run = simulate(parse_scene(text))
     assert run.handover is not None
-    assert overview(run, motion(run), tmp_path / "overview.png").stat().st_size > 0
+    assert overview(run, motion(run), tmp_path / "overview.png", dpi=30).stat().st_size > 0
 
 
 # ---- studies hand over too ------------------------------------------------------------------

@@ -15,10 +15,16 @@ library starts from (derive/docs/bodies.md).  It needs ``[plane].restitution`` (
 flight may land on a corner); without it the run stops at lift-off as before.
 
 Landing flat is a multi-point impact (every corner of the face at once) that the general
-model does not make: where the first touch of the flight finds the touching face's
-corners (a disc's rim) within the runtime's height resolution of each other, the run
-stops there with status ``flat_landing`` (:func:`flat_spread`).  A landing on one corner,
-an edge's middle or a rim point goes on in the general model.
+model does not make: where the first touch of the flight coming down (after the
+hand-over's instant, v_n < 0) finds the touching face's corners (a disc's rim) within the
+runtime's height resolution of each other, the run stops there with status
+``flat_landing`` (:func:`flat_spread`).  A landing on one corner, an edge's middle or a
+rim point goes on in the general model.
+
+The flight is the run a scene written from the hand-over's state makes: its law proved
+over the flight alone (:func:`flight_scene`), its ``output_dt`` rows on the whole run's
+grid (``run_flight``'s origin).  A study's variants hand over too
+(:func:`derive.runtime.study.hand_over`, with these functions).
 """
 from __future__ import annotations
 
@@ -99,7 +105,7 @@ def hand_over(base, run_flight) -> object:
     t0 + k output_dt, not counted from the lift-off."""
     scene = base.scene
     t_l = float(base.t[-1])
-    if scene.t0 + scene.duration - t_l <= 1e-12 * max(1.0, abs(t_l)):
+    if not flies(scene, t_l):
         return base                          # lifted off at the end time: no flight
     state = general_state(scene, base.start, t_l, base.model_q[-1])
     fscene = flight_scene(scene, t_l, state)
@@ -112,6 +118,17 @@ def hand_over(base, run_flight) -> object:
     return _stitch(base, flight, state, landing)
 
 
+def flies(scene, t_l: float) -> bool:
+    """A lift-off at t_l leaves a flight: not at the end time (to 1e-12 of it)."""
+    return scene.t0 + scene.duration - t_l > 1e-12 * max(1.0, abs(t_l))
+
+
+def at_once(t: float) -> float:
+    """The last time that is the hand-over's instant t itself (events there are the
+    C's touch of a face just leaving the plane, to 1e-12)."""
+    return t + 1e-12 * max(1.0, abs(t))
+
+
 def fly(fscene, run_flight, origin: float | None = None) -> tuple:
     """The flight from the hand-over (a Result) and its flat landing (None: none): a
     first run to the first touch coming down (v_n < 0), stopped there if the face is
@@ -121,12 +138,12 @@ def fly(fscene, run_flight, origin: float | None = None) -> tuple:
     just above the plane after it (its height grows as (t - t_l)^3: N falls through 0
     with a slope); the first run takes more events until that touch or the end (up to
     64), then stops at it.  ``origin``: the output_dt grid's (the whole run's t0)."""
-    at_once = fscene.t0 + 1e-12 * max(1.0, abs(fscene.t0))
+    instant = at_once(fscene.t0)
     cap = min(fscene.max_events, 64)
     n = 1
     while True:
         first = run_flight(dataclasses.replace(fscene, max_events=n), origin)
-        touch = _first_landing(first, at_once)
+        touch = _first_landing(first, instant)
         if touch is not None or first.status != "max_events" or n >= cap:
             break
         n = min(2 * n, cap)
@@ -135,7 +152,7 @@ def fly(fscene, run_flight, origin: float | None = None) -> tuple:
         k = min(n, j)            # (past the touch: stop at it, where the C counts one
         while first.events[-1]["t"] > ev["t"] and k >= 1:   # event fewer than the rows:
             again = run_flight(dataclasses.replace(fscene, max_events=k), origin)  # a
-            found = _first_landing(again, at_once)   # contact begun at an impact is of it)
+            found = _first_landing(again, instant)   # contact begun at an impact is of it)
             if found is None:
                 break
             first, n, (i, ev, _) = again, k, found

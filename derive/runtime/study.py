@@ -361,8 +361,7 @@ def hand_over(part: Part, cols: dict, last: np.ndarray, ready: list) -> None:
     todo = []
     for k in np.flatnonzero(cols["status"] == "lift_off"):
         scene, t_l = part.scenes[k], float(last[k, 0])
-        if not scene.restitution_given or \
-                scene.t0 + scene.duration - t_l <= 1e-12 * max(1.0, abs(t_l)):
+        if not scene.restitution_given or not handover.flies(scene, t_l):
             continue                         # (no flight, as handover.hand_over)
         state = handover.general_state(scene, part.starts[k], t_l, last[k, 1:])
         todo.append((int(k), handover.flight_scene(scene, t_l, state)))
@@ -379,7 +378,7 @@ def hand_over(part: Part, cols: dict, last: np.ndarray, ready: list) -> None:
         # instant, a graze, a contact, a flat face) through fly itself
         A, Z = end[1:][handover.G.A], float(end[1:][handover.G.Z])
         flat = handover.flat_spread(fs, A) <= handover.height_resolution(fs, Z)
-        later = end[0] > fs.t0 + 1e-12 * max(1.0, abs(fs.t0))
+        later = end[0] > handover.at_once(fs.t0)
         (whole if row["impacts"] == 1 and later and not flat else alone).append((k, fs))
     flights.update(_flights(whole, ready))
     for k, fs in alone:                      # (a flat landing's cut: the driver's own)
