@@ -351,9 +351,10 @@ def hand_over(part: Part, cols: dict, last: np.ndarray, ready: list) -> None:
     """The base variants of ``part`` that stopped at lift-off with ``[plane].restitution``
     go on in the general model, as :func:`derive.simulate`'s do (handover.hand_over): the
     flights from the hand-over's states in calls into C of their model, as handover.fly
-    makes them (a first run to the first event; then, where that event is an impact on
-    a face not flat, the whole flight), the others (their first event a touch at the
-    hand-over's instant, a graze, or a landing on the face) through handover.fly itself.
+    makes them (a first run to the first event; where that is an impact, the flight ends
+    there with flat_landing if the face is flat, else the whole flight), the others
+    (their first event a touch at the hand-over's instant, a graze or a contact) through
+    handover.fly itself.
     Each such row then says the whole run, as summary_row of derive.simulate's Result:
     the flight's status, model, end, heights and first contact, the counts of both parts
     summed, C's travel and mean velocity from the base run's start.  In place; the other
@@ -374,12 +375,17 @@ def hand_over(part: Part, cols: dict, last: np.ndarray, ready: list) -> None:
         if row["status"] != "max_events" or fs.max_events == 1:
             continue                         # the first run is the flight
         # its one event an impact after the hand-over's instant (so coming down: fly's
-        # first landing) on a face not flat: the whole flight; any other (a touch at the
-        # instant, a graze, a contact, a flat face) through fly itself
+        # first landing): on a face flat, the flight cut there (handover._cut: no impact
+        # made, and the contact begun at it dropped), else the whole flight; any other (a
+        # touch at the instant, a graze, a contact) through fly itself
         A, Z = end[1:][handover.G.A], float(end[1:][handover.G.Z])
-        flat = handover.flat_spread(fs, A) <= handover.height_resolution(fs, Z)
-        later = end[0] > handover.at_once(fs.t0)
-        (whole if row["impacts"] == 1 and later and not flat else alone).append((k, fs))
+        if row["impacts"] != 1 or not end[0] > handover.at_once(fs.t0):
+            alone.append((k, fs))
+        elif handover.flat_spread(fs, A) <= handover.height_resolution(fs, Z):
+            row.update(status="flat_landing", impacts=row["impacts"] - 1,
+                       first_contact_t=math.nan)
+        else:
+            whole.append((k, fs))
     flights.update(_flights(whole, ready))
     for k, fs in alone:                      # (a flat landing's cut: the driver's own)
         run = handover.fly(fs, lambda sc, origin: run_prepared(prepare(sc)))[0]
