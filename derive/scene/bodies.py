@@ -261,20 +261,6 @@ def summary_of(points: tuple, rotors: tuple) -> tuple[LawSummary, str]:
                       max((s.amplitude for s in ps), default=0.0), scale), name
 
 
-def summary_over(scene, t0: float, t1: float) -> LawSummary:
-    """The summary of a scene's law over [t0, t1], as a scene of that run proves it: a
-    run that goes on from another's state at t0 (the flight after a lift-off) reads its
-    law there, as a scene written from that state by hand does, not over the whole run
-    (the summary's time scale bounds the step)."""
-    def one(law, text):
-        return _analyse_program(law, t0, t1) if text else law.summary(t0, t1)
-    if scene.internal is None:
-        return one(scene.law, scene.law_text) if scene.law is not None else scene.law_summary
-    points, rotors = scene.internal
-    return summary_of(tuple(replace(p, summary=one(p.law, p.law_text)) for p in points),
-                      tuple(replace(r, summary=one(r.law, r.law_text)) for r in rotors))[0]
-
-
 def centre_offset(points: tuple, M: float, t: float) -> tuple:
     """OC at t in body axes: sum m_j OP_j / (M + sum m_j) (rotors move no mass)."""
     total = M + sum(p.mass for p in points)
@@ -296,3 +282,17 @@ def refuse_analysis(scene, what: str) -> None:
     raise SceneError(where, f"{describe(len(scene.points), len(scene.rotors))}: {what} "
                             "reads one point's law (its formulas); `derive simulate` runs "
                             "the scene")
+
+
+def summary_over(scene, t0: float, t1: float) -> LawSummary:
+    """The summary of a scene's law over [t0, t1], as a scene of that run proves it: a
+    run that goes on from another's state at t0 (the flight after a lift-off) reads its
+    law there, as a scene written from that state by hand does, not over the whole run
+    (the summary's time scale bounds the step)."""
+    def one(law, text):
+        return _analyse_program(law, t0, t1) if text else law.summary(t0, t1)
+    if scene.internal is None:
+        return one(scene.law, scene.law_text) if scene.law is not None else scene.law_summary
+    points, rotors = scene.internal
+    return summary_of(tuple(replace(p, summary=one(p.law, p.law_text)) for p in points),
+                      tuple(replace(r, summary=one(r.law, r.law_text)) for r in rotors))[0]
