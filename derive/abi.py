@@ -48,6 +48,9 @@ OPTIONS = _names(
                      "to it", ">= 0"),
     ("zeno_dt", "accumulating impacts: enter contact when the remaining flights sum to less "
                 "than zeno_dt times the time scale"),
+    ("output_phase", "the output_dt grid's offset: rows at t0, then t0 + output_phase + k "
+                     "output_dt (0: t0 + output_dt, ...); a run that goes on from another's "
+                     "state keeps that run's grid (a hand-over after a lift-off)", ">= 0"),
 )
 
 # the internal bodies (issue 32): what the runtime needs to sum their moments (the

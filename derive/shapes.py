@@ -212,13 +212,17 @@ def _box(d, size, ops):
 def _cylinder(d, size, ops):
     """The point of the rim (radius R, along the horizontal part of d) on the end face that
     d points to (z = +-L).  Where d is along the axis (x = y = 0) every point of that end
-    face is a support point: ``1 - sign(x^2 + y^2)`` (1 there, 0 elsewhere) under the root
-    keeps the quotient and its derivatives finite and gives the face's centre, as the
-    box's sign 0 does."""
+    face is a support point: ``sign(1 - sign(x^2 + y^2))`` (1 there, 0 elsewhere) under
+    the root keeps the quotient and its derivatives finite and gives the face's centre, as
+    the box's sign 0 does.  It is ``1 - sign(rr)`` inside a sign of its own so that
+    SymPy keeps it apart (an Add would flatten it, and the C computed ``(rr - 1) + 1``):
+    added as a whole it is exact, where ``(rr - 1) + 1`` is 0 for rr below 1e-16 (a
+    cylinder 1e-8 rad off its end face, or a direction that near the axis) and R/0
+    times 0 was NaN, and lost bits of every rr below 1."""
     R, L = size
     x, y, z = d
     rr = x * x + y * y
-    k = R / ops.sqrt(rr + 1 - ops.sign(rr))
+    k = R / ops.sqrt(rr + ops.sign(1 - ops.sign(rr)))
     return (k * x, k * y, L * ops.sign(z))
 
 

@@ -108,6 +108,51 @@ def test_a_box_pushed_straight_up_lifts_off_flies_and_lands_flat(up):
     assert up.events[-1]["kind"] == "flat_landing" and up.stats["impacts"] == 0
 
 
+@pytest.mark.parametrize("f, first", [(1.2, "contact"), (1.5, "graze")])
+def test_a_touch_at_the_hand_over_instant_is_no_landing(f, first):
+    """Pushed up at a peak of f g (f a little above 1), the C finds the face touching at
+    the hand-over's instant itself, v_n round-off (a contact it leaves at once, or a
+    graze): that is no landing (it was: a flight of 0 s, landed flat).  The flat landing
+    is later, at the root of the face's height with C on its parabola from the
+    hand-over's state (as for the box pushed up above)."""
+    Af = f * (M + m) * g / (m * W * W)
+    run = simulate(_scene(f'["0", "0", "{Af!r}*sin({W}*t)"]', duration=0.3))
+    h = run.handover
+    assert abs(h.t - math.asin(1.0 / f) / W) < 1e-9
+    at_once = [ev for ev in h.flight.events if ev["t"] - h.t < 1e-12]
+    assert at_once[0]["kind"] == first and abs(at_once[0]["v_minus"]) < 1e-15
+    Z0, V0 = h.state[G.Z], h.state[G.Zd]
+
+    def face(tt):
+        return Z0 + V0 * (tt - h.t) - 0.5 * g * (tt - h.t) ** 2 \
+            - m * Af * np.sin(W * tt) / (M + m) - 0.04
+    ts = np.linspace(h.t + 1e-6, h.t + 0.3, 30001)
+    k = int(np.flatnonzero(face(ts) < 0)[0])
+    t_land = brentq(face, ts[k - 1], ts[k], xtol=1e-15)
+    assert run.status == "flat_landing" and abs(h.landing["t"] - t_land) < 1e-9
+    assert h.landing["t"] - h.t > 0.05
+
+
+def test_the_flights_rows_are_on_the_runs_output_grid():
+    """With [run].output_dt the flight's rows are t0 + k output_dt, the run's grid (they
+    counted from the lift-off): every step row after the hand-over on it to 1e-12, each
+    grid time between the hand-over and the landing there once, and Z_C on those rows
+    on its parabola from the hand-over's state (the dense output read at them)."""
+    from derive import abi
+    dt = 0.01
+    run = simulate(dataclasses.replace(_scene(UP, duration=0.6), output_dt=dt))
+    h = run.handover
+    flight = (run.row_kind == abi.ROW_KIND["step"]) & (run.t > h.t)
+    t = run.t[flight]
+    k = np.round((t - run.scene.t0) / dt)
+    assert np.max(np.abs(t - (run.scene.t0 + k * dt))) < 1e-12
+    want = np.arange(math.floor(h.t / dt) + 1, math.ceil(run.t[-1] / dt))
+    assert np.array_equal(k, want) and len(k) >= 10
+    tau = t - h.t
+    Z = h.state[G.Z] + h.state[G.Zd] * tau - 0.5 * g * tau ** 2
+    assert np.max(np.abs(run.model_q[flight, G.Z] - Z)) < 1e-9
+
+
 def _independent_state(scene, base) -> np.ndarray:
     """C's position and velocity and the attitude from the base state at lift-off, here
     from the law's formulas: OC = m OP/(M + m) (the body's centre at O), r_O = (X_O, Y_O,
@@ -172,10 +217,11 @@ def test_a_tilted_lift_off_lands_on_a_corner_and_goes_on(tilt):
                      f"com = {s[G.com].tolist()}\ncom_velocity = {s[G.com_velocity].tolist()}\n"
                      f"omega = {s[G.omega].tolist()}\nmatrix = "
                      f"{s[G.A].reshape(3, 3).tolist()}\ntime = {h.t!r}"))
-    # (the flight keeps the whole run's law summary, whose time scale bounds the step:
-    # the same bound here, else the steps part in the impacts' accumulation, 1e-9 apart)
-    alone = simulate(dataclasses.replace(parse_scene(text),
-                                         law_summary=tilt.scene.law_summary))
+    # (the flight's law proved over the flight alone, as this scene proves it: the
+    # whole run's time scale, which bounds the step, parted them 1e-9 in the impacts'
+    # accumulation)
+    alone = simulate(parse_scene(text))
+    assert alone.scene.law_summary == h.flight.scene.law_summary
     assert alone.model == tilt.model and alone.status == tilt.status
     a = len(h.base.t)
     assert len(alone.t) == len(tilt.t) - a
@@ -252,6 +298,7 @@ def test_random_lift_offs_are_handed_over_honestly():
         if run.status == "flat_landing":
             flat += 1
             assert h.landing["spread"] <= h.landing["resolution"]
+            assert h.landing["t"] - h.t > 1e-6, k      # (a flight, not the C's touch at once)
         elif touches:                               # a corner or a rim point: not flat
             j = int(np.searchsorted(h.flight.t, touches[0]["t"]))
             res = handover.height_resolution(run.scene, float(h.flight.model_q[j, G.Z]))
@@ -308,3 +355,78 @@ def test_the_robustness_judge_of_a_handover_can_fail(up):
                    ).ravel()
     tilted = dataclasses.replace(h, flight=dataclasses.replace(h.flight, model_q=fq))
     assert judge_handover(dataclasses.replace(up, handover=tilted))[0] == "landing"
+
+
+# ---- drawing a cylinder ---------------------------------------------------------------------
+@pytest.mark.filterwarnings("error")
+def test_a_cylinder_is_drawn_with_no_invalid_value(tmp_path):
+    """The principal sections drawing.body_pictures draws meet directions 1e-16 off the
+    cylinder's axis (cos(pi/2)), where (rr + 1) - 1 was 0 and R/0 times 0 NaN ("invalid
+    value encountered in matmul"): the support points of those directions against the
+    closed form (the rim at R (x, y)/|(x, y)| on the end face z = L sign(d_z), its centre
+    along the axis), then a cylinder's hop drawn as an overview, warnings as errors."""
+    from derive.runtime.plots import overview
+    from derive.shapes import SHAPES
+    R, L = 0.08, 0.03
+    ang = np.linspace(0.0, 2.0 * np.pi, 73)
+    d = np.column_stack([np.zeros(73), np.cos(ang), np.sin(ang)])     # the (y, z) section
+    d = np.vstack([d, [[0.0, 0.0, 1.0], [0.0, 0.0, -1.0], [1e-150, 0.0, 1.0]]])
+    got = SHAPES["cylinder"].support_rows(d, (R, L))
+    rho = np.hypot(d[:, 0], d[:, 1])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        rim = np.where(rho[:, None] > 0, R * d[:, :2] / rho[:, None], 0.0)
+    want = np.column_stack([rim, L * np.sign(d[:, 2])])
+    assert np.isfinite(got).all() and np.max(np.abs(got - want)) < 1e-15
+    text = _SCENE.format(name="cyl", M=M, m=m, law=UP, spin=SPIN, duration=0.1).replace(
+        'shape = "box"\nhalf_extents = [0.1, 0.06, 0.04]',
+        f'shape = "cylinder"\nradius = {R}\nhalf_length = {L}')
+    run = simulate(parse_scene(text))
+    assert run.handover is not None
+    assert overview(run, motion(run), tmp_path / "overview.png", dpi=30).stat().st_size > 0
+
+
+# ---- studies hand over too ------------------------------------------------------------------
+def test_a_study_hands_over_as_simulate_does():
+    """derive.simulate_many (derive simulate --sweep) of variants either side of lift-off
+    (the push's peak m A W^2/(M + m) at 0.8 g and 1.5 g: one stays on its face, one lifts
+    off and lands flat) and the tilted one that lands on a corner and goes on (its whole
+    flight in the general model's batch): each row equals summary_row of derive.simulate
+    of that variant, bit for bit but the time it took, and keep = "result" gives that
+    Result's status and end."""
+    import tomllib
+
+    import derive
+    from derive.runtime.study import summary_row
+    from derive.scene.overrides import apply_to_doc
+    doc = tomllib.loads(_SCENE.format(name="hop", M=M, m=m, law=UP, spin=SPIN, duration=0.3))
+    laws = [["0", "0", f"{f * (M + m) * g / (m * W * W)!r}*sin({W}*t)"] for f in (0.8, 1.5)]
+    variants = [{"point.law": law} for law in laws] + [
+        {"point.law": json.loads(TILT), "initial.omega": [0.0, 0.0, 0.0]}]
+    rng = np.random.default_rng(36)        # and 12 seeded ones, as the random runs above
+    for k in range(12):
+        Wk, ratio = rng.uniform(20.0, 50.0), rng.uniform(0.3, 0.9)
+        Ak = (M + m) * g / (ratio * m * Wk * Wk)
+        side = ["0", "0"] if k % 3 else [
+            f"{0.01 * rng.uniform(0.2, 1)!r}*sin(25*(t - {math.asin(ratio) / Wk!r}))", "0"]
+        variants.append({"point.law": [*side, f"{Ak!r}*sin({Wk!r}*t)"],
+                         "initial.omega": [0.0, 0.0, float(rng.uniform(-4, 4))],
+                         "initial.carrier_velocity": [*map(float, rng.uniform(-0.3, 0.3, 2)),
+                                                      0.0],
+                         "plane.friction": float(rng.uniform(0.2, 1.0))})
+    batch = derive.simulate_many(doc, variants, workers=1)
+    kept = derive.simulate_many(doc, variants, workers=1, keep="result").results
+    statuses = []
+    for v, row, res in zip(variants, batch.rows, kept):
+        d = json.loads(json.dumps(doc))
+        for name, value in v.items():
+            apply_to_doc(d, name, value)
+        run = derive.simulate(d)
+        want = summary_row(run)
+        same = {k: row[k] == want[k] or (row[k] != row[k] and want[k] != want[k])
+                for k in want if k != "run_ms"}               # (NaN: no contact)
+        assert all(same.values()), (v, {k: (row[k], want[k]) for k in same if not same[k]})
+        assert (res.status, res.t[-1]) == (run.status, run.t[-1])
+        statuses.append((row["status"], row["model"], run.handover is not None))
+    assert statuses[:3] == [("done", "base", False), ("flat_landing", "rough", True),
+                            ("surface_jump", "rough", True)]
+    assert sum(handed for _, _, handed in statuses[3:]) >= 8, statuses

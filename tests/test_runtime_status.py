@@ -292,7 +292,8 @@ CHECKED = [o for o in abi.OPTIONS if o.rule]
 def test_every_checked_option_has_a_rule_the_test_can_break():
     assert [o.name for o in CHECKED] == ["method", "rtol", "atol", "hmax", "rk4_step",
                                         "max_steps", "max_events", "output_dt",
-                                        "time_scale", "event_tol", "length_scale"]
+                                        "time_scale", "event_tol", "length_scale",
+                                        "output_phase"]
 
 
 @pytest.mark.parametrize("option", CHECKED, ids=lambda o: o.name)

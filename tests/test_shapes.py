@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 import sympy as sp
 
-from derive import abi, shapes, surfaces
+from derive import abi, layout, shapes, surfaces
 from derive import notation as nt
 from derive.kinematics import poisson_equations
 from derive.runtime.build import library
@@ -133,6 +133,35 @@ def test_the_compiled_runtime_reads_the_same_surface(name):
                                  zip(sc.A0[2], shape.lowest(sc.A0[2], sc.center, sc.size), r))
         h_c, _ = session.gap(0.0, prep.start.q0)
         assert math.isclose(h_c, h_here, rel_tol=0, abs_tol=1e-12 * sc.com[2]), name
+
+
+def test_a_cylinder_nearly_on_its_end_has_its_rim_point_in_the_compiled_runtime():
+    """A cylinder tilted 1e-20 to 1e-6 rad off its end face (as after a lift-off from it,
+    where round-off tilts it): the C's gap against S written here, the rim point
+    c + (-R n_x/rho, -R n_y/rho, -L sign n_z) (the face's centre at rho = 0).  The C
+    computed 1 - sign(rho^2) as (rho^2 - 1) + 1, 0 below rho^2 = 1e-16: NaN."""
+    rng = np.random.default_rng(7)
+    R, L = 0.3, 0.2
+    prep = prepare({**_scene("cylinder", (R, L), rng),
+                    "initial": {"com": [0.0, 0.0, 5.0], "omega": [0.3, -0.2, 0.5]}})
+    session = Session(library("general"), chunk=64)
+    session.set_law(prep.scene.law)
+    session.init(prep.options, prep.parameters, 0.0, prep.start.q0)
+    sc, G = prep.scene, layout.GENERAL
+    r = sc.law.point(0.0)[:3]
+    for tilt in (0.0, 1e-20, 1e-12, 1e-9, 1e-6):
+        c, s = math.cos(tilt), math.sin(tilt)
+        A = np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]]) @ \
+            np.array([[0.6, -0.8, 0.0], [0.8, 0.6, 0.0], [0.0, 0.0, 1.0]])
+        q = prep.start.q0.copy()
+        q[G.A] = A.ravel()
+        n = A[2]
+        rho = math.hypot(n[0], n[1])
+        rim = [-R * n[0] / rho, -R * n[1] / rho] if rho > 0 else [0.0, 0.0]
+        S = np.asarray(sc.center) + [*rim, -L * math.copysign(1.0, n[2])]
+        h_here = sc.com[2] + float(n @ (S - sc.nu * np.asarray(r)))
+        h_c, v_c = session.gap(0.0, q)
+        assert math.isfinite(v_c) and abs(h_c - h_here) <= 1e-14 * sc.com[2], (tilt, h_c)
 
 
 @pytest.mark.parametrize("shape, stray, message", [

@@ -12,8 +12,9 @@ re-runs a scene through :func:`simulate` where it needs rows closer together).
 """
 from __future__ import annotations
 
+import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import cached_property
 
 import numpy as np
@@ -71,7 +72,28 @@ class Prepared:
         return library(self.kind)
 
 
-def prepare(scene) -> Prepared:
+def prepare(scene, output_origin: float | None = None) -> Prepared:
+    """A scene ready to run; ``output_origin``: its output_dt rows on the grid
+    output_origin + k output_dt (a run that goes on from another's state at t0, on that
+    run's grid: the flight after a lift-off), else t0 + k output_dt."""
+    prep = _prepare(scene)
+    if output_origin is not None and prep.scene.output_dt > 0.0:
+        opt = prep.options.copy()
+        opt[_O["output_phase"]] = grid_phase(output_origin, prep.scene.t0,
+                                             prep.scene.output_dt)
+        prep = replace(prep, options=opt)
+    return prep
+
+
+def grid_phase(origin: float, t0: float, dt: float) -> float:
+    """How far after t0 the first point of the grid origin + k dt later than t0 is (in
+    (0, dt]; dt, as 0, where t0 is on the grid)."""
+    k = math.floor((t0 - origin) / dt) + 1.0
+    phase = origin + k * dt - t0
+    return phase if phase > 0.0 else phase + dt
+
+
+def _prepare(scene) -> Prepared:
     scene, static = _load(scene)
     kind, why = choice.choose(scene)
     st = choice.start(scene, kind)
@@ -284,6 +306,17 @@ def run_prepared(prep: Prepared, session: Session | None = None, progress=None,
                   status=raw.status, start=prep.start, rates=rates, timings=timings)
 
 
+def run_scene(prep: Prepared, session: Session | None = None, progress=None) -> Result:
+    """The run of a prepared scene as :func:`simulate` makes it: a base run that lifts off
+    with ``[plane].restitution`` goes on in the general model (runtime/handover.py).  A
+    study's whole results (simulate_many's keep = "result") are these."""
+    result = run_prepared(prep, session, progress)
+    if result.status == "lift_off" and prep.scene.restitution_given:
+        from .handover import hand_over        # the flight from the lift-off on
+        result = hand_over(result, lambda sc, origin=None: run_prepared(prepare(sc, origin)))
+    return result
+
+
 def simulate(scene, progress: bool = False) -> Result:
     """Simulate a scene (a path, a dict of the schema, or a :class:`Scene`); see the
     README's recipes and derive/docs/runtime.md.  ``progress``: a bar on stderr for runs
@@ -295,10 +328,7 @@ def simulate(scene, progress: bool = False) -> Result:
     if progress:
         from ..progress import Bar
         bar = Bar("simulating")
-    result = run_prepared(prep, progress=bar.update if bar else None)
-    if result.status == "lift_off" and prep.scene.restitution_given:
-        from .handover import hand_over        # the flight from the lift-off on
-        result = hand_over(result, lambda sc: run_prepared(prepare(sc)))
+    result = run_scene(prep, progress=bar.update if bar else None)
     if bar:
         bar.close()
     result.timings = {"prepare_s": t_prepare, **result.timings,

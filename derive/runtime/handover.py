@@ -15,10 +15,16 @@ library starts from (derive/docs/bodies.md).  It needs ``[plane].restitution`` (
 flight may land on a corner); without it the run stops at lift-off as before.
 
 Landing flat is a multi-point impact (every corner of the face at once) that the general
-model does not make: where the first touch of the flight finds the touching face's
-corners (a disc's rim) within the runtime's height resolution of each other, the run
-stops there with status ``flat_landing`` (:func:`flat_spread`).  A landing on one corner,
-an edge's middle or a rim point goes on in the general model.
+model does not make: where the first touch of the flight coming down (after the
+hand-over's instant, v_n < 0) finds the touching face's corners (a disc's rim) within the
+runtime's height resolution of each other, the run stops there with status
+``flat_landing`` (:func:`flat_spread`).  A landing on one corner, an edge's middle or a
+rim point goes on in the general model.
+
+The flight is the run a scene written from the hand-over's state makes: its law proved
+over the flight alone (:func:`flight_scene`), its ``output_dt`` rows on the whole run's
+grid (``run_flight``'s origin).  A study's variants hand over too
+(:func:`derive.runtime.study.hand_over`, with these functions).
 """
 from __future__ import annotations
 
@@ -48,10 +54,16 @@ def general_state(scene, st: choice.Start, t: float, q) -> np.ndarray:
 
 def flight_scene(scene, t: float, state) -> "object":
     """The scene from time t on, started in the general state ``state`` off the face
-    (the base model's own keys dropped: the general model refuses them)."""
+    (the base model's own keys dropped: the general model refuses them), its law proved
+    over the flight alone, as a scene written from that state by hand proves it (the
+    summary's time scale bounds the step: the whole run's gave other steps, whose
+    impacts' accumulation ended 1e-9 apart)."""
+    from ..scene.bodies import summary_over
     state = np.asarray(state, dtype=float)
+    duration = scene.t0 + scene.duration - float(t)
     return dataclasses.replace(
-        scene, on_plane=False, t0=float(t), duration=scene.t0 + scene.duration - float(t),
+        scene, on_plane=False, t0=float(t), duration=duration,
+        law_summary=summary_over(scene, float(t), float(t) + duration),
         com=tuple(state[G.com]), com_velocity=tuple(state[G.com_velocity]),
         omega=tuple(state[G.omega]), A0=state[G.A].reshape(3, 3).copy(),
         static_friction=None, pressure=None, model="auto")
@@ -87,50 +99,84 @@ def hand_over(base, run_flight) -> object:
     """The run of ``base`` (a base Result that stopped with ``lift_off``) continued in
     the general model to the end time: a Result of the flight's model whose rows, events
     and counters are the base run's (in the general layout) then the flight's, with
-    ``handover`` saying where and what.  ``run_flight(scene) -> Result`` runs a scene
-    in its model, with no hand-over (driver.run_prepared of driver.prepare)."""
+    ``handover`` saying where and what.  ``run_flight(scene, origin=None) -> Result`` runs
+    a scene in its model, with no hand-over, its output_dt rows on the grid origin + k
+    output_dt (driver.run_prepared of driver.prepare): the flight's on the run's grid,
+    t0 + k output_dt, not counted from the lift-off."""
     scene = base.scene
     t_l = float(base.t[-1])
-    if scene.t0 + scene.duration - t_l <= 1e-12 * max(1.0, abs(t_l)):
+    if not flies(scene, t_l):
         return base                          # lifted off at the end time: no flight
     state = general_state(scene, base.start, t_l, base.model_q[-1])
     fscene = flight_scene(scene, t_l, state)
-    flight, landing = fly(fscene, run_flight)
+    flight, landing = fly(fscene, run_flight, scene.t0)
     # each part's denser rows (the balance's, the pictures') from its own runs: the base
     # alone (simulate of the scene would hand over again), the flight as it was made
     base.rerun = lambda output_dt: run_flight(dataclasses.replace(scene, output_dt=output_dt))
     flight.rerun = lambda output_dt: fly(dataclasses.replace(fscene, output_dt=output_dt),
-                                         run_flight)[0]
+                                         run_flight, scene.t0)[0]
     return _stitch(base, flight, state, landing)
 
 
-def fly(fscene, run_flight) -> tuple:
+def flies(scene, t_l: float) -> bool:
+    """A lift-off at t_l leaves a flight: not at the end time (to 1e-12 of it)."""
+    return scene.t0 + scene.duration - t_l > 1e-12 * max(1.0, abs(t_l))
+
+
+def at_once(t: float) -> float:
+    """The last time that is the hand-over's instant t itself (events there are the
+    C's touch of a face just leaving the plane, to 1e-12)."""
+    return t + 1e-12 * max(1.0, abs(t))
+
+
+def fly(fscene, run_flight, origin: float | None = None) -> tuple:
     """The flight from the hand-over (a Result) and its flat landing (None: none): a
-    first run to the first event, stopped there if the face touches flat, else the
-    whole flight (the same steps to that event)."""
-    first = run_flight(dataclasses.replace(fscene, max_events=1))
-    touch = _first_touch(first)
-    if touch is not None and touch[1]["v_minus"] < 0.0:   # (coming down: a landing)
-        i, ev = touch
+    first run to the first touch coming down (v_n < 0), stopped there if the face is
+    flat, else the whole flight (the same steps to that touch).  Touches before it are
+    no landing: the C may find the face touching at the hand-over's instant itself, v_n
+    round-off (a graze, or a contact it leaves at once), and grazes as the face hovers
+    just above the plane after it (its height grows as (t - t_l)^3: N falls through 0
+    with a slope); the first run takes more events until that touch or the end (up to
+    64), then stops at it.  ``origin``: the output_dt grid's (the whole run's t0)."""
+    instant = at_once(fscene.t0)
+    cap = min(fscene.max_events, 64)
+    n = 1
+    while True:
+        first = run_flight(dataclasses.replace(fscene, max_events=n), origin)
+        touch = _first_landing(first, instant)
+        if touch is not None or first.status != "max_events" or n >= cap:
+            break
+        n = min(2 * n, cap)
+    if touch is not None:
+        i, ev, j = touch
+        k = min(n, j)            # (past the touch: stop at it, where the C counts one
+        while first.events[-1]["t"] > ev["t"] and k >= 1:   # event fewer than the rows:
+            again = run_flight(dataclasses.replace(fscene, max_events=k), origin)  # a
+            found = _first_landing(again, instant)   # contact begun at an impact is of it)
+            if found is None:
+                break
+            first, n, (i, ev, _) = again, k, found
+            k -= 1
         spread = flat_spread(fscene, first.model_q[i, G.A])
         resolution = height_resolution(fscene, float(first.model_q[i, G.Z]))
         if spread <= resolution:
             landing = {"t": float(first.t[i]), "spread": float(spread),
                        "resolution": resolution, "v_n": float(ev["v_minus"])}
             return _cut(first, i, ev, spread), landing
-    if first.status == "max_events" and fscene.max_events != 1:
-        return run_flight(fscene), None
+    if first.status == "max_events" and fscene.max_events != n:
+        return run_flight(fscene, origin), None
     return first, None
 
 
-def _first_touch(run):
-    """(the index of the before row, the event) of the flight's first impact, contact or
-    graze, or None (a touch with v_n >= 0 at once after the lift-off, in a flight of
-    1e-11 s, is no landing: the caller reads v_minus)."""
+def _first_landing(run, after: float):
+    """(the index of the before row, the event, how many events up to it) of the
+    flight's first impact, contact or graze later than ``after`` (the hand-over's
+    instant) with v_n < 0 (coming down), or None."""
     from .events import event_rows
     for i, ev in event_rows(run):
-        if ev["kind"] in ("impact", "contact", "graze"):
-            return i, ev
+        if ev["kind"] in ("impact", "contact", "graze") and ev["t"] > after \
+                and ev["v_minus"] < 0.0:
+            return i, ev, 1 + next(k for k, e in enumerate(run.events) if e is ev)
     return None
 
 

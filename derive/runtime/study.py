@@ -22,6 +22,7 @@ its columns are sliced out of the C's arrays, with no Python per variant.
 from __future__ import annotations
 
 import copy
+import dataclasses
 import math
 import time
 from dataclasses import dataclass
@@ -29,8 +30,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import abi
-from . import choice
-from .driver import options, prepare, run_prepared, session_for
+from . import choice, handover
+from .driver import options, prepare, run_prepared, run_scene, session_for
 from ..scene import SceneError, build_scene, bulk, overrides
 from ..scene.schema import SCENE
 
@@ -247,12 +248,15 @@ def _session(kind: str, ready: list):
     return session
 
 
-def run_part(part: Part, ready: list) -> dict:
-    """The columns of a part's variants: one call into C."""
+def run_part(part: Part, ready: list, last: list | None = None) -> dict:
+    """The columns of a part's variants: one call into C (``last``: a list given gets the
+    C's last rows, t then q, the state a lift-off hands over)."""
     session = _session(part.kind, ready)
     session.set_law(part.law)
     n = len(part)
     out = session.run_many(part.t0, part.t_end, part.q0, part.opt, part.prm)
+    if last is not None:
+        last.append(out["last"])
     cols = empty_columns(n)
     codes = out["status"]
     found = np.unique(codes)
@@ -294,6 +298,17 @@ def run_part(part: Part, ready: list) -> dict:
     return cols
 
 
+def part_of(kind: str, preps: list, index: list) -> Part:
+    """A part of prepared scenes of one model and law, numbered ``index``."""
+    return Part(kind, preps[0].scene.runtime_law, np.array(index),
+                np.array([p.scene.t0 for p in preps]),
+                np.array([p.scene.t0 + p.scene.duration for p in preps]),
+                np.array([p.start.q0 for p in preps]), np.array([p.options for p in preps]),
+                np.array([p.parameters for p in preps]),
+                np.array([choice.start_of_c(p.scene) for p in preps]), [p.scene for p in preps],
+                [p.start for p in preps])
+
+
 def run_singles(base: dict, origin, items: list, keep: str, ready: list) -> tuple:
     """The variants one at a time through the per-scene path: (columns, whole results
     (keep = "result") or None).  Summaries: the valid variants of one model and law in
@@ -310,7 +325,7 @@ def run_singles(base: dict, origin, items: list, keep: str, ready: list) -> tupl
         try:
             prep = prepare_variant(base, origin, base_v, base_given, index, changes)
             if keep == "result":
-                results[k] = run_prepared(prep, _session(prep.kind, ready))
+                results[k] = run_scene(prep, _session(prep.kind, ready))
                 for name, value in summary_row(results[k]).items():
                     cols[name][k] = value
                 continue
@@ -320,16 +335,86 @@ def run_singles(base: dict, origin, items: list, keep: str, ready: list) -> tupl
         groups.setdefault((prep.kind, id(prep.scene.runtime_law)), []).append(
             (k, index, prep))
     for (kind, _), members in groups.items():
-        preps = [p for _, _, p in members]
-        part = Part(kind, preps[0].scene.runtime_law, np.array([i for _, i, _ in members]),
-                    np.array([p.scene.t0 for p in preps]),
-                    np.array([p.scene.t0 + p.scene.duration for p in preps]),
-                    np.array([p.start.q0 for p in preps]), np.array([p.options for p in preps]),
-                    np.array([p.parameters for p in preps]),
-                    np.array([choice.start_of_c(p.scene) for p in preps]), [p.scene for p in preps],
-                    [p.start for p in preps])
-        got = run_part(part, ready)
+        part = part_of(kind, [p for _, _, p in members], [i for _, i, _ in members])
+        last: list = []
+        got = run_part(part, ready, last)
+        if kind == "base":                  # lift-offs fly on, as derive.simulate's do
+            hand_over(part, got, last[0], ready)
         at = np.array([k for k, _, _ in members])
         for name, col in got.items():
             cols[name][at] = col
     return cols, (results if keep == "result" else None)
+
+
+# ---- the hand-over: a base variant that lifts off flies on (runtime/handover.py) ----------
+def hand_over(part: Part, cols: dict, last: np.ndarray, ready: list) -> None:
+    """The base variants of ``part`` that stopped at lift-off with ``[plane].restitution``
+    go on in the general model, as :func:`derive.simulate`'s do (handover.hand_over): the
+    flights from the hand-over's states in calls into C of their model, as handover.fly
+    makes them (a first run to the first event; where that is an impact, the flight ends
+    there with flat_landing if the face is flat, else the whole flight), the others
+    (their first event a touch at the hand-over's instant, a graze or a contact) through
+    handover.fly itself.
+    Each such row then says the whole run, as summary_row of derive.simulate's Result:
+    the flight's status, model, end, heights and first contact, the counts of both parts
+    summed, C's travel and mean velocity from the base run's start.  In place; the other
+    variants' rows as they were (no Python per variant)."""
+    todo = []
+    for k in np.flatnonzero(cols["status"] == "lift_off"):
+        scene, t_l = part.scenes[k], float(last[k, 0])
+        if not scene.restitution_given or not handover.flies(scene, t_l):
+            continue                         # (no flight, as handover.hand_over)
+        state = handover.general_state(scene, part.starts[k], t_l, last[k, 1:])
+        todo.append((int(k), handover.flight_scene(scene, t_l, state)))
+    if not todo:
+        return
+    flights = _flights([(k, dataclasses.replace(fs, max_events=1)) for k, fs in todo], ready)
+    whole, alone = [], []
+    for k, fs in todo:
+        row, end = flights[k]
+        if row["status"] != "max_events" or fs.max_events == 1:
+            continue                         # the first run is the flight
+        # its one event an impact after the hand-over's instant (so coming down: fly's
+        # first landing): on a face flat, the flight cut there (handover._cut: no impact
+        # made, and the contact begun at it dropped), else the whole flight; any other (a
+        # touch at the instant, a graze, a contact) through fly itself
+        A, Z = end[1:][handover.G.A], float(end[1:][handover.G.Z])
+        if row["impacts"] != 1 or not end[0] > handover.at_once(fs.t0):
+            alone.append((k, fs))
+        elif handover.flat_spread(fs, A) <= handover.height_resolution(fs, Z):
+            row.update(status="flat_landing", impacts=row["impacts"] - 1,
+                       first_contact_t=math.nan)
+        else:
+            whole.append((k, fs))
+    flights.update(_flights(whole, ready))
+    for k, fs in alone:                      # (a flat landing's cut: the driver's own)
+        run = handover.fly(fs, lambda sc, origin: run_prepared(prepare(sc)))[0]
+        flights[k] = (summary_row(run), np.concatenate([[run.t[-1]], run.model_q[-1]]))
+    for k, _ in todo:
+        row, end = flights[k]
+        scene, t_end = part.scenes[k], float(end[0])
+        for name in ("status", "model", "t_end", "min_height", "first_contact_t", "Z_C_end"):
+            cols[name][k] = row[name]
+        for name in COUNT_COLUMNS:
+            cols[name][k] += row[name]
+        cols["run_ms"][k] += row["run_ms"]
+        travel = choice.travel(row["model"], scene.t0, t_end, end[1:], part.c0[k], scene)
+        for name, value in {**travel, **means(travel, part.c0[k], scene.t0, t_end)}.items():
+            cols[name][k] = value
+
+
+def _flights(items: list, ready: list) -> dict:
+    """{k: (the summary columns of the flight of scene fs, its last row: t then q)} for
+    items [(k, fs)], the flights of one model and law in one call into C."""
+    groups: dict = {}
+    for k, fs in items:
+        prep = prepare(fs)
+        groups.setdefault((prep.kind, id(prep.scene.runtime_law)), []).append((k, prep))
+    out = {}
+    for (kind, _), members in groups.items():
+        part = part_of(kind, [p for _, p in members], [k for k, _ in members])
+        last: list = []
+        got = run_part(part, ready, last)
+        for j, (k, _) in enumerate(members):
+            out[k] = ({name: got[name][j] for name in SUMMARY_COLUMNS}, last[0][j])
+    return out

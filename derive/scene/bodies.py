@@ -12,7 +12,7 @@ locked).  Messages name the element: ``[point].law[1]`` for the single table,
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import lru_cache
 from pathlib import Path
 from typing import Any
@@ -282,3 +282,17 @@ def refuse_analysis(scene, what: str) -> None:
     raise SceneError(where, f"{describe(len(scene.points), len(scene.rotors))}: {what} "
                             "reads one point's law (its formulas); `derive simulate` runs "
                             "the scene")
+
+
+def summary_over(scene, t0: float, t1: float) -> LawSummary:
+    """The summary of a scene's law over [t0, t1], as a scene of that run proves it: a
+    run that goes on from another's state at t0 (the flight after a lift-off) reads its
+    law there, as a scene written from that state by hand does, not over the whole run
+    (the summary's time scale bounds the step)."""
+    def one(law, text):
+        return _analyse_program(law, t0, t1) if text else law.summary(t0, t1)
+    if scene.internal is None:
+        return one(scene.law, scene.law_text) if scene.law is not None else scene.law_summary
+    points, rotors = scene.internal
+    return summary_of(tuple(replace(p, summary=one(p.law, p.law_text)) for p in points),
+                      tuple(replace(r, summary=one(r.law, r.law_text)) for r in rotors))[0]

@@ -556,7 +556,8 @@ def judge_handover(result) -> tuple[str, str]:
     beyond round-off or from the base state's C = O + A OC (derive.runtime.choice's
     base_c, against the general state handed over), ``status`` where the flight ends
     otherwise than done or an honest stop, ``landing`` where a flat landing's corners are
-    not within the height resolution, or the first touch of a flight that goes on is."""
+    not within the height resolution, or those of the first touch coming down of a
+    flight that goes on are."""
     from ..runtime import handover as ho
     from ..runtime.choice import base_c
     h = result.handover
@@ -574,10 +575,12 @@ def judge_handover(result) -> tuple[str, str]:
         return "status", f"the flight ended with {result.status} at t = {result.t[-1]:.6g}"
     if not np.all(np.isfinite(result.model_q)):
         return "nan", "non-finite state in the flight"
+    # the first touch coming down after the hand-over's instant (at that instant the face
+    # is on the plane with v_n = 0, and the C may touch it; after it, grazes with v_n > 0
+    # as the face hovers): no other is a landing
     touch = next((ev for ev in h.flight.events
-                  if ev["kind"] in ("impact", "contact", "graze", "flat_landing")), None)
-    if touch is not None and not touch["v_minus"] < 0.0:
-        touch = None                         # (not coming down: no landing)
+                  if ev["kind"] in ("impact", "contact", "graze", "flat_landing")
+                  and ev["t"] > ho.at_once(h.t) and ev["v_minus"] < 0.0), None)
     if touch is not None:
         j = int(np.searchsorted(h.flight.t, touch["t"]))
         q = h.flight.model_q[j]

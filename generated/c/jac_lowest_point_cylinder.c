@@ -3,7 +3,7 @@
  * Regenerate with `derive emit`; `derive emit --check` compares with a fresh render.
  * Tools: sympy 1.14.0, casadi 3.8.2 (ABI), jinja2 3.1.6.
  * jac_lowest_point_cylinder(n[3], center[3], size[2]) -> (jac_s_n[4 of 3x3], jac_s_center[3 of 3x3], jac_s_size[3 of 3x2])
- * Total ops: 26 (SymPy count_ops of the program after CSE), 8 intermediate terms.
+ * Total ops: 27 (SymPy count_ops of the program after CSE), 8 intermediate terms.
  */
 
 #include <math.h>
@@ -26,7 +26,7 @@ void carrier_jac_lowest_point_cylinder(const double *n, const double *center, co
   const double c0 = n[0]*n[0];
   const double c1 = n[1]*n[1];
   const double c2 = c0 + c1;
-  const double c3 = c2 - (((c2) > 0) - ((c2) < 0)) + 1.0;
+  const double c3 = c2 + (((1.0 - (((c2) > 0) - ((c2) < 0))) > 0) - ((1.0 - (((c2) > 0) - ((c2) < 0))) < 0));
   const double c4 = 1.0/sqrt(c3);
   const double c5 = -size[0]*c4;
   const double c6 = size[0]/(c3*sqrt(c3));

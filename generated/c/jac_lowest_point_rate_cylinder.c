@@ -3,7 +3,7 @@
  * Regenerate with `derive emit`; `derive emit --check` compares with a fresh render.
  * Tools: sympy 1.14.0, casadi 3.8.2 (ABI), jinja2 3.1.6.
  * jac_lowest_point_rate_cylinder(n[3], omega[3], size[2]) -> (jac_sdot_n[6 of 3x3], jac_sdot_omega[6 of 3x3], jac_sdot_size[2 of 3x2])
- * Total ops: 90 (SymPy count_ops of the program after CSE), 23 intermediate terms.
+ * Total ops: 91 (SymPy count_ops of the program after CSE), 22 intermediate terms.
  */
 
 #include <math.h>
@@ -28,35 +28,34 @@ void carrier_jac_lowest_point_rate_cylinder(const double *n, const double *omega
   const double c3 = n[0]*n[0];
   const double c4 = n[1]*n[1];
   const double c5 = c3 + c4;
-  const double c6 = 1.0 - (((c5) > 0) - ((c5) < 0));
+  const double c6 = (((1.0 - (((c5) > 0) - ((c5) < 0))) > 0) - ((1.0 - (((c5) > 0) - ((c5) < 0))) < 0));
   const double c7 = c5 + c6;
   const double c8 = 1.0/(c7*sqrt(c7));
   const double c9 = n[1]*omega[2] - n[2]*omega[1];
-  const double c10 = -c4 - c6;
-  const double c11 = c10*c9 + c2*n[0]*n[1];
+  const double c10 = c4 + c6;
+  const double c11 = -c10*c9 + c2*n[0]*n[1];
   const double c12 = 3.0*size[0]/pow(c7, ((5.0/2.0)));
   const double c13 = c12*n[0];
   const double c14 = c9*n[1];
-  const double c15 = -c3 - c6;
-  const double c16 = c14*n[0] + c15*c2;
-  const double c17 = c2*n[0];
-  const double c18 = c12*n[1];
-  const double c19 = n[0]*n[1];
-  const double c20 = size[0]*c8;
-  const double c21 = c20*n[2];
-  const double c22 = c19*c21;
+  const double c15 = c3 + c6;
+  const double c16 = c14*n[0] - c15*c2;
+  const double c17 = c12*n[1];
+  const double c18 = n[0]*n[1];
+  const double c19 = size[0]*c8;
+  const double c20 = c19*n[2];
+  const double c21 = c18*c20;
   jac_sdot_n[0] = size[0]*c8*(-c1 + c2*n[1]) - c11*c13;
-  jac_sdot_n[1] = size[0]*c8*(-c15*omega[2] - 2.0*c17 + c9*n[1]) - c13*c16;
-  jac_sdot_n[2] = size[0]*c8*(c10*omega[2] - 2.0*c14 + c17) - c11*c18;
-  jac_sdot_n[3] = size[0]*c8*(c1 + c9*n[0]) - c16*c18;
-  jac_sdot_n[4] = c20*(-c10*omega[1] + c19*omega[0]);
-  jac_sdot_n[5] = c20*(c15*omega[0] - c19*omega[1]);
-  jac_sdot_omega[0] = c22;
-  jac_sdot_omega[1] = c15*c21;
-  jac_sdot_omega[2] = -c10*c21;
-  jac_sdot_omega[3] = -c22;
-  jac_sdot_omega[4] = c20*(c10*n[1] - c3*n[1]);
-  jac_sdot_omega[5] = c20*(-c15*n[0] + c4*n[0]);
+  jac_sdot_n[1] = size[0]*c8*(c14 + c15*omega[2] - 2.0*c2*n[0]) - c13*c16;
+  jac_sdot_n[2] = size[0]*c8*(-c10*omega[2] - 2.0*c14 + c2*n[0]) - c11*c17;
+  jac_sdot_n[3] = size[0]*c8*(c1 + c9*n[0]) - c16*c17;
+  jac_sdot_n[4] = c19*(c10*omega[1] + c18*omega[0]);
+  jac_sdot_n[5] = c19*(-c15*omega[0] - c18*omega[1]);
+  jac_sdot_omega[0] = c21;
+  jac_sdot_omega[1] = -c15*c20;
+  jac_sdot_omega[2] = c10*c20;
+  jac_sdot_omega[3] = -c21;
+  jac_sdot_omega[4] = c19*(-c10*n[1] - c3*n[1]);
+  jac_sdot_omega[5] = c19*(c15*n[0] + c4*n[0]);
   jac_sdot_size[0] = c11*c8;
   jac_sdot_size[1] = c16*c8;
 }

@@ -3,7 +3,7 @@
  * Regenerate with `derive emit`; `derive emit --check` compares with a fresh render.
  * Tools: sympy 1.14.0, casadi 3.8.2 (ABI), jinja2 3.1.6.
  * lowest_point_cylinder(n[3], center[3], size[2]) -> (s[3])
- * Total ops: 16 (SymPy count_ops of the program after CSE), 2 intermediate terms.
+ * Total ops: 17 (SymPy count_ops of the program after CSE), 2 intermediate terms.
  */
 
 #include <math.h>
@@ -21,7 +21,7 @@
 void carrier_lowest_point_cylinder(const double *n, const double *center, const double *size, double *CARRIER_RESTRICT s)
 {
   const double c0 = n[0]*n[0] + n[1]*n[1];
-  const double c1 = size[0]/sqrt(c0 - (((c0) > 0) - ((c0) < 0)) + 1.0);
+  const double c1 = size[0]/sqrt(c0 + (((1.0 - (((c0) > 0) - ((c0) < 0))) > 0) - ((1.0 - (((c0) > 0) - ((c0) < 0))) < 0)));
   s[0] = -c1*n[0] + center[0];
   s[1] = -c1*n[1] + center[1];
   s[2] = -size[1]*(((n[2]) > 0) - ((n[2]) < 0)) + center[2];

@@ -3,7 +3,7 @@
  * Regenerate with `derive emit`; `derive emit --check` compares with a fresh render.
  * Tools: sympy 1.14.0, casadi 3.8.2 (ABI), jinja2 3.1.6.
  * lowest_point_rate_cylinder(n[3], omega[3], size[2]) -> (sdot[3])
- * Total ops: 28 (SymPy count_ops of the program after CSE), 8 intermediate terms.
+ * Total ops: 27 (SymPy count_ops of the program after CSE), 8 intermediate terms.
  */
 
 #include <math.h>
@@ -26,10 +26,10 @@ void carrier_lowest_point_rate_cylinder(const double *n, const double *omega, co
   const double c3 = n[1]*n[1];
   const double c4 = n[0]*n[0];
   const double c5 = c3 + c4;
-  const double c6 = 1.0 - (((c5) > 0) - ((c5) < 0));
+  const double c6 = (((1.0 - (((c5) > 0) - ((c5) < 0))) > 0) - ((1.0 - (((c5) > 0) - ((c5) < 0))) < 0));
   const double c7 = size[0]/((c5 + c6)*sqrt(c5 + c6));
-  sdot[0] = c7*(c0*c1 + c2*(-c3 - c6));
-  sdot[1] = c7*(c0*(-c4 - c6) + c1*c2);
+  sdot[0] = c7*(c0*c1 - c2*(c3 + c6));
+  sdot[1] = c7*(-c0*(c4 + c6) + c1*c2);
   sdot[2] = 0.0;
 }
 

@@ -27,7 +27,8 @@ enum crt_option {
   CRT_OPT_EVENT_TOL = 12,  /* event location tolerance, relative to the time scale; must be > 0 */
   CRT_OPT_LENGTH_SCALE = 13,  /* the largest |CS| (surface and point): heights are resolved relative to it; must be >= 0 */
   CRT_OPT_ZENO_DT = 14,  /* accumulating impacts: enter contact when the remaining flights sum to less than zeno_dt times the time scale */
-  CRT_OPT_COUNT = 15
+  CRT_OPT_OUTPUT_PHASE = 15,  /* the output_dt grid's offset: rows at t0, then t0 + output_phase + k output_dt (0: t0 + output_dt, ...); a run that goes on from another's state keeps that run's grid (a hand-over after a lift-off); must be >= 0 */
+  CRT_OPT_COUNT = 16
 };
 
 /* Parameters: indices into the vector prm[CRT_P_COUNT] given to crt_init (the scene's
@@ -347,7 +348,7 @@ enum crt_count_kind {
 /* ---- the exported name functions: "" for an index or a code without a name ------------ */
 const char *crt_option_name(int i)
 {
-  static const char names[15][13] = {
+  static const char names[16][13] = {
     "method",
     "plane",
     "rtol",
@@ -362,9 +363,10 @@ const char *crt_option_name(int i)
     "time_scale",
     "event_tol",
     "length_scale",
-    "zeno_dt"
+    "zeno_dt",
+    "output_phase"
   };
-  return (i >= 0 && i < 15) ? names[i] : "";
+  return (i >= 0 && i < 16) ? names[i] : "";
 }
 
 const char *crt_parameter_name(int i)

@@ -353,17 +353,17 @@ static void lowest_point_rate_box(const double *n, const double *omega, const do
   sdot[2] = 0.0;
 }
 
-/* Lowest point S of a cylinder (centre anywhere in the body) for the vertical n, body axes. (16 ops) */
+/* Lowest point S of a cylinder (centre anywhere in the body) for the vertical n, body axes. (17 ops) */
 static void lowest_point_cylinder(const double *n, const double *center, const double *size, double *restrict s)
 {
   const double c0 = n[0]*n[0] + n[1]*n[1];
-  const double c1 = size[0]/sqrt(c0 - (((c0) > 0) - ((c0) < 0)) + 1.0);
+  const double c1 = size[0]/sqrt(c0 + (((1.0 - (((c0) > 0) - ((c0) < 0))) > 0) - ((1.0 - (((c0) > 0) - ((c0) < 0))) < 0)));
   s[0] = -c1*n[0] + center[0];
   s[1] = -c1*n[1] + center[1];
   s[2] = -size[1]*(((n[2]) > 0) - ((n[2]) < 0)) + center[2];
 }
 
-/* Rate of the lowest point S of a cylinder in body axes as the body turns (Poisson's equations for n). (28 ops) */
+/* Rate of the lowest point S of a cylinder in body axes as the body turns (Poisson's equations for n). (27 ops) */
 static void lowest_point_rate_cylinder(const double *n, const double *omega, const double *size, double *restrict sdot)
 {
   const double c0 = -n[0]*omega[2] + n[2]*omega[0];
@@ -372,10 +372,10 @@ static void lowest_point_rate_cylinder(const double *n, const double *omega, con
   const double c3 = n[1]*n[1];
   const double c4 = n[0]*n[0];
   const double c5 = c3 + c4;
-  const double c6 = 1.0 - (((c5) > 0) - ((c5) < 0));
+  const double c6 = (((1.0 - (((c5) > 0) - ((c5) < 0))) > 0) - ((1.0 - (((c5) > 0) - ((c5) < 0))) < 0));
   const double c7 = size[0]/((c5 + c6)*sqrt(c5 + c6));
-  sdot[0] = c7*(c0*c1 + c2*(-c3 - c6));
-  sdot[1] = c7*(c0*(-c4 - c6) + c1*c2);
+  sdot[0] = c7*(c0*c1 - c2*(c3 + c6));
+  sdot[1] = c7*(-c0*(c4 + c6) + c1*c2);
   sdot[2] = 0.0;
 }
 

@@ -664,14 +664,14 @@ static void crt_base_settle(crt_session *s, crt_out *o, int after_stop)
   } while (0)
 
 /* ---- rows every output_dt ---------------------------------------------------------------- */
-/* The grid rows t_first + k output_dt (k >= out_k) before until: how many (up to cap + 1) */
+/* The grid rows out_origin + k output_dt (k >= out_k) before until: how many (up to cap + 1) */
 static long crt_base_rows_before(const crt_session *s, double until, long cap)
 {
   const double out_dt = s->opt[CRT_OPT_OUTPUT_DT];
   double k = s->out_k;
   long n = 0;
   if (!(out_dt > 0.0)) return 0;
-  while (s->t_first + k * out_dt < until && n <= cap) { ++n; k += 1.0; }
+  while (s->out_origin + k * out_dt < until && n <= cap) { ++n; k += 1.0; }
   return n;
 }
 
@@ -717,11 +717,11 @@ static void crt_base_rows(crt_session *s, crt_out *o, double until, const double
       crt_emit(o, at, z + 1, CRT_ROW_STEP);
     }
     s->out_k += 1.0;
-    s->next_output = s->t_first + s->out_k * out_dt;
+    s->next_output = s->out_origin + s->out_k * out_dt;
   }
   if (s->next_output == until) {
     s->out_k += 1.0;
-    s->next_output = s->t_first + s->out_k * out_dt;
+    s->next_output = s->out_origin + s->out_k * out_dt;
   }
 }
 
@@ -996,10 +996,11 @@ static void crt_integrate(crt_session *s, double t_end, crt_out *o)
     s->status = CRT_BAD_CONTROL;
     return;
   }
-  if (s->stat[CRT_STAT_STEPS] == 0 && s->t_first == s->t && s->out_k == 0.0) {
+  if (!s->rows_started) {                  /* the initial row; the grid's first after it */
     crt_emit(o, s->t, s->q, CRT_ROW_STEP);
-    s->out_k = 1.0;
-    s->next_output = s->t_first + s->opt[CRT_OPT_OUTPUT_DT];
+    s->rows_started = 1;
+    s->out_k = s->out_origin > s->t ? 0.0 : 1.0;
+    s->next_output = s->out_origin + s->out_k * s->opt[CRT_OPT_OUTPUT_DT];
   }
   s->bs.full = 0;
   s->bs.t_end = t_end;

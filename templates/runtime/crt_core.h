@@ -319,6 +319,7 @@ static int crt_option_fault(const double *opt)
   if (!(opt[CRT_OPT_TIME_SCALE] > 0.0)) return CRT_OPT_TIME_SCALE;
   if (!(opt[CRT_OPT_RK4_STEP] > 0.0)) return CRT_OPT_RK4_STEP;
   if (!(opt[CRT_OPT_OUTPUT_DT] >= 0.0)) return CRT_OPT_OUTPUT_DT;
+  if (!(opt[CRT_OPT_OUTPUT_PHASE] >= 0.0)) return CRT_OPT_OUTPUT_PHASE;
   if (!(opt[CRT_OPT_EVENT_TOL] > 0.0)) return CRT_OPT_EVENT_TOL;
   if (!(opt[CRT_OPT_LENGTH_SCALE] >= 0.0)) return CRT_OPT_LENGTH_SCALE;
   if (!(opt[CRT_OPT_MAX_STEPS] >= 1.0)) return CRT_OPT_MAX_STEPS;
@@ -384,8 +385,9 @@ int crt_init(crt_session *s, const double *opt, const double *prm, double t0, co
   s->last_event_t = -HUGE_VAL;
   s->last_flight = 0.0;
   s->next_output = t0;
-  s->t_first = t0;
+  s->out_origin = t0 + opt[CRT_OPT_OUTPUT_PHASE];
   s->out_k = 0.0;
+  s->rows_started = 0;
   s->out_pending = 0;
   s->out_until = t0;
   if (s->ctl) crt_control_start(s, t0);    /* the loop's clock, noise, pushes; the law */

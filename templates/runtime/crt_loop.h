@@ -39,10 +39,11 @@ enum crt_next { CRT_NEXT_GO = 0, CRT_NEXT_PASS = 1, CRT_NEXT_STOP = 2 };
 static int crt_loop_begin(crt_session *s, crt_out *o, double t_end)
 {
   const double out_dt = s->opt[CRT_OPT_OUTPUT_DT];
-  if (s->stat[CRT_STAT_STEPS] == 0 && s->t_first == s->t && s->out_k == 0.0) {
+  if (!s->rows_started) {                  /* the initial row; the grid's first after it */
     crt_emit(o, s->t, s->q, CRT_ROW_STEP);
-    s->out_k = 1.0;
-    s->next_output = out_dt > 0.0 ? s->t_first + out_dt : s->t;
+    s->rows_started = 1;
+    s->out_k = s->out_origin > s->t ? 0.0 : 1.0;
+    s->next_output = out_dt > 0.0 ? s->out_origin + s->out_k * out_dt : s->t;
   }
   if (s->ctl && !s->ctl->started) {        /* the loop's first call, at t0 */
     const int stop = crt_control_call(s, CRT_CALL_START, 0);

@@ -135,9 +135,10 @@ typedef struct {
   double last_event_t;                    /* the time of the last event */
   double last_impact_t;                   /* accumulating impacts: the last impact, */
   double last_flight;                     /* and the flight before it (0: none yet) */
-  double next_output;                     /* t_first + out_k output_dt, no accumulation */
-  double t_first;
+  double next_output;                     /* out_origin + out_k output_dt, no accumulation */
+  double out_origin;                      /* t0 + opt[CRT_OPT_OUTPUT_PHASE]: the grid's */
   double out_k;
+  int rows_started;                       /* the initial row written (crt_advance's first) */
   int out_pending;                        /* output rows of the last step still to write */
   double out_until;
   long stat[CRT_STAT_COUNT];

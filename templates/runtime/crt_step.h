@@ -161,7 +161,7 @@ static int crt_flush_outputs(crt_session *s, crt_out *o, double t_stop, int incl
     crt_dense_at(s, at, y);
     crt_emit(o, at, y, CRT_ROW_STEP);
     s->out_k += 1.0;
-    s->next_output = s->t_first + s->out_k * out_dt;
+    s->next_output = s->out_origin + s->out_k * out_dt;
   }
   s->out_pending = 0;
   return 1;
