@@ -60,7 +60,8 @@ def test_the_plain_runtime_headers_are_copied_byte_for_byte(monkeypatch, tmp_pat
     files = runtime_backend.render_runtime()
     plain = sorted(p.name for pattern in ("*.h", "*.c")
                    for p in (TEMPLATES / "runtime").glob(pattern))
-    assert plain == ["crt_base.h", "crt_base_model.h", "crt_bodies.h", "crt_call.h",
+    assert plain == ["crt_base.h", "crt_base_flow.h", "crt_base_model.h", "crt_bodies.h",
+                     "crt_call.h",
                      "crt_contact.h", "crt_control.h",
                      "crt_core.h", "crt_dk.h", "crt_events.h", "crt_face.h",
                      "crt_friction_state.h", "crt_integrators.h",

@@ -83,8 +83,8 @@ def test_no_header_calls_one_above_it_and_the_check_can_fail():
         "static const double *crt_u(crt_session *s, double t)\n{",
         "static const double *crt_u(crt_session *s, double t)\n{\n  crt_rhs(s, t, 0, 0);", 1)
     mutated = headers({"crt_session.h": text})
-    # (crt_rhs is the loop's in crt_rhs.h, the base model's in crt_base.h: both above)
-    assert ("crt_session.h", "crt_rhs", ["crt_base.h", "crt_rhs.h"]) in upward_calls(mutated)
+    # (crt_rhs is the loop's in crt_rhs.h, the base model's in crt_base_flow.h: both above)
+    assert ("crt_session.h", "crt_rhs", ["crt_base_flow.h", "crt_rhs.h"]) in upward_calls(mutated)
 
 
 def test_darboux_keller_compiles_alone(tmp_path):

@@ -168,14 +168,23 @@ def fly(fscene, run_flight, origin: float | None = None) -> tuple:
     return first, None
 
 
+def speed_noise(scene, q) -> float:
+    """The normal speeds the runtime calls round-off at the general state q (crt_plane.h's
+    crt_speed_noise: S touching, not hitting)."""
+    L = choice.length_scale(scene)
+    rate = float(np.linalg.norm(q[G.omega]))
+    return 1e3 * np.finfo(float).eps * (abs(q[G.Zd]) + rate * L + math.sqrt(scene.g * L))
+
+
 def _first_landing(run, after: float):
     """(the index of the before row, the event, how many events up to it) of the
     flight's first impact, contact or graze later than ``after`` (the hand-over's
-    instant) with v_n < 0 (coming down), or None."""
+    instant) coming down (v_n below minus the speed noise: a touch 2e-11 s after the
+    runtime's own lift-off at v_n = -2e-17 m/s is the face still leaving), or None."""
     from .events import event_rows
     for i, ev in event_rows(run):
         if ev["kind"] in ("impact", "contact", "graze") and ev["t"] > after \
-                and ev["v_minus"] < 0.0:
+                and ev["v_minus"] < -speed_noise(run.scene, run.model_q[i]):
             return i, ev, 1 + next(k for k, e in enumerate(run.events) if e is ev)
     return None
 

@@ -575,12 +575,16 @@ def judge_handover(result) -> tuple[str, str]:
         return "status", f"the flight ended with {result.status} at t = {result.t[-1]:.6g}"
     if not np.all(np.isfinite(result.model_q)):
         return "nan", "non-finite state in the flight"
-    # the first touch coming down after the hand-over's instant (at that instant the face
-    # is on the plane with v_n = 0, and the C may touch it; after it, grazes with v_n > 0
-    # as the face hovers): no other is a landing
+    # the first touch coming down (v_n below minus the runtime's speed noise) after the
+    # hand-over's instant (at that instant the face is on the plane with v_n = 0, and the
+    # C may touch it; after it, grazes with v_n > 0 as the face hovers, and round-off
+    # touches as it leaves): no other is a landing
+    def coming_down(ev) -> bool:
+        q = h.flight.model_q[int(np.searchsorted(h.flight.t, ev["t"]))]
+        return ev["v_minus"] < -ho.speed_noise(result.scene, q)
     touch = next((ev for ev in h.flight.events
                   if ev["kind"] in ("impact", "contact", "graze", "flat_landing")
-                  and ev["t"] > ho.at_once(h.t) and ev["v_minus"] < 0.0), None)
+                  and ev["t"] > ho.at_once(h.t) and coming_down(ev)), None)
     if touch is not None:
         j = int(np.searchsorted(h.flight.t, touch["t"]))
         q = h.flight.model_q[j]
