@@ -15,7 +15,7 @@ from itertools import combinations_with_replacement
 import numpy as np
 import pytest
 
-from derive.runtime import tableaus as T
+from derive.emit import tableaus as T
 
 
 @lru_cache(maxsize=None)

@@ -27,7 +27,7 @@ and rendered only where numbers or names come from Python (``templates/runtime/*
   (:mod:`derive.emit.sincos`) and the limits of the Lie methods;
 * ``crt_rk_steps.h``, ``crt_lie_steps.h``, ``crt_dk_steps.h``: the steps of DOPRI5 and
   DOP853, classical, Lie and Darboux-Keller's, with their tableaus
-  (:mod:`derive.runtime.tableaus`) written out term by term.
+  (:mod:`derive.emit.tableaus`) written out term by term.
 
 The per-hop controller in C (``templates/control/crt_hop.c``, ``crt_hop.h``) is copied into
 ``generated/control/`` (:func:`render_controllers`).  Nothing of a scene reaches this code:
@@ -43,7 +43,7 @@ from .. import friction_models
 from .. import models as dm
 from .. import models_moments as mmo
 from .. import abi, layout, shapes
-from ..runtime import tableaus as T
+from . import tableaus as T
 from . import sincos
 from .c_backend import body
 from .render import TEMPLATES, environment, versions

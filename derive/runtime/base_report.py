@@ -14,6 +14,7 @@ import numpy as np
 
 from .. import abi, face as faces
 from . import bodies, choice
+from .events import face_modes as modes
 
 STOPS = {"lift_off": "N reached 0: the body leaves the plane (lift-off)",
          "tipping": "the centre of pressure reached the face's edge: the body tips",
@@ -21,20 +22,6 @@ STOPS = {"lift_off": "N reached 0: the body leaves the plane (lift-off)",
                          "reaches 0 at an edge, and the face starts to lift there"}
 METHOD = "dop853 (slips along a line in t, others in arc time; the base model's own integrator)"
 _SLIDING, _STICKING = abi.MODE["sliding"], abi.MODE["sticking"]
-
-
-def modes(result) -> np.ndarray:
-    """The face's mode on every row (abi.MODES: sliding, sticking) from the events: a
-    slip starts sliding, a stick ends it (a reversal keeps it)."""
-    t = result.t
-    q0 = result.start.q0
-    mode = _SLIDING if np.hypot(np.hypot(q0[3], q0[4]), q0[5]) > 0.0 else _STICKING
-    out = np.full(len(t), mode, dtype=int)
-    for ev in result.events:
-        if ev["kind"] in ("slip", "stick"):
-            after = np.searchsorted(t, ev["t"], side="right")
-            out[after:] = _SLIDING if ev["kind"] == "slip" else _STICKING
-    return out
 
 
 def normal_force(result) -> np.ndarray:
@@ -277,4 +264,31 @@ def lines(result, tr: dict | None = None) -> list[str]:
         out.append(f"  C moved ({d[0]:.6g}, {d[1]:.6g}) m a period over {tr['whole_periods']}"
                    f" whole periods of {tr['period']:.6g} s (mean speed {tr['mean_speed']:.6g}"
                    f" m/s); the last period ({last[0]:.6g}, {last[1]:.6g}) m")
+    return out
+
+
+def handover_energy(h) -> dict:
+    """The balance of a run that handed over (h: its handover.Handover): the base run's
+    (energy), the flight's (motion.energy_balance) and the energy on both sides of the
+    hand-over (the same state: equal to round-off)."""
+    from .motion import energy_balance, motion
+    base = energy(h.base, motion(h.base))
+    flight = energy_balance(h.flight, motion(h.flight))
+    return {"start": base["start"], "end": flight["end"],
+            "change": flight["end"] - base["start"],
+            "at_handover": flight["start"] - base["end"],
+            "base": base, "flight": flight}
+
+
+def handover_lines(h) -> list[str]:
+    """derive simulate's lines on a hand-over (h: a handover.Handover)."""
+    out = [f"  lifted off at t = {h.t:.6g} s (N reached 0): handed over to the "
+           f"{h.flight.model} model, the face flat and v_n = 0"]
+    out += [line for line in lines(h.base) if "stopped at" not in line]
+    if h.landing is not None:
+        out.append(f"  landed flat at t = {h.landing['t']:.6g} s (v_n = "
+                   f"{h.landing['v_n']:.4g} m/s, the face's corners within "
+                   f"{h.landing['spread']:.3g} m of each other, the height resolution "
+                   f"{h.landing['resolution']:.3g} m): a multi-point impact no "
+                   "model makes; the run stops there")
     return out

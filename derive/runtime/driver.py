@@ -12,6 +12,7 @@ re-runs a scene through :func:`simulate` where it needs rows closer together).
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from dataclasses import dataclass, field, replace
@@ -314,6 +315,9 @@ def run_scene(prep: Prepared, session: Session | None = None, progress=None) -> 
     if result.status == "lift_off" and prep.scene.restitution_given:
         from .handover import hand_over        # the flight from the lift-off on
         result = hand_over(result, lambda sc, origin=None: run_prepared(prepare(sc, origin)))
+        if result.handover is not None:        # (the stitched run with rows every dt)
+            scene = prep.scene
+            result.rerun = lambda dt: simulate(dataclasses.replace(scene, output_dt=dt))
     return result
 
 

@@ -181,3 +181,18 @@ def phases(result) -> list[tuple[int, int, str]]:
         state = "contact" if any(c0 <= mid <= c1 for c0, c1 in contact) else "flight"
         out.append((a, b, state))
     return out
+
+
+def face_modes(result) -> np.ndarray:
+    """The face's mode on every row of a base run (abi.MODES: sliding, sticking) from its
+    events: a slip starts sliding, a stick ends it (a reversal keeps it)."""
+    sliding, sticking = abi.MODE["sliding"], abi.MODE["sticking"]
+    t = result.t
+    q0 = result.start.q0
+    mode = sliding if np.hypot(np.hypot(q0[3], q0[4]), q0[5]) > 0.0 else sticking
+    out = np.full(len(t), mode, dtype=int)
+    for ev in result.events:
+        if ev["kind"] in ("slip", "stick"):
+            after = np.searchsorted(t, ev["t"], side="right")
+            out[after:] = sliding if ev["kind"] == "slip" else sticking
+    return out

@@ -224,22 +224,15 @@ def _stitch(base, flight, state, landing):
                  for k in set(base.timings) | set(flight.timings)})
     t_l = float(base.t[-1])
     out.why = (f"base until the lift-off at t = {t_l:.6g} s ({base.why}); then {flight.why}")
-    out.rerun = lambda output_dt: _rerun(base.scene, output_dt)
     out.handover = Handover(base=base, flight=flight, t=float(base.t[-1]), state=state,
                             landing=landing)
     # the face's mode on the base rows (sliding or sticking: base_report.modes), the
     # flight's after; no slip of S on the base rows (the face slides, not a point)
-    from .base_report import modes
-    out.__dict__["modes"] = np.concatenate([modes(base), flight.modes])
+    from .events import face_modes
+    out.__dict__["modes"] = np.concatenate([face_modes(base), flight.modes])
     if flight.slip is not None:
         out.__dict__["slip"] = np.vstack([np.full((len(base.t), 2), math.nan), flight.slip])
     return out
-
-
-def _rerun(scene, output_dt: float):
-    """The stitched run again with rows every output_dt (the pictures', the balance's)."""
-    from .driver import simulate
-    return simulate(dataclasses.replace(scene, output_dt=output_dt))
 
 
 @dataclasses.dataclass
@@ -259,28 +252,3 @@ class Handover:
                 "state": dict(zip(choice.GENERAL_LABELS, self.state.tolist())),
                 "flight_status": self.flight.status,
                 "flat_landing": self.landing}
-
-    def energy(self) -> dict:
-        """The base run's balance (base_report.energy), the flight's (energy_balance) and
-        the energy on both sides of the hand-over (the same state: equal to round-off)."""
-        from . import base_report
-        from .motion import energy_balance, motion
-        base = base_report.energy(self.base, motion(self.base))
-        flight = energy_balance(self.flight, motion(self.flight))
-        return {"start": base["start"], "end": flight["end"],
-                "change": flight["end"] - base["start"],
-                "at_handover": flight["start"] - base["end"],
-                "base": base, "flight": flight}
-
-    def lines(self) -> list[str]:
-        from . import base_report
-        out = [f"  lifted off at t = {self.t:.6g} s (N reached 0): handed over to the "
-               f"{self.flight.model} model, the face flat and v_n = 0"]
-        out += [line for line in base_report.lines(self.base) if "stopped at" not in line]
-        if self.landing is not None:
-            out.append(f"  landed flat at t = {self.landing['t']:.6g} s (v_n = "
-                       f"{self.landing['v_n']:.4g} m/s, the face's corners within "
-                       f"{self.landing['spread']:.3g} m of each other, the height resolution "
-                       f"{self.landing['resolution']:.3g} m): a multi-point impact no "
-                       "model makes; the run stops there")
-        return out

@@ -60,7 +60,7 @@ def summary(result, mo: Motion | None = None) -> dict:
                      np.flatnonzero(result.row_kind != abi.ROW_KIND["step"]))
     base = result.model == "base"
     handed = result.handover
-    energy = (base_report.energy(result, mo) if base else handed.energy()
+    energy = (base_report.energy(result, mo) if base else base_report.handover_energy(handed)
               if handed is not None else energy_balance(result, mo))
     out = {
         "scene": s.name,
@@ -154,7 +154,7 @@ def lines(scene, result, loop: str | None = None) -> list[str]:
     if base:
         out += base_report.lines(result)
     if result.handover is not None:
-        out += result.handover.lines()
+        out += base_report.handover_lines(result.handover)
     end = choice.travel(result.model, scene.t0, float(result.t[-1]), result.model_q[-1],
                         choice.start_of_c(scene), scene)
     if end["distance"] > 0.0:                  # C moved horizontally: how far
