@@ -307,8 +307,9 @@ def test_cmake_builds_the_same_program(projects, tmp_path):
 
 
 def test_refusals(tmp_path, capsys):
-    """An existing folder (exit 2, nothing written unless --force), [control] and
-    [disturbance] by name, a scene that breaks a rule: one line each, exit 2."""
+    """An existing folder (exit 2, nothing written unless --force), [control],
+    [disturbance] and [run].outputs the program cannot write, by name, a scene that breaks
+    a rule: one line each, exit 2."""
     scene = tmp_path / "s.toml"
     scene.write_text(HOSTILE_TOML)
     taken = tmp_path / "taken"
@@ -330,6 +331,11 @@ def test_refusals(tmp_path, capsys):
         err = capsys.readouterr().err
         assert err.count("\n") == 1 and where in err and "Traceback" not in err, err
         assert not (tmp_path / "no").exists()
+    bad.write_text(HOSTILE_TOML.replace("[run]\n", '[run]\noutputs = ["pose", "momentum"]\n'))
+    assert main(["export", str(bad), "-o", str(tmp_path / "no")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "[run].outputs: momentum" in err, err
+    assert not (tmp_path / "no").exists()
     bad.write_text(HOSTILE_TOML.replace("mass = 1.0", "mass = -1.0"))
     assert main(["export", str(bad), "-o", str(tmp_path / "no")]) == 2
     err = capsys.readouterr().err

@@ -54,7 +54,16 @@ def refusal(scene) -> str | None:
         return ("[disturbance]: pushes and noise are applied by a loop Python closes "
                 "around the run; the export runs the plain scene (drop [disturbance], or "
                 "run it with derive simulate)")
+    python_only = [o for o in scene.outputs if o in _PYTHON_COLUMNS]
+    if "[run].outputs" in scene.given and python_only:
+        return (f"[run].outputs: {', '.join(python_only)} are columns derive simulate "
+                "computes in Python from the state; the exported program writes the state "
+                "(drop them from [run].outputs, or compute them from the state)")
     return None
+
+
+# [run].outputs the exported program cannot write (derive simulate's Python columns)
+_PYTHON_COLUMNS = ("omega", "height", "momentum")
 
 
 def _c_double(value: float, where: str) -> str:
