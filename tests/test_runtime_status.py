@@ -435,3 +435,79 @@ def test_a_first_step_whose_stages_overflow_is_retried_not_a_nonfinite_stop():
     w0, w1 = raw.q[0, 6:9], raw.q[-1, 6:9]
     assert abs(w1 @ (J * w1) / (w0 @ (J * w0)) - 1) < 1e-9
     assert abs(np.linalg.norm(J * w1) / np.linalg.norm(J * w0) - 1) < 1e-9
+
+
+# ---- crt_core.h's own rules at their edges (mutants of its checks: issue 36) -------------
+def test_each_restitution_model_code_is_taken_and_the_next_refused():
+    """Codes 0 .. count - 1 of abi.RESTITUTION_MODELS are taken; the count itself, a
+    fraction and -1 are the parameter restitution_model (a bound loosened by 5 % took the
+    count)."""
+    r = Raw(_scene())
+    assert r.set_law() == S["ok"]
+    prm = np.array(r.prep.parameters)
+    k = abi.PRM["restitution_model"]
+    for ok in range(len(abi.RESTITUTION_MODELS)):
+        prm[k] = float(ok)
+        assert r.init(prm=prm) == S["ok"], ok
+    for bad in (float(len(abi.RESTITUTION_MODELS)), 0.5, -1.0):
+        prm[k] = bad
+        assert r.init(prm=prm) == S["bad_parameters"], bad
+        assert r.c.crt_bad_parameter(r.s) == k
+
+
+def _table(r, knots, coef, periodic):
+    r.knots = np.ascontiguousarray(knots, dtype=float)
+    r.coef = np.ascontiguousarray(coef, dtype=float)
+    return r.c.crt_set_law_table(r.s, len(r.knots), r.knots.ctypes.data_as(DP),
+                                 r.coef.ctypes.data_as(DP), periodic)
+
+
+def _rows(r, t):
+    t = np.ascontiguousarray(t, dtype=float)
+    u = np.full((len(t), 9), -7.0)
+    r.c.crt_law_rows(r.s, len(t), t.ctypes.data_as(DP), u.ctypes.data_as(DP))
+    return u
+
+
+def test_a_table_law_needs_knots_increasing_however_close():
+    """Knots 2 % apart are taken, knots 2 % back refused (crt_set_law_table: a factor of
+    1.05 either side of its comparison turned one into the other)."""
+    r = Raw(_scene())
+    coef = np.zeros(12)
+    assert _table(r, [1.0, 1.02], coef, 0) == S["ok"]
+    assert _table(r, [1.0, 0.98], coef, 0) == S["bad_law"]
+    assert _table(r, [-1.0, -1.02], coef, 0) == S["bad_law"]
+    assert _table(r, [-1.0, -0.98], coef, 0) == S["ok"]
+
+
+def test_a_periodic_table_repeats_and_a_plain_one_does_not():
+    """x = s on one interval [0, 1] (s = t - 0: c2 = 1), read by crt_law_rows at 1.25:
+    0.25 when periodic (the period 1), else the piece's own 1.25 (extended); x' = 1 both."""
+    r = Raw(_scene())
+    coef = np.zeros(12)
+    coef[2] = 1.0                                  # x = 0 s^3 + 0 s^2 + 1 s + 0
+    assert _table(r, [0.0, 1.0], coef, 1) == S["ok"]
+    u = _rows(r, [0.5, 1.25])
+    assert u[0, 0] == pytest.approx(0.5, abs=1e-15) and u[1, 0] == pytest.approx(0.25, abs=1e-15)
+    assert u[1, 3] == pytest.approx(1.0, abs=1e-15)
+    assert _table(r, [0.0, 1.0], coef, 0) == S["ok"]
+    assert _rows(r, [1.25])[0, 0] != pytest.approx(0.25, abs=1e-3)
+
+
+def test_a_first_step_given_is_the_first_step_taken():
+    """opt h0 > 0 is the first step of an adaptive run (the first row after t0 is at
+    t0 + h0); h0 = 0 lets the runtime choose (crt_init's rule)."""
+    r = Raw(_scene())
+    assert r.set_law() == S["ok"]
+    opt = np.array(r.prep.options)
+    assert int(opt[abi.OPT["method"]]) != abi.index(abi.METHODS, "rk4")
+    h0 = 3.7e-6
+    opt[abi.OPT["h0"]] = h0
+    assert r.init(opt=opt) == S["ok"]
+    r.advance(64, 64)
+    t0 = float(r.prep.scene.t0)
+    assert r.n.value >= 2 and r.t[1] - t0 == pytest.approx(h0, rel=1e-12)
+    opt[abi.OPT["h0"]] = 0.0
+    assert r.init(opt=opt) == S["ok"]
+    r.advance(64, 64)
+    assert abs(r.t[1] - t0 - h0) > 1e-3 * h0

@@ -150,6 +150,7 @@ HEADER_TESTS = {
     "crt_loop.h": ("tests/test_law.py::test_rk4_steps_end_on_each_knot_never_longer",
                    _HOP + "test_a_loop_stopped_by_max_events_logs_its_law_to_the_stop",
                    "tests/test_control_loop.py"),
+    "crt_core.h": ("tests/test_runtime_status.py", "tests/test_batch.py"),
 }
 
 
