@@ -356,6 +356,22 @@ static double crt_base_stable_dir(crt_session *s, double t, const double *q, dou
   return G[0] * d[0] + G[1] * d[1] + G[2] * d[2];
 }
 
+
+/* q moved by a displacement of the scaled pose, face frame at q's yaw (moved: O's x, y and
+   ell times the turn), its velocities set to the scaled twist xi (face frame at the new
+   yaw): the slip's start from rest ends by this, in series or along its slow manifold */
+static void crt_base_move(double *q, const double *moved, const double *xi, double ell)
+{
+  double sn, cs;
+  crt_sincos(q[2], &sn, &cs);
+  q[0] += cs * moved[0] - sn * moved[1];
+  q[1] += sn * moved[0] + cs * moved[1];
+  q[2] += moved[2] / ell;
+  crt_sincos(q[2], &sn, &cs);
+  q[3] = cs * xi[0] - sn * xi[1];
+  q[4] = sn * xi[0] + cs * xi[1];
+  q[5] = xi[2] / ell;
+}
 /* The start along the slow manifold (crt_base_onset_far) at t0 + u from rest at q0: r(u)
    = int_0^u a* by the 3-point Gauss-Legendre rule (its nodes' directions in dn, rates in
    an, warm from d0), the distance moved int_0^u (u - v) a* d* by the same nodes; q the
@@ -367,7 +383,7 @@ static double crt_base_far_at(crt_session *s, double t0, const double *q0, const
                               double u, double (*dn)[3], double *an, double *d, double *q)
 {
   const double ell = s->bs.body.ell;
-  double r = 0.0, moved[3] = {0.0, 0.0, 0.0}, G[3], xi[3], sn, cs;
+  double r = 0.0, moved[3] = {0.0, 0.0, 0.0}, G[3], xi[3];
   int i, j;
   for (j = 0; j < 3; ++j) {
     for (i = 0; i < 3; ++i) dn[j][i] = j ? dn[j - 1][i] : d0[i];
@@ -382,15 +398,8 @@ static double crt_base_far_at(crt_session *s, double t0, const double *q0, const
     if (!(crt_base_stable_dir(s, t0 + u, q0, d, G) > 0.0)) return 0.0;
   }
   for (i = 0; i < 3; ++i) xi[i] = r * (d ? d[i] : dn[2][i]);
-  crt_sincos(q0[2], &sn, &cs);
   for (i = 0; i < NQ; ++i) q[i] = q0[i];
-  q[0] += cs * moved[0] - sn * moved[1];
-  q[1] += sn * moved[0] + cs * moved[1];
-  q[2] += moved[2] / ell;
-  crt_sincos(q[2], &sn, &cs);
-  q[3] = cs * xi[0] - sn * xi[1];
-  q[4] = sn * xi[0] + cs * xi[1];
-  q[5] = xi[2] / ell;
+  crt_base_move(q, moved, xi, ell);
   return r;
 }
 
@@ -484,7 +493,7 @@ static int crt_base_onset_far(crt_session *s, crt_out *o, const double *d0, doub
 static int crt_base_onset(crt_session *s, crt_out *o)
 {
   const double ell = s->bs.body.ell, h = 1e-7 * s->bs.body.t_scale, seed = 1e2 * s->bs.eps;
-  double d[3], G[3], Gp[3], Gm[3], a, bb, disc, delta, xi[3], moved[3], sn, cs, across;
+  double d[3], G[3], Gp[3], Gm[3], a, bb, disc, delta, xi[3], moved[3], across;
   double along, *q = s->q;
   int i;
   for (i = 0; i < 3; ++i) d[i] = -s->bs.xi[i];
@@ -516,14 +525,7 @@ static int crt_base_onset(crt_session *s, crt_out *o)
       xi[i] = G[i] * delta + G1 * delta * delta / 2.0;
       moved[i] = G[i] * delta * delta / 2.0 + G1 * delta * delta * delta / 6.0;
     }
-    crt_sincos(q[2], &sn, &cs);
-    q[0] += cs * moved[0] - sn * moved[1];
-    q[1] += sn * moved[0] + cs * moved[1];
-    q[2] += moved[2] / ell;
-    crt_sincos(q[2], &sn, &cs);
-    q[3] = cs * xi[0] - sn * xi[1];
-    q[4] = sn * xi[0] + cs * xi[1];
-    q[5] = xi[2] / ell;
+    crt_base_move(q, moved, xi, ell);
     s->t += delta;
   }
   crt_changed(s);
