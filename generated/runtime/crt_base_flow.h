@@ -128,22 +128,42 @@ static void crt_base_zrhs(crt_session *s, const double *z, double *dz, double *N
   for (i = 0; i < NQ; ++i) dz[1 + i] = *rho * dq[i];
 }
 
+/* a stage's state z0 + h sum_j a[st][j] k[j] (j < st): each component's sum in the order
+   of j, the same operations as a sum per component (the crawler's run compared: the
+   same bit for bit), with the components side by side in the inner loop, which the
+   compiler vectorises (that run 3 to 4 % faster) */
+static void crt_base_stage(const double *z0, double h, double (*k)[CRT_BASE_NZ], int st,
+                           double *tmp)
+{
+  double acc[CRT_BASE_NZ];
+  int i, j;
+  for (i = 0; i < CRT_BASE_NZ; ++i) acc[i] = 0.0;
+  for (j = 0; j < st; ++j) {
+    const double a = crt_base_a[st][j];
+    for (i = 0; i < CRT_BASE_NZ; ++i) acc[i] += a * k[j][i];
+  }
+  for (i = 0; i < CRT_BASE_NZ; ++i) tmp[i] = z0[i] + h * acc[i];
+}
+
 /* one DOP853 step of h (in s, or in t along a line) from z0 (f0 its rate): z1, f1 and N,
    cp, rho at z1, the stages in k; returns the error norm (Hairer's: the 5th-order
-   estimate, tempered by the 3rd-order one) */
+   estimate, tempered by the 3rd-order one), each component of z against atol + rtol
+   max(|z0|, |z1|, its least scale): O's position at least the face's size ell, its
+   velocity at least v_scale (zscale).  Where O stands is the origin's choice, not the
+   body's: held to its own coordinates, a body near the origin was held to atol alone,
+   1e-12 m, where the flight's Lie steps hold the attitude to atol + rtol radians
+   (crt_lie.h; derive bench base's crawler: 4209 evaluations of the rates, 3249 at the
+   body's scale).  t, psi and psi' keep atol + rtol max(|z0|, |z1|). */
 static double crt_base_step(crt_session *s, const double *z0, const double *f0, double h,
                             double (*k)[CRT_BASE_NZ], double *z1, double *f1, double *N,
                             double *cp, double *rho)
 {
+  const double *zscale = s->bs.body.zscale;
   double tmp[CRT_BASE_NZ], err3 = 0.0, err5 = 0.0, denom;
   int i, j, st;
   for (i = 0; i < CRT_BASE_NZ; ++i) k[0][i] = f0[i];
   for (st = 1; st < 13; ++st) {            /* the stage 12 is at z1 (FSAL) */
-    for (i = 0; i < CRT_BASE_NZ; ++i) {
-      double acc = 0.0;
-      for (j = 0; j < st; ++j) acc += crt_base_a[st][j] * k[j][i];
-      tmp[i] = z0[i] + h * acc;
-    }
+    crt_base_stage(z0, h, k, st, tmp);
     crt_base_zrhs(s, tmp, k[st], N, cp, rho);
   }
   for (i = 0; i < CRT_BASE_NZ; ++i) {
@@ -154,7 +174,8 @@ static double crt_base_step(crt_session *s, const double *z0, const double *f0, 
       e3 += crt_base_e3[j] * k[j][i];
       e5 += crt_base_e5[j] * k[j][i];
     }
-    sc = s->opt[CRT_OPT_ATOL] + s->opt[CRT_OPT_RTOL] * crt_max(fabs(z0[i]), fabs(z1[i]));
+    sc = s->opt[CRT_OPT_ATOL]
+         + s->opt[CRT_OPT_RTOL] * crt_max(crt_max(fabs(z0[i]), fabs(z1[i])), zscale[i]);
     err3 += (e3 / sc) * (e3 / sc);
     err5 += (e5 / sc) * (e5 / sc);
   }
@@ -171,11 +192,7 @@ static void crt_base_dense(crt_session *s, const double *z0, const double *z1, d
   double tmp[CRT_BASE_NZ], N, cp[2], rho;
   int i, j, st, r;
   for (st = 13; st < 16; ++st) {
-    for (i = 0; i < CRT_BASE_NZ; ++i) {
-      double acc = 0.0;
-      for (j = 0; j < st; ++j) acc += crt_base_a[st][j] * k[j][i];
-      tmp[i] = z0[i] + h * acc;
-    }
+    crt_base_stage(z0, h, k, st, tmp);
     crt_base_zrhs(s, tmp, k[st], &N, cp, &rho);
   }
   for (i = 0; i < CRT_BASE_NZ; ++i) {
@@ -183,11 +200,13 @@ static void crt_base_dense(crt_session *s, const double *z0, const double *z1, d
     F[0][i] = dz;
     F[1][i] = h * k[0][i] - dz;
     F[2][i] = 2.0 * dz - h * (k[0][i] + k[12][i]);
-    for (r = 0; r < 4; ++r) {
-      double acc = 0.0;
-      for (j = 0; j < 16; ++j) acc += crt_base_d[r][j] * k[j][i];
-      F[3 + r][i] = h * acc;
-    }
+  }
+  for (r = 0; r < 4; ++r) {
+    double acc[CRT_BASE_NZ];
+    for (i = 0; i < CRT_BASE_NZ; ++i) acc[i] = 0.0;
+    for (j = 0; j < 16; ++j)
+      for (i = 0; i < CRT_BASE_NZ; ++i) acc[i] += crt_base_d[r][j] * k[j][i];
+    for (i = 0; i < CRT_BASE_NZ; ++i) F[3 + r][i] = h * acc[i];
   }
 }
 

@@ -41,6 +41,9 @@ typedef struct {
   int linear;                   /* the pressure is linear (else uniform) */
   double ell;                   /* the face's size: the scaled twist is (v, ell w) */
   double v_scale, t_scale;      /* sqrt(g ell), ell / v_scale */
+  double zscale[NQ + 1];        /* the least scale of each of z = (t, q) in the step's error
+                                   (crt_base_step): O's position ell, its velocity v_scale,
+                                   t, psi and psi' none (0) */
 } crt_base_body;
 
 /* The body on its face from the parameters; returns -1, or the index (CRT_P_*) of the
@@ -102,6 +105,9 @@ static int crt_base_body_set(crt_base_body *b, const double *prm)
   b->ell = b->face.size;
   b->v_scale = sqrt(b->pf[5] * b->ell);
   b->t_scale = b->ell / b->v_scale;
+  b->zscale[0] = b->zscale[3] = b->zscale[6] = 0.0;
+  b->zscale[1] = b->zscale[2] = b->ell;
+  b->zscale[4] = b->zscale[5] = b->v_scale;
   return fault;
 }
 
