@@ -43,6 +43,7 @@ from .geometry import (cross, kinetic_moment, lowest_point_numeric, momentum_fra
                        rotation_z)
 from ..scene import Scene, SceneError
 from ..scene.rules import most
+from ..scene.schema import SCENE_FIELDS
 
 POSE = "pose"
 G = layout.GENERAL
@@ -256,12 +257,13 @@ def _base_keys(scene: Scene, kind: str) -> None:
                                                 "(only the base model, a body resting on "
                                                 "its face, may leave it out)")
     if kind != "base":
-        for key, value in (("static_friction", scene.static_friction),
-                           ("pressure", scene.pressure)):
-            if value is not None:
-                raise SceneError(f"[plane].{key}", f"is read by the base model only (a box or "
-                                                   f"a cylinder resting on a face), and this "
-                                                   f"run is model {kind}")
+        for f in SCENE_FIELDS:
+            if f.models and kind not in f.models and getattr(scene, f.key) is not None:
+                which = " and ".join(f.models)
+                face = " (a box or a cylinder resting on a face)" if f.models == ("base",) \
+                    else ""
+                raise SceneError(f.where, f"is read by the {which} model only{face}, and "
+                                          f"this run is model {kind}")
         return
     for key in ("spin_friction", "rolling_resistance"):
         if getattr(scene, key) > 0.0:
