@@ -263,7 +263,16 @@ def _simulate_sweep(args, start: float) -> int:
     try:
         doc, base, origin = _scene_doc(args)
         parse_scene(doc, origin, base=base)                     # the base must be valid
-        grid = dict(overrides.parse_sweep(text) for text in args.sweep)
+        grid, seen = {}, {}
+        for text in args.sweep:
+            name, values = overrides.parse_sweep(text)
+            where = overrides.target(name, "--sweep").where
+            if where in seen:
+                raise SceneError("--sweep", f"{name}: is swept twice (as {seen[where]} too); "
+                                            "a field takes one --sweep: give all its values "
+                                            "in it (a,b,c)")
+            seen[where] = name
+            grid[name] = values
         n = 1
         for values in grid.values():
             n *= len(values)

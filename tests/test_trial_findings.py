@@ -48,3 +48,43 @@ def test_a_template_runs(tmp_path, capsys):
     assert main(["simulate", str(path), "-o", str(out), "-q", "--no-plots",
                  "--set", "run.duration=0.5"]) == 0, capsys.readouterr().err
     assert (out / "trajectory.csv").exists()
+
+
+# ---- --sweep of one field twice ------------------------------------------------------------------
+BOX = """name = "my box capsule"
+[body]
+mass = 0.8
+inertia = [0.000667, 0.001740, 0.001927]
+shape = "box"
+half_extents = [0.075, 0.04, 0.03]
+[point]
+mass = 0.3
+law = ["0.03*(sin(15*t) + 0.5*sin(30*t))", "0", "0.01"]
+[plane]
+friction = 0.25
+static_friction = 0.3
+[initial]
+on_plane = true
+carrier_velocity = [0.0, 0.0, 0.0]
+[run]
+duration = 0.2
+"""
+
+
+@pytest.fixture
+def box(tmp_path) -> Path:
+    path = tmp_path / "box.toml"
+    path.write_text(BOX)
+    return path
+
+
+@pytest.mark.parametrize("first, second", [
+    ("plane.friction=0.1,0.2", "plane.friction=0.15,0.25"),
+    ("point.law[0]=0.03*sin(W*t) for W=1:3:3", "point.law[0]=0.03*sin(W*t) for W=4:6:3"),
+])
+def test_a_field_swept_twice_is_refused(box, tmp_path, capsys, first, second):
+    """The second --sweep of a field had replaced the first, silently, exit 0."""
+    out = tmp_path / "out"
+    line = _refused(capsys, ["simulate", str(box), "-o", str(out), "-q", "--sweep", first,
+                             "--sweep", second], out)
+    assert line.startswith("derive simulate: --sweep: ") and "is swept twice" in line
