@@ -67,7 +67,7 @@ static_friction = 0.3
 on_plane = true
 carrier_velocity = [0.0, 0.0, 0.0]
 [run]
-duration = 0.2
+duration = 0.05
 """
 
 
@@ -88,3 +88,25 @@ def test_a_field_swept_twice_is_refused(box, tmp_path, capsys, first, second):
     line = _refused(capsys, ["simulate", str(box), "-o", str(out), "-q", "--sweep", first,
                              "--sweep", second], out)
     assert line.startswith("derive simulate: --sweep: ") and "is swept twice" in line
+
+
+# ---- --set of a law's entry to a number --------------------------------------------------------
+def test_a_number_set_where_the_field_is_a_formula_is_that_formula(box, tmp_path, capsys):
+    """--set 'point.law[2]=0.05' was refused (must be a string): a law entry is a formula,
+    and a number is one; the run is the one of the quoted '"0.05"', byte for byte."""
+    def run(*settings) -> bytes:
+        out = tmp_path / f"out{len(list(tmp_path.iterdir()))}"
+        argv = ["simulate", str(box), "-o", str(out), "-q", "--no-plots"]
+        for setting in settings:
+            argv += ["--set", setting]
+        assert main(argv) == 0, capsys.readouterr().err
+        return (out / "trajectory.csv").read_bytes()
+
+    assert run("point.law[2]=0.05") == run('point.law[2]="0.05"')
+    assert run("point.law=[0.01, 0, 0.05]") == run('point.law=["0.01", "0", "0.05"]')
+    # elsewhere a string is still not a number, nor a boolean a formula
+    for setting, says in (('body.mass="1"', "[body].mass: must be a number, not a string"),
+                          ("point.law[2]=true", "[point].law[2]: must be a string")):
+        line = _refused(capsys, ["simulate", str(box), "-o", str(tmp_path / "x"), "-q",
+                                 "--set", setting], tmp_path / "x")
+        assert says in line
