@@ -110,3 +110,28 @@ def test_a_number_set_where_the_field_is_a_formula_is_that_formula(box, tmp_path
         line = _refused(capsys, ["simulate", str(box), "-o", str(tmp_path / "x"), "-q",
                                  "--set", setting], tmp_path / "x")
         assert says in line
+
+
+# ---- derive export of a base scene with the hand-over's keys ----------------------------------
+@pytest.mark.parametrize("table, key", [("plane", "restitution = 0.5"),
+                                        ("plane", 'restitution_model = "poisson"'),
+                                        ("run", "zeno_dt = 1e-6")])
+def test_export_refuses_the_keys_only_the_handover_reads(tmp_path, capsys, table, key):
+    """A base scene with [plane].restitution exported a program that stops at lift_off where
+    derive simulate goes on (the flight, the flat landing): accepted and ignored."""
+    path = tmp_path / "lift.toml"
+    path.write_text(BOX.replace(f"[{table}]\n", f"[{table}]\n{key}\n"))
+    out = tmp_path / "c"
+    line = _refused(capsys, ["export", str(path), "-o", str(out)], out)
+    field = f"[{table}].{key.split(' =')[0]}"
+    assert line.startswith(f"derive export: {field}: ") and "no hand-over" in line
+    # the plain base scene, and the same key on a scene of another model, are exported
+    path.write_text(BOX)
+    assert main(["export", str(path), "-o", str(out)]) == 0
+    flight = BOX.replace("on_plane = true", "on_plane = false\ncom = [0, 0, 0.5]").replace(
+        "static_friction = 0.3", "restitution = 0.5")
+    if "restitution =" not in key:
+        flight = flight.replace(f"[{table}]\n", f"[{table}]\n{key}\n")
+    path.write_text(flight)
+    assert main(["export", str(path), "-o", str(tmp_path / "c2")]) == 0, \
+        capsys.readouterr().err
