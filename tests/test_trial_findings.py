@@ -135,3 +135,19 @@ def test_export_refuses_the_keys_only_the_handover_reads(tmp_path, capsys, table
     path.write_text(flight)
     assert main(["export", str(path), "-o", str(tmp_path / "c2")]) == 0, \
         capsys.readouterr().err
+
+
+# ---- argparse's errors: one line naming the option and the rule --------------------------------
+@pytest.mark.parametrize("argv, line", [
+    (["simulate", "--format", "xml"],
+     "derive simulate: --format: must be one of csv, npz (got 'xml')"),
+    (["simulate", "--bogus", "--other=1"], "derive simulate: --bogus, --other: are not "
+     "options of derive simulate (derive simulate -h: its options)"),
+    (["export", "box.toml"],
+     "derive export: -o/--output: is required (derive export -h: its arguments)"),
+    (["simulate", "--workers", "two"], "derive simulate: --workers: must be a whole number "
+     "(got 'two')"),
+])
+def test_the_parsers_errors_are_one_line(capsys, argv, line):
+    """They were argparse's usage and error, 2-6 lines."""
+    assert _refused(capsys, argv) == line
