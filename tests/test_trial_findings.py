@@ -151,3 +151,12 @@ def test_export_refuses_the_keys_only_the_handover_reads(tmp_path, capsys, table
 def test_the_parsers_errors_are_one_line(capsys, argv, line):
     """They were argparse's usage and error, 2-6 lines."""
     assert _refused(capsys, argv) == line
+
+
+# ---- derive stability of a scene it cannot answer ------------------------------------------------
+def test_stability_of_a_rough_scene_says_what_it_answers(box, capsys):
+    """It said "[run].model: 'vertical' cannot answer this scene" of a box on its face: the
+    user never asked for 'vertical'."""
+    line = _refused(capsys, ["stability", str(box), "-q"])
+    assert line.startswith("derive stability: [plane].friction: ") and "'vertical'" not in line
+    assert "smooth plane (friction = 0)" in line and "friction 0.25 (model base)" in line
