@@ -268,9 +268,9 @@ def _simulate_sweep(args, start: float) -> int:
             name, values = overrides.parse_sweep(text)
             where = overrides.target(name, "--sweep").where
             if where in seen:
-                raise SceneError("--sweep", f"{name}: is swept twice (as {seen[where]} too); "
-                                            "a field takes one --sweep: give all its values "
-                                            "in it (a,b,c)")
+                also = f" (also as {seen[where]})" if seen[where] != name else ""
+                raise SceneError("--sweep", f"{name}: is swept twice{also}; a field takes "
+                                            "one --sweep: give all its values in it (a,b,c)")
             seen[where] = name
             grid[name] = values
         n = 1
