@@ -263,7 +263,16 @@ def _simulate_sweep(args, start: float) -> int:
     try:
         doc, base, origin = _scene_doc(args)
         parse_scene(doc, origin, base=base)                     # the base must be valid
-        grid = dict(overrides.parse_sweep(text) for text in args.sweep)
+        grid, seen = {}, {}
+        for text in args.sweep:
+            name, values = overrides.parse_sweep(text)
+            where = overrides.target(name, "--sweep").where
+            if where in seen:
+                also = f" (also as {seen[where]})" if seen[where] != name else ""
+                raise SceneError("--sweep", f"{name}: is swept twice{also}; a field takes "
+                                            "one --sweep: give all its values in it (a,b,c)")
+            seen[where] = name
+            grid[name] = values
         n = 1
         for values in grid.values():
             n *= len(values)
@@ -580,11 +589,47 @@ class _Parser(argparse.ArgumentParser):
     def error(self, message: str):  # argparse's own errors: exit 2, one line
         unknown = [a.split("=", 1)[0] for a in getattr(self, "_given", [])
                    if a.startswith("--") and a.split("=", 1)[0] not in self._option_string_actions]
+        line = _one_line(message, self.prog)
         if unknown and "unrecognized arguments" not in message:
-            message += f" (and {', '.join(unknown)} is not an option of {self.prog})"
-        self.print_usage(sys.stderr)
-        print(f"{self.prog}: error: {message}", file=sys.stderr)
+            line += f"; {', '.join(unknown)}: is not an option of {self.prog}"
+        print(f"{self.prog}: {line}", file=sys.stderr)
         raise SystemExit(2)
+
+
+# argparse's messages, said as the project says a refusal: the option, then the rule
+_ARGPARSE = (
+    (r"argument (\S+): invalid choice: (.+?) \(choose from (.+)\)\Z",
+     lambda m, prog: f"{m[1]}: must be one of {m[3].replace(chr(39), '')} (got {m[2]})"),
+    (r"argument (\S+): invalid int value: (.+)\Z",
+     lambda m, prog: f"{m[1]}: must be a whole number (got {m[2]})"),
+    (r"argument (\S+): invalid float value: (.+)\Z",
+     lambda m, prog: f"{m[1]}: must be a number (got {m[2]})"),
+    (r"argument (\S+): expected one argument\Z",
+     lambda m, prog: f"{m[1]}: needs a value"),
+    (r"argument (\S+): (.+)\Z", lambda m, prog: f"{m[1]}: {m[2]}"),
+    (r"the following arguments are required: (.+)\Z",
+     lambda m, prog: f"{m[1]}: {'are' if ', ' in m[1] else 'is'} required ({prog} -h: "
+                     "its arguments)"),
+    (r"unrecognized arguments: (.+)\Z", lambda m, prog: _unrecognized(m[1].split(), prog)),
+)
+
+
+def _unrecognized(extras: list, prog: str) -> str:
+    what = "option" if all(a.startswith("-") for a in extras) else "argument"
+    extras = [a.split("=", 1)[0] if a.startswith("-") else a for a in extras]
+    verb = f"is not an {what}" if len(extras) == 1 else f"are not {what}s"
+    return f"{', '.join(extras)}: {verb} of {prog} ({prog} -h: its options)"
+
+
+def _one_line(message: str, prog: str) -> str:
+    """argparse's ``message`` as one line naming the option and the rule."""
+    import re
+    message = " ".join(message.split())
+    for pattern, say in _ARGPARSE:
+        m = re.match(pattern, message)
+        if m:
+            return say(m, prog)
+    return message
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -109,7 +109,8 @@ def face_on(shape: str, size, center, n) -> Face:
     n = n / np.linalg.norm(n)
     k = int(np.argmax(np.abs(n)))
     if abs(abs(n[k]) - 1.0) > AXIS_TOL or (shape == "cylinder" and k != 2):
-        raise ValueError(f"the vertical {n.tolist()} is along no face normal of "
+        vertical = ", ".join(f"{c:.6g}" for c in np.where(np.abs(n) < 1e-12, 0.0, n))
+        raise ValueError(f"the vertical [{vertical}] (body axes) is along no face normal of "
                          f"{shapes.with_article(shape)}")
     sign = 1.0 if n[k] > 0 else -1.0
     third, first, second = [0.0] * 3, [0.0] * 3, [0.0] * 3

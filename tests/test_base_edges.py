@@ -3,8 +3,8 @@
 * ``[plane].restitution`` may be left out by a box or a cylinder started on its face on a
   rough plane (the base model reads it not), and is required by every
   other scene, as a parse error or, where the start looked like a face's but the model
-  chosen is another, by the choice; either way one line naming the field, exit 2,
-  nothing written;
+  chosen is another, by the choice, which names the start's field that missed the face;
+  either way one line naming the field, exit 2, nothing written;
 * the keys the base model does not read ([run].method, step, keep_orthonormal) are
   refused by name when given, and taken by the other models; [plane].restitution,
   restitution_model and [run].zeno_dt are taken: the flight after a lift-off reads them
@@ -70,7 +70,7 @@ def test_a_base_scene_runs_without_restitution():
     (dict(mu=0.0), "[plane].restitution", "is required"),
     (dict(on_plane="false", initial="com = [0, 0, 1]"), "[plane].restitution", "is required"),
     # a face's start that the base model cannot run (omega off the vertical): the choice
-    (dict(initial="omega = [0.5, 0, 1]"), "[plane].restitution", "model rough"),
+    (dict(initial="omega = [0.5, 0, 1]"), "[initial].omega", "model rough"),
     # the keys the base model does not read
     (dict(run='method = "dopri5"'), "[run].method", "DOP853"),
     (dict(run="step = 1e-3"), "[run].step", "RK4"),

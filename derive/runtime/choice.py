@@ -43,6 +43,7 @@ from .geometry import (cross, kinetic_moment, lowest_point_numeric, momentum_fra
                        rotation_z)
 from ..scene import Scene, SceneError
 from ..scene.rules import most
+from ..scene.schema import SCENE_FIELDS
 
 POSE = "pose"
 G = layout.GENERAL
@@ -136,30 +137,57 @@ def base_face(scene: Scene):
 def base_refusal(scene: Scene) -> str | None:
     """Why the base model cannot run ``scene`` (None: it can): a box or a cylinder on a
     face, on a rough plane, turning only about the vertical, O moving horizontally."""
+    found = base_refusal_at(scene)
+    if found is None:
+        return None
+    field, rule = found
+    return _SUBJECT.get(field, "") + rule
+
+
+def _initial(scene: Scene) -> dict:
+    """The scene's [initial] as given (Scene.given leaves [initial] out)."""
+    initial = scene.doc.get("initial")
+    return initial if isinstance(initial, dict) else {}
+
+
+# how base_refusal's sentences name the field base_refusal_at's rule is about
+_SUBJECT = {"[initial].matrix": "[initial]'s attitude ",
+            "[initial].quaternion": "[initial]'s attitude ", "[initial].omega": "[initial].omega "}
+
+
+def base_refusal_at(scene: Scene) -> tuple[str, str] | None:
+    """:func:`base_refusal`'s reason as (the field it is about, the rule it breaks)."""
     if scene.shape not in BASE_SHAPES:
-        return (f"it needs a box or a cylinder (a flat face to rest on), not "
-                f"{shapes.with_article(scene.shape) if scene.shape != 'none' else 'no shape'}")
+        return "[body].shape", (
+            f"it needs a box or a cylinder (a flat face to rest on), not "
+            f"{shapes.with_article(scene.shape) if scene.shape != 'none' else 'no shape'}")
     if not scene.contact_possible or not scene.on_plane:
-        return "it needs [plane] and [initial].on_plane = true (the body on a face at the start)"
+        return "[initial].on_plane", ("it needs [plane] and [initial].on_plane = true (the "
+                                      "body on a face at the start)")
     if not scene.rough:
-        return "it needs [plane].friction > 0 (the face rests, slides and sticks by friction)"
+        return "[plane].friction", ("it needs [plane].friction > 0 (the face rests, slides "
+                                    "and sticks by friction)")
     try:
         base_face(scene)
     except ValueError as exc:
         side = (" (a cylinder on its side touches the plane along a line, not a face: "
                 "only its ends are faces)" if scene.shape == "cylinder" else "")
-        return f"[initial]'s attitude puts no face on the plane: {exc}{side}"
+        field = "[initial].matrix" if "matrix" in _initial(scene) else "[initial].quaternion"
+        return field, f"puts no face on the plane: {exc}{side}"
     n = np.asarray(scene.A0[2], dtype=float)
     w = np.asarray(scene.omega, dtype=float)
     if np.linalg.norm(cross(w, n)) > 1e-12 * max(np.linalg.norm(w), 1e-300):
-        return ("[initial].omega is not along the vertical (a body on its face turns only "
-                "about it)")
+        return "[initial].omega", ("is not along the vertical (a body on its face turns only "
+                                   "about it)")
     c, cd = _base_offset(scene)
     v_O = np.asarray(scene.com_velocity, dtype=float) - scene.A0 @ (cross(w, c) + cd)
     scale = math.sqrt(scene.g * faces.face_on(scene.shape, scene.size, scene.center, n).size)
     if abs(v_O[2]) > 1e-12 * max(np.linalg.norm(v_O), scale):
-        return (f"O starts with a vertical velocity ({v_O[2]:.3g} m/s): a body on its face "
-                "moves horizontally (give [initial].carrier_velocity = [V_x, V_y, 0])")
+        field = "[initial].com_velocity" if "com_velocity" in _initial(scene) \
+            else "[initial].carrier_velocity"
+        return field, (f"O starts with a vertical velocity ({v_O[2]:.3g} m/s): a body on its "
+                       "face moves horizontally (give [initial].carrier_velocity = [V_x, V_y, "
+                       "0])")
     return None
 
 
@@ -250,18 +278,26 @@ def _base_keys(scene: Scene, kind: str) -> None:
     """The keys only the base model reads are refused by name on the others; and what the
     base model does not read on it."""
     if kind != "base" and not scene.restitution_given and scene.plane:
-        why = base_refusal(scene)
-        why = f", not base: {why}" if why else ""
+        found = base_refusal_at(scene) if scene.on_plane else None
+        if found is not None and found[0].startswith("[initial]"):
+            # a start meant for the face that misses it: the cause first, then the key
+            field, why = found
+            raise SceneError(field, f"{why}; so the base model (a body resting on a face) "
+                                    f"cannot run it, and this run is model {kind}, whose "
+                                    "impacts need [plane].restitution: give it, or start "
+                                    "the body on a face")
+        why = f", not base: {base_refusal(scene)}" if found else ""
         raise SceneError("[plane].restitution", f"is required: this run is model {kind}{why} "
                                                 "(only the base model, a body resting on "
                                                 "its face, may leave it out)")
     if kind != "base":
-        for key, value in (("static_friction", scene.static_friction),
-                           ("pressure", scene.pressure)):
-            if value is not None:
-                raise SceneError(f"[plane].{key}", f"is read by the base model only (a box or "
-                                                   f"a cylinder resting on a face), and this "
-                                                   f"run is model {kind}")
+        for f in SCENE_FIELDS:
+            if f.models and kind not in f.models and getattr(scene, f.key) is not None:
+                which = " and ".join(f.models)
+                face = " (a box or a cylinder resting on a face)" if f.models == ("base",) \
+                    else ""
+                raise SceneError(f.where, f"is read by the {which} model only{face}, and "
+                                          f"this run is model {kind}")
         return
     for key in ("spin_friction", "rolling_resistance"):
         if getattr(scene, key) > 0.0:

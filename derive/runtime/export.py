@@ -14,8 +14,8 @@ Nothing of the scene file's text reaches the C: numbers are printed from floats
 (``repr``, which C reads back to the same double), integers from ints, and every name in
 the files (states, events, statuses) is the runtime's own.  What the export cannot carry
 is refused by name (:func:`refusal`): ``[control]`` (a controller runs in Python or in a
-compiled library the loop calls) and ``[disturbance]`` (pushes need a loop closed by
-Python).
+compiled library the loop calls), ``[disturbance]`` (pushes need a loop closed by
+Python) and, on a base run, the keys only its hand-over to the flight reads.
 """
 from __future__ import annotations
 
@@ -59,7 +59,19 @@ def refusal(scene) -> str | None:
         return (f"[run].outputs: {', '.join(python_only)} are columns derive simulate "
                 "computes in Python from the state; the exported program writes the state "
                 "(drop them from [run].outputs, or compute them from the state)")
+    handover = [k for k in _HANDOVER_KEYS if k in scene.given]
+    if handover:
+        from .choice import choose
+        if choose(scene)[0] == "base":
+            return (f"{handover[0]}: a base run reads it only in derive simulate's hand-over "
+                    "(the flight after a lift-off and its landing), and the exported program "
+                    "has no hand-over: it stops where the body lifts off (status lift_off); "
+                    "remove it, or run the scene with derive simulate")
     return None
+
+
+# the keys a base run reads only in the hand-over (derive/runtime/handover.py)
+_HANDOVER_KEYS = ("[plane].restitution", "[plane].restitution_model", "[run].zeno_dt")
 
 
 # [run].outputs the exported program cannot write (derive simulate's Python columns)

@@ -95,6 +95,10 @@ def template(shape: str = "sphere") -> str:
                 + _modes(f))
         if value is None or f.key in ("table", "samples", "matrix", "ends"):
             lines.append(f"# {f.key} = ...{' ' * 20}# {note}")
+        elif f.models:
+            # read by some models only, and this scene (in flight) runs another: given
+            # here it would be refused, so it is shown commented out
+            lines.append(f"# {f.key} = {toml.value(value)}  # {note}")
         else:
             lines.append(f"{f.key} = {toml.value(value)}  # {note}")
     lines.append("")

@@ -125,8 +125,18 @@ def parse_assignment(text: str, flag: str = "--set") -> tuple[str, object]:
     if not sep:
         raise OverrideError(flag, f"must be table.key=value, e.g. body.mass=1.3 (got "
                                   f"{text!r})")
-    target(name, flag)
-    return name, parse_value(value)
+    t = target(name, flag)
+    parsed = parse_value(value)
+    if _is_number(parsed) and (t.field.kind == "formula"
+                               or (t.field.kind == "laws" and t.index is not None)):
+        parsed = value.strip()           # a number is a formula in t too: as written
+    elif t.field.kind == "laws" and t.index is None and isinstance(parsed, list):
+        parsed = [repr(v) if _is_number(v) else v for v in parsed]
+    return name, parsed
+
+
+def _is_number(value) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
 
 
 class Formulas(list):

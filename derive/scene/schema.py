@@ -55,6 +55,8 @@ class Field:
     when: str = ""             # the condition under which the field applies
     fields: tuple = ()         # a nested table's own fields (kind = "table")
     modes: tuple = ()          # [control]: the modes that read the field (): every mode
+    models: tuple = ()         # the models that read the field (): every model; the
+                               # others refuse it by name when given (runtime/choice.py)
 
     @cached_property
     def where(self) -> str:
@@ -168,12 +170,12 @@ SCENE_FIELDS = (
     F("plane", "static_friction", "number", None, "mu_s, the static coefficient over a "
       "face (>= friction; default: friction): the base model's rest holds while the wrench "
       "it needs is within the limit surface of mu_s (derive/docs/bodies.md); refused on "
-      "the other models", 0, 100),
+      "the other models", 0, 100, models=("base",)),
     F("plane", "pressure", "choice", "uniform", "the pressure over a face on the plane (the "
       "base model): uniform, or linear (Sakharov's: affine, its centroid at the centre of "
       "pressure the tipping moment needs; the run stops with face_lifting where that "
       "centre leaves the face's kern); refused on the other models",
-      choices=abi.names(abi.PRESSURES)),
+      choices=abi.names(abi.PRESSURES), models=("base",)),
     F("initial", "time", "number", 0.0, "t0", -1e9, 1e9),
     F("initial", "com", "vector", [0.0, 0.0, 0.0], "X_C, Y_C, Z_C: C, the centre of mass of "
       "the whole system (the carrier and its points), fixed axes; with on_plane, Z_C is "

@@ -167,6 +167,15 @@ class HybridMap:
 
     def __init__(self, scene):
         scene = load_scene(scene)
+        if scene.rough:
+            from ..runtime.choice import candidates
+            kind = candidates(scene)[0][0]
+            raise SceneError("[plane].friction", "derive stability answers a scene on the "
+                                                 "plane as the periodic bouncing of reference "
+                                                 "[5], on a smooth plane (friction = 0), or "
+                                                 "one in free flight (no [plane]); this scene's "
+                                                 f"plane has friction {scene.friction:g} "
+                                                 f"(model {kind}): derive simulate runs it")
         if scene.model not in ("auto", "vertical"):
             raise SceneError("[run].model", "periodic bouncing runs the vertical model: "
                                             f"remove it or set it to \"vertical\" (got "
