@@ -108,6 +108,31 @@ def test_a_box_pushed_straight_up_lifts_off_flies_and_lands_flat(up):
     assert up.events[-1]["kind"] == "flat_landing" and up.stats["impacts"] == 0
 
 
+def test_the_noise_the_hand_over_judges_by_is_the_runtimes(up):
+    """The height resolution and the speed noise a landing is judged by are read from the
+    C (handover.noise: one source, crt_plane.h): against their formulas written here
+    (10 max(atol + rtol (|Z_C| + L), 64 eps (|Z_C| + L)) and 1e3 eps (|Z_C'| + |omega| L
+    + sqrt(g L)), L the run's length scale) on every row of the flight, which is no
+    constant (Z_C, Z_C' and omega change along it); the flat landing's resolution is the
+    one at its row."""
+    from derive import abi
+    from derive.runtime.driver import options
+    flight = up.handover.flight
+    s = flight.scene
+    L = options(s, flight.model)[abi.index(abi.OPTIONS, "length_scale")]
+    eps = np.finfo(float).eps
+    got = np.array([handover.noise(flight, i) for i in range(len(flight.t))])
+    Q = flight.model_q
+    size = np.abs(Q[:, G.Z]) + L
+    res = 10.0 * np.maximum(s.atol + s.rtol * size, 64 * eps * size)
+    noise = 1e3 * eps * (np.abs(Q[:, G.Zd]) + np.linalg.norm(Q[:, G.omega], axis=1) * L
+                         + math.sqrt(g * L))
+    assert np.ptp(res) > 0 and np.ptp(noise) > 0
+    assert np.max(np.abs(got[:, 0] / res - 1)) < 1e-14
+    assert np.max(np.abs(got[:, 1] / noise - 1)) < 1e-14
+    assert up.handover.landing["resolution"] == got[-1, 0]
+
+
 @pytest.mark.parametrize("f, first", [(1.2, "contact"), (1.5, "graze")])
 def test_a_touch_at_the_hand_over_instant_is_no_landing(f, first):
     """Pushed up at a peak of f g (f a little above 1), the C finds the face touching at
@@ -301,7 +326,7 @@ def test_random_lift_offs_are_handed_over_honestly():
             assert h.landing["t"] - h.t > 1e-6, k      # (a flight, not the C's touch at once)
         elif touches:                               # a corner or a rim point: not flat
             j = int(np.searchsorted(h.flight.t, touches[0]["t"]))
-            res = handover.height_resolution(run.scene, float(h.flight.model_q[j, G.Z]))
+            res = handover.noise(h.flight, j)[0]
             assert handover.flat_spread(run.scene, h.flight.model_q[j, G.A]) > res
     # (a sideways law, k % 4 == 3, in a spinning body tips before N reaches 0: the moment
     # 2 mu w z rho'_h does not vanish with N; tests/test_base_tip_before_lift.py)

@@ -31,7 +31,8 @@ import numpy as np
 
 from .. import abi
 from . import choice, handover
-from .driver import options, prepare, run_prepared, run_scene, session_for
+from .driver import (options, prepare, ready_session, run_prepared, run_scene,
+                     session_for)
 from ..scene import SceneError, build_scene, bulk, overrides
 from ..scene.schema import SCENE
 
@@ -378,10 +379,10 @@ def hand_over(part: Part, cols: dict, last: np.ndarray, ready: list) -> None:
         # first landing): on a face flat, the flight cut there (handover._cut: no impact
         # made, and the contact begun at it dropped), else the whole flight; any other (a
         # touch at the instant, a graze, a contact) through fly itself
-        A, Z = end[1:][handover.G.A], float(end[1:][handover.G.Z])
+        A = end[1:][handover.G.A]
         if row["impacts"] != 1 or not end[0] > handover.at_once(fs.t0):
             alone.append((k, fs))
-        elif handover.flat_spread(fs, A) <= handover.height_resolution(fs, Z):
+        elif handover.flat_spread(fs, A) <= _noise(fs, end)[0]:
             row.update(status="flat_landing", impacts=row["impacts"] - 1,
                        first_contact_t=math.nan)
         else:
@@ -401,6 +402,13 @@ def hand_over(part: Part, cols: dict, last: np.ndarray, ready: list) -> None:
         travel = choice.travel(row["model"], scene.t0, t_end, end[1:], part.c0[k], scene)
         for name, value in {**travel, **means(travel, part.c0[k], scene.t0, t_end)}.items():
             cols[name][k] = value
+
+
+def _noise(fs, end) -> tuple[float, float]:
+    """The runtime's height resolution and speed noise in the flight of scene ``fs`` at
+    its row ``end`` (t then q), from the C of the flight's model (handover.noise)."""
+    prep = prepare(fs)
+    return ready_session(prep.scene, prep.kind, prep.start).noise(float(end[0]), end[1:])
 
 
 def _flights(items: list, ready: list) -> dict:

@@ -485,6 +485,23 @@ void crt_eval_gap(crt_session *s, double t, const double *q, double *h, double *
 #endif
 }
 
+/* the scales below which the event search calls a height and a normal speed round-off at
+   (t, q): out[0] the height resolution (crt_height_resolution: the integrator's own error in
+   Z_C, or round-off), out[1] the speed noise (crt_speed_noise: S touching, not hitting);
+   the driver's hand-over judges a flat landing and a landing with them (models with a
+   plane; else 0, 0) */
+void crt_eval_noise(crt_session *s, double t, const double *q, double *out)
+{
+#if MODEL_HAS_PLANE
+  out[0] = crt_height_resolution(s, q);
+  out[1] = crt_speed_noise(s, t, q);
+#else
+  (void)s; (void)t; (void)q;
+  out[0] = 0.0;
+  out[1] = 0.0;
+#endif
+}
+
 /* persistent contact along n rows (t[k], q[k*NQ..]): dq/dt into dq[k*NQ..], N[k], a_free[k] */
 void crt_eval_contact_rows(crt_session *s, int n, const double *t, const double *q, double *dq,
                            double *N, double *a_free)
