@@ -342,7 +342,7 @@ def test_the_cli_writes_one_run(tmp_path, capsys):
     assert ": flat_landing;" in said.splitlines()[0] and "lifted off at t = " in said
     events = [line.split(",")[:3] for line in
               (out / "events.csv").read_text().splitlines()[1:]]
-    assert [e[:2] for e in events] == [["liftoff", "before"], ["liftoff", "after"],
+    assert [e[:2] for e in events] == [["lift_off", "before"], ["lift_off", "after"],
                                        ["flat_landing", "before"], ["flat_landing", "after"]]
     info = json.loads((out / "summary.json").read_text())
     assert info["status"] == "flat_landing" and info["handover"]["flight_status"] == \

@@ -43,7 +43,7 @@ _MODE_COL = abi.EVENT_COLUMNS.index("mode")
 # the face's mode after each base event, written in the events' mode column (the general
 # model's timeline reads it)
 _BASE_MODES = {"slip": abi.MODE["sliding"], "reversal": abi.MODE["sliding"],
-               "stick": abi.MODE["sticking"], "liftoff": abi.MODE["flight"]}
+               "stick": abi.MODE["sticking"], "lift_off": abi.MODE["flight"]}
 
 
 def general_state(scene, st: choice.Start, t: float, q) -> np.ndarray:

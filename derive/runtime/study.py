@@ -36,12 +36,12 @@ from .driver import (options, prepare, ready_session, run_prepared, run_scene,
 from ..scene import SceneError, build_scene, bulk, overrides
 from ..scene.schema import SCENE
 
-SUMMARY_COLUMNS = ("status", "model", "t_end", "impacts", "contacts", "liftoffs", "slips",
+SUMMARY_COLUMNS = ("status", "model", "t_end", "impacts", "contacts", "lift_offs", "slips",
                    "sticks", "reversals", "steps", "rhs_evaluations", "min_height",
                    "first_contact_t", "X_C_end", "Y_C_end", "Z_C_end", "distance",
                    "mean_speed", "mean_velocity_X", "mean_velocity_Y", "run_ms")
 TEXT_COLUMNS = ("error", "status", "model")
-COUNT_COLUMNS = ("impacts", "contacts", "liftoffs", "slips", "sticks", "reversals", "steps",
+COUNT_COLUMNS = ("impacts", "contacts", "lift_offs", "slips", "sticks", "reversals", "steps",
                  "rhs_evaluations")
 # the face's slip events, stick events and reversals (the counts of a base run's
 # summary.json): a column of base runs alone, empty (masked) for the other models
@@ -84,7 +84,7 @@ def summary_row(result) -> dict:
     travel = choice.travel(result.model, result.scene.t0, t_end, result.model_q[-1], c0,
                            result.scene)
     return {"status": result.status, "model": result.model, "t_end": t_end,
-            "impacts": s["impacts"], "contacts": s["contacts"], "liftoffs": s["liftoffs"],
+            "impacts": s["impacts"], "contacts": s["contacts"], "lift_offs": s["lift_offs"],
             **{name: s[name] for name in FACE_COLUMNS}, "steps": s["steps"],
             "rhs_evaluations": s["rhs_evaluations"],
             "min_height": result.min_height,

@@ -374,7 +374,7 @@ def judge_reaction(result, slack: float) -> tuple[str, str] | None:
         if _AT_THE_BOUND.get(ev) == side and Ns[k] > 0.0 and short[k] > slack:
             return "cone", (f"a {ev} where the sticking reaction is inside the cone by "
                             f"{short[k]:.3g} N (N = {Ns[k]:.3g} N) at {where(k)}")
-        if ev == "liftoff" and side == 1 and (sticking[k] or known[k]):
+        if ev == "lift_off" and side == 1 and (sticking[k] or known[k]):
             n_here = Ns[k] if sticking[k] else N[k]
             if n_here > slack:
                 return "cone", f"a lift-off with N = {n_here:.3g} N at {where(k)}"

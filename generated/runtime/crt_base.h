@@ -78,7 +78,7 @@ static void crt_base_end(crt_session *s, crt_out *o, int status, int event, doub
 {
   crt_emit(o, s->t, s->q, CRT_ROW_BEFORE_EVENT);
   crt_event(o, s->t, event, value, 0.0, 0.0, 0.0);
-  if (event == CRT_EV_LIFTOFF) ++s->stat[CRT_STAT_LIFTOFFS];
+  if (event == CRT_EV_LIFT_OFF) ++s->stat[CRT_STAT_LIFT_OFFS];
   s->status = status;
 }
 
@@ -90,7 +90,7 @@ static void crt_base_settle(crt_session *s, crt_out *o, int after_stop)
   double g[CRT_BASE_NG_STICK], later[CRT_BASE_NG_STICK], xi[3];
   int i, stick;
   crt_base_stick_g(s, s->t, g, s->bs.xi);
-  if (g[1] <= 0.0) { crt_base_end(s, o, CRT_LIFT_OFF, CRT_EV_LIFTOFF, g[1]); return; }
+  if (g[1] <= 0.0) { crt_base_end(s, o, CRT_LIFT_OFF, CRT_EV_LIFT_OFF, g[1]); return; }
   if (crt_base_tie(&s->bs.body, g[1])) {}  /* (cp unknown: N's root is the stick's) */
   else if (g[2] <= 0.0) { crt_base_end(s, o, CRT_TIPPING, CRT_EV_TIPPING, g[2]); return; }
   else if (g[3] <= 0.0) {
@@ -208,7 +208,7 @@ static void crt_base_stick_step(crt_session *s, crt_out *o, double t_end)
   }
   s->t = first;
   crt_base_stick_g(s, s->t, g, s->bs.xi);  /* the maximiser at the event */
-  if (which == 1) { crt_base_end(s, o, CRT_LIFT_OFF, CRT_EV_LIFTOFF, g[1]); return; }
+  if (which == 1) { crt_base_end(s, o, CRT_LIFT_OFF, CRT_EV_LIFT_OFF, g[1]); return; }
   if (which == 2) { crt_base_end(s, o, CRT_TIPPING, CRT_EV_TIPPING, g[2]); return; }
   if (which == 3) { crt_base_end(s, o, CRT_FACE_LIFTING, CRT_EV_FACE_LIFTING, g[3]); return; }
   crt_emit(o, s->t, s->q, CRT_ROW_BEFORE_EVENT);
@@ -245,7 +245,7 @@ static void crt_base_slip_step(crt_session *s, crt_out *o, double t_end)
   crt_base_slip_g(s, t_end, z0, N, cp, rho, g0);
   /* a stop already reached where the step starts: N or cp jumped there (the friction of
      a slip's onset against the rest's wrench moves cp at once) */
-  if (g0[CRT_BASE_LIFT] <= 0.0) { crt_base_end(s, o, CRT_LIFT_OFF, CRT_EV_LIFTOFF, N); return; }
+  if (g0[CRT_BASE_LIFT] <= 0.0) { crt_base_end(s, o, CRT_LIFT_OFF, CRT_EV_LIFT_OFF, N); return; }
   if (crt_base_tie(&s->bs.body, N)) {}     /* (cp unknown: N's root is the step's) */
   else if (g0[CRT_BASE_TIP] <= 0.0) {
     crt_base_end(s, o, CRT_TIPPING, CRT_EV_TIPPING, g0[CRT_BASE_TIP]);
@@ -352,7 +352,7 @@ static void crt_base_slip_step(crt_session *s, crt_out *o, double t_end)
     s->t = t_end;
     crt_emit(o, s->t, s->q, CRT_ROW_STEP);
   } else if (which == CRT_BASE_LIFT) {
-    crt_base_end(s, o, CRT_LIFT_OFF, CRT_EV_LIFTOFF, N);
+    crt_base_end(s, o, CRT_LIFT_OFF, CRT_EV_LIFT_OFF, N);
   } else if (which == CRT_BASE_TIP) {
     crt_base_end(s, o, CRT_TIPPING, CRT_EV_TIPPING,
                  crt_face_edge_margin(&s->bs.body.face, cp[0], cp[1]));

@@ -33,7 +33,7 @@
  *                           (crt_control.h)
  *   CRT_LIFT_OFF         5  crt_advance, the base model (a body on its face, crt_base.h):
  *                           the normal force N under the face reached 0; the run stops
- *                           there, with an event liftoff at its time
+ *                           there, with an event lift_off at its time
  *   CRT_TIPPING          6  crt_advance, the base model: the centre of pressure reached the
  *                           face's edge (the body tips); the run stops there, with an
  *                           event tipping at its time
