@@ -82,6 +82,16 @@ static void crt_base_end(crt_session *s, crt_out *o, int status, int event, doub
   s->status = status;
 }
 
+/* the row at a step's end, as crt_loop.h writes it: every step's without output_dt; with
+   it only a grid time the step ends on (crt_base_rows leaves that one to the step's own
+   row) and the end time, so that the rows between events are the grid's alone */
+static void crt_base_step_row(crt_session *s, crt_out *o, double t_end)
+{
+  const double out_dt = s->opt[CRT_OPT_OUTPUT_DT];
+  if (!(out_dt > 0.0) || s->t >= t_end || s->out_origin + (s->out_k - 1.0) * out_dt == s->t)
+    crt_emit(o, s->t, s->q, CRT_ROW_STEP);
+}
+
 /* At rest at s->t (after a stop of the slip when after_stop, else at the start): stick,
    or slip off (a slip, or a reversal after a stop), or stop (lift-off, tipping, the face
    lifting). */
@@ -203,7 +213,7 @@ static void crt_base_stick_step(crt_session *s, crt_out *o, double t_end)
     s->t = t1;
     for (i = 0; i < CRT_BASE_NG_STICK; ++i) s->bs.g[i] = g1[i];
     for (i = 0; i < 3; ++i) s->bs.xi[i] = xi[i];
-    crt_emit(o, s->t, s->q, CRT_ROW_STEP);
+    crt_base_step_row(s, o, t_end);
     return;
   }
   s->t = first;
@@ -340,7 +350,7 @@ static void crt_base_slip_step(crt_session *s, crt_out *o, double t_end)
     s->t = z1[0];
     for (i = 0; i < NQ; ++i) s->q[i] = z1[1 + i];
     crt_changed(s);
-    crt_emit(o, s->t, s->q, CRT_ROW_STEP);
+    crt_base_step_row(s, o, t_end);
     return;
   }
   crt_base_interp(z0, F, first, zt);       /* the state there, its rate, N and cp */
