@@ -411,17 +411,22 @@ def test_a_cylinder_is_drawn_with_no_invalid_value(tmp_path):
 
 
 # ---- studies hand over too ------------------------------------------------------------------
-def test_a_study_hands_over_as_simulate_does():
+def test_a_study_hands_over_as_simulate_does(tmp_path):
     """derive.simulate_many (derive simulate --sweep) of variants either side of lift-off
     (the push's peak m A W^2/(M + m) at 0.8 g and 1.5 g: one stays on its face, one lifts
     off and lands flat) and the tilted one that lands on a corner and goes on (its whole
     flight in the general model's batch): each row equals summary_row of derive.simulate
     of that variant, bit for bit but the time it took, and keep = "result" gives that
-    Result's status and end."""
+    Result's status and end.  A handed-over row's slips, sticks and reversals are its
+    face's (base_report.contact of the base phase) plus its flight's, summary.json's
+    counts, read as columns unmasked and written in sweep.csv, with handover_t the
+    lift-off's time."""
+    import csv
     import tomllib
 
     import derive
-    from derive.runtime.study import summary_row
+    from derive.runtime import base_report
+    from derive.runtime.study import FACE_COLUMNS, summary_row
     from derive.scene.overrides import apply_to_doc
     doc = tomllib.loads(_SCENE.format(name="hop", M=M, m=m, law=UP, spin=SPIN, duration=0.3))
     laws = [["0", "0", f"{f * (M + m) * g / (m * W * W)!r}*sin({W}*t)"] for f in (0.8, 1.5)]
@@ -440,7 +445,7 @@ def test_a_study_hands_over_as_simulate_does():
                          "plane.friction": float(rng.uniform(0.2, 1.0))})
     batch = derive.simulate_many(doc, variants, workers=1)
     kept = derive.simulate_many(doc, variants, workers=1, keep="result").results
-    statuses = []
+    statuses, handed = [], []
     for v, row, res in zip(variants, batch.rows, kept):
         d = json.loads(json.dumps(doc))
         for name, value in v.items():
@@ -452,6 +457,24 @@ def test_a_study_hands_over_as_simulate_does():
         assert all(same.values()), (v, {k: (row[k], want[k]) for k in same if not same[k]})
         assert (res.status, res.t[-1]) == (run.status, run.t[-1])
         statuses.append((row["status"], row["model"], run.handover is not None))
+        if run.handover is not None:     # the face's counts, then the flight's (summary.json's
+            h = run.handover             # counts are run.stats; its contact.face the face's)
+            face = base_report.contact(h.base)
+            assert row["handover_t"] == h.t
+            for name in FACE_COLUMNS:
+                assert row[name] == face[name] + h.flight.stats[name] == run.stats[name]
+            handed.append(row)
     assert statuses[:3] == [("done", "base", False), ("flat_landing", "rough", True),
                             ("surface_jump", "rough", True)]
     assert sum(handed for _, _, handed in statuses[3:]) >= 8, statuses
+    # read as columns and written as sweep.csv: the face's counts there, not masked or blank
+    on = np.array([h for _, _, h in statuses])
+    assert sum(r["slips"] + r["sticks"] for r in handed) > 0
+    for name in FACE_COLUMNS:
+        col = batch.column(name)
+        assert not col.mask.any() and col.tolist() == [r[name] for r in batch.rows]
+    batch.to_csv(tmp_path / "sweep.csv")
+    table = list(csv.DictReader(open(tmp_path / "sweep.csv", encoding="utf-8")))
+    assert all((r["slips"] != "") == (r["model"] == "base" or o) for r, o in zip(table, on))
+    assert [float(r["handover_t"]) == row["handover_t"] or not o
+            for r, row, o in zip(table, batch.rows, on)] == [True] * len(on)

@@ -38,14 +38,24 @@ from ..scene.schema import SCENE
 
 SUMMARY_COLUMNS = ("status", "model", "t_end", "impacts", "contacts", "lift_offs", "slips",
                    "sticks", "reversals", "steps", "rhs_evaluations", "min_height",
-                   "first_contact_t", "X_C_end", "Y_C_end", "Z_C_end", "distance",
+                   "first_contact_t", "handover_t", "X_C_end", "Y_C_end", "Z_C_end", "distance",
                    "mean_speed", "mean_velocity_X", "mean_velocity_Y", "run_ms")
 TEXT_COLUMNS = ("error", "status", "model")
 COUNT_COLUMNS = ("impacts", "contacts", "lift_offs", "slips", "sticks", "reversals", "steps",
                  "rhs_evaluations")
 # the face's slip events, stick events and reversals (the counts of a base run's
-# summary.json): a column of base runs alone, empty (masked) for the other models
+# summary.json): a column of the runs that began on a face (base runs, and those that
+# handed over at a lift-off: handover_t not NaN, the base phase's counts and the
+# flight's), empty (masked) for the other models
 FACE_COLUMNS = ("slips", "sticks", "reversals")
+
+
+def on_face(model, handover_t) -> np.ndarray | bool:
+    """Whether a row's run began on a face (FACE_COLUMNS mean something): a base run, or
+    one that handed over (``handover_t`` a time, not NaN); of one row or of columns."""
+    t = np.asarray(handover_t, dtype=float)
+    out = (np.asarray(model, dtype=object) == "base") | ~np.isnan(t)
+    return bool(out) if out.ndim == 0 else out
 _STAT = {name: k for k, name in enumerate(abi.names(abi.STATS))}
 _SUMMARY = {name: k for k, name in enumerate(abi.names(abi.SUMMARY))}
 _OK = abi.STATUS["ok"]
@@ -89,6 +99,7 @@ def summary_row(result) -> dict:
             "rhs_evaluations": s["rhs_evaluations"],
             "min_height": result.min_height,
             "first_contact_t": float(contact[0, 0]) if len(contact) else math.nan,
+            "handover_t": result.handover.t if result.handover is not None else math.nan,
             **travel, **means(travel, c0, result.scene.t0, t_end),
             "Z_C_end": choice.height_of_c(result.scene, result.model, t_end,
                                           result.model_q[-1]),
@@ -271,6 +282,7 @@ def run_part(part: Part, ready: list, last: list | None = None) -> dict:
         cols[name][:] = stats[:, _STAT[name]]
     cols["min_height"][:] = out["summary"][:, _SUMMARY["min_height"]]
     cols["first_contact_t"][:] = out["first_contact"]
+    cols["handover_t"][:] = math.nan           # (hand_over sets its variants')
     if part.scenes is None:                 # a model whose state holds Z_C (or attitude)
         cols["Z_C_end"][:] = choice.height_of_c(None, part.kind, last[:, 0], last[:, 1:])
         travel = choice.travel(part.kind, part.t0, last[:, 0], last[:, 1:], part.c0)
@@ -396,6 +408,7 @@ def hand_over(part: Part, cols: dict, last: np.ndarray, ready: list) -> None:
         scene, t_end = part.scenes[k], float(end[0])
         for name in ("status", "model", "t_end", "min_height", "first_contact_t", "Z_C_end"):
             cols[name][k] = row[name]
+        cols["handover_t"][k] = float(last[k, 0])          # (the lift-off)
         for name in COUNT_COLUMNS:
             cols[name][k] += row[name]
         cols["run_ms"][k] += row["run_ms"]
