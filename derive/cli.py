@@ -715,7 +715,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-o", "--output", required=True, metavar="DIR",
                    help="the project's folder (refused if it exists, unless --force)")
     p.add_argument("--force", action="store_true", help="write into DIR even if it exists "
-                   "(its files of the same names are replaced, the others left)")
+                   "(the files a previous export wrote, listed in DIR/.derive-export, are "
+                   "replaced or removed; other files are left)")
     p.add_argument("--set", action="append", metavar="TABLE.KEY=VALUE",
                    help="override a field of the scene, as derive simulate's --set")
     p.set_defaults(func=cmd_export)

@@ -274,7 +274,7 @@ def test_missing_values_of_a_partly_refused_study_are_missing(tmp_path):
     assert status.dtype == object and status.tolist() == [alone.status, None]
     assert error.dtype == object and error[0] is None and "[body].mass" in error[1]
     assert out.column("model").tolist() == [alone.model, None]
-    for name in ("impacts", "contacts", "liftoffs", "steps", "rhs_evaluations"):
+    for name in ("impacts", "contacts", "lift_offs", "steps", "rhs_evaluations"):
         col = out.column(name)
         assert isinstance(col, np.ma.MaskedArray) and col.dtype.kind == "i", (name, col)
         assert col.mask.tolist() == [False, True] and col[0] == alone.stats[name]

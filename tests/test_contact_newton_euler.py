@@ -259,11 +259,11 @@ def chatter_law(t):
 
 
 def contact_phases(result):
-    ev = [e for e in result.events if e["kind"] in ("contact", "liftoff")]
+    ev = [e for e in result.events if e["kind"] in ("contact", "lift_off")]
     phases = []
     for k, e in enumerate(ev):
         if e["kind"] == "contact":
-            nxt = ev[k + 1]["t"] if k + 1 < len(ev) and ev[k + 1]["kind"] == "liftoff" \
+            nxt = ev[k + 1]["t"] if k + 1 < len(ev) and ev[k + 1]["kind"] == "lift_off" \
                 else None
             phases.append((e, nxt))
     return phases
@@ -335,7 +335,7 @@ def test_liftoffs_of_a_vertically_driven_ball_match_the_closed_form():
     d["initial"].update(com=[0.0, 0.0, R + 0.01])
     res = simulate(d)
     body = body_of(d)
-    lifts = [e["t"] for e in res.events if e["kind"] == "liftoff"]
+    lifts = [e["t"] for e in res.events if e["kind"] == "lift_off"]
     assert len(lifts) >= 3
     worst = 0.0
     for t in lifts:

@@ -89,7 +89,7 @@ def test_built_in_scene_for_600_s_rests_and_stays():
     assert res.status == "done" and res.t[-1] == pytest.approx(600.0, abs=1e-9)
     kinds = [e["kind"] for e in res.events]
     last_contact = max(i for i, k in enumerate(kinds) if k == "contact")
-    assert "liftoff" not in kinds[last_contact:]
+    assert "lift_off" not in kinds[last_contact:]
     assert res.min_height >= -1e-9 and res.min_normal > 0
     # at rest: the reaction carries the weight on average, (m + M) g
     contact_t = res.events[last_contact]["t"]

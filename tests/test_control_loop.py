@@ -383,10 +383,10 @@ def test_the_controller_is_called_after_each_contact_and_lift_off():
     prep = prepare(dataclasses.replace(parse_scene(doc), model="vertical"))
     calls = []
     res = run_prepared(prep, loop=Loop(lambda c: calls.append((c.t, c.event)) or None))
-    got = {kind: [t for t, e in calls if e == kind] for kind in ("contact", "liftoff")}
+    got = {kind: [t for t, e in calls if e == kind] for kind in ("contact", "lift_off")}
     assert len(got["contact"]) == res.stats["contacts"] >= 2
-    assert len(got["liftoff"]) == res.stats["liftoffs"] >= 2
-    assert {e for _, e in calls[1:]} <= {"impact", "contact", "liftoff"}
+    assert len(got["lift_off"]) == res.stats["lift_offs"] >= 2
+    assert {e for _, e in calls[1:]} <= {"impact", "contact", "lift_off"}
 
 
 def test_channels_read_and_drive_the_outputs_of_a_law_of_bodies():
@@ -455,7 +455,7 @@ def test_a_law_that_lifts_the_body_off_at_a_sample_tells_the_controller():
     at the sample t = 0.1 s the controller sets z = -40 (t - 0.1)^2: the point
     accelerates down at 80 m/s^2 and N = (M + m) g - 80 m < 0 at once, so the lift-off is
     due at the start of the next step, at 0.1 s exactly, and the controller is called
-    with it (reason event, liftoff).  After it the system's centre C falls freely from
+    with it (reason event, lift_off).  After it the system's centre C falls freely from
     rest, Z_C = R - g (t - 0.1)^2 / 2, while the body rises about it."""
     g, R, M, m, t_s = 9.81, 0.5, 1.0, 0.2, 0.1
     doc = ball(e=0.0, z0=R, duration=0.3, method="dopri5", rtol=1e-10, atol=1e-12)
@@ -473,8 +473,8 @@ def test_a_law_that_lifts_the_body_off_at_a_sample_tells_the_controller():
     res = run_prepared(prepare(parse_scene(doc)), loop=Loop(controller, period=t_s))
     assert res.status == "done"
     kinds = [(e["kind"], e["t"]) for e in res.events]
-    assert ("liftoff", t_s) in kinds and kinds[0][0] == "impact"
-    assert (t_s, "event", "liftoff") in calls
+    assert ("lift_off", t_s) in kinds and kinds[0][0] == "impact"
+    assert (t_s, "event", "lift_off") in calls
     s = res.t[-1] - t_s
     assert abs(res.q[-1, 2] - (R - 0.5 * g * s * s)) < 1e-9       # C, in free fall
     # S above the plane: the body rises as the point goes down inside it

@@ -306,6 +306,32 @@ def test_cmake_builds_the_same_program(projects, tmp_path):
     assert "base model: status done" in _run(build / "scene", tmp_path)
 
 
+def test_force_leaves_exactly_the_new_projects_files(tmp_path):
+    """--force over a previous export of another model (the crawler's base model: its
+    model_base.c, crt_base.h, ...): the folder then holds the new project's files, as
+    export.files gives them, its manifest, and the user's own files (one of them named
+    in the old manifest as a path outside the folder: not ours, left), nothing of the
+    old project that the new one does not write."""
+    out = tmp_path / "p"
+    old = export.files(parse_scene(_crawler_doc(), "crawler"))
+    export.write(old, out)
+    assert (out / export.MANIFEST).read_text().splitlines()[1:] == sorted(old)
+    (out / "mine.txt").write_text("x")
+    (out / "trajectory.csv").write_text("t\n")               # (what the program writes)
+    (tmp_path / "keep.txt").write_text("y")
+    with open(out / export.MANIFEST, "a") as fh:
+        fh.write("../keep.txt\n")
+    scene = tmp_path / "s.toml"
+    scene.write_text(HOSTILE_TOML)
+    assert main(["export", str(scene), "-o", str(out), "--force"]) == 0
+    new = export.files(load_scene(scene))
+    assert {"model_base.c", "crt_base.h"} <= set(old) - set(new)
+    assert sorted(p.name for p in out.iterdir()) == sorted(
+        {*new, export.MANIFEST, "mine.txt", "trajectory.csv"})
+    assert all((out / name).read_bytes() == data for name, data in new.items())
+    assert (tmp_path / "keep.txt").is_file()
+
+
 def test_refusals(tmp_path, capsys):
     """An existing folder (exit 2, nothing written unless --force), [control],
     [disturbance] and [run].outputs the program cannot write, by name, a scene that breaks

@@ -194,7 +194,7 @@ def test_a_sphere_driven_up_and_down_lifts_off_where_n_reaches_zero(excess):
     N = rx.solve(b, k, np.ones(len(rows), dtype=bool)).N
     closed = (M + m) * G - m * A * w * w * np.sin(w * result.t[rows])
     assert np.abs(N - closed).max() < 1e-10 * (M + m) * G
-    lift = [e["t"] for e in result.events if e["kind"] == "liftoff"]
+    lift = [e["t"] for e in result.events if e["kind"] == "lift_off"]
     if excess > 1.0:
         assert lift and lift[0] == pytest.approx(math.asin(1.0 / excess) / w, abs=1e-9)
     else:

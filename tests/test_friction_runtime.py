@@ -408,7 +408,7 @@ def test_the_examples_do_what_the_readme_says():
     kinds = [ev["kind"] for ev in hopper.events]
     first = next(ev for ev in hopper.events if ev["kind"] == "impact")
     assert first["stage"] == "stick" and first["P_X"] < 0.0
-    assert {"liftoff", "stick", "slip"} <= set(kinds) and kinds.count("impact") >= 3
+    assert {"lift_off", "stick", "slip"} <= set(kinds) and kinds.count("impact") >= 3
     for res in (robot, hopper):
         balance = energy_balance(res, motion(res))
         assert balance["work_of_friction"] < 0.0

@@ -108,6 +108,31 @@ def test_a_box_pushed_straight_up_lifts_off_flies_and_lands_flat(up):
     assert up.events[-1]["kind"] == "flat_landing" and up.stats["impacts"] == 0
 
 
+def test_the_noise_the_hand_over_judges_by_is_the_runtimes(up):
+    """The height resolution and the speed noise a landing is judged by are read from the
+    C (handover.noise: one source, crt_plane.h): against their formulas written here
+    (10 max(atol + rtol (|Z_C| + L), 64 eps (|Z_C| + L)) and 1e3 eps (|Z_C'| + |omega| L
+    + sqrt(g L)), L the run's length scale) on every row of the flight, which is no
+    constant (Z_C, Z_C' and omega change along it); the flat landing's resolution is the
+    one at its row."""
+    from derive import abi
+    from derive.runtime.driver import options
+    flight = up.handover.flight
+    s = flight.scene
+    L = options(s, flight.model)[abi.index(abi.OPTIONS, "length_scale")]
+    eps = np.finfo(float).eps
+    got = np.array([handover.noise(flight, i) for i in range(len(flight.t))])
+    Q = flight.model_q
+    size = np.abs(Q[:, G.Z]) + L
+    res = 10.0 * np.maximum(s.atol + s.rtol * size, 64 * eps * size)
+    noise = 1e3 * eps * (np.abs(Q[:, G.Zd]) + np.linalg.norm(Q[:, G.omega], axis=1) * L
+                         + math.sqrt(g * L))
+    assert np.ptp(res) > 0 and np.ptp(noise) > 0
+    assert np.max(np.abs(got[:, 0] / res - 1)) < 1e-14
+    assert np.max(np.abs(got[:, 1] / noise - 1)) < 1e-14
+    assert up.handover.landing["resolution"] == got[-1, 0]
+
+
 @pytest.mark.parametrize("f, first", [(1.2, "contact"), (1.5, "graze")])
 def test_a_touch_at_the_hand_over_instant_is_no_landing(f, first):
     """Pushed up at a peak of f g (f a little above 1), the C finds the face touching at
@@ -301,7 +326,7 @@ def test_random_lift_offs_are_handed_over_honestly():
             assert h.landing["t"] - h.t > 1e-6, k      # (a flight, not the C's touch at once)
         elif touches:                               # a corner or a rim point: not flat
             j = int(np.searchsorted(h.flight.t, touches[0]["t"]))
-            res = handover.height_resolution(run.scene, float(h.flight.model_q[j, G.Z]))
+            res = handover.noise(h.flight, j)[0]
             assert handover.flat_spread(run.scene, h.flight.model_q[j, G.A]) > res
     # (a sideways law, k % 4 == 3, in a spinning body tips before N reaches 0: the moment
     # 2 mu w z rho'_h does not vanish with N; tests/test_base_tip_before_lift.py)
@@ -317,7 +342,7 @@ def test_the_cli_writes_one_run(tmp_path, capsys):
     assert ": flat_landing;" in said.splitlines()[0] and "lifted off at t = " in said
     events = [line.split(",")[:3] for line in
               (out / "events.csv").read_text().splitlines()[1:]]
-    assert [e[:2] for e in events] == [["liftoff", "before"], ["liftoff", "after"],
+    assert [e[:2] for e in events] == [["lift_off", "before"], ["lift_off", "after"],
                                        ["flat_landing", "before"], ["flat_landing", "after"]]
     info = json.loads((out / "summary.json").read_text())
     assert info["status"] == "flat_landing" and info["handover"]["flight_status"] == \
@@ -386,17 +411,22 @@ def test_a_cylinder_is_drawn_with_no_invalid_value(tmp_path):
 
 
 # ---- studies hand over too ------------------------------------------------------------------
-def test_a_study_hands_over_as_simulate_does():
+def test_a_study_hands_over_as_simulate_does(tmp_path):
     """derive.simulate_many (derive simulate --sweep) of variants either side of lift-off
     (the push's peak m A W^2/(M + m) at 0.8 g and 1.5 g: one stays on its face, one lifts
     off and lands flat) and the tilted one that lands on a corner and goes on (its whole
     flight in the general model's batch): each row equals summary_row of derive.simulate
     of that variant, bit for bit but the time it took, and keep = "result" gives that
-    Result's status and end."""
+    Result's status and end.  A handed-over row's slips, sticks and reversals are its
+    face's (base_report.contact of the base phase) plus its flight's, summary.json's
+    counts, read as columns unmasked and written in sweep.csv, with handover_t the
+    lift-off's time."""
+    import csv
     import tomllib
 
     import derive
-    from derive.runtime.study import summary_row
+    from derive.runtime import base_report
+    from derive.runtime.study import FACE_COLUMNS, summary_row
     from derive.scene.overrides import apply_to_doc
     doc = tomllib.loads(_SCENE.format(name="hop", M=M, m=m, law=UP, spin=SPIN, duration=0.3))
     laws = [["0", "0", f"{f * (M + m) * g / (m * W * W)!r}*sin({W}*t)"] for f in (0.8, 1.5)]
@@ -415,7 +445,7 @@ def test_a_study_hands_over_as_simulate_does():
                          "plane.friction": float(rng.uniform(0.2, 1.0))})
     batch = derive.simulate_many(doc, variants, workers=1)
     kept = derive.simulate_many(doc, variants, workers=1, keep="result").results
-    statuses = []
+    statuses, handed = [], []
     for v, row, res in zip(variants, batch.rows, kept):
         d = json.loads(json.dumps(doc))
         for name, value in v.items():
@@ -427,6 +457,24 @@ def test_a_study_hands_over_as_simulate_does():
         assert all(same.values()), (v, {k: (row[k], want[k]) for k in same if not same[k]})
         assert (res.status, res.t[-1]) == (run.status, run.t[-1])
         statuses.append((row["status"], row["model"], run.handover is not None))
+        if run.handover is not None:     # the face's counts, then the flight's (summary.json's
+            h = run.handover             # counts are run.stats; its contact.face the face's)
+            face = base_report.contact(h.base)
+            assert row["handover_t"] == h.t
+            for name in FACE_COLUMNS:
+                assert row[name] == face[name] + h.flight.stats[name] == run.stats[name]
+            handed.append(row)
     assert statuses[:3] == [("done", "base", False), ("flat_landing", "rough", True),
                             ("surface_jump", "rough", True)]
     assert sum(handed for _, _, handed in statuses[3:]) >= 8, statuses
+    # read as columns and written as sweep.csv: the face's counts there, not masked or blank
+    on = np.array([h for _, _, h in statuses])
+    assert sum(r["slips"] + r["sticks"] for r in handed) > 0
+    for name in FACE_COLUMNS:
+        col = batch.column(name)
+        assert not col.mask.any() and col.tolist() == [r[name] for r in batch.rows]
+    batch.to_csv(tmp_path / "sweep.csv")
+    table = list(csv.DictReader(open(tmp_path / "sweep.csv", encoding="utf-8")))
+    assert all((r["slips"] != "") == (r["model"] == "base" or o) for r, o in zip(table, on))
+    assert [float(r["handover_t"]) == row["handover_t"] or not o
+            for r, row, o in zip(table, batch.rows, on)] == [True] * len(on)

@@ -142,7 +142,7 @@ def test_contact_falls_back_to_the_classical_method():
     res = run(doc, "lie", 1e-11)
     kinds = [e["kind"] for e in res.events]
     assert kinds == [e["kind"] for e in ref.events]
-    assert "contact" in kinds and "liftoff" in kinds
+    assert "contact" in kinds and "lift_off" in kinds
     assert np.max(np.abs(np.array([e["t"] for e in res.events])
                          - np.array([e["t"] for e in ref.events]))) < 1e-7
 

@@ -143,7 +143,7 @@ def test_contact_phase_matches_newton_euler():
     kinds = [ev["kind"] for ev in res.events]
     assert "contact" in kinds, kinds
     start = next(ev["t"] for ev in res.events if ev["kind"] == "contact")
-    end = next((ev["t"] for ev in res.events if ev["kind"] == "liftoff" and ev["t"] > start),
+    end = next((ev["t"] for ev in res.events if ev["kind"] == "lift_off" and ev["t"] > start),
                sc.t0 + sc.duration)
     rows = np.flatnonzero((res.t > start) & (res.t < end)
                           & (res.row_kind == abi.ROW_KIND["step"]))

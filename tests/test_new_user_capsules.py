@@ -27,7 +27,7 @@ def _crawler(tmp_path, law, extra=""):
 
 
 ENDS = [  # (law, [plane] extra, status, plots): each stops well inside the 10 periods
-    # (events.csv names the event by its kind: abi's "liftoff" for the status lift_off)
+    # (events.csv names the stop's event by its kind, the status's own name)
     ('["0.05*sin(60*t)", "0", "0.02"]', "", "tipping", False),
     ('["0.05*sin(60*t)", "0", "0.02"]', 'pressure = "linear"', "face_lifting", False),
     ('["0", "0", "0.02 + 0.01*sin(80*t)"]', "", "lift_off", False),
@@ -50,8 +50,7 @@ def test_an_early_stopped_face_run_writes_its_files_and_says_why(tmp_path, capsy
     assert names | ({"overview.png"} if plots else set()) <= {p.name for p in out.iterdir()}
     events = (out / "events.csv").read_text().splitlines()
     last = [line.split(",") for line in events[-2:]]
-    kind = status.replace("lift_off", "liftoff")
-    assert [row[:2] for row in last] == [[kind, "before"], [kind, "after"]]
+    assert [row[:2] for row in last] == [[status, "before"], [status, "after"]]
     t_stop = float(last[0][2])
     traj = np.loadtxt(out / "trajectory.csv", delimiter=",", skiprows=1, ndmin=2)
     assert traj[-1, 0] <= t_stop + 1e-12 and t_stop < 5.0

@@ -127,3 +127,54 @@ def test_the_step_after_an_impact_is_at_most_a_quarter_of_the_hop():
         if len(after) == 0 or after[0] >= T:
             continue
         assert after[0] - t_k <= 0.25 * (2 * v_k / G) * (1 + 1e-9), (t_k, after[0] - t_k)
+
+
+_FACE = """
+name = "slide"
+[body]
+mass = 1.0
+inertia = [0.01, 0.02, 0.025]
+shape = "box"
+half_extents = [0.1, 0.06, 0.04]
+[[point]]
+mass = 0.5
+law = ["0.02*sin(20*t)", "0", "0"]
+[plane]
+friction = 0.2
+[initial]
+on_plane = true
+carrier_velocity = [0.0, 0.0, 0.0]
+[run]
+duration = 0.5
+"""
+
+
+def test_a_base_runs_rows_every_output_dt_are_the_grids_as_the_balls():
+    """A box on its face (the base model, crt_base.h) slipping and sticking three times
+    under a sideways drive, rows every output_dt: its step rows are the grid t0 + k
+    output_dt below the end, then the end, the same times as the ball's (the general
+    loop's crt_flush_outputs) with the same output_dt and duration, and no step's own
+    row beside them (it had written both); its events and end state are those of the run
+    at every step, and the run in buffers of the least size gives the same rows."""
+    from derive.scene import parse_scene
+    dt, T = 0.047, 0.5
+    face = simulate(parse_scene(_FACE + f"output_dt = {dt}\n"), progress=False)
+    steps = simulate(parse_scene(_FACE), progress=False)
+    ball_run = simulate(ball(e=E, z0=Z0, duration=T, output_dt=dt), progress=False)
+    assert face.model == "base" and face.status == steps.status == "done"
+    kinds = [e["kind"] for e in face.events]
+    assert kinds == ["slip", "stick"] * 3 == [e["kind"] for e in steps.events]
+    np.testing.assert_allclose([e["t"] for e in face.events], [e["t"] for e in steps.events],
+                               rtol=0, atol=1e-12)
+    grid = np.arange(0, 20) * dt
+    expected = np.append(grid[grid < T], T)
+    mine, its = face.t[face.row_kind == STEP], ball_run.t[ball_run.row_kind == STEP]
+    np.testing.assert_allclose(mine, expected, rtol=0, atol=1e-13)
+    assert np.array_equal(mine, its) and mine[-1] == T
+    assert np.all(np.diff(face.t) >= 0.0)
+    np.testing.assert_allclose(face.model_q[-1], steps.model_q[-1], rtol=0, atol=1e-9)
+    prep = prepare(parse_scene(_FACE + f"output_dt = {dt}\n"))
+    small = run_prepared(prep, session=Session(prep.library,
+                                               chunk=max(abi.MIN_ROWS, abi.MIN_EVENTS)))
+    assert np.array_equal(small.t, face.t) and np.array_equal(small.row_kind, face.row_kind)
+    np.testing.assert_array_equal(small.model_q, face.model_q)

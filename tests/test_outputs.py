@@ -233,7 +233,7 @@ def test_outputs_of_a_run_with_resting_contact(tmp_path):
         d["run"].update(model=model, outputs=outputs)
         result = derive.simulate(d)
         assert any(e["kind"] == "contact" for e in result.events)
-        assert any(e["kind"] == "liftoff" for e in result.events)
+        assert any(e["kind"] == "lift_off" for e in result.events)
         write_all(result, tmp_path / model, plot=False)
         bal = energy_balance(result, motion(result))
         work[model] = bal["drive_work_in_contact"]

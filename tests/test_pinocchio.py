@@ -388,7 +388,7 @@ def pinocchio_contact_run(doc, law, times):
             raise RuntimeError(f"more than {MAX_IMPACTS} events")
         t0, state = sol.t[-1], sol.y[:, -1].copy()
         if contact:
-            events.append((t0, "liftoff"))
+            events.append((t0, "lift_off"))
             contact = False
             continue
         A, quat = rotation(state)
@@ -422,8 +422,8 @@ def test_contact_and_liftoff_match_pinocchio(seed):
     t, ours = res.t[rows], res.general[rows]
     peer, events = pinocchio_contact_run(doc, law, t)
     kinds = [k for _, k in events]
-    assert "liftoff" in kinds and kinds.count("impact") >= 2, kinds
-    mine = [(e["t"], e["kind"]) for e in res.events if e["kind"] in ("impact", "liftoff")]
+    assert "lift_off" in kinds and kinds.count("impact") >= 2, kinds
+    mine = [(e["t"], e["kind"]) for e in res.events if e["kind"] in ("impact", "lift_off")]
     print(f"seed {seed}: ours {[(round(a, 6), k) for a, k in mine]}")
     print(f"seed {seed}: peer {[(round(a, 6), k) for a, k in events]}")
     assert [k for _, k in mine] == kinds

@@ -224,9 +224,9 @@ def test_lift_off_when_the_point_pushes_hard_enough():
                         rtol=1e-10, atol=1e-12, method="dopri5"), progress=False)
     assert res.status == "done" and res.model == "translational"
     kinds = [e["kind"] for e in res.events]
-    assert kinds.count("liftoff") >= 2 and kinds.count("contact") >= 2
+    assert kinds.count("lift_off") >= 2 and kinds.count("contact") >= 2
     for ev in res.events:
-        if ev["kind"] == "liftoff":
+        if ev["kind"] == "lift_off":
             # lift-off where g + nu z''(t) = 0, i.e. sin(W t) = g/(nu a W^2)
             assert abs(math.sin(W * ev["t"]) - g / (nu * a * W * W)) < 1e-8
             assert abs(ev["value"]) < 1e-8

@@ -330,7 +330,7 @@ class ScipyRough:
             events += 1
             if which == 0:
                 mode, left = "flight", True
-                self.log.append((t, "liftoff", None))
+                self.log.append((t, "lift_off", None))
                 continue
             if which == 2:               # the restarted slip is resolved: follow it
                 v = self.v_S(t, q)

@@ -97,8 +97,10 @@ class Batch:
         array with None where there is none (a refused variant has no status, one that
         ran no error).  Numbers: a NumPy masked array, integers for the counts and
         floats for times and heights, masked where the variant was refused (and the
-        face's ``slips``, ``sticks``, ``reversals`` where it was not a base run;
-        ``first_contact_t`` is NaN, not masked, when a run had no resting contact).  A
+        face's ``slips``, ``sticks``, ``reversals`` where the run did not begin on a face:
+        neither a base run nor one that handed over at a lift-off; ``first_contact_t`` and
+        ``handover_t`` are NaN, not masked, when a run had no resting contact, no
+        hand-over).  A
         field the variants override (``"body.mass"``): its values, a masked float array
         when they are numbers (masked where a variant leaves the field alone), else an
         object array with None."""
@@ -107,7 +109,7 @@ class Batch:
         if name in SUMMARY_COLUMNS:
             mask = self._refused
             if name in FACE_COLUMNS:
-                mask = mask | (self.columns["model"] != "base")
+                mask = mask | ~study.on_face(self.columns["model"], self.columns["handover_t"])
             return np.ma.MaskedArray(self.columns[name].copy(), mask=mask)
         if any(name in v for v in self.variants):
             values = [v.get(name) for v in self.variants]
@@ -131,8 +133,8 @@ class Batch:
         by that number's column, W say), ``error``, then the summary columns; a value a
         row does not have (a refused variant's counts, the error of one that ran, a base
         run's impacts, contacts, min_height and first_contact_t: a body on its face has
-        no impact and no point S; the face's slips, sticks and reversals of a run of
-        another model) is an empty cell."""
+        no impact and no point S; the face's slips, sticks and reversals of a run that
+        did not begin on a face) is an empty cell."""
         names = self._fields()
         swept_by = swept_by or {}
         head = []
@@ -149,7 +151,12 @@ class Batch:
                     vals.append(v.get(n, ""))
                     if n in number:
                         vals.append(number[n].get(v.get(n), ""))
-                blank = BASE_BLANK if r.get("model") == "base" else FACE_COLUMNS
+                if "error" in r:
+                    blank = ()                    # (a refused row: every cell empty)
+                elif r["model"] == "base":
+                    blank = BASE_BLANK
+                else:
+                    blank = () if study.on_face(r["model"], r["handover_t"]) else FACE_COLUMNS
                 vals += [r.get("error", "")] + [
                     "" if c in blank else r.get(c, "") for c in SUMMARY_COLUMNS]
                 fh.write(",".join(_csv(x) for x in vals) + "\n")

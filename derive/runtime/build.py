@@ -88,6 +88,7 @@ class Library:
                 ("crt_eval_u_rows", None, [c.c_void_p, c.c_int, DP, DP]),
                 ("crt_eval_contact", None, [c.c_void_p, c.c_double, DP, DP, DP, DP]),
                 ("crt_eval_gap", None, [c.c_void_p, c.c_double, DP, DP, DP]),
+                ("crt_eval_noise", None, [c.c_void_p, c.c_double, DP, DP]),
                 ("crt_eval_contact_rows", None, [c.c_void_p, c.c_int, DP, DP, DP, DP, DP]),
                 ("crt_control_sizeof", c.c_int, []),
                 ("crt_control_setup", c.c_int, [c.c_void_p, c.c_void_p, c.c_void_p,

@@ -155,12 +155,7 @@ class Result:
         """A session of this run's model set up with its law, numbers and initial state,
         for evaluations after the run (the contact equations of the energy balance).  Its
         own: later runs of the thread's session do not change it."""
-        s = Session(library(self.model), chunk=16)
-        s.set_law(self.scene.runtime_law)
-        s.init(options(self.scene, self.model),
-               choice.parameters(self.scene, self.start.constants), self.scene.t0,
-               self.start.q0)
-        return s
+        return ready_session(self.scene, self.model, self.start)
 
     @cached_property
     def omega(self) -> np.ndarray:
@@ -285,6 +280,17 @@ class Result:
     def min_normal(self) -> float:
         return self.summary["min_normal"]
 
+
+
+def ready_session(scene, kind: str, start: choice.Start) -> Session:
+    """A session of model ``kind`` of its own (not the thread's), set up with the scene's
+    law, numbers and the initial state ``start``: for evaluations (Session.contact,
+    Session.noise, ...) with no run."""
+    s = Session(library(kind), chunk=16)
+    s.set_law(scene.runtime_law)
+    s.init(options(scene, kind), choice.parameters(scene, start.constants), scene.t0,
+           start.q0)
+    return s
 
 
 def run_prepared(prep: Prepared, session: Session | None = None, progress=None,

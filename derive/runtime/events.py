@@ -111,7 +111,7 @@ def _mode_after(ev: dict, mode: int) -> int:
         return abi.MODE[ev["mode"]]
     if ev["kind"] == "contact":
         return abi.MODE["smooth"]
-    if ev["kind"] == "liftoff":
+    if ev["kind"] == "lift_off":
         return abi.MODE["flight"]
     return mode
 
@@ -160,7 +160,7 @@ def contact_intervals(result) -> list[tuple[float, float]]:
     for ev in result.events:
         if ev["kind"] == "contact" and since is None:
             since = ev["t"]
-        elif ev["kind"] == "liftoff" and since is not None:
+        elif ev["kind"] == "lift_off" and since is not None:
             out.append((since, ev["t"]))
             since = None
     if since is not None:

@@ -200,25 +200,51 @@ def files(scene) -> dict[str, bytes]:
     return dict(sorted(out.items()))
 
 
+# the names an export wrote into its folder, one a line (what a later --force may remove)
+MANIFEST = ".derive-export"
+
+
+def written_before(path: Path) -> set[str]:
+    """The files a previous export recorded in ``path``'s manifest: plain names in the
+    folder itself (a line naming another folder's file, or none, is not one of ours)."""
+    try:
+        lines = (path / MANIFEST).read_text(encoding="utf-8").splitlines()
+    except (FileNotFoundError, UnicodeDecodeError):
+        return set()
+    return {n for n in lines if n and not n.startswith("#") and n not in (".", "..")
+            and "/" not in n and "\\" not in n and n != MANIFEST}
+
+
 def write(project: dict[str, bytes], folder, force: bool = False) -> Path:
-    """Write the project into ``folder``: refused (FileExistsError, nothing written) when
-    it exists, unless ``force`` (then its files of these names are replaced; the others
-    are left).  Written into a hidden folder beside it and moved into place."""
+    """Write the project into ``folder`` with its manifest (:data:`MANIFEST`, the names
+    written): refused (FileExistsError, nothing written) when it exists, unless
+    ``force``; then its files of these names are replaced and the files the previous
+    export's manifest names that this project does not have (a model's runtime it no
+    longer needs) are removed, so that the folder holds exactly the project's files
+    besides the user's own, which are left.  Written into a hidden folder beside it and
+    moved into place."""
     path = Path(folder)
     if path.exists() and not force:
         raise FileExistsError(f"{folder} exists (--force writes into it)")
     if path.exists() and not path.is_dir():
         raise FileExistsError(f"{folder} is a file, not a folder")
     path.parent.mkdir(parents=True, exist_ok=True)
+    manifest = ("# written by derive export: derive export --force replaces these files "
+                "and removes those a new export does not write\n"
+                + "".join(f"{name}\n" for name in sorted(project))).encode()
     stage = Path(tempfile.mkdtemp(prefix=".export-", dir=path.parent))
     try:
-        for name, data in project.items():
+        for name, data in {**project, MANIFEST: manifest}.items():
             (stage / name).write_bytes(data)
         if not path.exists():
             os.replace(stage, path)
             return path
-        for name in project:
+        stale = written_before(path) - set(project)
+        for name in (*project, MANIFEST):
             os.replace(stage / name, path / name)
+        for name in sorted(stale):
+            if (path / name).is_file() and not (path / name).is_symlink():
+                (path / name).unlink()
     finally:
         if stage.exists():
             shutil.rmtree(stage, ignore_errors=True)

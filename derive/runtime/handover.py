@@ -17,9 +17,9 @@ flight may land on a corner); without it the run stops at lift-off as before.
 Landing flat is a multi-point impact (every corner of the face at once) that the general
 model does not make: where the first touch of the flight coming down (after the
 hand-over's instant, v_n < 0) finds the touching face's corners (a disc's rim) within the
-runtime's height resolution of each other, the run stops there with status
-``flat_landing`` (:func:`flat_spread`).  A landing on one corner, an edge's middle or a
-rim point goes on in the general model.
+runtime's height resolution of each other (the runtime's own, :func:`noise`), the run
+stops there with status ``flat_landing`` (:func:`flat_spread`).  A landing on one
+corner, an edge's middle or a rim point goes on in the general model.
 
 The flight is the run a scene written from the hand-over's state makes: its law proved
 over the flight alone (:func:`flight_scene`), its ``output_dt`` rows on the whole run's
@@ -43,7 +43,7 @@ _MODE_COL = abi.EVENT_COLUMNS.index("mode")
 # the face's mode after each base event, written in the events' mode column (the general
 # model's timeline reads it)
 _BASE_MODES = {"slip": abi.MODE["sliding"], "reversal": abi.MODE["sliding"],
-               "stick": abi.MODE["sticking"], "liftoff": abi.MODE["flight"]}
+               "stick": abi.MODE["sticking"], "lift_off": abi.MODE["flight"]}
 
 
 def general_state(scene, st: choice.Start, t: float, q) -> np.ndarray:
@@ -69,11 +69,13 @@ def flight_scene(scene, t: float, state) -> "object":
         static_friction=None, pressure=None, model="auto")
 
 
-def height_resolution(scene, Z: float) -> float:
-    """The heights the runtime does not resolve (crt_plane.h's crt_height_resolution:
-    the integrator's own error in Z_C, or round-off), at C's height Z."""
-    size = abs(Z) + choice.length_scale(scene)
-    return 10.0 * max(scene.atol + scene.rtol * size, 64.0 * np.finfo(float).eps * size)
+def noise(run, i: int) -> tuple[float, float]:
+    """(the height resolution, the speed noise) of the runtime at row i of ``run`` (a
+    Result of a model with the plane): the heights it does not resolve (the integrator's
+    own error in Z_C, or round-off) and the normal speeds it calls round-off (S touching,
+    not hitting), read from its own C (crt_eval_noise: crt_plane.h's
+    crt_height_resolution and crt_speed_noise), not written again here."""
+    return run.session.noise(float(run.t[i]), run.model_q[i])
 
 
 def flat_spread(scene, A) -> float:
@@ -158,7 +160,7 @@ def fly(fscene, run_flight, origin: float | None = None) -> tuple:
             first, n, (i, ev, _) = again, k, found
             k -= 1
         spread = flat_spread(fscene, first.model_q[i, G.A])
-        resolution = height_resolution(fscene, float(first.model_q[i, G.Z]))
+        resolution = noise(first, i)[0]
         if spread <= resolution:
             landing = {"t": float(first.t[i]), "spread": float(spread),
                        "resolution": resolution, "v_n": float(ev["v_minus"])}
@@ -166,14 +168,6 @@ def fly(fscene, run_flight, origin: float | None = None) -> tuple:
     if first.status == "max_events" and fscene.max_events != n:
         return run_flight(fscene, origin), None
     return first, None
-
-
-def speed_noise(scene, q) -> float:
-    """The normal speeds the runtime calls round-off at the general state q (crt_plane.h's
-    crt_speed_noise: S touching, not hitting)."""
-    L = choice.length_scale(scene)
-    rate = float(np.linalg.norm(q[G.omega]))
-    return 1e3 * np.finfo(float).eps * (abs(q[G.Zd]) + rate * L + math.sqrt(scene.g * L))
 
 
 def _first_landing(run, after: float):
@@ -184,7 +178,7 @@ def _first_landing(run, after: float):
     from .events import event_rows
     for i, ev in event_rows(run):
         if ev["kind"] in ("impact", "contact", "graze") and ev["t"] > after \
-                and ev["v_minus"] < -speed_noise(run.scene, run.model_q[i]):
+                and ev["v_minus"] < -noise(run, i)[1]:
             return i, ev, 1 + next(k for k, e in enumerate(run.events) if e is ev)
     return None
 

@@ -625,7 +625,7 @@ def energy_balance(result, mo: Motion) -> dict | None:
     s = result.scene
     E = mo.T + mo.U
     V_P = point_velocity_body(s, mo) if mo.bodies is None else None
-    jumps = {"impact": 0.0, "contact": 0.0, "liftoff": 0.0, "graze": 0.0, "event": 0.0}
+    jumps = {"impact": 0.0, "contact": 0.0, "lift_off": 0.0, "graze": 0.0, "event": 0.0}
     restitution = friction_impacts = friction_contact = 0.0
     names = drive_names(s)
     zero = np.zeros(len(names))

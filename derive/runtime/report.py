@@ -143,7 +143,7 @@ def lines(scene, result, loop: str | None = None) -> list[str]:
                f"{info['rhs_evaluations']} RHS evaluations" + ("" if base else
                f", {count(info['impacts'], 'impact')}, "
                f"{count(info['contacts'], 'contact phase')}, "
-               f"{count(info['liftoffs'], 'lift-off')}"))
+               f"{count(info['lift_offs'], 'lift-off')}"))
     pushes = [ev for ev in result.events if ev["kind"] == "push"]
     if pushes:
         out.append(f"  {count(len(pushes), 'push', 'pushes')} applied: " + ", ".join(

@@ -300,6 +300,16 @@ class Session:
                                       ctypes.byref(h), ctypes.byref(v_n))
         return h.value, v_n.value
 
+    def noise(self, t: float, q) -> tuple[float, float]:
+        """(height resolution, speed noise): the height and the normal speed below which
+        the runtime's event search calls them round-off at (t, q) (crt_plane.h's
+        crt_height_resolution and crt_speed_noise, after ``init``; 0, 0 without a plane)."""
+        q = np.ascontiguousarray(q, dtype=float)
+        out = np.zeros(2)
+        self.library.lib.crt_eval_noise(self.handle, float(t), q.ctypes.data_as(DP),
+                                        out.ctypes.data_as(DP))
+        return float(out[0]), float(out[1])
+
     def contact_rows(self, t, Q) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(dq/dt, N, a_free) of persistent contact along rows, in one call into C (after
         ``init``)."""

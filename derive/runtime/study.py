@@ -31,20 +31,31 @@ import numpy as np
 
 from .. import abi
 from . import choice, handover
-from .driver import options, prepare, run_prepared, run_scene, session_for
+from .driver import (options, prepare, ready_session, run_prepared, run_scene,
+                     session_for)
 from ..scene import SceneError, build_scene, bulk, overrides
 from ..scene.schema import SCENE
 
-SUMMARY_COLUMNS = ("status", "model", "t_end", "impacts", "contacts", "liftoffs", "slips",
+SUMMARY_COLUMNS = ("status", "model", "t_end", "impacts", "contacts", "lift_offs", "slips",
                    "sticks", "reversals", "steps", "rhs_evaluations", "min_height",
-                   "first_contact_t", "X_C_end", "Y_C_end", "Z_C_end", "distance",
+                   "first_contact_t", "handover_t", "X_C_end", "Y_C_end", "Z_C_end", "distance",
                    "mean_speed", "mean_velocity_X", "mean_velocity_Y", "run_ms")
 TEXT_COLUMNS = ("error", "status", "model")
-COUNT_COLUMNS = ("impacts", "contacts", "liftoffs", "slips", "sticks", "reversals", "steps",
+COUNT_COLUMNS = ("impacts", "contacts", "lift_offs", "slips", "sticks", "reversals", "steps",
                  "rhs_evaluations")
 # the face's slip events, stick events and reversals (the counts of a base run's
-# summary.json): a column of base runs alone, empty (masked) for the other models
+# summary.json): a column of the runs that began on a face (base runs, and those that
+# handed over at a lift-off: handover_t not NaN, the base phase's counts and the
+# flight's), empty (masked) for the other models
 FACE_COLUMNS = ("slips", "sticks", "reversals")
+
+
+def on_face(model, handover_t) -> np.ndarray | bool:
+    """Whether a row's run began on a face (FACE_COLUMNS mean something): a base run, or
+    one that handed over (``handover_t`` a time, not NaN); of one row or of columns."""
+    t = np.asarray(handover_t, dtype=float)
+    out = (np.asarray(model, dtype=object) == "base") | ~np.isnan(t)
+    return bool(out) if out.ndim == 0 else out
 _STAT = {name: k for k, name in enumerate(abi.names(abi.STATS))}
 _SUMMARY = {name: k for k, name in enumerate(abi.names(abi.SUMMARY))}
 _OK = abi.STATUS["ok"]
@@ -83,11 +94,12 @@ def summary_row(result) -> dict:
     travel = choice.travel(result.model, result.scene.t0, t_end, result.model_q[-1], c0,
                            result.scene)
     return {"status": result.status, "model": result.model, "t_end": t_end,
-            "impacts": s["impacts"], "contacts": s["contacts"], "liftoffs": s["liftoffs"],
+            "impacts": s["impacts"], "contacts": s["contacts"], "lift_offs": s["lift_offs"],
             **{name: s[name] for name in FACE_COLUMNS}, "steps": s["steps"],
             "rhs_evaluations": s["rhs_evaluations"],
             "min_height": result.min_height,
             "first_contact_t": float(contact[0, 0]) if len(contact) else math.nan,
+            "handover_t": result.handover.t if result.handover is not None else math.nan,
             **travel, **means(travel, c0, result.scene.t0, t_end),
             "Z_C_end": choice.height_of_c(result.scene, result.model, t_end,
                                           result.model_q[-1]),
@@ -270,6 +282,7 @@ def run_part(part: Part, ready: list, last: list | None = None) -> dict:
         cols[name][:] = stats[:, _STAT[name]]
     cols["min_height"][:] = out["summary"][:, _SUMMARY["min_height"]]
     cols["first_contact_t"][:] = out["first_contact"]
+    cols["handover_t"][:] = math.nan           # (hand_over sets its variants')
     if part.scenes is None:                 # a model whose state holds Z_C (or attitude)
         cols["Z_C_end"][:] = choice.height_of_c(None, part.kind, last[:, 0], last[:, 1:])
         travel = choice.travel(part.kind, part.t0, last[:, 0], last[:, 1:], part.c0)
@@ -378,10 +391,10 @@ def hand_over(part: Part, cols: dict, last: np.ndarray, ready: list) -> None:
         # first landing): on a face flat, the flight cut there (handover._cut: no impact
         # made, and the contact begun at it dropped), else the whole flight; any other (a
         # touch at the instant, a graze, a contact) through fly itself
-        A, Z = end[1:][handover.G.A], float(end[1:][handover.G.Z])
+        A = end[1:][handover.G.A]
         if row["impacts"] != 1 or not end[0] > handover.at_once(fs.t0):
             alone.append((k, fs))
-        elif handover.flat_spread(fs, A) <= handover.height_resolution(fs, Z):
+        elif handover.flat_spread(fs, A) <= _noise(fs, end)[0]:
             row.update(status="flat_landing", impacts=row["impacts"] - 1,
                        first_contact_t=math.nan)
         else:
@@ -395,12 +408,20 @@ def hand_over(part: Part, cols: dict, last: np.ndarray, ready: list) -> None:
         scene, t_end = part.scenes[k], float(end[0])
         for name in ("status", "model", "t_end", "min_height", "first_contact_t", "Z_C_end"):
             cols[name][k] = row[name]
+        cols["handover_t"][k] = float(last[k, 0])          # (the lift-off)
         for name in COUNT_COLUMNS:
             cols[name][k] += row[name]
         cols["run_ms"][k] += row["run_ms"]
         travel = choice.travel(row["model"], scene.t0, t_end, end[1:], part.c0[k], scene)
         for name, value in {**travel, **means(travel, part.c0[k], scene.t0, t_end)}.items():
             cols[name][k] = value
+
+
+def _noise(fs, end) -> tuple[float, float]:
+    """The runtime's height resolution and speed noise in the flight of scene ``fs`` at
+    its row ``end`` (t then q), from the C of the flight's model (handover.noise)."""
+    prep = prepare(fs)
+    return ready_session(prep.scene, prep.kind, prep.start).noise(float(end[0]), end[1:])
 
 
 def _flights(items: list, ready: list) -> dict:

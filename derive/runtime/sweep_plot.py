@@ -15,7 +15,7 @@ import numpy as np
 
 MOST_TICKS = 12                   # every value is a tick up to this many values
 # the columns a sweep may draw (the study's numbers), and how each is labelled
-PLOTTABLE = {"impacts": "impacts", "contacts": "contact phases", "liftoffs": "lift-offs",
+PLOTTABLE = {"impacts": "impacts", "contacts": "contact phases", "lift_offs": "lift-offs",
              "slips": "slips over the face", "sticks": "rests on the face",
              "reversals": "reversals on the face",
              "steps": "steps", "rhs_evaluations": "RHS evaluations",
@@ -27,7 +27,7 @@ PLOTTABLE = {"impacts": "impacts", "contacts": "contact phases", "liftoffs": "li
              "C's mean velocity along X [m/s]", "mean_velocity_Y":
              "C's mean velocity along Y [m/s]", "t_end": "t at the end [s]",
              "run_ms": "run time [ms]"}
-_COUNTS = ("impacts", "contacts", "liftoffs", "slips", "sticks", "reversals", "steps",
+_COUNTS = ("impacts", "contacts", "lift_offs", "slips", "sticks", "reversals", "steps",
            "rhs_evaluations")
 _SIGNED = ("X_C_end", "Y_C_end", "mean_velocity_X", "mean_velocity_Y")   # about 0: RdBu
 

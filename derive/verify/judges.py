@@ -374,7 +374,7 @@ def judge_reaction(result, slack: float) -> tuple[str, str] | None:
         if _AT_THE_BOUND.get(ev) == side and Ns[k] > 0.0 and short[k] > slack:
             return "cone", (f"a {ev} where the sticking reaction is inside the cone by "
                             f"{short[k]:.3g} N (N = {Ns[k]:.3g} N) at {where(k)}")
-        if ev == "liftoff" and side == 1 and (sticking[k] or known[k]):
+        if ev == "lift_off" and side == 1 and (sticking[k] or known[k]):
             n_here = Ns[k] if sticking[k] else N[k]
             if n_here > slack:
                 return "cone", f"a lift-off with N = {n_here:.3g} N at {where(k)}"
@@ -580,8 +580,8 @@ def judge_handover(result) -> tuple[str, str]:
     # C may touch it; after it, grazes with v_n > 0 as the face hovers, and round-off
     # touches as it leaves): no other is a landing
     def coming_down(ev) -> bool:
-        q = h.flight.model_q[int(np.searchsorted(h.flight.t, ev["t"]))]
-        return ev["v_minus"] < -ho.speed_noise(result.scene, q)
+        return ev["v_minus"] < -ho.noise(h.flight, int(np.searchsorted(h.flight.t,
+                                                                       ev["t"])))[1]
     touch = next((ev for ev in h.flight.events
                   if ev["kind"] in ("impact", "contact", "graze", "flat_landing")
                   and ev["t"] > ho.at_once(h.t) and coming_down(ev)), None)
@@ -589,7 +589,7 @@ def judge_handover(result) -> tuple[str, str]:
         j = int(np.searchsorted(h.flight.t, touch["t"]))
         q = h.flight.model_q[j]
         spread = ho.flat_spread(result.scene, q[ho.G.A])
-        res = ho.height_resolution(result.scene, float(q[ho.G.Z]))
+        res = ho.noise(h.flight, j)[0]
         if (touch["kind"] == "flat_landing") != (spread <= res):
             return "landing", (f"{touch['kind']} at t = {touch['t']:.9g} with the corners "
                                f"{spread:.3g} m apart (resolution {res:.3g} m)")

@@ -341,7 +341,7 @@ def row_modes(result) -> RowModes:
             cur_mode = abi.index(abi.MODES, ev["mode"])
         elif ev["kind"] == "contact":
             cur_mode = SMOOTH
-        elif ev["kind"] == "liftoff":
+        elif ev["kind"] == "lift_off":
             cur_mode = FLIGHT
         cur_couples = ev.get("couples", 0) if cur_mode != FLIGHT else 0
 

@@ -198,7 +198,7 @@ enum crt_event_kind {
   CRT_EV_NONE = 0,  /* (unused) */
   CRT_EV_IMPACT = 1,  /* S hit the plane with v_n < 0: the impact map applied */
   CRT_EV_CONTACT = 2,  /* impacts accumulated: S now rests on the plane */
-  CRT_EV_LIFTOFF = 3,  /* N reached 0: S leaves the plane */
+  CRT_EV_LIFT_OFF = 3,  /* N reached 0: S leaves the plane */
   CRT_EV_GRAZE = 4,  /* S touched the plane without approaching it */
   CRT_EV_PUSH = 5,  /* an impulsive push of the disturbances (value: |P|) */
   CRT_EV_STICK = 6,  /* the slip of S reached 0 with the reaction inside the cone: S sticks */
@@ -222,7 +222,7 @@ enum crt_stat {
   CRT_STAT_EVENT_FUNCTION_EVALUATIONS = 3,  /* evaluations of the gap or of N */
   CRT_STAT_IMPACTS = 4,  /* impacts */
   CRT_STAT_CONTACTS = 5,  /* entries into persistent contact */
-  CRT_STAT_LIFTOFFS = 6,  /* lift-offs */
+  CRT_STAT_LIFT_OFFS = 6,  /* lift-offs */
   CRT_STAT_GRAZES = 7,  /* grazes */
   CRT_STAT_LAW_EVALUATIONS = 8,  /* evaluations of the point law */
   CRT_STAT_CONTROLLER_CALLS = 9,  /* calls of the controller (crt_control.h) */
@@ -499,7 +499,7 @@ const char *crt_event_name(int i)
     "none",
     "impact",
     "contact",
-    "liftoff",
+    "lift_off",
     "graze",
     "push",
     "stick",
@@ -525,7 +525,7 @@ const char *crt_stat_name(int i)
     "event_function_evaluations",
     "impacts",
     "contacts",
-    "liftoffs",
+    "lift_offs",
     "grazes",
     "law_evaluations",
     "controller_calls",

@@ -404,7 +404,7 @@ static int crt_control_after_event(crt_session *s, const long *before)
   int kind = 0;
   if (s->stat[CRT_STAT_CONTACTS] > before[0]) kind = CRT_EV_CONTACT;
   else if (s->stat[CRT_STAT_IMPACTS] > before[1]) kind = CRT_EV_IMPACT;
-  else if (s->stat[CRT_STAT_LIFTOFFS] > before[2]) kind = CRT_EV_LIFTOFF;
+  else if (s->stat[CRT_STAT_LIFT_OFFS] > before[2]) kind = CRT_EV_LIFT_OFF;
   if (!kind) return 0;
   return crt_control_call(s, CRT_CALL_EVENT, kind);
 }
@@ -413,7 +413,7 @@ static void crt_control_counters(const crt_session *s, long *before)
 {
   before[0] = s->stat[CRT_STAT_CONTACTS];
   before[1] = s->stat[CRT_STAT_IMPACTS];
-  before[2] = s->stat[CRT_STAT_LIFTOFFS];
+  before[2] = s->stat[CRT_STAT_LIFT_OFFS];
 }
 
 /* ---- the public API of the loop -------------------------------------------------------- */

@@ -161,7 +161,7 @@ static void crt_integrate(crt_session *s, double t_end, crt_out *o)
       if (due != CRT_DUE_NONE) {
         if (crt_events_exhausted(s)) break;
         if (s->ctl && due == CRT_DUE_TELL) {
-          const int halt = crt_control_call(s, CRT_CALL_EVENT, CRT_EV_LIFTOFF);
+          const int halt = crt_control_call(s, CRT_CALL_EVENT, CRT_EV_LIFT_OFF);
           if (halt) { s->status = halt; break; }
         }
         continue;

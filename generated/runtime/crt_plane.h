@@ -100,8 +100,8 @@ static void crt_lift_off(crt_session *s, crt_out *o, double t, double N)
   crt_project(s, t, s->q, 1);
   crt_emit(o, t, s->q, CRT_ROW_BEFORE_EVENT);
   s->phase = CRT_FLIGHT;
-  crt_event(o, t, CRT_EV_LIFTOFF, N, 0.0, 0.0, 0.0);
-  ++s->stat[CRT_STAT_LIFTOFFS];
+  crt_event(o, t, CRT_EV_LIFT_OFF, N, 0.0, 0.0, 0.0);
+  ++s->stat[CRT_STAT_LIFT_OFFS];
   s->last_flight = 0.0;
   crt_emit(o, t, s->q, CRT_ROW_AFTER_EVENT);
   crt_changed(s);

@@ -247,7 +247,7 @@ enum crt_due { CRT_DUE_NONE = 0, CRT_DUE_TELL = 1, CRT_DUE_SILENT = 2 };
 static int crt_events_exhausted(crt_session *s)
 {
   const double n = (double)(s->stat[CRT_STAT_IMPACTS] + s->stat[CRT_STAT_CONTACTS]
-                            + s->stat[CRT_STAT_LIFTOFFS] + s->stat[CRT_STAT_GRAZES]
+                            + s->stat[CRT_STAT_LIFT_OFFS] + s->stat[CRT_STAT_GRAZES]
                             + s->stat[CRT_STAT_STICKS] + s->stat[CRT_STAT_SLIPS]
                             + s->stat[CRT_STAT_REVERSALS] + s->stat[CRT_STAT_COUPLE_STOPS]
                             + s->stat[CRT_STAT_COUPLE_STARTS]);

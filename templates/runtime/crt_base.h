@@ -78,8 +78,18 @@ static void crt_base_end(crt_session *s, crt_out *o, int status, int event, doub
 {
   crt_emit(o, s->t, s->q, CRT_ROW_BEFORE_EVENT);
   crt_event(o, s->t, event, value, 0.0, 0.0, 0.0);
-  if (event == CRT_EV_LIFTOFF) ++s->stat[CRT_STAT_LIFTOFFS];
+  if (event == CRT_EV_LIFT_OFF) ++s->stat[CRT_STAT_LIFT_OFFS];
   s->status = status;
+}
+
+/* the row at a step's end, as crt_loop.h writes it: every step's without output_dt; with
+   it only a grid time the step ends on (crt_base_rows leaves that one to the step's own
+   row) and the end time, so that the rows between events are the grid's alone */
+static void crt_base_step_row(crt_session *s, crt_out *o, double t_end)
+{
+  const double out_dt = s->opt[CRT_OPT_OUTPUT_DT];
+  if (!(out_dt > 0.0) || s->t >= t_end || s->out_origin + (s->out_k - 1.0) * out_dt == s->t)
+    crt_emit(o, s->t, s->q, CRT_ROW_STEP);
 }
 
 /* At rest at s->t (after a stop of the slip when after_stop, else at the start): stick,
@@ -90,7 +100,7 @@ static void crt_base_settle(crt_session *s, crt_out *o, int after_stop)
   double g[CRT_BASE_NG_STICK], later[CRT_BASE_NG_STICK], xi[3];
   int i, stick;
   crt_base_stick_g(s, s->t, g, s->bs.xi);
-  if (g[1] <= 0.0) { crt_base_end(s, o, CRT_LIFT_OFF, CRT_EV_LIFTOFF, g[1]); return; }
+  if (g[1] <= 0.0) { crt_base_end(s, o, CRT_LIFT_OFF, CRT_EV_LIFT_OFF, g[1]); return; }
   if (crt_base_tie(&s->bs.body, g[1])) {}  /* (cp unknown: N's root is the stick's) */
   else if (g[2] <= 0.0) { crt_base_end(s, o, CRT_TIPPING, CRT_EV_TIPPING, g[2]); return; }
   else if (g[3] <= 0.0) {
@@ -203,12 +213,12 @@ static void crt_base_stick_step(crt_session *s, crt_out *o, double t_end)
     s->t = t1;
     for (i = 0; i < CRT_BASE_NG_STICK; ++i) s->bs.g[i] = g1[i];
     for (i = 0; i < 3; ++i) s->bs.xi[i] = xi[i];
-    crt_emit(o, s->t, s->q, CRT_ROW_STEP);
+    crt_base_step_row(s, o, t_end);
     return;
   }
   s->t = first;
   crt_base_stick_g(s, s->t, g, s->bs.xi);  /* the maximiser at the event */
-  if (which == 1) { crt_base_end(s, o, CRT_LIFT_OFF, CRT_EV_LIFTOFF, g[1]); return; }
+  if (which == 1) { crt_base_end(s, o, CRT_LIFT_OFF, CRT_EV_LIFT_OFF, g[1]); return; }
   if (which == 2) { crt_base_end(s, o, CRT_TIPPING, CRT_EV_TIPPING, g[2]); return; }
   if (which == 3) { crt_base_end(s, o, CRT_FACE_LIFTING, CRT_EV_FACE_LIFTING, g[3]); return; }
   crt_emit(o, s->t, s->q, CRT_ROW_BEFORE_EVENT);
@@ -245,7 +255,7 @@ static void crt_base_slip_step(crt_session *s, crt_out *o, double t_end)
   crt_base_slip_g(s, t_end, z0, N, cp, rho, g0);
   /* a stop already reached where the step starts: N or cp jumped there (the friction of
      a slip's onset against the rest's wrench moves cp at once) */
-  if (g0[CRT_BASE_LIFT] <= 0.0) { crt_base_end(s, o, CRT_LIFT_OFF, CRT_EV_LIFTOFF, N); return; }
+  if (g0[CRT_BASE_LIFT] <= 0.0) { crt_base_end(s, o, CRT_LIFT_OFF, CRT_EV_LIFT_OFF, N); return; }
   if (crt_base_tie(&s->bs.body, N)) {}     /* (cp unknown: N's root is the step's) */
   else if (g0[CRT_BASE_TIP] <= 0.0) {
     crt_base_end(s, o, CRT_TIPPING, CRT_EV_TIPPING, g0[CRT_BASE_TIP]);
@@ -340,7 +350,7 @@ static void crt_base_slip_step(crt_session *s, crt_out *o, double t_end)
     s->t = z1[0];
     for (i = 0; i < NQ; ++i) s->q[i] = z1[1 + i];
     crt_changed(s);
-    crt_emit(o, s->t, s->q, CRT_ROW_STEP);
+    crt_base_step_row(s, o, t_end);
     return;
   }
   crt_base_interp(z0, F, first, zt);       /* the state there, its rate, N and cp */
@@ -352,7 +362,7 @@ static void crt_base_slip_step(crt_session *s, crt_out *o, double t_end)
     s->t = t_end;
     crt_emit(o, s->t, s->q, CRT_ROW_STEP);
   } else if (which == CRT_BASE_LIFT) {
-    crt_base_end(s, o, CRT_LIFT_OFF, CRT_EV_LIFTOFF, N);
+    crt_base_end(s, o, CRT_LIFT_OFF, CRT_EV_LIFT_OFF, N);
   } else if (which == CRT_BASE_TIP) {
     crt_base_end(s, o, CRT_TIPPING, CRT_EV_TIPPING,
                  crt_face_edge_margin(&s->bs.body.face, cp[0], cp[1]));

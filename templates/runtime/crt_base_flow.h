@@ -582,16 +582,19 @@ static long crt_base_rows_before(const crt_session *s, double until, long cap)
   return n;
 }
 
-/* Room for n grid rows and a step's own rows (CRT_MIN_ROWS); else, with the buffer empty,
-   0 and the step too long for any buffer (*shrink: the share of it that fits), or 0 and
-   *shrink = 1: the step is taken again, the same, once the caller has emptied the buffer
-   (s->bs.full ends this call) */
+/* Room for n grid rows and a step's own rows (CRT_MIN_ROWS; an empty buffer holds one grid
+   row at least, with a step's own few: a buffer of CRT_MIN_ROWS rows, room 0, had retried
+   the same step with a grid row in it forever); else, with the buffer empty, 0 and the
+   step too long for any buffer (*shrink: the share of it that fits), or 0 and *shrink = 1:
+   the step is taken again, the same, once the caller has emptied the buffer (s->bs.full
+   ends this call) */
 static int crt_base_rows_fit(crt_session *s, const crt_out *o, long n, double *shrink)
 {
-  const long room = (long)o->cap - (long)o->n - CRT_MIN_ROWS;
+  const long left = (long)o->cap - (long)o->n - CRT_MIN_ROWS;
+  const long room = o->n == 0 && left < 1 ? 1 : left;
   *shrink = 1.0;
   if (n <= room) return 1;
-  if (o->n == 0) *shrink = crt_max((double)room, 1.0) / (double)n;
+  if (o->n == 0) *shrink = (double)room / (double)n;
   else s->bs.full = 1;
   return 0;
 }

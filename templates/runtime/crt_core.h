@@ -33,7 +33,7 @@
  *                           (crt_control.h)
  *   CRT_LIFT_OFF         5  crt_advance, the base model (a body on its face, crt_base.h):
  *                           the normal force N under the face reached 0; the run stops
- *                           there, with an event liftoff at its time
+ *                           there, with an event lift_off at its time
  *   CRT_TIPPING          6  crt_advance, the base model: the centre of pressure reached the
  *                           face's edge (the body tips); the run stops there, with an
  *                           event tipping at its time
@@ -482,6 +482,23 @@ void crt_eval_gap(crt_session *s, double t, const double *q, double *h, double *
   (void)s; (void)t; (void)q;
   *h = 0.0;
   *v_n = 0.0;
+#endif
+}
+
+/* the scales below which the event search calls a height and a normal speed round-off at
+   (t, q): out[0] the height resolution (crt_height_resolution: the integrator's own error in
+   Z_C, or round-off), out[1] the speed noise (crt_speed_noise: S touching, not hitting);
+   the driver's hand-over judges a flat landing and a landing with them (models with a
+   plane; else 0, 0) */
+void crt_eval_noise(crt_session *s, double t, const double *q, double *out)
+{
+#if MODEL_HAS_PLANE
+  out[0] = crt_height_resolution(s, q);
+  out[1] = crt_speed_noise(s, t, q);
+#else
+  (void)s; (void)t; (void)q;
+  out[0] = 0.0;
+  out[1] = 0.0;
 #endif
 }
 

@@ -15,13 +15,13 @@
  * An impact is Darboux-Keller's (crt_dk.h) with the model's W at S and the restitution law
  * prm[CRT_P_restitution_model]; it refuses with status painleve or restitution_refused.
  * Transitions (events, each with the rows before and after it):
- *   sliding, N reaches 0              -> flight (liftoff);
+ *   sliding, N reaches 0              -> flight (lift_off);
  *   sliding, the slip reaches 0       -> slip set to 0; sticking if the sticking reaction R
  *                                        is inside the cone (stick), flight if R_Z <= 0
- *                                        (liftoff), else sliding again from rest along
+ *                                        (lift_off), else sliding again from rest along
  *                                        -R_t/|R_t| (reversal);
  *   sticking, |R_t| reaches mu_f R_Z  -> sliding from rest along -R_t/|R_t| (slip), or
- *                                        flight if R_Z <= 0 (liftoff).
+ *                                        flight if R_Z <= 0 (lift_off).
  * Entering contact (impacts accumulating, or S resting on the plane) chooses the mode by
  * the slip: sliding along it, or from rest as above.
  */
@@ -430,8 +430,8 @@ static void crt_rough_transition(crt_session *s, crt_out *o, double t)
     if (mode == CRT_MODE_FLIGHT) {
       s->phase = CRT_FLIGHT;
       s->last_flight = 0.0;
-      ++s->stat[CRT_STAT_LIFTOFFS];
-      crt_rough_mark(s, o, t, CRT_EV_LIFTOFF, R[2], before, CRT_MODE_FLIGHT);
+      ++s->stat[CRT_STAT_LIFT_OFFS];
+      crt_rough_mark(s, o, t, CRT_EV_LIFT_OFF, R[2], before, CRT_MODE_FLIGHT);
       return;
     }
     if (mode == CRT_MODE_STICKING) {
