@@ -2,8 +2,8 @@
 
 The wheel is built from a copy of the project's sources (`pip wheel --no-deps`, build
 isolation as a user gets it), installed into a fresh virtual environment in a temporary
-folder (its dependencies from the package index, pip's cache allowed) and used from a
-temporary working directory:
+folder (its dependencies from the package index, pip's cache allowed; not byte-compiled
+at install) and used from a temporary working directory:
 
 * the wheel carries every module, template and generated file of the checkout;
 * `derive simulate -o out -q` (the README's main job) compiles the runtime from the
@@ -83,7 +83,11 @@ def installed(tmp_path_factory):
     (wheel,) = (tmp / "dist").glob("markeev_carrier-*.whl")
     _run([sys.executable, "-m", "venv", tmp / "venv"], env=env)
     bin_dir = tmp / "venv" / "bin"
-    _run([bin_dir / "python", "-m", "pip", "install", "-q", wheel], env=env, cwd=tmp)
+    # --no-compile: pip would byte-compile every module of every dependency (sympy's,
+    # scipy's, matplotlib's: 12 of the install's 20 s of CPU); the modules the tests
+    # import are compiled as they are imported, as from any source tree
+    _run([bin_dir / "python", "-m", "pip", "install", "-q", "--no-compile", wheel], env=env,
+         cwd=tmp)
     work = tmp / "work"
     work.mkdir()
     print(f"wheel {wheel.name}: {wheel.stat().st_size / 1e3:.0f} kB")

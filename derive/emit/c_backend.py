@@ -104,6 +104,12 @@ def _state_loads(program: Program, inputs: list[CArg], names: dict, read: set) -
     return loads
 
 
+# body(spec) of each spec rendered in this process: the runtime's models share most of
+# their functions (the surfaces' eight are in seven models, the momentum form's four in
+# four) and generated/c renders them too; one CSE and one printing each, not up to eight
+_BODIES: dict = {}
+
+
 def body(spec: FunctionSpec, program: Program | None = None, params: tuple = ()) -> dict:
     """The statements of a function: ``steps`` (temporaries) and ``assigned`` (one list
     of (target, C expression) per output), with inputs named by the spec (scalar inputs
@@ -111,8 +117,18 @@ def body(spec: FunctionSpec, program: Program | None = None, params: tuple = ())
     ``env->prm[k]`` (the runtime's parametric models).  The state (an input named in
     :data:`~derive.emit.program.HOT`) is loaded first, entry by entry
     (:func:`_state_loads`), and sums and products are printed in the order their values
-    are ready (:func:`~derive.emit.latency.readiness`)."""
-    program = program or build(spec)
+    are ready (:func:`~derive.emit.latency.readiness`).  Without a program or params the
+    result is remembered by the spec object (derive's spec functions are cached, so a
+    spec asked for again is the same object; it is kept with its body, so that its id is
+    never another's); each call gets its own dict."""
+    if program is None and not params:
+        if id(spec) not in _BODIES:
+            _BODIES[id(spec)] = (spec, _body(spec, build(spec), ()))
+        return dict(_BODIES[id(spec)][1])
+    return _body(spec, program or build(spec), params)
+
+
+def _body(spec: FunctionSpec, program: Program, params: tuple) -> dict:
     inputs = [CArg(v.name, len(v.entries), v.labels) for v in spec.inputs]
     outputs = [CArg(v.name, len(v.entries), v.labels) for v in spec.outputs]
     names = _names(program, inputs, scalar_inputs_by_value=True, params=params)
