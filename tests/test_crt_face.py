@@ -44,7 +44,7 @@ double shim_apply(int kind, const double *geom, double N, const double *k, doubl
   double D = 0.0;
   long j;
   crt_face_set(&f, kind, geom[0], geom[1], geom[2], geom[3]);
-  crt_face_slip_set(&f, tw, &m);
+  crt_face_slip_set(&f, 1, tw, &m);
   for (j = 0; j < n; ++j) D = crt_face_apply(&f, &m, N, k + 2 * j, mu, W + 3 * j);
   return D;
 }

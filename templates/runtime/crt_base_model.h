@@ -159,7 +159,7 @@ static void crt_base_linear(const crt_base_body *b, const double *uf, const doub
   double c[3][2], F[3][2], k[2], W[3], det, x0, x1;
   crt_face_slip m;                          /* the face's integrals, once for the twist */
   int j;
-  crt_face_slip_set(&b->face, tw, &m);
+  crt_face_slip_set(&b->face, 1, tw, &m);
   for (j = 0; j < 3; ++j) {
     c[j][0] = b->face.cx + (j == 1 ? ell : 0.0);
     c[j][1] = b->face.cy + (j == 2 ? ell : 0.0);

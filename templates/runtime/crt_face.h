@@ -153,7 +153,7 @@ typedef struct {
 
 /* the moments of a rectangle about r0, as the signed triangles (r0, V_i, V_i+1), each in
    closed form (derive/face.py's _polygon_integrals, the same formulas split by P0 and k) */
-static void crt_face_polygon(const crt_face *f, crt_face_slip *m)
+static void crt_face_polygon(const crt_face *f, int linear, crt_face_slip *m)
 {
   const double V[4][2] = { {f->cx + f->a, f->cy - f->b}, {f->cx + f->a, f->cy + f->b},
                           {f->cx - f->a, f->cy + f->b}, {f->cx - f->a, f->cy - f->b} };
@@ -178,6 +178,8 @@ static void crt_face_polygon(const crt_face *f, crt_face_slip *m)
        eta kn/4 */
     m->GP[0] += -eta * (ex * I1 + nx * eta * I0) / 2.0;
     m->GP[1] += -eta * (ey * I1 + ny * eta * I0) / 2.0;
+    m->EP += -eta * J0 / 3.0;
+    if (!linear) continue;
     ge = -eta * (ex * K2 + nx * eta * I1) / 3.0;      /* G's part along ke */
     gn = -eta * eta * (ex * I1 + nx * eta * I0) / 3.0; /* along kn */
     he = -eta * (ey * K2 + ny * eta * I1) / 3.0;
@@ -186,7 +188,6 @@ static void crt_face_polygon(const crt_face *f, crt_face_slip *m)
     m->M[1] += ge * ey + gn * ny;
     m->M[2] += he * ex + hn * nx;
     m->M[3] += he * ey + hn * ny;
-    m->EP += -eta * J0 / 3.0;
     m->B[0] += -eta * (eta * J0 * nx + J1 * ex) / 4.0;
     m->B[1] += -eta * (eta * J0 * ny + J1 * ey) / 4.0;
   }
@@ -253,7 +254,8 @@ static void crt_face_disc(const crt_face *f, crt_face_slip *m)
 }
 
 /* the parts Wp by the product Gauss rule over the face (the instant centre far) */
-static void crt_face_product(const crt_face *f, const double *tw, crt_face_slip *m)
+static void crt_face_product(const crt_face *f, int linear, const double *tw,
+                             crt_face_slip *m)
 {
   const int n = CRT_FACE_FAR_N;
   const int nm = f->kind == CRT_FACE_RECTANGLE ? n : 2 * n + 2;
@@ -283,23 +285,23 @@ static void crt_face_product(const crt_face *f, const double *tw, crt_face_slip 
       w4[1] = c * uy;
       w4[2] = x * c * uy - y * c * ux;
       w4[3] = wgt * speed;
-      for (q = 0; q < 4; ++q) {
-        m->Wp[0][q] += w4[q];
-        m->Wp[1][q] += ox * w4[q];
-        m->Wp[2][q] += oy * w4[q];
-      }
+      for (q = 0; q < 4; ++q) m->Wp[0][q] += w4[q];
+      if (linear)
+        for (q = 0; q < 4; ++q) {
+          m->Wp[1][q] += ox * w4[q];
+          m->Wp[2][q] += oy * w4[q];
+        }
     }
 }
 
-/* the slip's integrals for the twist tw = (v_x, v_y, w) (face frame, at O) */
-static void crt_face_slip_set(const crt_face *f, const double *tw, crt_face_slip *m)
+/* the slip's integrals for the twist tw = (v_x, v_y, w) (face frame, at O); their parts
+   along k (M, B, Wp[1], Wp[2]) left 0 by a rectangle and the product rule unless linear
+   (the wrench under uniform pressure only) */
+static void crt_face_slip_set(const crt_face *f, int linear, const double *tw,
+                              crt_face_slip *m)
 {
   const double speed = sqrt(tw[0] * tw[0] + tw[1] * tw[1]);
   int i, q;
-  m->GP[0] = m->GP[1] = m->EP = m->B[0] = m->B[1] = 0.0;
-  for (i = 0; i < 4; ++i) m->M[i] = 0.0;
-  for (i = 0; i < 3; ++i)
-    for (q = 0; q < 4; ++q) m->Wp[i][q] = 0.0;
   if (fabs(tw[2]) * f->size <= 1e-12 * speed) {
     m->kind = speed == 0.0 ? 0 : 1;                      /* no slip; a translation */
     m->speed = speed;
@@ -314,11 +316,15 @@ static void crt_face_slip_set(const crt_face *f, const double *tw, crt_face_slip
   if (sqrt((m->r0[0] - f->cx) * (m->r0[0] - f->cx) + (m->r0[1] - f->cy) * (m->r0[1] - f->cy))
       > CRT_FACE_FAR * f->size) {
     m->kind = 3;
-    crt_face_product(f, tw, m);
+    for (i = 0; i < 3; ++i)
+      for (q = 0; q < 4; ++q) m->Wp[i][q] = 0.0;
+    crt_face_product(f, linear, tw, m);
     return;
   }
   m->kind = 2;
-  if (f->kind == CRT_FACE_RECTANGLE) crt_face_polygon(f, m);
+  m->GP[0] = m->GP[1] = m->EP = m->B[0] = m->B[1] = 0.0;
+  for (i = 0; i < 4; ++i) m->M[i] = 0.0;
+  if (f->kind == CRT_FACE_RECTANGLE) crt_face_polygon(f, linear, m);
   else crt_face_disc(f, m);
 }
 
@@ -361,15 +367,36 @@ static double crt_face_apply(const crt_face *f, const crt_face_slip *m, double N
   }
 }
 
+/* crt_face_wrench's turning slip (w != 0): its integrals, then the wrench */
+static double crt_face_turning(const crt_face *f, double N, const double *k, double mu,
+                               const double *tw, double *W)
+{
+  crt_face_slip m;
+  crt_face_slip_set(f, k[0] != 0.0 || k[1] != 0.0, tw, &m);
+  return crt_face_apply(f, &m, N, k, mu, W);
+}
+
 /* The friction on the body for the slip twist tw = (v_x, v_y, w) (face frame, at O)
    under the normal force N with the pressure's gradient k (k = 0: uniform): W = (F_x,
    F_y, T_z), T_z about O's vertical.  Returns D = mu int p |u| dA (>= 0). */
 static double crt_face_wrench(const crt_face *f, double N, const double *k, double mu,
                               const double *tw, double *W)
 {
-  crt_face_slip m;
-  crt_face_slip_set(f, tw, &m);
-  return crt_face_apply(f, &m, N, k, mu, W);
+  const double speed = sqrt(tw[0] * tw[0] + tw[1] * tw[1]);
+  if (fabs(tw[2]) * f->size <= 1e-12 * speed) {          /* a translation, at once */
+    double cx, cy;
+    if (speed == 0.0) {
+      W[0] = W[1] = W[2] = 0.0;
+      return 0.0;
+    }
+    cx = f->cx + k[0] * f->Ix / N;                       /* the pressure's centroid */
+    cy = f->cy + k[1] * f->Iy / N;
+    W[0] = -mu * N * tw[0] / speed;
+    W[1] = -mu * N * tw[1] / speed;
+    W[2] = cx * W[1] - cy * W[0];
+    return mu * N * speed;
+  }
+  return crt_face_turning(f, N, k, mu, tw, W);
 }
 
 /* D and its gradient in the plane's coordinates c (the scaled twist x = x0 + c0 e1 + c1
