@@ -202,9 +202,9 @@ def dissipation(rl: Rule, pw: np.ndarray, mu: float, twist) -> float:
 # t A2 ds dt (A2 = (V_i - r0) x (V_i+1 - r0), signed: the triangles of the edges r0 sees
 # from behind subtract); the s-integrals in closed form (asinh and square roots: exact, no
 # rule).  Over a disc, in the angle about r0 by a fixed rule of order n: the trapezoid
-# rule with 4n angles when r0 is inside (a periodic integrand), n-point Gauss–Legendre in
-# phi with sin(theta - theta_c) = (R/delta) sin(phi) when r0 is outside (smooth at the
-# two tangents).
+# rule with 4n angles from r0 - c's direction when r0 is inside (a periodic integrand),
+# n-point Gauss–Legendre in phi with sin(theta - theta_c) = (R/delta) sin(phi) when r0 is
+# outside (smooth at the two tangents).
 def _polygon_integrals(face: Face, r0, P_c: float, k, n: int = 0) -> tuple:
     """G, H, E over a rectangle, edge by edge in closed form (n is not read).  Along an
     edge, q = tau e + eta nu (e the edge's unit direction, nu its left normal, eta = q.nu
@@ -251,8 +251,8 @@ def _disc_integrals(face: Face, r0, P_c: float, k, n: int) -> tuple:
     delta = math.hypot(*d)
     P0 = P_c + k @ d
     if delta < R:
-        m = 4 * n
-        th = np.arange(m) * 2 * math.pi / m
+        m = 4 * n                         # from r0 - c's direction (crt_face.h's quarters)
+        th = math.atan2(d[1], d[0]) + np.arange(m) * 2 * math.pi / m
         wt = np.full(m, 2 * math.pi / m)
         e = np.column_stack([np.cos(th), np.sin(th)])
         de = e @ d

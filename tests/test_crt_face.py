@@ -35,6 +35,19 @@ double shim_wrench(int kind, const double *geom, double N, const double *k, doub
   crt_face_set(&f, kind, geom[0], geom[1], geom[2], geom[3]);
   return crt_face_wrench(&f, N, k, mu, tw, W);
 }
+/* one slip's integrals (crt_face_slip_set), read under n pressures (k: n pairs) */
+double shim_apply(int kind, const double *geom, double N, const double *k, double mu,
+                  const double *tw, double *W, long n)
+{
+  crt_face f;
+  crt_face_slip m;
+  double D = 0.0;
+  long j;
+  crt_face_set(&f, kind, geom[0], geom[1], geom[2], geom[3]);
+  crt_face_slip_set(&f, 1, tw, &m);
+  for (j = 0; j < n; ++j) D = crt_face_apply(&f, &m, N, k + 2 * j, mu, W + 3 * j);
+  return D;
+}
 double shim_gauge(int kind, const double *geom, double N, const double *k, double mu,
                   const double *W, double *xi, long *evaluations)
 {
@@ -79,6 +92,9 @@ def shim():
         fn = getattr(lib, name)
         fn.restype = ctypes.c_double
         fn.argtypes = [ctypes.c_int, DP, ctypes.c_double, DP, ctypes.c_double, DP, DP, *extra]
+    lib.shim_apply.restype = ctypes.c_double
+    lib.shim_apply.argtypes = [ctypes.c_int, DP, ctypes.c_double, DP, ctypes.c_double, DP, DP,
+                               ctypes.c_long]
     lib.shim_bounds.restype = ctypes.c_double
     lib.shim_bounds.argtypes = [ctypes.c_int, DP, ctypes.c_double, DP, ctypes.c_double, DP, DP]
     lib.shim_edge.restype = ctypes.c_double
@@ -155,6 +171,29 @@ def test_the_wrench_is_face_pys_and_the_references(shim):
             r0 = np.array([-tw[1], tw[0]]) / tw[2]
             far += np.hypot(*(r0 - f.centre)) > fc.FAR * f.size
     assert far > 10                        # the product rule was exercised
+
+
+def test_one_slips_integrals_give_its_wrench_under_every_pressure(shim):
+    """The integrals of a slip taken once (crt_face_slip_set; crt_base_linear reads four
+    pressures from them) give, under each pressure, the wrench crt_face_wrench gives
+    (the same bits) and the reference's adaptive quadrature's to 1e-12."""
+    N, mu = 2.0, 0.5
+    cps = (None, (0.015, -0.005), (-0.01, 0.012))
+    for f, mode, _ in _faces():
+        if mode != "linear":
+            continue
+        system = br.System(M=1, J=(1, 1, 1), face=f, pressure=mode)
+        kind, geom, _ = _face_args(f, N, None, mode)
+        ks = _arr([fc.pressure_slope(f, N, cp, "uniform" if cp is None else mode)[1]
+                   for cp in cps])
+        for tw in _twists(f, 10):
+            W = np.zeros((len(cps), 3))
+            shim.shim_apply(kind, _ptr(geom), N, _ptr(ks), mu, _ptr(_arr(tw)), _ptr(W), len(cps))
+            for j, cp in enumerate(cps):
+                alone, _ = c_wrench(shim, f, N, cp, "uniform" if cp is None else mode, mu, tw)
+                assert np.array_equal(W[j], alone)
+                ref, _ = br.friction(system, mu, N, cp or tuple(f.centre), tw)
+                assert np.abs(W[j] - ref).max() <= 1e-12 * np.abs(ref).max(), (f.kind, cp, tw)
 
 
 def test_the_edge_margin_is_face_pys(shim):

@@ -135,17 +135,20 @@ def test_the_noise_the_hand_over_judges_by_is_the_runtimes(up):
 
 @pytest.mark.parametrize("f, first", [(1.2, "contact"), (1.5, "graze")])
 def test_a_touch_at_the_hand_over_instant_is_no_landing(f, first):
-    """Pushed up at a peak of f g (f a little above 1), the C finds the face touching at
-    the hand-over's instant itself, v_n round-off (a contact it leaves at once, or a
-    graze): that is no landing (it was: a flight of 0 s, landed flat).  The flat landing
-    is later, at the root of the face's height with C on its parabola from the
-    hand-over's state (as for the box pushed up above)."""
+    """Pushed up at a peak of f g (f a little above 1), the C may find the face touching
+    at the hand-over's instant itself, v_n round-off (a contact it leaves at once, or a
+    graze; or, the round-off upward, no touch): that is no landing (it was: a flight of
+    0 s, landed flat).  The flat landing is later, at the root of the face's height with
+    C on its parabola from the hand-over's state (as for the box pushed up above)."""
     Af = f * (M + m) * g / (m * W * W)
     run = simulate(_scene(f'["0", "0", "{Af!r}*sin({W}*t)"]', duration=0.3))
     h = run.handover
     assert abs(h.t - math.asin(1.0 / f) / W) < 1e-9
     at_once = [ev for ev in h.flight.events if ev["t"] - h.t < 1e-12]
-    assert at_once[0]["kind"] == first and abs(at_once[0]["v_minus"]) < 1e-15
+    # v_n at the hand-over is round-off, of either sign: the touch (when found) is the
+    # kind the rate says, never a landing
+    assert all(ev["kind"] == first and abs(ev["v_minus"]) < 1e-15 for ev in at_once[:1])
+    assert not any(ev["kind"] == "flat_landing" for ev in at_once)
     Z0, V0 = h.state[G.Z], h.state[G.Zd]
 
     def face(tt):

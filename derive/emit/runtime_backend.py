@@ -36,6 +36,7 @@ model once per machine.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from functools import lru_cache
 
@@ -296,7 +297,16 @@ def face_rules_context() -> dict:
     def gl(n):
         x, w = np.polynomial.legendre.leggauss(n)
         return [(_c(a), _c(b)) for a, b in zip(x, w)]
-    return {"face_angle": gl(face.ANGLE_ORDER), "face_far": gl(face.FAR_ORDER),
+    n = face.ANGLE_ORDER
+    x, w = np.polynomial.legendre.leggauss(n)
+    half = [(_c(math.sin(a * math.pi / 2)), _c(math.cos(a * math.pi / 2)), _c(b))
+            for a, b in zip(x[n // 2:], w[n // 2:])]          # the symmetric rule's phi > 0
+    m = 2 * face.FAR_ORDER + 2
+    far = [(_c(math.cos((j + 0.5) * 2 * math.pi / m)), _c(math.sin((j + 0.5) * 2 * math.pi / m)))
+           for j in range(m)]
+    return {"face_angle": half, "face_angle_n": n,
+            "face_quarter": [_c(math.cos(j * math.pi / (2 * n))) for j in range(n + 1)],
+            "face_far": gl(face.FAR_ORDER), "face_far_angles": far,
             "face_far_sizes": _c(face.FAR)}
 
 

@@ -21,12 +21,17 @@
  * centre r0 = e_z x v/w and the integrals are taken about r0 (radially in closed form):
  *   - a rectangle edge by edge in closed form (asinh and square roots), exact to
  *     round-off;
- *   - a disc by fixed rules in the angle about r0: the trapezoid rule with 4n angles when
- *     r0 is inside, n-point Gauss-Legendre in phi with sin(theta - theta_c) = (R/delta)
- *     sin(phi) when it is outside (n = CRT_FACE_ANGLE_N);
+ *   - a disc by fixed rules in the angle about r0: the trapezoid rule with 4n angles from
+ *     r0 - c's direction when r0 is inside, n-point Gauss-Legendre in phi with
+ *     sin(theta - theta_c) = (R/delta) sin(phi) when it is outside (n =
+ *     CRT_FACE_ANGLE_N), the angles taken by the disc's symmetry in fours or pairs that
+ *     share one square root, their sines and cosines tabulated;
  *   - r0 beyond CRT_FACE_FAR face sizes from the centroid: the product Gauss rule over
  *     the face (the slip field is analytic there; the triangles about r0 would cancel);
  *   - |w| size <= 1e-12 |v|: a translation, F = -mu N v/|v| at the pressure's centroid.
+ * The integrals are linear in the pressure: crt_face_slip_set takes them once for a
+ * twist, crt_face_apply gives the wrench under any N and k from them (crt_face_wrench is
+ * the two).
  * derive/face.py computes the same integrals (centre_wrench); tests/test_crt_face.py
  * holds this header to it, and both to adaptive quadrature (derive/base_reference.py).
  *
@@ -130,18 +135,30 @@ static void crt_face_edge_prims(double tau, double eta, double h, double *P)
   P[4] = L * L * L / 3.0;
 }
 
-/* G = int p (r - r0)/|r - r0| dA and E = int p |r - r0| dA over a rectangle, as the
-   signed triangles (r0, V_i, V_i+1), each in closed form (derive/face.py's
-   _polygon_integrals, the same formulas) */
-static void crt_face_polygon(const crt_face *f, double r0x, double r0y, double P_c,
-                             const double *k, double *G, double *E)
+/* The friction of one slip twist, linear in the pressure (P_c, k): its integrals over the
+   face, from which crt_face_apply gives the wrench and D under any (N, k) at once (the
+   linear pressure's centre found by crt_base_linear reads it four times).  kind: 0 no
+   slip, 1 a translation (u: v/|v|), 2 about the instant centre r0 (sg = sign w, aw = |w|)
+   with, p = P0 + k.(r - r0) and P0 = P_c + k.(r0 - c),
+     G = int p (r - r0)/|r - r0| dA = P0 GP + M k,  E = int p |r - r0| dA = P0 EP + B.k,
+   H = int p r.(r - r0)/|r - r0| dA = r0.G + E; 3 the product rule (r0 far), Wp[j] the
+   (F_x, F_y, T_z, D) per unit mu of the pressures 1, x - c_x, y - c_y (j = 0, 1, 2). */
+typedef struct {
+  int kind;
+  double u[2], speed;                   /* a translation */
+  double r0[2], sg, aw;                 /* about r0 */
+  double GP[2], M[4], EP, B[2];         /* M row-major */
+  double Wp[3][4];                      /* the product rule */
+} crt_face_slip;
+
+/* the moments of a rectangle about r0, as the signed triangles (r0, V_i, V_i+1), each in
+   closed form (derive/face.py's _polygon_integrals, the same formulas split by P0 and k) */
+static void crt_face_polygon(const crt_face *f, int linear, crt_face_slip *m)
 {
   const double V[4][2] = { {f->cx + f->a, f->cy - f->b}, {f->cx + f->a, f->cy + f->b},
                           {f->cx - f->a, f->cy + f->b}, {f->cx - f->a, f->cy - f->b} };
-  const double P0 = P_c + k[0] * (r0x - f->cx) + k[1] * (r0y - f->cy);
+  const double r0x = m->r0[0], r0y = m->r0[1];
   int i, j;
-  G[0] = G[1] = 0.0;
-  *E = 0.0;
   for (i = 0; i < 4; ++i) {
     const double Ax = V[i][0] - r0x, Ay = V[i][1] - r0y;
     const double Bx = V[(i + 1) % 4][0] - r0x, By = V[(i + 1) % 4][1] - r0y;
@@ -149,113 +166,214 @@ static void crt_face_polygon(const crt_face *f, double r0x, double r0y, double P
     const double ex = (Bx - Ax) / ell, ey = (By - Ay) / ell;
     const double nx = -ey, ny = ex;
     const double eta = Ax * nx + Ay * ny;
-    double lo[5], hi[5], I0, I1, K2, J0, J1, ke, kn, c2, c3, t1, gt, gn;
+    double lo[5], hi[5], I0, I1, K2, J0, J1, t1, ge, gn, he, hn;
     if (eta == 0.0) continue;                 /* r0 on the edge's line: a flat triangle */
-    ke = k[0] * ex + k[1] * ey;
-    kn = k[0] * nx + k[1] * ny;
     t1 = Ax * ex + Ay * ey;
     crt_face_edge_prims(t1, eta, fabs(eta), lo);
     crt_face_edge_prims(t1 + ell, eta, fabs(eta), hi);
     for (j = 0; j < 5; ++j) hi[j] -= lo[j];
     I0 = hi[0]; I1 = hi[1]; K2 = hi[2]; J0 = hi[3]; J1 = hi[4];
-    c2 = P0 / 2.0 + eta * kn / 3.0;
-    c3 = P0 / 3.0 + eta * kn / 4.0;
-    gt = c2 * I1 + ke / 3.0 * K2;
-    gn = eta * (c2 * I0 + ke / 3.0 * I1);
-    G[0] += -eta * (ex * gt + nx * gn);
-    G[1] += -eta * (ey * gt + ny * gn);
-    *E += -eta * (c3 * J0 + ke / 4.0 * J1);
+    /* G += -eta (e gt + nu gn), gt = c2 I1 + ke/3 K2, gn = eta (c2 I0 + ke/3 I1), c2 =
+       P0/2 + eta kn/3 (ke = k.e, kn = k.nu); E += -eta (c3 J0 + ke/4 J1), c3 = P0/3 +
+       eta kn/4 */
+    m->GP[0] += -eta * (ex * I1 + nx * eta * I0) / 2.0;
+    m->GP[1] += -eta * (ey * I1 + ny * eta * I0) / 2.0;
+    m->EP += -eta * J0 / 3.0;
+    if (!linear) continue;
+    ge = -eta * (ex * K2 + nx * eta * I1) / 3.0;      /* G's part along ke */
+    gn = -eta * eta * (ex * I1 + nx * eta * I0) / 3.0; /* along kn */
+    he = -eta * (ey * K2 + ny * eta * I1) / 3.0;
+    hn = -eta * eta * (ey * I1 + ny * eta * I0) / 3.0;
+    m->M[0] += ge * ex + gn * nx;
+    m->M[1] += ge * ey + gn * ny;
+    m->M[2] += he * ex + hn * nx;
+    m->M[3] += he * ey + hn * ny;
+    m->B[0] += -eta * (eta * J0 * nx + J1 * ex) / 4.0;
+    m->B[1] += -eta * (eta * J0 * ny + J1 * ey) / 4.0;
   }
 }
 
-/* G, H = int p r.(r - r0)/|r - r0| dA and E over a disc, by the rules in the angle
-   about r0 (derive/face.py's _disc_integrals) */
-static void crt_face_disc(const crt_face *f, double r0x, double r0y, double P_c,
-                          const double *k, double *G, double *H, double *E)
+/* the moments of a disc about r0 by the rules in the angle about r0 (derive/face.py's
+   _disc_integrals).  With e_d = (r0 - c)/delta and e_p = e_z x e_d, by the disc's symmetry
+   GP = A e_d, M = Mdd e_d e_d^T + Mpp e_p e_p^T, B = Bd e_d; along the ray at the angle
+   theta from e_d (cos c, sin s) the disc lies for rho in [lo, hi], and the radial
+   integrals are powers of lo and hi.  Inside (delta < R): lo = 0, hi = S - delta c, S =
+   sqrt(R^2 - delta^2 s^2), the trapezoid rule's angles in fours (+-c, +-s: one S);
+   outside: the ray turned alpha from -e_d with sin(alpha) = (R/delta) sin(phi), lo, hi =
+   delta cos(alpha) -+ R cos(phi), the rule's nodes in pairs +-phi.  No sine or cosine:
+   the rules' own are tabulated (crt_face_rules.h). */
+static void crt_face_disc(const crt_face *f, crt_face_slip *m)
 {
   const double pi = 3.14159265358979323846;
-  const double R = f->a, dx = r0x - f->cx, dy = r0y - f->cy;
+  const double R = f->a, dx = m->r0[0] - f->cx, dy = m->r0[1] - f->cy;
   const double delta = sqrt(dx * dx + dy * dy);
-  const double P0 = P_c + k[0] * dx + k[1] * dy;
-  const int inside = delta < R;
-  const int m = inside ? 4 * CRT_FACE_ANGLE_N : CRT_FACE_ANGLE_N;
-  const double th_c = inside ? 0.0 : atan2(-dy, -dx);
-  int i;
-  G[0] = G[1] = 0.0;
-  *H = 0.0;
-  *E = 0.0;
-  for (i = 0; i < m; ++i) {
-    double th, wt, lo, hi, ex, ey, de, ke, lo2, hi2, m1, m2;
-    if (inside) {
-      th = i * 2.0 * pi / m;
-      wt = 2.0 * pi / m;
-    } else {
-      const double phi = crt_face_angle_x[i] * pi / 2.0;
-      const double sn = (R / delta) * sin(phi);
-      th = th_c + asin(sn);
-      wt = crt_face_angle_w[i] * pi / 2.0 * (R / delta) * cos(phi) / sqrt(1.0 - sn * sn);
+  const double edx = delta > 0.0 ? dx / delta : 1.0, edy = delta > 0.0 ? dy / delta : 0.0;
+  double A = 0.0, Mdd = 0.0, Mpp = 0.0, E0 = 0.0, Bd = 0.0;
+  int j;
+  if (delta < R) {
+    const int n = CRT_FACE_ANGLE_N;
+    const double h = 2.0 * pi / (4 * n), d2 = delta * delta;
+    for (j = 0; j <= n; ++j) {
+      /* the four angles +-theta, pi -+ theta: hi = S -+ delta c; summed over them, the
+         sums of c hi^2/2, c^2 hi^3/3, s^2 hi^3/3, hi^3/3, c hi^4/4 (j = 0 and n: two
+         angles, each counted twice) */
+      const double c = crt_face_quarter_cos[j], s = crt_face_quarter_cos[n - j];
+      const double wt = (j == 0 || j == n) ? 0.5 * h : h;
+      const double S = sqrt(R * R - d2 * s * s), c2 = c * c;
+      const double cube = wt * (4.0 / 3.0) * S * (S * S + 3.0 * d2 * c2);
+      A += -4.0 * wt * delta * c2 * S;
+      E0 += cube;
+      Mdd += c2 * cube;
+      Mpp += s * s * cube;
+      Bd += -4.0 * wt * delta * c2 * S * (S * S + d2 * c2);
     }
-    ex = cos(th);
-    ey = sin(th);
-    de = ex * dx + ey * dy;
-    if (inside) {
-      lo = 0.0;
-      hi = -de + sqrt(R * R - delta * delta + de * de);
-    } else {
-      const double root = R * cos(crt_face_angle_x[i] * pi / 2.0);
-      lo = -de - root;
-      hi = -de + root;
+  } else {
+    for (j = 0; j < CRT_FACE_ANGLE_HALF; ++j) {
+      const double sn = (R / delta) * crt_face_angle_sin[j];
+      const double ca = sqrt(1.0 - sn * sn), root = R * crt_face_angle_cos[j];
+      const double wt = crt_face_angle_w[j] * pi / 2.0 * (R / delta) * crt_face_angle_cos[j] / ca;
+      /* the pair +-phi, the ray along -e_d turned +-alpha: (hi^2 - lo^2)/2 = 2 delta ca
+         root, (hi^3 - lo^3)/3 = (2/3) root (root^2 + 3 delta^2 ca^2), (hi^4 - lo^4)/4 =
+         2 delta ca root (root^2 + delta^2 ca^2); the ray's e_d component is -ca */
+      const double cube = 2.0 * wt * (2.0 / 3.0) * root * (root * root + 3.0 * delta * delta * ca * ca);
+      A += -2.0 * wt * ca * 2.0 * delta * ca * root;
+      E0 += cube;
+      Mdd += ca * ca * cube;
+      Mpp += sn * sn * cube;
+      Bd += -2.0 * wt * ca * 2.0 * delta * ca * root * (root * root + delta * delta * ca * ca);
     }
-    ke = k[0] * ex + k[1] * ey;
-    lo2 = lo * lo;
-    hi2 = hi * hi;
-    m1 = P0 * (hi2 - lo2) / 2.0 + ke * (hi2 * hi - lo2 * lo) / 3.0;
-    m2 = P0 * (hi2 * hi - lo2 * lo) / 3.0 + ke * (hi2 * hi2 - lo2 * lo2) / 4.0;
-    G[0] += wt * ex * m1;
-    G[1] += wt * ey * m1;
-    *H += wt * ((ex * r0x + ey * r0y) * m1 + m2);
-    *E += wt * m2;
   }
+  m->GP[0] = A * edx;
+  m->GP[1] = A * edy;
+  m->M[0] = Mdd * edx * edx + Mpp * edy * edy;
+  m->M[1] = m->M[2] = (Mdd - Mpp) * edx * edy;
+  m->M[3] = Mdd * edy * edy + Mpp * edx * edx;
+  m->EP = E0;
+  m->B[0] = Bd * edx;
+  m->B[1] = Bd * edy;
 }
 
-/* the wrench and D by the product Gauss rule over the face (the instant centre far) */
-static double crt_face_product(const crt_face *f, double P_c, const double *k, double mu,
-                               const double *tw, double *W)
+/* the parts Wp by the product Gauss rule over the face (the instant centre far) */
+static void crt_face_product(const crt_face *f, int linear, const double *tw,
+                             crt_face_slip *m)
 {
-  const double pi = 3.14159265358979323846;
   const int n = CRT_FACE_FAR_N;
-  const int m = f->kind == CRT_FACE_RECTANGLE ? n : 2 * n + 2;
-  double D = 0.0;
-  int i, j;
-  W[0] = W[1] = W[2] = 0.0;
+  const int nm = f->kind == CRT_FACE_RECTANGLE ? n : 2 * n + 2;
+  int i, j, q;
   for (i = 0; i < n; ++i)
-    for (j = 0; j < m; ++j) {
-      double ox, oy, wgt, x, y, ux, uy, speed, c;
+    for (j = 0; j < nm; ++j) {
+      double ox, oy, wgt, x, y, ux, uy, speed, c, w4[4];
       if (f->kind == CRT_FACE_RECTANGLE) {
         ox = f->a * crt_face_far_x[i];
         oy = f->b * crt_face_far_x[j];
         wgt = f->a * crt_face_far_w[i] * f->b * crt_face_far_w[j];
       } else {
+        const double pi = 3.14159265358979323846;
         const double r = f->a * (crt_face_far_x[i] + 1.0) / 2.0;
-        const double th = (j + 0.5) * 2.0 * pi / m;
-        ox = r * cos(th);
-        oy = r * sin(th);
-        wgt = f->a * crt_face_far_w[i] / 2.0 * r * (2.0 * pi / m);
+        ox = r * crt_face_far_cos[j];
+        oy = r * crt_face_far_sin[j];
+        wgt = f->a * crt_face_far_w[i] / 2.0 * r * (2.0 * pi / nm);
       }
-      wgt *= P_c + k[0] * ox + k[1] * oy;
       x = ox + f->cx;
       y = oy + f->cy;
       ux = tw[0] - tw[2] * y;
       uy = tw[1] + tw[2] * x;
       speed = sqrt(ux * ux + uy * uy);
       if (!(speed > 0.0)) continue;
-      c = -mu * wgt / speed;
-      W[0] += c * ux;
-      W[1] += c * uy;
-      W[2] += x * c * uy - y * c * ux;
-      D += mu * wgt * speed;
+      c = -wgt / speed;
+      w4[0] = c * ux;
+      w4[1] = c * uy;
+      w4[2] = x * c * uy - y * c * ux;
+      w4[3] = wgt * speed;
+      for (q = 0; q < 4; ++q) m->Wp[0][q] += w4[q];
+      if (linear)
+        for (q = 0; q < 4; ++q) {
+          m->Wp[1][q] += ox * w4[q];
+          m->Wp[2][q] += oy * w4[q];
+        }
     }
-  return D;
+}
+
+/* the slip's integrals for the twist tw = (v_x, v_y, w) (face frame, at O); their parts
+   along k (M, B, Wp[1], Wp[2]) left 0 by a rectangle and the product rule unless linear
+   (the wrench under uniform pressure only) */
+static void crt_face_slip_set(const crt_face *f, int linear, const double *tw,
+                              crt_face_slip *m)
+{
+  const double speed = sqrt(tw[0] * tw[0] + tw[1] * tw[1]);
+  int i, q;
+  if (fabs(tw[2]) * f->size <= 1e-12 * speed) {
+    m->kind = speed == 0.0 ? 0 : 1;                      /* no slip; a translation */
+    m->speed = speed;
+    m->u[0] = speed > 0.0 ? tw[0] / speed : 0.0;
+    m->u[1] = speed > 0.0 ? tw[1] / speed : 0.0;
+    return;
+  }
+  m->r0[0] = -tw[1] / tw[2];
+  m->r0[1] = tw[0] / tw[2];
+  m->sg = tw[2] > 0.0 ? 1.0 : -1.0;
+  m->aw = fabs(tw[2]);
+  if (sqrt((m->r0[0] - f->cx) * (m->r0[0] - f->cx) + (m->r0[1] - f->cy) * (m->r0[1] - f->cy))
+      > CRT_FACE_FAR * f->size) {
+    m->kind = 3;
+    for (i = 0; i < 3; ++i)
+      for (q = 0; q < 4; ++q) m->Wp[i][q] = 0.0;
+    crt_face_product(f, linear, tw, m);
+    return;
+  }
+  m->kind = 2;
+  m->GP[0] = m->GP[1] = m->EP = m->B[0] = m->B[1] = 0.0;
+  for (i = 0; i < 4; ++i) m->M[i] = 0.0;
+  if (f->kind == CRT_FACE_RECTANGLE) crt_face_polygon(f, linear, m);
+  else crt_face_disc(f, m);
+}
+
+/* The friction on the body of the slip m under the normal force N with the pressure's
+   gradient k (k = 0: uniform): W = (F_x, F_y, T_z), T_z about O's vertical.  Returns D =
+   mu int p |u| dA (>= 0). */
+static double crt_face_apply(const crt_face *f, const crt_face_slip *m, double N,
+                             const double *k, double mu, double *W)
+{
+  const double P_c = N / f->area;
+  if (m->kind == 0) {
+    W[0] = W[1] = W[2] = 0.0;
+    return 0.0;
+  }
+  if (m->kind == 1) {                                    /* at the pressure's centroid */
+    const double cx = f->cx + k[0] * f->Ix / N, cy = f->cy + k[1] * f->Iy / N;
+    W[0] = -mu * N * m->u[0];
+    W[1] = -mu * N * m->u[1];
+    W[2] = cx * W[1] - cy * W[0];
+    return mu * N * m->speed;
+  }
+  if (m->kind == 3) {
+    int q;
+    double w4[4];
+    for (q = 0; q < 4; ++q) w4[q] = mu * (P_c * m->Wp[0][q] + k[0] * m->Wp[1][q]
+                                          + k[1] * m->Wp[2][q]);
+    W[0] = w4[0]; W[1] = w4[1]; W[2] = w4[2];
+    return w4[3];
+  }
+  {
+    const double P0 = P_c + k[0] * (m->r0[0] - f->cx) + k[1] * (m->r0[1] - f->cy);
+    const double G0 = P0 * m->GP[0] + m->M[0] * k[0] + m->M[1] * k[1];
+    const double G1 = P0 * m->GP[1] + m->M[2] * k[0] + m->M[3] * k[1];
+    const double E = P0 * m->EP + m->B[0] * k[0] + m->B[1] * k[1];
+    const double H = m->r0[0] * G0 + m->r0[1] * G1 + E;
+    W[0] = mu * m->sg * G1;
+    W[1] = -mu * m->sg * G0;
+    W[2] = -mu * m->sg * H;
+    return mu * m->aw * E;
+  }
+}
+
+/* crt_face_wrench's turning slip (w != 0): its integrals, then the wrench */
+static double crt_face_turning(const crt_face *f, double N, const double *k, double mu,
+                               const double *tw, double *W)
+{
+  crt_face_slip m;
+  crt_face_slip_set(f, k[0] != 0.0 || k[1] != 0.0, tw, &m);
+  return crt_face_apply(f, &m, N, k, mu, W);
 }
 
 /* The friction on the body for the slip twist tw = (v_x, v_y, w) (face frame, at O)
@@ -264,10 +382,8 @@ static double crt_face_product(const crt_face *f, double P_c, const double *k, d
 static double crt_face_wrench(const crt_face *f, double N, const double *k, double mu,
                               const double *tw, double *W)
 {
-  const double P_c = N / f->area;
   const double speed = sqrt(tw[0] * tw[0] + tw[1] * tw[1]);
-  double r0x, r0y, G[2], H, E, sg;
-  if (fabs(tw[2]) * f->size <= 1e-12 * speed) {          /* a translation */
+  if (fabs(tw[2]) * f->size <= 1e-12 * speed) {          /* a translation, at once */
     double cx, cy;
     if (speed == 0.0) {
       W[0] = W[1] = W[2] = 0.0;
@@ -280,22 +396,7 @@ static double crt_face_wrench(const crt_face *f, double N, const double *k, doub
     W[2] = cx * W[1] - cy * W[0];
     return mu * N * speed;
   }
-  r0x = -tw[1] / tw[2];
-  r0y = tw[0] / tw[2];
-  if (sqrt((r0x - f->cx) * (r0x - f->cx) + (r0y - f->cy) * (r0y - f->cy))
-      > CRT_FACE_FAR * f->size)
-    return crt_face_product(f, P_c, k, mu, tw, W);
-  if (f->kind == CRT_FACE_RECTANGLE) {
-    crt_face_polygon(f, r0x, r0y, P_c, k, G, &E);
-    H = r0x * G[0] + r0y * G[1] + E;
-  } else {
-    crt_face_disc(f, r0x, r0y, P_c, k, G, &H, &E);
-  }
-  sg = tw[2] > 0.0 ? 1.0 : -1.0;
-  W[0] = mu * sg * G[1];
-  W[1] = -mu * sg * G[0];
-  W[2] = -mu * sg * H;
-  return mu * fabs(tw[2]) * E;
+  return crt_face_turning(f, N, k, mu, tw, W);
 }
 
 /* D and its gradient in the plane's coordinates c (the scaled twist x = x0 + c0 e1 + c1

@@ -154,7 +154,8 @@ static void crt_base_rest(const crt_base_body *b, const double *uf, double *W, d
    mass matrix solved, then the horizontal angular momentum): F(c) = cp(W(c)) - c is an
    affine map of the plane, known exactly from its values at the face's centroid c0 and
    at c0 + ell e_x, c0 + ell e_y; its root c* = c0 - A^-1 F(c0), and the rates are those
-   at c*.  A singular A (no consistent pressure: cp's own shift by the friction's moment
+   at c*.  The face's integrals are taken once (crt_face_slip_set), the four wrenches read
+   from them.  A singular A (no consistent pressure: cp's own shift by the friction's moment
    equal to c's) gives NaN rates, a nonfinite stop. */
 static void crt_base_linear(const crt_base_body *b, const double *uf, const double *q,
                             const double *tw, double N0, double *dq, double *N,
@@ -162,12 +163,14 @@ static void crt_base_linear(const crt_base_body *b, const double *uf, const doub
 {
   const double ell = b->ell;
   double c[3][2], F[3][2], k[2], W[3], det, x0, x1;
+  crt_face_slip m;                          /* the face's integrals, once for the twist */
   int j;
+  crt_face_slip_set(&b->face, 1, tw, &m);
   for (j = 0; j < 3; ++j) {
     c[j][0] = b->face.cx + (j == 1 ? ell : 0.0);
     c[j][1] = b->face.cy + (j == 2 ? ell : 0.0);
     crt_base_slope(b, N0, c[j], k);
-    crt_face_wrench(&b->face, N0, k, b->mu, tw, W);
+    crt_face_apply(&b->face, &m, N0, k, b->mu, W);
     base_slip(q, uf, b->pf, b->h, W, dq, N, cp);
     F[j][0] = cp[0] - c[j][0];
     F[j][1] = cp[1] - c[j][1];
@@ -186,7 +189,7 @@ static void crt_base_linear(const crt_base_body *b, const double *uf, const doub
   c[0][0] += x0;
   c[0][1] += x1;
   crt_base_slope(b, N0, c[0], k);
-  crt_face_wrench(&b->face, N0, k, b->mu, tw, W);
+  crt_face_apply(&b->face, &m, N0, k, b->mu, W);
   base_slip(q, uf, b->pf, b->h, W, dq, N, cp);
 }
 
