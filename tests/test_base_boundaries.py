@@ -7,6 +7,13 @@ apart in Python.
 * A start sliding at 0.98 and 1.02 of the slip's end (eps = 1e-11 sqrt(g ell)): below it
   the twist is the start's round-off, taken as rest (no event, O does not move); above it
   the slip runs to its stop at the closed form's v0 / (mu g) (one stick event).
+* The gauge at the start, gamma0 = 1 -+ 0.98e-12 and 1 -+ 1.02e-12 (a point pushing the box
+  with x'' = c + j t, so gamma = m x'' / (mu_s (M + m) g) exactly, rising or falling at
+  1e-7 a second): within 1e-12 of 1 the rest holds unless gamma is rising (a slip at once);
+  below 1 - 1e-12 it holds and a rising gamma breaks it where the line reaches 1, at the
+  closed form's (1 - gamma0) / 1e-7 s; above 1 + 1e-12 the slip event comes at once.
+  The rate makes the gauge 1e-6 t_scale later differ from the start's by 1 % of the
+  margin, so the rising test is taken within 2 %.
 * The run's counts (sticks, slips, reversals, lift-offs) are its events counted apart, in
   runs that end in each way: the crawl and the reversals of tests/test_base_runtime.py, a
   lift-off, a tip and the face lifting (a point walking out at c: the edge at a (M + m) /
@@ -44,6 +51,28 @@ def test_a_start_sliding_at_the_slips_end_is_rest_below_it_and_a_slip_above(f):
         (t, kind), = got
         assert kind == "stick" and abs(t - v0 / (mu * G)) < 1e-6 * v0 / (mu * G)
     assert np.all(raw.q[-1, 3:] == 0.0)
+
+
+MU_S, M_, m_ = 0.35, 1.0, 0.2
+RATE = 1e-7                             # gamma's rate, 1/s
+
+
+@pytest.mark.parametrize("margin", [1.02e-12, 0.98e-12, -0.98e-12, -1.02e-12])
+@pytest.mark.parametrize("rising", [True, False])
+def test_the_rest_at_gamma_within_1e12_of_1_breaks_only_if_gamma_rises(margin, rising):
+    scale = MU_S * (M_ + m_) * G / m_   # x'' = scale * gamma
+    c, j = (1.0 - margin) * scale, (RATE if rising else -RATE) * scale
+    law = f'["{c / 2!r}*t*t + {j / 6!r}*t*t*t", "0", "0"]'
+    raw = tbr.run_base(_box(0.3, 3e-5, law), np.zeros(6), mu_s=MU_S)
+    got = [(k, t) for t, k in tbr._events(raw)]
+    if margin > 1e-12:                  # below 1: rests, breaks where gamma reaches 1
+        want = [("slip", margin / RATE)] if rising else []
+    elif margin >= -1e-12:              # at 1: breaks at once if rising
+        want = [("slip", 0.0)] if rising else []
+    else:                               # past 1: the slip event at once
+        want = [("slip", 0.0)]
+    assert [k for k, _ in got] == [k for k, _ in want]
+    assert all(abs(t - tw) < 1e-8 for (_, t), (_, tw) in zip(got, want))
 
 
 def _walk(pressure):
