@@ -14,6 +14,11 @@ apart in Python.
   closed form's (1 - gamma0) / 1e-7 s; above 1 + 1e-12 the slip event comes at once.
   The rate makes the gauge 1e-6 t_scale later differ from the start's by 1 % of the
   margin, so the rising test is taken within 2 %.
+* A break shorter than a stick's sample: 1 - gamma a cubic in t falling slowly at the
+  stick's start (its secant allows the whole sample) and dipping to -0.032 inside it, back
+  to its start's 0.05 at the sample's end; the parabola through the last three samples has
+  its minimum inside, where 1 - gamma is negative: the slip starts at the cubic's first
+  root (numpy.roots), not missed.
 * Rows every output_dt in buffers of 8 to 12 rows (a stick's sample and a slip's step hold
   more grid rows than that: the step shrunk to what fits, or taken again once the buffer
   is emptied) are the rows of one large buffer, bit for bit, and on the grid.
@@ -76,6 +81,19 @@ def test_the_rest_at_gamma_within_1e12_of_1_breaks_only_if_gamma_rises(margin, r
         want = [("slip", 0.0)]
     assert [k for k, _ in got] == [k for k, _ in want]
     assert all(abs(t - tw) < 1e-8 for (_, t), (_, tw) in zip(got, want))
+
+
+def test_a_break_shorter_than_a_sample_is_found_at_its_start():
+    h, g0, r0, p, q = 0.01, 0.05, 4.0, -4550.0, 495000.0   # 1 - gamma = g0 - r0 t + ...
+    scale = MU_S * (M_ + m_) * G / m_                      # x'' = scale * gamma
+    x = (f"{scale!r}*(t*t*{(1 - g0) / 2!r} + t*t*t*{r0 / 6!r} - t*t*t*t*{p / 12!r}"
+         f" - t*t*t*t*t*{q / 20!r})")
+    raw = tbr.run_base(_box(0.3, 1.2 * h, f'["{x}", "0", "0"]'), np.zeros(6), mu_s=MU_S,
+                       hmax=8 * h)
+    roots = np.roots([q, p, -r0, g0])
+    first = min(r.real for r in roots if abs(r.imag) < 1e-12 and 0 < r.real < h)
+    t, kind = tbr._events(raw)[0]
+    assert kind == "slip" and abs(t - first) < 1e-9
 
 
 def _walk(pressure):
