@@ -22,6 +22,9 @@ apart in Python.
   0.02), dipping to -0.015 and up to 0.18 at the sample's end, where that parabola's
   minimum is at 0.16 of the sample (1 - gamma = +0.004 there): the sample shrunk by the
   secant's rate (to 2 g / r, 0.51 of it) lands inside the break.
+* A step covers at most hmax of time, in the slip in arc time too (a disc sliding and
+  spinning to its one stop, hmax 1 ms): every row of the slip at most hmax after the
+  last (the rule hmax means, read from the rows).
 * Rows every output_dt in buffers of 8 to 12 rows (a stick's sample and a slip's step hold
   more grid rows than that: the step shrunk to what fits, or taken again once the buffer
   is emptied) are the rows of one large buffer, bit for bit, and on the grid.
@@ -99,6 +102,19 @@ def test_a_break_shorter_than_a_sample_is_found_at_its_start(g0, r0, p, q):
     first = min(r.real for r in roots if abs(r.imag) < 1e-12 and 0 < r.real < h)
     t, kind = tbr._events(raw)[0]
     assert kind == "slip" and abs(t - first) < 1e-9
+
+
+def test_no_step_of_a_slip_in_arc_time_covers_more_than_hmax():
+    R, L, Mb, Jz, mu = 0.1, 0.03, 1.2, 0.008, 0.4
+    scene = tbr._scene(f'mass = {Mb}\ninertia = [0.006, 0.006, {Jz}]\nshape = "cylinder"\n'
+                       f'radius = {R}\nhalf_length = {L}', 'mass = 0.3\nlaw = ["0", "0", "0.01"]',
+                       mu, 0.2)
+    hmax = 1e-3
+    raw = tbr.run_base(scene, [0, 0, 0, 0.3, 0, 3.0], hmax=hmax)
+    (t_stop, kind), = tbr._events(raw)
+    assert raw.status == "done" and kind == "stick"
+    slip = raw.t[raw.t <= t_stop]
+    assert len(slip) > 20 and np.diff(slip).max() <= hmax * (1 + 1e-12)
 
 
 def _walk(pressure):
