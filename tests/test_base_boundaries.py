@@ -31,7 +31,9 @@ apart in Python.
 * The run's counts (sticks, slips, reversals, lift-offs) are its events counted apart, in
   runs that end in each way: the crawl and the reversals of tests/test_base_runtime.py, a
   lift-off, a tip and the face lifting (a point walking out at c: the edge at a (M + m) /
-  (m c), the kern at a third of it).
+  (m c), the kern at a third of it); and each stick, slip and reversal has one row before
+  it, at its time, and one after it (a stick's at its time, a slip's where its start from
+  rest puts it).
 """
 import math
 
@@ -155,6 +157,13 @@ def test_the_counts_are_the_runs_events_counted():
         for stat, kind in counted.items():
             assert raw.stats[stat] == kinds.count(kind), (status, stat)
             seen.add(stat) if raw.stats[stat] else None
+        before = raw.t[raw.kinds == abi.ROW_KIND["before_event"]]
+        after = raw.t[raw.kinds == abi.ROW_KIND["after_event"]]
+        changes = [(t, k) for t, k in tbr._events(raw) if k in ("stick", "slip", "reversal")]
+        for t, kind in changes:                 # a row before each change, after a stick
+            assert (before == t).sum() == 1, (status, kind)
+            assert kind != "stick" or (after == t).sum() == 1, status
+        assert len(after) == len(changes)       # (after a slip's start: where it starts)
         if t_end is not None:                   # the stop: its event last, at its time
             assert kinds[-1] == {"lift_off": "liftoff"}.get(status, status)
             assert abs(tbr._events(raw)[-1][0] - t_end) < 1e-9
