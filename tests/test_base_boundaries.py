@@ -24,7 +24,8 @@ apart in Python.
   secant's rate (to 2 g / r, 0.51 of it) lands inside the break.
 * A step covers at most hmax of time, in the slip in arc time too (a disc sliding and
   spinning to its one stop, hmax 1 ms): every row of the slip at most hmax after the
-  last (the rule hmax means, read from the rows).
+  last (the rule hmax means, read from the rows); its stop has one row before it (where
+  rho = eps) and one after it, at its time.
 * Rows every output_dt in buffers of 8 to 12 rows (a stick's sample and a slip's step hold
   more grid rows than that: the step shrunk to what fits, or taken again once the buffer
   is emptied) are the rows of one large buffer, bit for bit, and on the grid.
@@ -117,6 +118,10 @@ def test_no_step_of_a_slip_in_arc_time_covers_more_than_hmax():
     assert raw.status == "done" and kind == "stick"
     slip = raw.t[raw.t <= t_stop]
     assert len(slip) > 20 and np.diff(slip).max() <= hmax * (1 + 1e-12)
+    before = raw.t[raw.kinds == abi.ROW_KIND["before_event"]]   # the stop's rows: one
+    after = raw.t[raw.kinds == abi.ROW_KIND["after_event"]]     # before (at rho = eps),
+    assert len(before) == 1 and 0 <= t_stop - before[0] < 1e-9  # one after at its time
+    assert list(after) == [t_stop]
 
 
 def _walk(pressure):
