@@ -134,6 +134,13 @@ UNIT_TESTS = {
 }
 
 
+# the base model's rules at their edges, its closed forms and edges, and its stops in the
+# crawl's cells where a stick's sample had missed a short break (the base model's headers)
+_BASE = ("tests/test_base_boundaries.py", "tests/test_base_closed_forms.py",
+         "tests/test_base_edges.py", "tests/test_base_tip_before_lift.py",
+         "tests/test_capsule_modes.py::test_no_stop_is_missed")
+
+
 # Tests of what one header does that the tests of the units it is compiled into do not
 # reach (a controller sets the law during a run; rows on a uniform grid of output_dt;
 # steps that end on a table's knots; a loop's law logged to a stop):
@@ -151,6 +158,8 @@ HEADER_TESTS = {
                    _HOP + "test_a_loop_stopped_by_max_events_logs_its_law_to_the_stop",
                    "tests/test_control_loop.py"),
     "crt_core.h": ("tests/test_runtime_status.py", "tests/test_batch.py"),
+    **{name: _BASE for name in ("crt_base.h", "crt_base_flow.h", "crt_base_model.h",
+                                "crt_face.h")},
 }
 
 

@@ -170,9 +170,10 @@ static void crt_base_stick_step(crt_session *s, crt_out *o, double t_end)
     const double r = (s->bs.gp[k] - s->bs.g[k]) / (s->t - s->bs.tp);
     if (s->bs.g[k] > 0.0 && r > 0.0) h = crt_min(h, crt_max(2.0 * s->bs.g[k] / r, 1e-6 * hmax));
   }
-  if (!crt_base_rows_fit(s, o, crt_base_rows_before(s, s->t + h, o->cap), &shrink)) {
+  while (!crt_base_rows_fit(s, o, crt_base_rows_before(s, s->t + h, o->cap), &shrink)) {
     if (shrink == 1.0) return;             /* (taken again, the same, with room) */
-    h *= shrink;                           /* (no buffer holds its rows: a shorter sample) */
+    h *= shrink;                           /* (no buffer holds its rows: a shorter sample,
+                                              counted again: the count stops at cap + 1) */
   }
   t1 = s->t + h;
   tol = 1e-15 * crt_max(1.0, fabs(t1)) + 1e-15 * s->bs.body.t_scale;
