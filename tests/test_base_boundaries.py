@@ -154,7 +154,7 @@ def _runs():
 
 def test_the_counts_are_the_runs_events_counted():
     counted = {"sticks": "stick", "slips": "slip", "reversals": "reversal",
-               "liftoffs": "liftoff"}
+               "lift_offs": "lift_off"}
     seen = set()
     for status, raw, t_end in _runs():
         kinds = [k for _, k in tbr._events(raw)]
@@ -170,7 +170,7 @@ def test_the_counts_are_the_runs_events_counted():
             assert kind != "stick" or (after == t).sum() == 1, status
         assert len(after) == len(changes)       # (after a slip's start: where it starts)
         if t_end is not None:                   # the stop: its event last, at its time
-            assert kinds[-1] == {"lift_off": "liftoff"}.get(status, status)
+            assert kinds[-1] == status          # (the event named as its status)
             assert abs(tbr._events(raw)[-1][0] - t_end) < 1e-9
     assert seen == set(counted)                 # (every count taken somewhere)
 
