@@ -232,9 +232,16 @@ def test_lift_off_when_the_point_pushes_hard_enough():
             assert abs(ev["value"]) < 1e-8
 
 
-def test_max_events_is_a_status_not_a_hang():
-    res = simulate(ball(e=1.0, duration=20.0, max_events=3), progress=False)
-    assert res.status == "max_events" and len(res.impacts) == 3
+@pytest.mark.parametrize("n", [3, 21])
+def test_max_events_is_a_status_not_a_hang(n):
+    """The elastic ball stopped by max_events = n after exactly n impacts, at the closed
+    form's times sqrt(2 H / g) + k 2 sqrt(2 g H) / g (21: a count 5 % either side, 20 or
+    22, would show)."""
+    res = simulate(ball(e=1.0, duration=25.0, max_events=n), progress=False)
+    assert res.status == "max_events" and len(res.impacts) == n
+    H, g = 1.0, 9.81
+    times = math.sqrt(2 * H / g) + np.arange(n) * 2 * math.sqrt(2 * g * H) / g
+    np.testing.assert_allclose(res.impacts[:, 0], times, rtol=0, atol=1e-8)
 
 
 def test_compiled_library_is_cached(tmp_path):
