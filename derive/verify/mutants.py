@@ -128,6 +128,7 @@ UNIT_TESTS = {
         _REPLAN + "test_seeded_landings_upright_closed_not_open",
     ),
     "control/ctl_timing.c": (
+        _REPLAN + "test_the_timed_controllers_logs_are_its_calls_seen_from_python",
         _REPLAN + "test_c_controller_returns_the_python_routes_law",
         _REPLAN + "test_closed_loop_replayed_with_its_realised_law",
     ),
@@ -149,8 +150,20 @@ HEADER_TESTS = {
     "crt_step.h": ("tests/test_outputs.py::test_tables_have_plain_names_and_a_uniform_grid",),
     "crt_loop.h": ("tests/test_law.py::test_rk4_steps_end_on_each_knot_never_longer",
                    _HOP + "test_a_loop_stopped_by_max_events_logs_its_law_to_the_stop",
-                   "tests/test_control_loop.py"),
+                   "tests/test_control_loop.py",
+                   "tests/test_output_grid.py::test_a_step_ending_just_short_of_a_grid_point_"
+                   "leaves_its_row_to_the_grid",
+                   "tests/test_runtime_status.py::test_a_first_step_whose_stages_overflow_is_"
+                   "retried_not_a_nonfinite_stop"),
     "crt_core.h": ("tests/test_runtime_status.py", "tests/test_batch.py"),
+    "crt_lie.h": ("tests/test_lie_runtime.py::test_a_flight_from_a_half_turn_agrees_with_"
+                  "dop853",),
+    "crt_bodies.h": ("tests/test_bodies.py::test_crt_init_holds_the_bodies_parameters_to_"
+                     "their_rule_at_its_edges",
+                     _BODIES + "test_the_c_sums_the_moments_as_numpy_and_checks_the_bodies"),
+    "crt_session.h": ("tests/test_runtime.py::test_max_events_is_a_status_not_a_hang",),
+    "crt_smooth.h": ("tests/test_runtime.py::test_the_least_normal_reaction_of_a_resting_ball_"
+                     "is_the_closed_forms",),
 }
 
 
