@@ -212,7 +212,7 @@ def test_the_least_height_is_the_least_of_the_steps_ends(v0, duration):
     C's parabola, every step's end a row), dropped for 1 s or thrown up at 1 m/s for
     20 ms: S's least height in the summary is at most the height of every row after the
     start, and lies on the closed form's parabola (dropped: the end's, 6 - g / 2 m, the
-    step before within 2 % of it; thrown up: a first sample's, S never as low after it,
+    step before within 2 % of it; thrown up: the first step's end, S never as low after,
     every later height within 2 % of it: a least height kept only when 5 % lower, or
     replaced by one up to 5 % higher, would show)."""
     step, H = 0.002, 6.0
