@@ -26,7 +26,8 @@ against it (:data:`UNIT_TESTS`: the tests of each compiled unit the mutation rea
 found by preprocessing each model once).  A mutant is *killed* when a test fails, the run
 crashes or it runs past its time; it *survives* otherwise.  A survivor must be killed by
 a new test or recorded as equivalent, with the reason, in
-``derive/verify/equivalent_mutants.toml``; the command exits 1 while any survivor is not.
+``derive/verify/equivalent_mutants.toml`` (or its continuation,
+``equivalent_mutants_small.toml``); the command exits 1 while any survivor is not.
 """
 from __future__ import annotations
 
@@ -315,15 +316,15 @@ def catalogue() -> list[Mutant]:
 
 
 def equivalents() -> dict[str, str]:
-    """key -> reason, from equivalent_mutants.toml (an entry names one mutant, ``key``,
-    or several of one site that share the reason, ``keys``)."""
-    if not EQUIVALENTS.is_file():
-        return {}
-    data = tomllib.loads(EQUIVALENTS.read_text(encoding="utf-8"))
+    """key -> reason, from equivalent_mutants.toml and its continuations
+    (equivalent_mutants_*.toml beside it; an entry names one mutant, ``key``, or several
+    of one site that share the reason, ``keys``)."""
     out = {}
-    for entry in data.get("mutant", []):
-        for key in entry.get("keys", [entry.get("key")]):
-            out[key] = entry["reason"]
+    for path in sorted(EQUIVALENTS.parent.glob(EQUIVALENTS.stem + "*.toml")):
+        data = tomllib.loads(path.read_text(encoding="utf-8"))
+        for entry in data.get("mutant", []):
+            for key in entry.get("keys", [entry.get("key")]):
+                out[key] = entry["reason"]
     return out
 
 
