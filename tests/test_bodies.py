@@ -467,3 +467,43 @@ int main(void)
     got = np.array(run.stdout.split(), dtype=float).reshape(len(ts), law.width).T
     want = law.u(ts)
     assert np.max(np.abs(got - want)) < 1e-12 * (1 + np.abs(want).max())
+
+
+def test_crt_init_holds_the_bodies_parameters_to_their_rule_at_its_edges():
+    """crt_bodies_fault (crt_init on a moments model; a scene never sends it a broken
+    rule, Python's checks come first): two points and a rotor set as the scene has them
+    are taken; then each rule broken alone is refused naming that parameter: n_points and
+    n_rotors one off the law's, a point's mass -1e-300; m off the points' sum by 0.98
+    and 1.02 of its 1e-12 share of it (taken, refused); the rotor's |a|^2 - 1 at 0.98
+    and 1.02 of 2e-9 (taken, refused; the axis scaled, not the Python's normalised one);
+    its axial moment -1e-300 (and 0, taken)."""
+    from derive.runtime.driver import prepare
+    prep = prepare(_doc(n_points=2, n_rotors=1))
+    s = Session(prep.library)
+    s.set_law(prep.scene.runtime_law)
+    P, ok, bad = abi.PRM, abi.STATUS["ok"], abi.STATUS["bad_parameters"]
+
+    def status(**change):
+        prm = np.array(prep.parameters, dtype=float)
+        for name, value in change.items():
+            prm[P[name]] = value
+        code = s.init_status(prep.options, prm, prep.scene.t0, prep.start.q0)
+        return code, prep.library.lib.crt_bad_parameter(s.handle) if code == bad else None
+    base = np.array(prep.parameters)
+    total = base[P["m_1"]] + base[P["m_2"]]
+    assert base[P["m"]] == total and status() == (ok, None)
+    assert status(n_points=3.0) == (bad, P["n_points"])
+    assert status(n_points=1.0) == (bad, P["n_points"])
+    assert status(n_rotors=0.0) == (bad, P["n_rotors"])
+    assert status(m_2=-1e-300) == (bad, P["m_2"])
+    for share, want in ((0.98, (ok, None)), (1.02, (bad, P["m"]))):
+        for sign in (1.0, -1.0):
+            assert status(m=total * (1.0 + sign * share * 1e-12)) == want, (share, sign)
+    a = base[[P["a_1_x"], P["a_1_y"], P["a_1_z"]]]
+    assert abs(a @ a - 1.0) < 1e-15
+    for share, want in ((0.98, (ok, None)), (1.02, (bad, P["a_1_x"]))):
+        for sign in (1.0, -1.0):
+            b = a * math.sqrt(1.0 + sign * share * 2e-9)
+            assert status(a_1_x=b[0], a_1_y=b[1], a_1_z=b[2]) == want, (share, sign)
+    assert status(I_1=-1e-300) == (bad, P["I_1"])
+    assert status(I_1=0.0) == (ok, None)

@@ -678,3 +678,49 @@ def test_the_cli_exits_1_when_the_closed_loop_misses_its_goal(tmp_path, monkeypa
         monkeypatch.setattr(core, "control", lambda *a, **k: result)
         args = SimpleNamespace(task=TASK, output=str(tmp_path), no_animation=True, quiet=True)
         assert cli.run(args) == status
+
+
+def test_the_timed_controllers_logs_are_its_calls_seen_from_python(su):
+    """ctl_timing.c's logs (derive control's solve times and laws) against the same
+    closed loop's calls made from Python to the untimed controller, its counters read
+    before and after each: a row for each call that re-planned or whose QP failed (its
+    time, failed and softened as the counters moved, the QP's last iterations); a law
+    row for each law set (its time, knots and coefficients, to the bit); and each
+    call's seconds, the thread's CPU time, within a factor 3 of those Python measures
+    around the same call (the median ratio; the C's are without the call's way through
+    ctypes)."""
+    import time
+    comp = su.compiled
+    raw = comp.controller(timed=False)
+    dist = disturbance(3, su.T_plan, su.task.scene.size[0])
+    seen = []
+
+    def tee(call):
+        before = comp.stats()
+        tick = time.thread_time()
+        seg = comp.call(raw, call)
+        seconds = time.thread_time() - tick
+        seen.append((call.t, before, comp.stats(), seg, seconds))
+        return seg
+    teed, _ = su.closed(su.plant(dist), dist, tee)
+    timed, _ = su.closed(su.plant(dist), dist, comp.controller())
+    assert timed.status == teed.status and np.array_equal(timed.t, teed.t)
+    laws = [(s[0], s[3]) for s in seen if s[3] is not None]
+    solved = [s for s in seen if s[2]["replans"] != s[1]["replans"]
+              or s[2]["failures"] != s[1]["failures"]]
+    got = comp.solves()
+    assert len(solved) > 20 and np.array_equal(got["t"], [s[0] for s in solved])
+    for key, name in (("failed", "failures"), ("softened", "softened")):
+        assert np.array_equal(got[key], [s[2][name] != s[1][name] for s in solved]), key
+    assert np.array_equal(got["qp_iterations"], [s[2]["last_iterations"] for s in solved])
+    assert np.all(got["seconds"] > 0.0)
+    ratio = np.median(got["seconds"] / np.array([s[4] for s in solved]))
+    print(f"{len(solved)} solves ({int(np.sum(got['failed']))} failed, "
+          f"{int(np.sum(got['softened']))} softened), {len(laws)} laws; the C's seconds "
+          f"{ratio:.2f} of Python's (median)")
+    assert 1 / 3 < ratio < 3, ratio
+    logged = comp.laws()
+    assert len(logged) == len(laws) > 20
+    for (t, seg), (t_log, seg_log) in zip(laws, logged):
+        assert t == t_log and np.array_equal(seg.knots, seg_log.knots)
+        assert np.array_equal(seg.coef, seg_log.coef)

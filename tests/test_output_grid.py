@@ -29,6 +29,7 @@ import pytest
 
 from derive import abi
 from derive.runtime.driver import prepare, run_prepared, simulate
+from derive.runtime.loop import Loop
 from derive.runtime.session import Session, session_for
 from test_runtime import ball
 
@@ -178,3 +179,24 @@ def test_a_base_runs_rows_every_output_dt_are_the_grids_as_the_balls():
                                                chunk=max(abi.MIN_ROWS, abi.MIN_EVENTS)))
     assert np.array_equal(small.t, face.t) and np.array_equal(small.row_kind, face.row_kind)
     np.testing.assert_array_equal(small.model_q, face.model_q)
+
+
+@pytest.mark.parametrize("t0", [0.0, -2.0])
+def test_a_step_ending_just_short_of_a_grid_point_leaves_its_row_to_the_grid(t0):
+    """A loop's sample (a stop every step ends on) 1e-12 s before the grid point one
+    output_dt before the end: within a flush's slack of 1e-9 output_dt, in the last 5 %
+    of a run that ends at 1 s or at -1 s.  Only the end's flush takes the slack; this
+    one leaves the row to the next step's, which writes it at the grid's own time: the
+    rows are the grid and the closed form's flights (written at the step's end, the row
+    would be 1e-12 s early: crt_loop.h's flush made inclusive before the end, or 5 %
+    early on either side of t = 0)."""
+    dt = 0.02
+    doc = ball(e=E, z0=Z0, duration=1.0, output_dt=dt, rtol=1e-10, atol=1e-12)
+    doc["initial"]["time"] = t0
+    calls = []
+    res = run_prepared(prepare(doc), loop=Loop(lambda call: calls.append(call.t),
+                                               period=49 * dt - 1e-12))
+    assert res.status == "done"
+    sample = t0 + 49 * dt - 1e-12
+    assert sample in calls and sample not in res.t       # the step ended there, no row
+    check_rows(res.t, res.model_q, res.row_kind, t0, 1.0, dt)

@@ -215,6 +215,28 @@ def test_accumulating_impacts_end_in_resting_contact():
     assert abs(z_final - 0.5) < 1e-9 and abs(res.q[-1][5]) < 1e-9
 
 
+@pytest.mark.parametrize("wave", ["sin", "cos"])
+def test_the_least_normal_reaction_of_a_resting_ball_is_the_closed_forms(wave):
+    """A plastic ball resting on the plane while its point oscillates along the vertical,
+    z = a sin(W t) or a cos(W t), with nu a W^2 < g: the reaction N = (m + M)(g + nu z'')
+    stays positive, its least value (m + M)(g - nu a W^2).  With the sine N falls from
+    the start to that least value at t = pi / (2 W) in the middle of the contact: the run's
+    summary holds it as sampled at the steps' ends (not below it, and within 1e-4 of
+    it: a summary kept 5 % off the least sample would show).  With the cosine it is
+    the value at the start, where the ball enters contact, and N rises after it: the
+    summary holds the entry's value to 1e-12."""
+    a, W, nu, g = 0.3, 5.0, 0.2 / 1.2, 9.81
+    z0 = 0.5 + (nu * a if wave == "cos" else 0.0)      # S on the plane at t = 0
+    res = simulate(ball(e=0.0, z0=z0, law=("0", "0", f"{a}*{wave}({W}*t)"), duration=1.0,
+                        rtol=1e-10, atol=1e-12, method="dopri5"), progress=False)
+    assert res.status == "done" and [e["kind"] for e in res.events] == ["impact", "contact"]
+    least = 1.2 * (g - nu * a * W * W)
+    if wave == "sin":
+        assert least * (1 - 1e-12) <= res.min_normal < least * (1 + 1e-4)
+    else:
+        assert abs(res.min_normal / least - 1) < 1e-12
+
+
 def test_lift_off_when_the_point_pushes_hard_enough():
     """A plastic ball (e = 0) resting on the plane while its point oscillates along the
     vertical, z = a sin(W t), with nu a W^2 > g: the reaction N = (m + M)(g + nu z'') turns
@@ -232,9 +254,16 @@ def test_lift_off_when_the_point_pushes_hard_enough():
             assert abs(ev["value"]) < 1e-8
 
 
-def test_max_events_is_a_status_not_a_hang():
-    res = simulate(ball(e=1.0, duration=20.0, max_events=3), progress=False)
-    assert res.status == "max_events" and len(res.impacts) == 3
+@pytest.mark.parametrize("n", [3, 21])
+def test_max_events_is_a_status_not_a_hang(n):
+    """The elastic ball stopped by max_events = n after exactly n impacts, at the closed
+    form's times sqrt(2 H / g) + k 2 sqrt(2 g H) / g (21: a count 5 % either side, 20 or
+    22, would show)."""
+    res = simulate(ball(e=1.0, duration=25.0, max_events=n), progress=False)
+    assert res.status == "max_events" and len(res.impacts) == n
+    H, g = 1.0, 9.81
+    times = math.sqrt(2 * H / g) + np.arange(n) * 2 * math.sqrt(2 * g * H) / g
+    np.testing.assert_allclose(res.impacts[:, 0], times, rtol=0, atol=1e-8)
 
 
 def test_compiled_library_is_cached(tmp_path):

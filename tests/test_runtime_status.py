@@ -417,8 +417,9 @@ def test_a_first_step_whose_stages_overflow_is_retried_not_a_nonfinite_stop():
     (h0 = hmax = 1 through the options: 48 turns in one step), whose stages overflow to
     inf: the step is retried a quarter as long until it is finite, then held to the error
     control, and the run ends done (a non-finite step is the status nonfinite only at the
-    least step).  The torque-free invariants, 2 T = w.J w and |J w|, are the start's to
-    1e-9 at the end."""
+    least step), in one call: a refused step is retried within it, never a pause (which
+    is a full buffer's alone).  The torque-free invariants, 2 T = w.J w and |J w|, are the
+    start's to 1e-9 at the end."""
     O = [o.name for o in abi.OPTIONS]
     J = np.array([0.1, 0.2, 0.3])
     doc = {"name": "spin", "body": {"mass": 1.0, "inertia": J.tolist(), "shape": "none"},
@@ -430,8 +431,10 @@ def test_a_first_step_whose_stages_overflow_is_retried_not_a_nonfinite_stop():
     opt[O.index("h0")] = opt[O.index("hmax")] = 1.0
     session = Session(prep.library)
     session.set_law(prep.scene.law)
-    raw = session.run(0.0, 1.0, prep.start.q0, opt, prep.parameters)
+    pauses = []
+    raw = session.run(0.0, 1.0, prep.start.q0, opt, prep.parameters, progress=pauses.append)
     assert raw.status == "done" and raw.stats["rejected"] >= 1
+    assert len(raw.t) + abi.MIN_ROWS <= session.chunk and pauses == [1.0]
     w0, w1 = raw.q[0, 6:9], raw.q[-1, 6:9]
     assert abs(w1 @ (J * w1) / (w0 @ (J * w0)) - 1) < 1e-9
     assert abs(np.linalg.norm(J * w1) / np.linalg.norm(J * w0) - 1) < 1e-9

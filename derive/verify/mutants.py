@@ -26,7 +26,8 @@ against it (:data:`UNIT_TESTS`: the tests of each compiled unit the mutation rea
 found by preprocessing each model once).  A mutant is *killed* when a test fails, the run
 crashes or it runs past its time; it *survives* otherwise.  A survivor must be killed by
 a new test or recorded as equivalent, with the reason, in
-``derive/verify/equivalent_mutants.toml``; the command exits 1 while any survivor is not.
+``derive/verify/equivalent_mutants.toml`` (or its continuation,
+``equivalent_mutants_small.toml``); the command exits 1 while any survivor is not.
 """
 from __future__ import annotations
 
@@ -128,6 +129,7 @@ UNIT_TESTS = {
         _REPLAN + "test_seeded_landings_upright_closed_not_open",
     ),
     "control/ctl_timing.c": (
+        _REPLAN + "test_the_timed_controllers_logs_are_its_calls_seen_from_python",
         _REPLAN + "test_c_controller_returns_the_python_routes_law",
         _REPLAN + "test_closed_loop_replayed_with_its_realised_law",
     ),
@@ -156,10 +158,24 @@ HEADER_TESTS = {
     "crt_step.h": ("tests/test_outputs.py::test_tables_have_plain_names_and_a_uniform_grid",),
     "crt_loop.h": ("tests/test_law.py::test_rk4_steps_end_on_each_knot_never_longer",
                    _HOP + "test_a_loop_stopped_by_max_events_logs_its_law_to_the_stop",
-                   "tests/test_control_loop.py"),
+                   "tests/test_control_loop.py",
+                   "tests/test_output_grid.py::test_a_step_ending_just_short_of_a_grid_point_"
+                   "leaves_its_row_to_the_grid",
+                   "tests/test_runtime_status.py::test_a_first_step_whose_stages_overflow_is_"
+                   "retried_not_a_nonfinite_stop"),
     "crt_core.h": ("tests/test_runtime_status.py", "tests/test_batch.py"),
     **{name: _BASE for name in ("crt_base.h", "crt_base_flow.h", "crt_base_model.h",
                                 "crt_face.h")},
+    "crt_lie.h": ("tests/test_lie_runtime.py::test_a_flight_from_a_half_turn_agrees_with_"
+                  "dop853",),
+    "crt_bodies.h": ("tests/test_bodies.py::test_crt_init_holds_the_bodies_parameters_to_"
+                     "their_rule_at_its_edges",
+                     _BODIES + "test_the_c_sums_the_moments_as_numpy_and_checks_the_bodies"),
+    "crt_session.h": ("tests/test_runtime.py::test_max_events_is_a_status_not_a_hang",),
+    "crt_smooth.h": ("tests/test_runtime.py::test_the_least_normal_reaction_of_a_resting_ball_"
+                     "is_the_closed_forms",
+                     "tests/test_control_loop.py::test_the_least_normal_reaction_holds_across_"
+                     "two_contacts"),
 }
 
 
@@ -309,15 +325,15 @@ def catalogue() -> list[Mutant]:
 
 
 def equivalents() -> dict[str, str]:
-    """key -> reason, from equivalent_mutants.toml (an entry names one mutant, ``key``,
-    or several of one site that share the reason, ``keys``)."""
-    if not EQUIVALENTS.is_file():
-        return {}
-    data = tomllib.loads(EQUIVALENTS.read_text(encoding="utf-8"))
+    """key -> reason, from equivalent_mutants.toml and its continuations
+    (equivalent_mutants_*.toml beside it; an entry names one mutant, ``key``, or several
+    of one site that share the reason, ``keys``)."""
     out = {}
-    for entry in data.get("mutant", []):
-        for key in entry.get("keys", [entry.get("key")]):
-            out[key] = entry["reason"]
+    for path in sorted(EQUIVALENTS.parent.glob(EQUIVALENTS.stem + "*.toml")):
+        data = tomllib.loads(path.read_text(encoding="utf-8"))
+        for entry in data.get("mutant", []):
+            for key in entry.get("keys", [entry.get("key")]):
+                out[key] = entry["reason"]
     return out
 
 
