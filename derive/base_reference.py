@@ -32,7 +32,8 @@ surface's gauge ``max W.xi / D_s(xi)`` by SLSQP on the unit sphere of twists.
   along the stable direction of the slip's flow;
 * lift-off (N = 0), tipping (cp on the face's edge) and, with linear pressure, the face
   starting to lift at an edge (cp leaving the kern: face_lifting): the run stops with
-  that status.
+  that status; also where a stick or a slip starts past one (the cp of its own reaction:
+  a reversal's slip, not the rest that cannot hold).
 """
 from __future__ import annotations
 
@@ -580,9 +581,26 @@ class Integrator:
         y[5] = new[2]
         return y
 
+    def _past_at_start(self, bal) -> str | None:
+        """The end a stick or a slip is past where it starts (its events find crossings
+        only): N at most 0, or the centre of pressure of its own reaction on or past the
+        edge or the kern (a reversal's new slip jumps there at once)."""
+        sys = self.sys
+        if bal.N <= 0:
+            return "lift_off"
+        for name, margin in (("tipping", sys.face.edge_margin),
+                             ("face_lifting", sys.face.kern_margin)):
+            if (name == "tipping" or sys.pressure == "linear") and \
+                    _margin(sys.face, bal, margin) <= 0:
+                return _tie(sys, name, bal.N)
+        return None
+
     def _stick(self, t, y, stop, xi_guess):
         sys = self.sys
         memo = {"xi": xi_guess}
+        past = self._past_at_start(balance_stick(sys, t))
+        if past:
+            return t, y, past, xi_guess
 
         def gauge_event(tt, _):
             bal = balance_stick(sys, tt)
@@ -656,6 +674,9 @@ class Integrator:
             wrapped.terminal, wrapped.direction = True, -1
             evs.append(wrapped)
         z0 = np.concatenate([[t], y])
+        past = self._past_at_start(bal_of(z0))
+        if past:
+            return t, y, past
         s_span = 1e30
         sol = solve_ivp(f, (0.0, s_span), z0, method="DOP853", events=[slow, until, *evs],
                         rtol=self.rtol, atol=self.atol)

@@ -169,6 +169,29 @@ def test_no_stop_is_missed(cell):
     assert np.abs(np.array(ours) - theirs).max() < 1e-8
 
 
+def test_the_cell_once_called_tipping_reverses():
+    """mu 0.8, beta 0.95 ended `tipping` at 0.12208 s, the first stop, where the rest's cp
+    is off the face but the rest cannot hold: the body reverses (crt_base_settle decides
+    the mode before the margins).  Its type and every stop of 10 periods are the 1-D
+    model's, and its first stops the reference integrator's (derive/base_reference.py,
+    whose cp of the slips stays on the face) to 1e-9 s."""
+    from derive import base_reference as br
+    from derive.verify.judges import face_system
+    (mu, beta, status, typ, ref_type, ours, theirs), = _cells_against_the_closed_form(
+        [(0.8, 0.95)], periods=10)
+    assert status == "done" and typ == ref_type == modes.TYPES[1]
+    assert len(ours) == len(theirs) == 20
+    assert np.abs(np.array(ours) - theirs).max() < 1e-8
+    _, _, results, _, _ = modes.run([(0.8, 0.95)], 2, workers=1)
+    run = results[0]
+    ref = br.Integrator(face_system(run.scene)).run(run.model_q[0], 0.0, 0.45)
+    assert ref.status == "done"
+    mine = [(e["t"], e["kind"]) for e in run.events if e["t"] < 0.45]
+    assert [k for _, k in mine] == [k for _, k in ref.events] == ["slip", "reversal", "stick",
+                                                                   "slip", "reversal"]
+    assert max(abs(a - b) for (a, _), (b, _) in zip(mine, ref.events)) < 1e-9
+
+
 def test_the_type_is_read_from_the_last_two_periods():
     """mode_type on events made by hand: a drifting stop is not settled, a missing one
     neither; a rest held throughout is at rest; other counts are named."""

@@ -492,13 +492,27 @@ def face_system(scene):
 
 
 def _face_balance(system, t: float, q):
-    """N and the centre of pressure at (t, q) by the reference: the rest's balance where
-    the body is at rest, the slip's (its friction over the face by adaptive quadrature,
-    linear pressure's centre iterated) where it moves."""
+    """N and the centre of pressure at (t, q) by the reference, of the mode the body is in:
+    where it moves, the slip's (its friction over the face by adaptive quadrature, linear
+    pressure's centre iterated); at rest, the rest's where the rest holds (the gauge of
+    the wrench it needs at most 1 under mu_s), else the slip's that starts there (a slip
+    from rest, a reversal at a stop) along the reference's start direction.  A rest that
+    cannot hold has no reaction: its cp off the face is no tip (issue 33's trial: a
+    runtime that tested it before the gauge stopped `tipping` at a reversal, and this
+    judge, reading the rest's cp, agreed)."""
     from .. import base_reference as br
-    if not np.any(q[3:6]):
-        return br.balance_stick(system, t)
-    return br.Integrator(system).rates(t, np.asarray(q, dtype=float))[1]
+    q = np.asarray(q, dtype=float)
+    integ = br.Integrator(system)
+    if np.any(q[3:6]):
+        return integ.rates(t, q)[1]
+    rest = br.balance_stick(system, t)
+    if rest.N <= 0.0:
+        return rest
+    gamma, xi = br.limit_gauge(system, rest.N, rest.cp, rest.wrench)
+    if gamma <= 1.0 + 1e-9:
+        return rest
+    d = integ.start_direction(t, q, -xi)
+    return rest if d is None else integ.rates(t, q, direction=d)[1]
 
 
 def judge_face_run(result) -> tuple[str, str]:

@@ -13,7 +13,8 @@
  *    where the flow turns off that direction, along its slow manifold to a twist of 1e-6
  *    v_scale (crt_base_onset_far: the stiff phase of a slip from rest, skipped); else (a
  *    slip along a line, or that start not exact or over an event) by its Taylor series
- *    (twist = G0 d + G1 d^2/2 until it reaches 1e2 eps);
+ *    (twist = G0 d + G1 d^2/2 until it reaches 1e2 eps); the edge and kern margins then
+ *    of the mode taken (the rest's cp where it sticks, the slip's own where it slips);
  *  - stick: the state is constant; the event functions 1 - gamma, N, the centre of
  *    pressure's edge margin and (linear pressure) its kern margin are sampled every
  *    opt[CRT_OPT_HMAX]/8 (gamma by the gauge's bounds where they put it below 1 - 1e-3)
@@ -94,19 +95,16 @@ static void crt_base_step_row(crt_session *s, crt_out *o, double t_end)
 
 /* At rest at s->t (after a stop of the slip when after_stop, else at the start): stick,
    or slip off (a slip, or a reversal after a stop), or stop (lift-off, tipping, the face
-   lifting). */
+   lifting).  The mode first, then the margins of the reaction of the mode taken: the
+   rest's centre of pressure only where the rest holds (a rest that cannot hold has no
+   reaction: a reversal's new slip has its own cp, which its first step's margins test,
+   crt_base_slip_step); N is the same in both. */
 static void crt_base_settle(crt_session *s, crt_out *o, int after_stop)
 {
   double g[CRT_BASE_NG_STICK], later[CRT_BASE_NG_STICK], xi[3];
   int i, stick;
   crt_base_stick_g(s, s->t, g, s->bs.xi);
   if (g[1] <= 0.0) { crt_base_end(s, o, CRT_LIFT_OFF, CRT_EV_LIFT_OFF, g[1]); return; }
-  if (crt_base_tie(&s->bs.body, g[1])) {}  /* (cp unknown: N's root is the stick's) */
-  else if (g[2] <= 0.0) { crt_base_end(s, o, CRT_TIPPING, CRT_EV_TIPPING, g[2]); return; }
-  else if (g[3] <= 0.0) {
-    crt_base_end(s, o, CRT_FACE_LIFTING, CRT_EV_FACE_LIFTING, g[3]);
-    return;
-  }
   stick = g[0] > 1e-12;
   if (!stick && g[0] >= -1e-12) {          /* at 1: sticks unless the gauge is rising */
     for (i = 0; i < 3; ++i) xi[i] = s->bs.xi[i];
@@ -128,6 +126,12 @@ static void crt_base_settle(crt_session *s, crt_out *o, int after_stop)
       return;
     }
     s->t = t_before;                       /* the flow points back: it stays */
+  }
+  if (crt_base_tie(&s->bs.body, g[1])) {}  /* (cp unknown: N's root is the stick's) */
+  else if (g[2] <= 0.0) { crt_base_end(s, o, CRT_TIPPING, CRT_EV_TIPPING, g[2]); return; }
+  else if (g[3] <= 0.0) {
+    crt_base_end(s, o, CRT_FACE_LIFTING, CRT_EV_FACE_LIFTING, g[3]);
+    return;
   }
   if (after_stop) {
     crt_event(o, s->t, CRT_EV_STICK, 1.0 - g[0], 0.0, 0.0, 0.0);
