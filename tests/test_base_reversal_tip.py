@@ -129,3 +129,27 @@ def test_a_reversal_whose_own_slip_is_off_the_face_tips():
     ref = br.Integrator(face_system(scene)).run(run.model_q[0], 0.0, scene.duration)
     assert ref.status == "tipping" and [k for _, k in ref.events] == ["reversal", "tipping"]
     assert abs(ref.events[-1][0] - run.t[-1]) < 1e-9
+
+
+def test_a_stop_whose_rest_holds_off_the_face_tips_once_in_the_tables():
+    """The body slides to a stop where the rest holds (m k < mu N) but the rest's centre
+    of pressure is past the edge (0.08 m k / N > a): `tipping` at the stop's closed-form
+    time, v0 (M + m) / (m k + mu N), as the reference says; and the tables show the stop
+    once: the stop's row is the tipping's (the stop had written a row of its own before
+    crt_base_end wrote another, which events.csv listed as a second, nameless `event`)."""
+    from derive.runtime.outputs import event_table, trajectory_table
+    M, m, mu, a, v0, x0 = 0.8, 0.3, 0.5, 0.03, 0.2, -0.002
+    N = (M + m) * g
+    k = 0.45 * N / m                          # the rest needs m k = 0.45 N < mu N: it holds
+    T = v0 * (M + m) / (m * k + mu * N)
+    assert (m * g * (x0 + k * T * T / 2) - 0.08 * m * k) / N < -a   # the rest's cp: off
+    scene = _scene(a=a, law=f'"{x0} + {k / 2!r}*t^2", "0", "0.05"', mu=mu, mu_s=mu, v0=v0,
+                   T=0.05)
+    run = simulate(scene)
+    assert run.status == "tipping" and [e["kind"] for e in run.events] == ["tipping"]
+    assert abs(run.t[-1] - T) < 1e-9
+    ref = br.Integrator(face_system(scene)).run(run.model_q[0], 0.0, scene.duration)
+    assert ref.status == "tipping" and abs(ref.events[-1][0] - run.t[-1]) < 1e-9
+    header, table = trajectory_table(run)
+    _, text = event_table(run, header, table)
+    assert text["event"] == ["tipping", "tipping"]

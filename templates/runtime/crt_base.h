@@ -74,13 +74,19 @@ static double crt_first_step(crt_session *s)
   return 1e-3 * s->bs.body.t_scale;
 }
 
-/* stop the run at t with a status and its event */
-static void crt_base_end(crt_session *s, crt_out *o, int status, int event, double value)
+/* stop the run at t with a status and its event, after the row the caller wrote at t */
+static void crt_base_stop(crt_session *s, crt_out *o, int status, int event, double value)
 {
-  crt_emit(o, s->t, s->q, CRT_ROW_BEFORE_EVENT);
   crt_event(o, s->t, event, value, 0.0, 0.0, 0.0);
   if (event == CRT_EV_LIFT_OFF) ++s->stat[CRT_STAT_LIFT_OFFS];
   s->status = status;
+}
+
+/* stop the run at t with a status and its event: the row before it, then the stop */
+static void crt_base_end(crt_session *s, crt_out *o, int status, int event, double value)
+{
+  crt_emit(o, s->t, s->q, CRT_ROW_BEFORE_EVENT);
+  crt_base_stop(s, o, status, event, value);
 }
 
 /* the row at a step's end, as crt_loop.h writes it: every step's without output_dt; with
@@ -103,8 +109,10 @@ static void crt_base_settle(crt_session *s, crt_out *o, int after_stop)
 {
   double g[CRT_BASE_NG_STICK], later[CRT_BASE_NG_STICK], xi[3];
   int i, stick;
+  void (*const end)(crt_session *, crt_out *, int, int, double)
+      = after_stop ? crt_base_stop : crt_base_end;  /* (after a stop: its row is written) */
   crt_base_stick_g(s, s->t, g, s->bs.xi);
-  if (g[1] <= 0.0) { crt_base_end(s, o, CRT_LIFT_OFF, CRT_EV_LIFT_OFF, g[1]); return; }
+  if (g[1] <= 0.0) { end(s, o, CRT_LIFT_OFF, CRT_EV_LIFT_OFF, g[1]); return; }
   stick = g[0] > 1e-12;
   if (!stick && g[0] >= -1e-12) {          /* at 1: sticks unless the gauge is rising */
     for (i = 0; i < 3; ++i) xi[i] = s->bs.xi[i];
@@ -128,9 +136,9 @@ static void crt_base_settle(crt_session *s, crt_out *o, int after_stop)
     s->t = t_before;                       /* the flow points back: it stays */
   }
   if (crt_base_tie(&s->bs.body, g[1])) {}  /* (cp unknown: N's root is the stick's) */
-  else if (g[2] <= 0.0) { crt_base_end(s, o, CRT_TIPPING, CRT_EV_TIPPING, g[2]); return; }
+  else if (g[2] <= 0.0) { end(s, o, CRT_TIPPING, CRT_EV_TIPPING, g[2]); return; }
   else if (g[3] <= 0.0) {
-    crt_base_end(s, o, CRT_FACE_LIFTING, CRT_EV_FACE_LIFTING, g[3]);
+    end(s, o, CRT_FACE_LIFTING, CRT_EV_FACE_LIFTING, g[3]);
     return;
   }
   if (after_stop) {
