@@ -143,19 +143,23 @@ def face_on(shape: str, size, center, n) -> Face:
 LINE_TOL = 5e-7
 
 
-def flat_contact(shape: str, n) -> str | None:
+def flat_contact(shape: str, n, turn=None) -> str | None:
     """What a body of ``shape`` whose upward vertical is ``n`` (body axes) touches the
     plane with when its lowest points are not one: ``"an edge"`` or ``"a face"`` of a box,
-    ``"its side (a line)"`` or ``"an end face"`` of a cylinder; None for one point."""
+    ``"its side (a line)"`` or ``"an end face"`` of a cylinder; None for one point.
+    ``turn``: how far n turns over the run (n x omega times the duration, body axes), a
+    component that leaves the tolerance by it is not square (the body rolls off the line
+    or the face at once: a single-point contact)."""
     n = np.asarray(n, dtype=float)
-    n = np.abs(n / np.linalg.norm(n))
-    if shape == "box":
-        square = int(np.sum(n <= LINE_TOL))      # body axes square to the vertical
+    n = n / np.linalg.norm(n)
+    d = np.zeros(3) if turn is None else np.asarray(turn, dtype=float)
+    if shape == "box":           # body axes square to the vertical, and staying so
+        square = int(np.sum((np.abs(n) <= LINE_TOL) & (np.abs(d) <= LINE_TOL)))
         return (None, "an edge", "a face")[min(square, 2)]
     if shape == "cylinder":
-        if n[2] <= LINE_TOL:
+        if abs(n[2]) <= LINE_TOL and abs(d[2]) <= LINE_TOL:
             return "its side (a line)"
-        if math.hypot(n[0], n[1]) <= LINE_TOL:
+        if math.hypot(n[0], n[1]) <= LINE_TOL and math.hypot(d[0], d[1]) <= LINE_TOL:
             return "an end face"
     return None
 

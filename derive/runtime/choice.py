@@ -245,6 +245,8 @@ def _touching_at_rest(scene: Scene) -> bool:
     1e-9 of the body's size) not moving vertically (to 1e-9 of sqrt(g size))."""
     if scene.on_plane:
         return True
+    if _initial(scene).get("on_plane"):
+        return False        # the flight after a base run's lift-off (handover.flight_scene)
     n = np.asarray(scene.A0[2], dtype=float)
     s = lowest_point_numeric(scene, n)
     c, cd = _base_offset(scene)
@@ -263,13 +265,25 @@ def flat_start_refusal(scene: Scene, kind: str) -> tuple[str, str] | None:
     the face's ends)."""
     if kind == "base" or not scene.contact_possible or scene.shape not in BASE_SHAPES:
         return None
-    n = scene.A0[2]
-    what = faces.flat_contact(scene.shape, n)
-    if what is None or not _touching_at_rest(scene):
+    n = np.asarray(scene.A0[2], dtype=float)
+    turn = cross(n, np.asarray(scene.omega, dtype=float)) * scene.duration
+    what = faces.flat_contact(scene.shape, n, turn)
+    # (placed by hand, a face at rest is what a base run's hand-over writes at its
+    # lift-off, N = 0: the flight's; a line is refused either way)
+    if what is None or not (scene.on_plane or (what in ("an edge", "its side (a line)")
+                                               and _touching_at_rest(scene))):
         return None
     field = "[initial].matrix" if "matrix" in _initial(scene) else "[initial].quaternion"
     vertical = ", ".join(f"{c:.6g}" for c in np.where(np.abs(n) < 1e-12, 0.0, n))
-    if what in ("a face", "an end face"):
+    face = what in ("a face", "an end face")
+    if faces.flat_contact(scene.shape, n) in ("a face", "an end face") and scene.rough \
+            and scene.on_plane:
+        found = base_refusal_at(scene)       # on a face, but not at rest on it: its cause
+        if found is not None and found[0] != field:
+            return found[0], (f"{found[1]}; so the base model (a body resting on a face) "
+                              f"cannot run it, and model {kind} touches the plane at one "
+                              "point, which would jump across the face (the run chatters)")
+    if face:
         fix = ("stand it on the face exactly (the base model)" if scene.rough else
                "give [plane].friction > 0 (the base model: a body resting on a face)")
     else:
@@ -300,9 +314,11 @@ def choose(scene: Scene) -> tuple[str, str]:
             raise SceneError("[run].model", f"{scene.model!r} cannot answer this scene "
                                             f"(possible: {', '.join(k for k, _ in found)})")
     flat = flat_start_refusal(scene, kind)
+    if flat is not None and not scene.restitution_given:
+        raise SceneError(*flat)          # (before the restitution _base_keys would ask for)
+    _base_keys(scene, kind)              # (the keys it refuses by name come first)
     if flat is not None:
         raise SceneError(*flat)
-    _base_keys(scene, kind)
     return kind, why
 
 
