@@ -240,6 +240,62 @@ def _off_face(scene: Scene) -> Scene:
     return dataclasses.replace(scene, on_plane=False)
 
 
+def _touching_at_rest(scene: Scene) -> bool:
+    """The body starts with S on the plane: ``[initial].on_plane``, or S at height 0 (to
+    1e-9 of the body's size) not moving vertically (to 1e-9 of sqrt(g size))."""
+    if scene.on_plane:
+        return True
+    if _initial(scene).get("on_plane"):
+        return False        # the flight after a base run's lift-off (handover.flight_scene)
+    n = np.asarray(scene.A0[2], dtype=float)
+    s = lowest_point_numeric(scene, n)
+    c, cd = _base_offset(scene)
+    size = max(scene.size)
+    if abs(scene.com[2] + n @ (s - c)) > 1e-9 * size:
+        return False
+    w = np.asarray(scene.omega, dtype=float)
+    v_S = np.asarray(scene.com_velocity, dtype=float) + scene.A0 @ (cross(w, s - c) - cd)
+    return abs(v_S[2]) <= 1e-9 * math.sqrt(scene.g * size)
+
+
+def flat_start_refusal(scene: Scene, kind: str) -> tuple[str, str] | None:
+    """(the attitude's field, the rule) when ``scene`` starts on the plane with a line or a
+    face lowest (derive/face.py's flat_contact) and ``kind`` is not the base model, which
+    alone takes a face: the one-point models chatter there (S jumps between the line's or
+    the face's ends)."""
+    if kind == "base" or not scene.contact_possible or scene.shape not in BASE_SHAPES:
+        return None
+    n = np.asarray(scene.A0[2], dtype=float)
+    turn = cross(n, np.asarray(scene.omega, dtype=float)) * scene.duration
+    what = faces.flat_contact(scene.shape, n, turn)
+    # (placed by hand, a face at rest is what a base run's hand-over writes at its
+    # lift-off, N = 0: the flight's; a line is refused either way)
+    if what is None or not (scene.on_plane or (what in ("an edge", "its side (a line)")
+                                               and _touching_at_rest(scene))):
+        return None
+    field = "[initial].matrix" if "matrix" in _initial(scene) else "[initial].quaternion"
+    vertical = ", ".join(f"{c:.6g}" for c in np.where(np.abs(n) < 1e-12, 0.0, n))
+    face = what in ("a face", "an end face")
+    if faces.flat_contact(scene.shape, n) in ("a face", "an end face") and scene.rough \
+            and scene.on_plane:
+        found = base_refusal_at(scene)       # on a face, but not at rest on it: its cause
+        if found is not None and found[0] != field:
+            return found[0], (f"{found[1]}; so the base model (a body resting on a face) "
+                              f"cannot run it, and model {kind} touches the plane at one "
+                              "point, which would jump across the face (the run chatters)")
+    if face:
+        fix = ("stand it on the face exactly (the base model)" if scene.rough else
+               "give [plane].friction > 0 (the base model: a body resting on a face)")
+    else:
+        fix = ("stand it on a face (the base model)" if scene.shape == "box" else
+               "stand it on an end (the base model) or use a box")
+    return field, (f"puts {shapes.with_article(scene.shape)} on the plane on {what}, the "
+                   f"vertical [{vertical}] (body axes) within {faces.LINE_TOL:g} of it: "
+                   f"model {kind} touches the plane at one point, which would jump across "
+                   f"it (the run chatters); {fix}, or tilt it by more than "
+                   f"{faces.LINE_TOL:g} rad so that one point is lowest")
+
+
 def choose(scene: Scene) -> tuple[str, str]:
     """The model and why (for ``model = "auto"``), or the forced one checked."""
     if scene.model == "base":
@@ -257,7 +313,12 @@ def choose(scene: Scene) -> tuple[str, str]:
         else:
             raise SceneError("[run].model", f"{scene.model!r} cannot answer this scene "
                                             f"(possible: {', '.join(k for k, _ in found)})")
-    _base_keys(scene, kind)
+    flat = flat_start_refusal(scene, kind)
+    if flat is not None and not scene.restitution_given:
+        raise SceneError(*flat)          # (before the restitution _base_keys would ask for)
+    _base_keys(scene, kind)              # (the keys it refuses by name come first)
+    if flat is not None:
+        raise SceneError(*flat)
     return kind, why
 
 
