@@ -258,6 +258,29 @@ def test_a_tilted_lift_off_lands_on_a_corner_and_goes_on(tilt):
     assert len(alone.events) == len(tilt.events) - len(h.base.events)
 
 
+@pytest.mark.parametrize("a_x, slips", [(1e-8, False), (1e-6, True)])
+def test_a_break_away_just_before_the_lift_off_does_not_step_over_it(a_x, slips):
+    """The tilted lift-off with a small constant sideways acceleration a_x added (the
+    law's x plus a_x t^2/2): the friction the rest needs at the lift-off is m a_x, so
+    gamma reaches 1 where mu N = m a_x, just before N's root.  N does not depend on x:
+    the lift-off is still at pi/240.  m a_x / mu below N's resolution (1e-9 of the
+    weight; a_x = 1e-8): no slip, the lift-off alone (the break-away's root there is
+    N's); above it (1e-6): a slip, then the lift-off at N's root (the slip's start from
+    rest stepped over it, 2.1e-6 s late, N -2e-3 there, at every optimisation level;
+    without a_x the gauge's root at N's was a round-off's sign, late at -O1 only)."""
+    law = TILT.replace('"0.01*sin(25*t - 25*pi/240)"',
+                       f'"0.01*sin(25*t - 25*pi/240) + {a_x / 2!r}*t**2"')
+    assert law != TILT
+    run = simulate(_scene(law, spin=0.0, duration=0.3, name="tilt"))
+    h = run.handover
+    assert h is not None and h.base.status == "lift_off"
+    assert abs(h.t - math.pi / 240) < 1e-9
+    assert abs(normal_force(h.base)[-1]) < 1e-9 * (M + m) * g
+    kinds = [ev["kind"] for ev in h.base.events]
+    assert kinds == (["slip", "lift_off"] if slips else ["lift_off"])
+    assert all(ev["t"] < h.t for ev in h.base.events[:-1])
+
+
 @pytest.mark.parametrize("late, status", [(0.0, "done"), (1e-9, "done"), (1e-6, "done")])
 def test_a_lift_off_at_or_just_before_the_end(late, status):
     """A flight of no time is none (the run is the base one); one of 1e-11 s, whose first

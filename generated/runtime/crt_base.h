@@ -20,7 +20,11 @@
  *    opt[CRT_OPT_HMAX]/8 (gamma by the gauge's bounds where they put it below 1 - 1e-3)
  *    and a sign change is located by the Illinois method
  *    (break-away: the slip starts; N: status lift_off; the edge: status tipping; the kern:
- *    status face_lifting);
+ *    status face_lifting); a root of the gauge or a margin located where N is below
+ *    crt_base_n_res is N's (crt_base_tie): there gamma (the friction the rest needs over
+ *    mu N) is round-off, infinite at N = 0, so its root is N's give or take round-off,
+ *    and a slip started there by that round-off's sign ran on past the lift-off (a
+ *    lift-off 1.9e-6 s late, at -O1 only);
  *  - slip, along a line (s->bs.line): while the scaled twist xi = (V_O, ell psi') keeps
  *    its direction d (a translation along a fixed line, a spin in place: the flow's part
  *    off d below 1e-12 of it at every stage), integrated in t with the friction of d held,
@@ -209,7 +213,7 @@ static void crt_base_stick_step(crt_session *s, crt_out *o, double t_end)
 #define CRT_BASE_STICK_EVAL(x) (crt_base_stick_g(s, (x), g, xi), g[k])
       CRT_BASE_ILLINOIS(s->t, s->bs.g[k], end, gend, root, tol, CRT_BASE_STICK_EVAL);
 #undef CRT_BASE_STICK_EVAL
-      if (k == 2 || k == 3) {              /* N there: a tip or the lift-off */
+      if (k != 1) {                        /* N there: a break, a tip or the lift-off */
         double gr[CRT_BASE_NG_STICK], xr[3];
         for (i = 0; i < 3; ++i) xr[i] = xi[i];
         crt_base_stick_g(s, root, gr, xr);

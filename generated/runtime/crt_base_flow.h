@@ -504,6 +504,49 @@ static int crt_base_onset_far(crt_session *s, crt_out *o, const double *d0, doub
   return 1;
 }
 
+/* Illinois' root of one of the functions from [x0: g0 > 0] to [x1: g1 <= 0]; eval(k, x)
+   gives that function at x */
+#define CRT_BASE_ILLINOIS(x0, g0, x1, g1, root, tol, EVAL)                              \
+  do {                                                                                 \
+    double xa_ = (x0), ga_ = (g0), xb_ = (x1), gb_ = (g1);                             \
+    int side_ = 0, it_;                                                                \
+    for (it_ = 0; it_ < 100 && xb_ - xa_ > (tol); ++it_) {                             \
+      double xm_ = (xa_ * gb_ - xb_ * ga_) / (gb_ - ga_), gm_;                         \
+      if (!(xm_ > xa_ && xm_ < xb_)) xm_ = 0.5 * (xa_ + xb_);                          \
+      gm_ = EVAL(xm_);                                                                 \
+      if (gm_ > 0.0) { xa_ = xm_; ga_ = gm_; if (side_ == 1) gb_ *= 0.5; side_ = 1; }  \
+      else { xb_ = xm_; gb_ = gm_; if (side_ == -1) ga_ *= 0.5; side_ = -1; }          \
+    }                                                                                  \
+    (root) = xb_;                                                                      \
+  } while (0)
+
+/* N at t0 + x of the rest's balance with the friction of d (N depends on t alone) */
+static double crt_base_onset_n(crt_session *s, double t0, const double *d, double x)
+{
+  double dq[NQ], N, cp[2];
+  crt_base_rates(&s->bs.body, crt_base_u(s, t0 + x), s->q, d, dq, &N, cp);
+  ++s->stat[CRT_STAT_EVENT_FUNCTION_EVALUATIONS];
+  return N;
+}
+
+/* The Taylor start's span delta, cut at N's root where N reaches 0 inside it: a break-away
+   as N falls to 0 (mu N meets a small friction just before the lift-off) would step over
+   the lift-off, found at the next step's start, delta ~ 2e-6 s late (N there -2e-3 of
+   the weight); cut, the next step starts at N <= 0 at its root, the lift-off's time */
+static double crt_base_onset_span(crt_session *s, const double *d, double delta)
+{
+  const double t0 = s->t, n1 = crt_base_onset_n(s, t0, d, delta);
+  const double tol = 1e-15 * crt_max(1.0, fabs(t0)) + 1e-15 * s->bs.body.t_scale;
+  double n0, root;
+  if (n1 > 0.0) return delta;
+  n0 = crt_base_onset_n(s, t0, d, 0.0);
+  if (!(n0 > 0.0)) return 0.0;
+#define CRT_BASE_ONSET_EVAL(x) crt_base_onset_n(s, t0, d, (x))
+  CRT_BASE_ILLINOIS(0.0, n0, delta, n1, root, tol, CRT_BASE_ONSET_EVAL);
+#undef CRT_BASE_ONSET_EVAL
+  return root;
+}
+
 /* A slip from rest at s->t against the gauge's maximiser: the stable direction of the
    slip's flow from -xi*, then the start along the slow manifold to a seed of 1e-6 v_scale
    (crt_base_onset_far) where the flow turns off d and that start is exact and steps over
@@ -538,7 +581,7 @@ static int crt_base_onset(crt_session *s, crt_out *o)
     along += Gp[i] * Gp[i] + Gm[i] * Gm[i];
   }
   if (across <= 1e-24 * along || !crt_base_onset_far(s, o, d, a, bb)) {
-    delta = 2.0 * seed / (a + sqrt(disc));
+    delta = crt_base_onset_span(s, d, 2.0 * seed / (a + sqrt(disc)));
     for (i = 0; i < 3; ++i) {
       const double G1 = (Gp[i] - Gm[i]) / (2.0 * h);
       xi[i] = G[i] * delta + G1 * delta * delta / 2.0;
@@ -553,22 +596,6 @@ static int crt_base_onset(crt_session *s, crt_out *o)
   crt_base_line_start(s);
   return 1;
 }
-
-/* Illinois' root of one of the functions from [x0: g0 > 0] to [x1: g1 <= 0]; eval(k, x)
-   gives that function at x */
-#define CRT_BASE_ILLINOIS(x0, g0, x1, g1, root, tol, EVAL)                              \
-  do {                                                                                 \
-    double xa_ = (x0), ga_ = (g0), xb_ = (x1), gb_ = (g1);                             \
-    int side_ = 0, it_;                                                                \
-    for (it_ = 0; it_ < 100 && xb_ - xa_ > (tol); ++it_) {                             \
-      double xm_ = (xa_ * gb_ - xb_ * ga_) / (gb_ - ga_), gm_;                         \
-      if (!(xm_ > xa_ && xm_ < xb_)) xm_ = 0.5 * (xa_ + xb_);                          \
-      gm_ = EVAL(xm_);                                                                 \
-      if (gm_ > 0.0) { xa_ = xm_; ga_ = gm_; if (side_ == 1) gb_ *= 0.5; side_ = 1; }  \
-      else { xb_ = xm_; gb_ = gm_; if (side_ == -1) ga_ *= 0.5; side_ = -1; }          \
-    }                                                                                  \
-    (root) = xb_;                                                                      \
-  } while (0)
 
 /* ---- rows every output_dt ---------------------------------------------------------------- */
 /* The grid rows out_origin + k output_dt (k >= out_k) before until: how many (up to cap + 1) */
