@@ -35,6 +35,10 @@ apart in Python.
   (m c), the kern at a third of it); and each stick, slip and reversal has one row before
   it, at its time, and one after it (a stick's at its time, a slip's where its start from
   rest puts it).
+* The body's rules at crt_init (crt_base_body_set): the vertical within 0.97e-9 of a face
+  normal (1 - n_z / |n| for n = (e, 0, 1), the closed form 1 - 1 / sqrt(1 + e^2)) is taken
+  and at 1.03e-9 refused (n0_x); static_friction at 0.98 friction refused, at friction
+  taken; a pressure neither uniform nor linear refused; with two faults the first named.
 """
 import math
 
@@ -207,3 +211,30 @@ def test_rows_in_small_buffers_are_one_buffers_on_the_grid(dt, chunks):
         run = run_prepared(prep, session=Session(prep.library, chunk=chunk))
         assert run.status == "done" and [e["kind"] for e in run.events] == kinds
         assert np.abs(on_grid(run) - q).max() < 1e-9
+
+
+def _fault(dev=0.0, mu_s=0.3, pressure=0.0):
+    """crt_init's verdict on the box with its vertical ``dev`` off e_z (1 - n_z / |n|):
+    the parameter it names, None when it is taken."""
+    e = math.sqrt((1.0 / (1.0 - dev)) ** 2 - 1.0)
+    assert abs(1.0 - 1.0 / math.sqrt(1.0 + e * e) - dev) <= 1e-6 * dev
+    scene = _box(0.3)
+    prm = tbr.choice.parameters(scene, {})
+    prm[tbr._P["n0_x"]], prm[tbr._P["n0_y"]], prm[tbr._P["n0_z"]] = e, 0.0, 1.0
+    prm[tbr._P["static_friction"]], prm[tbr._P["pressure"]] = mu_s, pressure
+    session = tbr.Session(tbr.library("base"))
+    session.set_law(scene.runtime_law)
+    opt = np.ones(len(abi.OPTIONS))
+    opt[tbr._O["method"]] = 1
+    status = session.init_status(opt, prm, 0.0, np.zeros(6))
+    if status == abi.STATUS["ok"]:
+        return None
+    assert status == abi.STATUS["bad_parameters"]
+    return {k: n for n, k in abi.PRM.items()}[session.library.lib.crt_bad_parameter(session.handle)]
+
+
+def test_the_body_is_taken_just_inside_its_rules_and_refused_just_past_them():
+    assert _fault(0.97e-9) is None and _fault(1.03e-9) == "n0_x"
+    assert _fault(mu_s=0.3 * 0.98) == "static_friction" and _fault(mu_s=0.3 * 1.02) is None
+    assert _fault(pressure=2.0) == "pressure" and _fault(pressure=1.0) is None
+    assert _fault(1.03e-9, 0.3 * 0.98) == "n0_x" and _fault(1.03e-9, pressure=2.0) == "n0_x"
