@@ -238,3 +238,29 @@ def test_the_body_is_taken_just_inside_its_rules_and_refused_just_past_them():
     assert _fault(mu_s=0.3 * 0.98) == "static_friction" and _fault(mu_s=0.3 * 1.02) is None
     assert _fault(pressure=2.0) == "pressure" and _fault(pressure=1.0) is None
     assert _fault(1.03e-9, 0.3 * 0.98) == "n0_x" and _fault(1.03e-9, pressure=2.0) == "n0_x"
+
+
+@pytest.mark.parametrize("phase", [0.0, 0.004])
+def test_the_grid_starts_after_a_late_start_and_at_its_origin(phase):
+    """The capsule crawler from [initial].time = 1 s on a grid of 10 ms: the start's row
+    once, then the grid's rows t0 + k dt (k >= 1, none at t0 again); on a grid carried
+    over from another run (a hand-over's: its origin 4 ms after t0) the first grid row is
+    the origin itself, then origin + k dt."""
+    import tomllib
+    from derive.paths import ROOT
+    from derive.runtime.driver import prepare, run_prepared
+    doc = tomllib.loads((ROOT / "derive/scene/examples/capsule-crawler.toml").read_text())
+    t0, dt = 1.0, 0.01
+    doc["initial"]["time"] = t0
+    doc["run"].update(duration=0.03, output_dt=dt)
+    prep = prepare(doc, output_origin=t0 + phase - 7 * dt if phase else None)
+    run = run_prepared(prep)
+    assert run.status == "done" and run.model == "base"
+    step = run.t[run.row_kind == abi.ROW_KIND["step"]]
+    origin = t0 + phase if phase else t0 + dt
+    grid = origin + dt * np.arange(0, 4)
+    grid = grid[grid <= t0 + 0.03 + 1e-12]
+    assert np.sum(step == t0) == 1 and step[0] == t0
+    on = [s for s in step if np.min(np.abs(grid - s)) < 1e-12]
+    assert len(on) == len(grid) and np.allclose(on, grid, rtol=0.0, atol=1e-12)
+    assert np.all(step[step < grid[0] - 1e-12] == t0)  # no grid row before the first
