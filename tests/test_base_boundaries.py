@@ -39,6 +39,8 @@ apart in Python.
   normal (1 - n_z / |n| for n = (e, 0, 1), the closed form 1 - 1 / sqrt(1 + e^2)) is taken
   and at 1.03e-9 refused (n0_x); static_friction at 0.98 friction refused, at friction
   taken; a pressure neither uniform nor linear refused; with two faults the first named.
+* The grid after a late start ([initial].time = 1 s: the start's row once, then t0 + k dt)
+  and on a hand-over's grid (its origin 4 ms after t0: the first grid row there).
 """
 import math
 
