@@ -35,6 +35,12 @@ apart in Python.
   (m c), the kern at a third of it); and each stick, slip and reversal has one row before
   it, at its time, and one after it (a stick's at its time, a slip's where its start from
   rest puts it).
+* The body's rules at crt_init (crt_base_body_set): the vertical within 0.97e-9 of a face
+  normal (1 - n_z / |n| for n = (e, 0, 1), the closed form 1 - 1 / sqrt(1 + e^2)) is taken
+  and at 1.03e-9 refused (n0_x); static_friction at 0.98 friction refused, at friction
+  taken; a pressure neither uniform nor linear refused; with two faults the first named.
+* The grid after a late start ([initial].time = 1 s: the start's row once, then t0 + k dt)
+  and on a hand-over's grid (its origin 4 ms after t0: the first grid row there).
 """
 import math
 
@@ -207,3 +213,56 @@ def test_rows_in_small_buffers_are_one_buffers_on_the_grid(dt, chunks):
         run = run_prepared(prep, session=Session(prep.library, chunk=chunk))
         assert run.status == "done" and [e["kind"] for e in run.events] == kinds
         assert np.abs(on_grid(run) - q).max() < 1e-9
+
+
+def _fault(dev=0.0, mu_s=0.3, pressure=0.0):
+    """crt_init's verdict on the box with its vertical ``dev`` off e_z (1 - n_z / |n|):
+    the parameter it names, None when it is taken."""
+    e = math.sqrt((1.0 / (1.0 - dev)) ** 2 - 1.0)
+    assert abs(1.0 - 1.0 / math.sqrt(1.0 + e * e) - dev) <= 1e-6 * dev
+    scene = _box(0.3)
+    prm = tbr.choice.parameters(scene, {})
+    prm[tbr._P["n0_x"]], prm[tbr._P["n0_y"]], prm[tbr._P["n0_z"]] = e, 0.0, 1.0
+    prm[tbr._P["static_friction"]], prm[tbr._P["pressure"]] = mu_s, pressure
+    session = tbr.Session(tbr.library("base"))
+    session.set_law(scene.runtime_law)
+    opt = np.ones(len(abi.OPTIONS))
+    opt[tbr._O["method"]] = 1
+    status = session.init_status(opt, prm, 0.0, np.zeros(6))
+    if status == abi.STATUS["ok"]:
+        return None
+    assert status == abi.STATUS["bad_parameters"]
+    return {k: n for n, k in abi.PRM.items()}[session.library.lib.crt_bad_parameter(session.handle)]
+
+
+def test_the_body_is_taken_just_inside_its_rules_and_refused_just_past_them():
+    assert _fault(0.97e-9) is None and _fault(1.03e-9) == "n0_x"
+    assert _fault(mu_s=0.3 * 0.98) == "static_friction" and _fault(mu_s=0.3 * 1.02) is None
+    assert _fault(pressure=2.0) == "pressure" and _fault(pressure=1.0) is None
+    assert _fault(1.03e-9, 0.3 * 0.98) == "n0_x" and _fault(1.03e-9, pressure=2.0) == "n0_x"
+
+
+@pytest.mark.parametrize("phase", [0.0, 0.004])
+def test_the_grid_starts_after_a_late_start_and_at_its_origin(phase):
+    """The capsule crawler from [initial].time = 1 s on a grid of 10 ms: the start's row
+    once, then the grid's rows t0 + k dt (k >= 1, none at t0 again); on a grid carried
+    over from another run (a hand-over's: its origin 4 ms after t0) the first grid row is
+    the origin itself, then origin + k dt."""
+    import tomllib
+    from derive.paths import ROOT
+    from derive.runtime.driver import prepare, run_prepared
+    doc = tomllib.loads((ROOT / "derive/scene/examples/capsule-crawler.toml").read_text())
+    t0, dt = 1.0, 0.01
+    doc["initial"]["time"] = t0
+    doc["run"].update(duration=0.03, output_dt=dt)
+    prep = prepare(doc, output_origin=t0 + phase - 7 * dt if phase else None)
+    run = run_prepared(prep)
+    assert run.status == "done" and run.model == "base"
+    step = run.t[run.row_kind == abi.ROW_KIND["step"]]
+    origin = t0 + phase if phase else t0 + dt
+    grid = origin + dt * np.arange(0, 4)
+    grid = grid[grid <= t0 + 0.03 + 1e-12]
+    assert np.sum(step == t0) == 1 and step[0] == t0
+    on = [s for s in step if np.min(np.abs(grid - s)) < 1e-12]
+    assert len(on) == len(grid) and np.allclose(on, grid, rtol=0.0, atol=1e-12)
+    assert np.all(step[step < grid[0] - 1e-12] == t0)  # no grid row before the first

@@ -319,3 +319,22 @@ def test_the_gauge_bounds_under_linear_pressure_bracket_it(shim):
                 assert lohi[0] <= gam_py * (1 + 1e-10) and gam_py <= lohi[1] * (1 + 1e-10)
                 seen += 1
     assert seen >= 30
+
+
+@pytest.mark.parametrize("half", [(0.1, 0.102), (0.102, 0.1)])
+def test_the_margins_of_a_near_square_face_are_face_pys(shim, half):
+    """A face whose sides are 2 % apart, either way round (the kern's length is the shorter
+    one), and points whose distances to the two edges are 2 % apart, either way round (the
+    edge margin is the nearer): both margins as derive/face.py has them."""
+    f = fc.face_on("box", (*half, 0.05), (0.01, -0.01, 0), (0, 0, 1))
+    kind, geom, _ = _face_args(f, 1.0, None, "uniform")
+    a, b = f.half
+    for mx, my in ((0.0098, 0.01), (0.01, 0.0098), (0.049, 0.05), (0.05, 0.049)):
+        p = (f.centre[0] + a - mx, f.centre[1] - (b - my))
+        assert shim.shim_edge(kind, _ptr(geom), *p) == pytest.approx(f.edge_margin(p),
+                                                                    abs=1e-15)
+        assert f.edge_margin(p) == pytest.approx(min(mx, my), abs=1e-15)
+    for p in ((0.02, 0.01), (-0.005, 0.02)):
+        k = _arr([0.0, 0.0])
+        margin = shim.shim_kern(kind, _ptr(geom), *p, 2.5, _ptr(k))
+        assert margin == pytest.approx(f.kern_margin(p), abs=1e-15)

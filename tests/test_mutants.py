@@ -149,3 +149,29 @@ def test_the_screen_is_the_journals_best_killers_among_a_mutants_own_tests(tmp_p
         "tests/test_c.py::test_z", "tests/test_b.py::test_y"]
     assert mu.screen_of(["tests/test_d.py"], kills, 6) == []
     assert mu.killers(tmp_path / "none.jsonl") == {}
+
+
+def test_a_run_past_its_time_is_timed_out_then_judged_by_its_run_alone(catalogue, tmp_path):
+    """A test run past the limit is "timed out", not killed (on a loaded machine a
+    survivor's tests ran long and were miscalled killed): ``retry`` judges it by a run
+    alone with RETRY times the limit.  A fake test that passes at once survives its re-run
+    (its first limit too short for pytest to start); one that sleeps is killed as a hang,
+    said so in its detail and counted apart in the summary line."""
+    sleepy, quick = tmp_path / "test_sleepy.py", tmp_path / "test_quick.py"
+    sleepy.write_text("import time\n\ndef test_sleeps():\n    time.sleep(60)\n")
+    quick.write_text("def test_passes():\n    pass\n")
+    sc = mu.Scratch(tmp_path / "w")
+    status, detail, secs = mu._pytest(sc, [str(sleepy)], 0.3)
+    assert (status, detail) == ("timed out", "ran past 0.3 s") and secs < 30.0
+    hung = mu.Outcome(catalogue[0], status, detail, secs)
+    mu.retry(hung, lambda limit: mu._pytest(sc, [str(sleepy)], limit), 0.3)
+    assert hung.status == "killed" and hung.timed_out
+    assert hung.detail == f"a hang: ran past 0.3 s, and past {mu.RETRY * 0.3:.3g} s alone"
+    slow = mu.Outcome(catalogue[1], "timed out", "ran past 0.01 s", 0.01)
+    mu.retry(slow, lambda limit: mu._pytest(sc, [str(quick)], limit), 20.0)
+    assert slow.status == "survived" and slow.timed_out and "timed out at 20 s" in slow.detail
+    rep = mu.Report([hung, slow, mu.Outcome(catalogue[2], "killed", "tests/t.py::test_x")])
+    out = mu.report(rep)
+    assert "2 timed out and re-run alone: 1 killed as a hang (past the longer limit too), " \
+        "1 survived;" in out and "kill rate 2/3" in out
+    assert f"killed {catalogue[0].id} " in out and f"survived {catalogue[1].id} " in out

@@ -23,9 +23,12 @@ headers are the templates' verbatim twins, and ``templates/control``), never to 
 worktree; the library is built from there (``$DERIVE_C_SOURCES``, :func:`derive.paths.
 c_sources`, with a scratch ``$DERIVE_CACHE``) and a chosen subset of the tests runs
 against it (:data:`UNIT_TESTS`: the tests of each compiled unit the mutation reaches,
-found by preprocessing each model once).  A mutant is *killed* when a test fails, the run
-crashes or it runs past its time; it *survives* otherwise.  A survivor must be killed by
-a new test or recorded as equivalent, with the reason, in
+found by preprocessing each model once).  A mutant is *killed* when a test fails or the
+run crashes; it *survives* otherwise.  A run past its time is *timed out*, not killed: on a
+loaded machine a survivor's tests can run long (crt_lie.h's ef8c8063 was miscalled killed
+so), so each such mutant is run again once, alone, after the others, with RETRY times the
+limit, and judged by that run; past that too it is killed as a hang, and said so.  A
+survivor must be killed by a new test or recorded as equivalent, with the reason, in
 ``derive/verify/equivalent_mutants.toml`` (or its continuation,
 ``equivalent_mutants_small.toml``); the command exits 1 while any survivor is not.
 """
@@ -42,6 +45,7 @@ import tempfile
 import threading
 import time
 import tomllib
+from collections import Counter
 from concurrent.futures import ThreadPoolExecutor, as_completed
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -56,6 +60,7 @@ MUTANT_CFLAGS = "-O1"
 FACTOR = 1.05
 LOOSER = 10.0
 TOLERANCE_MAX = 1e-2
+RETRY = 3.0      # a timed-out mutant is re-run alone with this many times the limit
 PARTS = ("runtime", "control")
 KINDS = ("bound", "flip", "term", "event", "tolerance")
 TOLERANCE_OPTIONS = ("CRT_OPT_RTOL", "CRT_OPT_ATOL", "CRT_OPT_EVENT_TOL")
@@ -137,9 +142,11 @@ UNIT_TESTS = {
 
 
 # the base model's rules at their edges, its closed forms and edges, and its stops in the
-# crawl's cells where a stick's sample had missed a short break (the base model's headers)
-_BASE = ("tests/test_base_boundaries.py", "tests/test_base_closed_forms.py",
-         "tests/test_base_edges.py", "tests/test_base_tip_before_lift.py",
+# crawl's cells where a stick's sample had missed a short break, the face's integrals and
+# margins against derive/face.py (the base model's headers)
+_BASE = ("tests/test_base_boundaries.py", "tests/test_crt_face.py",
+         "tests/test_base_closed_forms.py", "tests/test_base_edges.py",
+         "tests/test_base_tip_before_lift.py",
          "tests/test_capsule_modes.py::test_no_stop_is_missed")
 
 
@@ -400,9 +407,10 @@ def tests_for(units: tuple, files: tuple = ()) -> list[str]:
 class Outcome:
     mutant: Mutant
     status: str            # killed, survived, equivalent, stillborn, not compiled, untested
-    detail: str = ""
+    detail: str = ""       # (timed out: only while its re-run alone is pending)
     seconds: float = 0.0
     units: tuple = ()
+    timed_out: bool = False    # its first run went past the limit and it was re-run alone
 
 
 _HASH_NAME = re.compile(r"[0-9a-f]{24}")
@@ -483,8 +491,9 @@ def _stop_all() -> None:
 
 def _pytest(scratch: Scratch, tests: list[str], timeout: float,
             cache: Path | None = None) -> tuple[str, str, float]:
-    """(killed/survived, the first failing test or why, seconds); ``cache``: build into
-    this cache instead of the scratch one (the unmutated C: kept for later runs)."""
+    """(killed/survived/timed out/error, the first failing test or why, seconds);
+    ``cache``: build into this cache instead of the scratch one (the unmutated C: kept for
+    later runs)."""
     from ..paths import ROOT
     cmd = [sys.executable, "-m", "pytest", "-x", "-q", "-n", "0", "-p", "no:cacheprovider",
            "--no-header", "-W", "ignore", *tests]
@@ -501,7 +510,7 @@ def _pytest(scratch: Scratch, tests: list[str], timeout: float,
     except subprocess.TimeoutExpired:
         proc.kill()
         proc.communicate()
-        return "killed", f"ran past {timeout:.0f} s", time.perf_counter() - start
+        return "timed out", f"ran past {timeout:.3g} s", time.perf_counter() - start
     except BaseException:
         proc.kill()
         raise
@@ -604,7 +613,6 @@ _TEST_ID = re.compile(r"tests/\S+\.py::\S+")
 def killers(path: Path | None):
     """How many mutants each test has killed, as a journal records it (under any C: a
     test that caught many mutants is likely to catch the next)."""
-    from collections import Counter
     count: Counter = Counter()
     if path is None or not path.is_file():
         return count
@@ -697,31 +705,51 @@ def run(files=None, kinds=None, match=None, sample=None, seed: int = 36,
             with _LOCK:
                 first = screen_of(chosen, kills, screen) if screen else []
             sc = free.get()
+            try:
+                status, detail, secs = attempt(m, sc, us, chosen, first, timeout)
+            finally:
+                free.put(sc)
+            if status == "survived" and m.key in equivalent:
+                status, detail = "equivalent", equivalent[m.key]
+            return Outcome(m, status, detail, secs, us)
+
+        def attempt(m: Mutant, sc: Scratch, us: tuple, chosen: list, first: list,
+                    limit: float) -> tuple[str, str, float]:
             path = _scratch_file(sc, m)
             original = path.read_text(encoding="utf-8")
             try:
                 path.write_text(m.apply(original), encoding="utf-8")
                 err = _compiles(sc, us[0])
                 if err:
-                    return Outcome(m, "stillborn", err, 0.0, us)
+                    return "stillborn", err, 0.0
                 # a screen first (the tests that killed most mutants, collected alone),
                 # then the rest of the subset without them; the mutant's libraries are
                 # built once, in the screen, and reused (the scratch cache is kept)
                 rest, secs = chosen, 0.0
                 if first:
-                    status, detail, secs = _pytest(sc, first, timeout)
+                    status, detail, secs = _pytest(sc, first, limit)
                     if status != "error":
                         rest = chosen + [f"--deselect={t}" for t in first]
                 if not first or status == "survived" or status == "error":
-                    status, detail, more = _pytest(sc, rest, timeout)
+                    status, detail, more = _pytest(sc, rest, limit)
                     secs += more
             finally:
                 path.write_text(original, encoding="utf-8")
                 sc.forget()
-                free.put(sc)
-            if status == "survived" and m.key in equivalent:
-                status, detail = "equivalent", equivalent[m.key]
-            return Outcome(m, status, detail, secs, us)
+            return status, detail, secs
+
+        def log(k: str, o: Outcome) -> None:
+            if jpath is not None and "journal" not in o.detail and o.status != "timed out":
+                with jpath.open("a", encoding="utf-8") as f:
+                    f.write(json.dumps({"key": o.mutant.key, "id": o.mutant.id,
+                                        "status": o.status, "detail": o.detail,
+                                        "seconds": round(o.seconds, 2),
+                                        "basis": basis}) + "\n")
+            if progress:
+                progress(f"[{k}] {o.status} {o.mutant.id} {o.mutant.where} "
+                         f"{o.mutant.kind}: {o.mutant.before} -> {o.mutant.after}"
+                         + (f" ({o.detail})" if o.detail else "")
+                         + (" (re-run alone at the end)" if o.status == "timed out" else ""))
 
         n = len(mutants)
         pool = ThreadPoolExecutor(workers)
@@ -734,16 +762,18 @@ def run(files=None, kinds=None, match=None, sample=None, seed: int = 36,
                 if o.status == "killed" and not tests and _TEST_ID.fullmatch(o.detail):
                     with _LOCK:
                         kills[o.detail] += 1
-                if jpath is not None and "journal" not in o.detail:
-                    with jpath.open("a", encoding="utf-8") as f:
-                        f.write(json.dumps({"key": o.mutant.key, "id": o.mutant.id,
-                                            "status": o.status, "detail": o.detail,
-                                            "seconds": round(o.seconds, 2),
-                                            "basis": basis}) + "\n")
-                if progress:
-                    progress(f"[{k}/{n}] {o.status} {o.mutant.id} {o.mutant.where} "
-                             f"{o.mutant.kind}: {o.mutant.before} -> {o.mutant.after}"
-                             + (f" ({o.detail})" if o.detail else ""))
+                log(f"{k}/{n}", o)
+            pool.shutdown()
+            # the timed-out ones, each alone now (no other mutant's build or tests beside
+            # it) with RETRY times the limit: judged by that run
+            late = [o for o in got.values() if o.status == "timed out"]
+            for k, o in enumerate(late, 1):
+                m, sc = o.mutant, scratches[0]
+                chosen = list(tests) if tests else tests_for(o.units, (m.file,))
+                retry(o, lambda limit: attempt(m, sc, o.units, chosen, [], limit), timeout)
+                if o.status == "survived" and m.key in equivalent:
+                    o.status, o.detail = "equivalent", equivalent[m.key]
+                log(f"alone {k}/{len(late)}", o)
         except BaseException:
             # stopped (a signal, ^C): no mutant after this one, the test runs ended now,
             # the scratch folders removed on the way out
@@ -751,9 +781,22 @@ def run(files=None, kinds=None, match=None, sample=None, seed: int = 36,
             _stop_all()
             pool.shutdown(wait=True)
             raise
-        pool.shutdown()
         report.outcomes = [got[i] for i in sorted(got)]
     return report
+
+
+def retry(o: Outcome, rerun, limit: float) -> None:
+    """Judge ``o``, timed out under ``limit``, by ``rerun(RETRY * limit)`` (a run of its
+    tests alone: (status, detail, seconds)); past that limit too, it is killed as a hang."""
+    status, detail, secs = rerun(RETRY * limit)
+    o.timed_out, o.seconds = True, o.seconds + secs
+    if status == "timed out":
+        o.status, o.detail = "killed", (f"a hang: ran past {limit:.3g} s, and past "
+                                        f"{RETRY * limit:.3g} s alone")
+    else:
+        o.status = status
+        o.detail = (detail + "; " if detail else "") + \
+            f"timed out at {limit:.3g} s, judged by its run alone ({secs:.3g} s)"
 
 
 def targets(report: Report) -> list[Target]:
@@ -771,8 +814,21 @@ def passed(report: Report) -> bool:
     return all(t.ok for t in targets(report))
 
 
+def timeouts(rep: Report) -> str:
+    """The mutants whose first run went past its limit and how their run alone ended
+    ('' if none): a hang is killed, but counted apart from a failing test."""
+    late = [o for o in rep.outcomes if o.timed_out or o.status == "timed out"]
+    if not late:
+        return ""
+    hung = sum(o.status == "killed" and o.detail.startswith("a hang") for o in late)
+    other = Counter(o.status for o in late
+                    if not (o.status == "killed" and o.detail.startswith("a hang")))
+    return (f"{len(late)} timed out and re-run alone: "
+            + ", ".join([f"{hung} killed as a hang (past the longer limit too)"] * bool(hung)
+                        + [f"{v} {k}" for k, v in sorted(other.items())]) + "; ")
+
+
 def report(rep: Report) -> str:
-    from collections import Counter
     lines = []
     if rep.outcomes and all(o.status == "listed" for o in rep.outcomes):
         for o in rep.outcomes:
@@ -783,7 +839,7 @@ def report(rep: Report) -> str:
                      + ", ".join(f"{k} {v}" for k, v in sorted(kinds.items())) + ")")
         return "\n".join(lines)
     for o in rep.outcomes:
-        if o.status in ("survived", "untested", "error"):
+        if o.status in ("survived", "untested", "error") or o.detail.startswith("a hang"):
             m = o.mutant
             lines.append(f"  {o.status} {m.id} {m.where} {m.kind}: {m.before} -> "
                          f"{m.after}" + (f" ({o.detail[:200]})" if o.detail else ""))
@@ -798,8 +854,8 @@ def report(rep: Report) -> str:
     lines.append(f"{len(rep.outcomes)} of {rep.catalogue_size} mutants: "
                  + ", ".join(f"{k} {v}" for k, v in sorted(counts.items()))
                  + f"; kill rate {counts['killed']}/{judged} = {100 * rep.kill_rate:.1f}% "
-                 f"({counts['equivalent']} survivors recorded as equivalent); the unmutated "
-                 f"tests took {rep.baseline_seconds:.0f} s")
+                 f"({counts['equivalent']} survivors recorded as equivalent); "
+                 + timeouts(rep) + f"the unmutated tests took {rep.baseline_seconds:.0f} s")
     ran = [o for o in rep.outcomes if o.seconds > 0.0]
     if ran:
         def mean(xs):
