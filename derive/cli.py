@@ -142,10 +142,32 @@ def _scene_doc(args) -> tuple[dict, object, str]:
         doc, base, origin = load_scene(args.scene).doc, Path(args.scene).parent, args.scene
     else:
         doc, base, origin = builtin_doc(), None, "built-in scene"
-    for text in args.set or []:
-        name, value = overrides.parse_assignment(text)
+    for name, value in _assignments(args):
         overrides.apply_to_doc(doc, name, value)
     return doc, base, origin
+
+
+def _assignments(args) -> list:
+    """``--set``'s (name, value) pairs; a field set twice is refused (the last would win
+    silently), as is one that ``--sweep`` also varies (the sweep would win)."""
+    from .scene import overrides
+    out, seen = [], {}
+    for text in args.set or []:
+        name, value = overrides.parse_assignment(text)
+        where = overrides.target(name, "--set").where
+        if where in seen:
+            also = f" (also as {seen[where]})" if seen[where] != name else ""
+            raise overrides.OverrideError("--set", f"{name}: is set twice{also}; give it "
+                                                   "once")
+        seen[where] = name
+        out.append((name, value))
+    for text in getattr(args, "sweep", None) or []:
+        name = overrides.parse_sweep(text)[0]
+        where = overrides.target(name, "--sweep").where
+        if where in seen:
+            raise overrides.OverrideError("--sweep", f"{name}: is also given by --set "
+                                                     f"{seen[where]}; give it one of the two")
+    return out
 
 
 def _check_output_folder(folder) -> None:

@@ -90,6 +90,19 @@ def test_a_field_swept_twice_is_refused(box, tmp_path, capsys, first, second):
     assert line.startswith("derive simulate: --sweep: ") and "is swept twice" in line
 
 
+@pytest.mark.parametrize("flags, says", [
+    (["--set", "body.mass=1", "--set", "body.mass=2"], "--set: body.mass: is set twice"),
+    (["--set", "plane.friction=0.2", "--sweep", "plane.friction=0.1,0.3"],
+     "--sweep: plane.friction: is also given by --set plane.friction"),
+])
+def test_a_field_set_twice_or_set_and_swept_is_refused(box, tmp_path, capsys, flags, says):
+    """The last --set of a field won silently (as a second --sweep had), and a --sweep of a
+    field --set also gives overrode it: each refused, naming the field."""
+    out = tmp_path / "out"
+    line = _refused(capsys, ["simulate", str(box), "-o", str(out), "-q", *flags], out)
+    assert line.startswith(f"derive simulate: {says}"), line
+
+
 # ---- --set of a law's entry to a number --------------------------------------------------------
 def test_a_number_set_where_the_field_is_a_formula_is_that_formula(box, tmp_path, capsys):
     """--set 'point.law[2]=0.05' was refused (must be a string): a law entry is a formula,
