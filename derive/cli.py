@@ -147,26 +147,36 @@ def _scene_doc(args) -> tuple[dict, object, str]:
     return doc, base, origin
 
 
-def _assignments(args) -> list:
-    """``--set``'s (name, value) pairs; a field set twice is refused (the last would win
-    silently), as is one that ``--sweep`` also varies (the sweep would win)."""
+def _once(flag: str, texts, parse, twice: str) -> tuple[dict, list]:
+    """Each of ``texts`` parsed (``parse``: name first), a field given twice refused by
+    ``flag`` (the last would win silently); (where each field was given: its name, the
+    parsed)."""
     from .scene import overrides
-    out, seen = [], {}
-    for text in args.set or []:
-        name, value = overrides.parse_assignment(text)
-        where = overrides.target(name, "--set").where
+    seen, out = {}, []
+    for text in texts or []:
+        parsed = parse(text)
+        name = parsed[0]
+        where = overrides.target(name, flag).where
         if where in seen:
             also = f" (also as {seen[where]})" if seen[where] != name else ""
-            raise overrides.OverrideError("--set", f"{name}: is set twice{also}; give it "
-                                                   "once")
+            raise overrides.OverrideError(flag, f"{name}: {twice.format(also=also)}")
         seen[where] = name
-        out.append((name, value))
+        out.append(parsed)
+    return seen, out
+
+
+def _assignments(args) -> list:
+    """``--set``'s (name, value) pairs, each field once, none that ``--sweep`` also varies
+    (the sweep would win)."""
+    from .scene import overrides
+    given, out = _once("--set", args.set, overrides.parse_assignment,
+                       "is set twice{also}; give it once")
     for text in getattr(args, "sweep", None) or []:
         name = overrides.parse_sweep(text)[0]
         where = overrides.target(name, "--sweep").where
-        if where in seen:
+        if where in given:
             raise overrides.OverrideError("--sweep", f"{name}: is also given by --set "
-                                                     f"{seen[where]}; give it one of the two")
+                                                     f"{given[where]}; give it one of the two")
     return out
 
 
@@ -285,16 +295,9 @@ def _simulate_sweep(args, start: float) -> int:
     try:
         doc, base, origin = _scene_doc(args)
         parse_scene(doc, origin, base=base)                     # the base must be valid
-        grid, seen = {}, {}
-        for text in args.sweep:
-            name, values = overrides.parse_sweep(text)
-            where = overrides.target(name, "--sweep").where
-            if where in seen:
-                also = f" (also as {seen[where]})" if seen[where] != name else ""
-                raise SceneError("--sweep", f"{name}: is swept twice{also}; a field takes "
-                                            "one --sweep: give all its values in it (a,b,c)")
-            seen[where] = name
-            grid[name] = values
+        grid = dict(_once("--sweep", args.sweep, overrides.parse_sweep,
+                          "is swept twice{also}; a field takes one --sweep: give all its "
+                          "values in it (a,b,c)")[1])
         n = 1
         for values in grid.values():
             n *= len(values)

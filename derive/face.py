@@ -102,6 +102,12 @@ class Face:
         return self.half[0] / 4 - math.hypot(x, y)
 
 
+def vertical_text(n) -> str:
+    """The vertical n as messages print it: [0, 1, 0], not a -2.22e-16 of round-off."""
+    n = np.asarray(n, dtype=float)
+    return "[" + ", ".join(f"{c:.6g}" for c in np.where(np.abs(n) < 1e-12, 0.0, n)) + "]"
+
+
 def face_on(shape: str, size, center, n) -> Face:
     """The face of a box or the end of a cylinder whose outward normal is ``-n`` (``n``
     the upward vertical in body axes), or ValueError when n is along no face normal."""
@@ -109,9 +115,8 @@ def face_on(shape: str, size, center, n) -> Face:
     n = n / np.linalg.norm(n)
     k = int(np.argmax(np.abs(n)))
     if abs(abs(n[k]) - 1.0) > AXIS_TOL or (shape == "cylinder" and k != 2):
-        vertical = ", ".join(f"{c:.6g}" for c in np.where(np.abs(n) < 1e-12, 0.0, n))
-        raise ValueError(f"the vertical [{vertical}] (body axes) is along no face normal of "
-                         f"{shapes.with_article(shape)}")
+        raise ValueError(f"the vertical {vertical_text(n)} (body axes) is along no face "
+                         f"normal of {shapes.with_article(shape)}")
     sign = 1.0 if n[k] > 0 else -1.0
     third, first, second = [0.0] * 3, [0.0] * 3, [0.0] * 3
     third[k] = sign                              # sign e_k

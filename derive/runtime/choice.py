@@ -150,6 +150,11 @@ def _initial(scene: Scene) -> dict:
     return initial if isinstance(initial, dict) else {}
 
 
+def _attitude_field(scene: Scene) -> str:
+    """The field that gave the start's attitude, as the scene wrote it."""
+    return "[initial].matrix" if "matrix" in _initial(scene) else "[initial].quaternion"
+
+
 # how base_refusal's sentences name the field base_refusal_at's rule is about
 _SUBJECT = {"[initial].matrix": "[initial]'s attitude ",
             "[initial].quaternion": "[initial]'s attitude ", "[initial].omega": "[initial].omega "}
@@ -172,8 +177,7 @@ def base_refusal_at(scene: Scene) -> tuple[str, str] | None:
     except ValueError as exc:
         side = (" (a cylinder on its side touches the plane along a line, not a face: "
                 "only its ends are faces)" if scene.shape == "cylinder" else "")
-        field = "[initial].matrix" if "matrix" in _initial(scene) else "[initial].quaternion"
-        return field, f"puts no face on the plane: {exc}{side}"
+        return _attitude_field(scene), f"puts no face on the plane: {exc}{side}"
     n = np.asarray(scene.A0[2], dtype=float)
     w = np.asarray(scene.omega, dtype=float)
     if np.linalg.norm(cross(w, n)) > 1e-12 * max(np.linalg.norm(w), 1e-300):
@@ -273,8 +277,7 @@ def flat_start_refusal(scene: Scene, kind: str) -> tuple[str, str] | None:
     if what is None or not (scene.on_plane or (what in ("an edge", "its side (a line)")
                                                and _touching_at_rest(scene))):
         return None
-    field = "[initial].matrix" if "matrix" in _initial(scene) else "[initial].quaternion"
-    vertical = ", ".join(f"{c:.6g}" for c in np.where(np.abs(n) < 1e-12, 0.0, n))
+    field = _attitude_field(scene)
     face = what in ("a face", "an end face")
     if faces.flat_contact(scene.shape, n) in ("a face", "an end face") and scene.rough \
             and scene.on_plane:
@@ -290,7 +293,8 @@ def flat_start_refusal(scene: Scene, kind: str) -> tuple[str, str] | None:
         fix = ("stand it on a face (the base model)" if scene.shape == "box" else
                "stand it on an end (the base model) or use a box")
     return field, (f"puts {shapes.with_article(scene.shape)} on the plane on {what}, the "
-                   f"vertical [{vertical}] (body axes) within {faces.LINE_TOL:g} of it: "
+                   f"vertical {faces.vertical_text(n)} (body axes) within "
+                   f"{faces.LINE_TOL:g} of it: "
                    f"model {kind} touches the plane at one point, which would jump across "
                    f"it (the run chatters); {fix}, or tilt it by more than "
                    f"{faces.LINE_TOL:g} rad so that one point is lowest")

@@ -38,9 +38,10 @@
  *    from the first step whose flow turns off it.
  *    After a stop: rest (a stick, or a reversal).  Each step DOP853 (the tableau of
  *    crt_base_steps.h, Hairer's error norm and step control) with the error of rtol, atol
- *    on z at the body's own scales (crt_base_step), the first step of a slip along a line the last such slip's; the events (t_end,
- *    the stop, N, the edge, the kern) located inside a step on DOP853's dense output
- *    (Illinois on the step's fraction), the state at an event the dense output's there.
+ *    on z at the body's own scales (crt_base_step), the first step of a slip along a line
+ *    the last such slip's; the events (t_end, the stop, N, the edge, the kern) located
+ *    inside a step on DOP853's dense output (Illinois on the step's fraction), the state
+ *    at an event the dense output's there.
  * A run never goes on past lift-off, tipping or the face lifting: it stops there with that
  * status and an event at its time.  The closed loop (crt_set_control) is refused
  * (CRT_BAD_CONTROL).
