@@ -94,11 +94,7 @@ def _pressure(sys: System, N: float, cp) -> tuple[float, np.ndarray]:
     f = sys.face
     if sys.pressure == "uniform":
         return N / f.area, np.zeros(2)
-    if f.kind == "rectangle":
-        a, b = f.half
-        Ix, Iy = 4 * a ** 3 * b / 3, 4 * a * b ** 3 / 3
-    else:
-        Ix = Iy = math.pi * f.half[0] ** 4 / 4
+    Ix, Iy = _moments(f)
     return N / f.area, N * np.array([(cp[0] - f.centre[0]) / Ix, (cp[1] - f.centre[1]) / Iy])
 
 
@@ -221,7 +217,7 @@ def friction(sys: System, mu: float, N: float, cp, twist) -> tuple[np.ndarray, f
     if abs(w) * f.size <= 1e-13 * speed:
         if speed == 0.0:
             return np.zeros(3), 0.0
-        centre = np.asarray(f.centre) + k / N * np.array(_moments(f))
+        centre = np.asarray(f.centre) + k / N * np.array(_moments(f))   # cp, linear
         F = -mu * N * np.array([vx, vy]) / speed
         return np.array([F[0], F[1], centre[0] * F[1] - centre[1] * F[0]]), mu * N * speed
     r0 = np.array([-vy / w, vx / w])
@@ -234,12 +230,12 @@ def friction(sys: System, mu: float, N: float, cp, twist) -> tuple[np.ndarray, f
 
 
 def _moments(f: Face) -> tuple:
-    """(int x^2 dA, int y^2 dA)/A about the centroid (the linear pressure's centroid shift
-    per unit gradient)."""
+    """(int x^2 dA, int y^2 dA) about the centroid: the linear pressure's gradient is N (cp
+    - c) over them, and its centroid's shift per unit gradient is them over N."""
     if f.kind == "rectangle":
         a, b = f.half
-        return (a * a / 3, b * b / 3)
-    return (f.half[0] ** 2 / 4,) * 2
+        return (4 * a ** 3 * b / 3, 4 * a * b ** 3 / 3)
+    return (math.pi * f.half[0] ** 4 / 4,) * 2
 
 
 def limit_gauge(sys: System, N: float, cp, wrench, start=None) -> tuple[float, np.ndarray]:
