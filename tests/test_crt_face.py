@@ -340,3 +340,122 @@ def test_the_margins_of_a_near_square_face_are_face_pys(shim, half):
         k = _arr([0.0, 0.0])
         margin = shim.shim_kern(kind, _ptr(geom), *p, 2.5, _ptr(k))
         assert margin == pytest.approx(f.kern_margin(p), abs=1e-15)
+
+
+def _spin_torque(f, N, mu, v, w):
+    """The torque about the centroid of a translation v turning slowly (w size << |v|),
+    uniform pressure, to first order in w: the slip's direction at r turns by w (r.v)/|v|^2
+    across v, so T_c = -mu (N/A) (w/|v|) int ((r - c).v/|v|)^2 dA (the force's part is
+    the translation's)."""
+    Ix, Iy = f.second_moments
+    u = np.asarray(v) / math.hypot(*v)
+    return -mu * N / f.area * w / math.hypot(*v) * (Ix * u[0] ** 2 + Iy * u[1] ** 2)
+
+
+def test_a_slip_is_a_translation_up_to_its_threshold_and_turns_past_it(shim):
+    """The translation's rule, |w| size <= 1e-12 |v|, at 0.98 and 1.02 of its threshold, in
+    crt_face_wrench and in crt_face_slip_set (read by crt_face_apply): below it the force
+    is -mu N v/|v| at the centroid (no torque about it), above it the slow turn's torque
+    about the centroid is the first-order closed form's (to 1 %: the product rule far
+    off), its force the translation's; the direction of either in any of the plane's
+    directions."""
+    N, mu = 2.0, 0.5
+    for shape, dims in (("box", (0.2, 0.1, 0.05)), ("cylinder", (0.1, 0.05))):
+        f = fc.face_on(shape, dims, (0.01, -0.01, 0), (0, 0, 1))
+        kind, geom, k = _face_args(f, N, None, "uniform")
+        c = f.centre
+        for th in (0.3, 2.0, 4.4):
+            v = 0.7 * np.array([math.cos(th), math.sin(th)])
+            for factor in (0.98, 1.02):
+                tw = _arr([*v, factor * 1e-12 * 0.7 / f.size])
+                W, D = c_wrench(shim, f, N, None, "uniform", mu, tw)
+                Wa = np.zeros(3)
+                Da = shim.shim_apply(kind, _ptr(geom), N, _ptr(k), mu, _ptr(tw), _ptr(Wa), 1)
+                want = _spin_torque(f, N, mu, v, tw[2]) if factor > 1 else 0.0
+                for got, d in ((W, D), (Wa, Da)):
+                    assert np.allclose(got[:2], -mu * N * v / 0.7, rtol=1e-12, atol=0)
+                    assert math.isclose(d, mu * N * 0.7, rel_tol=1e-12)
+                    Tc = got[2] - (c[0] * got[1] - c[1] * got[0])
+                    assert abs(Tc - want) <= 1e-2 * abs(_spin_torque(f, N, mu, v, tw[2])), \
+                        (shape, th, factor, Tc, want)
+
+
+def test_linear_pressure_along_one_axis_is_face_pys(shim):
+    """Linear pressure whose slope is along one axis of the face (the centre of pressure on
+    the centroid's horizontal or vertical: the other component of k exactly 0), about
+    instant centres near and far: the wrench as derive/face.py has it, to 1e-12."""
+    N, mu = 2.0, 0.5
+    rng = np.random.default_rng(7)
+    for shape, dims in (("box", (0.2, 0.1, 0.05)), ("cylinder", (0.1, 0.05))):
+        f = fc.face_on(shape, dims, (0.01, -0.01, 0), (0, 0, 1))
+        c = np.asarray(f.centre)
+        for cp in (c + (0.012, 0.0), c + (0.0, -0.009)):
+            assert np.count_nonzero(fc.pressure_slope(f, N, cp, "linear")[1]) == 1
+            for reach in (0.5, 3.0, 11.0):         # the closed form or the disc's rule; far
+                th = rng.uniform(0, 2 * np.pi)
+                r0 = c + reach * f.size * np.array([math.cos(th), math.sin(th)])
+                w = rng.choice([-1, 1]) * rng.uniform(0.5, 3)
+                tw = (r0[1] * w, -r0[0] * w, w)
+                W, D = c_wrench(shim, f, N, cp, "linear", mu, tw)
+                py, D_py = fc.centre_wrench(f, N, cp, "linear", mu, tw)
+                assert np.abs(W - py).max() <= 1e-12 * np.abs(py).max(), (shape, cp, reach)
+                assert abs(D - D_py) <= 1e-12 * D_py
+
+
+def test_the_gauge_bounds_parts_at_their_thresholds(shim):
+    """crt_face_gauge_bounds on a face centred on O (T_c = T_z), its two parts gF = |F|/(mu
+    N) and gT = |T_c|/(mu N rbar) computed here: the lower bound is the larger of two parts
+    2 % apart (either way round), the upper their sum; and one part is taken for the whole
+    (the closed form, part 1 or 2) at 0.98e-15 of the other, not at 1.02e-15."""
+    mu, N = 0.4, 3.0
+    F = np.array([0.6, -0.8])
+    for shape, dims in (("box", (0.2, 0.1, 0.05)), ("cylinder", (0.1, 0.05))):
+        f = fc.face_on(shape, dims, (0, 0, 0), (0, 0, 1))
+        assert tuple(f.centre) == (0.0, 0.0)
+        kind, geom, k = _face_args(f, N, None, "uniform")
+        lohi = np.zeros(3)
+        rbar = shim.shim_bounds(kind, _ptr(geom), N, _ptr(k), mu, _ptr(_arr([1.0, 0, 0])),
+                                _ptr(lohi))
+        gF = math.hypot(*F) / (mu * N)
+        for ratio in (0.98, 1.02):
+            W = _arr([*F, ratio * gF * mu * N * rbar])
+            shim.shim_bounds(kind, _ptr(geom), N, _ptr(k), mu, _ptr(W), _ptr(lohi))
+            gT = abs(W[2]) / (mu * N * rbar)
+            assert math.isclose(lohi[0], max(gF, gT), rel_tol=1e-14), (shape, ratio)
+            assert math.isclose(lohi[1], gF + gT, rel_tol=1e-14)
+            assert lohi[2] == 0
+        for ratio, part in ((0.98e-15, 1), (1.02e-15, 0)):
+            W = _arr([*F, ratio * gF * mu * N * rbar])           # gT = ratio gF
+            shim.shim_bounds(kind, _ptr(geom), N, _ptr(k), mu, _ptr(W), _ptr(lohi))
+            assert lohi[2] == part, (shape, ratio)
+            W = _arr([*(F / math.hypot(*F) * ratio * 0.05 / rbar), 0.05])
+            shim.shim_bounds(kind, _ptr(geom), N, _ptr(k), mu, _ptr(W), _ptr(lohi))
+            assert lohi[2] == 2 * part, (shape, ratio)          # gF = ratio gT
+
+
+def test_the_gauge_of_a_long_thin_face_is_face_pys(shim):
+    """A rectangle 25 times longer than wide, uniform and linear pressure: D's curvature on
+    the plane W.xi = 1 is far from the search's first guess (isotropic), so its first
+    steps overshoot and are cut back (Armijo's rule).  gamma as face.gauge has it (SciPy's
+    BFGS on derive/face.py's friction) to 1e-10, the support property at xi*, and each
+    search ends within 250 evaluations (where D no longer decreases: its round-off).  With
+    random wrenches, three on which the search's steps overshoot (D up by less than 5 %)
+    twice running (three of 400 random ones, found so: each a stall where Armijo's rule is
+    loosened)."""
+    mu, N = 0.4, 3.0
+    f = fc.face_on("box", (0.3, 0.012, 0.05), (0.02, 0.0, 0), (0, 0, 1))
+    rng = np.random.default_rng(1)
+    counts = []
+    for mode, cp, hard in (("uniform", None, [(0.745089, 2.12381, -0.504148),
+                                              (-0.114717, -1.40132, -0.0105369)]),
+                           ("linear", (0.08, -0.0012), [(0.548405, -1.06512, 0.548968)])):
+        fr = fc.Friction(f, N, cp, mode, mu)
+        for W in [*hard, *(rng.normal(size=3) * np.array([1, 1, f.size]) for _ in range(6))]:
+            W = _arr(W)
+            gam, xi, count = c_gauge(shim, f, N, cp, mode, mu, W)
+            gam_py, _ = fc.gauge(fr, W, f.size)
+            assert math.isclose(gam, gam_py, rel_tol=1e-10), (mode, W)
+            fric, _ = c_wrench(shim, f, N, cp, mode, mu, xi * np.array([1.0, 1.0, 1.0 / f.size]))
+            assert np.allclose(-fric * gam, W, rtol=0, atol=1e-7 * np.abs(W).max())
+            counts.append(count)
+    assert max(counts) <= 250, counts
