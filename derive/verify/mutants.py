@@ -29,8 +29,8 @@ loaded machine a survivor's tests can run long (crt_lie.h's ef8c8063 was miscall
 so), so each such mutant is run again once, alone, after the others, with RETRY times the
 limit, and judged by that run; past that too it is killed as a hang, and said so.  A
 survivor must be killed by a new test or recorded as equivalent, with the reason, in
-``derive/verify/equivalent_mutants.toml`` (or its continuation,
-``equivalent_mutants_small.toml``); the command exits 1 while any survivor is not.
+``derive/verify/equivalent_mutants.toml`` (or its continuations,
+``equivalent_mutants_*.toml``); the command exits 1 while any survivor is not.
 """
 from __future__ import annotations
 
