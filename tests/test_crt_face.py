@@ -243,11 +243,13 @@ def test_the_gauge_closed_forms_and_face_pys(shim):
             assert np.allclose(xi, xi_py, atol=1e-6)
             fric, _ = c_wrench(shim, f, N, cp, mode, mu, xi * np.array([1.0, 1.0, 1.0 / f.size]))
             assert np.allclose(-fric * gam, W, rtol=0, atol=1e-7 * np.abs(W).max())
-            # warm-started from a nearby maximiser it needs fewer evaluations
+            # warm-started from its maximiser (W scaled: the same xi*) it needs far fewer
+            # evaluations: their median under 0.62 of the cold searches' over 30 draws of
+            # these 24 wrenches (ignoring the start, 0.75 of it at least)
             _, _, warm = c_gauge(shim, f, N, cp, mode, mu, W * (1 + 1e-3), start=xi)
             evaluations.append((count, warm))
-    cold, warm = np.mean(evaluations, axis=0)
-    assert warm < cold
+    cold, warm = np.median(evaluations, axis=0)
+    assert warm < 0.7 * cold, (cold, warm)
 
 
 def test_the_gauge_bounds_bracket_it_and_the_closed_forms_take_no_evaluation(shim):
