@@ -23,8 +23,8 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from derive.control.core import load_control_task, plant_of
-from derive.control.replan import ControlError, run, setup
+from derive.control.core import ControlError, load_control_task, plant_of
+from derive.control.replan import run, setup
 from derive.scene import SceneError
 from derive.scene.scene import Disturbance
 

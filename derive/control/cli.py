@@ -35,7 +35,7 @@ def run(args) -> int:
     try:
         result = control(task, progress=not args.quiet)
     except RuntimeError as exc:
-        from .replan import ControlError
+        from .core import ControlError
         if not isinstance(exc, ControlError):
             raise
         print(f"derive control: {exc}", file=sys.stderr)

@@ -36,6 +36,11 @@ DEFAULT_PERIOD = {"replan": 0.02, "mirror": 0.002, "hop": 0.0}
 GOAL_TOLERANCE_DEG = 2.0    # a loop meets its goal within this (control.json: goal_met)
 
 
+class ControlError(RuntimeError):
+    """The pipeline could not close the loop (the offline plan or its solution failed, or
+    its scene did not run as the plant)."""
+
+
 SCENE_MODES = ("hop", "mirror")      # closed around a scene's own gait: derive simulate
 
 
@@ -182,7 +187,6 @@ def plant_of(doc: dict, disturbance, base=None):
         try:                                 # [disturbance]'s doing, or the plan's own?
             parse_scene(plant_doc(doc, None), "plant", base)
         except SceneError:
-            from .replan import ControlError
             raise ControlError(f"the offline plan's scene does not run as the plant: "
                                f"{exc}") from None
         raise SceneError("[disturbance]", f"gives a plant that is not a valid scene: "
