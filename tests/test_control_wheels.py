@@ -200,3 +200,25 @@ def test_bad_control_of_bodies_names_the_field(change, where, rule):
         check_task(load_control_task(doc))
     assert info.value.where == where, str(info.value)
     assert rule in str(info.value)
+
+
+def test_a_kept_rotor_at_a_constant_rate_is_a_known_input_of_the_loops_model():
+    """A momentum-biased robot: a fourth wheel kept at psi = 20 t (a new user's trial: it
+    was refused, the kept bodies had to be at rest).  Its share of the moments reads psi'
+    and psi'' alone, so the controller's model takes it as a known input: the task is
+    accepted, the moments carry no time, and they differ from the task without it by
+    the closed form h = I psi' a, h' = 0, whatever the decided wheels do."""
+    from derive import layout
+    from derive.planner.bodies import Channels
+    doc = _task_doc()
+    axis, inertia, rate = np.array([0.6, 0.8, 0.0]), 0.002, 20.0
+    doc["rotor"].append({"axis": axis.tolist(), "inertia": inertia, "law": "20*t"})
+    task = load_control_task(doc)
+    check_task(task)
+    biased, plain = Channels(task), Channels(load_control_task(_task_doc()))
+    assert not biased.timed and biased.D == plain.D == 3
+    u = np.random.default_rng(5).normal(size=9)
+    diff = biased.moments_at(u, 1.7) - plain.moments_at(u, 1.7)
+    spin = np.zeros(27)
+    spin[layout.MOMENTS.spin] = np.r_[inertia * rate * axis, 0.0, 0.0, 0.0]
+    np.testing.assert_allclose(diff, spin, rtol=0, atol=1e-15)

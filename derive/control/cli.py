@@ -1,8 +1,9 @@
 """``derive control TASK.toml -o DIR``: the command line of the closed loop.
 
-``add_parser(subparsers)`` adds the subcommand; ``run(args)`` returns the exit status (0
-the closed loop met its goal; 1 it ran and missed it, said in words and in control.json's
-``goal_met``, its outputs written, or the loop could not be closed: the offline plan
+``add_parser(subparsers)`` adds the subcommand; ``run(args)`` returns the exit status,
+as derive/docs/control.md states it (0 the closed loop met its goal; 1 it ran and missed
+it, or stopped before its end, said in words and in control.json's ``goal_met`` and
+``status``, its outputs written, or the loop could not be closed: the offline plan
 failed, as ``derive simulate`` exits 1 for a run that did not end as asked) and raises
 :class:`~derive.scene.SceneError` for bad input (exit status 2 in the CLI: one line
 naming the field and the rule, nothing written).
@@ -34,7 +35,7 @@ def run(args) -> int:
     try:
         result = control(task, progress=not args.quiet)
     except RuntimeError as exc:
-        from .replan import ControlError
+        from .core import ControlError
         if not isinstance(exc, ControlError):
             raise
         print(f"derive control: {exc}", file=sys.stderr)
@@ -94,6 +95,14 @@ def report_lines(result) -> list[str]:
     for key, name in (("closed_loop", "closed loop"), ("open_loop", "open loop")):
         if key in s:
             words = _goal_words(s[key])
-            lines.append(f"  {name}: {_achieved(result.task, s[key])}"
+            lines.append(f"  {name}{_stopped(s[key])}: {_achieved(result.task, s[key])}"
                          + (f"; {words}" if words else ""))
     return lines
+
+
+def _stopped(m: dict) -> str:
+    """A run that did not end done, said with its status (control.json's ``status``): the
+    measure alone read as if it had (a push's step_underflow showed as an attitude error
+    at the time it stopped, a new user's trial)."""
+    status = m.get("status")
+    return "" if status in (None, "done") else f" (the run stopped early: {status})"

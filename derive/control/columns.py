@@ -8,8 +8,9 @@ up to three of its outputs (``crt_control_channels``).  The decided bodies fill 
 columns left over are pinned at zero (no rows, bounds 0: the QP sees no variable
 there).  The model sees the law only through the bodies' moments
 (:class:`derive.planner.bodies.Channels`, the moments the planner composes), the kept
-bodies' laws at rest (a kept law that moves would make the moments depend on the time,
-which the controller's state does not carry).
+bodies' laws at rest or a kept rotor at a constant rate (a known input: its share reads
+psi' and psi'' alone; a kept law that moves otherwise would make the moments depend on
+the time, which the controller's state does not carry).
 """
 from __future__ import annotations
 
@@ -46,10 +47,9 @@ def check(task) -> str | None:
                 f"up to three rotors: the runtime's controller carries x, y, z); "
                 f"{', '.join(ch.name for ch in chans.channels)} make {chans.D}")
     if chans.timed:
-        moving = next(b.name for _, _, b in chans.kept
-                      if b.summary.max_speed > 0 or b.summary.max_acceleration > 0)
-        return (f"the bodies the controller does not decide must be at rest ({moving}'s "
-                "law moves: the controller's state has no time to evaluate it at)")
+        return (f"the bodies the controller does not decide must be at rest, or a rotor "
+                f"at a constant rate ({chans.moving[0]}'s law moves otherwise: the "
+                "controller's state has no time to evaluate it at)")
     return None
 
 

@@ -36,6 +36,11 @@ DEFAULT_PERIOD = {"replan": 0.02, "mirror": 0.002, "hop": 0.0}
 GOAL_TOLERANCE_DEG = 2.0    # a loop meets its goal within this (control.json: goal_met)
 
 
+class ControlError(RuntimeError):
+    """The pipeline could not close the loop (the offline plan or its solution failed, or
+    its scene did not run as the plant)."""
+
+
 SCENE_MODES = ("hop", "mirror")      # closed around a scene's own gait: derive simulate
 
 
@@ -148,12 +153,18 @@ def planned_doc(plan, duration: float) -> dict:
 def planned_bodies_doc(plan, duration: float, folder) -> dict:
     """The plan of a task of several bodies as the plant's scene: its scene (scene.toml)
     as a dict, each decided body's table written into ``folder`` (the scene's base),
-    run up to ``duration`` on the moments model (a table at rest at its end is held
-    there)."""
+    run up to ``duration`` on the moments model.  A table shorter than the run is
+    tabulated again up to ``duration`` with the law held as the plan defines it beyond
+    its end (at rest, or the last piece going on), as :func:`planned_doc` does for one
+    point: land's default duration, touchdown and a fifth, outran the plan's table
+    (touchdown and a twentieth) and the plant was refused."""
     import tomllib
-    from ..planner.bodies_plan import write_table
+    from ..planner.bodies_plan import tabulate, write_table
     doc = tomllib.loads(plan.scene_toml)
-    for name, rows in plan.tables.items():
+    tables = plan.tables
+    if duration > min(float(rows[-1, 0]) for rows in tables.values()):
+        tables, _ = tabulate(plan.law, plan.report.tr.channels, float(duration))
+    for name, rows in tables.items():
         write_table(Path(folder) / name, rows)
     doc["run"]["duration"] = float(duration)
     doc["run"]["model"] = "moments"
@@ -163,14 +174,21 @@ def planned_bodies_doc(plan, duration: float, folder) -> dict:
 
 def plant_of(doc: dict, disturbance, base=None):
     """The plant's prepared scene: the planned scene with the disturbance applied
-    (``base``: the folder of its tables)."""
+    (``base``: the folder of its tables).  A plant refused is [disturbance]'s doing when
+    the planned scene alone runs (SceneError naming it), else the plan's (ControlError:
+    it had named [disturbance] in a task without one)."""
     from ..runtime.driver import prepare
     from ..scene import parse_scene
     from .plant import plant_doc
-    d = plant_doc(doc, disturbance)
+    base = None if base is None else Path(base)
     try:
-        scene = parse_scene(d, "plant", None if base is None else Path(base))
+        scene = parse_scene(plant_doc(doc, disturbance), "plant", base)
     except SceneError as exc:
+        try:                                 # [disturbance]'s doing, or the plan's own?
+            parse_scene(plant_doc(doc, None), "plant", base)
+        except SceneError:
+            raise ControlError(f"the offline plan's scene does not run as the plant: "
+                               f"{exc}") from None
         raise SceneError("[disturbance]", f"gives a plant that is not a valid scene: "
                                           f"{exc}") from None
     return prepare(scene)
@@ -187,7 +205,8 @@ def open_loop(prep, disturbance):
 # ---- measuring -------------------------------------------------------------------------------
 def trajectory_of(result, law, source: str):
     """A run as the planner's :class:`~derive.planner.resim.Trajectory` (general layout,
-    its impacts with the state just before and after and the law's u there)."""
+    its impacts with the state just before and after and the law's u there; ``law``
+    None: a plan of bodies played, whose measure reads no u, as the planner's own)."""
     from ..planner.resim import Trajectory
     impacts = []
     kinds = np.asarray(result.row_kind)
@@ -198,7 +217,7 @@ def trajectory_of(result, law, source: str):
             impacts.append({"t": float(result.t[i]), "I": ev["value"],
                             "v_minus": ev["v_minus"], "v_plus": ev["v_plus"],
                             "q_minus": result.q[i], "q_plus": result.q[i + 1],
-                            "u": law.point(float(result.t[i]))})
+                            "u": None if law is None else law.point(float(result.t[i]))})
     return Trajectory(np.asarray(result.t), np.asarray(result.q), impacts, result.status,
                       source)
 

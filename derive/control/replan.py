@@ -30,6 +30,7 @@ import numpy as np
 
 from .. import layout
 from .compiled import Compiled
+from .core import ControlError
 from .problem import Problem, freeze
 from .render import render
 from .solvers import IpoptReplan, PyReplan, initial_solution
@@ -39,10 +40,6 @@ MEDIAN_TARGET_MS, P99_TARGET_MS = 5.0, 10.0   # the C solve per sample (bench co
 
 
 # ---- derive control, mode = "replan" -------------------------------------------------------
-class ControlError(RuntimeError):
-    """The pipeline could not close the loop (the offline plan or its solution failed)."""
-
-
 def check_task(task) -> None:
     """What replan needs of a task (SceneError naming the field)."""
     from ..scene import SceneError

@@ -87,9 +87,23 @@ class Channels:
         self.kept = tuple((kind, k, body) for kind, bodies in (("point", self.points),
                                                               ("rotor", self.rotors))
                           for k, body in enumerate(bodies) if (kind, k) not in decided)
-        # a kept law that moves makes the moments depend on t (the NLP's state then has t)
-        self.timed = any(b.summary.max_speed > 0 or b.summary.max_acceleration > 0
-                         for _, _, b in self.kept)
+        # a kept law whose share of the moments changes makes them depend on t (the NLP's
+        # state then has t); a rotor at a constant rate (psi = w t: its share reads psi'
+        # and psi'' alone) does not, nor does a point held still
+        self.moving = tuple(b.name for kind, _, b in self.kept if self._timed(kind, b))
+        self.timed = bool(self.moving)
+
+    @staticmethod
+    def _timed(kind: str, body) -> bool:
+        """Whether a kept body's share of the moments depends on the time (its law read
+        in CasADi at a symbolic t: exact, where its summary's samples are not)."""
+        if body.summary.max_speed == 0 and body.summary.max_acceleration == 0:
+            return False
+        t = ca.SX.sym("t")
+        jets = body.law.output_jets(CasadiOps, t)
+        used = ([jets[c][d] for d in range(3) for c in range(3)] if kind == "point"
+                else [jets[0][1], jets[0][2]])
+        return any(ca.depends_on(ca.SX(v), t) for v in used)
 
     @property
     def point_channels(self) -> tuple:

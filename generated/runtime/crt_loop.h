@@ -183,8 +183,8 @@ static void crt_integrate(crt_session *s, double t_end, crt_out *o)
     if (s->t + h > knot) h = knot - s->t;
     if (s->ctl) {                                /* and on the loop's samples and pushes */
       stop = crt_control_next_stop(s);
-      if (stop <= s->t) {                        /* due now (a push at an event's time) */
-        const int halt = crt_control_at_stop(s, o);
+      if (stop < s->t + h_min) {                 /* due now (a push at an event's time) */
+        const int halt = crt_control_at_stop(s, o, s->t + h_min);
         if (halt) { s->status = halt; break; }
         continue;
       }
@@ -235,7 +235,7 @@ static void crt_integrate(crt_session *s, double t_end, crt_out *o)
       /* the rest on the next call */
     }
     if (s->ctl && s->t >= stop) {                /* a sample, a push: the loop acts */
-      const int halt = crt_control_at_stop(s, o);
+      const int halt = crt_control_at_stop(s, o, s->t + h_min);
       if (halt) { s->status = halt; break; }
     }
     crt_loop_next_size(s, h, h_wanted, err, adaptive, order);

@@ -375,13 +375,16 @@ static void crt_control_push(crt_session *s, crt_out *o, const double *row)
 }
 #endif
 
-/* A step ended at a stop of the loop: the pushes due, then the sample.  Returns 0 to go
-   on, else the status that stops the run. */
-static int crt_control_at_stop(crt_session *s, crt_out *o)
+/* A step ended at a stop of the loop: the pushes due, then the sample.  ``due``: the time
+   up to which a stop is now (s->t and the loop's least step: a sample k period after the
+   start can round to an ulp past a push the user put at the same time; left for later,
+   it asked a step of 1e-16 s and stopped the run, step_underflow).  Returns 0 to go on,
+   else the status that stops the run. */
+static int crt_control_at_stop(crt_session *s, crt_out *o, double due)
 {
   crt_control *c = s->ctl;
   while (c->next_push < c->n_pushes
-         && c->pushes[(long)CRT_PUSH_COLUMNS * c->next_push] <= s->t) {
+         && c->pushes[(long)CRT_PUSH_COLUMNS * c->next_push] <= due) {
 #if MODEL_PUSH
     crt_control_push(s, o, c->pushes + (long)CRT_PUSH_COLUMNS * c->next_push);
 #else
@@ -389,7 +392,7 @@ static int crt_control_at_stop(crt_session *s, crt_out *o)
 #endif
     ++c->next_push;
   }
-  if (c->next_sample <= s->t) {
+  if (c->next_sample <= due) {
     c->k_sample += 1.0;
     c->next_sample = c->t_start + c->k_sample * c->period;   /* no accumulation */
     return crt_control_call(s, CRT_CALL_SAMPLE, 0);
