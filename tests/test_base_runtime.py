@@ -48,7 +48,7 @@ duration = {duration}
 """)
 
 
-def run_base(scene, q0, mu_s=None, hmax=None, pressure="uniform"):
+def run_base(scene, q0, mu_s=None, hmax=None, pressure="uniform", output_dt=0.0):
     """The base model's run of a scene on its face (n = e_z of the body): its raw result."""
     prm = choice.parameters(scene, {})
     prm[_P["n0_z"]] = 1.0
@@ -61,6 +61,7 @@ def run_base(scene, q0, mu_s=None, hmax=None, pressure="uniform"):
     opt[_O["rk4_step"]] = 1e-3
     opt[_O["time_scale"]] = scene.duration
     opt[_O["event_tol"]] = 1e-15
+    opt[_O["output_dt"]] = output_dt
     opt[_O["max_steps"]], opt[_O["max_events"]] = 1e6, 1e4
     session = Session(library("base"))
     session.set_law(scene.runtime_law)

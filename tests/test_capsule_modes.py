@@ -161,7 +161,7 @@ def test_the_rest_holds_below_its_closed_form_boundary():
 # period for 4.7 ms each (1.5 % of it: phases 0.102-0.117 and 0.388-0.403 in the 1-D model),
 # shorter than the stick's sample (hmax/8, 6 ms here): the stick's samples now shrink by
 # each function's distance to 0 over its observed rate and look at the minimum inside a
-# sample (crt_base_stick_step), and all 80 are written, to 4e-10 s.
+# sample (crt_base_sample_step), and all 80 are written, to 4e-10 s.
 @pytest.mark.parametrize("cell", [(0.08, 0.4), (0.8, 0.625)])
 def test_no_stop_is_missed(cell):
     (mu, beta, status, typ, ref_type, ours, theirs), = _cells_against_the_closed_form([cell])

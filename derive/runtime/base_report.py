@@ -20,7 +20,8 @@ STOPS = {"lift_off": "N reached 0: the body leaves the plane (lift-off)",
          "tipping": "the centre of pressure reached the face's edge: the body tips",
          "face_lifting": "the centre of pressure left the face's kern: the linear pressure "
                          "reaches 0 at an edge, and the face starts to lift there"}
-METHOD = "dop853 (slips along a line in t, others in arc time; the base model's own integrator)"
+METHOD = ("dop853 (a translation is a quadrature of the law, other slips along a line in t, "
+          "the rest in arc time; the base model's own integrator)")
 _SLIDING, _STICKING = abi.MODE["sliding"], abi.MODE["sticking"]
 
 

@@ -6,7 +6,7 @@
  * generated/runtime/ by `derive emit` (`derive emit --check` compares the copy byte for
  * byte).  Edit it there, then run `derive emit`.
  *
- * Three modes (s->bs.mode):
+ * Four modes (s->bs.mode):
  *  - rest: the body is at rest at t; sticking holds if the gauge gamma of the wrench the
  *    rest needs (crt_face_gauge, mu_s) is below 1 (or at 1 and not rising); else the slip
  *    starts against the gauge's maximiser, along the stable direction of the slip's flow:
@@ -25,6 +25,13 @@
  *    mu N) is round-off, infinite at N = 0, so its root is N's give or take round-off,
  *    and a slip started there by that round-off's sign ran on past the lift-off (a
  *    lift-off 1.9e-6 s late, at -O1 only);
+ *  - translation: a slip along a line that does not turn (psi' = 0, no yaw or lateral
+ *    rate) is a quadrature of the law (crt_base_flow.h's crt_base_tr_*: the horizontal
+ *    momentum changes by -mu N e alone), so its state at any t is the law's values there;
+ *    its functions (the signed speed, N, the margins) are sampled and located as the
+ *    stick's (crt_base_sample_step), the speed's root its stop; where a sample finds the
+ *    flow off the line (crt_base_line_flow's test), the slip's steps below go on from the
+ *    last sample;
  *  - slip, along a line (s->bs.line): while the scaled twist xi = (V_O, ell psi') keeps
  *    its direction d (a translation along a fixed line, a spin in place: the flow's part
  *    off d below 1e-12 of it at every stage), integrated in t with the friction of d held,
@@ -155,10 +162,19 @@ static void crt_base_settle(crt_session *s, crt_out *o, int after_stop)
   for (i = 0; i < CRT_BASE_NG_STICK; ++i) s->bs.g[i] = g[i];
 }
 
-/* One sample of the stick: its events located in [t, t + h].  The stick's functions
-   (1 - gamma, N, the margins) depend on t alone, and a short excursion of one below 0 (a
-   break of a few ms, gamma just past 1 near its maximum) must not fall between two
-   samples.  Two rules, from the samples themselves:
+/* The stick's and the translation's functions at t (crt_base_stick_g, crt_base_tr_g): aux
+   the gauge's maximiser (the stick: warm in, out) or the state at t (the translation) */
+static void crt_base_sample_g(crt_session *s, double t, double *g, double *aux)
+{
+  if (s->bs.mode == CRT_BASE_STICK) crt_base_stick_g(s, t, g, aux);
+  else crt_base_tr_g(s, t, g, aux);
+}
+
+/* One sample of the stick or of the translation: its events located in [t, t + h].  Their
+   functions (the stick's 1 - gamma, N, the margins; the translation's signed speed, N,
+   the margins) depend on t alone, and a short excursion of one below 0 (a break of a few
+   ms, gamma just past 1 near its maximum) must not fall between two samples.  Two rules,
+   from the samples themselves:
    - the step: h <= 2 g_k / r_k for every g_k > 0 falling at the observed rate r_k (the
      secant of the last two samples; at a stick's start the previous one is taken 1/100
      of a sample earlier).  At the linear rate the sample lands where g_k = -g_k, past a
@@ -170,17 +186,22 @@ static void crt_base_settle(crt_session *s, crt_out *o, int after_stop)
    - the minimum: where the parabola through the last three samples has its minimum
      inside the step, g is evaluated there too, and a value <= 0 is a crossing before it
      (an excursion the step spans whole).
-   A sample is at most opt[CRT_OPT_HMAX]/8 long. */
-static void crt_base_stick_step(crt_session *s, crt_out *o, double t_end)
+   A sample is at most opt[CRT_OPT_HMAX]/8 long.  The translation's first root of the
+   speed is its stop (a stick or a reversal, crt_base_settle); where its flow leaves the
+   line inside a sample (s->bs.turned) the slip's DOP853 steps go on from the sample's
+   start, whose state is exact. */
+static void crt_base_sample_step(crt_session *s, crt_out *o, double t_end)
 {
   const double hmax = s->opt[CRT_OPT_HMAX] / 8.0;
+  const int stick = s->bs.mode == CRT_BASE_STICK;
   double h = crt_min(hmax, t_end - s->t), t1, tol, shrink;
-  double g1[CRT_BASE_NG_STICK], xi[3], first = HUGE_VAL, g[CRT_BASE_NG_STICK];
+  double g1[CRT_BASE_NG_STICK], a1[NQ], aux[NQ], first = HUGE_VAL, g[CRT_BASE_NG_STICK];
+  double qi[NQ], *const chain = stick ? a1 : qi;   /* (Illinois': the maximiser warm) */
   int k, which = -1, i;
-  for (i = 0; i < 3; ++i) xi[i] = s->bs.xi[i];
+  for (i = 0; i < 3; ++i) a1[i] = s->bs.xi[i];
   if (!s->bs.has_p) {                      /* the previous sample: 1/100 of one earlier */
     s->bs.tp = s->t - 1e-2 * hmax;
-    crt_base_stick_g(s, s->bs.tp, s->bs.gp, xi);
+    crt_base_sample_g(s, s->bs.tp, s->bs.gp, a1);
     s->bs.has_p = 1;
   }
   for (k = 0; k < CRT_BASE_NG_STICK; ++k) {
@@ -194,7 +215,7 @@ static void crt_base_stick_step(crt_session *s, crt_out *o, double t_end)
   }
   t1 = s->t + h;
   tol = 1e-15 * crt_max(1.0, fabs(t1)) + 1e-15 * s->bs.body.t_scale;
-  crt_base_stick_g(s, t1, g1, xi);
+  crt_base_sample_g(s, t1, g1, a1);
   for (k = 0; k < CRT_BASE_NG_STICK; ++k) {
     double end = t1, gend = g1[k], root;
     if (!(s->bs.g[k] > 0.0)) continue;
@@ -203,25 +224,31 @@ static void crt_base_stick_step(crt_session *s, crt_out *o, double t_end)
       const double d2 = (g1[k] - s->bs.g[k]) / h, a = (d2 - d1) / (t1 - s->bs.tp);
       const double tv = a > 0.0 ? 0.5 * (s->t + t1) - d2 / (2.0 * a) : s->t;
       if (tv > s->t && tv < t1) {
-        double gv[CRT_BASE_NG_STICK], xv[3];
-        for (i = 0; i < 3; ++i) xv[i] = xi[i];
-        crt_base_stick_g(s, tv, gv, xv);
+        double gv[CRT_BASE_NG_STICK];
+        for (i = 0; i < 3; ++i) aux[i] = a1[i];
+        crt_base_sample_g(s, tv, gv, aux);
         end = tv;
         gend = gv[k];
       }
     }
     if (gend <= 0.0) {
-#define CRT_BASE_STICK_EVAL(x) (crt_base_stick_g(s, (x), g, xi), g[k])
-      CRT_BASE_ILLINOIS(s->t, s->bs.g[k], end, gend, root, tol, CRT_BASE_STICK_EVAL);
-#undef CRT_BASE_STICK_EVAL
-      if (k != 1) {                        /* N there: a break, a tip or the lift-off */
-        double gr[CRT_BASE_NG_STICK], xr[3];
-        for (i = 0; i < 3; ++i) xr[i] = xi[i];
-        crt_base_stick_g(s, root, gr, xr);
+#define CRT_BASE_SAMPLE_EVAL(x) (crt_base_sample_g(s, (x), g, chain), g[k])
+      CRT_BASE_ILLINOIS(s->t, s->bs.g[k], end, gend, root, tol, CRT_BASE_SAMPLE_EVAL);
+#undef CRT_BASE_SAMPLE_EVAL
+      if (k != 1 && (stick || k != 0)) {   /* N there: a break, a tip or the lift-off */
+        double gr[CRT_BASE_NG_STICK];
+        for (i = 0; i < 3; ++i) aux[i] = chain[i];
+        crt_base_sample_g(s, root, gr, aux);
         if (crt_base_tie(&s->bs.body, gr[1])) continue;  /* (N's root: located, or later) */
       }
       if (root < first) { first = root; which = k; }
     }
+  }
+  if (!stick && s->bs.turned) {            /* off the line: the slip's steps from s->t */
+    s->bs.mode = CRT_BASE_SLIP;
+    s->bs.hs = 0.0;
+    s->bs.fsal = 0;
+    return;
   }
   crt_base_rows(s, o, which < 0 ? t1 : first, 0, 0);
   ++s->stat[CRT_STAT_STEPS];
@@ -230,16 +257,29 @@ static void crt_base_stick_step(crt_session *s, crt_out *o, double t_end)
     for (i = 0; i < CRT_BASE_NG_STICK; ++i) s->bs.gp[i] = s->bs.g[i];
     s->t = t1;
     for (i = 0; i < CRT_BASE_NG_STICK; ++i) s->bs.g[i] = g1[i];
-    for (i = 0; i < 3; ++i) s->bs.xi[i] = xi[i];
+    if (stick) for (i = 0; i < 3; ++i) s->bs.xi[i] = a1[i];
+    else { for (i = 0; i < NQ; ++i) s->q[i] = a1[i]; crt_changed(s); }
     crt_base_step_row(s, o, t_end);
     return;
   }
   s->t = first;
-  crt_base_stick_g(s, s->t, g, s->bs.xi);  /* the maximiser at the event */
+  for (i = 0; i < 3; ++i) aux[i] = s->bs.xi[i];
+  crt_base_sample_g(s, s->t, g, aux);      /* the maximiser, or the state, at the event */
+  if (stick) for (i = 0; i < 3; ++i) s->bs.xi[i] = aux[i];
+  else { for (i = 0; i < NQ; ++i) s->q[i] = aux[i]; crt_changed(s); }
   if (which == 1) { crt_base_end(s, o, CRT_LIFT_OFF, CRT_EV_LIFT_OFF, g[1]); return; }
   if (which == 2) { crt_base_end(s, o, CRT_TIPPING, CRT_EV_TIPPING, g[2]); return; }
   if (which == 3) { crt_base_end(s, o, CRT_FACE_LIFTING, CRT_EV_FACE_LIFTING, g[3]); return; }
   crt_emit(o, s->t, s->q, CRT_ROW_BEFORE_EVENT);
+  if (!stick) {                            /* the translation's stop: V_O = 0 */
+    s->q[3] = s->q[4] = 0.0;
+    crt_changed(s);
+    s->bs.mode = CRT_BASE_REST;
+    crt_base_settle(s, o, 1);
+    if (s->status == CRT_PAUSED && s->bs.mode == CRT_BASE_STICK)
+      crt_emit(o, s->t, s->q, CRT_ROW_AFTER_EVENT);
+    return;
+  }
   crt_event(o, s->t, CRT_EV_SLIP, 1.0 - g[0], 0.0, 0.0, 0.0);
   ++s->stat[CRT_STAT_SLIPS];
   if (!crt_base_onset(s, o)) {                /* no slip after all: the stick goes on */
@@ -443,7 +483,9 @@ static void crt_integrate(crt_session *s, double t_end, crt_out *o)
     }
     if (crt_events_exhausted(s)) return;
     if (s->bs.mode == CRT_BASE_REST) crt_base_settle(s, o, 0);
-    else if (s->bs.mode == CRT_BASE_STICK) crt_base_stick_step(s, o, t_end);
+    else if (s->bs.mode == CRT_BASE_STICK || s->bs.mode == CRT_BASE_TRANSLATION)
+      crt_base_sample_step(s, o, t_end);
+    else if (s->bs.tr_try) crt_base_tr_start(s);
     else crt_base_slip_step(s, o, t_end);
     if (!crt_finite(s->q)) s->status = CRT_NONFINITE;
   }

@@ -19,7 +19,8 @@
 
 #define CRT_BASE_NZ (NQ + 1)      /* the slip's state in s: (t, q) */
 
-enum crt_base_mode { CRT_BASE_REST = 0, CRT_BASE_STICK = 1, CRT_BASE_SLIP = 2 };
+enum crt_base_mode { CRT_BASE_REST = 0, CRT_BASE_STICK = 1, CRT_BASE_SLIP = 2,
+                     CRT_BASE_TRANSLATION = 3 };
 enum crt_base_event { CRT_BASE_NONE = -1, CRT_BASE_END = 0, CRT_BASE_STOP = 1,
                       CRT_BASE_LIFT = 2, CRT_BASE_TIP = 3, CRT_BASE_KERN = 4 };
 #define CRT_BASE_NG 5             /* the slip's event functions */
@@ -58,11 +59,12 @@ static void crt_base_xi(const crt_base_body *b, const double *q, double *xi)
 }
 
 /* The signed speed xi.d at q along the unit direction d (face frame), with sin and cos of
-   psi and O's velocity in the face frame (v_x, v_y) */
+   psi (sc: given; NULL: computed) and O's velocity in the face frame (v_x, v_y) */
 static double crt_base_speed(const crt_base_body *b, const double *q, const double *d,
-                             double *sn, double *cs, double *vx, double *vy)
+                             const double *sc, double *sn, double *cs, double *vx, double *vy)
 {
-  crt_sincos(q[2], sn, cs);
+  if (sc) { *sn = sc[0]; *cs = sc[1]; }
+  else crt_sincos(q[2], sn, cs);
   *vx = *cs * q[3] + *sn * q[4];
   *vy = -*sn * q[3] + *cs * q[4];
   return *vx * d[0] + *vy * d[1] + b->ell * q[5] * d[2];
@@ -71,13 +73,14 @@ static double crt_base_speed(const crt_base_body *b, const double *q, const doub
 /* Along the line d at (q, dq): the signed speed xi.d, and how far the flow of xi turns off
    the line, squared, |xi' - (xi'.d) d|^2 / |xi'|^2 (0 when at most 1e-24, xi' = 0 among
    them: the only test is against (1e-12)^2), xi' = (a_f + w (v_y, -v_x), ell w'),
-   a_f O's acceleration in the face frame (the frame turns with psi) */
+   a_f O's acceleration in the face frame (the frame turns with psi); sc: sin and cos of
+   psi where known (the translation's, held), else NULL */
 static double crt_base_line_flow(const crt_base_body *b, const double *q, const double *dq,
-                                 const double *d, double *speed)
+                                 const double *d, const double *sc, double *speed)
 {
   double sn, cs, vx, vy, G[3], along, lat = 0.0, nG = 0.0;
   int i;
-  *speed = crt_base_speed(b, q, d, &sn, &cs, &vx, &vy);
+  *speed = crt_base_speed(b, q, d, sc, &sn, &cs, &vx, &vy);
   G[0] = cs * dq[3] + sn * dq[4] + q[5] * vy;
   G[1] = -sn * dq[3] + cs * dq[4] - q[5] * vx;
   G[2] = b->ell * dq[5];
@@ -100,6 +103,7 @@ static void crt_base_line_start(crt_session *s)
   n = sqrt(xi[0] * xi[0] + xi[1] * xi[1] + xi[2] * xi[2]);
   s->bs.line = n > 0.0;
   for (i = 0; i < 3; ++i) s->bs.dir[i] = n > 0.0 ? xi[i] / n : 0.0;
+  s->bs.tr_try = s->bs.line && fabs(s->bs.dir[2]) <= 1e-12;  /* (crt_base_tr_start) */
 }
 
 /* The slip's rate at z = (t, q), with N, cp and rho.  Along a line (s->bs.line): in t,
@@ -116,7 +120,7 @@ static void crt_base_zrhs(crt_session *s, const double *z, double *dz, double *N
   if (s->bs.line) {
     double lat;
     crt_base_rates(&s->bs.body, crt_base_u(s, z[0]), z + 1, s->bs.dir, dq, N, cp);
-    lat = crt_base_line_flow(&s->bs.body, z + 1, dq, s->bs.dir, rho);
+    lat = crt_base_line_flow(&s->bs.body, z + 1, dq, s->bs.dir, 0, rho);
     if (lat > s->bs.lateral) s->bs.lateral = lat;       /* (squared) */
     dz[0] = 1.0;
     for (i = 0; i < NQ; ++i) dz[1 + i] = dq[i];
@@ -272,7 +276,7 @@ static double crt_base_slip_g_at(crt_session *s, double t_end, const double *z, 
   if (k == CRT_BASE_END) return t_end - z[0];
   if (k == CRT_BASE_STOP) {
     double sn, cs, vx, vy;
-    return s->bs.line ? crt_base_speed(&s->bs.body, z + 1, s->bs.dir, &sn, &cs, &vx, &vy)
+    return s->bs.line ? crt_base_speed(&s->bs.body, z + 1, s->bs.dir, 0, &sn, &cs, &vx, &vy)
                       : crt_base_rho(&s->bs.body, z + 1) - s->bs.eps;
   }
   crt_base_zrhs(s, z, dz, &N, cp, &rho);
@@ -597,6 +601,103 @@ static int crt_base_onset(crt_session *s, crt_out *o)
   return 1;
 }
 
+/* ---- the translation ------------------------------------------------------------------ */
+/* A slip along a line that does not turn (psi' = 0 and no yaw or lateral rate: the line's
+   test, crt_base_line_flow, at every sample) is a quadrature of the law.  The horizontal
+   momentum P = (M + m) V_O + R(psi) s'_h (fixed axes; the body does not turn) changes by
+   the friction alone, -mu N e (every point of the face slides along e), and N = (M + m) g
+   + s_z'', so from the start t0
+     P(t) = P0 - mu e [(M + m) g (t - t0) + s_z'(t) - s_z'(t0)],
+     X_O(t) = X_O(t0) + (P0 (t - t0) - mu e [(M + m) g (t - t0)^2/2 + s_z(t) - s_z(t0)
+              - s_z'(t0) (t - t0)] - R (s_h(t) - s_h(t0))) / (M + m),
+   V_O = (P - R s'_h)/(M + m): the state at any t from the law's values there, no steps.
+   The stop (V_O.e = 0), N and the margins of cp are functions of t alone, sampled and
+   located as the stick's (crt_base_sample_step). */
+
+/* the translation's state q at t, u the moments (face frame) there */
+static void crt_base_tr_q(const crt_session *s, double t, const double *u, double *q)
+{
+  const crt_base_body *b = &s->bs.body;
+  const double Mt = b->pf[0] + b->pf[1], tau = t - s->bs.tr_t0, sn = s->bs.tr_sc[0];
+  const double cs = s->bs.tr_sc[1], mu = b->mu;
+  const double IN = Mt * b->pf[5] * tau + u[5] - s->bs.tr_sz[1];
+  const double JN = Mt * b->pf[5] * 0.5 * tau * tau + u[2] - s->bs.tr_sz[0]
+                    - s->bs.tr_sz[1] * tau;
+  const double S[2] = {cs * u[0] - sn * u[1], sn * u[0] + cs * u[1]};
+  const double Sd[2] = {cs * u[3] - sn * u[4], sn * u[3] + cs * u[4]};
+  int i;
+  for (i = 0; i < 2; ++i) {
+    q[i] = s->bs.tr_X[i] + (s->bs.tr_P[i] * tau - mu * JN * s->bs.tr_e[i]
+                           - (S[i] - s->bs.tr_S[i])) / Mt;
+    q[3 + i] = (s->bs.tr_P[i] - mu * IN * s->bs.tr_e[i] - Sd[i]) / Mt;
+  }
+  q[2] = s->q[2];                          /* (the yaw held: s->q's is the start's) */
+  q[5] = 0.0;
+}
+
+/* the translation's event functions at t (the stick's order): the signed speed V_O.e, N,
+   the edge margin, the kern margin (linear pressure; else 1); its state in q.  The rates
+   there (the friction of the line held) test the line: a turn or a lateral rate sets
+   s->bs.turned */
+static void crt_base_tr_g(crt_session *s, double t, double *g, double *q)
+{
+  const crt_base_body *b = &s->bs.body;
+  const double *u = crt_base_u(s, t);
+  double dq[NQ], N, cp[2];
+  crt_base_tr_q(s, t, u, q);
+  crt_base_rates(b, u, q, s->bs.dir, dq, &N, cp);
+  ++s->stat[CRT_STAT_RHS_EVALUATIONS];
+  if (crt_base_line_flow(b, q, dq, s->bs.dir, s->bs.tr_sc, &g[0]) > 0.0)
+    s->bs.turned = 1;
+  g[1] = N;
+  g[2] = crt_base_margin(b, N, crt_face_edge_margin(&b->face, cp[0], cp[1]));
+  g[3] = b->linear ? crt_base_margin(b, N, crt_face_kern_margin(&b->face, cp[0], cp[1]))
+                   : 1.0;
+}
+
+/* The translation from the slip at s->t along its line (s->bs.tr_try: its turn, ell psi',
+   at most 1e-12 of its speed, the line's own test of a turn: held at 0); the slip's
+   DOP853 steps where its flow turns there, or where N or a margin is not positive there
+   (the slip's step stops the run at its start: a reversal's own cp off the face tips at
+   once) */
+static void crt_base_tr_start(crt_session *s)
+{
+  const crt_base_body *b = &s->bs.body;
+  const double *u = crt_base_u(s, s->t), Mt = b->pf[0] + b->pf[1];
+  const double d[3] = {s->bs.dir[0], s->bs.dir[1], s->bs.dir[2]}, w = s->q[5];
+  const double n = sqrt(d[0] * d[0] + d[1] * d[1]);
+  double sn, cs, q[NQ];
+  int k;
+  s->bs.tr_try = 0;
+  s->bs.dir[0] = d[0] / n;
+  s->bs.dir[1] = d[1] / n;
+  s->bs.dir[2] = s->q[5] = 0.0;
+  crt_sincos(s->q[2], &sn, &cs);
+  s->bs.tr_sc[0] = sn;
+  s->bs.tr_sc[1] = cs;
+  s->bs.tr_t0 = s->t;
+  s->bs.tr_X[0] = s->q[0];
+  s->bs.tr_X[1] = s->q[1];
+  s->bs.tr_P[0] = Mt * s->q[3] + cs * u[3] - sn * u[4];
+  s->bs.tr_P[1] = Mt * s->q[4] + sn * u[3] + cs * u[4];
+  s->bs.tr_S[0] = cs * u[0] - sn * u[1];
+  s->bs.tr_S[1] = sn * u[0] + cs * u[1];
+  s->bs.tr_sz[0] = u[2];
+  s->bs.tr_sz[1] = u[5];
+  s->bs.tr_e[0] = cs * s->bs.dir[0] - sn * s->bs.dir[1];
+  s->bs.tr_e[1] = sn * s->bs.dir[0] + cs * s->bs.dir[1];
+  s->bs.turned = 0;
+  crt_base_tr_g(s, s->t, s->bs.g, q);
+  for (k = 0; k < CRT_BASE_NG_STICK && s->bs.g[k] > 0.0; ++k) {}
+  if (k == CRT_BASE_NG_STICK && !s->bs.turned) {
+    s->bs.mode = CRT_BASE_TRANSLATION;
+    s->bs.has_p = 0;
+    return;
+  }
+  for (k = 0; k < 3; ++k) s->bs.dir[k] = d[k];   /* (the slip's steps as they were) */
+  s->q[5] = w;
+}
+
 /* ---- rows every output_dt ---------------------------------------------------------------- */
 /* The grid rows out_origin + k output_dt (k >= out_k) before until: how many (up to cap + 1) */
 static long crt_base_rows_before(const crt_session *s, double until, long cap)
@@ -627,7 +728,8 @@ static int crt_base_rows_fit(crt_session *s, const crt_out *o, long n, double *s
 }
 
 /* The grid rows before until: from the step's dense output (z0, F: t at the row's fraction
-   x found by Illinois on t(x), monotone in a step), or the constant state s->q (F = 0); a
+   x found by Illinois on t(x), monotone in a step), the translation's state there, or the
+   constant state s->q (F = 0); a
    grid time at or before the step's start (a stop's last linear part, a slip's Taylor
    start, 1e-9 s at most) reads its start.  A grid time at until is the step's own row. */
 static void crt_base_rows(crt_session *s, crt_out *o, double until, const double *z0,
@@ -638,7 +740,11 @@ static void crt_base_rows(crt_session *s, crt_out *o, double until, const double
   if (!(out_dt > 0.0)) return;
   while (s->next_output < until) {
     const double at = s->next_output;
-    if (!F) {
+    if (!F && s->bs.mode == CRT_BASE_TRANSLATION) {
+      double qr[NQ];
+      crt_base_tr_q(s, at, crt_base_u(s, at), qr);
+      crt_emit(o, at, qr, CRT_ROW_STEP);
+    } else if (!F) {
       crt_emit(o, at, s->q, CRT_ROW_STEP);
     } else {
       double x = 0.0;

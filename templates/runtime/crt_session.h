@@ -82,6 +82,13 @@ typedef struct {
   double fz[NQ + 1], ff[NQ + 1], fN, fcp[2], frho;   /* and rho (the next step's start) */
   int full;                               /* 1: no room for a step's output_dt rows */
   double t_end;                           /* this crt_integrate's end (the slip's start) */
+  int tr_try;                             /* 1: a slip along a line that does not turn:
+                                             its exact translation to be tried */
+  int turned;                             /* 1: the translation's flow left its line */
+  double tr_t0, tr_X[2], tr_P[2], tr_S[2];   /* the translation's start: t, O, momentum,
+                                                the moment s (fixed axes), */
+  double tr_sz[2], tr_e[2], tr_sc[2];     /* s_z, s_z' there, its friction's direction
+                                             (fixed axes), sin and cos of its yaw */
 } crt_base_memory;
 #endif
 

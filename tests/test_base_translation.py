@@ -1,0 +1,146 @@
+"""The base model's translation (crt_base_flow.h's crt_base_tr_*: a slip along a line that
+does not turn, run as a quadrature of the law, no steps) against the 1-D momentum balance
+integrated apart by SciPy's solve_ivp, (M + m) X'' = -mu N sgn(X') - m x''(t) with N =
+(M + m) g + m z''(t), on a box yawed by psi0 = 0.5 (the line is not an axis) whose point
+moves up and down (N varies: the quadrature's s_z terms count) and to and fro along the
+body's x or a line 0.6 rad off it (the line not an axis of the face either):
+
+* each break-away where the rest needs mu_s N: |m x''| = mu_s N from the law, to 1e-9;
+* each slip's stop (its time, and O there) where solve_ivp's X' reaches 0 from the C's
+  state after the slip's start, to 1e-9; O on its line and psi at psi0 throughout;
+* the output_dt rows inside a slip (read from the quadrature) on solve_ivp's dense output;
+* a slip whose flow leaves its line inside (the point's y = C sin^30 W t: below 1e-12 of
+  the along rate for the first samples, then not) goes on by the slip's DOP853 steps from
+  the last sample: its events and states against the same run with the translation
+  refused from the start (+1e-10 t^2: the turn seen at once), to 1e-9.
+"""
+import math
+
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+
+from derive import abi
+
+import test_base_runtime as tbr
+
+G, M, m, MU, MU_S = 9.81, 1.0, 0.4, 0.3, 0.35
+A, W, BETA, Z0, B = 0.05, 12.0, 0.4, 0.02, 0.004
+PSI0, X0, Y0 = 0.5, 0.1, -0.2
+BOX = 'mass = 1.0\ninertia = [0.01, 0.02, 0.025]\nshape = "box"\nhalf_extents = [0.1, 0.06, 0.04]'
+DRIVE = f"{A}*(sin({W}*t) + {BETA}*sin({2 * W}*t))"
+LAW = f'law = ["{{x}}", "{{y}}", "{Z0} + {B}*sin({3 * W}*t)"]'
+KIND = {k: abi.ROW_KIND[k] for k in ("step", "before_event", "after_event")}
+
+
+def xdd(t):
+    return -A * W * W * (math.sin(W * t) + 4 * BETA * math.sin(2 * W * t))
+
+
+def xd(t):
+    return A * W * (math.cos(W * t) + 2 * BETA * math.cos(2 * W * t))
+
+
+def normal(t):
+    return (M + m) * G - m * B * 9 * W * W * math.sin(3 * W * t)
+
+
+def _run(duration, along=0.0, output_dt=0.0):
+    """the point driven along the body's (cos along, sin along, 0)"""
+    x, y = (f"{c!r}*{DRIVE}" for c in (math.cos(along), math.sin(along)))
+    scene = tbr._scene(BOX, f"mass = {m}\n" + LAW.format(x=x, y=y), MU, duration)
+    return tbr.run_base(scene, [X0, Y0, PSI0, 0, 0, 0], mu_s=MU_S, output_dt=output_dt)
+
+
+def _slips(raw):
+    """(the slip's start row, the stop's time) of each slip that stops in the run"""
+    kinds = abi.names(abi.EVENT_KINDS)
+    events = [(row[0], kinds[int(row[1])]) for row in raw.events]
+    out = []
+    for (ta, ka), (tb, kb) in zip(events, events[1:]):
+        if ka in ("slip", "reversal") and kb in ("stick", "reversal"):
+            start = np.flatnonzero((raw.kinds == KIND["after_event"]) & (raw.t >= ta))[0]
+            out.append((start, tb))
+    return out
+
+
+def _balance(raw, start, along=0.0):
+    """solve_ivp of the 1-D balance along the line from the C's state at row start: its
+    solution (dense), and the stop (X' = 0)"""
+    u = np.array([math.cos(PSI0 + along), math.sin(PSI0 + along)])
+    v1 = float(raw.q[start, 3:5] @ u)
+    sigma = math.copysign(1.0, v1)
+
+    def f(t, y):
+        return [y[1], (-sigma * MU * normal(t) - m * xdd(t)) / (M + m)]
+
+    def stop(t, y):
+        return y[1]
+    stop.terminal = True
+    t1 = float(raw.t[start])
+    sol = solve_ivp(f, (t1, t1 + 1.0), [0.0, v1], method="DOP853", rtol=1e-13, atol=1e-15,
+                    events=stop, dense_output=True)
+    return sol, u
+
+
+@pytest.mark.parametrize("along", [0.0, 0.6])
+def test_a_yawed_box_translates_as_its_momentum_balance_integrated_apart(along):
+    raw = _run(1.2, along)
+    kinds = abi.names(abi.EVENT_KINDS)
+    assert raw.status == "done"
+    breaks = [row[0] for row in raw.events if kinds[int(row[1])] == "slip"]
+    assert len(breaks) >= 3
+    for t in breaks:                       # the rest needs mu_s N there
+        assert abs(abs(m * xdd(t)) - MU_S * normal(t)) < 1e-9 * MU_S * normal(t)
+    slips = _slips(raw)
+    assert len(slips) >= 4
+    for start, t_stop in slips:
+        sol, u = _balance(raw, start, along)
+        assert abs(sol.t_events[0][0] - t_stop) < 1e-9
+        at = np.flatnonzero((raw.kinds == KIND["before_event"]) & (raw.t == t_stop))[0]
+        expected = raw.q[start, :2] + sol.y_events[0][0][0] * u
+        assert np.abs(raw.q[at, :2] - expected).max() < 1e-9
+    lateral = (-math.sin(PSI0 + along) * (raw.q[:, 0] - X0)
+               + math.cos(PSI0 + along) * (raw.q[:, 1] - Y0))
+    assert np.abs(lateral).max() < 1e-12 and np.all(raw.q[:, 2] == PSI0)
+    assert np.abs(raw.q[:, 5]).max() < 1e-20     # (a slip's start: round-off, then held 0)
+
+
+def test_the_grid_rows_inside_a_translation_are_its_momentum_balances():
+    raw = _run(0.6, output_dt=0.01)
+    checked = 0
+    for start, t_stop in _slips(raw):
+        sol, u = _balance(raw, start)
+        rows = np.flatnonzero((raw.kinds == KIND["step"]) & (raw.t > raw.t[start])
+                              & (raw.t < t_stop))
+        for r in rows:
+            s, v = sol.sol(raw.t[r])
+            assert np.abs(raw.q[r, :2] - (raw.q[start, :2] + s * u)).max() < 1e-9
+            assert np.abs(raw.q[r, 3:5] - v * u).max() < 1e-8
+            checked += 1
+    assert checked >= 10
+
+
+def test_a_translation_whose_flow_turns_goes_on_by_the_slips_steps():
+    """The box sliding at 0.2 m/s along its x at t = 0, its point's y = C sin^30(W t): the
+    slip starts as a translation, its flow turns off the line at 25 ms (the lateral rate
+    past 1e-12 of the along one at a sample) and DOP853 takes it from the last sample;
+    the same scene with the turn seen at the start (+1e-10 t^2, a lateral force of 8e-11
+    N: the translation refused, the slip's steps from t = 0) agrees to 1e-9 at every event
+    and at the end (the perturbation's own effect: 5e-11 at the events, 2.4e-10 at the
+    end, linear in its size)."""
+    v0, y = 0.2, f"0.004*sin({W}*t)^30"
+    q0 = [X0, Y0, PSI0, v0 * math.cos(PSI0), v0 * math.sin(PSI0), 0.0]
+    turned, steps = (tbr.run_base(tbr._scene(BOX, f"mass = {m}\n" + LAW.format(x=DRIVE, y=law),
+                                             MU, 0.6), q0, mu_s=MU_S)
+                     for law in (y, y + " + 1e-10*t^2"))
+    assert turned.status == steps.status == "done"
+    assert [int(e[1]) for e in turned.events] == [int(e[1]) for e in steps.events]
+    assert len(turned.events) >= 3
+    assert np.abs(turned.events[:, 0] - steps.events[:, 0]).max() < 1e-9
+    ends = [np.flatnonzero(r.kinds == KIND["before_event"]) for r in (turned, steps)]
+    assert np.abs(turned.q[ends[0]] - steps.q[ends[1]]).max() < 1e-9
+    assert np.abs(turned.q[-1] - steps.q[-1]).max() < 1e-9
+    # the turn is real (the body yaws), and the first 25 ms were sampled, not stepped
+    assert np.abs(turned.q[:, 2] - PSI0).max() > 1e-3
+    assert turned.stats["rhs_evaluations"] < steps.stats["rhs_evaluations"]
