@@ -154,8 +154,8 @@ def test_a_cylinder_a_hair_beyond_the_tolerance_or_in_flight_is_the_rough_model_
 
 def _sliding_fall(tilt: float, M: float, J: float, mu: float) -> tuple:
     """A cylinder at rest on its lower end's lowest rim point, its axis ``tilt`` above the
-    plane, falling flat in the vertical plane of its axis, the rim point sliding (the
-    rest would need a horizontal force 1.5 N: here mu = 0.25 < 1.5): planar rigid-body
+    plane, falling flat in the vertical plane of its axis, the rim point sliding (holding
+    it would take friction of 1.5 times N, against mu = 0.25): planar rigid-body
     equations, N from the contact's height, F = mu N against the slip.  (time it lies
     flat, energy lost to friction by then), by SciPy's DOP853."""
     from scipy.integrate import solve_ivp
