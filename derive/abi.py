@@ -187,7 +187,8 @@ STATUSES = (
                                       "energy-consistent (mu_f |W_tn| > 0)"),
     Status("surface_jump", -7, "in contact, the lowest point S jumped (a surface that is not "
                                "strictly convex, e.g. a capsule whose axis passes the "
-                               "horizontal): the one-point contact cannot hold it"),
+                               "horizontal), or another point reached the plane with it (a "
+                               "line or a face down): the one-point contact cannot hold it"),
     Status("bad_argument", -20, "an output buffer is smaller than CRT_MIN_ROWS rows or "
                                 "CRT_MIN_EVENTS events (nothing is done: call again with "
                                 "larger ones)"),

@@ -65,10 +65,32 @@ def test_the_capsule_crawler_crawls_as_the_closed_form_says(tmp_path):
     assert abs(tr["mean_velocity"][0] - X10 / 10 / PERIOD) < 1e-9
     assert abs(tr["last_period_displacement"][0] - 4.7774e-4) < 1e-7     # the steady crawl
     assert tr["displacement_per_period"][1] == 0.0
+    # each period's displacement, the first from rest; the steady crawl from the second
+    X = [closed_X(k * PERIOD) for k in range(11)]
+    each = np.array(tr["period_displacements"])
+    assert each.shape == (10, 2) and np.abs(each[:, 0] - np.diff(X)).max() < 1e-9
+    assert abs(X[1] - X[2] + X[1]) > 1e-4                 # the start-up is no steady period
+    st = tr["steady"]
+    assert (st["from_period"], st["periods"]) == (2, 9)
+    assert abs(st["displacement_per_period"][0] - (X[10] - X[1]) / 9) < 1e-9
+    assert abs(st["mean_speed"] - (X[10] - X[9]) / PERIOD) < 1e-9
+    assert abs(st["mean_speed"] / tr["mean_speed"] - 1) > 0.1       # the start-up's share
     contact = summary["contact"]
     assert contact["static_friction"] == cf.MU_S and contact["friction"] == cf.MU_K
     assert contact["slips"] == 20 and contact["sticks"] == 19
     assert abs(contact["min_normal_force"] - (cf.M + cf.m) * cf.G) < 1e-12
+
+
+def test_the_steady_crawl_starts_where_the_periods_repeat():
+    """base_report.steady: the first period from which all repeat the last (to 1e-6 of the
+    largest); None while the last two differ, or for one period."""
+    from derive.runtime.base_report import steady
+    assert steady([[5e-4, 0], [1e-4, 2e-5], [1e-4, 2e-5]]) == 2
+    assert steady([[1e-4, 0], [1e-4, 0]]) == 1
+    assert steady([[1e-4, 0], [2e-4, 0], [3e-4, 0]]) is None
+    assert steady([[1e-4, 0], [1e-4 * (1 + 2e-6), 0]]) is None
+    assert steady([[1e-4, 0]]) is None
+    assert steady([[0.0, 0.0], [0.0, 0.0]]) == 1                 # at rest: steady at 0
 
 
 def test_the_rows_in_the_general_layout_are_the_model_state_seen_from_c():

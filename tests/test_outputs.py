@@ -243,6 +243,25 @@ def test_outputs_of_a_run_with_resting_contact(tmp_path):
     assert abs(work["general"] - work["vertical"]) < 1e-9
 
 
+def test_a_base_run_writes_the_impacts_header_of_its_rough_plane(tmp_path):
+    """Every run writes impacts.csv: a base run (no impacts: its face stays on the plane)
+    its header alone, with the columns of the rough plane it stands on, which a flight on
+    that plane writes (a base run's hand-over, here the built-in ball given friction); it
+    had written the smooth plane's four."""
+    from pathlib import Path
+    example = Path(__file__).parents[1] / "derive" / "scene" / "examples"
+    base = derive.simulate(str(example / "capsule-crawler.toml"))
+    rough = derive.simulate(scene(plane__friction=0.3, run__duration=1.0))
+    assert (base.model, rough.model) == ("base", "rough") and len(rough.impacts) > 0
+    for name, result in (("base", base), ("rough", rough)):
+        write_all(result, tmp_path / name, plot=False)
+    lines = (tmp_path / "base" / "impacts.csv").read_text().splitlines()
+    assert lines == (tmp_path / "rough" / "impacts.csv").read_text().splitlines()[:1]
+    assert lines[0].startswith("t,I,v_n_minus,v_n_plus,P_X,P_Y,")
+    data = np.genfromtxt(tmp_path / "base" / "impacts.csv", delimiter=",", names=True)
+    assert data.size == 0 and list(data.dtype.names) == lines[0].split(",")
+
+
 def test_a_write_removes_what_an_earlier_run_left(tmp_path):
     """The folder holds one run: plots or a CSV table of an earlier run that this write
     did not replace are removed (a new-user trial found an npz summary beside CSV tables

@@ -56,6 +56,7 @@ def _checkout_files() -> set:
     want |= {f"derive/generated/{rel}" for rel in _generated()}
     want |= {p.relative_to(ROOT).as_posix() for p in (ROOT / "derive" / "docs").rglob("*")
              if p.suffix in (".md", ".png")}                     # the reference pages
+    want |= {p.relative_to(ROOT).as_posix() for p in (ROOT / "derive").glob("*/examples/*.toml")}
     return want
 
 
@@ -78,8 +79,13 @@ def installed(tmp_path_factory):
         else:
             shutil.copy2(path, src / name)
     env = _clean_env(DERIVE_CACHE=str(tmp / "cache"))
-    _run([sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w", tmp / "dist", src],
-         env=env, cwd=tmp)
+    # -v: pip shows setuptools' own output, where a folder of data missing from pyproject's
+    # packages is warned of (one warning a folder, at every install)
+    built = _run([sys.executable, "-m", "pip", "wheel", "--no-deps", "-v", "-w", tmp / "dist",
+                  src], env=env, cwd=tmp)
+    unlisted = [line for line in (built.stdout + built.stderr).splitlines()
+                if "absent from the `packages` configuration" in line]
+    assert not unlisted, unlisted
     (wheel,) = (tmp / "dist").glob("markeev_carrier-*.whl")
     _run([sys.executable, "-m", "venv", tmp / "venv"], env=env)
     bin_dir = tmp / "venv" / "bin"

@@ -43,7 +43,7 @@ from functools import lru_cache
 from .. import friction_models
 from .. import models as dm
 from .. import models_moments as mmo
-from .. import abi, layout, shapes
+from .. import abi, face, layout, shapes
 from . import tableaus as T
 from . import sincos
 from .c_backend import body
@@ -276,7 +276,9 @@ def render_model(m: RuntimeModel) -> str:
            "shapes": [(name, "p[CRT_P_size_a]" if shapes.of(name).size_count == 1
                        else "p + CRT_P_size_a") for name in shapes.SHAPE_NAMES],
            "may_jump": [name for name in shapes.SHAPE_NAMES
-                        if not shapes.of(name).strictly_convex]}
+                        if not shapes.of(name).strictly_convex],
+           # how far the vertical turns to find a point across the body as low as S
+           "line_tol": repr(face.LINE_TOL)}
     return env.get_template("runtime/model.c.jinja").render(**ctx)
 
 

@@ -81,19 +81,55 @@ def law_period(scene) -> float | None:
     return span if k >= 1 and abs(span - k * T) <= 1e-9 * span else None
 
 
-def _c_at_end(scene, t_end: float) -> np.ndarray | None:
-    """C's position at t_end from a run of the scene that ends there (None: it stopped
-    before)."""
+# two periods are the same when their displacements agree to this fraction of the largest
+# (plus a picometre): far above the dense output's error (rtol 1e-10), far below a change
+STEADY_TOL = 1e-6
+
+
+def _c_at_periods(scene, n: int, T: float) -> np.ndarray | None:
+    """C at t0, t0 + T, ..., t0 + n T (rows (n + 1, 3)), from one run of the scene to
+    t0 + n T on the grid of one period ([run].output_dt = T: the dense output's rows);
+    None where that run stopped before."""
     from .driver import simulate
-    run = simulate(dataclasses.replace(scene, duration=t_end - scene.t0, output_dt=0.0))
+    run = simulate(dataclasses.replace(scene, duration=n * T, output_dt=T))
     if run.status != "done":
         return None
-    return choice.base_c_at(scene, float(run.t[-1]), run.model_q[-1])
+    t = np.asarray(run.t)
+    rows = np.flatnonzero(np.asarray(run.row_kind) == abi.ROW_KIND["step"])
+    k = np.rint((t[rows] - scene.t0) / T).astype(int)
+    on = np.abs(t[rows] - (scene.t0 + k * T)) <= 1e-9 * T * max(n, 1)
+    at = {int(j): int(i) for j, i in zip(k[on], rows[on])}
+    if any(j not in at for j in range(n + 1)):
+        return None
+    return np.array([choice.base_c_at(scene, float(t[at[j]]), run.model_q[at[j]])
+                     for j in range(n + 1)])
+
+
+def steady(per_period: np.ndarray) -> int | None:
+    """The first period (1-based) from which every period's displacement is the last
+    one's to STEADY_TOL: the periodic crawl, which Chernousko's and Bardin and Panev's
+    mean speeds are of; None unless the last two periods at least agree (not yet
+    periodic, or one period run)."""
+    d = np.asarray(per_period, dtype=float)
+    if len(d) < 2:
+        return None
+    tol = STEADY_TOL * float(np.max(np.hypot(d[:, 0], d[:, 1]))) + 1e-12
+    same = np.hypot(*(d - d[-1]).T) <= tol
+    if not same[-2]:
+        return None
+    first = len(d) - 1
+    while first > 0 and same[first - 1]:
+        first -= 1
+    return first + 1
 
 
 def travel(result) -> dict:
     """C's horizontal displacement (the vector), and for a periodic law the whole periods
-    run: the mean displacement and velocity per period over them, and the last one's."""
+    run: each period's displacement (C at the periods' ends from one run on their grid),
+    their mean and the mean velocity over them (the start-up from rest included), the
+    last one's, and ``steady``: from which period the displacement repeats (STEADY_TOL)
+    and the mean displacement and velocity per period from there (None: not periodic
+    yet)."""
     s = result.scene
     t_end = float(result.t[-1])
     c0 = np.asarray(s.com, dtype=float)
@@ -107,16 +143,26 @@ def travel(result) -> dict:
     out.update({"period": T, "whole_periods": n})
     if n < 1:
         return out
-    ends = {k: _c_at_end(s, s.t0 + k * T) for k in {n, n - 1} if k > 0}
-    ends[0] = c0
-    if ends[n] is None or ends.get(n - 1) is None:
+    ends = _c_at_periods(s, n, T)
+    if ends is None:
         return out
+    ends[0] = c0
+    each = np.diff(ends[:, :2], axis=0)
     d = (ends[n] - c0)[:2] / n
-    last = (ends[n] - ends[n - 1])[:2]
     out.update({"displacement_per_period": [float(x) for x in d],
                 "mean_velocity": [float(x / T) for x in d],
                 "mean_speed": float(np.hypot(*d) / T),
-                "last_period_displacement": [float(x) for x in last]})
+                "last_period_displacement": [float(x) for x in each[-1]],
+                "period_displacements": [[float(x), float(y)] for x, y in each]})
+    first = steady(each)
+    if first is None:
+        out["steady"] = None
+        return out
+    ds = each[first - 1:].mean(axis=0)
+    out["steady"] = {"from_period": first, "periods": n - first + 1,
+                     "displacement_per_period": [float(x) for x in ds],
+                     "mean_velocity": [float(x / T) for x in ds],
+                     "mean_speed": float(np.hypot(*ds) / T)}
     return out
 
 
@@ -264,7 +310,15 @@ def lines(result, tr: dict | None = None) -> list[str]:
         last = tr["last_period_displacement"]
         out.append(f"  C moved ({d[0]:.6g}, {d[1]:.6g}) m a period over {tr['whole_periods']}"
                    f" whole periods of {tr['period']:.6g} s (mean speed {tr['mean_speed']:.6g}"
-                   f" m/s); the last period ({last[0]:.6g}, {last[1]:.6g}) m")
+                   f" m/s, from rest); the last period ({last[0]:.6g}, {last[1]:.6g}) m")
+        st = tr.get("steady")
+        if st is not None:
+            ds = st["displacement_per_period"]
+            out.append(f"  steady from period {st['from_period']}: ({ds[0]:.6g}, {ds[1]:.6g}) "
+                       f"m a period, mean speed {st['mean_speed']:.6g} m/s")
+        elif "steady" in tr:
+            out.append(f"  not yet periodic: the last two periods differ by more than "
+                       f"{STEADY_TOL:g} of the largest")
     return out
 
 

@@ -7,7 +7,11 @@ dense output, so its ``t`` column is uniform.  The states just before and just a
 event (impact, contact, lift-off, graze) are in ``events.csv``, with the same columns
 after two text columns ``event`` and ``side`` (before, after); ``impacts.csv`` has one row
 per impact (t, I, v_n_minus, v_n_plus).  Column names are plain identifiers (``dX_C`` for
-X_C'), so ``numpy.genfromtxt(..., names=True)`` and pandas keep them.
+X_C'), so ``numpy.genfromtxt(..., names=True)`` and pandas keep them.  Every run writes
+the same files, whatever its model: a run with no impacts (a base run, whose face stays
+on the plane; a flight that never lands) writes impacts.csv with its header alone, the
+columns its plane's impacts would have (a base run's: the rough plane's, as its
+hand-over's flight writes them), so a script or a sweep reads one set of files.
 
 A scene that is not one point has every point's position (``X_P1, Y_P1, Z_P1``, ...),
 every rotor's angle and rate relative to the body (``psi_1, dpsi_1``, ...) and each body's
@@ -136,6 +140,9 @@ def impact_table(result: Result) -> tuple[list, np.ndarray]:
     impulse), the slip of S before and after, the work of the normal impulse and of
     friction, and stage."""
     header = ["t", "I", "v_n_minus", "v_n_plus"]
+    if result.model == "base":       # a face on a rough plane has none, but the columns
+        header += list(result.IMPACT_FRICTION_COLUMNS)     # of its hand-over's flight
+        return header, np.zeros((0, len(header)))
     if not result.rough:
         return header, result.impacts
     return header + list(result.IMPACT_FRICTION_COLUMNS), \

@@ -154,7 +154,7 @@ enum crt_status {
   CRT_PENETRATION = -4,  /* S went below the plane and the event could not be located */
   CRT_PAINLEVE = -5,  /* sliding friction leaves no consistent normal reaction (Painleve: dv_n/dp <= 0 in an impact, or k_f <= 0 while sliding) */
   CRT_RESTITUTION_REFUSED = -6,  /* restitution_model newton at an impact where it is not energy-consistent (mu_f |W_tn| > 0) */
-  CRT_SURFACE_JUMP = -7,  /* in contact, the lowest point S jumped (a surface that is not strictly convex, e.g. a capsule whose axis passes the horizontal): the one-point contact cannot hold it */
+  CRT_SURFACE_JUMP = -7,  /* in contact, the lowest point S jumped (a surface that is not strictly convex, e.g. a capsule whose axis passes the horizontal), or another point reached the plane with it (a line or a face down): the one-point contact cannot hold it */
   CRT_BAD_ARGUMENT = -20,  /* an output buffer is smaller than CRT_MIN_ROWS rows or CRT_MIN_EVENTS events (nothing is done: call again with larger ones) */
   CRT_BAD_OPTIONS = -21,  /* an option breaks its rule: crt_bad_option names it */
   CRT_BAD_PARAMETERS = -22,  /* a parameter is not finite, or shape is no CRT_SHAPE_*: crt_bad_parameter names it */

@@ -296,7 +296,8 @@ static void crt_base_slip_step(crt_session *s, crt_out *o, double t_end)
 {
   double z0[CRT_BASE_NZ], f0[CRT_BASE_NZ], z1[CRT_BASE_NZ], f1[CRT_BASE_NZ], zt[CRT_BASE_NZ];
   double ft[CRT_BASE_NZ], k[16][CRT_BASE_NZ], F[7][CRT_BASE_NZ], g0[CRT_BASE_NG];
-  double g1[CRT_BASE_NG], gt[CRT_BASE_NG], N, cp[2], rho, err, hs, span, first = HUGE_VAL;
+  double g1[CRT_BASE_NG], gt[CRT_BASE_NG], N, cp[2], rho, err, hs, wanted, span;
+  double first = HUGE_VAL;
   int k_, which = -1, i, dense = 0, same;
   z0[0] = s->t;
   for (i = 0; i < NQ; ++i) z0[1 + i] = s->q[i];
@@ -326,7 +327,9 @@ static void crt_base_slip_step(crt_session *s, crt_out *o, double t_end)
                                               slip's, else a thousandth of the time scale */
     s->bs.hs = s->bs.line ? (s->bs.ht > 0.0 ? s->bs.ht : 1e-3 * s->bs.body.t_scale)
                           : 1e-3 * s->bs.body.t_scale / crt_max(rho, 1e-300);
-  hs = s->bs.hs;
+  hs = wanted = s->bs.hs;
+  if (s->bs.line && crt_law_next_knot(&s->law, s->t) < s->t + hs)
+    hs = crt_law_next_knot(&s->law, s->t) - s->t;  /* in t: steps end on a table's knots */
   for (;;) {
     err = crt_base_step(s, z0, f0, hs, k, z1, f1, &N, cp, &rho);
     if (s->bs.line && s->bs.lateral > 1e-24) {   /* (lateral: the turn squared) */
@@ -398,6 +401,7 @@ static void crt_base_slip_step(crt_session *s, crt_out *o, double t_end)
     const double beta = 0.04, alpha = 0.125 - 0.75 * beta;
     const double fac = 0.9 * pow(crt_max(err, 1e-10), -alpha) * pow(s->err_old, beta);
     s->bs.hs = hs * crt_min(6.0, crt_max(0.333, fac));
+    if (hs < wanted && fac >= 1.0) s->bs.hs = crt_max(s->bs.hs, wanted);   /* (a knot's cut) */
     s->err_old = crt_max(err, 1e-4);
   }
   if (which < 0) {
@@ -462,7 +466,6 @@ static void crt_integrate(crt_session *s, double t_end, crt_out *o)
     (void)crt_control_after_event;
     (void)crt_control_counters;
     (void)crt_control_next_stop;
-    (void)crt_law_next_knot;               /* (a table's cubic pieces join with s'' continuous) */
     (void)model_normalize;                 /* (no attitude: nothing to keep orthonormal) */
     s->status = CRT_BAD_CONTROL;
     return;

@@ -1747,6 +1747,41 @@ static void model_contact(const double *p, const double *u, const double *q, dou
   moments_contact_rhs_free(q, u, s, sdot, p, dq, N, a_free);
 }
 
+/* How far above S the surface's next lowest point across the body is: the lowest points
+   for the vertical n turned by derive/face.py's LINE_TOL either way about two axes square
+   to it, those farther than 1e-4 reach from S (another end, edge or corner, not S moved
+   along a rim), the least of their heights above S; HUGE_VAL where there is none.  Near
+   0 the body lies on a line or a face (a cylinder's side, a box's edge), where S jumps
+   between its ends as round-off tilts it (crt_surface_jumped). */
+static double model_surface_second(const double *p, const double *q, double reach)
+{
+  const double *n = q + Q_N;
+  double s[3], a[3], b[3], m[3], o[3], len, best = HUGE_VAL;
+  int i, k, w = 0;
+  model_shape(p, n, s);
+  for (i = 1; i < 3; ++i)                  /* a: square to n, from the axis n least is along */
+    if (fabs(n[i]) < fabs(n[w])) w = i;
+  for (i = 0; i < 3; ++i) a[i] = (i == w) - n[w] * n[i];
+  len = sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]);
+  for (i = 0; i < 3; ++i) a[i] /= len;
+  b[0] = n[1] * a[2] - n[2] * a[1];
+  b[1] = n[2] * a[0] - n[0] * a[2];
+  b[2] = n[0] * a[1] - n[1] * a[0];
+  for (k = 0; k < 4; ++k) {
+    const double *d = k < 2 ? a : b;
+    const double turn = (k % 2 ? -1.0 : 1.0) * 5e-07;
+    double far = 0.0, h = 0.0;
+    for (i = 0; i < 3; ++i) m[i] = n[i] + turn * d[i];
+    model_shape(p, m, o);
+    for (i = 0; i < 3; ++i) {
+      far += (o[i] - s[i]) * (o[i] - s[i]);
+      h += (o[i] - s[i]) * n[i];
+    }
+    if (far > 1e-8 * reach * reach && h < best) best = h;
+  }
+  return best;
+}
+
 /* ---- Coulomb friction at S (derive/friction.py): what crt_rough*.h call --------------- */
 /* the Delassus matrix W (upper triangle, fixed axes) and the velocity of S */
 static void model_delassus(const double *p, const double *u, const double *q, double *w6,

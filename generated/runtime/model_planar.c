@@ -455,6 +455,14 @@ static void model_contact(const double *p, const double *u, const double *q, dou
   dq[Q_PHI] = qv[QV_OMEGA + 2];
 }
 
+/* n turns about the vertical only, its height along the body's axes fixed: S does not
+   jump (crt_surface_jumped) */
+static double model_surface_second(const double *p, const double *q, double reach)
+{
+  (void)p; (void)q; (void)reach;
+  return HUGE_VAL;
+}
+
 static void model_normalize(double *q)
 {
   (void)q;

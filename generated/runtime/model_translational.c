@@ -413,6 +413,13 @@ static void model_contact(const double *p, const double *u, const double *q, dou
   dq[Q_ZD] = dqv[QV_ZD];
 }
 
+/* the vertical n does not turn (omega = 0): S does not jump (crt_surface_jumped) */
+static double model_surface_second(const double *p, const double *q, double reach)
+{
+  (void)p; (void)q; (void)reach;
+  return HUGE_VAL;
+}
+
 static void model_normalize(double *q)
 {
   (void)q;

@@ -60,7 +60,9 @@
  *                           an impact where it is not energy-consistent
  *   CRT_SURFACE_JUMP    -7  crt_advance: in contact, the lowest point S jumped (a
  *                           surface that is not strictly convex, as a capsule whose axis
- *                           passes the horizontal: the one-point contact cannot hold it)
+ *                           passes the horizontal), or another point across the body
+ *                           reached the plane with it (a cylinder lying on its side): the
+ *                           one-point contact cannot hold it
  *   CRT_BAD_ARGUMENT   -20  crt_advance, crt_run, crt_run_many: cap < CRT_MIN_ROWS or
  *                           ev_cap < CRT_MIN_EVENTS.  Nothing is done, nothing written:
  *                           the session is as it was (call again with larger buffers)
@@ -90,6 +92,8 @@
  *   model_contact(p, u, q, dq, N, a_free)    persistent contact: S held on the plane
  *   model_rate(p, u, q)                      |omega|: how fast S moves over the body
  *   model_surface_may_jump(p)                1 for a surface not strictly convex
+ *   model_surface_second(p, q, reach)        height above S of the next lowest point
+ *                                            across the body (HUGE_VAL: none)
  * and, when MODEL_FRICTION (Coulomb friction at S; crt_rough_modes.h, crt_rough.h):
  *   model_delassus, model_contact_velocity, model_apply_impulse, model_sliding,
  *   model_sticking, model_contact_wrench, model_wrench_rates, and the emitted
