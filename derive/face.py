@@ -44,6 +44,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from scipy import special
 from scipy.optimize import minimize
 
 from . import abi, shapes
@@ -52,6 +53,7 @@ PRESSURES = abi.names(abi.PRESSURES)     # ("uniform", "linear")
 FAR = 8.0                  # the instant centre this many sizes away: the product rule
 ANGLE_ORDER = 32           # the instant-centre rule's order (Friction.n; crt_face.h's)
 FAR_ORDER = 12             # crt_face.h's product rule where r0 is FAR (converged there)
+RIM = 0.9                  # r0 between RIM R and R / RIM from a disc's centre: closed form
 AXIS_TOL = 1e-9            # n within this of a face normal: the face lies flat
 
 
@@ -244,7 +246,11 @@ def dissipation(rl: Rule, pw: np.ndarray, mu: float, twist) -> float:
 # rule).  Over a disc, in the angle about r0 by a fixed rule of order n: the trapezoid
 # rule with 4n angles from r0 - c's direction when r0 is inside (a periodic integrand),
 # n-point Gauss–Legendre in phi with sin(theta - theta_c) = (R/delta) sin(phi) when r0 is
-# outside (smooth at the two tangents).
+# outside (smooth at the two tangents).  Near the rim (RIM R < delta < R / RIM) the chord's
+# square root nearly vanishes at one angle (inside: sqrt(R^2 - delta^2 sin^2) at theta =
+# +-pi/2, its width sqrt(1 - delta^2/R^2)) and those rules lose their rate (7e-8 off
+# adaptive quadrature within 1e-4 R inside, 2e-10 outside); there the sums over the angle
+# are complete elliptic integrals, taken in closed form (:func:`_rim_integrals`).
 def _polygon_integrals(face: Face, r0, P_c: float, k, n: int = 0) -> tuple:
     """G, H, E over a rectangle, edge by edge in closed form (n is not read).  Along an
     edge, q = tau e + eta nu (e the edge's unit direction, nu its left normal, eta = q.nu
@@ -283,6 +289,59 @@ def _polygon_integrals(face: Face, r0, P_c: float, k, n: int = 0) -> tuple:
     return G, float(r0 @ G) + E, E
 
 
+def _elliptic_moments(kp2: float) -> dict:
+    """The integrals over [0, pi/2] of cos^i sin^j Delta^p, Delta = sqrt(1 - k^2 sin^2),
+    that a disc's moments about r0 near its rim take, from the complete elliptic integrals
+    E(k) and K(k) (SciPy's, parameter m = k^2): each reduced to E and (1 - k^2) K by the
+    recurrence (2m + 1) k^2 U_m+1 = 2m (1 + k^2) U_m - (2m - 1) U_m-1 of U_m = int
+    sin^2m / Delta (U_0 = K, U_1 = (K - E)/k^2, from d/dtheta (sin^(2m-1) cos Delta)).  kp2
+    = 1 - k^2, taken from a difference of the lengths (exact near the rim), where (1 - k^2)
+    K -> 0 while K diverges; the keys: c2_3 is int cos^2 Delta^3, c4_m1 int cos^4 / Delta."""
+    k2 = 1.0 - kp2
+    E = float(special.ellipe(k2))
+    L = 0.0 if kp2 == 0.0 else kp2 * float(special.ellipkm1(kp2))     # (1 - k^2) K(k)
+    return {"c2_1": ((1 + k2) * E - L) / (3 * k2),
+            "3": (2 * (kp2 + 1) * E - L) / 3,
+            "c2_3": ((8 - 3 * kp2 - 2 * kp2 ** 2) * E + (kp2 - 4) * L) / (15 * k2),
+            "c4_1": ((3 * kp2 ** 2 - 13 * kp2 + 8) * E + 2 * (3 * kp2 - 2) * L) / (15 * k2 ** 2),
+            "s2_3": ((2 + 3 * kp2 - 8 * kp2 ** 2) * E + (4 * kp2 - 1) * L) / (15 * k2),
+            "s2c2_1": (2 * (kp2 ** 2 - kp2 + 1) * E - (kp2 + 1) * L) / (15 * k2 ** 2),
+            "c4_m1": (-2 * (2 * kp2 - 1) * E + (3 * kp2 - 1) * L) / (3 * k2 ** 2),
+            "s2c4_m1": ((2 - 7 * kp2 - 3 * kp2 ** 2) * E + (9 * kp2 - 1) * L) / (15 * k2 ** 3)}
+
+
+def _rim_integrals(R: float, delta: float, e_d, r0, P0: float, k) -> tuple:
+    """G, H, E about r0 within RIM of a disc's rim (RIM R < delta < R / RIM), in closed
+    form.  By the disc's symmetry about the line through c and r0 (e_d = (r0 - c)/delta,
+    e_p = e_z x e_d): G = P0 A e_d + (Mdd e_d e_d^T + Mpp e_p e_p^T) k, E = P0 E0 + Bd e_d.k,
+    with A = int e.e_d hi^2/2, Mdd, Mpp = int (e.e_d)^2, (e.e_p)^2 hi^3/3, E0 = int hi^3/3,
+    Bd = int e.e_d hi^4/4 over the angle (lo = 0).  Inside, at the angle theta from e_d the
+    four rays +-theta, pi -+ theta reach hi = R Delta -+ delta cos(theta) (k = delta/R);
+    their sums leave even powers of cos and sin times R Delta.  Outside (k = R/delta), the
+    rays at alpha from -e_d with sin(alpha) = k sin(phi) cross the disc over the chord
+    delta cos(alpha) -+ R cos(phi), cos(alpha) = Delta(phi), d alpha = k cos(phi)/Delta
+    d phi."""
+    if delta < R:
+        J = _elliptic_moments((R - delta) * (R + delta) / (R * R))
+        A = -4 * delta * R * J["c2_1"]
+        E0 = 4 * R ** 3 * J["3"] / 3 + 4 * delta ** 2 * R * J["c2_1"]
+        Mdd = 4 * R ** 3 * J["c2_3"] / 3 + 4 * delta ** 2 * R * J["c4_1"]
+        Mpp = 4 * R ** 3 * J["s2_3"] / 3 + 4 * delta ** 2 * R * J["s2c2_1"]
+        Bd = -4 * delta * R ** 3 * J["c2_3"] - 4 * delta ** 3 * R * J["c4_1"]
+    else:
+        q = R / delta
+        J = _elliptic_moments((delta - R) * (delta + R) / (delta * delta))
+        A = -4 * R * R * J["c2_1"]
+        E0 = 4 * q * R * (R * R * J["c4_m1"] + 3 * delta ** 2 * J["c2_1"]) / 3
+        Mdd = 4 * q * R * (R * R * J["c4_1"] + 3 * delta ** 2 * J["c2_3"]) / 3
+        Mpp = 4 * q ** 3 * R * (R * R * J["s2c4_m1"] + 3 * delta ** 2 * J["s2c2_1"]) / 3
+        Bd = -4 * R * R * (R * R * J["c4_1"] + delta ** 2 * J["c2_3"])
+    e_p = np.array([-e_d[1], e_d[0]])
+    G = P0 * A * e_d + Mdd * (k @ e_d) * e_d + Mpp * (k @ e_p) * e_p
+    E = P0 * E0 + Bd * (k @ e_d)
+    return G, float(r0 @ G) + E, E
+
+
 def _disc_integrals(face: Face, r0, P_c: float, k, n: int) -> tuple:
     R = face.half[0]
     c = np.asarray(face.centre)
@@ -290,6 +349,8 @@ def _disc_integrals(face: Face, r0, P_c: float, k, n: int) -> tuple:
     d = r0 - c
     delta = math.hypot(*d)
     P0 = P_c + k @ d
+    if RIM * R < delta < R / RIM:
+        return _rim_integrals(R, delta, d / delta, r0, P0, k)
     if delta < R:
         m = 4 * n                         # from r0 - c's direction (crt_face.h's quarters)
         th = math.atan2(d[1], d[0]) + np.arange(m) * 2 * math.pi / m

@@ -309,7 +309,7 @@ def face_rules_context() -> dict:
     return {"face_angle": half, "face_angle_n": n,
             "face_quarter": [_c(math.cos(j * math.pi / (2 * n))) for j in range(n + 1)],
             "face_far": gl(face.FAR_ORDER), "face_far_angles": far,
-            "face_far_sizes": _c(face.FAR)}
+            "face_far_sizes": _c(face.FAR), "face_rim": _c(face.RIM)}
 
 
 def plain_headers() -> dict[str, str]:
