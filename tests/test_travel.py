@@ -268,22 +268,19 @@ def test_law_csv_is_the_law(planned):
 
 def test_the_planned_table_s_slips_step_on_its_knots(planned):
     """The written scene's periodic table is a cubic spline whose third derivative jumps at
-    every knot; the base model's slip along a line ends its steps there (as crt_loop.h's
-    do), where DOP853 had stepped across them and been refused about four times a knot
-    (on the example's plan: 1103 steps, 1556 rejected, 32,058 RHS evaluations; now 383,
-    none, 4,746).  Its whole periods' displacement stays the 1-D integration's."""
+    every knot, where DOP853 had stepped across them and been refused about four times a
+    knot (on the example's plan: 1103 steps, 1556 rejected, 32,058 RHS evaluations).  Its
+    slips are now translations taken in closed form from the law's values (no step to
+    refuse: 640 samples, none rejected, 999 RHS evaluations), and a slip stepped by DOP853
+    ends its steps on the knots (as crt_loop.h's do).  Its whole periods' displacement
+    stays the 1-D integration's."""
     from derive.runtime.driver import simulate
     task, plan, out = planned
     run = simulate(str(out / "scene.toml"))
     assert run.status == "done" and run.model == "base"
     law = plan.law
-    knots = (np.asarray(law.t)[None, :-1]
-             + law.period * np.arange(round(run.t[-1] / law.period))[:, None]).ravel()
-    knots = knots[(knots > 0) & (knots < run.t[-1])]
-    t = np.asarray(run.t)
-    near = np.abs(t[np.searchsorted(t, knots).clip(0, len(t) - 1)] - knots)
-    assert np.mean(near <= 1e-12 * law.period) > 0.95            # steps end on the knots
     assert run.stats["rejected"] <= 0.05 * run.stats["steps"], run.stats
+    assert run.stats["rhs_evaluations"] < 5000, run.stats
     sc = task.scene
     pieces = [(law.t[i], law.t[i + 1], law.a[i], law.a[i + 1]) for i in range(len(law.t) - 1)]
     X = crawl_1d(pieces, law.period, sc.m / (sc.M + sc.m), sc.friction, sc.mu_static)
