@@ -34,6 +34,7 @@ The conditions read the law's program (``is_zero``) and its samples; nothing sym
 from __future__ import annotations
 
 import math
+import weakref
 from dataclasses import dataclass
 
 import numpy as np
@@ -121,11 +122,23 @@ def _moments_why(scene: Scene) -> str:
 BASE_SHAPES = ("box", "cylinder")
 
 
+# the last scene's (a weak reference to it, its OC and OC'): a choice and a start read them
+# three times
+_OFFSET_SEEN: list = [None]
+
+
 def _base_offset(scene: Scene) -> tuple:
-    """OC and OC' at t0 (body axes): where the internal bodies put C, and how fast."""
+    """OC and OC' at t0 (body axes): where the internal bodies put C, and how fast (read
+    only)."""
+    seen = _OFFSET_SEEN[0]
+    if seen is not None and seen[0]() is scene:
+        return seen[1]
     from . import bodies
     c, cd, _ = bodies.offsets_at(scene, [scene.t0])
-    return c[0], cd[0]
+    c, cd = c[0], cd[0]
+    c.flags.writeable = cd.flags.writeable = False
+    _OFFSET_SEEN[0] = (weakref.ref(scene), (c, cd))
+    return c, cd
 
 
 def base_face(scene: Scene):
