@@ -270,20 +270,26 @@ class _Builder:
 
 
 # ---- parsing -----------------------------------------------------------------------------
+# the tokens, or any other character (one scan: every position matches one alternative)
+_SCAN = re.compile(_TOKEN.pattern + r"| (?P<bad>[\s\S])", re.VERBOSE | re.ASCII)
+_END = ("end", "", -1, -1)
+
+
 def _tokens(text: str) -> list:
-    out, pos = [], 0
-    while pos < len(text):
-        m = _TOKEN.match(text, pos)
-        if not m:
-            ch = text[pos]
+    """(kind, text, position from 1, end) of each token, and _END after the last."""
+    out = []
+    for m in _SCAN.finditer(text):
+        kind = m.lastgroup
+        if kind == "ws":
+            continue
+        if kind == "bad":
+            ch, pos = m.group(), m.start()
             shown = repr(ch) if ch.isprintable() and ch.isascii() else f"U+{ord(ch):04X}"
             raise LawError(f"unexpected character {shown} at position {pos + 1} (laws are "
                            "ASCII: digits 0-9, t, pi, + - * / ** ^ ( ) and "
                            f"{', '.join(FUNCTIONS)})")
-        kind = m.lastgroup
-        if kind != "ws":
-            out.append((kind, m.group(), pos + 1, m.end()))
-        pos = m.end()
+        out.append((kind, m.group(), m.start() + 1, m.end()))
+    out.append(_END)
     return out
 
 
@@ -309,7 +315,7 @@ class _Parser:
         self.b = builder
 
     def peek(self):
-        return self.tokens[self.i] if self.i < len(self.tokens) else ("end", "", -1, -1)
+        return self.tokens[self.i]              # (the last is _END, never taken)
 
     def take(self, value=None):
         tok = self.peek()
@@ -419,7 +425,7 @@ def parse_one(text: str, builder) -> int:
         raise LawError("is empty")
     parser = _Parser(text, builder)
     node = parser.expr()
-    if parser.i != len(parser.tokens):
+    if parser.i != len(parser.tokens) - 1:
         _, tok, pos, _ = parser.peek()
         raise LawError(f"unexpected {tok!r} at position {pos}")
     return node
