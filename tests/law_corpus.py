@@ -117,5 +117,5 @@ def record() -> list:
 if __name__ == "__main__":
     sys.path.insert(0, str(ROOT))
     RECORD.parent.mkdir(exist_ok=True)
-    RECORD.write_text(json.dumps(record(), indent=0) + "\n")
+    RECORD.write_text("[\n" + ",\n".join(json.dumps(r) for r in record()) + "\n]\n")
     print(f"{RECORD}: {len(json.loads(RECORD.read_text()))} laws")
