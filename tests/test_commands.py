@@ -340,3 +340,22 @@ def test_a_miss_within_the_spread_is_a_tie_and_beyond_it_a_failure():
     r = ratios(1.04 * load, load)
     assert r.median == pytest.approx(1.04) and r.hi - r.lo < 1e-12
     assert verdict(r, AT_MOST, 1.3) == "PASS" and verdict(r, AT_MOST, 1.0) == "FAIL"
+
+
+def test_robustness_cost_counts_a_scene_shorter_than_a_second_as_one_second():
+    """A scene's cost is a fixed part (~3 ms: the law proved and sampled) and a part per
+    simulated second; a 0.2 s scene at twice the fixed part is not slow (per simulated
+    second it was 10x the median: the rule before the floor), a run of 0.25 s or 3 s that
+    runs away is."""
+    from derive.verify import robustness as rb
+    durations = np.linspace(0.2, 3.0, 99)
+    ok = [rb.Outcome(k, "ok", "done", 0.003 + 0.0002 * d, 0.0, 0.1, float(d), plane="face")
+          for k, d in enumerate(durations)]
+    short = rb.Outcome(99, "ok", "done", 0.006, 0.0, 0.1, 0.2, plane="face")
+    runaway = rb.Outcome(100, "ok", "done", 0.2, 0.0, 0.1, 0.25, plane="face")
+    long_runaway = rb.Outcome(101, "ok", "done", 1.0, 0.0, 0.1, 3.0, plane="face")
+    everything = ok + [short, runaway, long_runaway]
+    slow = rb._cost(everything)[2]
+    assert slow == [runaway, long_runaway]
+    old = np.median([o.seconds / o.duration for o in everything])
+    assert short.seconds / short.duration > 10 * old          # slow by the rule before

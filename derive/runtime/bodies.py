@@ -138,7 +138,12 @@ def offsets_at(scene, t) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     bodies there; of one point, m (r, r', r'')/(M + m) straight from its law's jets (the
     same numbers, without the moments' other entries)."""
     if not scene.one_point:
-        return offsets(scene, moments(along(scene, t)))
+        # offsets(scene, moments(b)) but only the first moments (s, s', s''): the same
+        # numbers, without Theta, h and their rates
+        b = along(scene, t)
+        n = b.r.shape[1] if b.n_points else b.psi.shape[1]
+        m, mt = b.masses[:, None, None], scene.M + float(b.masses.sum())
+        return _sum(m * b.r, n) / mt, _sum(m * b.v, n) / mt, _sum(m * b.a, n) / mt
     jets = scene.law.jets(np.asarray(t, dtype=float))
     mt = scene.M + scene.m
     return tuple(scene.m * jets[list(k)].T / mt for k in (layout.JET_R, layout.JET_V,

@@ -34,6 +34,7 @@ The conditions read the law's program (``is_zero``) and its samples; nothing sym
 from __future__ import annotations
 
 import math
+import weakref
 from dataclasses import dataclass
 
 import numpy as np
@@ -121,17 +122,43 @@ def _moments_why(scene: Scene) -> str:
 BASE_SHAPES = ("box", "cylinder")
 
 
+# the last scene's (a weak reference to it, {what: value}): a choice and a start read the
+# base model's face three or four times and the bodies' offset at t0 twice or three times
+_LAST: list = [None]
+
+
+def _of_scene(scene: Scene, what: str, make):
+    """``make()``, kept for the last scene asked about (not made again for it)."""
+    last = _LAST[0]
+    if last is None or last[0]() is not scene:
+        last = (weakref.ref(scene), {})
+        _LAST[0] = last
+    got = last[1].get(what)
+    if got is None:
+        got = last[1][what] = make()
+    return got
+
+
 def _base_offset(scene: Scene) -> tuple:
-    """OC and OC' at t0 (body axes): where the internal bodies put C, and how fast."""
-    from . import bodies
-    c, cd, _ = bodies.offsets_at(scene, [scene.t0])
-    return c[0], cd[0]
+    """OC and OC' at t0 (body axes): where the internal bodies put C, and how fast (read
+    only)."""
+    def make():
+        from . import bodies
+        c, cd, _ = bodies.offsets_at(scene, [scene.t0])
+        c, cd = c[0], cd[0]
+        c.flags.writeable = cd.flags.writeable = False
+        return c, cd
+    return _of_scene(scene, "offset", make)
 
 
 def base_face(scene: Scene):
     """The face on the plane (derive/face.py's Face, its frame Q) under the vertical
     A0[2], or ValueError when the vertical is along no face normal."""
-    return faces.face_on(scene.shape, scene.size, scene.center, scene.A0[2])
+    def make():
+        face = faces.face_on(scene.shape, scene.size, scene.center, scene.A0[2])
+        face.frame.flags.writeable = False
+        return face
+    return _of_scene(scene, "face", make)
 
 
 def base_refusal(scene: Scene) -> str | None:
@@ -185,7 +212,7 @@ def base_refusal_at(scene: Scene) -> tuple[str, str] | None:
                                    "about it)")
     c, cd = _base_offset(scene)
     v_O = np.asarray(scene.com_velocity, dtype=float) - scene.A0 @ (cross(w, c) + cd)
-    scale = math.sqrt(scene.g * faces.face_on(scene.shape, scene.size, scene.center, n).size)
+    scale = math.sqrt(scene.g * base_face(scene).size)          # (n is A0[2])
     if abs(v_O[2]) > 1e-12 * max(np.linalg.norm(v_O), scale):
         field = "[initial].com_velocity" if "com_velocity" in _initial(scene) \
             else "[initial].carrier_velocity"

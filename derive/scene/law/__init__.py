@@ -6,7 +6,8 @@ and second derivative of every output in one forward pass).
 * :mod:`.ops`: the opcodes (jets, interval enclosures, SymPy forms), one object each;
 * :mod:`.program`: :class:`Program`, the compiled law, for C, NumPy and SymPy;
 * :mod:`.parse`: the whitelist parser and the builder (constant folding, harmonics,
-  shared subexpressions): :func:`compile_law`;
+  shared subexpressions): :func:`compile_law`, each string parsed once and its builder
+  calls replayed;
 * :mod:`.proof`: the interval proof over a run (:func:`find_singularity`) and a point
   law's :class:`LawSummary`;
 

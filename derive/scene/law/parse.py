@@ -2,6 +2,9 @@
 string of a scene reaches generated source, ``eval`` or SymPy.  The builder folds
 constants, recognises harmonics ``A sin(w t + p)`` (one node of the interpreter) and
 shares every repeated subexpression (hash-consing), across all the strings it is given.
+Each string is parsed once (:func:`_tape`: the builder's calls it makes, kept by the
+text) and its calls replayed into each builder that needs it (a point's law, then the
+program of every body; the variants of a study that share it).
 
 Grammar (precedence climbing; ``**`` and ``^`` are right-associative and bind tighter
 than unary minus, as in Python)::
@@ -267,21 +270,40 @@ class _Builder:
 
 
 # ---- parsing -----------------------------------------------------------------------------
+# the tokens, or any other character (one scan: every position matches one alternative)
+_SCAN = re.compile(_TOKEN.pattern + r"| (?P<bad>[\s\S])", re.VERBOSE | re.ASCII)
+_END = ("end", "", -1, -1)
+
+
 def _tokens(text: str) -> list:
-    out, pos = [], 0
-    while pos < len(text):
-        m = _TOKEN.match(text, pos)
-        if not m:
-            ch = text[pos]
+    """(kind, text, position from 1, end) of each token, and _END after the last."""
+    out = []
+    for m in _SCAN.finditer(text):
+        kind = m.lastgroup
+        if kind == "ws":
+            continue
+        if kind == "bad":
+            ch, pos = m.group(), m.start()
             shown = repr(ch) if ch.isprintable() and ch.isascii() else f"U+{ord(ch):04X}"
             raise LawError(f"unexpected character {shown} at position {pos + 1} (laws are "
                            "ASCII: digits 0-9, t, pi, + - * / ** ^ ( ) and "
                            f"{', '.join(FUNCTIONS)})")
-        kind = m.lastgroup
-        if kind != "ws":
-            out.append((kind, m.group(), pos + 1, m.end()))
-        pos = m.end()
+        out.append((kind, m.group(), m.start() + 1, m.end()))
+    out.append(_END)
     return out
+
+
+class _Span:
+    """A span of a law's text; called, its text as a message quotes it.  (It holds the
+    string, not the parser: a recorded tape keeps no parser alive.)"""
+    __slots__ = ("src", "lo", "hi")
+
+    def __init__(self, src: str, lo: int, hi: int):
+        self.src, self.lo, self.hi = src, lo, hi
+
+    def __call__(self) -> str:
+        s = self.src[self.lo:self.hi].strip()
+        return repr(s if len(s) <= 60 else s[:57] + "...")
 
 
 class _Parser:
@@ -293,7 +315,7 @@ class _Parser:
         self.b = builder
 
     def peek(self):
-        return self.tokens[self.i] if self.i < len(self.tokens) else ("end", "", -1, -1)
+        return self.tokens[self.i]              # (the last is _END, never taken)
 
     def take(self, value=None):
         tok = self.peek()
@@ -308,16 +330,12 @@ class _Parser:
         if self.depth > MAX_DEPTH:
             raise LawError(f"is nested deeper than {MAX_DEPTH} levels")
 
-    def span(self, start: int):
-        """A callable giving the source text from token ``start`` to the current one
-        (only built when a message needs it)."""
+    def span(self, start: int) -> "_Span":
+        """The source text from token ``start`` to the current one, as a callable (its
+        text only made when a message needs it)."""
         end = self.i
-        def text():
-            lo = self.tokens[start][2] - 1
-            hi = self.tokens[end - 1][3] if end > start else lo
-            s = self.src[lo:hi].strip()
-            return repr(s if len(s) <= 60 else s[:57] + "...")
-        return text
+        lo = self.tokens[start][2] - 1
+        return _Span(self.src, lo, self.tokens[end - 1][3] if end > start else lo)
 
     def expr(self) -> int:
         self.deeper()
@@ -397,7 +415,8 @@ class _Parser:
         raise LawError(f"expected a number, t, a function or '(' at {where}")
 
 
-def parse_one(text: str, builder: _Builder) -> int:
+def parse_one(text: str, builder) -> int:
+    """The node of ``text`` in ``builder`` (a :class:`_Builder`, or a :class:`_Recorder`)."""
     if not isinstance(text, str):
         raise LawError("must be a string")
     if len(text) > MAX_LENGTH:
@@ -406,10 +425,89 @@ def parse_one(text: str, builder: _Builder) -> int:
         raise LawError("is empty")
     parser = _Parser(text, builder)
     node = parser.expr()
-    if parser.i != len(parser.tokens):
+    if parser.i != len(parser.tokens) - 1:
         _, tok, pos, _ = parser.peek()
         raise LawError(f"unexpected {tok!r} at position {pos}")
     return node
+
+
+# ---- a string parsed once: the builder's calls, replayed ---------------------------------
+# The parser never reads what a builder returns but to hand it to a later call, so the
+# calls it makes for a string are the same whatever the builder holds: recorded once
+# (the tape), they are replayed into each builder that needs the string (a point's law,
+# then the program of every body; a study's variants that share a coordinate).  The
+# replay makes exactly the calls the parser would have made, in the same order: the same
+# nodes, the same constants, the same refusals (a refusal of the parser's own, a
+# malformed string, is raised where the parser raised it, after the calls before it).
+class _Recorder:
+    """A builder that only records: each call is (method, arguments) with the nodes it
+    reads given as the positions of earlier calls, and returns its own position."""
+    __slots__ = ("calls",)
+
+    def __init__(self):
+        self.calls: list = []
+
+    def _add(self, call: tuple) -> int:
+        self.calls.append(call)
+        return len(self.calls) - 1
+
+    def const(self, v: float) -> int:
+        return self._add(("const", v))
+
+    def t(self) -> int:
+        return self._add(("t",))
+
+    def binary(self, op: str, a: int, b: int, text) -> int:
+        return self._add(("binary", op, a, b, text))
+
+    def neg(self, a: int) -> int:
+        return self._add(("neg", a))
+
+    def call(self, name: str, a: int, text) -> int:
+        return self._add(("call", name, a, text))
+
+    def power(self, a: int, b: int, text) -> int:
+        return self._add(("power", a, b, text))
+
+
+@lru_cache(maxsize=4096)
+def _tape(text: str) -> tuple:
+    """(calls, node, refusal): the builder calls of ``text``, the position of its node,
+    and the parser's refusal (None, or its message: raised after the calls before it)."""
+    rec = _Recorder()
+    try:
+        node = parse_one(text, rec)
+    except LawError as exc:
+        return tuple(rec.calls), -1, str(exc)
+    return tuple(rec.calls), node, None
+
+
+def parse_into(text: str, b: _Builder) -> int:
+    """The node of ``text`` in ``b``: as :func:`parse_one`, the string parsed once."""
+    if not isinstance(text, str):
+        raise LawError("must be a string")
+    if len(text) > MAX_LENGTH:                # (not kept: the cache holds short strings)
+        raise LawError(f"is longer than {MAX_LENGTH} characters ({len(text)})")
+    calls, node, refusal = _tape(text)
+    ids: list = []
+    for call in calls:
+        m = call[0]
+        if m == "binary":
+            k = b.binary(call[1], ids[call[2]], ids[call[3]], call[4])
+        elif m == "const":
+            k = b.const(call[1])
+        elif m == "call":
+            k = b.call(call[1], ids[call[2]], call[3])
+        elif m == "t":
+            k = b.t()
+        elif m == "neg":
+            k = b.neg(ids[call[1]])
+        else:
+            k = b.power(ids[call[1]], ids[call[2]], call[3])
+        ids.append(k)
+    if refusal is not None:
+        raise LawError(refusal)
+    return ids[node]
 
 
 class CoordinateError(LawError):
@@ -429,7 +527,7 @@ def compile_law(texts: tuple) -> Program:
     outs = []
     for k, text in enumerate(texts):
         try:
-            outs.append(parse_one(text, b))
+            outs.append(parse_into(text, b))
         except CoordinateError:
             raise
         except LawError as exc:
@@ -442,7 +540,7 @@ def compile_angle(text: str) -> Program:
     """The program of a rotor's angle psi(t), one string (one output; cached by the
     text)."""
     b = _Builder()
-    return b.program((parse_one(text, b),), (text,))
+    return b.program((parse_into(text, b),), (text,))
 
 
 @lru_cache(maxsize=64)
@@ -455,7 +553,7 @@ def compile_outputs(texts: tuple, limit: int) -> Program:
     outs = []
     for k, text in enumerate(texts):
         try:
-            outs.append(parse_one(text, b))
+            outs.append(parse_into(text, b))
         except LawError as exc:
             if str(exc).startswith("has more than"):
                 raise LawError(f"have more than {limit} distinct operations together (the "

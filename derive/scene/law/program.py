@@ -71,7 +71,7 @@ class Program:
         n = ts.size
         with np.errstate(all="ignore"):
             val = self._jets(Arrays, ts, np.ones(n), np.zeros(n))
-        return [tuple(np.broadcast_to(v, (n,)) for v in jet) for jet in val]
+        return [tuple(_read_only(v, n) for v in jet) for jet in val]
 
     def jets(self, ts) -> np.ndarray:
         """(3 n_outputs, N): each output's value and two derivatives at the times ``ts``
@@ -154,6 +154,17 @@ class Program:
             if node in _reachable(self, out):
                 return k
         return 0
+
+
+def _read_only(v, n: int) -> np.ndarray:
+    """``v`` as a read-only array of shape (n,): a view of it where it is one already
+    (np.broadcast_to's view, without its cost), else broadcast (the nodes share arrays:
+    t's ones and zeros)."""
+    if type(v) is np.ndarray and v.shape == (n,):
+        v = v.view()
+        v.flags.writeable = False
+        return v
+    return np.broadcast_to(v, (n,))
 
 
 def _reachable(p: Program, root: int) -> set:
