@@ -266,3 +266,39 @@ def test_the_grid_starts_after_a_late_start_and_at_its_origin(phase):
     on = [s for s in step if np.min(np.abs(grid - s)) < 1e-12]
     assert len(on) == len(grid) and np.allclose(on, grid, rtol=0.0, atol=1e-12)
     assert np.all(step[step < grid[0] - 1e-12] == t0)  # no grid row before the first
+
+
+def test_max_steps_stops_the_base_model_after_exactly_that_many_steps():
+    """The crawl of _runs() (sticks and slips) with max_steps = 40, far fewer than it
+    takes: status max_steps with exactly 40 steps counted, its rows and events those of
+    the run without the limit up to there, bit for bit (the limit's rule against the
+    steps counted apart; 5 % either way stops a step early or late)."""
+    import test_base_closed_forms as cf
+    law = (f'law = ["{cf.A}*(sin({cf.W}*t) + {cf.BETA}*sin({2 * cf.W}*t))", "0", '
+           f'"{cf.Z0}"]')
+    crawl = tbr._scene(BOX.replace("mass = 1.0", f"mass = {cf.M}"), f"mass = {cf.m}\n{law}",
+                       cf.MU_K, 0.8)
+    full = tbr.run_base(crawl, np.zeros(6), mu_s=cf.MU_S)
+    cut = tbr.run_base(crawl, np.zeros(6), mu_s=cf.MU_S, max_steps=40)
+    assert full.status == "done" and full.stats["steps"] > 100
+    assert cut.status == "max_steps" and cut.stats["steps"] == 40
+    n, ne = len(cut.t), len(cut.events)
+    assert n > 20 and ne >= 1 and cut.t[-1] < full.t[-1]
+    assert np.array_equal(cut.t, full.t[:n]) and np.array_equal(cut.q, full.q[:n])
+    assert np.array_equal(cut.events, full.events[:ne])
+
+
+@pytest.mark.parametrize("t0", [1.0, -1.0])
+def test_a_rests_samples_ending_on_the_grid_write_its_rows_once(t0):
+    """The box at rest from t0 = 1 s or -1 s with hmax = 1/16 s: each stick sample (hmax/8
+    = 1/128 s, the gauge constant) ends exactly on a grid time t0 + k/128 s of output_dt =
+    1/128 s (binary fractions: no round-off), where the grid's row is the step's own
+    (crt_base_step_row, the grid's last time against the step's end).  The rows are the
+    grid t0 + k/128, k = 0..32, each once, at rest (a row at a grid time lost, or written
+    twice, is seen)."""
+    dt = 1.0 / 128.0
+    raw = tbr.run_base(_box(0.3, 32 * dt), np.zeros(6), hmax=8 * dt, t0=t0, output_dt=dt)
+    assert raw.status == "done" and tbr._events(raw) == []
+    assert np.all(raw.kinds == abi.ROW_KIND["step"]) and np.all(raw.q == 0.0)
+    assert np.array_equal(raw.t, t0 + dt * np.arange(33))
+    assert raw.stats["steps"] == 32

@@ -48,8 +48,10 @@ duration = {duration}
 """)
 
 
-def run_base(scene, q0, mu_s=None, hmax=None, pressure="uniform"):
-    """The base model's run of a scene on its face (n = e_z of the body): its raw result."""
+def run_base(scene, q0, mu_s=None, hmax=None, pressure="uniform", t0=None, **options):
+    """The base model's run of a scene on its face (n = e_z of the body): its raw result
+    (``options``: runtime options by name over the defaults here; ``t0``: the start's
+    time over the scene's)."""
     prm = choice.parameters(scene, {})
     prm[_P["n0_z"]] = 1.0
     prm[_P["static_friction"]] = scene.friction if mu_s is None else mu_s
@@ -62,9 +64,12 @@ def run_base(scene, q0, mu_s=None, hmax=None, pressure="uniform"):
     opt[_O["time_scale"]] = scene.duration
     opt[_O["event_tol"]] = 1e-15
     opt[_O["max_steps"]], opt[_O["max_events"]] = 1e6, 1e4
+    for name, value in options.items():
+        opt[_O[name]] = value
     session = Session(library("base"))
     session.set_law(scene.runtime_law)
-    return session.run(scene.t0, scene.duration, np.asarray(q0, dtype=float), opt, prm)
+    return session.run(scene.t0 if t0 is None else t0, scene.duration,
+                       np.asarray(q0, dtype=float), opt, prm)
 
 
 def _events(raw):
