@@ -293,12 +293,13 @@ def test_a_rests_samples_ending_on_the_grid_write_its_rows_once(t0):
     """The box at rest from t0 = 1 s or -1 s with hmax = 1/16 s: each stick sample (hmax/8
     = 1/128 s, the gauge constant) ends exactly on a grid time t0 + k/128 s of output_dt =
     1/128 s (binary fractions: no round-off), where the grid's row is the step's own
-    (crt_base_step_row, the grid's last time against the step's end).  The rows are the
-    grid t0 + k/128, k = 0..32, each once, at rest (a row at a grid time lost, or written
-    twice, is seen)."""
+    (crt_base_step_row, the grid's last time against the step's end); the run ends half a
+    sample past the last, off the grid.  The rows are the grid t0 + k/128, k = 0..32,
+    each once, then the end, at rest (a row at a grid time lost, or written twice, or
+    the end's lost, is seen)."""
     dt = 1.0 / 128.0
-    raw = tbr.run_base(_box(0.3, 32 * dt), np.zeros(6), hmax=8 * dt, t0=t0, output_dt=dt)
+    raw = tbr.run_base(_box(0.3, 32.5 * dt), np.zeros(6), hmax=8 * dt, t0=t0, output_dt=dt)
     assert raw.status == "done" and tbr._events(raw) == []
     assert np.all(raw.kinds == abi.ROW_KIND["step"]) and np.all(raw.q == 0.0)
-    assert np.array_equal(raw.t, t0 + dt * np.arange(33))
-    assert raw.stats["steps"] == 32
+    assert np.array_equal(raw.t, t0 + dt * np.append(np.arange(33), 32.5))
+    assert raw.stats["steps"] == 33
