@@ -98,6 +98,26 @@ def test_the_rest_at_gamma_within_1e12_of_1_breaks_only_if_gamma_rises(margin, r
     assert all(abs(t - tw) < 1e-8 for (_, t), (_, tw) in zip(got, want))
 
 
+def test_a_rest_at_1_whose_gauge_falls_now_and_rises_later_holds_until_it_crosses():
+    """gamma0 = 1 - 0.5e-12 (inside the window) falling now and rising after a minimum at
+    t_m = 1.5e-6 t_scale (gamma = gamma0 - r t + b t^2, b = 1e3 /s^2, r = 2 b t_m; t_scale =
+    sqrt(ell / g) = 0.109 s): "rising" is gamma's trend 1e-6 t_scale ahead (falling, by
+    2e-11 there), not where it turns (10 times further it has risen by 8e-10), so the rest
+    holds and the slip starts where gamma reaches 1, at the quadratic's root (3.3e-7 s),
+    not at once."""
+    scale = MU_S * (M_ + m_) * G / m_   # x'' = scale * gamma
+    t_scale = math.sqrt(ELL / G)
+    b = 1e3
+    r = 2 * b * 1.5e-6 * t_scale
+    margin = 0.5e-12
+    c, j, k = (1.0 - margin) * scale, -r * scale, b * scale
+    law = f'["{c / 2!r}*t*t + {j / 6!r}*t*t*t + {k / 12!r}*t*t*t*t", "0", "0"]'
+    raw = tbr.run_base(_box(0.3, 1e-5, law), np.zeros(6), mu_s=MU_S)
+    root = max(np.roots([b, -r, -margin]).real)
+    (t, kind), *_ = tbr._events(raw)
+    assert kind == "slip" and abs(t - root) < 1e-9 and root > 3e-7
+
+
 @pytest.mark.parametrize("g0, r0, p, q", [(0.05, 4.0, -4550.0, 495000.0),
                                           (0.02, 8.0, -1900.0, 430000.0)])
 def test_a_break_shorter_than_a_sample_is_found_at_its_start(g0, r0, p, q):
