@@ -18,10 +18,15 @@ apart in Python.
   stick's start (its secant allows the whole sample) and dipping to -0.032 inside it, back
   to its start's 0.05 at the sample's end; the parabola through the last three samples has
   its minimum inside, where 1 - gamma is negative: the slip starts at the cubic's first
-  root (numpy.roots), not missed.  And one falling fast at the start (8 a second from
-  0.02), dipping to -0.015 and up to 0.18 at the sample's end, where that parabola's
-  minimum is at 0.16 of the sample (1 - gamma = +0.004 there): the sample shrunk by the
-  secant's rate (to 2 g / r, 0.51 of it) lands inside the break.
+  root (numpy.roots), not missed, from t0 = 0, 1 s and -1 s (the minimum's place
+  tested against the sample's ends at times far from 0).  And one falling fast at the
+  start (8 a second from 0.02), dipping to -0.015 and up to 0.18 at the sample's end,
+  where that parabola's minimum is at 0.16 of the sample (1 - gamma = +0.004 there): the
+  sample shrunk by the secant's rate (to 2 g / r, 0.51 of it) lands inside the break.
+* A rest at gamma within 1e-12 of 1 whose gauge falls now and rises after 3e-6 t_scale:
+  the rest holds and the slip starts at the quadratic's root (3.3e-7 s), not at once.
+* max_steps stops the crawl after exactly that many steps, its rows the full run's; a
+  rest whose samples end exactly on the grid writes each grid row once, and the end's.
 * A step covers at most hmax of time, in the slip in arc time too (a disc sliding and
   spinning to its one stop, hmax 1 ms): every row of the slip at most hmax after the
   last (the rule hmax means, read from the rows); its stop has one row before it (where
@@ -58,8 +63,8 @@ EPS = 1e-11 * math.sqrt(G * ELL)        # the slip's end (crt_contact_start)
 BOX = 'mass = 1.0\ninertia = [0.01, 0.02, 0.025]\nshape = "box"\nhalf_extents = [0.1, 0.06, 0.04]'
 
 
-def _box(mu=0.3, duration=0.05, law='["0", "0", "0"]'):
-    return tbr._scene(BOX, f"mass = 0.2\nlaw = {law}", mu, duration)
+def _box(mu=0.3, duration=0.05, law='["0", "0", "0"]', t0=0.0):
+    return tbr._scene(BOX, f"mass = 0.2\nlaw = {law}", mu, duration, t0)
 
 
 @pytest.mark.parametrize("f", [0.98, 1.02])
@@ -118,19 +123,21 @@ def test_a_rest_at_1_whose_gauge_falls_now_and_rises_later_holds_until_it_crosse
     assert kind == "slip" and abs(t - root) < 1e-9 and root > 3e-7
 
 
+@pytest.mark.parametrize("t0", [0.0, 1.0, -1.0])
 @pytest.mark.parametrize("g0, r0, p, q", [(0.05, 4.0, -4550.0, 495000.0),
                                           (0.02, 8.0, -1900.0, 430000.0)])
-def test_a_break_shorter_than_a_sample_is_found_at_its_start(g0, r0, p, q):
+def test_a_break_shorter_than_a_sample_is_found_at_its_start(g0, r0, p, q, t0):
     h = 0.01                                               # 1 - gamma = g0 - r0 t + ...
     scale = MU_S * (M_ + m_) * G / m_                      # x'' = scale * gamma
-    x = (f"{scale!r}*(t*t*{(1 - g0) / 2!r} + t*t*t*{r0 / 6!r} - t*t*t*t*{p / 12!r}"
-         f" - t*t*t*t*t*{q / 20!r})")
-    raw = tbr.run_base(_box(0.3, 1.15 * h, f'["{x}", "0", "0"]'), np.zeros(6), mu_s=MU_S,
+    t = f"(t - {t0!r})"                                    # (from t0: the sample's times
+    x = (f"{scale!r}*({t}*{t}*{(1 - g0) / 2!r} + {t}*{t}*{t}*{r0 / 6!r}"  # far from 0)
+         f" - {t}*{t}*{t}*{t}*{p / 12!r} - {t}*{t}*{t}*{t}*{t}*{q / 20!r})")
+    raw = tbr.run_base(_box(0.3, 1.15 * h, f'["{x}", "0", "0"]', t0), np.zeros(6), mu_s=MU_S,
                        hmax=8 * h)
     roots = np.roots([q, p, -r0, g0])
     first = min(r.real for r in roots if abs(r.imag) < 1e-12 and 0 < r.real < h)
     t, kind = tbr._events(raw)[0]
-    assert kind == "slip" and abs(t - first) < 1e-9
+    assert kind == "slip" and abs(t - t0 - first) < 1e-9
 
 
 def test_no_step_of_a_slip_in_arc_time_covers_more_than_hmax():
@@ -318,7 +325,7 @@ def test_a_rests_samples_ending_on_the_grid_write_its_rows_once(t0):
     each once, then the end, at rest (a row at a grid time lost, or written twice, or
     the end's lost, is seen)."""
     dt = 1.0 / 128.0
-    raw = tbr.run_base(_box(0.3, 32.5 * dt), np.zeros(6), hmax=8 * dt, t0=t0, output_dt=dt)
+    raw = tbr.run_base(_box(0.3, 32.5 * dt, t0=t0), np.zeros(6), hmax=8 * dt, output_dt=dt)
     assert raw.status == "done" and tbr._events(raw) == []
     assert np.all(raw.kinds == abi.ROW_KIND["step"]) and np.all(raw.q == 0.0)
     assert np.array_equal(raw.t, t0 + dt * np.append(np.arange(33), 32.5))

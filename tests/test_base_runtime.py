@@ -32,7 +32,7 @@ G = 9.81
 _P, _O = abi.PRM, {o.name: k for k, o in enumerate(abi.OPTIONS)}
 
 
-def _scene(body: str, point: str, mu: float, duration: float):
+def _scene(body: str, point: str, mu: float, duration: float, t0: float = 0.0):
     return parse_scene(f"""
 [body]
 {body}
@@ -43,15 +43,15 @@ friction = {mu}
 restitution = 0.0
 [initial]
 on_plane = true
+time = {t0!r}
 [run]
 duration = {duration}
 """)
 
 
-def run_base(scene, q0, mu_s=None, hmax=None, pressure="uniform", t0=None, **options):
+def run_base(scene, q0, mu_s=None, hmax=None, pressure="uniform", **options):
     """The base model's run of a scene on its face (n = e_z of the body): its raw result
-    (``options``: runtime options by name over the defaults here; ``t0``: the start's
-    time over the scene's)."""
+    (``options``: runtime options by name over the defaults here)."""
     prm = choice.parameters(scene, {})
     prm[_P["n0_z"]] = 1.0
     prm[_P["static_friction"]] = scene.friction if mu_s is None else mu_s
@@ -68,8 +68,7 @@ def run_base(scene, q0, mu_s=None, hmax=None, pressure="uniform", t0=None, **opt
         opt[_O[name]] = value
     session = Session(library("base"))
     session.set_law(scene.runtime_law)
-    return session.run(scene.t0 if t0 is None else t0, scene.duration,
-                       np.asarray(q0, dtype=float), opt, prm)
+    return session.run(scene.t0, scene.duration, np.asarray(q0, dtype=float), opt, prm)
 
 
 def _events(raw):
