@@ -81,19 +81,23 @@ def test_a_start_sliding_at_the_slips_end_is_rest_below_it_and_a_slip_above(f):
     assert np.all(raw.q[-1, 3:] == 0.0)
 
 
-@pytest.mark.parametrize("after", [1e-6, 1e-5])
-def test_a_slip_stopping_just_before_the_runs_end_stops_there(after):
+@pytest.mark.parametrize("after", [1e-6, 1e-5, -1e-6, -1e-5])
+def test_a_slip_stopping_just_before_or_after_the_runs_end(after):
     """The box sliding from 0.3 m/s stops at the closed form's v0 / (mu g), 1 and 10
-    microseconds before the run's end, inside the slip's last step (the run's end and the
-    stop close on the step's fraction, the end's event found first): the earlier, the
-    stop, is taken, a stick event at its time and O at rest, not the end reached still
-    sliding."""
+    microseconds before or after the run's end, inside the slip's last step (the run's end
+    and the stop close on the step's fraction): the earlier is taken.  A stop before the
+    end: a stick event at its time and O at rest; after it: no event, the run ending at
+    its end still sliding at mu g |after|, as the closed form says."""
     mu, v0 = 0.3, 0.3
     t_stop = v0 / (mu * G)
     raw = tbr.run_base(_box(mu, t_stop + after), [0.0, 0.0, 0.0, v0, 0.0, 0.0])
-    (t, kind), = tbr._events(raw)
-    assert raw.status == "done" and kind == "stick" and abs(t - t_stop) < 1e-9
-    assert np.all(raw.q[-1, 3:] == 0.0) and abs(raw.t[-1] - t_stop - after) < 1e-12
+    assert raw.status == "done" and abs(raw.t[-1] - t_stop - after) < 1e-12
+    if after > 0:
+        (t, kind), = tbr._events(raw)
+        assert kind == "stick" and abs(t - t_stop) < 1e-9 and np.all(raw.q[-1, 3:] == 0.0)
+    else:
+        assert tbr._events(raw) == []
+        assert abs(raw.q[-1, 3] - mu * G * -after) < 1e-9 * v0
 
 
 MU_S, M_, m_ = 0.35, 1.0, 0.2
