@@ -143,7 +143,8 @@ UNIT_TESTS = {
 
 # the base model's rules at their edges, its closed forms and edges, and its stops in the
 # crawl's cells where a stick's sample had missed a short break, the face's integrals and
-# margins against derive/face.py (the base model's headers)
+# margins against derive/face.py, the settle decision's reversals and tips, and the
+# lift-off handed over to the flight (the base model's headers)
 _BASE = ("tests/test_base_boundaries.py", "tests/test_crt_face.py",
          "tests/test_base_closed_forms.py", "tests/test_base_edges.py",
          "tests/test_base_tip_before_lift.py",
