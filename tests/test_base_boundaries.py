@@ -18,10 +18,15 @@ apart in Python.
   stick's start (its secant allows the whole sample) and dipping to -0.032 inside it, back
   to its start's 0.05 at the sample's end; the parabola through the last three samples has
   its minimum inside, where 1 - gamma is negative: the slip starts at the cubic's first
-  root (numpy.roots), not missed.  And one falling fast at the start (8 a second from
-  0.02), dipping to -0.015 and up to 0.18 at the sample's end, where that parabola's
-  minimum is at 0.16 of the sample (1 - gamma = +0.004 there): the sample shrunk by the
-  secant's rate (to 2 g / r, 0.51 of it) lands inside the break.
+  root (numpy.roots), not missed, from t0 = 0, 1 s and -1 s (the minimum's place
+  tested against the sample's ends at times far from 0).  And one falling fast at the
+  start (8 a second from 0.02), dipping to -0.015 and up to 0.18 at the sample's end,
+  where that parabola's minimum is at 0.16 of the sample (1 - gamma = +0.004 there): the
+  sample shrunk by the secant's rate (to 2 g / r, 0.51 of it) lands inside the break.
+* A rest at gamma within 1e-12 of 1 whose gauge falls now and rises after 3e-6 t_scale:
+  the rest holds and the slip starts at the quadratic's root (3.3e-7 s), not at once.
+* max_steps stops the crawl after exactly that many steps, its rows the full run's; a
+  rest whose samples end exactly on the grid writes each grid row once, and the end's.
 * A step covers at most hmax of time, in the slip in arc time too (a disc sliding and
   spinning to its one stop, hmax 1 ms): every row of the slip at most hmax after the
   last (the rule hmax means, read from the rows); its stop has one row before it (where
@@ -58,8 +63,8 @@ EPS = 1e-11 * math.sqrt(G * ELL)        # the slip's end (crt_contact_start)
 BOX = 'mass = 1.0\ninertia = [0.01, 0.02, 0.025]\nshape = "box"\nhalf_extents = [0.1, 0.06, 0.04]'
 
 
-def _box(mu=0.3, duration=0.05, law='["0", "0", "0"]'):
-    return tbr._scene(BOX, f"mass = 0.2\nlaw = {law}", mu, duration)
+def _box(mu=0.3, duration=0.05, law='["0", "0", "0"]', t0=0.0):
+    return tbr._scene(BOX, f"mass = 0.2\nlaw = {law}", mu, duration, t0)
 
 
 @pytest.mark.parametrize("f", [0.98, 1.02])
@@ -74,6 +79,25 @@ def test_a_start_sliding_at_the_slips_end_is_rest_below_it_and_a_slip_above(f):
         (t, kind), = got
         assert kind == "stick" and abs(t - v0 / (mu * G)) < 1e-6 * v0 / (mu * G)
     assert np.all(raw.q[-1, 3:] == 0.0)
+
+
+@pytest.mark.parametrize("after", [1e-6, 1e-5, -1e-6, -1e-5])
+def test_a_slip_stopping_just_before_or_after_the_runs_end(after):
+    """The box sliding from 0.3 m/s stops at the closed form's v0 / (mu g), 1 and 10
+    microseconds before or after the run's end, inside the slip's last step (the run's end
+    and the stop close on the step's fraction): the earlier is taken.  A stop before the
+    end: a stick event at its time and O at rest; after it: no event, the run ending at
+    its end still sliding at mu g |after|, as the closed form says."""
+    mu, v0 = 0.3, 0.3
+    t_stop = v0 / (mu * G)
+    raw = tbr.run_base(_box(mu, t_stop + after), [0.0, 0.0, 0.0, v0, 0.0, 0.0])
+    assert raw.status == "done" and abs(raw.t[-1] - t_stop - after) < 1e-12
+    if after > 0:
+        (t, kind), = tbr._events(raw)
+        assert kind == "stick" and abs(t - t_stop) < 1e-9 and np.all(raw.q[-1, 3:] == 0.0)
+    else:
+        assert tbr._events(raw) == []
+        assert abs(raw.q[-1, 3] - mu * G * -after) < 1e-9 * v0
 
 
 MU_S, M_, m_ = 0.35, 1.0, 0.2
@@ -98,19 +122,41 @@ def test_the_rest_at_gamma_within_1e12_of_1_breaks_only_if_gamma_rises(margin, r
     assert all(abs(t - tw) < 1e-8 for (_, t), (_, tw) in zip(got, want))
 
 
+def test_a_rest_at_1_whose_gauge_falls_now_and_rises_later_holds_until_it_crosses():
+    """gamma0 = 1 - 0.5e-12 (inside the window) falling now and rising after a minimum at
+    t_m = 1.5e-6 t_scale (gamma = gamma0 - r t + b t^2, b = 1e3 /s^2, r = 2 b t_m; t_scale =
+    sqrt(ell / g) = 0.109 s): "rising" is gamma's trend 1e-6 t_scale ahead (falling, by
+    2e-11 there), not where it turns (10 times further it has risen by 8e-10), so the rest
+    holds and the slip starts where gamma reaches 1, at the quadratic's root (3.3e-7 s),
+    not at once."""
+    scale = MU_S * (M_ + m_) * G / m_   # x'' = scale * gamma
+    t_scale = math.sqrt(ELL / G)
+    b = 1e3
+    r = 2 * b * 1.5e-6 * t_scale
+    margin = 0.5e-12
+    c, j, k = (1.0 - margin) * scale, -r * scale, b * scale
+    law = f'["{c / 2!r}*t*t + {j / 6!r}*t*t*t + {k / 12!r}*t*t*t*t", "0", "0"]'
+    raw = tbr.run_base(_box(0.3, 1e-5, law), np.zeros(6), mu_s=MU_S)
+    root = max(np.roots([b, -r, -margin]).real)
+    (t, kind), *_ = tbr._events(raw)
+    assert kind == "slip" and abs(t - root) < 1e-9 and root > 3e-7
+
+
+@pytest.mark.parametrize("t0", [0.0, 1.0, -1.0])
 @pytest.mark.parametrize("g0, r0, p, q", [(0.05, 4.0, -4550.0, 495000.0),
                                           (0.02, 8.0, -1900.0, 430000.0)])
-def test_a_break_shorter_than_a_sample_is_found_at_its_start(g0, r0, p, q):
+def test_a_break_shorter_than_a_sample_is_found_at_its_start(g0, r0, p, q, t0):
     h = 0.01                                               # 1 - gamma = g0 - r0 t + ...
     scale = MU_S * (M_ + m_) * G / m_                      # x'' = scale * gamma
-    x = (f"{scale!r}*(t*t*{(1 - g0) / 2!r} + t*t*t*{r0 / 6!r} - t*t*t*t*{p / 12!r}"
-         f" - t*t*t*t*t*{q / 20!r})")
-    raw = tbr.run_base(_box(0.3, 1.15 * h, f'["{x}", "0", "0"]'), np.zeros(6), mu_s=MU_S,
+    t = f"(t - {t0!r})"                                    # (from t0: the sample's times
+    x = (f"{scale!r}*({t}*{t}*{(1 - g0) / 2!r} + {t}*{t}*{t}*{r0 / 6!r}"  # far from 0)
+         f" - {t}*{t}*{t}*{t}*{p / 12!r} - {t}*{t}*{t}*{t}*{t}*{q / 20!r})")
+    raw = tbr.run_base(_box(0.3, 1.15 * h, f'["{x}", "0", "0"]', t0), np.zeros(6), mu_s=MU_S,
                        hmax=8 * h)
     roots = np.roots([q, p, -r0, g0])
     first = min(r.real for r in roots if abs(r.imag) < 1e-12 and 0 < r.real < h)
     t, kind = tbr._events(raw)[0]
-    assert kind == "slip" and abs(t - first) < 1e-9
+    assert kind == "slip" and abs(t - t0 - first) < 1e-9
 
 
 def test_no_step_of_a_slip_in_arc_time_covers_more_than_hmax():
@@ -266,3 +312,40 @@ def test_the_grid_starts_after_a_late_start_and_at_its_origin(phase):
     on = [s for s in step if np.min(np.abs(grid - s)) < 1e-12]
     assert len(on) == len(grid) and np.allclose(on, grid, rtol=0.0, atol=1e-12)
     assert np.all(step[step < grid[0] - 1e-12] == t0)  # no grid row before the first
+
+
+def test_max_steps_stops_the_base_model_after_exactly_that_many_steps():
+    """The crawl of _runs() (sticks and slips) with max_steps = 40, far fewer than it
+    takes: status max_steps with exactly 40 steps counted, its rows and events those of
+    the run without the limit up to there, bit for bit (the limit's rule against the
+    steps counted apart; 5 % either way stops a step early or late)."""
+    import test_base_closed_forms as cf
+    law = (f'law = ["{cf.A}*(sin({cf.W}*t) + {cf.BETA}*sin({2 * cf.W}*t))", "0", '
+           f'"{cf.Z0}"]')
+    crawl = tbr._scene(BOX.replace("mass = 1.0", f"mass = {cf.M}"), f"mass = {cf.m}\n{law}",
+                       cf.MU_K, 0.8)
+    full = tbr.run_base(crawl, np.zeros(6), mu_s=cf.MU_S)
+    cut = tbr.run_base(crawl, np.zeros(6), mu_s=cf.MU_S, max_steps=40)
+    assert full.status == "done" and full.stats["steps"] > 100
+    assert cut.status == "max_steps" and cut.stats["steps"] == 40
+    n, ne = len(cut.t), len(cut.events)
+    assert n > 20 and ne >= 1 and cut.t[-1] < full.t[-1]
+    assert np.array_equal(cut.t, full.t[:n]) and np.array_equal(cut.q, full.q[:n])
+    assert np.array_equal(cut.events, full.events[:ne])
+
+
+@pytest.mark.parametrize("t0", [1.0, -1.0])
+def test_a_rests_samples_ending_on_the_grid_write_its_rows_once(t0):
+    """The box at rest from t0 = 1 s or -1 s with hmax = 1/16 s: each stick sample (hmax/8
+    = 1/128 s, the gauge constant) ends exactly on a grid time t0 + k/128 s of output_dt =
+    1/128 s (binary fractions: no round-off), where the grid's row is the step's own
+    (crt_base_step_row, the grid's last time against the step's end); the run ends half a
+    sample past the last, off the grid.  The rows are the grid t0 + k/128, k = 0..32,
+    each once, then the end, at rest (a row at a grid time lost, or written twice, or
+    the end's lost, is seen)."""
+    dt = 1.0 / 128.0
+    raw = tbr.run_base(_box(0.3, 32.5 * dt, t0=t0), np.zeros(6), hmax=8 * dt, output_dt=dt)
+    assert raw.status == "done" and tbr._events(raw) == []
+    assert np.all(raw.kinds == abi.ROW_KIND["step"]) and np.all(raw.q == 0.0)
+    assert np.array_equal(raw.t, t0 + dt * np.append(np.arange(33), 32.5))
+    assert raw.stats["steps"] == 33

@@ -32,7 +32,7 @@ G = 9.81
 _P, _O = abi.PRM, {o.name: k for k, o in enumerate(abi.OPTIONS)}
 
 
-def _scene(body: str, point: str, mu: float, duration: float):
+def _scene(body: str, point: str, mu: float, duration: float, t0: float = 0.0):
     return parse_scene(f"""
 [body]
 {body}
@@ -43,13 +43,16 @@ friction = {mu}
 restitution = 0.0
 [initial]
 on_plane = true
+time = {t0!r}
 [run]
 duration = {duration}
 """)
 
 
-def run_base(scene, q0, mu_s=None, hmax=None, pressure="uniform", output_dt=0.0):
-    """The base model's run of a scene on its face (n = e_z of the body): its raw result."""
+def run_base(scene, q0, mu_s=None, hmax=None, pressure="uniform", output_dt=0.0,
+             **options):
+    """The base model's run of a scene on its face (n = e_z of the body): its raw result
+    (``options``: runtime options by name over the defaults here)."""
     prm = choice.parameters(scene, {})
     prm[_P["n0_z"]] = 1.0
     prm[_P["static_friction"]] = scene.friction if mu_s is None else mu_s
@@ -63,6 +66,8 @@ def run_base(scene, q0, mu_s=None, hmax=None, pressure="uniform", output_dt=0.0)
     opt[_O["event_tol"]] = 1e-15
     opt[_O["output_dt"]] = output_dt
     opt[_O["max_steps"]], opt[_O["max_events"]] = 1e6, 1e4
+    for name, value in options.items():
+        opt[_O[name]] = value
     session = Session(library("base"))
     session.set_law(scene.runtime_law)
     return session.run(scene.t0, scene.duration, np.asarray(q0, dtype=float), opt, prm)
