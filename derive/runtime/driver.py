@@ -217,7 +217,7 @@ class Result:
     @property
     def rough(self) -> bool:
         """The run has Coulomb friction at S (the rough model, or moments_rough)."""
-        return self.model in ("rough", "moments_rough")
+        return self.model in choice.ROUGH_KINDS
 
     @cached_property
     def events(self) -> list:
