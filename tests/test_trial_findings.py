@@ -354,3 +354,50 @@ def test_a_swept_elements_formula_is_named_as_typed(tmp_path, capsys, sweep, say
     line = _refused(capsys, ["simulate", _scene(tmp_path, two), "-o", str(out),
                              "--sweep", sweep], out)
     assert says in line
+
+
+ROLLING = """name = "rolling resistance check"
+[body]
+mass = 1.0
+inertia = [0.015, 0.015, 0.015]
+shape = "sphere"
+radius = 0.15
+[[rotor]]
+axis = [0.0, 0.0, 1.0]
+inertia = 0.001
+law = "0"
+[plane]
+restitution = {e}
+friction = {mu}
+rolling_resistance = {mu_r}
+[initial]
+on_plane = true
+carrier_velocity = [{v}, 0.0, 0.0]
+omega = [0.0, {w}, 0.0]
+[run]
+duration = 1.0
+"""
+
+
+@pytest.mark.parametrize("e, mu, mu_r", [(0.0, 0.5, 0.002), (0.5, 0.0, 0.0)])
+def test_a_start_on_the_plane_at_rest_is_a_contact_not_an_impact(e, mu, mu_r):
+    """A ball put on the floor ([initial].on_plane) counted "1 impact, 1 contact phase":
+    it fell by round-off for 0.6 us and hit the plane at g t.  Now it begins in contact
+    at t0 and never impacts; it rolls as the closed form says, decelerated by rolling
+    resistance at mu_r g / (R (1 + J / (M R^2))) (derive/docs/friction.md), or slides
+    at its speed on the smooth plane."""
+    import derive
+    from derive import layout
+    v, R, J, M, g = 1.0, 0.15, 0.015, 1.0, 9.81
+    rolls = mu > 0
+    doc = tomllib.loads(ROLLING.format(e=e, mu=mu, mu_r=mu_r, v=v, w=v / R if rolls else 0.0))
+    run = derive.simulate(doc)
+    assert run.status == "done"
+    assert (run.stats["impacts"], run.stats["contacts"], run.stats["lift_offs"]) == (0, 1, 0)
+    assert (run.events[0]["kind"], run.events[0]["t"]) == ("contact", 0.0)
+    a = mu_r * g / (R * (1.0 + J / (M * R * R))) if rolls else 0.0
+    t = run.t[-1]
+    q = run.general
+    X, Z = (q[:, layout.GENERAL.index(name)] for name in ("X_C", "Z_C"))
+    assert X[-1] == pytest.approx(v * t - a * t * t / 2, rel=1e-9)
+    assert np.ptp(Z) < 1e-12

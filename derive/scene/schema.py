@@ -186,7 +186,8 @@ SCENE_FIELDS = (
       "the whole system (the carrier and its points), fixed axes; with on_plane, Z_C is "
       "computed (give 0)", -1e9, 1e9, size=3, example=[0.0, 0.0, 1.5]),
     F("initial", "on_plane", "bool", False, "S on the plane at the start: Z_C computed from "
-      "the shape, the attitude and where the points are (needs [plane] and a shape)"),
+      "the shape, the attitude and where the points are (needs [plane] and a shape); "
+      "pressed onto it and not leaving, the run begins in contact (no impact)"),
     F("initial", "com_velocity", "vector", [0.0, 0.0, 0.0], "X_C', Y_C', Z_C': C's velocity "
       "(the whole system's; the points' motion moves C); or give carrier_velocity", -1e6,
       1e6, size=3, example=[0.3, 0.0, 0.0]),
