@@ -51,6 +51,8 @@ OPTIONS = _names(
     ("output_phase", "the output_dt grid's offset: rows at t0, then t0 + output_phase + k "
                      "output_dt (0: t0 + output_dt, ...); a run that goes on from another's "
                      "state keeps that run's grid (a hand-over after a lift-off)", ">= 0"),
+    ("start_on_plane", "1: S starts on the plane ([initial].on_plane): pressed onto it and "
+                       "not leaving, the run begins in contact, without an impact"),
 )
 
 # the internal bodies (issue 32): what the runtime needs to sum their moments (the

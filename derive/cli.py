@@ -414,6 +414,8 @@ def cmd_scene(args: argparse.Namespace) -> int:
     given = f"a table of {len(law.knots)} samples" if law.kind == "table" else "formulas"
     print(f"  law: {given}; P within {summary.max_radius:.4g} of O, |OP''| up to "
           f"{summary.max_acceleration:.4g}; C^2 over the run")
+    if any(name.startswith("[stability].") for name in scene.given):
+        print("  [stability]: read by `derive stability` only (`derive simulate` ignores it)")
     return 0
 
 

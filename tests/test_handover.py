@@ -452,7 +452,7 @@ def test_a_study_hands_over_as_simulate_does(tmp_path):
 
     import derive
     from derive.runtime import base_report
-    from derive.runtime.study import FACE_COLUMNS, summary_row
+    from derive.runtime.study import FRICTION_COLUMNS, summary_row
     from derive.scene.overrides import apply_to_doc
     doc = tomllib.loads(_SCENE.format(name="hop", M=M, m=m, law=UP, spin=SPIN, duration=0.3))
     laws = [["0", "0", f"{f * (M + m) * g / (m * W * W)!r}*sin({W}*t)"] for f in (0.8, 1.5)]
@@ -487,7 +487,7 @@ def test_a_study_hands_over_as_simulate_does(tmp_path):
             h = run.handover             # counts are run.stats; its contact.face the face's)
             face = base_report.contact(h.base)
             assert row["handover_t"] == h.t
-            for name in FACE_COLUMNS:
+            for name in FRICTION_COLUMNS:
                 assert row[name] == face[name] + h.flight.stats[name] == run.stats[name]
             handed.append(row)
     assert statuses[:3] == [("done", "base", False), ("flat_landing", "rough", True),
@@ -496,7 +496,7 @@ def test_a_study_hands_over_as_simulate_does(tmp_path):
     # read as columns and written as sweep.csv: the face's counts there, not masked or blank
     on = np.array([h for _, _, h in statuses])
     assert sum(r["slips"] + r["sticks"] for r in handed) > 0
-    for name in FACE_COLUMNS:
+    for name in FRICTION_COLUMNS:
         col = batch.column(name)
         assert not col.mask.any() and col.tolist() == [r[name] for r in batch.rows]
     batch.to_csv(tmp_path / "sweep.csv")

@@ -13,6 +13,7 @@ import math
 import numpy as np
 
 from .. import abi, face as faces
+from ..progress import count
 from . import bodies, choice
 from .events import face_modes as modes
 
@@ -300,8 +301,9 @@ def lines(result, tr: dict | None = None) -> list[str]:
     c = contact(result)
     mu = f"mu = {c['friction']:g}" + (f", mu_s = {c['static_friction']:g}"
                                       if c["static_friction"] != c["friction"] else "")
-    out.append(f"  friction over the {c['face']} ({mu}, {c['pressure']} pressure): {c['slips']} "
-               f"slips, {c['sticks']} sticks, {c['reversals']} reversals; sticking "
+    out.append(f"  friction over the {c['face']} ({mu}, {c['pressure']} pressure): "
+               f"{count(c['slips'], 'slip')}, {count(c['sticks'], 'stick')}, "
+               f"{count(c['reversals'], 'reversal')}; sticking "
                f"{c['time_sticking']:.4g} s, sliding {c['time_sliding']:.4g} s; smallest N "
                f"{c['min_normal_force']:.4g} N")
     tr = tr if tr is not None else travel(result)

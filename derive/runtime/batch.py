@@ -33,7 +33,7 @@ from .. import parallel
 from ..progress import count
 from . import study
 from .driver import prepare
-from .study import COUNT_COLUMNS, FACE_COLUMNS, SUMMARY_COLUMNS, TEXT_COLUMNS  # noqa: F401 (the API's names)
+from .study import COUNT_COLUMNS, FRICTION_COLUMNS, SUMMARY_COLUMNS, TEXT_COLUMNS  # noqa: F401 (the API's names)
 from ..scene import Scene, SceneError, load_scene, overrides, parse_scene
 
 
@@ -97,8 +97,9 @@ class Batch:
         array with None where there is none (a refused variant has no status, one that
         ran no error).  Numbers: a NumPy masked array, integers for the counts and
         floats for times and heights, masked where the variant was refused (and the
-        face's ``slips``, ``sticks``, ``reversals`` where the run did not begin on a face:
-        neither a base run nor one that handed over at a lift-off; ``first_contact_t`` and
+        ``slips``, ``sticks``, ``reversals`` where the run has no friction to count them:
+        neither a rough model's nor a base run nor one that handed over at a lift-off;
+        ``first_contact_t`` and
         ``handover_t`` are NaN, not masked, when a run had no resting contact, no
         hand-over).  A
         field the variants override (``"body.mass"``): its values, a masked float array
@@ -108,8 +109,9 @@ class Batch:
             return self.columns[name].copy()
         if name in SUMMARY_COLUMNS:
             mask = self._refused
-            if name in FACE_COLUMNS:
-                mask = mask | ~study.on_face(self.columns["model"], self.columns["handover_t"])
+            if name in FRICTION_COLUMNS:
+                mask = mask | ~study.counts_friction(self.columns["model"],
+                                                     self.columns["handover_t"])
             return np.ma.MaskedArray(self.columns[name].copy(), mask=mask)
         if any(name in v for v in self.variants):
             values = [v.get(name) for v in self.variants]
@@ -133,8 +135,9 @@ class Batch:
         by that number's column, W say), ``error``, then the summary columns; a value a
         row does not have (a refused variant's counts, the error of one that ran, a base
         run's impacts, contacts, min_height and first_contact_t: a body on its face has
-        no impact and no point S; the face's slips, sticks and reversals of a run that
-        did not begin on a face) is an empty cell."""
+        no impact and no point S; the slips, sticks and reversals of a run without
+        friction, neither a rough model's nor one that began on a face) is an empty
+        cell."""
         names = self._fields()
         swept_by = swept_by or {}
         head = []
@@ -156,7 +159,8 @@ class Batch:
                 elif r["model"] == "base":
                     blank = BASE_BLANK
                 else:
-                    blank = () if study.on_face(r["model"], r["handover_t"]) else FACE_COLUMNS
+                    counted = study.counts_friction(r["model"], r["handover_t"])
+                    blank = () if counted else FRICTION_COLUMNS
                 vals += [r.get("error", "")] + [
                     "" if c in blank else r.get(c, "") for c in SUMMARY_COLUMNS]
                 fh.write(",".join(_csv(x) for x in vals) + "\n")

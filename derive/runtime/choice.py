@@ -50,6 +50,7 @@ POSE = "pose"
 G = layout.GENERAL
 GENERAL_LABELS = G.labels
 MOMENTS_KINDS = ("moments", "moments_rough")
+ROUGH_KINDS = ("rough", "moments_rough")       # Coulomb friction at S: stick, slip, reversal
 # the models whose state is the general one (18 numbers)
 GENERAL_STATE = ("general", "rough", *MOMENTS_KINDS)
 
@@ -390,6 +391,7 @@ def _base_keys(scene: Scene, kind: str) -> None:
                     else ""
                 raise SceneError(f.where, f"is read by the {which} model only{face}, and "
                                           f"this run is model {kind}")
+        _method_keys(scene, kind)
         return
     for key in ("spin_friction", "rolling_resistance"):
         if getattr(scene, key) > 0.0:
@@ -405,6 +407,32 @@ def _base_keys(scene: Scene, kind: str) -> None:
     for key, why in BASE_UNREAD.items():
         if key in scene.given:
             raise SceneError(key, f"is not read by the base model: {why}; remove it")
+
+
+LIE_METHODS = ("lie", "lie5", "lie8")
+
+
+def _method_keys(scene: Scene, kind: str) -> None:
+    """The [run] keys the run's method (or model) never reads are refused by name: a
+    field's Field.methods, and keep_orthonormal where no step projects (a Lie method's
+    flight stays on the rotations; its contact phases step with DOPRI5 or DOP853)."""
+    for f in SCENE_FIELDS:
+        if f.methods and scene.method not in f.methods and f.where in scene.given:
+            which = " and ".join(f.methods)
+            raise SceneError(f.where, f"is read by method {which} only, and this run's "
+                                      f"method is {scene.method}: remove it, or set "
+                                      f"[run].method = \"{f.methods[0]}\"")
+    if not scene.keep_orthonormal:
+        return
+    if "a33" not in layout.of(kind).labels:
+        raise SceneError("[run].keep_orthonormal", f"model {kind} has no attitude matrix to "
+                                                   "keep orthonormal: remove it")
+    if scene.method in LIE_METHODS and not scene.contact_possible:
+        raise SceneError("[run].keep_orthonormal", f"method {scene.method} keeps a flight's "
+                                                   "attitude on the rotations itself, and "
+                                                   "this run has no contact phase (the only "
+                                                   "steps it would project): remove it, or "
+                                                   "use dopri5, dop853 or rk4")
 
 
 # ---- what a model reads ------------------------------------------------------------------------

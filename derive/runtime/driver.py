@@ -55,6 +55,7 @@ def options(scene: Scene, kind: str) -> np.ndarray:
     opt[_O["event_tol"]] = 1e-15
     opt[_O["length_scale"]] = choice.length_scale(scene) if contact else 0.0
     opt[_O["zeno_dt"]] = scene.zeno_dt
+    opt[_O["start_on_plane"]] = 1.0 if contact and scene.on_plane else 0.0
     return choice.vector(opt)          # (rows of them for a study's columns)
 
 
@@ -105,11 +106,12 @@ def _prepare(scene) -> Prepared:
     # (options: those fields and the RK4 step; parameters: those fields, when the model
     # adds no constants of the initial state); read-only, shared by the scenes
     memo = static.memo
-    opt = memo.get(("options", scene.step))
+    key = ("options", scene.step, scene.on_plane)     # (of the initial state, not static)
+    opt = memo.get(key)
     if opt is None:
         opt = _frozen(options(scene, kind))
         if len(memo) < 16:                   # (RK4's default step follows omega)
-            memo[("options", scene.step)] = opt
+            memo[key] = opt
     prm = memo.get("parameters") if not st.constants else None
     if prm is None:
         prm = _frozen(choice.parameters(scene, st.constants))
@@ -217,7 +219,7 @@ class Result:
     @property
     def rough(self) -> bool:
         """The run has Coulomb friction at S (the rough model, or moments_rough)."""
-        return self.model in ("rough", "moments_rough")
+        return self.model in choice.ROUGH_KINDS
 
     @cached_property
     def events(self) -> list:

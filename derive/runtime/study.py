@@ -43,19 +43,23 @@ SUMMARY_COLUMNS = ("status", "model", "t_end", "impacts", "contacts", "lift_offs
 TEXT_COLUMNS = ("error", "status", "model")
 COUNT_COLUMNS = ("impacts", "contacts", "lift_offs", "slips", "sticks", "reversals", "steps",
                  "rhs_evaluations")
-# the face's slip events, stick events and reversals (the counts of a base run's
-# summary.json): a column of the runs that began on a face (base runs, and those that
-# handed over at a lift-off: handover_t not NaN, the base phase's counts and the
-# flight's), empty (masked) for the other models
-FACE_COLUMNS = ("slips", "sticks", "reversals")
+# the slip events, stick events and reversals: a column of the runs that count them, those
+# with friction at S (the rough models) and those that began on a face (base runs, and
+# those that handed over at a lift-off: handover_t not NaN, the base phase's counts and
+# the flight's); empty (masked) for the other models, which have no friction
+FRICTION_COLUMNS = ("slips", "sticks", "reversals")
 
 
-def on_face(model, handover_t) -> np.ndarray | bool:
-    """Whether a row's run began on a face (FACE_COLUMNS mean something): a base run, or
-    one that handed over (``handover_t`` a time, not NaN); of one row or of columns."""
+def counts_friction(model, handover_t) -> np.ndarray | bool:
+    """Whether a row's run counts FRICTION_COLUMNS: a rough model's (friction at S), a base
+    run, or one that handed over (``handover_t`` a time, not NaN); of one row or of
+    columns."""
     t = np.asarray(handover_t, dtype=float)
-    out = (np.asarray(model, dtype=object) == "base") | ~np.isnan(t)
+    kinds = np.asarray(model, dtype=object)
+    out = (kinds == "base") | np.isin(kinds, choice.ROUGH_KINDS) | ~np.isnan(t)
     return bool(out) if out.ndim == 0 else out
+
+
 _STAT = {name: k for k, name in enumerate(abi.names(abi.STATS))}
 _SUMMARY = {name: k for k, name in enumerate(abi.names(abi.SUMMARY))}
 _OK = abi.STATUS["ok"]
@@ -95,7 +99,7 @@ def summary_row(result) -> dict:
                            result.scene)
     return {"status": result.status, "model": result.model, "t_end": t_end,
             "impacts": s["impacts"], "contacts": s["contacts"], "lift_offs": s["lift_offs"],
-            **{name: s[name] for name in FACE_COLUMNS}, "steps": s["steps"],
+            **{name: s[name] for name in FRICTION_COLUMNS}, "steps": s["steps"],
             "rhs_evaluations": s["rhs_evaluations"],
             "min_height": result.min_height,
             "first_contact_t": float(contact[0, 0]) if len(contact) else math.nan,

@@ -16,8 +16,8 @@ import numpy as np
 MOST_TICKS = 12                   # every value is a tick up to this many values
 # the columns a sweep may draw (the study's numbers), and how each is labelled
 PLOTTABLE = {"impacts": "impacts", "contacts": "contact phases", "lift_offs": "lift-offs",
-             "slips": "slips over the face", "sticks": "rests on the face",
-             "reversals": "reversals on the face",
+             "slips": "slip events (stick to slip)", "sticks": "stick events (slip to stick)",
+             "reversals": "reversals of the slip",
              "steps": "steps", "rhs_evaluations": "RHS evaluations",
              "min_height": "lowest height of S [m]", "first_contact_t":
              "time of first resting contact [s]", "X_C_end": "X_C at the end [m]",

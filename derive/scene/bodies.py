@@ -137,7 +137,9 @@ def _read_table_file(el: Element, base: Path | None,
         raise SceneError(where, f"is larger than {tablemod.MAX_BYTES} bytes")
     try:
         text = full.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
+    except UnicodeDecodeError as exc:
+        raise SceneError(where, f"{rel!r} is not UTF-8 text (byte {exc.start})") from None
+    except OSError as exc:
         raise SceneError(where, f"cannot be read ({type(exc).__name__})") from None
     return tablemod.read_rows(text, rel, names)
 

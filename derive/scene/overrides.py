@@ -153,22 +153,23 @@ _SYMBOL = re.compile(r"[A-Za-z_][A-Za-z0-9_]*\Z")
 _RESERVED = {"t", "pi", "e"}
 
 
-def _sweep_formula(t: Target, text: str) -> Formulas:
+def _sweep_formula(name: str, text: str) -> Formulas:
     """``FORMULA for NAME=lo:hi:n`` (or ``=a,b,c``): the formula once per value of NAME,
-    written in as the shortest decimal that reads back as the same float."""
+    written in as the shortest decimal that reads back as the same float; ``name`` the
+    field as typed (``point[2].law[0]``: messages name the element)."""
     from .law.ops import FUNCTIONS
     formula, _, spec = text.rpartition(" for ")
     symbol, sep, values = spec.partition("=")
     symbol = symbol.strip()
     if not sep or not _SYMBOL.match(symbol) or symbol in _RESERVED or symbol in FUNCTIONS:
-        raise OverrideError("--sweep", f"{t.name}: a formula is swept as 'FORMULA for "
+        raise OverrideError("--sweep", f"{name}: a formula is swept as 'FORMULA for "
                                     f"NAME=lo:hi:n', NAME a name that is not t, pi or a "
                                     f"function (got {spec.strip()!r})")
     word = re.compile(rf"(?<![A-Za-z0-9_.]){re.escape(symbol)}(?![A-Za-z0-9_(])")
     if not word.search(formula):
-        raise OverrideError("--sweep", f"{t.name}: {symbol} does not appear in the formula "
+        raise OverrideError("--sweep", f"{name}: {symbol} does not appear in the formula "
                                     f"{formula.strip()!r}")
-    numbers = _numbers(t.name, values)
+    numbers = _numbers(name, values)
     texts = [f"{v:.17g}" if float(f"{v:.15g}") != v else f"{v:.15g}" for v in numbers]
     return Formulas([word.sub(f"({x})", formula.strip()) for x in texts], symbol, numbers)
 
@@ -188,7 +189,7 @@ def parse_sweep(text: str) -> tuple[str, list]:
             raise OverrideError("--sweep", f"{name}: a formula is swept by one of its "
                                         f"numbers: 'FORMULA for NAME=lo:hi:n', e.g. "
                                         f"{name}=0.05*sin(W*t) for W=8:16:9")
-        return name, _sweep_formula(t, spec)
+        return name, _sweep_formula(name, spec)
     return name, _numbers(name, spec)
 
 

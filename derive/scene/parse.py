@@ -34,8 +34,9 @@ def read_document(source, origin: str = "scene", what: str = "scene") -> tuple[d
     if isinstance(source, str):
         if len(source) > MAX_BYTES:
             raise SceneError(origin, "is larger than 16 MB")
-        empty = SceneError(origin, f"is empty: a {what} needs at least [body] and [point] "
-                                   "(`derive scene new` prints one)")
+        empty = SceneError(origin, f"is empty: a {what} needs at least [body] and a "
+                                   "[point], a [[point]] or a [[rotor]] (`derive scene new` "
+                                   "prints one)")
         if _BOTH_POINTS[0].search(source) and _BOTH_POINTS[1].search(source):
             raise SceneError("[point]", "and [[point]] both given: one point is [point], "
                                         "several are a [[point]] each")
@@ -76,7 +77,10 @@ def read_file(path, what: str = "scene") -> str:
         if len(data) > MAX_BYTES:
             raise SceneError(where, "is larger than 16 MB")
         return data.decode("utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
+    except UnicodeDecodeError as exc:
+        raise SceneError(where, f"is not UTF-8 text (byte {exc.start}: a binary file?)") \
+            from None
+    except OSError as exc:
         raise SceneError(where, f"cannot be read ({type(exc).__name__})") from None
 
 

@@ -272,6 +272,10 @@ def _model_by_hand(d: Draft) -> None:
                          f"scene of {what} has none to set (the re-planning controller, "
                          "mode = \"replan\", drives a task's decided bodies; pushes act "
                          "without [control]: [disturbance].pushes)")
+    if "stability" in d.v["__tables__"]:
+        raise SceneError("[stability]", f"is read by `derive stability` only, which "
+                         f"analyses one point's law (its formulas), and this scene has "
+                         f"{what}: remove it (`derive simulate` runs the scene)")
 
 
 def _run_span(d: Draft) -> None:
@@ -383,8 +387,9 @@ STATIC_RULES = (
          "table or samples", _law_source, law=True, bulk=_as_for_one(_law_source)),
     Rule(f"[[point]] and [[rotor]]: at most {ARRAYS['point']} points and {ARRAYS['rotor']} "
          "rotors; a scene that is not one point takes [run].model auto, moments or "
-         "moments_rough (the others read one point's law) and no [control] but mode "
-         "replan (hop's and mirror's controllers read and set one point's law)",
+         "moments_rough (the others read one point's law), no [control] but mode "
+         "replan (hop's and mirror's controllers read and set one point's law) and no "
+         "[stability] (derive stability, its only reader, analyses one point's law)",
          _model_by_hand, law=True),
     Rule("[run]: a duration that a step resolves and that is not lost in the start time; "
          "at most 1e7 output rows (duration/output_dt)", _run_span, law=True),

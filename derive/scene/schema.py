@@ -57,6 +57,8 @@ class Field:
     modes: tuple = ()          # [control]: the modes that read the field (): every mode
     models: tuple = ()         # the models that read the field (): every model; the
                                # others refuse it by name when given (runtime/choice.py)
+    methods: tuple = ()        # [run].method's that read the field (): every method; the
+                               # others refuse it by name when given (runtime/choice.py)
 
     @cached_property
     def where(self) -> str:
@@ -98,6 +100,9 @@ ARRAY_ONLY = ("rotor",)
 AXIS_TOLERANCE = 1e-6      # |a| of a rotor's axis within this of 1 (then normalised)
 _NAME = re.compile(r"[A-Za-z0-9 _.,:;=+()\[\]/#@&'\-]{1,80}", re.ASCII)
 
+# who reads [stability]: one scene file serves several commands, so the others accept it
+STABILITY_READER = ("read by `derive stability` only: derive simulate and the other "
+                    "commands accept and ignore it; refused in a scene that is not one point")
 SCENE_FIELDS = (
     F("", "name", "string", "scene", "a label for the outputs: at most 80 ASCII letters, "
       f"digits, spaces and {NAME_CHARACTERS}", example="my-scene"),
@@ -181,7 +186,8 @@ SCENE_FIELDS = (
       "the whole system (the carrier and its points), fixed axes; with on_plane, Z_C is "
       "computed (give 0)", -1e9, 1e9, size=3, example=[0.0, 0.0, 1.5]),
     F("initial", "on_plane", "bool", False, "S on the plane at the start: Z_C computed from "
-      "the shape, the attitude and where the points are (needs [plane] and a shape)"),
+      "the shape, the attitude and where the points are (needs [plane] and a shape); "
+      "pressed onto it and not leaving, the run begins in contact (no impact)"),
     F("initial", "com_velocity", "vector", [0.0, 0.0, 0.0], "X_C', Y_C', Z_C': C's velocity "
       "(the whole system's; the points' motion moves C); or give carrier_velocity", -1e6,
       1e6, size=3, example=[0.3, 0.0, 0.0]),
@@ -203,14 +209,19 @@ SCENE_FIELDS = (
     F("run", "g", "number", 9.81, "gravity", 0, 1e4),
     F("run", "outputs", "choices", ["pose", "impacts"], "what the result holds",
       choices=("pose", "omega", "height", "impacts", "momentum")),
-    F("run", "step", "number", None, "RK4 step (default: the least of duration/2000, "
-      "0.04/|omega(0)| and a tenth of the law's time scale)", 0, MAX_DURATION, True),
+    F("run", "step", "number", None, "the fixed step of method rk4 (default: the least of "
+      "duration/2000, 0.04/|omega(0)| and a tenth of the law's time scale); the adaptive "
+      "methods choose their own steps from rtol and atol and refuse it", 0, MAX_DURATION,
+      True, methods=("rk4",)),
     F("run", "max_events", "integer", 100_000, "stop after this many events", 1, 1e9),
     F("run", "max_steps", "integer", 10_000_000, "stop after this many steps", 1, 1e10),
     F("run", "output_dt", "number", 0.0, "rows every output_dt (0: one per step)", 0,
       MAX_DURATION),
     F("run", "keep_orthonormal", "bool", False, "project the attitude onto the rotations "
-      "after every step"),
+      "after every step of dopri5, dop853 or rk4, and of lie, lie5, lie8 in contact phases "
+      "(where DOPRI5 or DOP853 stands in: a flight's Lie step stays on the rotations); "
+      "refused where no step reads it: a Lie method without a plane, a model without an "
+      "attitude (attitude, translational, planar, axisymmetric, base)"),
     F("run", "model", "choice", "auto", "the model (auto: the smallest that answers the "
       "scene; moments, moments_rough: any points and rotors through their moments, the "
       "only models of scenes that are not one point; base: a box or a cylinder resting "
@@ -220,13 +231,13 @@ SCENE_FIELDS = (
     F("run", "zeno_dt", "number", 1e-9, "accumulating impacts: enter contact when the "
       "remaining flights sum to less than zeno_dt x duration", 0, 1, True),
     F("stability", "period", "number", None, "free flight: the period (default: the law's)",
-      0, MAX_DURATION, True),
+      0, MAX_DURATION, True, when=STABILITY_READER),
     F("stability", "impacts_every", "integer", 1, "on the plane: one impact per n periods",
-      1, 64),
+      1, 64, when=STABILITY_READER),
     F("stability", "long_periods", "integer", 0, "perturbed runs this many periods long "
-      "where the linear test is critical", 0, 1_000_000),
+      "where the linear test is critical", 0, 1_000_000, when=STABILITY_READER),
     F("stability", "perturbations", "numbers", [1e-6, 1e-4, 1e-2], "their sizes", 0, 0.1,
-      True),
+      True, when=STABILITY_READER),
 )
 
 # ``[plan]`` of a planning task (derive plan): the goals, bounds and options of the OCP
@@ -356,7 +367,9 @@ DISTURBANCE_FIELDS = (
           F("disturbance", "noise.com_velocity", "number", 0.0, "of C's velocity (m/s)", 0,
             1e3))),
     F("disturbance", "pushes", "tables", None, "impulsive pushes, in every run, with or "
-      "without [control] (the general model, or the rough one on a rough plane)", fields=(
+      "without [control]: a scene of one point runs the general model (on a rough plane "
+      "the rough one), a scene of several points or rotors its moments model (moments, "
+      "moments_rough), whose impulse maps take them (Delta V_C = P / (M + sum m))", fields=(
         F("disturbance", "pushes.time", "number", REQUIRED, "when (s)", -1e9, 1e9),
         F("disturbance", "pushes.impulse", "vector", REQUIRED, "the impulse P in fixed axes "
           "(N s)", -1e6, 1e6, size=3),

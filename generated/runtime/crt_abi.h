@@ -28,7 +28,8 @@ enum crt_option {
   CRT_OPT_LENGTH_SCALE = 13,  /* the largest |CS| (surface and point): heights are resolved relative to it; must be >= 0 */
   CRT_OPT_ZENO_DT = 14,  /* accumulating impacts: enter contact when the remaining flights sum to less than zeno_dt times the time scale */
   CRT_OPT_OUTPUT_PHASE = 15,  /* the output_dt grid's offset: rows at t0, then t0 + output_phase + k output_dt (0: t0 + output_dt, ...); a run that goes on from another's state keeps that run's grid (a hand-over after a lift-off); must be >= 0 */
-  CRT_OPT_COUNT = 16
+  CRT_OPT_START_ON_PLANE = 16,  /* 1: S starts on the plane ([initial].on_plane): pressed onto it and not leaving, the run begins in contact, without an impact */
+  CRT_OPT_COUNT = 17
 };
 
 /* Parameters: indices into the vector prm[CRT_P_COUNT] given to crt_init (the scene's
@@ -348,7 +349,7 @@ enum crt_count_kind {
 /* ---- the exported name functions: "" for an index or a code without a name ------------ */
 const char *crt_option_name(int i)
 {
-  static const char names[16][13] = {
+  static const char names[17][15] = {
     "method",
     "plane",
     "rtol",
@@ -364,9 +365,10 @@ const char *crt_option_name(int i)
     "event_tol",
     "length_scale",
     "zeno_dt",
-    "output_phase"
+    "output_phase",
+    "start_on_plane"
   };
-  return (i >= 0 && i < 16) ? names[i] : "";
+  return (i >= 0 && i < 17) ? names[i] : "";
 }
 
 const char *crt_parameter_name(int i)

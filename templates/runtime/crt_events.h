@@ -309,11 +309,23 @@ static enum crt_handled crt_handle_event(crt_session *s, crt_out *o, double ta, 
 static int crt_events_collide_now(crt_session *s, crt_out *o)
 {
   double g0 = s->g_start, d0 = s->d_start;
+  int now;
   if (!s->g_valid) {
     crt_gap(s, s->t, s->q, &g0, &d0);
     s->g_start = g0; s->d_start = d0; s->g_valid = 1;
   }
-  if (g0 <= 0.0 && d0 < 0.0 && s->t != s->last_event_t) {
+  now = g0 <= 0.0 && d0 < 0.0;
+  if (!now && s->opt[CRT_OPT_START_ON_PLANE] != 0.0 && s->stat[CRT_STAT_STEPS] == 0
+      && s->last_event_t == -HUGE_VAL && g0 <= crt_height_resolution(s, s->q)) {
+    /* S put on the plane at the start ([initial].on_plane): pressed onto it and not
+       leaving faster than round-off, the run begins in contact (crt_collide's touching
+       branch: no impact, nothing approached), where it had fallen by round-off for a
+       microsecond and hit the plane at g t */
+    double N, a_free;
+    crt_contact_state(s, s->t, s->q, &N, &a_free);
+    now = a_free < 0.0 && d0 <= crt_speed_noise(s, s->t, s->q);
+  }
+  if (now && s->t != s->last_event_t) {
     double q_now[NQ];
     int i;
     for (i = 0; i < NQ; ++i) q_now[i] = s->q[i];
