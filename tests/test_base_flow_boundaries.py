@@ -44,3 +44,79 @@ def test_an_edge_reached_at_ns_resolution_is_the_lift_offs_below_it_a_tip_above(
     else:
         assert raw.status == "tipping" and kind == "tipping" and abs(t - t_tip) < 1e-13
         assert -1e-3 * a < value <= 0.0         # (cp moves at 7e9 a/s there)
+
+
+def _scene9(duration=None, output_dt=0.0):
+    """Robustness scene 9 (derive verify robustness --plane face, seed 11): a box that
+    sticks, then slips from rest at t* = 1.1649 s along its slow manifold (the start of
+    tests/test_base_runtime.py's slow-manifold test), ``duration`` and ``output_dt`` set."""
+    from derive.verify.generators import random_face_scene
+    from derive.verify.robustness import FACE_MAX_DURATION, PLANE_SEEDS
+    doc = random_face_scene(np.random.default_rng(11 * 1_000_003 + PLANE_SEEDS["face"] + 9),
+                            FACE_MAX_DURATION)
+    if duration is not None:
+        doc["run"]["duration"] = duration
+    doc["run"]["output_dt"] = output_dt
+    return doc
+
+
+def _start(run):
+    """The slip's time and the row after it: its time and the scaled twist's size there."""
+    from derive.runtime import choice
+    ell = choice.base_face(run.scene).size
+    t_slip = [e["t"] for e in run.events if e["kind"] == "slip"][0]
+    after = int(np.flatnonzero((run.row_kind == tbr.abi.ROW_KIND["after_event"])
+                               & (run.t >= t_slip))[0])
+    q = run.model_q[after]
+    return t_slip, run.t[after], math.hypot(math.hypot(q[3], q[4]), ell * q[5]) / math.sqrt(
+        run.scene.g * ell)
+
+
+def test_a_slip_from_rest_near_the_runs_end_starts_along_its_manifold_only_inside_it():
+    """The start along the slow manifold (crt_base_onset_far, to a scaled twist of 1e-6)
+    is taken when its span tau ends before the run's end: at t* + 0.02 s (t* within 2 % of
+    the end, as a time) it is; when the run ends at t* + tau / 2 it is not (the Taylor
+    start, to 1e2 eps = 1e-9), and the run ends at its end, no row past it."""
+    from derive.runtime.driver import simulate
+    from derive.scene.parse import parse_scene
+    first = simulate(parse_scene(_scene9(), "random"))
+    t_slip = _start(first)[0]
+    run = simulate(parse_scene(_scene9(t_slip + 0.02), "random"))
+    assert run.status == "done" and t_slip > (t_slip + 0.02) / 1.05
+    t_s, t_after, size = _start(run)
+    assert t_s == t_slip and abs(size / 1e-6 - 1.0) < 1e-9
+    tau = t_after - t_slip
+    assert 1e-7 < tau < 1e-5
+    end = t_slip + tau / 2
+    run = simulate(parse_scene(_scene9(end), "random"))
+    t_s, t_after, size = _start(run)
+    assert run.status == "done" and t_s == t_slip and abs(size / 1e-9 - 1.0) < 1e-9
+    assert t_slip <= t_after < end and run.t[-1] == end and run.t.max() == end
+
+
+def test_grid_rows_inside_and_after_a_slips_start_along_its_manifold_are_the_references():
+    """A grid row inside the slow manifold's span (t* + tau / 2: the start's series there)
+    and the next, 1 ms later (the slip's steps), against derive/base_reference.py
+    (Newton-Euler, adaptive quadrature) from the rest just before t*, to 1e-9: the twist
+    there is 5e-7 m/s, the start's end or the rest 5e-7 m/s off it (~2 s of CPU)."""
+    from derive import base_reference as br
+    from derive.runtime.driver import prepare, run_prepared, simulate
+    from derive.scene.parse import parse_scene
+    from derive.verify.judges import face_system
+    t_slip, t_after, _ = _start(simulate(parse_scene(_scene9(), "random")))
+    inside = t_slip + (t_after - t_slip) / 2
+    doc = _scene9(t_slip + 2e-3, 1e-3)
+    run = run_prepared(prepare(doc, output_origin=inside - 1.0))
+    step = run.row_kind == tbr.abi.ROW_KIND["step"]
+    rows = [int(np.flatnonzero(step & (np.abs(run.t - t) < 1e-12))[0])
+            for t in (inside, inside + 1e-3)]
+    assert run.status == "done" and t_slip < run.t[rows[0]] < t_after
+    rest = int(np.flatnonzero(run.t < t_slip - 1e-4)[-1])
+    assert not np.any(run.model_q[rest, 3:])
+    marks = [float(run.t[j]) for j in rows]
+    ref = br.Integrator(face_system(parse_scene(doc, "random"))).run(
+        run.model_q[rest], t_slip - 1e-7, marks[-1], samples=marks)
+    assert [k for _, k in ref.events] == ["slip"]
+    for sample, j in zip(ref.samples, rows):
+        assert sample[0] == run.t[j] and np.abs(sample[1:] - run.model_q[j]).max() < 1e-9
+    assert np.abs(run.model_q[rows[0], 3:]).max() > 1e-7
