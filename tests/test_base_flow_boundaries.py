@@ -120,3 +120,41 @@ def test_grid_rows_inside_and_after_a_slips_start_along_its_manifold_are_the_ref
     for sample, j in zip(ref.samples, rows):
         assert sample[0] == run.t[j] and np.abs(sample[1:] - run.model_q[j]).max() < 1e-9
     assert np.abs(run.model_q[rows[0], 3:]).max() > 1e-7
+
+
+def _face_scene(k):
+    """Scene k of derive verify robustness --plane face (seed 11), as it runs it."""
+    from derive.verify.generators import random_face_scene
+    from derive.verify.robustness import FACE_MAX_DURATION, PLANE_SEEDS
+    doc = random_face_scene(np.random.default_rng(11 * 1_000_003 + PLANE_SEEDS["face"] + k),
+                            FACE_MAX_DURATION)
+    if k % 2:
+        doc["plane"]["restitution"] = 0.3
+    return doc
+
+
+@pytest.mark.parametrize("k, far", [(843, 2), (422, 0)])
+def test_each_slip_from_rest_starts_at_its_seed(k, far):
+    """A slip from rest starts along its slow manifold at a scaled twist of R = 1e-6
+    exactly (crt_base_onset_far: tau solves r(tau) = R by Newton's method to 1e-9 tau, and
+    the twist there is r(tau)), else by its Taylor series at the seed 1e2 eps = 1e-9 along
+    the start's direction (the twist's size that or a little more, with the part across).
+    Robustness scenes 843 (two starts along the manifold where the quadratic's first guess
+    of tau is 40 % off r = R) and 422 (a start at t0 where the manifold's start is
+    refused: the Taylor start), to 1 s."""
+    from derive.runtime import choice
+    from derive.runtime.driver import prepare, run_prepared
+    from derive.scene.parse import parse_scene
+    doc = _face_scene(k)
+    doc["run"]["duration"] = min(doc["run"]["duration"], 1.0)
+    scene = parse_scene(doc, "random")
+    run = run_prepared(prepare(scene))
+    ell = choice.base_face(scene).size
+    slips = [e["t"] for e in run.events if e["kind"] == "slip"]
+    after = np.flatnonzero(run.row_kind == tbr.abi.ROW_KIND["after_event"])
+    first = [after[run.t[after] >= t][0] for t in slips]      # (the row after each slip)
+    sizes = [math.hypot(math.hypot(q[3], q[4]), ell * q[5]) / math.sqrt(scene.g * ell)
+             for q in run.model_q[first]]
+    assert run.status == "done" and len(sizes) == len(slips) >= 1
+    assert sum(abs(s / 1e-6 - 1.0) < 1e-10 for s in sizes) == far
+    assert all(abs(s / 1e-6 - 1.0) < 1e-10 or 1e-9 * (1 - 1e-12) < s < 2e-9 for s in sizes)
