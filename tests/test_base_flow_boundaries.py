@@ -133,7 +133,7 @@ def _face_scene(k):
     return doc
 
 
-@pytest.mark.parametrize("k, far", [(843, 2), (422, 0)])
+@pytest.mark.parametrize("k, far", [(843, 2), (422, 0), (207, 2)])
 def test_each_slip_from_rest_starts_at_its_seed(k, far):
     """A slip from rest starts along its slow manifold at a scaled twist of R = 1e-6
     exactly (crt_base_onset_far: tau solves r(tau) = R by Newton's method to 1e-9 tau, and
@@ -141,7 +141,8 @@ def test_each_slip_from_rest_starts_at_its_seed(k, far):
     the start's direction (the twist's size that or a little more, with the part across).
     Robustness scenes 843 (two starts along the manifold where the quadratic's first guess
     of tau is 40 % off r = R) and 422 (a start at t0 where the manifold's start is
-    refused: the Taylor start), to 1 s."""
+    refused: the Taylor start), to 1 s; and 207, under linear pressure (the kern's margin
+    held positive at the manifold's nodes: two starts along it)."""
     from derive.runtime import choice
     from derive.runtime.driver import prepare, run_prepared
     from derive.scene.parse import parse_scene
