@@ -159,3 +159,23 @@ def test_each_slip_from_rest_starts_at_its_seed(k, far):
     assert run.status == "done" and len(sizes) == len(slips) >= 1
     assert sum(abs(s / 1e-6 - 1.0) < 1e-10 for s in sizes) == far
     assert all(abs(s / 1e-6 - 1.0) < 1e-10 or 1e-9 * (1 - 1e-12) < s < 2e-9 for s in sizes)
+
+
+def test_a_break_away_just_before_the_lift_off_ends_at_the_lift_off():
+    """A box at rest, its point pushed sideways at x'' = c = 1e-3 m/s^2 and up and down so
+    that N = (M + m) g + m z'' falls through 0 at 1e3 N/s: the push breaks the rest where
+    mu_s N = m c, 1e-6 s before N = 0 (the closed forms' times), and the slip's Taylor
+    start (its span ~1.5e-6 s, the seed 1e2 eps over the along rate's growth) is cut at
+    N's root (crt_base_onset_span): the lift-off at the closed form's time to 1e-12, not a
+    span late.  (The point moves on the face's plane at N = 0: no moment, no tip.)"""
+    M, m, a, W, mu, c = 1.0, 0.5, 0.1, 40.0, 0.5, 1e-3
+    A = (M + m) * G / (0.5 * m * W * W)          # N = 0 at sin(W t) = 1/2
+    law = f'["{c / 2!r}*t*t", "0", "-0.04 + {A!r}*(sin({W}*t) - 0.5)"]'
+    scene = tbr._scene(f'mass = {M}\ninertia = [0.01, 0.02, 0.025]\nshape = "box"\n'
+                       f'half_extents = [{a}, 0.06, 0.04]', f'mass = {m}\nlaw = {law}', mu, 0.05)
+    raw = tbr.run_base(scene, np.zeros(6))
+    t_l = math.asin((M + m) * G / (m * A * W * W)) / W
+    t_b = math.asin(((M + m) * G - m * c / mu) / (m * A * W * W)) / W
+    assert 5e-7 < t_l - t_b < 1.5e-6
+    assert raw.status == "lift_off" and [k for _, k, _ in _events(raw)] == ["slip", "lift_off"]
+    assert np.abs([t for t, _, _ in _events(raw)] - np.array([t_b, t_l])).max() < 1e-12
