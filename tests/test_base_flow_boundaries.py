@@ -133,8 +133,9 @@ def _face_scene(k):
     return doc
 
 
-@pytest.mark.parametrize("k, far", [(843, 2), (422, 0), (207, 2)])
-def test_each_slip_from_rest_starts_at_its_seed(k, far):
+@pytest.mark.parametrize("k, far, t0", [(843, 2, None), (422, 0, None), (207, 2, None),
+                                         (207, 2, -3.0)])
+def test_each_slip_from_rest_starts_at_its_seed(k, far, t0):
     """A slip from rest starts along its slow manifold at a scaled twist of R = 1e-6
     exactly (crt_base_onset_far: tau solves r(tau) = R by Newton's method to 1e-9 tau, and
     the twist there is r(tau)), else by its Taylor series at the seed 1e2 eps = 1e-9 along
@@ -142,12 +143,15 @@ def test_each_slip_from_rest_starts_at_its_seed(k, far):
     Robustness scenes 843 (two starts along the manifold where the quadratic's first guess
     of tau is 40 % off r = R) and 422 (a start at t0 where the manifold's start is
     refused: the Taylor start), to 1 s; and 207, under linear pressure (the kern's margin
-    held positive at the manifold's nodes: two starts along it)."""
+    held positive at the manifold's nodes: two starts along it), and 207 from t0 = -3 s
+    (a run at negative times, its starts along the manifold ending before its end)."""
     from derive.runtime import choice
     from derive.runtime.driver import prepare, run_prepared
     from derive.scene.parse import parse_scene
     doc = _face_scene(k)
     doc["run"]["duration"] = min(doc["run"]["duration"], 1.0)
+    if t0 is not None:
+        doc["initial"]["time"] = t0
     scene = parse_scene(doc, "random")
     run = run_prepared(prepare(scene))
     ell = choice.base_face(scene).size
