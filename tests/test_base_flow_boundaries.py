@@ -1,14 +1,21 @@
 """crt_base_flow.h's rules at their edges (issue 36: its mutants), each against a closed
-form or the rule's own arithmetic done apart in Python.
+form, derive/base_reference.py or the rule's own arithmetic done apart in Python.
 
 * N's resolution, crt_base_n_res = 1e-9 (M + m) g: a root of the edge's margin located
   where N is at or below it is N's (crt_base_tie), above it a tip.  A box at rest, its
-  point on the axis but c off it and pushed up and down (tests/test_base_tip_before_lift.py's
-  closed forms): cp reaches the edge -a where N = g c M / (a + c), here 0.98 and 1.02 of
-  N's resolution.  Below it the run goes on to the lift-off at N = 0 (the closed form's
+  point c off the axis, pushed up and down (tests/test_base_tip_before_lift.py's closed
+  forms): cp reaches the edge -a where N = g c M / (a + c), here 0.98 and 1.02 of N's
+  resolution.  Below it the run goes on to the lift-off at N = 0 (the closed form's
   time); above it the run tips at the closed form's time to 1e-13 s (N falls at 1e3 N/s
   there: 5 % of the resolution is 7e-13 s) with the margin ~0 at the event (not the -a a
   margin cut off by N reads).
+* The slip's start from rest along its slow manifold (crt_base_onset_far): taken when
+  its span ends before the run's end, refused when the end falls inside it; its grid
+  rows inside the span and after it against the reference; each start at its seed
+  (1e-6 along the manifold to 1e-10, or the Taylor start's 1e-9), under uniform and
+  linear pressure and at negative times.
+* A break-away 1e-6 s before the lift-off: the Taylor start's span cut at N's root
+  (crt_base_onset_span), the lift-off at its closed-form time.
 """
 import math
 
