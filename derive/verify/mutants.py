@@ -147,7 +147,7 @@ UNIT_TESTS = {
 # lift-off handed over to the flight (the base model's headers)
 _BASE = ("tests/test_base_boundaries.py", "tests/test_crt_face.py",
          "tests/test_base_closed_forms.py", "tests/test_base_edges.py",
-         "tests/test_base_tip_before_lift.py",
+         "tests/test_base_tip_before_lift.py", "tests/test_base_flow_boundaries.py",
          "tests/test_capsule_modes.py::test_no_stop_is_missed",
          "tests/test_capsule_modes.py::test_the_cell_once_called_tipping_reverses",
          "tests/test_capsule_modes.py::test_the_three_types_and_every_stop_agree_with_the_"

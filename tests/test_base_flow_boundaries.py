@@ -1,0 +1,192 @@
+"""crt_base_flow.h's rules at their edges (issue 36: its mutants), each against a closed
+form, derive/base_reference.py or the rule's own arithmetic done apart in Python.
+
+* N's resolution, crt_base_n_res = 1e-9 (M + m) g: a root of the edge's margin located
+  where N is at or below it is N's (crt_base_tie), above it a tip.  A box at rest, its
+  point c off the axis, pushed up and down (tests/test_base_tip_before_lift.py's closed
+  forms): cp reaches the edge -a where N = g c M / (a + c), here 0.98 and 1.02 of N's
+  resolution.  Below it the run goes on to the lift-off at N = 0 (the closed form's
+  time); above it the run tips at the closed form's time to 1e-13 s (N falls at 1e3 N/s
+  there: 5 % of the resolution is 7e-13 s) with the margin ~0 at the event (not the -a a
+  margin cut off by N reads).
+* The slip's start from rest along its slow manifold (crt_base_onset_far): taken when
+  its span ends before the run's end, refused when the end falls inside it; its grid
+  rows inside the span and after it against the reference; each start at its seed
+  (1e-6 along the manifold to 1e-10, or the Taylor start's 1e-9), under uniform and
+  linear pressure and at negative times.
+* A break-away 1e-6 s before the lift-off: the Taylor start's span cut at N's root
+  (crt_base_onset_span), the lift-off at its closed-form time.
+"""
+import math
+
+import numpy as np
+import pytest
+
+import test_base_runtime as tbr
+
+G = 9.81
+
+
+def _events(raw):
+    return [(row[0], tbr.abi.names(tbr.abi.EVENT_KINDS)[int(row[1])], row[2])
+            for row in raw.events]
+
+
+@pytest.mark.parametrize("f", [0.98, 1.02])
+def test_an_edge_reached_at_ns_resolution_is_the_lift_offs_below_it_a_tip_above(f):
+    M, m, a, W = 1.0, 0.5, 0.1, 40.0
+    A = (M + m) * G / (0.5 * m * W * W)          # N = 0 at sin(W t) = 1/2
+    n_tip = f * 1e-9 * (M + m) * G               # N where cp reaches the edge
+    c = n_tip * a / (G * M - n_tip)              # N_tip = g c M / (a + c)
+    scene = tbr._scene(f'mass = {M}\ninertia = [0.01, 0.02, 0.025]\nshape = "box"\n'
+                       f'half_extents = [{a}, 0.06, 0.04]',
+                       f'mass = {m}\nlaw = ["{c!r}", "0", "{A!r}*sin({W}*t)"]', 0.5, 0.05)
+    raw = tbr.run_base(scene, np.zeros(6))
+    t_l = math.asin((M + m) * G / (m * A * W * W)) / W
+    t_tip = math.asin(G * (a * (M + m) + c * m) / (m * (a + c) * A * W * W)) / W
+    assert 0.0 < t_l - t_tip < 1e-9
+    (t, kind, value), = _events(raw)
+    if f < 1.0:
+        assert raw.status == "lift_off" and kind == "lift_off" and abs(t - t_l) < 1e-12
+    else:
+        assert raw.status == "tipping" and kind == "tipping" and abs(t - t_tip) < 1e-13
+        assert -1e-3 * a < value <= 0.0         # (cp moves at 7e9 a/s there)
+
+
+def _scene9(duration=None, output_dt=0.0):
+    """Robustness scene 9 (derive verify robustness --plane face, seed 11): a box that
+    sticks, then slips from rest at t* = 1.1649 s along its slow manifold (the start of
+    tests/test_base_runtime.py's slow-manifold test), ``duration`` and ``output_dt`` set."""
+    from derive.verify.generators import random_face_scene
+    from derive.verify.robustness import FACE_MAX_DURATION, PLANE_SEEDS
+    doc = random_face_scene(np.random.default_rng(11 * 1_000_003 + PLANE_SEEDS["face"] + 9),
+                            FACE_MAX_DURATION)
+    if duration is not None:
+        doc["run"]["duration"] = duration
+    doc["run"]["output_dt"] = output_dt
+    return doc
+
+
+def _start(run):
+    """The slip's time and the row after it: its time and the scaled twist's size there."""
+    from derive.runtime import choice
+    ell = choice.base_face(run.scene).size
+    t_slip = [e["t"] for e in run.events if e["kind"] == "slip"][0]
+    after = int(np.flatnonzero((run.row_kind == tbr.abi.ROW_KIND["after_event"])
+                               & (run.t >= t_slip))[0])
+    q = run.model_q[after]
+    return t_slip, run.t[after], math.hypot(math.hypot(q[3], q[4]), ell * q[5]) / math.sqrt(
+        run.scene.g * ell)
+
+
+def test_a_slip_from_rest_near_the_runs_end_starts_along_its_manifold_only_inside_it():
+    """The start along the slow manifold (crt_base_onset_far, to a scaled twist of 1e-6)
+    is taken when its span tau ends before the run's end: at t* + 0.02 s (t* within 2 % of
+    the end, as a time) it is; when the run ends at t* + tau / 2 it is not (the Taylor
+    start, to 1e2 eps = 1e-9), and the run ends at its end, no row past it."""
+    from derive.runtime.driver import simulate
+    from derive.scene.parse import parse_scene
+    first = simulate(parse_scene(_scene9(), "random"))
+    t_slip = _start(first)[0]
+    run = simulate(parse_scene(_scene9(t_slip + 0.02), "random"))
+    assert run.status == "done" and t_slip > (t_slip + 0.02) / 1.05
+    t_s, t_after, size = _start(run)
+    assert abs(t_s - t_slip) < 1e-12 and abs(size / 1e-6 - 1.0) < 1e-9
+    tau = t_after - t_slip
+    assert 1e-7 < tau < 1e-5
+    end = t_slip + tau / 2
+    run = simulate(parse_scene(_scene9(end), "random"))
+    t_s, t_after, size = _start(run)
+    assert run.status == "done" and abs(t_s - t_slip) < 1e-12 and abs(size / 1e-9 - 1.0) < 1e-9
+    assert t_slip <= t_after < end and run.t[-1] == end and run.t.max() == end
+
+
+def test_grid_rows_inside_and_after_a_slips_start_along_its_manifold_are_the_references():
+    """A grid row inside the slow manifold's span (t* + tau / 2: the start's series there)
+    and the next, 1 ms later (the slip's steps), against derive/base_reference.py
+    (Newton-Euler, adaptive quadrature) from the rest just before t*, to 1e-9: the twist
+    there is 5e-7 m/s, the start's end or the rest 5e-7 m/s off it (~2 s of CPU)."""
+    from derive import base_reference as br
+    from derive.runtime.driver import prepare, run_prepared, simulate
+    from derive.scene.parse import parse_scene
+    from derive.verify.judges import face_system
+    t_slip, t_after, _ = _start(simulate(parse_scene(_scene9(), "random")))
+    inside = t_slip + (t_after - t_slip) / 2
+    doc = _scene9(t_slip + 2e-3, 1e-3)
+    run = run_prepared(prepare(doc, output_origin=inside - 1.0))
+    step = run.row_kind == tbr.abi.ROW_KIND["step"]
+    rows = [int(np.flatnonzero(step & (np.abs(run.t - t) < 1e-12))[0])
+            for t in (inside, inside + 1e-3)]
+    assert run.status == "done" and t_slip < run.t[rows[0]] < t_after
+    rest = int(np.flatnonzero(run.t < t_slip - 1e-4)[-1])
+    assert not np.any(run.model_q[rest, 3:])
+    marks = [float(run.t[j]) for j in rows]
+    ref = br.Integrator(face_system(parse_scene(doc, "random"))).run(
+        run.model_q[rest], t_slip - 1e-7, marks[-1], samples=marks)
+    assert [k for _, k in ref.events] == ["slip"]
+    for sample, j in zip(ref.samples, rows):
+        assert sample[0] == run.t[j] and np.abs(sample[1:] - run.model_q[j]).max() < 1e-9
+    assert np.abs(run.model_q[rows[0], 3:]).max() > 1e-7
+
+
+def _face_scene(k):
+    """Scene k of derive verify robustness --plane face (seed 11), as it runs it."""
+    from derive.verify.generators import random_face_scene
+    from derive.verify.robustness import FACE_MAX_DURATION, PLANE_SEEDS
+    doc = random_face_scene(np.random.default_rng(11 * 1_000_003 + PLANE_SEEDS["face"] + k),
+                            FACE_MAX_DURATION)
+    if k % 2:
+        doc["plane"]["restitution"] = 0.3
+    return doc
+
+
+@pytest.mark.parametrize("k, far, t0", [(843, 2, None), (422, 0, None), (207, 2, None),
+                                         (207, 2, -3.0)])
+def test_each_slip_from_rest_starts_at_its_seed(k, far, t0):
+    """A slip from rest starts along its slow manifold at a scaled twist of R = 1e-6
+    exactly (crt_base_onset_far: tau solves r(tau) = R by Newton's method to 1e-9 tau, and
+    the twist there is r(tau)), else by its Taylor series at the seed 1e2 eps = 1e-9 along
+    the start's direction (the twist's size that or a little more, with the part across).
+    Robustness scenes 843 (two starts along the manifold where the quadratic's first guess
+    of tau is 40 % off r = R) and 422 (a start at t0 where the manifold's start is
+    refused: the Taylor start), to 1 s; and 207, under linear pressure (the kern's margin
+    held positive at the manifold's nodes: two starts along it), and 207 from t0 = -3 s
+    (a run at negative times, its starts along the manifold ending before its end)."""
+    from derive.runtime import choice
+    from derive.runtime.driver import prepare, run_prepared
+    from derive.scene.parse import parse_scene
+    doc = _face_scene(k)
+    doc["run"]["duration"] = min(doc["run"]["duration"], 1.0)
+    if t0 is not None:
+        doc["initial"]["time"] = t0
+    scene = parse_scene(doc, "random")
+    run = run_prepared(prepare(scene))
+    ell = choice.base_face(scene).size
+    slips = [e["t"] for e in run.events if e["kind"] == "slip"]
+    after = np.flatnonzero(run.row_kind == tbr.abi.ROW_KIND["after_event"])
+    first = [after[run.t[after] >= t][0] for t in slips]      # (the row after each slip)
+    sizes = [math.hypot(math.hypot(q[3], q[4]), ell * q[5]) / math.sqrt(scene.g * ell)
+             for q in run.model_q[first]]
+    assert run.status == "done" and len(sizes) == len(slips) >= 1
+    assert sum(abs(s / 1e-6 - 1.0) < 1e-10 for s in sizes) == far
+    assert all(abs(s / 1e-6 - 1.0) < 1e-10 or 1e-9 * (1 - 1e-12) < s < 2e-9 for s in sizes)
+
+
+def test_a_break_away_just_before_the_lift_off_ends_at_the_lift_off():
+    """A box at rest, its point pushed sideways at x'' = c = 1e-3 m/s^2 and up and down so
+    that N = (M + m) g + m z'' falls through 0 at 1e3 N/s: the push breaks the rest where
+    mu_s N = m c, 1e-6 s before N = 0 (the closed forms' times), and the slip's Taylor
+    start (its span ~1.5e-6 s, the seed 1e2 eps over the along rate's growth) is cut at
+    N's root (crt_base_onset_span): the lift-off at the closed form's time to 1e-12, not a
+    span late.  (The point moves on the face's plane at N = 0: no moment, no tip.)"""
+    M, m, a, W, mu, c = 1.0, 0.5, 0.1, 40.0, 0.5, 1e-3
+    A = (M + m) * G / (0.5 * m * W * W)          # N = 0 at sin(W t) = 1/2
+    law = f'["{c / 2!r}*t*t", "0", "-0.04 + {A!r}*(sin({W}*t) - 0.5)"]'
+    scene = tbr._scene(f'mass = {M}\ninertia = [0.01, 0.02, 0.025]\nshape = "box"\n'
+                       f'half_extents = [{a}, 0.06, 0.04]', f'mass = {m}\nlaw = {law}', mu, 0.05)
+    raw = tbr.run_base(scene, np.zeros(6))
+    t_l = math.asin((M + m) * G / (m * A * W * W)) / W
+    t_b = math.asin(((M + m) * G - m * c / mu) / (m * A * W * W)) / W
+    assert 5e-7 < t_l - t_b < 1.5e-6
+    assert raw.status == "lift_off" and [k for _, k, _ in _events(raw)] == ["slip", "lift_off"]
+    assert np.abs([t for t, _, _ in _events(raw)] - np.array([t_b, t_l])).max() < 1e-12
