@@ -261,11 +261,18 @@ PRINTS = re.compile(r"<!-- prints: derive simulate (\S+|\(the built-in scene\)) 
                     r"```\n(.*?)```", re.S)
 
 
+RHS = re.compile(r"(\d+) RHS evaluations")
+
+
 def test_the_shown_runs_print_what_the_docs_say(tmp_path):
     """Every block marked `<!-- prints: derive simulate X -->` (the README's first command
     on the built-in scene, two.toml, the capsule crawler) is derive simulate's report of X
     (derive.runtime.report.lines, which the command prints) from the scene's own line on;
-    a line the docs cut with '...' is compared up to the cut."""
+    a line the docs cut with '...' is compared up to the cut.  The count of RHS evaluations
+    is held to 5 %: the event searches' iterations move with last-bit round-off, which the
+    compiler's contraction and inlining choices change when unrelated code changes (the
+    same source printed 2428 and 2489 for two.toml in two builds, steps, impacts and states
+    equal to 1e-14); every other figure is compared as printed."""
     import derive
     from derive.runtime import report
     from derive.scene.docs import builtin_doc
@@ -286,6 +293,12 @@ def test_the_shown_runs_print_what_the_docs_say(tmp_path):
         lines = lines[next(k for k, line in enumerate(lines)
                            if line.startswith(f"{scene.name}: ")):]
         for said, got in zip(lines, printed):
+            said_n, got_n = RHS.search(said), RHS.search(got)
+            if said_n and got_n:
+                a, b = int(said_n.group(1)), int(got_n.group(1))
+                assert abs(a - b) <= 0.05 * a, (
+                    f"{name(doc)}: shows {said!r}, derive simulate {what} prints {got!r}")
+                said, got = RHS.sub("RHS", said), RHS.sub("RHS", got)
             cut = said.split("...")[0]
             assert got == said or ("..." in said and got.startswith(cut)), (
                 f"{name(doc)}: shows {said!r}, derive simulate {what} prints {got!r}")
