@@ -224,7 +224,7 @@ static void crt_wrench_solve(crt_session *s, const crt_wrench_terms *m, int mode
                              const double *dir, crt_wrench *o)
 {
   const double mu_f = s->prm[CRT_P_friction];
-  double b[6] = {0.0, 0.0, 1.0, 0.0, 0.0, 0.0}, K[7][8], x[7];   /* K[i][7]: the rhs */
+  double b[6] = {0.0, 0.0, 1.0, 0.0, 0.0, 0.0}, K[7][7], r[7], x[7];
   int idx[7], n = 0, i, j, k, c;
   for (i = 0; i < 6; ++i) o->u[i] = m->u[i];
   if (mode == CRT_MODE_STICKING) { idx[n++] = 0; idx[n++] = 1; }
@@ -249,22 +249,19 @@ static void crt_wrench_solve(crt_session *s, const crt_wrench_terms *m, int mode
   for (i = 0; i <= n; ++i) {
     const int ri = idx[i];
     double gb = 0.0;
-    for (j = 0; j < 7; ++j) K[i][j] = 0.0;
     for (j = 0; j < n; ++j) K[i][j] = m->G[ri][idx[j]];
     for (k = 0; k < 6; ++k) gb += m->G[ri][k] * b[k];
     K[i][n] = gb;
-    K[i][7] = -m->a[ri];
+    r[i] = -m->a[ri];
   }
-  /* whole rows of eight, the rhs with them: one vector operation where loops over the
-     columns k+1..n cost a scalar loop's overhead each (the columns up to k and past n
-     are not read again; the others get the same operations as before) */
   for (k = 0; k < n; ++k)
     for (i = k + 1; i <= n; ++i) {
-      const double f = K[i][k] / K[k][k];
-      for (j = 0; j < 8; ++j) K[i][j] -= f * K[k][j];
+      const double f = K[i][k] / K[k][k];      /* (K[i][k] itself is not read again) */
+      for (j = k + 1; j <= n; ++j) K[i][j] -= f * K[k][j];
+      r[i] -= f * r[k];
     }
   for (i = n; i >= 0; --i) {
-    double acc = K[i][7];
+    double acc = r[i];
     for (j = i + 1; j <= n; ++j) acc -= K[i][j] * x[j];
     x[i] = acc / K[i][i];
   }
