@@ -204,11 +204,19 @@ typedef struct {
 static void crt_wrench_terms_at(crt_session *s, double t, const double *q,
                                 crt_wrench_terms *m)
 {
-  double g21[21];
-  int i, j, k;
-  model_contact_wrench(s->prm, crt_u(s, t), q, g21, m->a, m->u, m->w0, m->Yw);
-  for (k = 0, i = 0; i < 6; ++i)
-    for (j = i; j < 6; ++j, ++k) m->G[i][j] = m->G[j][i] = g21[k];
+  double g[21];
+  double (*G)[6] = m->G;
+  model_contact_wrench(s->prm, crt_u(s, t), q, g, m->a, m->u, m->w0, m->Yw);
+  /* G from its upper triangle, row by row (written out: the loops cost 4x the stores) */
+  G[0][0] = g[0];  G[0][1] = G[1][0] = g[1];  G[0][2] = G[2][0] = g[2];
+  G[0][3] = G[3][0] = g[3];  G[0][4] = G[4][0] = g[4];  G[0][5] = G[5][0] = g[5];
+  G[1][1] = g[6];  G[1][2] = G[2][1] = g[7];  G[1][3] = G[3][1] = g[8];
+  G[1][4] = G[4][1] = g[9];  G[1][5] = G[5][1] = g[10];
+  G[2][2] = g[11]; G[2][3] = G[3][2] = g[12]; G[2][4] = G[4][2] = g[13];
+  G[2][5] = G[5][2] = g[14];
+  G[3][3] = g[15]; G[3][4] = G[4][3] = g[16]; G[3][5] = G[5][3] = g[17];
+  G[4][4] = g[18]; G[4][5] = G[5][4] = g[19];
+  G[5][5] = g[20];
 }
 
 /* the modes' side: the unknowns for the terms m (crt_rough_wrench without the rates) */
@@ -248,8 +256,8 @@ static void crt_wrench_solve(crt_session *s, const crt_wrench_terms *m, int mode
   }
   for (k = 0; k < n; ++k)
     for (i = k + 1; i <= n; ++i) {
-      const double f = K[i][k] / K[k][k];
-      for (j = k; j <= n; ++j) K[i][j] -= f * K[k][j];
+      const double f = K[i][k] / K[k][k];      /* (K[i][k] itself is not read again) */
+      for (j = k + 1; j <= n; ++j) K[i][j] -= f * K[k][j];
       r[i] -= f * r[k];
     }
   for (i = n; i >= 0; --i) {
