@@ -128,7 +128,7 @@ def test_a_translation_whose_flow_turns_goes_on_by_the_slips_steps():
     the same scene with the turn seen at the start (+1e-10 t^2, a lateral force of 8e-11
     N: the translation refused, the slip's steps from t = 0) agrees to 1e-9 at every event
     and at the end (the perturbation's own effect: 5e-11 at the events, 2.4e-10 at the
-    end, linear in its size)."""
+    end, linear in its size); the body yaws by 3e-3 before its first stick."""
     v0, y = 0.2, f"0.004*sin({W}*t)^30"
     q0 = [X0, Y0, PSI0, v0 * math.cos(PSI0), v0 * math.sin(PSI0), 0.0]
     turned, steps = (tbr.run_base(tbr._scene(BOX, f"mass = {m}\n" + LAW.format(x=DRIVE, y=law),
@@ -141,6 +141,93 @@ def test_a_translation_whose_flow_turns_goes_on_by_the_slips_steps():
     ends = [np.flatnonzero(r.kinds == KIND["before_event"]) for r in (turned, steps)]
     assert np.abs(turned.q[ends[0]] - steps.q[ends[1]]).max() < 1e-9
     assert np.abs(turned.q[-1] - steps.q[-1]).max() < 1e-9
-    # the turn is real (the body yaws), and the first 25 ms were sampled, not stepped
-    assert np.abs(turned.q[:, 2] - PSI0).max() > 1e-3
+    # the turn is real (the body yaws, 3.0e-3 before the first stick: the sample saw the
+    # turn, crt_base_tr_g), and the first 25 ms were sampled, not stepped
+    first = turned.t < turned.events[0][0]
+    assert np.abs(turned.q[first, 2] - PSI0).max() > 1e-3
     assert turned.stats["rhs_evaluations"] < steps.stats["rhs_evaluations"]
+
+
+def test_a_translation_lifts_off_at_ns_closed_form_root_not_tipping():
+    """The box sliding at 0.2 m/s along its x, its point pulled down at its centre (z = Z0 +
+    0.01 sin(80 t)): N = (M + m) g + m z'' reaches 0 at sin(80 t) = (M + m) g / (m 0.01
+    80^2), 7.07 ms in, the slip still going (the friction takes 2 cm/s of it).  The
+    moments do not leave the face (the point on the axis: cp stays at the centre), so the
+    margins' own root, where N falls to its resolution (crt_base_margin), is N's: the
+    translation's sample takes it as the lift-off (crt_base_tie), at the closed form's
+    time, never as a tipping."""
+    wz, bz = 80.0, 0.01
+    law = f'law = ["0", "0", "{Z0} + {bz}*sin({wz}*t)"]'
+    v0 = 0.2
+    q0 = [X0, Y0, PSI0, v0 * math.cos(PSI0), v0 * math.sin(PSI0), 0.0]
+    raw = tbr.run_base(tbr._scene(BOX, f"mass = {m}\n" + law, MU, 0.02), q0, mu_s=MU_S)
+    kinds = abi.names(abi.EVENT_KINDS)
+    t_lift = math.asin((M + m) * G / (m * bz * wz * wz)) / wz
+    assert raw.status == "lift_off", raw.status
+    assert [kinds[int(e[1])] for e in raw.events] == ["lift_off"]
+    assert abs(raw.events[0][0] - t_lift) < 1e-9, (raw.events[0][0], t_lift)
+    assert np.all(raw.q[:, 2] == PSI0) and np.abs(raw.q[:, 5]).max() < 1e-20   # translated
+
+
+@pytest.mark.parametrize("pairs", [False, True])
+def test_a_spin_in_place_steps_on_a_tables_knots_and_slows_as_its_closed_form(pairs):
+    """The box spinning in place at 6 rad/s, its point on its axis moved up and down by a
+    periodic table (a C^2 cubic spline through samples of Z0 + 0.001 sin(2 pi t / T)): a
+    slip along a line (xi = (0, 0, psi') keeps its direction) that turns, so not a
+    translation: the slip's DOP853 steps, which end on the table's knots (crt_base_slip_step,
+    as crt_loop.h's do), and psi' against the closed form psi'(t) = psi'(0) - mu kappa
+    [(M + m) g t + m (z'(t) - z'(0))] / J_z (the torque mu N kappa, kappa the face's mean
+    distance from its centre in closed form, and by SciPy's dblquad; z' from SciPy's
+    periodic CubicSpline).  Knots 12.5 ms apart (wider than the steps), or in pairs 0.2 ms
+    apart every 4.6 ms: a step cut short by a knot does not shrink the next (one step a
+    knot: 137 steps for 131 knots, none refused)."""
+    from scipy.integrate import dblquad
+    from scipy.interpolate import CubicSpline
+    bz, w0, a, b, Jz = 0.001, 6.0, 0.1, 0.06, 0.025
+    if pairs:
+        period = 0.092
+        ts = sorted([k * 0.0046 + o for k in range(20) for o in (0.0, 0.0002)]) + [period]
+    else:
+        period = 0.1
+        ts = [period * i / 8 for i in range(9)]
+    zs = [Z0 + bz * math.sin(2 * math.pi * t / period) for t in ts[:-1]] + [Z0]
+    rows = ", ".join(f"[{t!r}, 0.0, 0.0, {z!r}]" for t, z in zip(ts, zs))
+    point = f'mass = {m}\nsamples = [{rows}]\nends = "periodic"'
+    raw = tbr.run_base(tbr._scene(BOX, point, MU, 0.3), [X0, Y0, PSI0, 0, 0, w0], mu_s=MU_S)
+    assert raw.status == "done" and len(raw.events) == 0
+    assert np.all(raw.q[:, 0] == X0) and np.all(raw.q[:, 1] == Y0)
+    t = np.asarray(raw.t)
+    knots = (np.asarray(ts[:-1])[None, :] + period * np.arange(4)[:, None]).ravel()
+    knots = knots[(knots > 0) & (knots < t[-1])]
+    assert np.abs(t[np.searchsorted(t, knots)] - knots).max() <= 1e-12   # steps end on them
+    if pairs:
+        assert raw.stats["steps"] <= len(knots) + 10, (raw.stats, len(knots))
+    d = math.hypot(a, b)                          # the mean distance: the closed form
+    kappa = (a * b * d / 3 + a ** 3 / 6 * math.log((b + d) / a)
+             + b ** 3 / 6 * math.log((a + d) / b)) / (a * b)
+    assert abs(kappa - 4 * dblquad(lambda y, x: math.hypot(x, y), 0, a, 0, b, epsabs=1e-14,
+                                   epsrel=1e-12)[0] / (4 * a * b)) < 1e-13 * kappa
+    zd = CubicSpline(ts, zs, bc_type="periodic").derivative()
+    w = w0 - MU * kappa * ((M + m) * G * t + m * (zd(t % period) - zd(0.0))) / Jz
+    assert np.abs(raw.q[:, 5] - w).max() < 1e-11 * w0
+    assert raw.q[-1, 5] < 0.6 * w0                     # (it slows: the torque is felt)
+
+
+@pytest.mark.parametrize("turn, translated", [(0.98e-12, True), (1.02e-12, False)])
+def test_a_slip_is_a_translation_up_to_a_turn_of_1e_12_of_its_speed(turn, translated):
+    """The slip's start takes the translation where its turn ell psi' is at most 1e-12 of
+    its speed (crt_base_line_start's rule; psi' then held at 0) and DOP853's steps above:
+    the box sliding at 0.2 m/s along its x, its point at rest on its axis, spun at 0.98
+    and 1.02 of that turn.  Either way O follows the closed form X = v t - mu g t^2 / 2
+    along the line (N = (M + m) g), to 1e-12 m."""
+    ell, v, T = math.hypot(0.1, 0.06), 0.2, 0.05          # ell: the face's size
+    q0 = [X0, Y0, PSI0, v * math.cos(PSI0), v * math.sin(PSI0), turn * v / ell]
+    raw = tbr.run_base(tbr._scene(BOX, f'mass = {m}\nlaw = ["0", "0", "{Z0}"]', MU, T), q0,
+                       mu_s=MU_S)
+    assert raw.status == "done" and len(raw.events) == 0 and raw.t[-1] == T
+    assert np.all(raw.q[1:, 5] == 0.0) == translated              # (held at 0, or not)
+    assert (raw.stats["rhs_evaluations"] < 2 * raw.stats["steps"]) == translated
+    t = np.asarray(raw.t)
+    along = v * t - MU * G * t * t / 2
+    X = np.column_stack([X0 + along * math.cos(PSI0), Y0 + along * math.sin(PSI0)])
+    assert np.abs(raw.q[:, :2] - X).max() < 1e-12
