@@ -298,7 +298,7 @@ static void crt_base_slip_step(crt_session *s, crt_out *o, double t_end)
   double ft[CRT_BASE_NZ], k[16][CRT_BASE_NZ], F[7][CRT_BASE_NZ], g0[CRT_BASE_NG];
   double g1[CRT_BASE_NG], gt[CRT_BASE_NG], N, cp[2], rho, err, hs, wanted, span;
   double first = HUGE_VAL;
-  int k_, which = -1, i, dense = 0, same;
+  int k_, which = -1, i, dense = 0, same, cut = 0;
   z0[0] = s->t;
   for (i = 0; i < NQ; ++i) z0[1 + i] = s->q[i];
   s->bs.lateral = 0.0;
@@ -328,8 +328,10 @@ static void crt_base_slip_step(crt_session *s, crt_out *o, double t_end)
     s->bs.hs = s->bs.line ? (s->bs.ht > 0.0 ? s->bs.ht : 1e-3 * s->bs.body.t_scale)
                           : 1e-3 * s->bs.body.t_scale / crt_max(rho, 1e-300);
   hs = wanted = s->bs.hs;
-  if (s->bs.line && crt_law_next_knot(&s->law, s->t) < s->t + hs)
+  if (s->bs.line && crt_law_next_knot(&s->law, s->t) < s->t + hs) {
     hs = crt_law_next_knot(&s->law, s->t) - s->t;  /* in t: steps end on a table's knots */
+    cut = 1;
+  }
   for (;;) {
     err = crt_base_step(s, z0, f0, hs, k, z1, f1, &N, cp, &rho);
     if (s->bs.line && s->bs.lateral > 1e-24) {   /* (lateral: the turn squared) */
@@ -351,6 +353,7 @@ static void crt_base_slip_step(crt_session *s, crt_out *o, double t_end)
     if (err <= 1.0 && crt_finite(z1 + 1) && span - span == 0.0 && span <= s->opt[CRT_OPT_HMAX])
       break;
     ++s->stat[CRT_STAT_REJECTED];
+    cut = 0;                               /* (shrunk by its error: no knot's cut now) */
     if (span - span == 0.0 && span > s->opt[CRT_OPT_HMAX])
       hs *= crt_max(1e-3, crt_min(0.9 * s->opt[CRT_OPT_HMAX] / span, 0.9));
     else
@@ -401,7 +404,7 @@ static void crt_base_slip_step(crt_session *s, crt_out *o, double t_end)
     const double beta = 0.04, alpha = 0.125 - 0.75 * beta;
     const double fac = 0.9 * pow(crt_max(err, 1e-10), -alpha) * pow(s->err_old, beta);
     s->bs.hs = hs * crt_min(6.0, crt_max(0.333, fac));
-    if (hs < wanted && fac >= 1.0) s->bs.hs = crt_max(s->bs.hs, wanted);   /* (a knot's cut) */
+    if (cut && fac >= 1.0) s->bs.hs = crt_max(s->bs.hs, wanted);   /* (a knot's cut) */
     s->err_old = crt_max(err, 1e-4);
   }
   if (which < 0) {
