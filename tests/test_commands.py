@@ -359,3 +359,24 @@ def test_robustness_cost_counts_a_scene_shorter_than_a_second_as_one_second():
     assert slow == [runaway, long_runaway]
     old = np.median([o.seconds / o.duration for o in everything])
     assert short.seconds / short.duration > 10 * old          # slow by the rule before
+
+
+def test_robustness_retimes_a_run_past_10x_and_keeps_its_least_time():
+    """A run past 10x its plane's median is timed again (robustness.retimed): one whose
+    first time was a pause not its own (54 ms where it takes 3.6) is not slow after, one
+    that runs away every time still is; the others are not run again."""
+    from derive.verify import robustness as rb
+    ok = [rb.Outcome(k, "ok", "done", 0.003, 0.0, 0.1, 1.0, plane="face") for k in range(50)]
+    paused = rb.Outcome(50, "ok", "done", 0.054, 0.0, 0.1, 1.0, plane="face")
+    runaway = rb.Outcome(51, "ok", "done", 0.5, 0.0, 0.1, 1.0, plane="face")
+    tasks = [(k, 0, 3.0, "face") for k in range(52)]
+    calls = []
+
+    def again(task):
+        calls.append(task[0])
+        return rb.Outcome(task[0], "ok", "done", 0.0036 if task[0] == 50 else 0.45, 0.0,
+                          0.1, 1.0, plane="face")
+    out = rb.retimed(ok + [paused, runaway], tasks, run=again)
+    assert sorted(set(calls)) == [50, 51] and len(calls) == 2 * rb.RETIMES
+    assert out[50].seconds == 0.0036 and out[51].seconds == 0.45
+    assert rb._cost(out)[2] == [out[51]]

@@ -29,7 +29,9 @@ of what a scene of 1 s was, and three points' laws (4 to 6 ms of proof) put such
 past 10x with nothing wrong in its run.  Below a second a scene is now held to what a
 scene of a second may cost; a run that truly runs away (chatter, a stiff phase stepped
 through: tens of milliseconds to seconds) is still past 10x.  The report prints the
-fixed part apart (preparation: parse and the choice of model, CPU time).
+fixed part apart (preparation: parse and the choice of model, CPU time).  A run past 10x
+is timed again twice and keeps its least time (:func:`retimed`): a pause that is not the
+scene's own had put one scene there alone.
 
 ``--plane face``: random boxes and cylinders on a face (the base model,
 :func:`~derive.verify.generators.random_face_scene`: any face down, one to three points and
@@ -52,6 +54,7 @@ import math
 import os
 import time
 from concurrent.futures import ProcessPoolExecutor
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -191,7 +194,7 @@ def run(n: int = 10_000, seed: int = 11, max_duration: float = 60.0,
             out.append(run_one(task))
             if progress and len(out) % 100 == 0:
                 progress(f"{len(out)}/{n}")
-        return out
+        return retimed(out, tasks)
     import multiprocessing
     ctx = multiprocessing.get_context("fork")
     with ProcessPoolExecutor(workers, mp_context=ctx) as pool:
@@ -199,6 +202,31 @@ def run(n: int = 10_000, seed: int = 11, max_duration: float = 60.0,
             out.append(o)
             if progress and len(out) % 500 == 0:
                 progress(f"{len(out)}/{n}")
+    return retimed(out, tasks)
+
+
+RETIMES = 2                  # a run past 10x is timed again this many times (retimed)
+
+
+def retimed(outcomes: list[Outcome], tasks: list, run=None) -> list[Outcome]:
+    """The runs past 10x their plane's median cost timed again RETIMES times, one after
+    another in this process, each keeping the least of its times (its verdict is its
+    first run's): a pause that is not the scene's own (the collector's, a forked worker's
+    first touch of a page) had put one scene's preparation at 54 ms where it takes 3.6,
+    past 10x alone, as derive bench takes the median of repeated samples."""
+    run = run or run_one
+    slow = {(o.plane, o.index) for o in _cost(outcomes)[2]}
+    if not slow:
+        return outcomes
+    task_of = {(t[3] if len(t) > 3 else "smooth", t[0]): t for t in tasks}
+    out = []
+    for o in outcomes:
+        if (o.plane, o.index) in slow:
+            best = min([o, *(run(task_of[o.plane, o.index]) for _ in range(RETIMES))],
+                       key=lambda x: x.seconds)
+            o = dataclasses.replace(o, seconds=best.seconds,
+                                    prepare_seconds=best.prepare_seconds)
+        out.append(o)
     return out
 
 
