@@ -143,6 +143,8 @@ METHODS = _names(
     ("lie8", "the momentum form with the DOP853 coefficients (order 8, 7th-order dense "
              "output); DOP853 in persistent contact and in models without an attitude"),
 )
+# the methods that keep a flight's attitude on the rotations themselves (the Lie group's)
+LIE_METHODS = tuple(m.name for m in METHODS if m.name.startswith("lie"))
 
 
 

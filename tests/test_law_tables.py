@@ -24,28 +24,26 @@ def test_every_recorded_law_builds_the_recorded_table_or_refusal():
     assert not wrong, f"{len(wrong)} differ, first: {wrong[0]}"
 
 
-def _direct(texts: tuple, limit: int):
-    """The program of ``texts`` parsed straight into one builder (no tape), or the
-    refusal (which string, the message)."""
+def _program(texts: tuple, limit: int, parse):
+    """The program of ``texts`` parsed into one builder by ``parse`` (P.parse_one: straight
+    in, no tape; P.parse_into: through the recorded calls), or the refusal (which string,
+    the message)."""
     b = P._Builder(limit)
     outs = []
     for k, text in enumerate(texts):
         try:
-            outs.append(P.parse_one(text, b))
+            outs.append(parse(text, b))
         except P.LawError as exc:
             return k, str(exc)
     return b.program(tuple(outs), texts).arrays()
+
+
+def _direct(texts: tuple, limit: int):
+    return _program(texts, limit, P.parse_one)
 
 
 def _taped(texts: tuple, limit: int):
-    b = P._Builder(limit)
-    outs = []
-    for k, text in enumerate(texts):
-        try:
-            outs.append(P.parse_into(text, b))
-        except P.LawError as exc:
-            return k, str(exc)
-    return b.program(tuple(outs), texts).arrays()
+    return _program(texts, limit, P.parse_into)
 
 
 def _same(x, y) -> bool:

@@ -409,9 +409,6 @@ def _base_keys(scene: Scene, kind: str) -> None:
             raise SceneError(key, f"is not read by the base model: {why}; remove it")
 
 
-LIE_METHODS = ("lie", "lie5", "lie8")
-
-
 def _method_keys(scene: Scene, kind: str) -> None:
     """The [run] keys the run's method (or model) never reads are refused by name: a
     field's Field.methods, and keep_orthonormal where no step projects (a Lie method's
@@ -427,7 +424,7 @@ def _method_keys(scene: Scene, kind: str) -> None:
     if "a33" not in layout.of(kind).labels:
         raise SceneError("[run].keep_orthonormal", f"model {kind} has no attitude matrix to "
                                                    "keep orthonormal: remove it")
-    if scene.method in LIE_METHODS and not scene.contact_possible:
+    if scene.method in abi.LIE_METHODS and not scene.contact_possible:
         raise SceneError("[run].keep_orthonormal", f"method {scene.method} keeps a flight's "
                                                    "attitude on the rotations itself, and "
                                                    "this run has no contact phase (the only "

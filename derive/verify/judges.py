@@ -166,7 +166,6 @@ def judge_cli(case, run, limit: float = CLI_LIMIT_S) -> Outcome:
 
 
 # ---- a random valid bouncing scene's run ----------------------------------------------
-LIE = ("lie", "lie5", "lie8")
 ROUNDING = 1e-12          # the Lie methods: orthonormality and |K| in flight at round-off
 
 
@@ -188,7 +187,7 @@ def judge_run(result, size: float) -> tuple[str, str]:
         k = int(np.argmin(h))
         return "fell", f"a row has S at {h[k]:.3g} (t = {result.t[k]:.6g})"
     g = result.general
-    lie = scene.method in LIE
+    lie = scene.method in abi.LIE_METHODS
     contact_rows = np.zeros(len(result.t), dtype=bool)
     for a, b in contact_intervals(result):
         contact_rows |= (result.t >= a) & (result.t <= b)
