@@ -453,7 +453,7 @@ def cmd_stability(args: argparse.Namespace) -> int:
         values = None
         if args.family:
             from .stability.families import family
-            settings = dict(sweep.parse_setting(text) for text in args.set or [])
+            settings = sweep.parse_settings(args.set)
             values = family(args.family).values(settings)
             scene = parse_scene(scenes.example(args.family, settings), f"--family {args.family}")
         else:
@@ -492,7 +492,7 @@ def cmd_chart(args: argparse.Namespace) -> int:
                                 else ("a=0:0.8:41", "J_z=0.03:0.22:39"))
         x = sweep.parse_axis(args.x or default_x, args.family, "--x")
         y = sweep.parse_axis(args.y or default_y, args.family, "--y")
-        fixed = dict(sweep.parse_setting(text) for text in args.set or [])
+        fixed = sweep.parse_settings(args.set)
         result = sweep.run(args.family, x, y, fixed, workers=args.workers,
                            scheduler=args.scheduler, progress=not args.quiet)
     except FamilyError as exc:

@@ -103,6 +103,27 @@ _NAME = re.compile(r"[A-Za-z0-9 _.,:;=+()\[\]/#@&'\-]{1,80}", re.ASCII)
 # who reads [stability]: one scene file serves several commands, so the others accept it
 STABILITY_READER = ("read by `derive stability` only: derive simulate and the other "
                     "commands accept and ignore it; refused in a scene that is not one point")
+# the [stability] keys each motion `derive stability` analyses reads, and why the other
+# does not read a key: given there, the key is refused with that reason
+# (derive/stability/scenes.py; derive/docs/stability.md lists the same)
+STABILITY_KEYS = {
+    "free flight": {"period": None, "long_periods": None, "perturbations": None,
+                    "impacts_every": "a motion in free flight has no impacts (it is "
+                                     "analysed over [stability].period or the law's period)"},
+    "periodic bouncing": {"impacts_every": None, "long_periods": None, "perturbations": None,
+                          "period": "the period of periodic bouncing is impacts_every "
+                                    "periods of the point's law: set impacts_every"},
+}
+
+
+def stability_readers(key: str) -> str:
+    """Which motions read ``[stability].key`` (the schema table's words for STABILITY_KEYS)."""
+    words = {"free flight": "free flight", "periodic bouncing": "on the plane"}
+    return " and ".join(words[k] for k, keys in STABILITY_KEYS.items() if keys[key] is None)
+
+
+STABILITY_PERTURBATIONS_RULE = ("sizes the perturbed runs, so it needs long_periods > 0 "
+                                "([stability].long_periods or --long)")
 SCENE_FIELDS = (
     F("", "name", "string", "scene", "a label for the outputs: at most 80 ASCII letters, "
       f"digits, spaces and {NAME_CHARACTERS}", example="my-scene"),
@@ -230,13 +251,15 @@ SCENE_FIELDS = (
                "planar", "axisymmetric", "moments", "moments_rough", "base")),
     F("run", "zeno_dt", "number", 1e-9, "accumulating impacts: enter contact when the "
       "remaining flights sum to less than zeno_dt x duration", 0, 1, True),
-    F("stability", "period", "number", None, "free flight: the period (default: the law's)",
-      0, MAX_DURATION, True, when=STABILITY_READER),
-    F("stability", "impacts_every", "integer", 1, "on the plane: one impact per n periods",
-      1, 64, when=STABILITY_READER),
-    F("stability", "long_periods", "integer", 0, "perturbed runs this many periods long "
-      "where the linear test is critical", 0, 1_000_000, when=STABILITY_READER),
-    F("stability", "perturbations", "numbers", [1e-6, 1e-4, 1e-2], "their sizes", 0, 0.1,
+    F("stability", "period", "number", None, f"{stability_readers('period')}: the period "
+      "(default: the law's)", 0, MAX_DURATION, True, when=STABILITY_READER),
+    F("stability", "impacts_every", "integer", 1, f"{stability_readers('impacts_every')}: one "
+      "impact per n periods", 1, 64, when=STABILITY_READER),
+    F("stability", "long_periods", "integer", 0, f"{stability_readers('long_periods')}: "
+      "perturbed runs this many periods long where the linear test is critical", 0,
+      1_000_000, when=STABILITY_READER),
+    F("stability", "perturbations", "numbers", [1e-6, 1e-4, 1e-2],
+      f"{stability_readers('perturbations')}: their sizes (with long_periods > 0)", 0, 0.1,
       True, when=STABILITY_READER),
 )
 

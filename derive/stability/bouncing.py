@@ -41,7 +41,7 @@ differences of the full hybrid runtime.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from functools import lru_cache
 
 import casadi as ca
@@ -53,7 +53,7 @@ from .. import notation as nt
 from ..runtime.driver import prepare
 from ..runtime.session import Session
 from ..scene import Scene, SceneError, load_scene
-from .floquet import complex_pairs
+from .floquet import UNIT_TOL, complex_pairs, growth, runs_verdict
 from .variational import Monodromy
 
 V = layout.VERTICAL
@@ -119,6 +119,9 @@ class Bounce:
     fd_difference: float
     vertical_multipliers: np.ndarray
     analytic: dict
+    t_mid: float = 0.0            # mid-flight, where the monodromy and long runs start
+    mid_state: np.ndarray | None = None
+    long_runs: list = field(default_factory=list)
 
     @property
     def other_multipliers(self) -> np.ndarray:
@@ -145,9 +148,15 @@ class Bounce:
                 "vertical_multipliers": complex_pairs(self.vertical_multipliers),
                 "analytic_table_multipliers": complex_pairs(self.analytic["multipliers"]),
                 "spin_and_tilt_multipliers": complex_pairs(self.other_multipliers),
-                "checks": self.checks(), "verdict": self.verdict()}
+                "checks": self.checks(), "verdict": self.verdict(),
+                "long_runs": self.long_runs}
 
-    def verdict(self, tol: float = 1e-6) -> str:
+    @property
+    def unstable(self) -> bool:
+        """Some multiplier outside the unit circle (the verdict's test)."""
+        return float(np.max(np.abs(self.multipliers))) > 1 + UNIT_TOL
+
+    def verdict(self, tol: float = UNIT_TOL) -> str:
         vert = float(np.max(np.abs(self.vertical_multipliers)))
         other = float(np.max(np.abs(self.other_multipliers)))
         if max(vert, other) > 1 + tol:
@@ -155,9 +164,15 @@ class Bounce:
                                  if v > 1 + tol)
             return f"unstable ({which} modes: max |rho| = {max(vert, other):.6f})"
         if vert < 1 - tol:
-            return (f"linearly stable: vertical modes decay (|rho| <= {vert:.6f}), spin "
+            text = (f"linearly stable: vertical modes decay (|rho| <= {vert:.6f}), spin "
                     f"and tilt modes on the unit circle (max |rho| = {other:.6f}: neutral)")
-        return f"critical (max |rho| = {max(vert, other):.6f})"
+        else:
+            text = f"critical (max |rho| = {max(vert, other):.6f})"
+        if self.long_runs:
+            text += "; perturbed runs: " + "; ".join(
+                f"deviations in {label} {runs_verdict(self.long_runs, sfx)}"
+                for label, sfx in (("(omega, n)", ""), ("omega", "_omega")))
+        return text
 
 
 class HybridMap:
@@ -389,8 +404,13 @@ def find_orbit(scene, n: int = 1, tol: float = 1e-11, max_iter: int = 12,
     return x[0], _unpack(x[1:], x[0], hybrid), residual, hybrid
 
 
-def analyse(scene, n: int = 1, fd_eps: float = 1e-6, check: bool = True) -> Bounce:
-    """The n-orbit of a reference-[5] scene (a path, dict or Scene) and its multipliers."""
+def analyse(scene, n: int = 1, fd_eps: float = 1e-6, check: bool = True,
+            long_periods: int = 0, perturbations=(1e-6, 1e-4, 1e-2),
+            progress: bool = False) -> Bounce:
+    """The n-orbit of a reference-[5] scene (a path, dict or Scene) and its multipliers;
+    where no multiplier is outside the unit circle (the spin and tilt modes are on it),
+    ``long_periods`` > 0 adds perturbed runs of the hybrid runtime of each size in
+    ``perturbations`` (:func:`long_run`)."""
     t_imp, q_plus, residual, hybrid = find_orbit(scene, n)
     s = hybrid.scene
     p = reference5(s)
@@ -418,5 +438,60 @@ def analyse(scene, n: int = 1, fd_eps: float = 1e-6, check: bool = True) -> Boun
     vertical = np.linalg.eigvals(M[:2, :2])
     nu = s.m / (s.m + s.M)
     Gamma = nu * p["a"] * W * W / s.g
-    return Bounce(s, n, T, t_imp, q_plus, residual, rho, M, fd_diff, vertical,
-                  table_orbit(s.e, n, Gamma))
+    out = Bounce(s, n, T, t_imp, q_plus, residual, rho, M, fd_diff, vertical,
+                 table_orbit(s.e, n, Gamma), t_mid, q_mid)
+    if long_periods and not out.unstable:
+        from ..progress import Bar
+        bar = Bar("perturbed runs", progress, delay=0.5)
+        try:
+            out.long_runs = [long_run(hybrid, t_mid, q_mid, T, long_periods, eps,
+                                      report=lambda f, k=k: bar.update(
+                                          (k + f) / len(perturbations)))
+                             for k, eps in enumerate(perturbations)]
+        finally:
+            bar.close()
+    return out
+
+
+def long_run(hybrid: HybridMap, t_mid: float, q_mid, T: float, periods: int, eps: float,
+             seed: int = 0, report=None, states: list | None = None) -> dict:
+    """Perturb omega and the axis n of the orbit's mid-flight state by ``eps`` (a fixed
+    random direction, omega's part scaled by max(1, |omega|), n renormalised, as
+    :func:`derive.stability.floquet.long_run` perturbs a rotation) and follow the hybrid
+    runtime (its impacts, the momentum form in flight) for ``periods`` periods, sampled
+    at mid-flight once per period (appended to ``states`` if given).  The orbit's omega
+    and n are constant, so a deviation is the sample's distance from them."""
+    base = np.asarray(q_mid, dtype=float)
+    q = perturbed(base, eps, seed)
+    both, omega = [], []
+    status, t = "done", t_mid
+    for k in range(periods + 1):
+        if states is not None:
+            states.append(q.copy())
+        both.append(float(np.max(np.abs(q[2:] - base[2:]))))
+        omega.append(float(np.max(np.abs(q[V.omega] - base[V.omega]))))
+        if k == periods:
+            break
+        raw = hybrid.run(t, q, T)
+        if raw.status != "done":            # e.g. chattering into contact: the run stops
+            status = raw.status
+            break
+        t, q = t + T, raw.q[-1]
+        if report and k % 64 == 0:
+            report(k / periods)
+    return {"eps": eps, "periods": periods, **growth(np.array(both)),
+            **{f"{k}_omega": v for k, v in growth(np.array(omega)).items()},
+            "status": status}
+
+
+def perturbed(q_mid, eps: float, seed: int = 0) -> np.ndarray:
+    """The start of :func:`long_run`: omega moved by eps max(1, |omega|) and n by eps
+    (renormalised), in a random direction fixed by ``seed``."""
+    rng = np.random.default_rng(seed)
+    d = rng.normal(size=6)
+    d /= np.linalg.norm(d)
+    q = np.array(q_mid, dtype=float)
+    q[V.omega] += eps * d[:3] * max(1.0, float(np.linalg.norm(q[V.omega])))
+    tilted = q[V.n] + eps * d[3:]
+    q[V.n] = tilted / np.linalg.norm(tilted)
+    return q

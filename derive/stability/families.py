@@ -146,12 +146,22 @@ class BounceFamily:
             return "n is an integer: chart one orbit at a time (set n with --set)"
         return None
 
+    def one_view(self, names, where: str = "") -> None:
+        """Gamma and a are two views of one parameter (Gamma = nu a W^2/g): refuse
+        ``names`` (the parameters given, swept or set) holding both; ``where``: the
+        options that gave them."""
+        if "a" in names and "Gamma" in names:
+            raise FamilyError(f"{where}: Gamma and a" if where else "Gamma and a",
+                              "are two views of one parameter (Gamma = nu a W^2/g, nu = "
+                              "m/(m + M)): give one of them")
+
     def values(self, given: dict | None = None) -> dict:
         given = dict(given or {})
         unknown = sorted(set(given) - set(self.parameters))
         if unknown:
             raise FamilyError(unknown[0], "is not a parameter of bounce (parameters: "
                                           f"{', '.join(self.parameters)})")
+        self.one_view(given)
         v = {**BOUNCE_DEFAULTS, **{k: float(x) for k, x in given.items() if k != "Gamma"}}
         for key, value in v.items():
             if not math.isfinite(value):

@@ -193,10 +193,10 @@ def runs_verdict(runs: list, suffix: str = "") -> str:
     spread = max(ratios) / max(min(ratios), 1e-300)
     if spread > 10 or any(g.startswith("growing") for g in growths):
         worst = max(r["max_deviation" + suffix] for r in runs)
-        return (f"drift, up to {worst:.2g}, not in proportion to eps (max deviation / eps "
-                f"from {min(ratios):.3g} to {max(ratios):.3g}): not Lyapunov-stable, the "
-                "drift is slow (algebraic)")
-    return (f"stay bounded, in proportion to eps (max deviation / eps "
+        return (f"drift, up to {worst:.2g}, not in proportion to eps (a run's max "
+                f"deviation / its eps from {min(ratios):.3g} to {max(ratios):.3g}): not "
+                "Lyapunov-stable, the drift is slow (algebraic)")
+    return (f"stay bounded, in proportion to eps (a run's max deviation / its eps "
             f"{min(ratios):.3g} to {max(ratios):.3g})")
 
 
@@ -271,13 +271,13 @@ def long_run(scene: Scene, T: float, periods: int, eps: float, seed: int = 0,
     rows = res.row_kind == abi.ROW_KIND["step"]
     Q = res.model_q[rows]
     base = np.r_[scene.omega, scene.A0[2]]
-    both = _growth(np.max(np.abs(np.c_[Q[:, V.omega], Q[:, V.n]] - base), axis=1))
-    omega_only = _growth(np.max(np.abs(Q[:, V.omega] - base[:3]), axis=1))
+    both = growth(np.max(np.abs(np.c_[Q[:, V.omega], Q[:, V.n]] - base), axis=1))
+    omega_only = growth(np.max(np.abs(Q[:, V.omega] - base[:3]), axis=1))
     return {"eps": eps, "periods": periods, **both,
             **{f"{k}_omega": v for k, v in omega_only.items()}, "status": res.status}
 
 
-def _growth(dev: np.ndarray) -> dict:
+def growth(dev: np.ndarray) -> dict:
     """How a deviation sampled once per period grows: the ratio of its running maximum
     to its start, and the exponent of that envelope against time over the last 80 %."""
     envelope = np.maximum.accumulate(dev)

@@ -13,7 +13,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..scene import Scene, load_scene
+from ..scene import Scene, SceneError, load_scene
+from ..scene.schema import STABILITY_KEYS, STABILITY_PERTURBATIONS_RULE
 from . import bouncing, floquet
 
 
@@ -26,15 +27,41 @@ def example(name: str, settings: dict | None = None) -> dict:
     return fam.scene(fam.values(settings))
 
 
+def motion(scene: Scene) -> str:
+    """What ``derive stability`` analyses in ``scene``: a key of the schema's
+    STABILITY_KEYS (which [stability] keys it reads)."""
+    return "periodic bouncing" if scene.contact_possible else "free flight"
+
+
+def refuse_unread(scene: Scene) -> None:
+    """Every [stability] key given acts or is refused: a key the scene's motion does not
+    read (the schema's STABILITY_KEYS says which and why), and perturbations where no
+    perturbed run is asked (long_periods 0)."""
+    kind = motion(scene)
+    for key, why in STABILITY_KEYS[kind].items():
+        if why is not None and f"[stability].{key}" in scene.given:
+            reads = ", ".join(k for k, w in STABILITY_KEYS[kind].items() if w is None)
+            raise SceneError(f"[stability].{key}", f"is not read for {kind}: {why} "
+                                                   f"({kind} reads {reads})")
+    if "[stability].perturbations" in scene.given and not scene.stability.long_periods:
+        raise SceneError("[stability].perturbations", STABILITY_PERTURBATIONS_RULE)
+
+
 def analyse(scene, progress: bool = False) -> dict:
     scene: Scene = load_scene(scene)
+    refuse_unread(scene)
     st = scene.stability
     if scene.contact_possible:
-        result = bouncing.analyse(scene, n=st.impacts_every).as_dict()
+        result = bouncing.analyse(scene, n=st.impacts_every, long_periods=st.long_periods,
+                                  perturbations=st.perturbations,
+                                  progress=progress).as_dict()
     else:
         result = floquet.analyse(scene, period=st.period, long_periods=st.long_periods,
                                  perturbations=st.perturbations,
                                  progress=progress).as_dict()
+    if st.long_periods and not result.get("long_runs"):
+        result["verdict"] += (f"; no perturbed runs (long_periods {st.long_periods}): "
+                              "a multiplier outside the unit circle decides")
     result["scene"] = scene.name
     return result
 
@@ -70,9 +97,12 @@ def text(result: dict) -> str:
     for run in result.get("long_runs", []):
         lines.append(f"  perturbed run, eps = {run['eps']:.0e}, {run['periods']} periods:")
         for label, sfx in (("(omega, n)", ""), ("omega", "_omega")):
-            lines.append(f"    {label:<10} max deviation {run['max_deviation' + sfx]:.3e} "
-                         f"(x{run['growth_ratio' + sfx]:.3g}), envelope ~ "
-                         f"t^{run['envelope_exponent' + sfx]:.2f}: {run['growth' + sfx]}")
+            worst = run["max_deviation" + sfx]
+            lines.append(f"    {label:<10} max deviation {worst:.3e} = "
+                         f"{run['growth_ratio' + sfx]:.3g} x the starting deviation "
+                         f"{run['initial' + sfx]:.3e} = {worst / run['eps']:.3g} x eps; "
+                         f"envelope ~ t^{run['envelope_exponent' + sfx]:.2f}: "
+                         f"{run['growth' + sfx]}")
     lines.append(f"  verdict: {result['verdict']}")
     return "\n".join(lines)
 

@@ -72,6 +72,19 @@ def parse_axis(text: str, family_name: str, where: str) -> Axis:
     return Axis(name, lo, hi, n)
 
 
+def parse_settings(texts, where: str = "--set") -> dict:
+    """Every ``name=value`` of a repeated ``--set``, a name set twice refused (as
+    ``derive simulate`` refuses a field set twice)."""
+    out: dict = {}
+    for text in texts or []:
+        name, value = parse_setting(text, where)
+        if name in out:
+            raise FamilyError(where, f"{name!r} is set twice ({out[name]:g}, then "
+                                     f"{value:g}): give it once")
+        out[name] = value
+    return out
+
+
 def parse_setting(text: str, where: str = "--set") -> tuple[str, float]:
     name, sep, value = text.partition("=")
     if not sep:
@@ -139,6 +152,8 @@ def run(name: str, x: Axis, y: Axis, fixed: dict | None = None, rtol: float = 1e
     for ax in (x, y):
         if ax.name in fixed:
             raise FamilyError("--set", f"{ax.name!r} is swept; it cannot also be fixed")
+    if hasattr(family(name), "one_view"):
+        family(name).one_view({x.name, y.name, *fixed}, "--x/--y/--set")
     if x.n * y.n > MAX_POINTS:
         raise FamilyError("--x/--y", f"{x.n * y.n} points exceed {MAX_POINTS}")
     family(name).values(fixed)                          # check the fixed values early
