@@ -303,6 +303,9 @@ def _simulate_sweep(args, start: float) -> int:
             n *= len(values)
         if n > 1_000_000:
             raise SceneError("--sweep", f"{n} variants (at most 1e6)")
+        formulas = {k: v for k, v in grid.items() if isinstance(v, overrides.Formulas)}
+        from .runtime.batch import csv_columns
+        csv_columns(list(grid), formulas)          # sweep.csv's names, each once, before a run
         from .control.run import run_many
         out = run_many(doc, grid, workers=args.workers, scheduler=args.scheduler,
                        progress=not args.quiet, strict=False)
@@ -316,8 +319,7 @@ def _simulate_sweep(args, start: float) -> int:
         raise UsageError(f"--sweep: every variant was refused, e.g. {first}")
     folder = Path(args.output)
     folder.mkdir(parents=True, exist_ok=True)
-    out.to_csv(folder / "sweep.csv", {k: v for k, v in grid.items()
-                                      if isinstance(v, overrides.Formulas)})
+    out.to_csv(folder / "sweep.csv", formulas)
     statuses = {}
     for r in out.rows:
         key = r.get("status", "refused")

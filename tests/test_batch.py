@@ -61,7 +61,7 @@ def test_a_bad_variant_is_named():
     doc = builtin_doc()
     with pytest.raises(BatchError) as info:
         derive.simulate_many(doc, [{"body.mass": 1.0}, {"body.mass": -2.0}], workers=1)
-    assert "variant 1" in str(info.value) and "[body].mass" in str(info.value)
+    assert "variant 2:" in str(info.value) and "[body].mass" in str(info.value)  # from 1
     out = derive.simulate_many(doc, [{"body.mass": 1.0}, {"body.mass": -2.0}], workers=1,
                                strict=False)
     assert out.rows[0]["status"] == "done" and "[body].mass" in out.rows[1]["error"]
@@ -94,7 +94,8 @@ def test_cli_sweep_writes_one_row_per_variant(tmp_path):
     lines = (out / "sweep.csv").read_text().splitlines()
     assert len(lines) == 1 + 8
     # the axes as typed (they had been sorted: body_mass first)
-    assert lines[0].startswith("plane_restitution,body_mass,error,"), lines[0]
+    assert lines[0].startswith("variant,plane_restitution,body_mass,error,"), lines[0]
+    assert [ln.split(",")[0] for ln in lines[1:]] == [str(k) for k in range(1, 9)]
     info = json.loads((out / "sweep.json").read_text())
     assert info["variants"] == 8 and info["statuses"] == {"done": 8}
     assert (out / "sweep.png").is_file()

@@ -207,7 +207,7 @@ def test_a_study_refuses_as_one_scene_does():
             continue
         refused += 1
         each = {_refusal(doc, {name: value}) for name, value in changes.items()}
-        assert out.rows[k]["error"] in {f"variant {k}: {m}" for m in each | {whole}
+        assert out.rows[k]["error"] in {f"variant {k + 1}: {m}" for m in each | {whole}
                                         if m is not None}, (changes, out.rows[k], whole)
     assert 20 < refused < 140 and out.tasks >= 2
 

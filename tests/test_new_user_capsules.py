@@ -181,7 +181,7 @@ def test_a_capsules_law_is_swept_by_its_element_and_sweep_csv_says_w(tmp_path, c
                      "-o", str(out), "-q", "--no-plots"]) == 0
         lines = (out / "sweep.csv").read_text().splitlines()
         head = lines[0].split(",")
-        assert head[1] == "W"
+        assert head[0] == "variant" and head[2] == "W"
         rows[name] = [dict(zip(head, line.split(","))) for line in lines[1:]]
     for r, w in zip(rows["point"], ("10.0", "20.0")):
         assert r["W"] == w and r["status"] == "done" and r["model"] == "base"

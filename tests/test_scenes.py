@@ -452,7 +452,7 @@ def test_overrides_name_fields_in_the_table_form_and_suggest_the_nearest():
     with pytest.raises(SceneError) as info:
         derive.simulate_many(doc(), [{"initial.omaga": [0.0, 0.0, 1.0]}])
     assert "did you mean 'initial.omega'?" in str(info.value)
-    assert str(info.value).startswith("variant 0: ")        # which variant, of many
+    assert str(info.value).startswith("variant 1: ")        # which variant (from 1), of many
 
 
 def test_a_task_given_as_a_scene_is_pointed_to_the_planner():

@@ -108,7 +108,7 @@ def run_many(scene, variants, workers: int | None = None, scheduler: str | None 
             res = run_scene(d)
             return study.summary_row(res), res
         except (SceneError, overrides.OverrideError) as exc:
-            return {"error": f"variant {k}: {exc}"}, None
+            return {"error": f"variant {k + 1}: {exc}"}, None
     n_workers = 1 if workers is None and len(items) <= 8 else (workers or os.cpu_count() or 1)
     bar = None
     if progress:

@@ -130,9 +130,11 @@ class Batch:
         return list(dict.fromkeys(k for v in self.variants for k in v))
 
     def to_csv(self, path, swept_by: dict | None = None) -> None:
-        """One row per variant: the fields it overrides (a formula swept by one of its
-        numbers, ``swept_by`` {field: :class:`~derive.scene.overrides.Formulas`}, followed
-        by that number's column, W say), ``error``, then the summary columns; a value a
+        """One row per variant: its number ``variant`` (from 1, as the studies' messages
+        count them: variant 1 is the first, ``rows[0]``), the fields it overrides (a
+        formula swept by one of its numbers, ``swept_by`` {field:
+        :class:`~derive.scene.overrides.Formulas`}, followed by that number's column, W
+        say: :func:`csv_columns`), ``error``, then the summary columns; a value a
         row does not have (a refused variant's counts, the error of one that ran, a base
         run's impacts, contacts, min_height and first_contact_t: a body on its face has
         no impact and no point S; the slips, sticks and reversals of a run without
@@ -140,16 +142,12 @@ class Batch:
         cell."""
         names = self._fields()
         swept_by = swept_by or {}
-        head = []
-        for n in names:
-            head.append(n.replace(".", "_").replace("[", "_").replace("]", ""))
-            if n in swept_by:
-                head.append(swept_by[n].symbol)
+        head = csv_columns(names, swept_by)
         number = {n: dict(zip(f, f.numbers)) for n, f in swept_by.items()}
         with open(path, "w", encoding="utf-8") as fh:
-            fh.write(",".join(head + ["error", *SUMMARY_COLUMNS]) + "\n")
-            for v, r in zip(self.variants, self.rows):
-                vals = []
+            fh.write(",".join(head) + "\n")
+            for k, (v, r) in enumerate(zip(self.variants, self.rows)):
+                vals = [k + 1]
                 for n in names:
                     vals.append(v.get(n, ""))
                     if n in number:
@@ -164,6 +162,32 @@ class Batch:
                 vals += [r.get("error", "")] + [
                     "" if c in blank else r.get(c, "") for c in SUMMARY_COLUMNS]
                 fh.write(",".join(_csv(x) for x in vals) + "\n")
+
+
+def csv_columns(names: list, swept_by: dict | None = None) -> list:
+    """sweep.csv's header: ``variant``, each overridden field (``point.law[2]`` as
+    ``point_law_2``) followed, where a formula is swept by one of its numbers
+    (``swept_by``), by that number's name, then ``error`` and the summary columns.  A
+    name twice (two formulas swept by numbers of one name, W and W) is refused: its
+    columns could not be told apart."""
+    swept_by = swept_by or {}
+    fixed = ("variant", "error", *SUMMARY_COLUMNS)
+    head, owner = ["variant"], {}
+    for n in names:
+        column = n.replace(".", "_").replace("[", "_").replace("]", "")
+        head.append(column)
+        owner.setdefault(column, f"the column of {n}")
+        if n in swept_by:
+            symbol = swept_by[n].symbol
+            if symbol in owner or symbol in fixed:
+                other = owner.get(symbol, f"sweep.csv's column {symbol}")
+                raise BatchError("--sweep", f"{n}: {symbol}, the name of its swept number, "
+                                            f"already names {other}: sweep.csv would have "
+                                            "two columns of that name; give each swept "
+                                            "number its own name")
+            head.append(symbol)
+            owner[symbol] = f"the swept number of {n}"
+    return head + ["error", *SUMMARY_COLUMNS]
 
 
 # the summary columns that mean nothing for a base run (no impact, no point S)
@@ -349,7 +373,7 @@ def _check_names(items: list) -> None:
         if names not in seen:
             seen.add(names)
             for name in names:
-                overrides.target(name, f"variant {k}")
+                overrides.target(name, f"variant {k + 1}")
 
 
 # A run of the built-in scene costs 0.1 ms of C, a Dask task 0.2 ms and more of

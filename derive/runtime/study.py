@@ -184,7 +184,7 @@ def prepare_variant(base: dict, origin, base_v: dict, base_given: set, index: in
     v, given = dict(base_v), set(base_given)
     for name, value in changes.items():
         overrides.apply_to_values(v, given, name, value)
-    return prepare(build_scene(v, given, VariantDoc(base, changes), f"variant {index}",
+    return prepare(build_scene(v, given, VariantDoc(base, changes), f"variant {index + 1}",
                                base=origin))
 
 
@@ -232,7 +232,7 @@ def _parts(cols, index: np.ndarray, members: list, base: dict, origin, base_v: d
         try:
             alone = prepare_variant(base, origin, base_v, base_given, i, changes)
         except SceneError as exc:
-            raise RuntimeError(f"variant {i} passed the study's bulk checks and the scene "
+            raise RuntimeError(f"variant {i + 1} passed the study's bulk checks and the scene "
                                f"rules refuse it ({exc}): please report this study") from None
         if alone.kind not in choice.POSE_STARTS:    # its start reads the law: one by one
             alone_ones += [members[k] for k in np.flatnonzero(members_c)]
@@ -245,7 +245,7 @@ def _parts(cols, index: np.ndarray, members: list, base: dict, origin, base_v: d
         for what, mine, its in (("start", q0, alone.start.q0), ("options", opt, alone.options),
                                 ("parameters", prm, alone.parameters)):
             if not np.array_equal(mine[first], its):
-                raise RuntimeError(f"variant {i}: its {what} read in bulk differ from its "
+                raise RuntimeError(f"variant {i + 1}: its {what} read in bulk differ from its "
                                    "own (please report this study)")
         take = np.flatnonzero(members_c)
         out.append(Part(alone.kind, law, index[take], np.full(len(take), scene.t0),
@@ -311,7 +311,7 @@ def run_part(part: Part, ready: list, last: list | None = None) -> dict:
         status = session.init_status(part.opt[k], part.prm[k], part.t0[k], part.q0[k])
         for name in SUMMARY_COLUMNS:
             cols[name][k] = None if name in TEXT_COLUMNS else 0
-        cols["error"][k] = f"variant {part.index[k]}: {session._refused(status)}"
+        cols["error"][k] = f"variant {part.index[k] + 1}: {session._refused(status)}"
     return cols
 
 
@@ -347,7 +347,7 @@ def run_singles(base: dict, origin, items: list, keep: str, ready: list) -> tupl
                     cols[name][k] = value
                 continue
         except SceneError as exc:
-            cols["error"][k] = f"variant {index}: {exc}"
+            cols["error"][k] = f"variant {index + 1}: {exc}"
             continue
         groups.setdefault((prep.kind, id(prep.scene.runtime_law)), []).append(
             (k, index, prep))
