@@ -147,6 +147,21 @@ def explicit_cases() -> list[Case]:
         _law_case(43, "pole outside the run (control)", "0.001/(t-5)", expect="either",
                   tree=("div", num(0.001, "0.001"), ("sub", ("t",), num(5, "5")))),
     ]
+    # [stability], read by derive stability only but checked by every command (a
+    # dynamicist's trial: its keys; derive stability's own refusals by motion are in
+    # tests/test_stability_keys.py)
+    S = ("stability",)
+    cases += [
+        F(50, "stability perturbations = []", (*S, "perturbations"), []),
+        F(51, "stability perturbations = [1e300]", (*S, "perturbations"), [1e300],
+          ("[stability].perturbations",)),
+        F(52, "stability perturbations of a string", (*S, "perturbations"), ["1e-4"],
+          ("[stability].perturbations",)),
+        F(53, "stability impacts_every = 2**63", (*S, "impacts_every"), 2 ** 63),
+        F(54, "stability period = nan", (*S, "period"), float("nan")),
+        F(55, "stability long_periods = 1.5", (*S, "long_periods"), 1.5),
+        F(56, "stability period = true", (*S, "period"), True),
+    ]
     return cases
 
 

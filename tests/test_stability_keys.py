@@ -94,6 +94,28 @@ def test_the_table_of_keys_covers_the_schema():
         assert all(why is None or why.strip() for why in keys.values())
 
 
+def test_each_key_a_motion_reads_acts(tmp_path, capsys):
+    """The other half of 'acts or is refused': each key read changes what is analysed.
+    Free flight: period = 2 pi (two periods of C4.2's law), long_periods and
+    perturbations (one run of 3 periods at eps = 1e-5); on the plane: impacts_every = 2
+    (the 2-orbit: one impact every 2 periods, at a = 0.12, Gamma = 2.2 above its
+    existence threshold 2.09)."""
+    import json
+    path = _scene(tmp_path, ROTATION + "period = 6.283185307179586\nlong_periods = 3\n"
+                                      "perturbations = [1e-5]\n")
+    assert main(["stability", path, "--json", "-q"]) == 0
+    free = json.loads(capsys.readouterr().out)
+    assert free["period"] == 2 * np.pi
+    assert [(r["eps"], r["periods"]) for r in free["long_runs"]] == [(1e-5, 3)]
+    path = _scene(tmp_path, BOUNCER.replace("0.07*sin", "0.12*sin") + "impacts_every = 2\n",
+                  "b2.toml")
+    assert main(["stability", path, "--json", "-q"]) == 0
+    bounce = json.loads(capsys.readouterr().out)
+    assert bounce["n"] == 2 and bounce["period"] == pytest.approx(2 * 2 * np.pi / 30,
+                                                                  rel=1e-15)
+    assert all(c["ok"] for c in bounce["checks"].values())
+
+
 def test_long_periods_act_on_a_bouncing_orbit(tmp_path, capsys):
     """bl.toml: long_periods = 50, perturbations = [1e-4] on the plane had run nothing
     and said nothing, where the tilt modes on the unit circle are the critical case the
