@@ -417,7 +417,14 @@ def cmd_scene(args: argparse.Namespace) -> int:
     print(f"  law: {given}; P within {summary.max_radius:.4g} of O, |OP''| up to "
           f"{summary.max_acceleration:.4g}; C^2 over the run")
     if any(name.startswith("[stability].") for name in scene.given):
-        print("  [stability]: read by `derive stability` only (`derive simulate` ignores it)")
+        from .scene.stability_keys import refuse_unread
+        try:
+            refuse_unread(scene)
+            print("  [stability]: read by `derive stability` only (`derive simulate` "
+                  "ignores it)")
+        except SceneError as exc:
+            print("  [stability]: read by `derive stability` only (`derive simulate` "
+                  f"ignores it), which refuses {exc}")
     return 0
 
 

@@ -84,6 +84,15 @@ def test_a_stability_key_its_motion_does_not_read_is_refused(tmp_path, capsys, b
     assert line.startswith(f"derive stability: {where}: ") and words in line, line
 
 
+def test_scene_check_says_what_derive_stability_would_refuse(tmp_path, capsys):
+    """h19.toml passed derive scene check as if its period were read: check (valid: one
+    scene serves every command) now names the key derive stability refuses."""
+    assert main(["scene", "check", _scene(tmp_path, BOUNCER + "period = 0.2\n")]) == 0
+    note = capsys.readouterr().out.splitlines()[-1]
+    assert note.startswith("  [stability]: read by `derive stability` only") and \
+        "which refuses [stability].period: periodic bouncing does not read it" in note
+
+
 def test_the_table_of_keys_covers_the_schema():
     """STABILITY_KEYS names every [stability] field for each motion (a field left out
     would be neither read nor refused), and each motion reads some."""

@@ -108,11 +108,11 @@ STABILITY_READER = ("read by `derive stability` only: derive simulate and the ot
 # (derive/stability/scenes.py; derive/docs/stability.md lists the same)
 STABILITY_KEYS = {
     "free flight": {"period": None, "long_periods": None, "perturbations": None,
-                    "impacts_every": "a motion in free flight has no impacts (it is "
-                                     "analysed over [stability].period or the law's period)"},
+                    "impacts_every": "it has no impacts; its period is "
+                                     "[stability].period or the law's"},
     "periodic bouncing": {"impacts_every": None, "long_periods": None, "perturbations": None,
-                          "period": "the period of periodic bouncing is impacts_every "
-                                    "periods of the point's law: set impacts_every"},
+                          "period": "its period is impacts_every periods of the "
+                                    "point's law: set impacts_every"},
 }
 
 

@@ -13,8 +13,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..scene import Scene, SceneError, load_scene
-from ..scene.schema import STABILITY_KEYS, STABILITY_PERTURBATIONS_RULE
+from ..scene import Scene, load_scene
+from ..scene.stability_keys import refuse_unread
 from . import bouncing, floquet
 
 
@@ -25,26 +25,6 @@ def example(name: str, settings: dict | None = None) -> dict:
     from .families import family
     fam = family(name)
     return fam.scene(fam.values(settings))
-
-
-def motion(scene: Scene) -> str:
-    """What ``derive stability`` analyses in ``scene``: a key of the schema's
-    STABILITY_KEYS (which [stability] keys it reads)."""
-    return "periodic bouncing" if scene.contact_possible else "free flight"
-
-
-def refuse_unread(scene: Scene) -> None:
-    """Every [stability] key given acts or is refused: a key the scene's motion does not
-    read (the schema's STABILITY_KEYS says which and why), and perturbations where no
-    perturbed run is asked (long_periods 0)."""
-    kind = motion(scene)
-    for key, why in STABILITY_KEYS[kind].items():
-        if why is not None and f"[stability].{key}" in scene.given:
-            reads = ", ".join(k for k, w in STABILITY_KEYS[kind].items() if w is None)
-            raise SceneError(f"[stability].{key}", f"is not read for {kind}: {why} "
-                                                   f"({kind} reads {reads})")
-    if "[stability].perturbations" in scene.given and not scene.stability.long_periods:
-        raise SceneError("[stability].perturbations", STABILITY_PERTURBATIONS_RULE)
 
 
 def analyse(scene, progress: bool = False) -> dict:
