@@ -775,7 +775,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--family", help="instead of a scene: a member of C4.1, C4.2, C4.3 (a "
                    "stationary rotation) or bounce (reference [5])")
     p.add_argument("--set", action="append", metavar="NAME=VALUE",
-                   help="with --family: a parameter (repeatable)")
+                   help="with --family: a parameter (repeatable, each name once; "
+                        "bounce: Gamma or a, not both)")
     p.add_argument("--json", action="store_true", help="print JSON instead of text")
     p.add_argument("--long", type=int, metavar="PERIODS",
                    help="perturbed runs this many periods long where the linear test is "
