@@ -48,3 +48,40 @@ def test_general_chosen_by_auto_keeps_its_reason(outputs):
     else:                   # only omega asked: the attitude model answers, general is forced
         assert kind == "attitude"
         assert "assume no symmetry" in _chosen(doc, "general")[1]
+
+
+# ---- finding 9: one name for a state --------------------------------------------------
+def test_a_states_name_is_trajectory_csvs_and_the_primed_one_finds_it(tmp_path):
+    """Result.state_names said Z_C' where trajectory.csv says dZ_C, and the README's recipe
+    (end = dict(zip(res.state_names, res.q[-1]))) then met end["dZ_C"] with a bare
+    KeyError.  Now the names are the file's, res.row(k) takes either spelling, and an
+    unknown name's KeyError lists the row's names."""
+    import numpy as np
+
+    import derive
+    from derive.runtime.outputs import write_all
+
+    doc = {"name": "drop", "body": {"mass": 1.0, "inertia": [0.1, 0.12, 0.14],
+                                    "shape": "sphere", "radius": 0.2},
+           "point": {"mass": 0.2, "law": ["0.05*sin(3*t)", "0", "0"]},
+           "plane": {"restitution": 0.5},
+           "initial": {"com": [0.0, 0.0, 0.5], "com_velocity": [0.1, 0.0, 0.0]},
+           "run": {"duration": 0.5}}
+    res = derive.simulate(doc)
+    write_all(res, tmp_path, plot=False)
+    csv = np.genfromtxt(tmp_path / "trajectory.csv", delimiter=",", names=True)
+    names = csv.dtype.names
+    assert names[:19] == ("t", *res.state_names) and "dZ_C" in res.state_names
+    end = res.row(-1)
+    steps = res.row_kind == 0
+    assert end["t"] == res.t[-1] == csv["t"][-1] and steps[-1]
+    # the state against the file's last row; C's horizontal velocity as E1.1 keeps it on a
+    # smooth plane, under either spelling
+    for name in res.state_names:
+        assert end[name] == csv[name][-1], name
+    assert end["Z_C'"] == end["dZ_C"] and end["X_C'"] == end["dX_C"] == 0.1
+    with pytest.raises(KeyError) as info:
+        end["V_z"]
+    said = str(info.value)
+    assert "'V_z'" in said and all(f" {n}," in said or f" {n} " in said
+                                   for n in ("t", *res.state_names))
