@@ -85,3 +85,40 @@ def test_a_states_name_is_trajectory_csvs_and_the_primed_one_finds_it(tmp_path):
     said = str(info.value)
     assert "'V_z'" in said and all(f" {n}," in said or f" {n} " in said
                                    for n in ("t", *res.state_names))
+
+
+# ---- finding 4: [run].rtol under rk4 ---------------------------------------------------
+ELL = {"name": "ellipsoid tumble",
+       "body": {"mass": 1.0, "inertia": [0.05, 0.08, 0.1], "shape": "ellipsoid",
+                "semi_axes": [0.4, 0.3, 0.2]},
+       "point": {"mass": 0.3, "law": ["0.1*sin(4*t)", "0.05*cos(3*t)", "0.03*sin(5*t)"]},
+       "plane": {"restitution": 0.8},
+       "initial": {"com": [0.0, 0.0, 1.0], "com_velocity": [0.2, 0.1, 0.0],
+                   "omega": [2.0, -1.0, 3.0], "quaternion": [0.9, 0.3, 0.2, 0.1]},
+       "run": {"duration": 3.5}}
+
+
+def _ell(**run):
+    import derive
+    doc = copy.deepcopy(ELL)
+    doc["run"].update(run)
+    return derive.simulate(doc)
+
+
+def test_rk4s_impacts_end_where_its_steps_resolve_them_whatever_rtol():
+    """The trial's ell.toml under rk4 entered contact at 2.844 s after 12 impacts at rtol
+    1e-3 and at 3.1568 after 68 at 1e-15: the rule that ends accumulating impacts read
+    rtol, which no step of rk4 keeps.  Now rk4 reads neither rtol nor atol on a smooth
+    plane (the same run to the bit), and its impacts and their accumulation are DOP853's
+    at rtol 1e-13 (another integrator, its hops resolved to 1e-12 m)."""
+    import numpy as np
+    loose, tight = _ell(method="rk4", rtol=1e-3, atol=1e-3), _ell(method="rk4", rtol=1e-12)
+    assert loose.stats == tight.stats and np.array_equal(loose.q, tight.q)
+    assert loose.events == tight.events
+    ref = _ell(method="dop853", rtol=1e-13, atol=1e-15)
+    n = len(ref.impacts)
+    assert n >= 60 and len(loose.impacts) >= n
+    np.testing.assert_allclose(loose.impacts[:n, :2], ref.impacts[:, :2], rtol=0, atol=1e-8)
+    (mine,), (theirs,) = ([e for e in r.events if e["kind"] == "contact"] for r in (loose, ref))
+    assert abs(mine["t_accumulation"] - theirs["t_accumulation"]) < 1e-8
+    assert 0 <= mine["t_accumulation"] - mine["t"] < 1e-5
