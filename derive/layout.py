@@ -20,6 +20,28 @@ from __future__ import annotations
 import numpy as np
 
 
+def plain(label: str) -> str:
+    """A state's name as a user reads it (``Result.state_names``, trajectory.csv, the
+    summary): an identifier NumPy, pandas and spreadsheets keep, ``X_C'`` -> ``dX_C``.  The
+    labels here keep the derivation's primes (the C's ``crt_state_name``)."""
+    stripped = label.rstrip("'")
+    return "d" * (len(label) - len(stripped)) + stripped
+
+
+class StateRow(dict):
+    """One row of a run by name (``Result.row``): ``t`` and the states under their plain
+    names; the derivation's spelling with primes (``Z_C'``) finds ``dZ_C`` too, and an
+    unknown name's KeyError names the known ones."""
+
+    def __missing__(self, key):
+        if isinstance(key, str) and plain(key) != key and plain(key) in self:
+            return self[plain(key)]
+        primes = [k for k in self if k.startswith("d") and k[1:] in self]
+        raise KeyError(f"no state {key!r} in this row: its names are {', '.join(self)}"
+                       + (f" ({primes[0]} is {primes[0][1:]}', and may be written so)"
+                          if primes else ""))
+
+
 def _is_row(value) -> bool:
     """One state's part: a 1-D array, or a list or tuple of numbers (np.ndim, asked of a
     list, builds an array first)."""

@@ -260,8 +260,13 @@ def candidates(scene: Scene) -> list:
     if POSE not in wants:
         out.append(("vertical", "the pose is not asked: the horizontal motion of C is "
                                 "uniform and the heading is not needed"))
-    out.append(("general", "the pose is asked and no symmetry reduces the model"
-                if POSE in wants else "no smaller model applies"))
+    if not out:
+        why = ("the pose is asked and no symmetry reduces the model" if POSE in wants
+               else "no smaller model applies")
+    else:                       # a smaller model answers too: general runs only if forced
+        why = ("the paper's 18 states (E1.7, E1.8), which assume no symmetry and answer any "
+               "one-point scene on a smooth plane")
+    out.append(("general", why))
     out.append(moments)
     return out
 
@@ -338,9 +343,12 @@ def choose(scene: Scene) -> tuple[str, str]:
     if scene.model == "auto":
         kind, why = found[0]
     else:
+        auto, auto_why = found[0]
         for kind, why in found:
             if kind == scene.model:
-                why = f"forced by [run].model; {why}"
+                why = (f"forced by [run].model, auto's choice too: {why}" if kind == auto
+                       else f"forced by [run].model in place of auto's {auto} ({auto_why}); "
+                            f"{kind}: {why}")
                 break
         else:
             raise SceneError("[run].model", f"{scene.model!r} cannot answer this scene "

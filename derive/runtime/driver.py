@@ -128,8 +128,9 @@ def _frozen(a: np.ndarray) -> np.ndarray:
 @dataclass
 class Result:
     """The run of a scene.  ``t``, ``q`` (general layout when the pose is asked, else the
-    model's own), ``state_names``, ``impacts`` (t, I, v_n-, v_n+), ``status``; the rest on
-    demand: ``general``, ``omega``, ``height``, ``momentum``, ``extras``."""
+    model's own), ``state_names`` (trajectory.csv's: ``dX_C``), ``row(k)`` (a row by name),
+    ``impacts`` (t, I, v_n-, v_n+), ``status``; the rest on demand: ``general``,
+    ``omega``, ``height``, ``momentum``, ``extras``."""
     scene: Scene
     model: str
     why: str
@@ -177,8 +178,16 @@ class Result:
 
     @property
     def state_names(self) -> tuple:
-        return choice.GENERAL_LABELS if "pose" in self.scene.outputs and \
+        """The columns of ``q`` as trajectory.csv names them (``dX_C`` is X_C')."""
+        labels = choice.GENERAL_LABELS if "pose" in self.scene.outputs and \
             self.general is not None else self.model_labels
+        return tuple(layout.plain(n) for n in labels)
+
+    def row(self, k: int = -1) -> layout.StateRow:
+        """Row ``k`` of the run by name: ``t`` and the states (``res.row()["dZ_C"]``; the
+        derivation's ``Z_C'`` finds it too)."""
+        return layout.StateRow(t=float(self.t[k]),
+                               **dict(zip(self.state_names, self.q[k].tolist())))
 
     @cached_property
     def height(self) -> np.ndarray | None:

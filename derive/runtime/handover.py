@@ -243,6 +243,7 @@ class Handover:
 
     def summary(self) -> dict:
         return {"t": self.t, "model": self.flight.model, "why": self.flight.why,
-                "state": dict(zip(choice.GENERAL_LABELS, self.state.tolist())),
+                "state": dict(zip(map(layout.plain, choice.GENERAL_LABELS),
+                                  self.state.tolist())),
                 "flight_status": self.flight.status,
                 "flat_landing": self.landing}

@@ -42,12 +42,6 @@ from .motion import Motion, for_pictures, motion
 from .report import summary
 
 
-def plain(label: str) -> str:
-    """A column name NumPy, pandas and spreadsheets keep as it is: ``X_C'`` -> ``dX_C``."""
-    stripped = label.rstrip("'")
-    return "d" * (len(label) - len(stripped)) + stripped
-
-
 CSV_CHUNK = 8192           # rows formatted at a time (memory stays bounded on long runs)
 
 
@@ -86,7 +80,7 @@ def trajectory_table(result: Result, mo: Motion | None = None) -> tuple[list, np
     ``[run].outputs``, then what the pictures use: positions of O and P, the energies and
     the height ``h`` of S, where the model gives them."""
     mo = mo if mo is not None else motion(result)
-    header = ["t", *(plain(n) for n in result.state_names)]
+    header = ["t", *result.state_names]
     cols = [result.t[:, None], result.q]
     for name, value in result.extras.items():
         if name == "omega" and "omega_x" not in result.state_names:

@@ -225,15 +225,24 @@ SCENE_FIELDS = (
     F("run", "method", "choice", "lie", "integrator: lie (the momentum form: K and C's "
       "parabola constants of each flight, the attitude on SO(3); derive/docs/runtime.md), lie5, "
       "lie8, dopri5, dop853, rk4", choices=("lie", "lie5", "lie8", "dopri5", "dop853", "rk4")),
-    F("run", "rtol", "number", 1e-10, "relative tolerance", 1e-15, 1e-2),
-    F("run", "atol", "number", 1e-12, "absolute tolerance", 0, 1, True),
+    F("run", "rtol", "number", 1e-10, "relative tolerance of the adaptive methods (lie, "
+      "lie5, lie8, dopri5, dop853, and the base model's own DOP853): each step's error "
+      "within atol + rtol times the state's size, and accumulating impacts end in contact "
+      "once the next hop would rise less than 10 (atol + rtol (Z_C + L)), L the body's "
+      "reach; lie runs lie8's coefficients below 1e-6.  rk4 keeps no tolerance (its step "
+      "is [run].step, its hops resolved down to round-off): under it rtol acts only with "
+      "friction (the slip's resolution, a frictional impact's own integration); "
+      "derive/docs/runtime.md", 1e-15, 1e-2),
+    F("run", "atol", "number", 1e-12, "absolute tolerance of the adaptive methods, with "
+      "rtol's; under rk4 it acts only with friction (the slip's resolution)", 0, 1, True),
     F("run", "g", "number", 9.81, "gravity", 0, 1e4),
     F("run", "outputs", "choices", ["pose", "impacts"], "what the result holds",
       choices=("pose", "omega", "height", "impacts", "momentum")),
     F("run", "step", "number", None, "the fixed step of method rk4 (default: the least of "
-      "duration/2000, 0.04/|omega(0)| and a tenth of the law's time scale); the adaptive "
-      "methods choose their own steps from rtol and atol and refuse it", 0, MAX_DURATION,
-      True, methods=("rk4",)),
+      "duration/2000, 0.04 rad over omega(0)'s magnitude and a tenth of the law's time "
+      "scale), cut to a quarter of a hop shorter than it and doubled back after; the "
+      "adaptive methods choose their own steps from rtol and atol and refuse it", 0,
+      MAX_DURATION, True, methods=("rk4",)),
     F("run", "max_events", "integer", 100_000, "stop after this many events", 1, 1e9),
     F("run", "max_steps", "integer", 10_000_000, "stop after this many steps", 1, 1e10),
     F("run", "output_dt", "number", 0.0, "rows every output_dt (0: one per step)", 0,

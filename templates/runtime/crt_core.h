@@ -115,7 +115,8 @@
  *    largest |CS|); a step that would end lower is retried shorter, and if no step can
  *    avoid it the run stops with CRT_PENETRATION, never CRT_DONE;
  *  - S approaching the plane faster than round-off is an impact; heights below
- *    h_res = 10 (atol + rtol (|Z_C| + L)) are not resolved by the integrator;
+ *    h_res = 10 (atol + rtol (|Z_C| + L)) are not resolved by the integrator (RK4,
+ *    which keeps no tolerance: 10 (64 eps (|Z_C| + L)), round-off; crt_kept_rtol);
  *  - an impact leaves S exactly on the plane; when impacts accumulate (after an impact
  *    the next hop's apex v+^2/(2|a|) is below h_res, or the remaining flights, a geometric
  *    series of ratio r, sum to less than zeno_dt times the time scale) S enters persistent

@@ -269,11 +269,11 @@ static enum crt_handled crt_handle_event(crt_session *s, crt_out *o, double ta, 
     {
       const double dt = -gap / v_n;
       if (fabs(dt) <= 4.0 * tol || !(t_ev + dt > s->t) || fabs(dt) > (tb - ta) + tol) break;
-      if (fabs(dt) <= CRT_TAYLOR_DT * sqrt(s->opt[CRT_OPT_RTOL]) * (t_ev - s->t)) {
+      if (fabs(dt) <= CRT_TAYLOR_DT * sqrt(crt_kept_rtol(s)) * (t_ev - s->t)) {
         /* a correction this small (the interpolant's root against the method's own: a
            few 1e-11 s) by a Taylor step of first order from the re-step's end, whose
-           remainder dt^2 q''/2 is below 1e-6 rtol of the step's own change, instead of
-           a second whole step of the method */
+           remainder dt^2 q''/2 is below 1e-6 rtol of the step's own change (RK4: of
+           round-off, crt_kept_rtol), instead of a second whole step of the method */
         double dq[NQ];
         int i;
         crt_rhs(s, t_ev, q_ev, dq);
