@@ -166,7 +166,9 @@ HEADER_TESTS = {
                       _HOP + "test_where_impacts_stop_the_gait_goes_on_bounded_in_both_routes",
                       "tests/test_control_wheels.py"),
     "crt_events.h": (
-        _HOP + "test_a_controllers_wider_gait_does_not_let_s_through_the_plane",),
+        _HOP + "test_a_controllers_wider_gait_does_not_let_s_through_the_plane",
+        "tests/test_events_boundaries.py::test_a_start_put_on_the_plane_begins_in_contact_"
+        "within_round_off_of_it"),
     "crt_step.h": ("tests/test_outputs.py::test_tables_have_plain_names_and_a_uniform_grid",),
     "crt_loop.h": ("tests/test_law.py::test_rk4_steps_end_on_each_knot_never_longer",
                    _HOP + "test_a_loop_stopped_by_max_events_logs_its_law_to_the_stop",
