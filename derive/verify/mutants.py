@@ -185,6 +185,10 @@ HEADER_TESTS = {
     "crt_bodies.h": ("tests/test_bodies.py::test_crt_init_holds_the_bodies_parameters_to_"
                      "their_rule_at_its_edges",
                      _BODIES + "test_the_c_sums_the_moments_as_numpy_and_checks_the_bodies"),
+    "crt_plane.h": ("tests/test_flat_starts.py::test_a_cylinder_a_hair_off_its_side_stops_where_"
+                    "its_far_rim_is_within_the_tolerance",
+                    "tests/test_flat_starts.py::test_a_box_a_hair_off_a_face_stops_on_the_lower_"
+                    "of_its_far_corners"),
     "crt_session.h": ("tests/test_runtime.py::test_max_events_is_a_status_not_a_hang",),
     "crt_smooth.h": ("tests/test_runtime.py::test_the_least_normal_reaction_of_a_resting_ball_"
                      "is_the_closed_forms",
