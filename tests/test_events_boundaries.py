@@ -21,7 +21,10 @@ e^(2k) H and flies 2 e^k v1 / g; the flights left after it sum to 2 e^k v1 / (g 
   atol + rtol (|Z_C| + L)): H is set so that the K-th rise is 0.98 or 1.02 of it;
 * a start on the plane moving down at 0.98 of the speed below which a normal speed is
   round-off (1e3 eps (|Z_C'| + sqrt(g L)) for the ball) touches the plane and rests on it
-  at once, with no impact; at 1.02 of it, it is an impact first.
+  at once, with no impact; at 1.02 of it, it is an impact first;
+* a start put on the plane (the option start_on_plane) begins in contact where S rests
+  within the height resolution above the plane and leaves it slower than the speed
+  noise: at 0.98 of either, the contact at t0; at 1.02, a flight first.
 
 And the search's own decision: a dip of S below the plane shorter than the spacing of
 its samples (S comes down and goes up again between two of them, both above the plane)
@@ -371,3 +374,55 @@ def test_a_spinning_ellipsoid_that_touches_tangentially_grazes_and_falls_on():
     assert impact["kind"] == "impact" and abs(impact["t"] - root) < 1e-8, (impact["t"], root)
     v = -G * root - (b * b - c * c) * w * math.sin(2 * w * root) / (2 * s(root))
     assert abs(impact["v_minus"] - v) < 1e-6 * abs(v)
+
+
+@pytest.mark.parametrize("rule", ["gap", "speed"])
+@pytest.mark.parametrize("band", [0.98, 1.02])
+def test_a_start_put_on_the_plane_begins_in_contact_within_round_off_of_it(rule, band):
+    """A start put on the plane (the option start_on_plane, which [initial].on_plane sets:
+    a scene with com set leaves it off, so the run is the Session's with the option on)
+    begins in contact at t0 where S is at rest within the height resolution above the
+    plane (h_res = 10 (atol + rtol (|Z_C| + L))) and leaves it slower than the speed
+    noise (1e3 eps (|Z_C'| + sqrt(g L)) for the ball, whose rate is 0); each threshold
+    from that arithmetic, the start at 0.98 and 1.02 of it.  Inside, the contact at t0
+    and no impact; outside, a flight first: from 1.02 h_res the ball falls and lands at
+    the closed form's sqrt(2 h / g), and leaving at 1.02 of the noise it flies and lands
+    (an impact after t0, within the height resolution's fall)."""
+    from derive.runtime.build import library
+    from derive.runtime.driver import prepare
+    from derive.runtime.session import Session
+    doc = ball(e=0.5, z0=R, duration=0.01, rtol=RTOL, atol=ATOL, method="dopri5")
+    prep = prepare(doc)
+    assert prep.kind == "translational" and list(prep.start.q0) == [R, 0.0]
+    opt = prep.options.copy()
+    assert opt[abi.OPT["start_on_plane"]] == 0.0            # com given: not on the plane
+    opt[abi.OPT["start_on_plane"]] = 1.0
+    L = opt[abi.OPT["length_scale"]]
+    if rule == "gap":
+        # h = band h_res(Z_C = R + h), solved for h (the rtol branch of the max)
+        h = band * 10 * (ATOL + RTOL * (R + L)) / (1 - band * 10 * RTOL)
+        assert ATOL + RTOL * (R + h + L) > 64 * EPS * (R + h + L)
+        q0 = [R + h, 0.0]
+    else:
+        # v = band x 1e3 eps (v + sqrt(g L)), solved for v; S leaving the plane at v
+        h = 0.0
+        v = band * 1e3 * EPS * math.sqrt(G * L) / (1 - band * 1e3 * EPS)
+        q0 = [R, v]
+    session = Session(library(prep.kind))
+    session.set_law(prep.scene.runtime_law)
+    raw = session.run(0.0, 0.01, np.array(q0), opt, prep.parameters)
+    assert raw.status == "done"
+    kinds = abi.names(abi.EVENT_KINDS)
+    events = [(row[0], kinds[int(row[1])]) for row in raw.events]
+    if band < 1:
+        assert events == [(0.0, "contact")] and raw.stats["impacts"] == 0
+        # the start's row, then S put on the plane and resting there
+        assert np.max(np.abs(raw.q[1:, 0] - R)) < 1e-12 and raw.t[1] == 0.0
+    else:
+        (t1, first), (t2, second) = events
+        assert (first, second) == ("impact", "contact") and t1 == t2 > 0.0
+        if rule == "gap":
+            assert abs(t1 - math.sqrt(2 * h / G)) < 1e-6 * t1
+        else:
+            h_res = 10 * (ATOL + RTOL * (R + L))
+            assert G * t1 * t1 / 2 < h_res

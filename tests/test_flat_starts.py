@@ -1,5 +1,7 @@
 """A start on the plane whose lowest points are a line or a face (derive/face.py's
-flat_contact) is refused by its attitude unless the base model takes it; and the event
+flat_contact) is refused by its attitude unless the base model takes it; a body on one
+point that comes to lie on a line or a face stops with surface_jump (crt_surface_jumped,
+model_surface_second), at 0.98 and 1.02 of the penetration tolerance too; and the event
 timeline's matching stays linear in a chatter's dense events (derive/runtime/events.py)."""
 from __future__ import annotations
 
@@ -295,3 +297,88 @@ def test_a_rotation_that_keeps_the_line_keeps_the_refusal():
     # a box on a face turning about x alone: still square to x, an edge along it
     z = np.array([0.0, 0.0, 1.0])
     assert faces.flat_contact("box", z, np.cross(z, [0.5, 0.0, 1.0]) * 0.01) == "an edge"
+
+
+@pytest.mark.parametrize("band", [0.98, 1.02])
+def test_a_cylinder_a_hair_off_its_side_stops_where_its_far_rim_is_within_the_tolerance(band):
+    """crt_surface_jumped's second point at its threshold: the cylinder at rest on one rim
+    point, its axis theta above the plane, the far rim's lowest point 2 L sin(theta)
+    above S (closed form), set to 0.98 or 1.02 of the penetration tolerance (max(1e-10
+    Ls, 64 eps (|Z_C| + Ls)), Ls the run's length scale).  A scene cannot start so close
+    to a line (face.LINE_TOL refuses it): the Session's run from the state of a start
+    1e-6 rad off, turned to theta, with start_on_plane on (in contact at t0), for one
+    step of 1 ns, in which the far rim comes down by 1e-17 m.  Inside, the step ends in
+    surface_jump; outside, the run is done."""
+    from derive import layout
+    from derive.runtime import driver
+    from derive.runtime.build import library
+    from derive.runtime.session import Session
+    from derive.scene import parse_scene
+    G = layout.GENERAL
+    text = _side(1e-6).replace('"0.03*(sin(15*t) + 0.5*sin(30*t))", "0", "0.01"',
+                               '"0", "0", "0"')
+    prep = driver.prepare(parse_scene(text))
+    opt = prep.options
+    assert prep.kind == "rough" and opt[abi.OPT["start_on_plane"]] == 1.0
+
+    def attitude(theta):           # R_x(pi/2 + theta), row by row: the axis theta down
+        c, s = -math.sin(theta), math.cos(theta)
+        return np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
+    assert np.abs(prep.start.q0[G.A] - attitude(1e-6).ravel()).max() < 1e-15
+    Ls = opt[abi.OPT["length_scale"]]
+    tol = max(1e-10 * Ls, 64 * np.finfo(float).eps * (R + Ls))
+    theta = math.asin(band * tol / (2 * L))
+    q0 = prep.start.q0.copy()
+    q0[G.A] = attitude(theta).ravel()
+    q0[G.Z] = R * math.cos(theta) + L * math.sin(theta)      # S on the plane
+    session = Session(library(prep.kind))
+    session.set_law(prep.scene.runtime_law)
+    raw = session.run(0.0, 1e-9, q0, opt, prep.parameters)
+    assert raw.stats["impacts"] == 0 and raw.stats["steps"] == 1
+    assert abi.names(abi.EVENT_KINDS)[int(raw.events[0, 1])] == "contact"
+    assert raw.status == ("surface_jump" if band < 1 else "done")
+
+
+@pytest.mark.parametrize("first, second", [(1.03, 0.99), (0.99, 1.03)])
+def test_a_box_a_hair_off_a_face_stops_on_the_lower_of_its_far_corners(first, second):
+    """model_surface_second is the least height of the far points it finds: a box at rest
+    on one corner, nearly flat on its face, its vertical n (body axes) tilted so that the
+    corners beyond S along x and along y are 2 a |n_x| and 2 b |n_y| above it (closed
+    form), one 0.99 and the other 1.03 of the penetration tolerance, in either order of
+    its search (the turn about the axis n is least along, x here, first).  The lower
+    decides: the first step (1 ns, the Session's run with start_on_plane on, as the
+    cylinder's above) ends in surface_jump both ways; a least taken 5 % loose either
+    way would miss the lower."""
+    from derive import layout
+    from derive.runtime import driver
+    from derive.runtime.build import library
+    from derive.runtime.session import Session
+    from derive.scene import parse_scene
+    G = layout.GENERAL
+    c, s = math.cos(math.pi / 8), math.sin(math.pi / 8)
+    q = [math.cos(5e-7) * c, math.cos(5e-7) * s, c * math.sin(5e-7), -s * math.sin(5e-7)]
+    text = CYLINDER_SIDE.format(q0=0.0, q1=0.0).replace("[0.0, 0.0, 0, 0]", repr(q)).replace(
+        'shape = "cylinder"\nradius = 0.03\nhalf_length = 0.075',
+        'shape = "box"\nhalf_extents = [0.075, 0.04, 0.03]').replace(
+        '"0.03*(sin(15*t) + 0.5*sin(30*t))", "0", "0.01"', '"0", "0", "0"')
+    prep = driver.prepare(parse_scene(text))
+    opt = prep.options
+    assert prep.kind == "rough" and opt[abi.OPT["start_on_plane"]] == 1.0
+    Ls = opt[abi.OPT["length_scale"]]
+    a, b, h = SIZE
+    tol = max(1e-10 * Ls, 64 * np.finfo(float).eps * (h + Ls))
+    nx, ny = first * tol / (2 * a), second * tol / (2 * b)
+    assert nx < ny                                  # x: the first turn's far corner
+    n = np.array([nx, ny, math.sqrt(1 - nx * nx - ny * ny)])
+    r1 = _unit(np.array([1.0, 0.0, 0.0]) - nx * n)
+    A = np.array([r1, np.cross(n, r1), n])          # its rows: fixed axes in body axes
+    assert abs(np.linalg.det(A) - 1) < 1e-15
+    q0 = prep.start.q0.copy()
+    q0[G.A] = A.ravel()
+    q0[G.Z] = a * nx + b * ny + h * n[2]           # the corner (-a, -b, -h) on the plane
+    session = Session(library(prep.kind))
+    session.set_law(prep.scene.runtime_law)
+    raw = session.run(0.0, 1e-9, q0, opt, prep.parameters)
+    assert raw.stats["impacts"] == 0 and raw.stats["steps"] == 1
+    assert abi.names(abi.EVENT_KINDS)[int(raw.events[0, 1])] == "contact"
+    assert raw.status == "surface_jump"

@@ -166,7 +166,9 @@ HEADER_TESTS = {
                       _HOP + "test_where_impacts_stop_the_gait_goes_on_bounded_in_both_routes",
                       "tests/test_control_wheels.py"),
     "crt_events.h": (
-        _HOP + "test_a_controllers_wider_gait_does_not_let_s_through_the_plane",),
+        _HOP + "test_a_controllers_wider_gait_does_not_let_s_through_the_plane",
+        "tests/test_events_boundaries.py::test_a_start_put_on_the_plane_begins_in_contact_"
+        "within_round_off_of_it"),
     "crt_step.h": ("tests/test_outputs.py::test_tables_have_plain_names_and_a_uniform_grid",),
     "crt_loop.h": ("tests/test_law.py::test_rk4_steps_end_on_each_knot_never_longer",
                    _HOP + "test_a_loop_stopped_by_max_events_logs_its_law_to_the_stop",
@@ -183,6 +185,10 @@ HEADER_TESTS = {
     "crt_bodies.h": ("tests/test_bodies.py::test_crt_init_holds_the_bodies_parameters_to_"
                      "their_rule_at_its_edges",
                      _BODIES + "test_the_c_sums_the_moments_as_numpy_and_checks_the_bodies"),
+    "crt_plane.h": ("tests/test_flat_starts.py::test_a_cylinder_a_hair_off_its_side_stops_where_"
+                    "its_far_rim_is_within_the_tolerance",
+                    "tests/test_flat_starts.py::test_a_box_a_hair_off_a_face_stops_on_the_lower_"
+                    "of_its_far_corners"),
     "crt_session.h": ("tests/test_runtime.py::test_max_events_is_a_status_not_a_hang",),
     "crt_smooth.h": ("tests/test_runtime.py::test_the_least_normal_reaction_of_a_resting_ball_"
                      "is_the_closed_forms",
