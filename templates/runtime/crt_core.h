@@ -41,11 +41,12 @@
  *                           of pressure left the face's kern (the pressure would turn
  *                           negative at an edge); the run stops there, with an event
  *                           face_lifting at its time
- *   CRT_FLAT_LANDING     8  never returned by the C: the Python driver's, where the flight
- *                           it runs after a base run's lift-off (from the state at
- *                           CRT_LIFT_OFF, in the general model's library) touches the plane
- *                           with the face flat, every corner within the height resolution
- *                           (a multi-point impact no model makes; derive/docs/bodies.md)
+ *   CRT_FLAT_LANDING     8  crt_advance, a box or a cylinder in flight: a touch coming
+ *                           down with the face nearest the plane flat, every corner (the
+ *                           rim) within the height resolution (a multi-point impact no
+ *                           model makes; derive/docs/bodies.md); the run stops at the
+ *                           touch's row before_event, with an event flat_landing (no
+ *                           impact applied)
  *   CRT_MAX_STEPS       -1  crt_advance: opt[CRT_OPT_MAX_STEPS] steps before t_end (an
  *                           error, as CVODE's CV_TOO_MUCH_WORK)
  *   CRT_STEP_UNDERFLOW  -2  crt_advance: the step fell below 1e-14 of the time scale
