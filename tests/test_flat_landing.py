@@ -6,7 +6,8 @@ lift-off; a touch on one corner goes on.  Each check against something computed 
 * trial 3's box (identity attitude, omega 0, the point moving along body x: no torque,
   the body translates) stops at its first touch: the time against the free fall's closed
   form, the event's v_n against -g t, its spread 0; a cylinder standing on its end (the
-  translational model) and the box on a rough plane (the rough model) likewise;
+  translational model) and the box on a rough plane (the rough model) likewise, and the
+  box started on the plane moving down (the touch before the first step), at t0;
 * the same box tilted about the horizontal diagonal by 0.98 and 1.02 of the angle whose
   spread (2 (a |n_x| + b |n_y|), derive/runtime/handover.py's flat_spread, written from
   the face apart from the C's) equals the runtime's height resolution at the touch: the
@@ -116,6 +117,17 @@ def test_other_models_land_flat(text, model):
     assert run.model == model and run.status == "flat_landing"
     assert [ev["kind"] for ev in run.events] == ["flat_landing"]
     assert abs(run.events[0]["t"] - t_fall(drop=drop)) < 1e-9
+
+
+def test_a_face_on_the_plane_moving_down_stops_at_the_start():
+    """The touch found before the first step (crt_events_collide_now) is judged alike."""
+    text = _BOX.format(quaternion=[1.0, 0.0, 0.0, 0.0], duration=1.0, plane="")
+    text = text.replace(f"com = [0.0, 0.0, {Z0}]",
+                        f"com = [0.0, 0.0, {c}]\ncom_velocity = [0.0, 0.0, -1.0]")
+    run = simulate(parse_scene(text))
+    assert run.status == "flat_landing" and run.t[-1] == 0.0 and run.stats["steps"] == 0
+    (ev,) = run.events
+    assert ev["kind"] == "flat_landing" and ev["v_minus"] == -1.0
 
 
 def _threshold(flat) -> float:
