@@ -493,8 +493,8 @@ void crt_eval_gap(crt_session *s, double t, const double *q, double *h, double *
 /* the scales below which the event search calls a height and a normal speed round-off at
    (t, q): out[0] the height resolution (crt_height_resolution: the integrator's own error in
    Z_C, or round-off), out[1] the speed noise (crt_speed_noise: S touching, not hitting);
-   the driver's hand-over judges a flat landing and a landing with them (models with a
-   plane; else 0, 0) */
+   the scales crt_collide judges a touch and a flat landing by, which the driver's
+   hand-over records and its judge checks (models with a plane; else 0, 0) */
 void crt_eval_noise(crt_session *s, double t, const double *q, double *out)
 {
 #if MODEL_HAS_PLANE
