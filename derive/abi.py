@@ -177,10 +177,10 @@ STATUSES = (
     Status("face_lifting", 7, "base model, linear pressure: the centre of pressure left the "
                               "face's kern (the affine pressure would turn negative at an "
                               "edge: the face starts to lift there; the run stops there)"),
-    Status("flat_landing", 8, "a base run's flight after a lift-off (the driver's hand-over, "
-                              "derive/runtime/handover.py) landed flat: every corner of the "
-                              "face at once, within the height resolution, a multi-point "
-                              "impact no model makes; the run stops at the touch"),
+    Status("flat_landing", 8, "a box or a cylinder in flight came down on a face flat: every "
+                              "corner of the face (the rim) at once, within the height "
+                              "resolution, a multi-point impact no model makes; the run "
+                              "stops at the touch"),
     Status("max_steps", -1, "max_steps steps were taken before the end time"),
     Status("step_underflow", -2, "the step size fell below 1e-14 of the time scale"),
     Status("nonfinite", -3, "the state or the right-hand side became NaN or infinite"),
@@ -252,9 +252,9 @@ EVENT_KINDS = _names(
                 "distance from the face's centroid)"),
     ("face_lifting", "base model, linear pressure: the centre of pressure reached the "
                      "face's kern (the pressure reaches 0 at an edge; value: the kern margin)"),
-    ("flat_landing", "a flight after a base run's lift-off touched the plane with the face "
-                     "flat (the driver's hand-over; value: the corners' spread in height, "
-                     "v_minus: v_n; no impact applied, the run stops)"),
+    ("flat_landing", "a box or a cylinder in flight touched the plane coming down with a face "
+                     "flat (value: the corners' spread in height, v_minus: v_n, v_plus: NaN; "
+                     "no impact applied, the run stops)"),
 )
 
 STATS = _names(

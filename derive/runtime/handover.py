@@ -15,11 +15,11 @@ library starts from (derive/docs/bodies.md).  It needs ``[plane].restitution`` (
 flight may land on a corner); without it the run stops at lift-off as before.
 
 Landing flat is a multi-point impact (every corner of the face at once) that the general
-model does not make: where the first touch of the flight coming down (after the
-hand-over's instant, v_n < 0) finds the touching face's corners (a disc's rim) within the
-runtime's height resolution of each other (the runtime's own, :func:`noise`), the run
-stops there with status ``flat_landing`` (:func:`flat_spread`).  A landing on one
-corner, an edge's middle or a rim point goes on in the general model.
+model does not make: where a touch of the flight coming down (v_n < 0) finds the touching
+face's corners (a disc's rim) within the runtime's height resolution of each other, the
+C stops the run there with status ``flat_landing`` (crt_collide, for every flight of a
+box or a cylinder, not only this one; :func:`fly` reads the landing from that stop).  A
+landing on one corner, an edge's middle or a rim point goes on in the general model.
 
 The flight is the run a scene written from the hand-over's state makes: its law proved
 over the flight alone (:func:`flight_scene`), its ``output_dt`` rows on the whole run's
@@ -38,7 +38,6 @@ from . import choice
 
 G = layout.GENERAL
 _BEFORE, _AFTER = abi.ROW_KIND["before_event"], abi.ROW_KIND["after_event"]
-_EV = {name: k for k, name in enumerate(abi.names(abi.EVENT_KINDS))}
 _MODE_COL = abi.EVENT_COLUMNS.index("mode")
 # the face's mode after each base event, written in the events' mode column (the general
 # model's timeline reads it)
@@ -81,8 +80,10 @@ def noise(run, i: int) -> tuple[float, float]:
 def flat_spread(scene, A) -> float:
     """How far apart in height the corners (a disc: the rim) of the face nearest to the
     plane are, under attitude A: 2 (a |u_1| + b |u_2|) for a rectangle, 2 R |u_12| for
-    a disc, u the vertical in the face's frame; inf where no face is down (the vertical
-    more than 45 degrees from every face normal)."""
+    a disc, u the vertical in the face's frame (derive/face.py's); inf where no face is
+    down (the vertical more than 45 degrees from every face normal).  The runtime's rule
+    is its own C (model_face_spread_n, in the body's axes): this is the other way of
+    computing it that the robustness judge and the tests check the C's stops against."""
     n = np.asarray(A, dtype=float).reshape(3, 3)[2]
     k = int(np.argmax(np.abs(n)))
     if scene.shape == "cylinder" and k != 2:
@@ -132,69 +133,22 @@ def at_once(t: float) -> float:
 
 
 def fly(fscene, run_flight, origin: float | None = None) -> tuple:
-    """The flight from the hand-over (a Result) and its flat landing (None: none): a
-    first run to the first touch coming down (v_n < 0), stopped there if the face is
-    flat, else the whole flight (the same steps to that touch).  Touches before it are
-    no landing: the C may find the face touching at the hand-over's instant itself, v_n
-    round-off (a graze, or a contact it leaves at once), and grazes as the face hovers
-    just above the plane after it (its height grows as (t - t_l)^3: N falls through 0
-    with a slope); the first run takes more events until that touch or the end (up to
-    64), then stops at it.  ``origin``: the output_dt grid's (the whole run's t0)."""
-    instant = at_once(fscene.t0)
-    cap = min(fscene.max_events, 64)
-    n = 1
-    while True:
-        first = run_flight(dataclasses.replace(fscene, max_events=n), origin)
-        touch = _first_landing(first, instant)
-        if touch is not None or first.status != "max_events" or n >= cap:
-            break
-        n = min(2 * n, cap)
-    if touch is not None:
-        i, ev, j = touch
-        k = min(n, j)            # (past the touch: stop at it, where the C counts one
-        while first.events[-1]["t"] > ev["t"] and k >= 1:   # event fewer than the rows:
-            again = run_flight(dataclasses.replace(fscene, max_events=k), origin)  # a
-            found = _first_landing(again, instant)   # contact begun at an impact is of it)
-            if found is None:
-                break
-            first, n, (i, ev, _) = again, k, found
-            k -= 1
-        spread = flat_spread(fscene, first.model_q[i, G.A])
-        resolution = noise(first, i)[0]
-        if spread <= resolution:
-            landing = {"t": float(first.t[i]), "spread": float(spread),
-                       "resolution": resolution, "v_n": float(ev["v_minus"])}
-            return _cut(first, i, ev, spread), landing
-    if first.status == "max_events" and fscene.max_events != n:
-        return run_flight(fscene, origin), None
-    return first, None
-
-
-def _first_landing(run, after: float):
-    """(the index of the before row, the event, how many events up to it) of the
-    flight's first impact, contact or graze later than ``after`` (the hand-over's
-    instant) coming down (v_n below minus the speed noise: a touch 2e-11 s after the
-    runtime's own lift-off at v_n = -2e-17 m/s is the face still leaving), or None."""
-    from .events import event_rows
-    for i, ev in event_rows(run):
-        if ev["kind"] in ("impact", "contact", "graze") and ev["t"] > after \
-                and ev["v_minus"] < -noise(run, i)[1]:
-            return i, ev, 1 + next(k for k, e in enumerate(run.events) if e is ev)
-    return None
-
-
-def _cut(run, i: int, ev: dict, spread: float):
-    """The flight up to the touch's before row, ending there with flat_landing (the
-    touch's event kept as a flat_landing event: the impact is not applied)."""
-    keep = run.event_rows[run.event_rows[:, 0] < ev["t"]]
-    row = run.event_rows[run.event_rows[:, 0] == ev["t"]][:1].copy()
-    row[:, 1] = _EV["flat_landing"]
-    row[:, 2], row[:, 4] = spread, math.nan     # no impact made: no v_n after
-    return dataclasses.replace(
-        run, t=run.t[:i + 1], model_q=run.model_q[:i + 1], row_kind=run.row_kind[:i + 1],
-        event_rows=np.vstack([keep, row]), status="flat_landing",
-        stats={**run.stats, "impacts": run.stats["impacts"] - 1 if ev["kind"] == "impact"
-               else run.stats["impacts"]})
+    """The flight from the hand-over (a Result) and its flat landing (None: none).  The
+    C stops a flight at a touch coming down (v_n below minus the speed noise) with the
+    face flat, status flat_landing (crt_collide: model_face_spread within
+    crt_height_resolution), as it stops every other flight of a box or a cylinder; the
+    landing's t, spread (the event's value), height resolution (the runtime's own, at the
+    touch's row) and v_n are read from that stop.  Touches at the hand-over's instant are
+    none: the face is on the plane there with v_n round-off, which the C calls a graze or
+    a contact it leaves at once, not a touch coming down.  ``origin``: the output_dt
+    grid's (the whole run's t0)."""
+    run = run_flight(fscene, origin)
+    if run.status != "flat_landing":
+        return run, None
+    ev = run.events[-1]
+    i = len(run.t) - 1
+    return run, {"t": float(run.t[i]), "spread": float(ev["value"]),
+                 "resolution": noise(run, i)[0], "v_n": float(ev["v_minus"])}
 
 
 def _stitch(base, flight, state, landing):

@@ -22,7 +22,6 @@ its columns are sliced out of the C's arrays, with no Python per variant.
 from __future__ import annotations
 
 import copy
-import dataclasses
 import math
 import time
 from dataclasses import dataclass
@@ -31,8 +30,7 @@ import numpy as np
 
 from .. import abi
 from . import choice, handover
-from .driver import (options, prepare, ready_session, run_prepared, run_scene,
-                     session_for)
+from .driver import options, prepare, run_scene, session_for
 from ..scene import SceneError, build_scene, bulk, overrides
 from ..scene.schema import SCENE
 
@@ -367,11 +365,9 @@ def run_singles(base: dict, origin, items: list, keep: str, ready: list) -> tupl
 def hand_over(part: Part, cols: dict, last: np.ndarray, ready: list) -> None:
     """The base variants of ``part`` that stopped at lift-off with ``[plane].restitution``
     go on in the general model, as :func:`derive.simulate`'s do (handover.hand_over): the
-    flights from the hand-over's states in calls into C of their model, as handover.fly
-    makes them (a first run to the first event; where that is an impact, the flight ends
-    there with flat_landing if the face is flat, else the whole flight), the others
-    (their first event a touch at the hand-over's instant, a graze or a contact) through
-    handover.fly itself.
+    flights from the hand-over's states in calls into C of their model, each the whole
+    flight as handover.fly makes it (the C stops one that comes down on its face flat,
+    flat_landing).
     Each such row then says the whole run, as summary_row of derive.simulate's Result:
     the flight's status, model, end, heights and first contact, the counts of both parts
     summed, C's travel and mean velocity from the base run's start.  In place; the other
@@ -385,28 +381,7 @@ def hand_over(part: Part, cols: dict, last: np.ndarray, ready: list) -> None:
         todo.append((int(k), handover.flight_scene(scene, t_l, state)))
     if not todo:
         return
-    flights = _flights([(k, dataclasses.replace(fs, max_events=1)) for k, fs in todo], ready)
-    whole, alone = [], []
-    for k, fs in todo:
-        row, end = flights[k]
-        if row["status"] != "max_events" or fs.max_events == 1:
-            continue                         # the first run is the flight
-        # its one event an impact after the hand-over's instant (so coming down: fly's
-        # first landing): on a face flat, the flight cut there (handover._cut: no impact
-        # made, and the contact begun at it dropped), else the whole flight; any other (a
-        # touch at the instant, a graze, a contact) through fly itself
-        A = end[1:][handover.G.A]
-        if row["impacts"] != 1 or not end[0] > handover.at_once(fs.t0):
-            alone.append((k, fs))
-        elif handover.flat_spread(fs, A) <= _noise(fs, end)[0]:
-            row.update(status="flat_landing", impacts=row["impacts"] - 1,
-                       first_contact_t=math.nan)
-        else:
-            whole.append((k, fs))
-    flights.update(_flights(whole, ready))
-    for k, fs in alone:                      # (a flat landing's cut: the driver's own)
-        run = handover.fly(fs, lambda sc, origin: run_prepared(prepare(sc)))[0]
-        flights[k] = (summary_row(run), np.concatenate([[run.t[-1]], run.model_q[-1]]))
+    flights = _flights(todo, ready)
     for k, _ in todo:
         row, end = flights[k]
         scene, t_end = part.scenes[k], float(end[0])
@@ -419,13 +394,6 @@ def hand_over(part: Part, cols: dict, last: np.ndarray, ready: list) -> None:
         travel = choice.travel(row["model"], scene.t0, t_end, end[1:], part.c0[k], scene)
         for name, value in {**travel, **means(travel, part.c0[k], scene.t0, t_end)}.items():
             cols[name][k] = value
-
-
-def _noise(fs, end) -> tuple[float, float]:
-    """The runtime's height resolution and speed noise in the flight of scene ``fs`` at
-    its row ``end`` (t then q), from the C of the flight's model (handover.noise)."""
-    prep = prepare(fs)
-    return ready_session(prep.scene, prep.kind, prep.start).noise(float(end[0]), end[1:])
 
 
 def _flights(items: list, ready: list) -> dict:

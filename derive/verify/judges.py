@@ -560,7 +560,7 @@ def judge_face_run(result) -> tuple[str, str]:
     return "ok", status
 
 
-# the general model's honest ends after a hand-over (the flat landing the driver's)
+# the general model's honest ends after a hand-over (a flat landing: the C's stop, crt_collide)
 FLIGHT_ENDS = ("done", "flat_landing", "surface_jump", "painleve")
 
 

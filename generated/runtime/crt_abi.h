@@ -148,7 +148,7 @@ enum crt_status {
   CRT_LIFT_OFF = 5,  /* base model: the normal force N under the face reached 0 (the body leaves the plane; the run stops there) */
   CRT_TIPPING = 6,  /* base model: the centre of pressure reached the face's edge (the body tips about it; the run stops there) */
   CRT_FACE_LIFTING = 7,  /* base model, linear pressure: the centre of pressure left the face's kern (the affine pressure would turn negative at an edge: the face starts to lift there; the run stops there) */
-  CRT_FLAT_LANDING = 8,  /* a base run's flight after a lift-off (the driver's hand-over, derive/runtime/handover.py) landed flat: every corner of the face at once, within the height resolution, a multi-point impact no model makes; the run stops at the touch */
+  CRT_FLAT_LANDING = 8,  /* a box or a cylinder in flight came down on a face flat: every corner of the face (the rim) at once, within the height resolution, a multi-point impact no model makes; the run stops at the touch */
   CRT_MAX_STEPS = -1,  /* max_steps steps were taken before the end time */
   CRT_STEP_UNDERFLOW = -2,  /* the step size fell below 1e-14 of the time scale */
   CRT_NONFINITE = -3,  /* the state or the right-hand side became NaN or infinite */
@@ -211,7 +211,7 @@ enum crt_event_kind {
   CRT_EV_ROLL_START = 12,  /* the rolling resistance reached mu_r N (or cannot hold the rolling it stopped): the body rolls from rest against it (value: |T_t|/(mu_r N)) */
   CRT_EV_TIPPING = 13,  /* base model: the centre of pressure reached the face's edge (value: its distance from the face's centroid) */
   CRT_EV_FACE_LIFTING = 14,  /* base model, linear pressure: the centre of pressure reached the face's kern (the pressure reaches 0 at an edge; value: the kern margin) */
-  CRT_EV_FLAT_LANDING = 15,  /* a flight after a base run's lift-off touched the plane with the face flat (the driver's hand-over; value: the corners' spread in height, v_minus: v_n; no impact applied, the run stops) */
+  CRT_EV_FLAT_LANDING = 15,  /* a box or a cylinder in flight touched the plane coming down with a face flat (value: the corners' spread in height, v_minus: v_n, v_plus: NaN; no impact applied, the run stops) */
   CRT_EV_COUNT = 16
 };
 

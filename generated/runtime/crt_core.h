@@ -41,11 +41,12 @@
  *                           of pressure left the face's kern (the pressure would turn
  *                           negative at an edge); the run stops there, with an event
  *                           face_lifting at its time
- *   CRT_FLAT_LANDING     8  never returned by the C: the Python driver's, where the flight
- *                           it runs after a base run's lift-off (from the state at
- *                           CRT_LIFT_OFF, in the general model's library) touches the plane
- *                           with the face flat, every corner within the height resolution
- *                           (a multi-point impact no model makes; derive/docs/bodies.md)
+ *   CRT_FLAT_LANDING     8  crt_advance, a box or a cylinder in flight: a touch coming
+ *                           down with the face nearest the plane flat, every corner (the
+ *                           rim) within the height resolution (a multi-point impact no
+ *                           model makes; derive/docs/bodies.md); the run stops at the
+ *                           touch's row before_event, with an event flat_landing (no
+ *                           impact applied)
  *   CRT_MAX_STEPS       -1  crt_advance: opt[CRT_OPT_MAX_STEPS] steps before t_end (an
  *                           error, as CVODE's CV_TOO_MUCH_WORK)
  *   CRT_STEP_UNDERFLOW  -2  crt_advance: the step fell below 1e-14 of the time scale
@@ -493,8 +494,8 @@ void crt_eval_gap(crt_session *s, double t, const double *q, double *h, double *
 /* the scales below which the event search calls a height and a normal speed round-off at
    (t, q): out[0] the height resolution (crt_height_resolution: the integrator's own error in
    Z_C, or round-off), out[1] the speed noise (crt_speed_noise: S touching, not hitting);
-   the driver's hand-over judges a flat landing and a landing with them (models with a
-   plane; else 0, 0) */
+   the scales crt_collide judges a touch and a flat landing by, which the driver's
+   hand-over records and its judge checks (models with a plane; else 0, 0) */
 void crt_eval_noise(crt_session *s, double t, const double *q, double *out)
 {
 #if MODEL_HAS_PLANE

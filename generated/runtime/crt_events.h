@@ -183,7 +183,14 @@ static int crt_search(crt_session *s, double t1, const double *y1, double rate,
 /* S touches the plane at (t, q) in flight.  S is put exactly on the plane (the row
    "before_event" shows that state), then: the impact map if S approaches faster than
    the resolution (then, if impacts accumulate, persistent contact); resting contact if
-   S is pressed onto the plane and leaves too slowly to be resolved; a graze otherwise. */
+   S is pressed onto the plane and leaves too slowly to be resolved; a graze otherwise.
+   A face coming down flat, its corners (a disc's rim) within the height resolution of
+   each other (model_face_spread), is no one-point impact: every corner touches at once,
+   a multi-point impact no model makes (its S, the support point of a face, is the face's
+   centre by convention only).  There the run stops, status CRT_FLAT_LANDING, with an
+   event flat_landing (value: the spread, v_n- the v_n it lands with, v_n+ NaN: no impact
+   applied) and no row after it: the rule the driver had applied to a base run's flight
+   alone (derive/docs/bodies.md, "Landing flat"). */
 static void crt_collide(crt_session *s, crt_out *o, double t, const double *q)
 {
   double gap, v_n, N, a_free, h_res;
@@ -198,6 +205,12 @@ static void crt_collide(crt_session *s, crt_out *o, double t, const double *q)
   h_res = crt_height_resolution(s, s->q);
   if (v_n < -crt_speed_noise(s, t, s->q)) {
     double q_plus[NQ], v_plus;
+    const double spread = model_face_spread(s->prm, crt_u(s, t), s->q);
+    if (spread <= h_res) {
+      crt_event(o, t, CRT_EV_FLAT_LANDING, spread, v_n, NAN, 0.0);
+      s->status = CRT_FLAT_LANDING;
+      return;
+    }
     if (!crt_contact_impact(s, o, t, v_n, q_plus, &v_plus)) return;   /* refused */
     ++s->stat[CRT_STAT_IMPACTS];
     for (i = 0; i < NQ; ++i) s->q[i] = q_plus[i];
@@ -291,7 +304,7 @@ static enum crt_handled crt_handle_event(crt_session *s, crt_out *o, double ta, 
   ++s->stat[CRT_STAT_STEPS];
   if (s->phase == CRT_FLIGHT) {
     crt_collide(s, o, t_ev, q_ev);
-    crt_emit(o, t_ev, s->q, CRT_ROW_AFTER_EVENT);
+    if (s->status != CRT_FLAT_LANDING) crt_emit(o, t_ev, s->q, CRT_ROW_AFTER_EVENT);
     crt_changed(s);
     s->g_valid = 0;
   } else {
@@ -330,7 +343,7 @@ static int crt_events_collide_now(crt_session *s, crt_out *o)
     int i;
     for (i = 0; i < NQ; ++i) q_now[i] = s->q[i];
     crt_collide(s, o, s->t, q_now);
-    crt_emit(o, s->t, s->q, CRT_ROW_AFTER_EVENT);
+    if (s->status != CRT_FLAT_LANDING) crt_emit(o, s->t, s->q, CRT_ROW_AFTER_EVENT);
     crt_changed(s);
     s->g_valid = 0;
     return 1;

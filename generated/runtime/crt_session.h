@@ -250,7 +250,7 @@ static void crt_event(crt_out *o, double t, int kind, double value, double a, do
 enum crt_due { CRT_DUE_NONE = 0, CRT_DUE_TELL = 1, CRT_DUE_SILENT = 2 };
 
 /* the run has had its events: opt[CRT_OPT_MAX_EVENTS] of them (then status
-   CRT_MAX_EVENTS), or an event was refused (status < 0) */
+   CRT_MAX_EVENTS), or an event was refused (status < 0) or stopped it (a flat landing) */
 static int crt_events_exhausted(crt_session *s)
 {
   const double n = (double)(s->stat[CRT_STAT_IMPACTS] + s->stat[CRT_STAT_CONTACTS]
@@ -259,6 +259,7 @@ static int crt_events_exhausted(crt_session *s)
                             + s->stat[CRT_STAT_REVERSALS] + s->stat[CRT_STAT_COUPLE_STOPS]
                             + s->stat[CRT_STAT_COUPLE_STARTS]);
   if (s->status < 0) return 1;            /* an event refused (friction: painleve, ...) */
+  if (s->status == CRT_FLAT_LANDING) return 1;
   if (n >= s->opt[CRT_OPT_MAX_EVENTS]) {
     s->status = CRT_MAX_EVENTS;
     return 1;

@@ -377,6 +377,33 @@ static int model_surface_may_jump(const double *p)
   }
 }
 
+/* How far apart in height the corners (a disc: the rim) of the face nearest to the plane
+   are under the vertical n (body axes, any length): a box's face k, n most along e_k,
+   2 (h_i |n_i| + h_j |n_j|) (i, j the other axes, h the half-extents); a cylinder's end,
+   n most along its axis, 2 R |(n_x, n_y)|; HUGE_VAL where no face is down (a sphere, an
+   ellipsoid, a cylinder nearer its side).  Within the height resolution the face lands
+   flat, every corner at once: a multi-point impact no model makes (crt_collide stops the
+   run with CRT_FLAT_LANDING; derive/docs/bodies.md, "Landing flat") */
+static double model_face_spread_n(const double *p, const double *n)
+{
+  const double norm = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+  double u[3], sum = 0.0;
+  int i, k = 0;
+  for (i = 0; i < 3; ++i) u[i] = fabs(n[i]) / norm;
+  for (i = 1; i < 3; ++i)
+    if (u[i] > u[k]) k = i;
+  switch ((int)p[CRT_P_shape]) {
+  case CRT_SHAPE_BOX:
+    for (i = 0; i < 3; ++i)
+      if (i != k) sum += p[CRT_P_size_a + i] * u[i];
+    return 2.0 * sum;
+  case CRT_SHAPE_CYLINDER:
+    return k == 2 ? 2.0 * p[CRT_P_size_a] * sqrt(u[0] * u[0] + u[1] * u[1]) : HUGE_VAL;
+  default:
+    return HUGE_VAL;
+  }
+}
+
 /* its rate as the body turns (the centre is fixed in the body) */
 static void model_shape_rate(const double *p, const double *n, const double *omega,
                              double *sdot)
@@ -425,6 +452,14 @@ static void model_gap(const double *p, const double *u, const double *q, double 
   model_vertical_state(p, u, q, qv);
   model_shape(p, qv + QV_N, s);
   vertical_gap(qv, u, s, p, h, v_n);
+}
+
+/* the face's spread in height (model_face_spread_n): n = n0 turned about the vertical */
+static double model_face_spread(const double *p, const double *u, const double *q)
+{
+  double qv[QV_COUNT];
+  model_vertical_state(p, u, q, qv);
+  return model_face_spread_n(p, qv + QV_N);
 }
 
 static void model_impact(const double *p, double e, const double *u, const double *q,
