@@ -5,9 +5,11 @@ lift-off; a touch on one corner goes on.  Each check against something computed 
 
 * trial 3's box (identity attitude, omega 0, the point moving along body x: no torque,
   the body translates) stops at its first touch: the time against the free fall's closed
-  form, the event's v_n against -g t, its spread 0; a cylinder standing on its end (the
-  translational model) and the box on a rough plane (the rough model) likewise, and the
-  box started on the plane moving down (the touch before the first step), at t0;
+  form, the event's v_n against -g t, its spread 0; the box on a rough plane (the rough
+  model) likewise, and the box started on the plane moving down (the touch before the
+  first step), at t0; a cylinder standing on its end in the translational model bounces
+  instead (omega = 0 and C above the face's centre, C2.4: the one-point impact at the
+  centre is the multi-point impact's own answer), v_n+ = -e v_n- at the free fall's time;
 * the same box tilted about the horizontal diagonal by 0.98 and 1.02 of the angle whose
   spread (2 (a |n_x| + b |n_y|), derive/runtime/handover.py's flat_spread, written from
   the face apart from the C's) equals the runtime's height resolution at the touch: the
@@ -91,10 +93,14 @@ def test_trial_box_lands_flat_at_the_free_fall_time(flat):
     assert np.all(flat.model_q[-1, G.omega] == 0.0)
 
 
-@pytest.mark.parametrize("text, model", [
-    (_BOX.format(quaternion=[1.0, 0.0, 0.0, 0.0], duration=1.0,
-                 plane="friction = 0.5"), "rough"),
-    ("""name = "cylinder on its end"
+def test_the_rough_model_lands_flat():
+    run = simulate(box(plane="friction = 0.5"))
+    assert run.model == "rough" and run.status == "flat_landing"
+    assert [ev["kind"] for ev in run.events] == ["flat_landing"]
+    assert abs(run.events[0]["t"] - t_fall()) < 1e-9
+
+
+_CYLINDER = """name = "cylinder on its end"
 [body]
 mass = 1.0
 inertia = [0.004, 0.004, 0.002]
@@ -110,13 +116,20 @@ restitution = 0.5
 com = [0.0, 0.0, 0.5]
 [run]
 duration = 1.0
-""", "translational")])
-def test_other_models_land_flat(text, model):
-    run = simulate(parse_scene(text))
-    drop = 0.08 if model == "translational" else c
-    assert run.model == model and run.status == "flat_landing"
-    assert [ev["kind"] for ev in run.events] == ["flat_landing"]
-    assert abs(run.events[0]["t"] - t_fall(drop=drop)) < 1e-9
+"""
+
+
+def test_the_translational_model_bounces_flat_as_every_corner_would():
+    """omega = 0, P on the axis through O, C above the end's centre S (C2.4): the
+    one-point impact at S (V_z+ = -e V_z-, no turn) is what Newton's law at every point of
+    the rim gives, so the translational model goes on (no flat_landing there)."""
+    run = simulate(parse_scene(_CYLINDER))
+    assert run.model == "translational" and run.status != "flat_landing"
+    first = run.events[0]
+    assert first["kind"] == "impact" and abs(first["t"] - t_fall(drop=0.08)) < 1e-9
+    assert abs(first["v_minus"] + g * t_fall(drop=0.08)) < 1e-8
+    assert abs(first["v_plus"] + 0.5 * first["v_minus"]) < 1e-12 * g
+    assert "flat_landing" not in {ev["kind"] for ev in run.events}
 
 
 def test_a_face_on_the_plane_moving_down_stops_at_the_start():

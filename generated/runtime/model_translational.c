@@ -349,32 +349,6 @@ static int model_surface_may_jump(const double *p)
   }
 }
 
-/* How far apart in height the corners (a disc: the rim) of the face nearest to the plane
-   are under the vertical n (body axes, any length): a box's face k, n most along e_k,
-   2 (h_i |n_i| + h_j |n_j|) (i, j the other axes, h the half-extents); a cylinder's end,
-   n most along its axis, 2 R |(n_x, n_y)|; HUGE_VAL where no face is down (a sphere, an
-   ellipsoid, a cylinder nearer its side).  Within the height resolution the face lands
-   flat, every corner at once: a multi-point impact no model makes (crt_collide stops the
-   run with CRT_FLAT_LANDING; derive/docs/bodies.md, "Landing flat") */
-static double model_face_spread_n(const double *p, const double *n)
-{
-  const double norm = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
-  double u[3], sum = 0.0;
-  int i, k = 0;
-  for (i = 0; i < 3; ++i) u[i] = fabs(n[i]) / norm;
-  for (i = 1; i < 3; ++i)
-    if (u[i] > u[k]) k = i;
-  switch ((int)p[CRT_P_shape]) {
-  case CRT_SHAPE_BOX:
-    for (i = 0; i < 3; ++i)
-      if (i != k) sum += p[CRT_P_size_a + i] * u[i];
-    return 2.0 * sum;
-  case CRT_SHAPE_CYLINDER:
-    return k == 2 ? 2.0 * p[CRT_P_size_a] * sqrt(u[0] * u[0] + u[1] * u[1]) : HUGE_VAL;
-  default:
-    return HUGE_VAL;
-  }
-}
 
 /* its rate as the body turns (the centre is fixed in the body) */
 static void model_shape_rate(const double *p, const double *n, const double *omega,
@@ -417,11 +391,15 @@ static void model_gap(const double *p, const double *u, const double *q, double 
   vertical_gap(qv, u, s, p, h, v_n);
 }
 
-/* the face's spread in height (model_face_spread_n): n = n0 throughout */
+/* no flat landing here: omega = 0 and d = 0 at contacts (C2.1-C2.4), so a face coming
+   down flat has every corner at one normal speed and C above the face's centre S; the
+   one-point impact at S, a pure translation V_z+ = -e V_z-, meets Newton's law at every
+   corner with the impulse shared among them (its line through C: no moment), so it is
+   the multi-point impact's own answer and the run goes on */
 static double model_face_spread(const double *p, const double *u, const double *q)
 {
-  (void)u; (void)q;
-  return model_face_spread_n(p, p + CRT_P_n0_x);
+  (void)p; (void)u; (void)q;
+  return HUGE_VAL;
 }
 
 static void model_impact(const double *p, double e, const double *u, const double *q,
