@@ -290,3 +290,34 @@ def test_a_tip_inside_the_manifolds_span_refuses_the_start_along_it():
     assert shift(0.5) > 0.35 and shift(0.1127) < 1e-4 and shift(1.0) < 1e-7
     t_s, _, size = _start(run)
     assert run.status == "done" and abs(t_s - t_slip) < 1e-12 and 1e-9 * (1 - 1e-12) < size < 2e-9
+
+
+@pytest.mark.parametrize("T", [0.0, 3.0])
+def test_a_grid_row_inside_a_taylor_start_reads_the_start_not_the_next_step(T):
+    """Scene 9 ending at t* + tau / 2 (inside the slow manifold's span: its slip starts by
+    the Taylor series, to the seed 1e2 eps = 1e-9 in delta ~ 2e-9 s, no row inside) on a
+    grid whose origin is t* + delta / 2: that row, at or before the first slip step's
+    start, reads the step's start (crt_base_rows: 1e-9 s at most), the rest's pose to
+    1e-12 and a twist of at most the seed, as the slip from rest has in delta / 2 (read at
+    the step's end, it has the twist grown over that step, 1.2e-9).  At t* and 3 s
+    earlier (the scene from t0 = -3 s, its laws read at t + 3: a test 5 % off the step's
+    end reads differently at negative times)."""
+    from derive.runtime import choice
+    from derive.runtime.driver import prepare, run_prepared, simulate
+    from derive.scene.parse import parse_scene
+    t_slip, t_after, _ = _start(simulate(parse_scene(_scene9(), "random")))
+    end = float(t_slip + (t_after - t_slip) / 2)
+    doc = _shifted(_scene9(end, 1e-3), T)
+    t_s, t_after, size = _start(simulate(parse_scene(doc, "random")))
+    delta = float(t_after - t_s)
+    assert abs(size / 1e-9 - 1.0) < 1e-9 and 0.0 < delta < 1e-7 and abs(t_s + T - t_slip) < 1e-12
+    inside = t_s + delta / 2
+    run = run_prepared(prepare(parse_scene(doc, "random"), output_origin=inside - 1.0))
+    row = int(np.flatnonzero((run.row_kind == tbr.abi.ROW_KIND["step"])
+                             & (np.abs(run.t - inside) < 1e-12))[0])
+    rest = int(np.flatnonzero(run.t < t_s)[-1])
+    q, ell = run.model_q[row], choice.base_face(run.scene).size
+    assert t_s < run.t[row] < t_s + delta and not np.any(run.model_q[rest, 3:])
+    assert np.abs(q[:3] - run.model_q[rest, :3]).max() < 1e-12
+    twist = math.hypot(math.hypot(q[3], q[4]), ell * q[5]) / math.sqrt(run.scene.g * ell)
+    assert twist <= 1e-9 * (1 + 1e-9)
