@@ -321,3 +321,25 @@ def test_a_grid_row_inside_a_taylor_start_reads_the_start_not_the_next_step(T):
     assert np.abs(q[:3] - run.model_q[rest, :3]).max() < 1e-12
     twist = math.hypot(math.hypot(q[3], q[4]), ell * q[5]) / math.sqrt(run.scene.g * ell)
     assert twist <= 1e-9 * (1 + 1e-9)
+
+
+@pytest.mark.parametrize("axis", [0, 1])
+def test_a_box_sliding_along_either_axis_of_its_face_stops_at_the_closed_form(axis):
+    """A box on its face sliding from v0 = 0.3 m/s along the face's x or y axis (a slip
+    along a line: its stop is where the signed speed xi.d along the line reaches 0):
+    it stops at v0 / (mu g) having slid v0^2 / (2 mu g), the other axis and the yaw
+    untouched, a stick event at the stop.  (The speed without its y term is 0 all along
+    a slide along y.)"""
+    M, mu, v0 = 1.0, 0.3, 0.3
+    t_stop, dist = v0 / (mu * G), v0 * v0 / (2 * mu * G)
+    scene = tbr._scene(f'mass = {M}\ninertia = [0.01, 0.02, 0.025]\nshape = "box"\n'
+                       'half_extents = [0.1, 0.06, 0.04]', 'mass = 0.2\nlaw = ["0", "0", "0"]',
+                       mu, t_stop + 0.01)
+    q0 = np.zeros(6)
+    q0[3 + axis] = v0
+    raw = tbr.run_base(scene, q0)
+    (t, kind, _), = _events(raw)
+    assert raw.status == "done" and kind == "stick" and abs(t - t_stop) < 1e-9
+    want = np.zeros(6)
+    want[axis] = dist
+    assert np.abs(raw.q[-1] - want).max() < 1e-9
