@@ -267,7 +267,7 @@ def test_a_tip_inside_the_manifolds_span_refuses_the_start_along_it():
     nodes t* + (0.113, 0.5, 0.887) tau and at its end.  A rotor about the body's x axis
     (horizontal here) turned by a pulse psi = A exp(-((t - t* - tau / 2) / (0.11 tau))^2)
     is a pure moment about a horizontal axis, -I psi'': N and the slip's rates (uniform
-    pressure) are the same, the centre of pressure moves by I psi'' / N, 0.39 m at the
+    pressure) are the same, the centre of pressure moves by I psi'' / N, 0.46 m at the
     middle node (past every edge: the box's half extents are 0.11 m and 0.072 m), 4.5e-5 m
     at the outer nodes and 2e-8 m at t* and at the end.  So the start is refused (the
     Taylor start at 1e2 eps = 1e-9) at the same break-away time to the bit; the margins
