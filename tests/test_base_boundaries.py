@@ -234,9 +234,8 @@ def test_rows_in_small_buffers_are_one_buffers_on_the_grid(dt, chunks):
     to the rows that fit (more step rows than one buffer's run has); the grid's rows are
     the same to 1e-9 (the run's rtol is 1e-10: 1.6e-12 measured).  On a grid of 1e-4 s in
     buffers of 30 rows a slip's step holding 23 rows or more is shrunk by 22/23 or less,
-    within 5 % of 1.  (Buffers of
-    CRT_MIN_ROWS = 8 leave no room for a grid row in a step: the run does not end; not
-    tested here.)"""
+    within 5 % of 1.  (Buffers of CRT_MIN_ROWS = 8, where an empty buffer holds a step's
+    own rows and one grid row: tests/test_base_flow_boundaries.py.)"""
     import tomllib
     from derive.paths import ROOT
     from derive.runtime.driver import prepare, run_prepared, simulate

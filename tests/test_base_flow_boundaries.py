@@ -190,3 +190,156 @@ def test_a_break_away_just_before_the_lift_off_ends_at_the_lift_off():
     assert 5e-7 < t_l - t_b < 1.5e-6
     assert raw.status == "lift_off" and [k for _, k, _ in _events(raw)] == ["slip", "lift_off"]
     assert np.abs([t for t, _, _ in _events(raw)] - np.array([t_b, t_l])).max() < 1e-12
+
+
+def _shifted(doc, T):
+    """``doc`` T seconds earlier: from t0 - T, each law of t read at t + T (the same motion
+    at other times)."""
+    import copy
+    import re
+    out = copy.deepcopy(doc)
+    def later(expr):
+        return re.sub(r"\bt\b", f"(t + {T!r})", expr)
+    for point in out.get("point", []):
+        point["law"] = [later(x) for x in point["law"]]
+    for rotor in out.get("rotor", []):
+        rotor["law"] = later(rotor["law"])
+    out["initial"]["time"] = out["initial"].get("time", 0.0) - T
+    return out
+
+
+def test_grid_rows_at_negative_times_and_in_small_buffers_are_those_3_s_later():
+    """Robustness scene 9 (two sticks and two slips from rest, the slips' steps in arc
+    time) on a grid of 1 ms, and the same scene 3 s earlier (from t0 = -3 s, its laws read
+    at t + 3): the same events and each grid row's state to 1e-9 (4e-11 measured), in one
+    buffer and in buffers of 12 rows and of CRT_MIN_ROWS = 8 (an empty buffer holds a grid
+    row and a step's own rows: crt_base_rows_fit), each run ending, each grid row once.
+    At negative times a grid row inside a step is found on the step's dense output (a
+    row 5 % of its time past the step's start read the start: 6e-3 off); the rows that fit
+    a buffer are counted from the grid's origin -3 s (counted from 0, none: the rows past
+    the buffer lost); a buffer of 8 rows whose room were 0 retried its step forever (each
+    run here in a forked process: no answer in 20 s fails)."""
+    from derive.runtime.driver import prepare, run_prepared, simulate
+    from derive.runtime.session import Session
+    from derive.scene.parse import parse_scene
+    doc = _scene9(1.5, 1e-3)
+    late = simulate(parse_scene(doc, "random"))
+    kinds = [e["kind"] for e in late.events]
+    assert late.status == "done" and kinds == ["stick", "slip", "stick", "slip"]
+    grid = late.row_kind == tbr.abi.ROW_KIND["step"]
+    assert grid.sum() == 1501 and np.abs(late.t[grid] - 1e-3 * np.arange(1501)).max() < 1e-12
+    prep = prepare(parse_scene(_shifted(doc, 3.0), "random"))
+
+    def early(chunk):
+        run = run_prepared(prep, session=chunk and Session(prep.library, chunk=chunk))
+        step = run.row_kind == tbr.abi.ROW_KIND["step"]
+        return (run.status, [(e["kind"], e["t"]) for e in run.events], run.t[step],
+                run.model_q[step])
+    for chunk in (None, 12, tbr.abi.MIN_ROWS):
+        status, events, t, q = _in_child(early, chunk)
+        assert status == "done" and [k for k, _ in events] == kinds
+        assert np.abs(np.array([t for _, t in events]) + 3.0
+                      - [e["t"] for e in late.events]).max() < 1e-12
+        assert np.abs(t + 3.0 - late.t[grid]).max() < 1e-12
+        assert np.abs(q - late.model_q[grid]).max() < 1e-9
+
+
+def _in_child(fn, *args, limit=20.0):
+    """fn(*args) in a forked process, its answer back through a pipe: a run that never
+    ends (a loop inside one C call, which no Python signal interrupts) fails here after
+    ``limit`` seconds (it takes 0.05 s)."""
+    import multiprocessing
+    ctx = multiprocessing.get_context("fork")
+    here, there = ctx.Pipe(duplex=False)
+    child = ctx.Process(target=lambda: there.send(fn(*args)), daemon=True)
+    child.start()
+    try:
+        assert here.poll(limit), f"{fn.__name__}{args}: no answer in {limit} s (a hang)"
+        return here.recv()
+    finally:
+        child.kill()
+        child.join()
+
+
+def test_a_tip_inside_the_manifolds_span_refuses_the_start_along_it():
+    """Scene 9's slip from rest starts along its slow manifold (R = 1e-6, tau = 2.3e-6 s);
+    the start is taken only where N and the edge's margin are positive at the Gauss rule's
+    nodes t* + (0.113, 0.5, 0.887) tau and at its end.  A rotor about the body's x axis
+    (horizontal here) turned by a pulse psi = A exp(-((t - t* - tau / 2) / (0.11 tau))^2)
+    is a pure moment about a horizontal axis, -I psi'': N and the slip's rates (uniform
+    pressure) are the same, the centre of pressure moves by I psi'' / N, 0.46 m at the
+    middle node (past every edge: the box's half extents are 0.11 m and 0.072 m), 4.5e-5 m
+    at the outer nodes and 2e-8 m at t* and at the end.  So the start is refused (the
+    Taylor start at 1e2 eps = 1e-9) at the same break-away time to the bit; the margins
+    tested at the end alone take it (the slip's steps from the Taylor start step over the
+    0.5 microsecond tip, as they step over any event shorter than a step)."""
+    from derive.runtime.driver import simulate
+    from derive.scene.parse import parse_scene
+    doc = _scene9(1.2)
+    t_slip, t_after, size = _start(simulate(parse_scene(doc, "random")))
+    tau = float(t_after - t_slip)
+    assert abs(size / 1e-6 - 1.0) < 1e-9 and 2e-6 < tau < 2.6e-6
+    inertia, A, w = 1e-4, 1e-8, 0.11 * tau
+    doc["rotor"] = [{"axis": [1.0, 0.0, 0.0], "inertia": inertia,
+                     "law": f"{A!r}*exp(-((t - {t_slip + tau / 2!r})/{w!r})**2)"}]
+    run = simulate(parse_scene(doc, "random"))
+    N = sum([doc["body"]["mass"]] + [p["mass"] for p in doc["point"]]) * run.scene.g
+    def shift(x):                            # I psi''(x tau after t*) / N
+        u = (x - 0.5) * tau / w
+        return inertia * A * abs(4 * u * u - 2) * math.exp(-u * u) / (w * w) / N
+    assert shift(0.5) > 0.35 and shift(0.1127) < 1e-4 and shift(1.0) < 1e-7
+    t_s, _, size = _start(run)
+    assert run.status == "done" and abs(t_s - t_slip) < 1e-12 and 1e-9 * (1 - 1e-12) < size < 2e-9
+
+
+@pytest.mark.parametrize("T", [0.0, 3.0])
+def test_a_grid_row_inside_a_taylor_start_reads_the_start_not_the_next_step(T):
+    """Scene 9 ending at t* + tau / 2 (inside the slow manifold's span: its slip starts by
+    the Taylor series, to the seed 1e2 eps = 1e-9 in delta ~ 2e-9 s, no row inside) on a
+    grid whose origin is t* + delta / 2: that row, at or before the first slip step's
+    start, reads the step's start (crt_base_rows: 1e-9 s at most), the rest's pose to
+    1e-12 and a twist of at most the seed, as the slip from rest has in delta / 2 (read at
+    the step's end, it has the twist grown over that step, 1.2e-9).  At t* and 3 s
+    earlier (the scene from t0 = -3 s, its laws read at t + 3: a test 5 % off the step's
+    end reads differently at negative times)."""
+    from derive.runtime import choice
+    from derive.runtime.driver import prepare, run_prepared, simulate
+    from derive.scene.parse import parse_scene
+    t_slip, t_after, _ = _start(simulate(parse_scene(_scene9(), "random")))
+    end = float(t_slip + (t_after - t_slip) / 2)
+    doc = _shifted(_scene9(end, 1e-3), T)
+    t_s, t_after, size = _start(simulate(parse_scene(doc, "random")))
+    delta = float(t_after - t_s)
+    assert abs(size / 1e-9 - 1.0) < 1e-9 and 0.0 < delta < 1e-7 and abs(t_s + T - t_slip) < 1e-12
+    inside = t_s + delta / 2
+    run = run_prepared(prepare(parse_scene(doc, "random"), output_origin=inside - 1.0))
+    row = int(np.flatnonzero((run.row_kind == tbr.abi.ROW_KIND["step"])
+                             & (np.abs(run.t - inside) < 1e-12))[0])
+    rest = int(np.flatnonzero(run.t < t_s)[-1])
+    q, ell = run.model_q[row], choice.base_face(run.scene).size
+    assert t_s < run.t[row] < t_s + delta and not np.any(run.model_q[rest, 3:])
+    assert np.abs(q[:3] - run.model_q[rest, :3]).max() < 1e-12
+    twist = math.hypot(math.hypot(q[3], q[4]), ell * q[5]) / math.sqrt(run.scene.g * ell)
+    assert twist <= 1e-9 * (1 + 1e-9)
+
+
+@pytest.mark.parametrize("axis", [0, 1])
+def test_a_box_sliding_along_either_axis_of_its_face_stops_at_the_closed_form(axis):
+    """A box on its face sliding from v0 = 0.3 m/s along the face's x or y axis (a slip
+    along a line: its stop is where the signed speed xi.d along the line reaches 0):
+    it stops at v0 / (mu g) having slid v0^2 / (2 mu g), the other axis and the yaw
+    untouched, a stick event at the stop.  (The speed without its y term is 0 all along
+    a slide along y.)"""
+    M, mu, v0 = 1.0, 0.3, 0.3
+    t_stop, dist = v0 / (mu * G), v0 * v0 / (2 * mu * G)
+    scene = tbr._scene(f'mass = {M}\ninertia = [0.01, 0.02, 0.025]\nshape = "box"\n'
+                       'half_extents = [0.1, 0.06, 0.04]', 'mass = 0.2\nlaw = ["0", "0", "0"]',
+                       mu, t_stop + 0.01)
+    q0 = np.zeros(6)
+    q0[3 + axis] = v0
+    raw = tbr.run_base(scene, q0)
+    (t, kind, _), = _events(raw)
+    assert raw.status == "done" and kind == "stick" and abs(t - t_stop) < 1e-9
+    want = np.zeros(6)
+    want[axis] = dist
+    assert np.abs(raw.q[-1] - want).max() < 1e-9

@@ -144,7 +144,8 @@ UNIT_TESTS = {
 # the base model's rules at their edges, its closed forms and edges, and its stops in the
 # crawl's cells where a stick's sample had missed a short break, the face's integrals and
 # margins against derive/face.py, the settle decision's reversals and tips, and the
-# lift-off handed over to the flight (the base model's headers)
+# lift-off handed over to the flight, a spin in place to its stop, the translation up to
+# its turn of 1e-12 (the base model's headers)
 _BASE = ("tests/test_base_boundaries.py", "tests/test_crt_face.py",
          "tests/test_base_closed_forms.py", "tests/test_base_edges.py",
          "tests/test_base_tip_before_lift.py", "tests/test_base_flow_boundaries.py",
@@ -152,7 +153,11 @@ _BASE = ("tests/test_base_boundaries.py", "tests/test_crt_face.py",
          "tests/test_capsule_modes.py::test_the_cell_once_called_tipping_reverses",
          "tests/test_capsule_modes.py::test_the_three_types_and_every_stop_agree_with_the_"
          "one_dimensional_model",
-         "tests/test_base_reversal_tip.py", "tests/test_handover.py")
+         "tests/test_base_reversal_tip.py", "tests/test_handover.py",
+         "tests/test_base_runtime.py::test_a_disc_spins_down_and_stops_when_the_closed_"
+         "form_says",
+         "tests/test_base_translation.py::test_a_slip_is_a_translation_up_to_a_turn_of_1e_"
+         "12_of_its_speed")
 
 
 # Tests of what one header does that the tests of the units it is compiled into do not
