@@ -175,3 +175,19 @@ def test_a_run_past_its_time_is_timed_out_then_judged_by_its_run_alone(catalogue
     assert "2 timed out and re-run alone: 1 killed as a hang (past the longer limit too), " \
         "1 survived;" in out and "kill rate 2/3" in out
     assert f"killed {catalogue[0].id} " in out and f"survived {catalogue[1].id} " in out
+
+
+def test_a_run_ended_from_outside_is_no_verdict_a_crash_is_a_kill(tmp_path):
+    """A test run ended by a signal from outside (kill's SIGTERM, ^C) had been logged
+    "killed (crashed (signal 15))", so a journal skipped that mutant for ever: it is an
+    error now (run again next time); a crash of the run itself (SIGABRT, as a mutated C's
+    assert or a SIGSEGV ends it) stays a kill."""
+    term, abort = tmp_path / "test_term.py", tmp_path / "test_abort.py"
+    term.write_text("import os, signal\n\ndef test_t():\n"
+                    "    os.kill(os.getpid(), signal.SIGTERM)\n")
+    abort.write_text("import os\n\ndef test_a():\n    os.abort()\n")
+    sc = mu.Scratch(tmp_path / "w")
+    status, detail, _ = mu._pytest(sc, [str(term)], 60.0)
+    assert status == "error" and detail.startswith("stopped from outside (signal 15)")
+    status, detail, _ = mu._pytest(sc, [str(abort)], 60.0)
+    assert (status, detail) == ("killed", "crashed (signal 6)")

@@ -39,6 +39,7 @@ import json
 import os
 import re
 import shutil
+import signal
 import subprocess
 import sys
 import tempfile
@@ -495,6 +496,9 @@ def check_twins() -> None:
                                  f"differs from templates/runtime/{path.name}: run derive emit")
 
 
+# the signals a test run gets from outside (kill's default, ^C, a hang-up), never from
+# the mutated C, whose crashes are SIGSEGV, SIGABRT, SIGFPE, SIGBUS, SIGILL
+_FROM_OUTSIDE = frozenset({signal.SIGTERM, signal.SIGINT, signal.SIGHUP})
 _RUNNING: set = set()          # the test runs in flight, ended if the harness is stopped
 _LOCK = threading.Lock()
 
@@ -540,6 +544,11 @@ def _pytest(scratch: Scratch, tests: list[str], timeout: float,
         failed = re.findall(r"^FAILED (\S+)", out, re.M) or re.findall(r"^ERROR (\S+)", out,
                                                                         re.M)
         return "killed", failed[0] if failed else "a test failed", seconds
+    if -proc.returncode in _FROM_OUTSIDE:
+        # ended by someone (kill, ^C, a closed terminal), not by the mutant: no verdict,
+        # so a journal does not keep it as killed and the next run tries it again
+        return "error", (f"stopped from outside (signal {-proc.returncode}): no verdict, "
+                         "run it again"), seconds
     if proc.returncode < 0:
         return "killed", f"crashed (signal {-proc.returncode})", seconds
     return "error", (out + err)[-600:], seconds
