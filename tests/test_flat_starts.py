@@ -154,17 +154,21 @@ def test_a_cylinder_a_hair_beyond_the_tolerance_or_in_flight_is_the_rough_model_
     assert choice.choose(flight)[0] == "rough"
 
 
-def _sliding_fall(tilt: float, M: float, J: float, mu: float) -> tuple:
+def _sliding_fall(tilt: float, M: float, J: float, mu: float, on_end: bool = False) -> tuple:
     """A cylinder at rest on its lower end's lowest rim point, its axis ``tilt`` above the
     plane, falling flat in the vertical plane of its axis, the rim point sliding (holding
     it would take friction of 1.5 times N, against mu = 0.25): planar rigid-body
     equations, N from the contact's height, F = mu N against the slip.  (time it lies
-    flat, energy lost to friction by then), by SciPy's DOP853."""
+    flat, energy lost to friction by then), by SciPy's DOP853.  ``on_end``: its axis
+    ``tilt`` off the vertical instead, falling back onto that end (C over the rim's
+    inside): the same equations with the radius and the half-length exchanged (C from
+    the rim point R cos - L sin across, L cos + R sin up; holding it would take 0.36 N)."""
     from scipy.integrate import solve_ivp
     g = 9.81
+    a, b = (R, L) if on_end else (L, R)
 
-    def arms(ph):                     # C from the rim point: along the axis, up
-        return (L * math.cos(ph) - R * math.sin(ph), L * math.sin(ph) + R * math.cos(ph))
+    def arms(ph):                     # C from the rim point: across, up
+        return (a * math.cos(ph) - b * math.sin(ph), a * math.sin(ph) + b * math.cos(ph))
 
     def rhs(_, y):
         _, xd, ph, phd = y
@@ -180,6 +184,7 @@ def _sliding_fall(tilt: float, M: float, J: float, mu: float) -> tuple:
                     rtol=1e-13, atol=1e-18)
     _, xd, ph, phd = sol.y_events[0][0]
     rx, rz = arms(ph)
+    assert xd + rz * phd < 0          # the rim point still slides, against F = mu N
     end = 0.5 * M * (xd ** 2 + (rx * phd) ** 2) + 0.5 * J * phd ** 2 + M * g * rz
     return float(sol.t_events[0][0]), M * g * arms(tilt)[1] - end
 
@@ -203,6 +208,41 @@ def test_a_cylinder_just_off_its_side_falls_flat_then_stops_honestly(tilt, rel_t
     assert abs(run.t[-1] / t_flat - 1) < rel_t, (run.t[-1], t_flat)
     E = motion(run).E
     assert abs((E[0] - E[-1]) / lost - 1) < rel_e, (E[0] - E[-1], lost)
+
+
+def _end(tilt: float) -> str:
+    """The cylinder on its lower end's rim, its axis ``tilt`` off the vertical (about x),
+    its point at O."""
+    return CYLINDER_SIDE.format(q0=math.cos(tilt / 2), q1=math.sin(tilt / 2)).replace(
+        '"0.03*(sin(15*t) + 0.5*sin(30*t))", "0", "0.01"', '"0", "0", "0"')
+
+
+@pytest.mark.parametrize("tilt", [4.4e-4, 5e-4, 1e-3, 1.84e-3, 1.9e-3])
+def test_a_cylinder_on_its_end_s_rim_runs_until_its_face_lands(tilt):
+    """Tilted beyond LINE_TOL off its end the cylinder stands on one rim point (face.py),
+    C over the rim's inside: it falls back onto the end, the run stopping with
+    surface_jump as the face lands (the whole rim within the penetration tolerance:
+    flat_contact's "an end face"), at the time and with the energy lost to friction of
+    the planar sliding fall.  The turn by LINE_TOL slides S along the rim by
+    R LINE_TOL / tilt, past 1e-4 reach below 1.86e-3 rad, to a point R LINE_TOL^2 /
+    (2 tilt) above S, within the tolerance above 4.6e-4 rad: taken for a second point,
+    it had stopped the run at t0 from 5e-4 to 1.84e-3 rad, and at 0.71 ms from 1.9e-3.
+    The stop is within 1e-8 rad of the landing (the last step's), so within 1e-5 of its
+    time."""
+    import derive
+    from derive.runtime.motion import motion
+    from derive.scene import parse_scene
+    scene = parse_scene(_end(tilt))
+    assert faces.flat_contact("cylinder", scene.A0[2]) is None
+    run = derive.simulate(scene)
+    t_flat, lost = _sliding_fall(tilt, M=1.1, J=0.000667, mu=0.25, on_end=True)
+    assert run.status == "surface_jump" and run.model == "rough"
+    assert abs(run.t[-1] / t_flat - 1) < 1e-5, (run.t[-1], t_flat)     # 3.3e-6 at most
+    mo = motion(run)
+    assert faces.flat_contact("cylinder", mo.A[-1][2]) == "an end face"
+    assert math.hypot(*mo.A[-1][2][:2]) < 1e-8                # 3.3e-9 rad at most
+    E = mo.E
+    assert abs((E[0] - E[-1]) / lost - 1) < 2e-5, (E[0] - E[-1], lost)  # 6.5e-6 at most
 
 
 @pytest.mark.parametrize("moving", [False, True])
