@@ -379,15 +379,15 @@ def test_a_cylinder_a_hair_off_its_side_stops_where_its_far_rim_is_within_the_to
     assert raw.status == ("surface_jump" if band < 1 else "done")
 
 
-@pytest.mark.parametrize("first, second", [(1.03, 0.99), (0.99, 1.03)])
+@pytest.mark.parametrize("first, second", [(1.005, 0.995), (0.995, 1.005)])
 def test_a_box_a_hair_off_a_face_stops_on_the_lower_of_its_far_corners(first, second):
     """model_surface_second is the least height of the far points it finds: a box at rest
     on one corner, nearly flat on its face, its vertical n (body axes) tilted so that the
     corners beyond S along x and along y are 2 a |n_x| and 2 b |n_y| above it (closed
-    form), one 0.99 and the other 1.03 of the penetration tolerance, in either order of
-    its search (the turn about the axis n is least along, x here, first).  The lower
+    form), one 0.995 and the other 1.005 of the penetration tolerance, in either order
+    of its search (the turn about the axis n is least along, x here, first).  The lower
     decides: the first step (1 ns, the Session's run with start_on_plane on, as the
-    cylinder's above) ends in surface_jump both ways; a least taken 5 % loose either
+    cylinder's above) ends in surface_jump both ways; a least taken 2 % loose either
     way would miss the lower."""
     from derive import layout
     from derive.runtime import driver
@@ -422,3 +422,89 @@ def test_a_box_a_hair_off_a_face_stops_on_the_lower_of_its_far_corners(first, se
     assert raw.stats["impacts"] == 0 and raw.stats["steps"] == 1
     assert abi.names(abi.EVENT_KINDS)[int(raw.events[0, 1])] == "contact"
     assert raw.status == "surface_jump"
+
+
+def _one_step(text: str, A, Z: float, Ls: float) -> str:
+    """The status of the Session's run of one step (1 ns, start_on_plane on: in contact
+    at t0) from the prepared state of the scene ``text`` (at rest) with the attitude A
+    (rows: fixed axes in body axes), C at Z (S on the plane) and the length scale Ls."""
+    from derive import layout
+    from derive.runtime import driver
+    from derive.runtime.build import library
+    from derive.runtime.session import Session
+    from derive.scene import parse_scene
+    G = layout.GENERAL
+    prep = driver.prepare(parse_scene(text))
+    opt = prep.options.copy()
+    assert prep.kind == "rough" and opt[abi.OPT["start_on_plane"]] == 1.0
+    opt[abi.OPT["length_scale"]] = Ls
+    q0 = prep.start.q0.copy()
+    q0[G.A] = np.asarray(A, dtype=float).ravel()
+    q0[G.Z] = Z
+    session = Session(library(prep.kind))
+    session.set_law(prep.scene.runtime_law)
+    raw = session.run(0.0, 1e-9, q0, opt, prep.parameters)
+    assert raw.stats["impacts"] == 0 and raw.stats["steps"] == 1
+    assert abi.names(abi.EVENT_KINDS)[int(raw.events[0, 1])] == "contact"
+    return raw.status
+
+
+def _rot_x(phi: float):
+    c, s = math.cos(phi), math.sin(phi)
+    return np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
+
+
+def _tolerance(Z: float, Ls: float) -> float:
+    """crt_penetration_tolerance: max(1e-10 Ls, 64 eps (|Z_C| + Ls))."""
+    return max(1e-10 * Ls, 64 * np.finfo(float).eps * (abs(Z) + Ls))
+
+
+@pytest.mark.parametrize("band", [0.99, 1.01])
+def test_the_turn_s_point_is_a_jump_where_half_the_turn_leaves_it_past_half_way(band):
+    """model_surface_second's test of a jump at its threshold: the turned point o counts
+    where |o - 2 m + s| > |o - s| / 2, m the point at half the turn.  The cylinder near
+    its end face, its vertical n = (0, sin psi, cos psi) (body axes): the turn about
+    x (the first, n being least along it) by LINE_TOL swings S along the rim by
+    d1 = atan(x), x = LINE_TOL / sin psi, and half of it by dh = atan(x / 2), so
+    4 |o - 2 m + s|^2 / |o - s|^2 = 4 ((cos(d1/2) - cos(dh - d1/2))^2
+    + sin(dh - d1/2)^2) / sin(d1/2)^2 (closed form, the rim a circle), set to 0.99 or 1.01
+    (x near 2.03).  Only at a length scale of 80 m is o, R sin psi (1 - cos d1) above S,
+    within the tolerance (8e-9 m), the other turns' points being S itself (about y)
+    or the opposite rim point, 2 R sin psi above S (beyond it).  Above the threshold
+    surface_jump, below done: this kills the 4 and LINE_TOL 2 % either way, which no
+    scene reaches (the swing is a slide, its ratio 3e-4 at most, wherever o is within
+    the tolerance of a real length scale; it passes 1/2 only within LINE_TOL of flat)."""
+    from scipy.optimize import brentq
+
+    def squared(x):                                  # 4 |o - 2m + s|^2 / |o - s|^2
+        d1, dh = math.atan(x), math.atan(x / 2)
+        e = dh - d1 / 2
+        return 4 * ((math.cos(d1 / 2) - math.cos(e)) ** 2 + math.sin(e) ** 2) \
+            / math.sin(d1 / 2) ** 2
+    x = brentq(lambda x: squared(x) - band, 1.0, 4.0, xtol=1e-14)
+    sn = faces.LINE_TOL / x
+    psi, Ls = math.asin(sn), 80.0
+    Z = R * sn + L * math.cos(psi)                    # C above S = (0, -R, -L)
+    tol = _tolerance(Z, Ls)
+    h = R * sn * (1 - math.cos(math.atan(x)))
+    assert h < 0.6 * tol and 2 * R * sn > 1.5 * tol         # o within it, the opposite beyond
+    assert 2 * R * math.sin(math.atan(x) / 2) > 1e-4 * Ls    # and o far
+    status = _one_step(_end(1e-3), _rot_x(psi), Z, Ls)
+    assert status == ("surface_jump" if band > 1 else "done")
+
+
+@pytest.mark.parametrize("band", [0.99, 1.01])
+def test_a_far_point_is_one_farther_than_1e_4_reach(band):
+    """model_surface_second's far test at its threshold (|o - s|^2 > 1e-8 reach^2): the
+    cylinder 1e-7 rad off its side (its far rim 2 L sin 1e-7 above S, within the
+    tolerance), where the turn about its horizontal square to the axis takes S to the
+    far end, o - s = 2 L along the axis (bit for bit).  The length scale put at
+    2 L / (1e-4 sqrt(band)) (1.5 km): at 1.01 of the threshold the far end counts
+    (surface_jump), at 0.99 not (done).  This kills the 1e-8 2 % either way, which no
+    scene reaches (another end, edge or corner is farther than 1e-4 reach)."""
+    theta = 1e-7
+    Ls = 2 * L / (1e-4 * math.sqrt(band))
+    Z = R * math.cos(theta) + L * math.sin(theta)
+    assert 2 * L * math.sin(theta) < 0.2 * _tolerance(Z, Ls)
+    status = _one_step(_side(1e-6), _rot_x(math.pi / 2 + theta), Z, Ls)
+    assert status == ("surface_jump" if band > 1 else "done")
