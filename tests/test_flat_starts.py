@@ -1,8 +1,10 @@
 """A start on the plane whose lowest points are a line or a face (derive/face.py's
 flat_contact) is refused by its attitude unless the base model takes it; a body on one
 point that comes to lie on a line or a face stops with surface_jump (crt_surface_jumped,
-model_surface_second), at 0.98 and 1.02 of the penetration tolerance too; and the event
-timeline's matching stays linear in a chatter's dense events (derive/runtime/events.py)."""
+model_surface_second), at 0.98 and 1.02 of the penetration tolerance too, and one on a
+rim point near its end runs on until the face lands (S's slide along the rim is no second
+point; the rule's thresholds at 0.99 and 1.01); and the event timeline's matching stays
+linear in a chatter's dense events (derive/runtime/events.py)."""
 from __future__ import annotations
 
 import itertools
