@@ -1,8 +1,10 @@
 """A start on the plane whose lowest points are a line or a face (derive/face.py's
 flat_contact) is refused by its attitude unless the base model takes it; a body on one
 point that comes to lie on a line or a face stops with surface_jump (crt_surface_jumped,
-model_surface_second), at 0.98 and 1.02 of the penetration tolerance too; and the event
-timeline's matching stays linear in a chatter's dense events (derive/runtime/events.py)."""
+model_surface_second), at 0.98 and 1.02 of the penetration tolerance too, and one on a
+rim point near its end runs on until the face lands (S's slide along the rim is no second
+point; the rule's thresholds at 0.99 and 1.01); and the event timeline's matching stays
+linear in a chatter's dense events (derive/runtime/events.py)."""
 from __future__ import annotations
 
 import itertools
@@ -154,17 +156,21 @@ def test_a_cylinder_a_hair_beyond_the_tolerance_or_in_flight_is_the_rough_model_
     assert choice.choose(flight)[0] == "rough"
 
 
-def _sliding_fall(tilt: float, M: float, J: float, mu: float) -> tuple:
+def _sliding_fall(tilt: float, M: float, J: float, mu: float, on_end: bool = False) -> tuple:
     """A cylinder at rest on its lower end's lowest rim point, its axis ``tilt`` above the
     plane, falling flat in the vertical plane of its axis, the rim point sliding (holding
     it would take friction of 1.5 times N, against mu = 0.25): planar rigid-body
     equations, N from the contact's height, F = mu N against the slip.  (time it lies
-    flat, energy lost to friction by then), by SciPy's DOP853."""
+    flat, energy lost to friction by then), by SciPy's DOP853.  ``on_end``: its axis
+    ``tilt`` off the vertical instead, falling back onto that end (C over the rim's
+    inside): the same equations with the radius and the half-length exchanged (C from
+    the rim point R cos - L sin across, L cos + R sin up; holding it would take 0.36 N)."""
     from scipy.integrate import solve_ivp
     g = 9.81
+    a, b = (R, L) if on_end else (L, R)
 
-    def arms(ph):                     # C from the rim point: along the axis, up
-        return (L * math.cos(ph) - R * math.sin(ph), L * math.sin(ph) + R * math.cos(ph))
+    def arms(ph):                     # C from the rim point: across, up
+        return (a * math.cos(ph) - b * math.sin(ph), a * math.sin(ph) + b * math.cos(ph))
 
     def rhs(_, y):
         _, xd, ph, phd = y
@@ -180,6 +186,7 @@ def _sliding_fall(tilt: float, M: float, J: float, mu: float) -> tuple:
                     rtol=1e-13, atol=1e-18)
     _, xd, ph, phd = sol.y_events[0][0]
     rx, rz = arms(ph)
+    assert xd + rz * phd < 0          # the rim point still slides, against F = mu N
     end = 0.5 * M * (xd ** 2 + (rx * phd) ** 2) + 0.5 * J * phd ** 2 + M * g * rz
     return float(sol.t_events[0][0]), M * g * arms(tilt)[1] - end
 
@@ -203,6 +210,41 @@ def test_a_cylinder_just_off_its_side_falls_flat_then_stops_honestly(tilt, rel_t
     assert abs(run.t[-1] / t_flat - 1) < rel_t, (run.t[-1], t_flat)
     E = motion(run).E
     assert abs((E[0] - E[-1]) / lost - 1) < rel_e, (E[0] - E[-1], lost)
+
+
+def _end(tilt: float) -> str:
+    """The cylinder on its lower end's rim, its axis ``tilt`` off the vertical (about x),
+    its point at O."""
+    return CYLINDER_SIDE.format(q0=math.cos(tilt / 2), q1=math.sin(tilt / 2)).replace(
+        '"0.03*(sin(15*t) + 0.5*sin(30*t))", "0", "0.01"', '"0", "0", "0"')
+
+
+@pytest.mark.parametrize("tilt", [4.4e-4, 5e-4, 1e-3, 1.84e-3, 1.9e-3])
+def test_a_cylinder_on_its_end_s_rim_runs_until_its_face_lands(tilt):
+    """Tilted beyond LINE_TOL off its end the cylinder stands on one rim point (face.py),
+    C over the rim's inside: it falls back onto the end, the run stopping with
+    surface_jump as the face lands (the whole rim within the penetration tolerance:
+    flat_contact's "an end face"), at the time and with the energy lost to friction of
+    the planar sliding fall.  The turn by LINE_TOL slides S along the rim by
+    R LINE_TOL / tilt, past 1e-4 reach below 1.86e-3 rad, to a point R LINE_TOL^2 /
+    (2 tilt) above S, within the tolerance above 4.6e-4 rad: taken for a second point,
+    it had stopped the run at t0 from 5e-4 to 1.84e-3 rad, and at 0.71 ms from 1.9e-3.
+    The stop is within 1e-8 rad of the landing (the last step's), so within 1e-5 of its
+    time."""
+    import derive
+    from derive.runtime.motion import motion
+    from derive.scene import parse_scene
+    scene = parse_scene(_end(tilt))
+    assert faces.flat_contact("cylinder", scene.A0[2]) is None
+    run = derive.simulate(scene)
+    t_flat, lost = _sliding_fall(tilt, M=1.1, J=0.000667, mu=0.25, on_end=True)
+    assert run.status == "surface_jump" and run.model == "rough"
+    assert abs(run.t[-1] / t_flat - 1) < 1e-5, (run.t[-1], t_flat)     # 3.3e-6 at most
+    mo = motion(run)
+    assert faces.flat_contact("cylinder", mo.A[-1][2]) == "an end face"
+    assert math.hypot(*mo.A[-1][2][:2]) < 1e-8                # 3.3e-9 rad at most
+    E = mo.E
+    assert abs((E[0] - E[-1]) / lost - 1) < 2e-5, (E[0] - E[-1], lost)  # 6.5e-6 at most
 
 
 @pytest.mark.parametrize("moving", [False, True])
@@ -339,15 +381,15 @@ def test_a_cylinder_a_hair_off_its_side_stops_where_its_far_rim_is_within_the_to
     assert raw.status == ("surface_jump" if band < 1 else "done")
 
 
-@pytest.mark.parametrize("first, second", [(1.03, 0.99), (0.99, 1.03)])
+@pytest.mark.parametrize("first, second", [(1.005, 0.995), (0.995, 1.005)])
 def test_a_box_a_hair_off_a_face_stops_on_the_lower_of_its_far_corners(first, second):
     """model_surface_second is the least height of the far points it finds: a box at rest
     on one corner, nearly flat on its face, its vertical n (body axes) tilted so that the
     corners beyond S along x and along y are 2 a |n_x| and 2 b |n_y| above it (closed
-    form), one 0.99 and the other 1.03 of the penetration tolerance, in either order of
-    its search (the turn about the axis n is least along, x here, first).  The lower
+    form), one 0.995 and the other 1.005 of the penetration tolerance, in either order
+    of its search (the turn about the axis n is least along, x here, first).  The lower
     decides: the first step (1 ns, the Session's run with start_on_plane on, as the
-    cylinder's above) ends in surface_jump both ways; a least taken 5 % loose either
+    cylinder's above) ends in surface_jump both ways; a least taken 2 % loose either
     way would miss the lower."""
     from derive import layout
     from derive.runtime import driver
@@ -382,3 +424,89 @@ def test_a_box_a_hair_off_a_face_stops_on_the_lower_of_its_far_corners(first, se
     assert raw.stats["impacts"] == 0 and raw.stats["steps"] == 1
     assert abi.names(abi.EVENT_KINDS)[int(raw.events[0, 1])] == "contact"
     assert raw.status == "surface_jump"
+
+
+def _one_step(text: str, A, Z: float, Ls: float) -> str:
+    """The status of the Session's run of one step (1 ns, start_on_plane on: in contact
+    at t0) from the prepared state of the scene ``text`` (at rest) with the attitude A
+    (rows: fixed axes in body axes), C at Z (S on the plane) and the length scale Ls."""
+    from derive import layout
+    from derive.runtime import driver
+    from derive.runtime.build import library
+    from derive.runtime.session import Session
+    from derive.scene import parse_scene
+    G = layout.GENERAL
+    prep = driver.prepare(parse_scene(text))
+    opt = prep.options.copy()
+    assert prep.kind == "rough" and opt[abi.OPT["start_on_plane"]] == 1.0
+    opt[abi.OPT["length_scale"]] = Ls
+    q0 = prep.start.q0.copy()
+    q0[G.A] = np.asarray(A, dtype=float).ravel()
+    q0[G.Z] = Z
+    session = Session(library(prep.kind))
+    session.set_law(prep.scene.runtime_law)
+    raw = session.run(0.0, 1e-9, q0, opt, prep.parameters)
+    assert raw.stats["impacts"] == 0 and raw.stats["steps"] == 1
+    assert abi.names(abi.EVENT_KINDS)[int(raw.events[0, 1])] == "contact"
+    return raw.status
+
+
+def _rot_x(phi: float):
+    c, s = math.cos(phi), math.sin(phi)
+    return np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
+
+
+def _tolerance(Z: float, Ls: float) -> float:
+    """crt_penetration_tolerance: max(1e-10 Ls, 64 eps (|Z_C| + Ls))."""
+    return max(1e-10 * Ls, 64 * np.finfo(float).eps * (abs(Z) + Ls))
+
+
+@pytest.mark.parametrize("band", [0.99, 1.01])
+def test_the_turn_s_point_is_a_jump_where_half_the_turn_leaves_it_past_half_way(band):
+    """model_surface_second's test of a jump at its threshold: the turned point o counts
+    where |o - 2 m + s| > |o - s| / 2, m the point at half the turn.  The cylinder near
+    its end face, its vertical n = (0, sin psi, cos psi) (body axes): the turn about
+    x (the first, n being least along it) by LINE_TOL swings S along the rim by
+    d1 = atan(x), x = LINE_TOL / sin psi, and half of it by dh = atan(x / 2), so
+    4 |o - 2 m + s|^2 / |o - s|^2 = 4 ((cos(d1/2) - cos(dh - d1/2))^2
+    + sin(dh - d1/2)^2) / sin(d1/2)^2 (closed form, the rim a circle), set to 0.99 or 1.01
+    (x near 2.03).  Only at a length scale of 80 m is o, R sin psi (1 - cos d1) above S,
+    within the tolerance (8e-9 m), the other turns' points being S itself (about y)
+    or the opposite rim point, 2 R sin psi above S (beyond it).  Above the threshold
+    surface_jump, below done: this kills the 4 and LINE_TOL 2 % either way, which no
+    scene reaches (the swing is a slide, its ratio 3e-4 at most, wherever o is within
+    the tolerance of a real length scale; it passes 1/2 only within LINE_TOL of flat)."""
+    from scipy.optimize import brentq
+
+    def squared(x):                                  # 4 |o - 2m + s|^2 / |o - s|^2
+        d1, dh = math.atan(x), math.atan(x / 2)
+        e = dh - d1 / 2
+        return 4 * ((math.cos(d1 / 2) - math.cos(e)) ** 2 + math.sin(e) ** 2) \
+            / math.sin(d1 / 2) ** 2
+    x = brentq(lambda x: squared(x) - band, 1.0, 4.0, xtol=1e-14)
+    sn = faces.LINE_TOL / x
+    psi, Ls = math.asin(sn), 80.0
+    Z = R * sn + L * math.cos(psi)                    # C above S = (0, -R, -L)
+    tol = _tolerance(Z, Ls)
+    h = R * sn * (1 - math.cos(math.atan(x)))
+    assert h < 0.6 * tol and 2 * R * sn > 1.5 * tol         # o within it, the opposite beyond
+    assert 2 * R * math.sin(math.atan(x) / 2) > 1e-4 * Ls    # and o far
+    status = _one_step(_end(1e-3), _rot_x(psi), Z, Ls)
+    assert status == ("surface_jump" if band > 1 else "done")
+
+
+@pytest.mark.parametrize("band", [0.99, 1.01])
+def test_a_far_point_is_one_farther_than_1e_4_reach(band):
+    """model_surface_second's far test at its threshold (|o - s|^2 > 1e-8 reach^2): the
+    cylinder 1e-7 rad off its side (its far rim 2 L sin 1e-7 above S, within the
+    tolerance), where the turn about its horizontal square to the axis takes S to the
+    far end, o - s = 2 L along the axis (bit for bit).  The length scale put at
+    2 L / (1e-4 sqrt(band)) (1.5 km): at 1.01 of the threshold the far end counts
+    (surface_jump), at 0.99 not (done).  This kills the 1e-8 2 % either way, which no
+    scene reaches (another end, edge or corner is farther than 1e-4 reach)."""
+    theta = 1e-7
+    Ls = 2 * L / (1e-4 * math.sqrt(band))
+    Z = R * math.cos(theta) + L * math.sin(theta)
+    assert 2 * L * math.sin(theta) < 0.2 * _tolerance(Z, Ls)
+    status = _one_step(_side(1e-6), _rot_x(math.pi / 2 + theta), Z, Ls)
+    assert status == ("surface_jump" if band > 1 else "done")

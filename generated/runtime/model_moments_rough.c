@@ -1781,16 +1781,22 @@ static void model_contact(const double *p, const double *u, const double *q, dou
   moments_contact_rhs_free(q, u, s, sdot, p, dq, N, a_free);
 }
 
-/* How far above S the surface's next lowest point across the body is: the lowest points
+/* How far above S the surface's next lowest point across the body is: the lowest points o
    for the vertical n turned by derive/face.py's LINE_TOL either way about two axes square
-   to it, those farther than 1e-4 reach from S (another end, edge or corner, not S moved
-   along a rim), the least of their heights above S; HUGE_VAL where there is none.  Near
-   0 the body lies on a line or a face (a cylinder's side, a box's edge), where S jumps
-   between its ends as round-off tilts it (crt_surface_jumped). */
+   to it, those the turn reaches by a jump (another end, edge or corner), the least of
+   their heights above S; HUGE_VAL where there is none.  A jump is told from S sliding
+   along a smooth rim by the point at half the turn, m: a slide moves S at a rate (m
+   midway, o - 2 m + s about |o - s| times the rim's turn, 3e-4 at most where its o is
+   within the tolerance: a cylinder on its end's rim tilted 4.6e-4 rad and more), a jump
+   leaves m at an end of it (|o - 2 m + s| = |o - s| to the far rim's own slide), so a
+   far point is one with |o - 2 m + s| > |o - s| / 2, farther than 1e-4 reach from S
+   (round-off's moves of S below that).  Near 0 the body lies on a line or a face (a
+   cylinder's side, a box's edge, a cylinder's end within LINE_TOL of flat), where S
+   jumps between its ends as round-off tilts it (crt_surface_jumped). */
 static double model_surface_second(const double *p, const double *q, double reach)
 {
   const double *n = q + Q_N;
-  double s[3], a[3], b[3], m[3], o[3], len, best = HUGE_VAL;
+  double s[3], a[3], b[3], v[3], o[3], m[3], len, best = HUGE_VAL;
   int i, k, w = 0;
   model_shape(p, n, s);
   for (i = 1; i < 3; ++i)                  /* a: square to n, from the axis n least is along */
@@ -1804,14 +1810,17 @@ static double model_surface_second(const double *p, const double *q, double reac
   for (k = 0; k < 4; ++k) {
     const double *d = k < 2 ? a : b;
     const double turn = (k % 2 ? -1.0 : 1.0) * 5e-07;
-    double far = 0.0, h = 0.0;
-    for (i = 0; i < 3; ++i) m[i] = n[i] + turn * d[i];
-    model_shape(p, m, o);
+    double far = 0.0, bend = 0.0, h = 0.0;
+    for (i = 0; i < 3; ++i) v[i] = n[i] + turn * d[i];
+    model_shape(p, v, o);
+    for (i = 0; i < 3; ++i) v[i] = n[i] + 0.5 * turn * d[i];
+    model_shape(p, v, m);
     for (i = 0; i < 3; ++i) {
       far += (o[i] - s[i]) * (o[i] - s[i]);
+      bend += (o[i] - 2.0 * m[i] + s[i]) * (o[i] - 2.0 * m[i] + s[i]);
       h += (o[i] - s[i]) * n[i];
     }
-    if (far > 1e-8 * reach * reach && h < best) best = h;
+    if (far > 1e-8 * reach * reach && 4.0 * bend > far && h < best) best = h;
   }
   return best;
 }
