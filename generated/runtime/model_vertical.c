@@ -748,7 +748,7 @@ static void model_contact(const double *p, const double *u, const double *q, dou
    to it, those the turn reaches by a jump (another end, edge or corner), the least of
    their heights above S; HUGE_VAL where there is none.  A jump is told from S sliding
    along a smooth rim by the point at half the turn, m: a slide moves S at a rate (m
-   midway, o - 2 m + s about |o - s| times the rim's turn, 3e-4 at most where its o is
+   midway, o - 2 m + s about |o - s| times the rim's turn, 2.7e-4 at most where its o is
    within the tolerance: a cylinder on its end's rim tilted 4.6e-4 rad and more), a jump
    leaves m at an end of it (|o - 2 m + s| = |o - s| to the far rim's own slide), so a
    far point is one with |o - 2 m + s| > |o - s| / 2, farther than 1e-4 reach from S
