@@ -262,7 +262,7 @@ def _write_run(args, result, closed) -> list:
     try:
         return write_all(result, args.output, plot=not args.no_plots,
                          animation=not (args.no_animation or args.no_plots),
-                         fmt=args.format, progress=bar.update,
+                         fmt=args.format, progress=bar.update, announce=bar.stage,
                          extra=closed.files(plot=not args.no_plots)
                          if closed is not None else None)
     finally:
