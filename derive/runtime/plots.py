@@ -428,13 +428,17 @@ def overview(result, mo: Motion, path: Path, dpi: int = 80, steps=None,
         motion_panel(fig.add_subplot(gs[0, 0]), result, mo)
         side_panel(fig.add_subplot(gs[0, 1]), result, mo)
     r0 = 1 if has_motion else 0
-    # the energy's cell holds two axes: its parts, and under them the total's drift
-    energy_cell = gs[r0 + 1, 1].subgridspec(2, 1, height_ratios=[2.3, 1], hspace=0.1)
-    panels = [fig.add_subplot(energy_cell[0] if i == 3 else gs[r0 + i // 2, i % 2])
-              for i in range(2 * n_rows)]
-    ax_drift = fig.add_subplot(energy_cell[1], sharex=panels[3])
-    ax_drift.tick_params(labelsize=8)
-    ax_drift.grid(True, lw=0.4, color="0.9")
+    # the energy's cell holds two axes: its parts, and under them the total's drift in
+    # flight (none on the face, where nothing flies, nor without the energy)
+    drifts = mo.T is not None and result.model != "base"
+    energy_cell = gs[r0 + 1, 1].subgridspec(2, 1, height_ratios=[2.3, 1], hspace=0.1) \
+        if drifts else None
+    panels = [fig.add_subplot(energy_cell[0] if i == 3 and drifts
+                              else gs[r0 + i // 2, i % 2]) for i in range(2 * n_rows)]
+    if drifts:
+        ax_drift = fig.add_subplot(energy_cell[1], sharex=panels[3])
+        ax_drift.tick_params(labelsize=8)
+        ax_drift.grid(True, lw=0.4, color="0.9")
     for ax in panels:
         ax.tick_params(labelsize=8)
         ax.grid(True, lw=0.4, color="0.9")
@@ -525,13 +529,13 @@ def overview(result, mo: Motion, path: Path, dpi: int = 80, steps=None,
         ax.set_ylabel("[J]", fontsize=9)
         ax.set_title("energy (potential: (m+M) g Z_C)", **_TITLE)
         _labels(ax, entries)
-        ax.tick_params(labelbottom=False)
-        _energy_drift(ax_drift, result, mo, steps if steps is not None else result,
-                      energy_trace, dpi)
+        if drifts:
+            ax.tick_params(labelbottom=False)
+            _energy_drift(ax_drift, result, mo, steps if steps is not None else result,
+                          energy_trace, dpi)
     else:
         ax.text(0.5, 0.5, "energy needs the motion of C", ha="center", va="center",
                 transform=ax.transAxes)
-        ax_drift.set_axis_off()
 
     ax = panels[4]
     cols = _columns(ax, dpi)
@@ -611,7 +615,6 @@ def overview(result, mo: Motion, path: Path, dpi: int = 80, steps=None,
         ax.set_xlim(t[0], max(t[-1], t[0] + 1e-9))   # (a run stopped at its start: one instant)
     if result.model == "base":          # a body on its face: no flight, no impacts
         _base_panels(panels[0], panels[4], panels[5], result, mo)
-        ax_drift.set_axis_off()
     scale_into_labels(fig)
     fig.savefig(path, dpi=dpi)
     return path
@@ -622,11 +625,11 @@ def _energy_drift(ax, result, mo: Motion, steps, trace, dpi: int) -> None:
     balance's residual as it grows, from the balance of the run's own rows."""
     from .motion import energy_balance, motion
     ax.set_xlim(result.t[0], max(result.t[-1], result.t[0] + 1e-9))
-    if result.model == "base":
-        return
-    if not trace:
-        trace = []
-        energy_balance(steps, mo if steps is result else motion(steps), trace)
+    if not trace:         # (not the summary's: drawn alone, or a hand-over's, whose
+        trace = []        # balance is its flight's)
+        handed = getattr(steps, "handover", None)
+        run = handed.flight if handed is not None else steps
+        energy_balance(run, mo if run is result else motion(run), trace)
     drift = series.energy_drift(trace, float(mo.E[0]), float(result.t[0]))
     if drift is None:
         ax.text(0.5, 0.5, "no flight: no drift of E to draw", ha="center", va="center",
