@@ -1,11 +1,12 @@
 """Long time series drawn as a pixel can show them: per pixel column of a panel, the
 lowest and highest sample (:func:`envelope`), drawn as a translucent band between two
 edges (:func:`draw`).  A run of 21,834 impacts over 10^4 s has 2 10^5 rows: at 350
-pixels a curve is a zigzag of thousands of vertices per column that covers every curve
-under it; the band is one polygon, and a curve under another shows through it.  A series
-with few rows per column is drawn as its plain line.
+pixels, drawn row by row, a curve is a zigzag of hundreds of rows per column that covers
+every curve under it; the band is one polygon, and a curve under another shows through
+it.  A series with few rows per column is drawn as its plain line.
 
-Also :func:`energy_drift`, the total energy's drift in flight, drawn under the energy's
+Also :func:`distinct`, the markers of many points one per cell finer than a pixel, and
+:func:`energy_drift`, the total energy's drift in flight, drawn under the energy's
 components in ``overview.png``.
 """
 from __future__ import annotations
