@@ -102,6 +102,29 @@ def _clip(text: str | None, width: int) -> str:
 
 
 # ---- emit -------------------------------------------------------------------------
+class _EmitProgress:
+    """derive emit's progress on stderr (half a minute of SymPy and CSE had been silent):
+    a line as each stage begins, and a bar through the functions and the models."""
+
+    def __init__(self):
+        self.bar, self.stage = None, None
+
+    def __call__(self, stage: str, done: int, total: int, name: str) -> None:
+        from .progress import Bar
+        if stage != self.stage:
+            self.close()
+            self.stage = stage
+            self.bar = Bar(f"emit: {stage}", delay=0.0) if total > 1 else None
+            if self.bar is None:
+                print(f"  emit: {stage} ...", file=sys.stderr, flush=True)
+        if self.bar is not None:
+            self.bar.update(done / total, f"{done}/{total} {name}")
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.close()
+
+
 def cmd_emit(args: argparse.Namespace) -> int:
     import time
     from pathlib import Path
@@ -116,7 +139,12 @@ def cmd_emit(args: argparse.Namespace) -> int:
                          f"({paths.GENERATED}) is not rewritten; render into a folder with "
                          "-o DIR")
     start = time.perf_counter()
-    files = driver.render_all()
+    told = _EmitProgress() if not args.quiet else None
+    try:
+        files = driver.render_all(told)
+    finally:
+        if told is not None:
+            told.close()
     if args.check:
         delta = driver.diff(files, root)
         if delta:
@@ -262,7 +290,7 @@ def _write_run(args, result, closed) -> list:
     try:
         return write_all(result, args.output, plot=not args.no_plots,
                          animation=not (args.no_animation or args.no_plots),
-                         fmt=args.format, progress=bar.update,
+                         fmt=args.format, progress=bar.update, announce=bar.stage,
                          extra=closed.files(plot=not args.no_plots)
                          if closed is not None else None)
     finally:
@@ -705,6 +733,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-o", "--output", metavar="DIR",
                    help="render into DIR instead of the checkout's generated/ (the only "
                         "way from an installed wheel)")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress on stderr")
     p.set_defaults(func=cmd_emit)
 
     p = sub.add_parser("simulate", help="simulate a scene (default: the built-in one)")

@@ -41,6 +41,15 @@ class Bar:
               end="", file=sys.stderr, flush=True)
         self.shown = True
 
+    def stage(self, text: str) -> None:
+        """A line on stderr when a stage of the work without a fraction begins ("drawing
+        overview.png"), once the work has taken ``delay`` (a quick run stays silent)."""
+        if not self.enabled or time.perf_counter() - self.start < self.delay:
+            return
+        self.close()
+        self.shown = False
+        print(f"  {text} ...", file=sys.stderr, flush=True)
+
     def close(self) -> None:
         if self.shown:
             print(file=sys.stderr, flush=True)

@@ -485,6 +485,10 @@ def test_a_one_field_sweep_plot_has_its_values_as_ticks(tmp_path, monkeypatch):
     fig = _drawn_figure(monkeypatch, lambda: sweep_plot(batch, grid, tmp_path))
     ax = fig.axes[0]
     assert [float(t) for _, t in _ticks(ax.xaxis, *ax.get_xlim())] == grid["point.mass"]
+    # the legend under the axes: in them it had sat on the first points (a trial)
+    (legend,) = fig.legends
+    assert not legend.get_window_extent().overlaps(ax.get_window_extent())
+    assert [t.get_text() for t in legend.get_texts()] == ["impacts", "first resting contact"]
 
 
 def _robot_doc() -> dict:

@@ -380,3 +380,31 @@ def test_robustness_retimes_a_run_past_10x_and_keeps_its_least_time():
     assert sorted(set(calls)) == [50, 51] and len(calls) == 2 * rb.RETIMES
     assert out[50].seconds == 0.0036 and out[51].seconds == 0.45
     assert rb._cost(out)[2] == [out[51]]
+
+
+# ---- derive emit's progress ---------------------------------------------------------------
+def test_emit_tells_its_stages_on_stderr_and_nothing_with_quiet(tmp_path, capsys,
+                                                               monkeypatch):
+    """derive emit (half a minute) had printed nothing until its last line: each stage
+    now has a line on stderr, the functions and models a bar (a plain line per tenth off
+    a terminal); -q prints none of it.  The render is a stand-in that reports as the real
+    one does (tests/test_wheel.py's emit checks the real counts)."""
+    from derive.emit import driver
+
+    def render_all(progress=None):
+        if progress is not None:
+            progress("deriving the functions", 0, 1, "")
+            progress("deriving the functions", 1, 1, "2 functions")
+            for k, name in enumerate(("f", "jac_f"), start=1):
+                progress("the C functions", k, 2, name)
+        return {"c/f.c": b"int f;\n"}
+    monkeypatch.setattr(driver, "render_all", render_all)
+    assert main(["emit", "-o", str(tmp_path / "a")]) == 0
+    err = capsys.readouterr().err.splitlines()
+    assert err[0] == "  emit: deriving the functions ..."
+    assert [line.split("%")[0] for line in err[1:]] == ["  emit: the C functions:  50",
+                                                        "  emit: the C functions: 100"]
+    assert err[-1].endswith("2/2 jac_f")
+    assert main(["emit", "-q", "-o", str(tmp_path / "b")]) == 0
+    assert capsys.readouterr().err == ""
+    assert (tmp_path / "b" / "c" / "f.c").read_bytes() == b"int f;\n"

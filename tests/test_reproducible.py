@@ -20,14 +20,14 @@ def test_emit_check_says_match_or_differ_and_exits_so(monkeypatch, tmp_path, cap
     from derive.emit import driver
     from derive.paths import GENERATED
     files = driver.existing(GENERATED)
-    monkeypatch.setattr(driver, "render_all", lambda: dict(files))
-    args = argparse.Namespace(output=None, check=True)
+    monkeypatch.setattr(driver, "render_all", lambda progress=None: dict(files))
+    args = argparse.Namespace(output=None, check=True, quiet=True)
     assert cli.cmd_emit(args) == 0
     assert "matches a fresh render" in capsys.readouterr().out
     edited = dict(files)
     name = "c/general_flight_rhs.c"
     edited[name] = files[name].replace(b"dq[0] =", b"dq[0] = 1.0 +", 1)
-    monkeypatch.setattr(driver, "render_all", lambda: edited)
+    monkeypatch.setattr(driver, "render_all", lambda progress=None: edited)
     assert cli.cmd_emit(args) == 1
     out = capsys.readouterr()
     assert "+++ " in out.out and "dq[0] = 1.0 +" in out.out

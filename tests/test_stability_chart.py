@@ -187,6 +187,38 @@ def test_the_bounce_chart_calls_its_grey_points_no_orbit(tmp_path):
     assert "no orbit" in verdicts and "no body" not in verdicts
 
 
+def test_the_bounce_charts_legend_and_counts_sit_outside_the_cells(tmp_path, monkeypatch):
+    """The legend and the counts' box had sat on the cells at e 0.7-0.9, Gamma 0.5 and
+    on the top-left ones (a new user's trial): both are now one legend under the axes,
+    whose box meets the chart's nowhere, and it says the counts the summary gives."""
+    from matplotlib.figure import Figure
+
+    from derive.stability import chart
+    sw = sweep.run("bounce", sweep.parse_axis("e=0.2:0.8:3", "bounce", "--x"),
+                   sweep.parse_axis("Gamma=0.5:2:3", "bounce", "--y"), workers=1,
+                   progress=False)
+    saved, save = [], Figure.savefig
+
+    def keep(self, *args, **kwargs):
+        saved.append(self)
+        return save(self, *args, **kwargs)
+    monkeypatch.setattr(Figure, "savefig", keep)
+    chart.write(sw, tmp_path)
+    fig = saved[0]
+    fig.canvas.draw()
+    ax = next(a for a in fig.axes if a.get_xlabel() == "e")
+    box = ax.get_window_extent()
+    assert not ax.texts and ax.get_legend() is None
+    (legend,) = fig.legends
+    assert not legend.get_window_extent().overlaps(box)
+    labels = [t.get_text() for t in legend.get_texts()]
+    c = chart.counts(sw)
+    assert f"linearly stable: {c['stable_linear']}" in labels
+    assert any(text.endswith(f": {c['unstable']}") and text.startswith("unstable")
+               for text in labels)
+    assert {"existence (closed form)", "period doubling (closed form)"} <= set(labels)
+
+
 def test_an_axis_is_the_decimal_grid_typed(tmp_path):
     """--x e=0.1:0.9:17 charts e = 0.3, not np.linspace's 0.30000000000000004, in the
     points run and in the CSV: each value the float nearest to lo + k (hi - lo)/(n - 1),

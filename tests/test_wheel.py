@@ -17,6 +17,7 @@ at install) and used from a temporary working directory:
 from __future__ import annotations
 
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -137,8 +138,8 @@ def test_emit_from_the_wheel(installed):
     refused = subprocess.run([bin_dir / "derive", "emit"], capture_output=True, text=True,
                              env=env, cwd=work)
     assert refused.returncode == 2 and "-o DIR" in refused.stderr
-    _run([bin_dir / "derive", "emit", "-o", "emitted"], env=dict(env, PYTHONHASHSEED="4242"),
-         cwd=work)
+    proc = _run([bin_dir / "derive", "emit", "-o", "emitted"],
+                env=dict(env, PYTHONHASHSEED="4242"), cwd=work)
     emitted = work / "emitted"
     got = {p.relative_to(emitted).as_posix(): p.read_bytes()
            for p in emitted.rglob("*") if p.is_file()}
@@ -146,6 +147,13 @@ def test_emit_from_the_wheel(installed):
     assert sorted(got) == sorted(want)
     differ = sorted(k for k in want if got[k] != want[k])
     assert not differ, differ
+    # its progress on stderr (half a minute had been silent): through every C function
+    # and every runtime model it wrote
+    n_c = sum(1 for k in got if re.fullmatch(r"c/\w+\.c", k))
+    n_models = sum(1 for k in got if re.fullmatch(r"runtime/model_\w+\.c", k))
+    assert "emit: deriving the functions ..." in proc.stderr
+    assert f"emit: the C functions: 100%  {n_c}/{n_c} " in proc.stderr, proc.stderr
+    assert f"emit: the runtime's models: 100%  {n_models}/{n_models} " in proc.stderr
 
 
 @pytest.mark.skipif(CMAKE is None, reason="no cmake")

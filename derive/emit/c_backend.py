@@ -242,14 +242,26 @@ def _project_version(version: str) -> str:
     return version if re.fullmatch(r"\d+(\.\d+){0,3}", version) else "0"
 
 
-def render_c(specs: list[FunctionSpec], out_dir: Path, model_doc: str) -> dict[str, str]:
+def render_c(specs: list[FunctionSpec], out_dir: Path, model_doc: str,
+             progress=None) -> dict[str, str]:
     """Render every file of ``generated/c`` (and the Makefile and CMake files beside it)
-    as text: each function of ``specs`` and its ``jac_`` (derive.jacobians)."""
+    as text: each function of ``specs`` and its ``jac_`` (derive.jacobians).
+    ``progress``: told ``(done, total, name)`` after each function (its CSE and printing:
+    seconds each for the largest)."""
     env = environment()
     tool_versions = versions()
-    contexts = [function_context(spec) for spec in specs]
-    jacobians = [jacobian(spec) for spec in specs if spec.jacobian]
-    jac_contexts = [function_context(j.spec, jacobian=j) for j in jacobians]
+    told = progress or (lambda done, total, name: None)
+    total = len(specs) + sum(1 for spec in specs if spec.jacobian)
+    contexts = []
+    for spec in specs:
+        contexts.append(function_context(spec))
+        told(len(contexts), total, spec.name)
+    jac_contexts = []
+    for spec in specs:
+        if spec.jacobian:
+            j = jacobian(spec)
+            jac_contexts.append(function_context(j.spec, jacobian=j))
+            told(len(contexts) + len(jac_contexts), total, j.spec.name)
     files: dict[str, str] = {}
     tpl = env.get_template("c/function.c.jinja")
     for ctx in contexts + jac_contexts:

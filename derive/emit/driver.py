@@ -16,10 +16,22 @@ MANAGED = ("c", "casadi", "cmake", "control", "runtime")   # folders of generate
 MANAGED_FILES = ("CMakeLists.txt", "Makefile")   # and files at its top
 
 
-def render_all() -> dict[str, bytes]:
+def render_all(progress=None) -> dict[str, bytes]:
+    """Every file ``derive emit`` writes, path -> bytes.  ``progress``: told ``(stage,
+    done, total, name)`` as the work goes: the derivations (one step), the C functions,
+    the runtime's models (their CSE and printing: most of the time)."""
+    def stage(label):
+        return None if progress is None else \
+            (lambda done, total, name: progress(label, done, total, name))
+    if progress is not None:
+        progress("deriving the functions", 0, 1, "")
     specs = emitted_specs() + base_specs()      # the paper's, the moments', the base model's
-    files = {k: v.encode("utf-8") for k, v in render_c(specs, GENERATED, layout_doc()).items()}
-    files.update({k: v.encode("utf-8") for k, v in render_runtime().items()})
+    if progress is not None:
+        progress("deriving the functions", 1, 1, f"{len(specs)} functions")
+    files = {k: v.encode("utf-8") for k, v in
+             render_c(specs, GENERATED, layout_doc(), stage("the C functions")).items()}
+    files.update({k: v.encode("utf-8")
+                  for k, v in render_runtime(stage("the runtime's models")).items()})
     files.update({k: v.encode("utf-8") for k, v in render_controllers().items()})
     files.update(render_casadi(specs))
     return dict(sorted(files.items()))

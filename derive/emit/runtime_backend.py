@@ -338,8 +338,9 @@ def _macro_lines(text: str, breaks: tuple) -> str:
     return text
 
 
-def render_runtime() -> dict[str, str]:
-    """Every file of ``generated/runtime`` as text."""
+def render_runtime(progress=None) -> dict[str, str]:
+    """Every file of ``generated/runtime`` as text; ``progress``: told ``(done, total,
+    name)`` after each model's file (the long part)."""
     env = environment()
     from .. import lie
     theta = float(lie.THETA_MAX)
@@ -358,6 +359,8 @@ def render_runtime() -> dict[str, str]:
         if name in RENDERED:
             raise ValueError(f"templates/runtime/{name} and {name}.jinja both exist")
         files[f"runtime/{name}"] = text
-    for m in MODELS:
+    for k, m in enumerate(MODELS):
         files[f"runtime/model_{m.kind}.c"] = render_model(m)
+        if progress is not None:
+            progress(k + 1, len(MODELS), m.kind)
     return files

@@ -620,9 +620,11 @@ def kinetic_by_body(mo: Motion, names: tuple) -> dict:
     return {name: [float(T[0]), float(T[-1])] for name, T in zip(("carrier", *names), rows)}
 
 
-def energy_balance(result, mo: Motion) -> dict | None:
+def energy_balance(result, mo: Motion, trace: list | None = None) -> dict | None:
     """Start and end energy and where the difference went (see the module's docstring);
-    ``residual`` closes the balance up to the integration error and the quadrature."""
+    ``residual`` closes the balance up to the integration error and the quadrature.
+    ``trace``: told each flight phase's share of the residual, ``(t at its end, E's
+    change over it - the drives' work in it)`` (overview.png draws their running sum)."""
     if mo.T is None:
         return None
     run, steps = result, False          # (the steps' ends: read when a phase asks)
@@ -661,7 +663,10 @@ def energy_balance(result, mo: Motion) -> dict | None:
     budget = [MAX_PHASE_RUNS]
     for a, b, state in phases(result):
         if state == "flight":
-            drive_flight += _phase_work(result, mo, a, b, state, power[:, a:b], budget)
+            work = _phase_work(result, mo, a, b, state, power[:, a:b], budget)
+            drive_flight += work
+            if trace is not None:
+                trace.append((float(result.t[b - 1]), float(E[b - 1] - E[a] - work.sum())))
             continue
         if rough:
             if steps is False:

@@ -230,7 +230,8 @@ def write_tables(result: Result, mo: Motion, out: Path, fmt: str = "csv",
 
 
 def write_all(result: Result, out_dir, plot: bool = True, animation: bool = False,
-              fmt: str = "csv", progress=None, extra: dict | None = None) -> list[Path]:
+              fmt: str = "csv", progress=None, extra: dict | None = None,
+              announce=None) -> list[Path]:
     """Tables, ``overview.png`` (``plot``), ``motion.gif`` (``animation``) and
     ``summary.json`` (last, with the time each part took).  Each file is complete or
     absent: all are written into a hidden folder inside ``out_dir`` and moved into place
@@ -239,20 +240,22 @@ def write_all(result: Result, out_dir, plot: bool = True, animation: bool = Fals
     write removes the outputs of an earlier run it did not replace (``OUTPUT_NAMES``:
     another format, plots not asked this time), so the folder holds one run.
     ``progress``: told the fraction of the trajectory's table written (the long part of a
-    run with millions of rows).  ``extra``: more files, name -> text (or a function that
-    writes the file at the path it is given), written with the others (a closed loop's
-    law.csv, control.json and control.png)."""
+    run with millions of rows); ``announce``: told the name of each later part as it
+    begins (the energy balance, each picture: seconds each on a long run).  ``extra``:
+    more files, name -> text (or a function that writes the file at the path it is
+    given), written with the others (a closed loop's law.csv, control.json and
+    control.png)."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    stage = Path(tempfile.mkdtemp(prefix=".writing-", dir=out))
+    stage_dir = Path(tempfile.mkdtemp(prefix=".writing-", dir=out))
     try:
-        staged = _write_all(result, stage, plot, animation, fmt, progress)
+        staged = _write_all(result, stage_dir, plot, animation, fmt, progress, announce)
         for name, content in (extra or {}).items():
             if callable(content):                  # a picture: it writes itself
-                content(stage / name)
+                content(stage_dir / name)
             else:
-                (stage / name).write_text(content, encoding="utf-8")
-            staged.append(stage / name)
+                (stage_dir / name).write_text(content, encoding="utf-8")
+            staged.append(stage_dir / name)
         final = []
         for path in staged:
             os.replace(path, out / path.name)
@@ -262,17 +265,22 @@ def write_all(result: Result, out_dir, plot: bool = True, animation: bool = Fals
             (out / name).unlink(missing_ok=True)
         return final
     finally:
-        shutil.rmtree(stage, ignore_errors=True)
+        shutil.rmtree(stage_dir, ignore_errors=True)
 
 
 def _write_all(result: Result, out: Path, plot: bool, animation: bool,
-               fmt: str, progress=None) -> list[Path]:
+               fmt: str, progress=None, announce=None) -> list[Path]:
+    announce = announce or (lambda name: None)
     timings = {}
     start = time.perf_counter()
     mo = motion(result)
     written = write_tables(result, mo, out, fmt, progress)
     timings["tables_s"] = time.perf_counter() - start
-    info = summary(result, mo)
+    trace: list = []           # the balance's share of each flight, for the overview
+    announce("summing the energy balance")
+    start = time.perf_counter()
+    info = summary(result, mo, trace)
+    timings["summary_s"] = time.perf_counter() - start
     if plot or animation:
         start = time.perf_counter()
         fine = for_pictures(result)
@@ -280,11 +288,14 @@ def _write_all(result: Result, out: Path, plot: bool, animation: bool,
         timings["resample_s"] = time.perf_counter() - start
     if plot:
         start = time.perf_counter()
+        announce(f"drawing {PICTURE_FILES[0]}")
         from .plots import overview
-        written.append(overview(fine, mo_fine, out / PICTURE_FILES[0], steps=result))
+        written.append(overview(fine, mo_fine, out / PICTURE_FILES[0], steps=result,
+                                energy_trace=trace))
         timings["overview_s"] = time.perf_counter() - start
     if animation and mo_fine.r_O is not None:
         start = time.perf_counter()
+        announce(f"drawing {PICTURE_FILES[1]}")
         from .animation import write_gif
         written.append(write_gif(fine, mo_fine, out / PICTURE_FILES[1]))
         timings["animation_s"] = time.perf_counter() - start

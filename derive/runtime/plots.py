@@ -18,7 +18,7 @@ import numpy as np
 from .. import abi, layout
 from ..progress import count
 
-from . import drawing
+from . import drawing, series
 from .events import contact_intervals, impact_rows, phases
 from .motion import Motion
 
@@ -158,17 +158,17 @@ def side_panel(ax, result, mo: Motion) -> None:
     span = np.ptp(mo.r_C[:, :2], axis=0)
     k = 0 if span[0] >= span[1] else 1
     name = "XY"[k]
-    i = drawing.drawn_rows(mo.t, *(p[:, j] for p in (*mo.r_points, mo.r_O, mo.r_C)
-                                   for j in (k, 2)))
     traces = [(P, drawing.point_colour(j), 0.7) for j, P in enumerate(mo.r_points)]
     for pts, colour, lw in (*traces, (mo.r_O, "#3182bd", 0.9), (mo.r_C, "k", 1.2)):
+        i = drawing.drawn_rows(mo.t, pts[:, k], pts[:, 2])    # each its own rows: fewer
         ax.plot(pts[i, k], pts[i, 2], color=colour, lw=lw)
     if result.scene.plane:
         ax.axhline(0.0, color="0.4", lw=1.0)
         if len(result.impacts):
             rows = impact_rows(result)
             S = drawing.lowest_points(result.scene, mo.r_O[rows], mo.A[rows])
-            ax.plot(S[:, k], S[:, 2], "x", color="#d62728", ms=6, mew=1.5)
+            S = series.distinct(S[:, [k, 2]])
+            ax.plot(S[:, 0], S[:, 1], "x", color="#d62728", ms=6, mew=1.5)
     # to scale unless that would leave most of the panel empty
     box = ax.get_position()
     fw, fh = ax.figure.get_size_inches()
@@ -211,7 +211,7 @@ def motion_panel(ax, result, mo: Motion) -> None:
     labels += [("trace of C", "k"), *_point_entries(mo, "trace of ")]
     if len(result.impacts):
         rows = impact_rows(result)
-        Sv = view(drawing.lowest_points(s, mo.r_O[rows], mo.A[rows]))
+        Sv = series.distinct(view(drawing.lowest_points(s, mo.r_O[rows], mo.A[rows])))
         ax.plot(Sv[:, 0], Sv[:, 1], "x", color="#d62728", ms=6, mew=1.5, zorder=1.7)
         labels.append((f"x  impacts at S ({len(rows)})", "#d62728"))
     # the candidate instants, and the panel's limits from everything that may be drawn
@@ -388,10 +388,18 @@ def friction_panels(ax_slip, ax_mode, result) -> None:
     ax_mode.set_xlim(t[0], t[-1])
 
 
-def overview(result, mo: Motion, path: Path, dpi: int = 80, steps=None) -> Path:
+def _columns(ax, dpi: int) -> int:
+    """The pixel columns of an axes at ``dpi``: a long series is drawn per column."""
+    return max(1, int(np.ceil(ax.get_position().width * ax.figure.get_figwidth() * dpi)))
+
+
+def overview(result, mo: Motion, path: Path, dpi: int = 80, steps=None,
+             energy_trace: list | None = None) -> Path:
     """``result`` and ``mo``: the rows to draw; ``steps``: the run at its own rows (the
     ends of steps), for the drift of |K|, which the dense output's interpolation error
-    would hide (default: ``result``)."""
+    would hide, and of E (default: ``result``); ``energy_trace``: the balance's share of
+    each flight (:func:`~derive.runtime.motion.energy_balance` of ``steps``: the summary's,
+    when it was computed already; else computed here)."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
@@ -420,7 +428,17 @@ def overview(result, mo: Motion, path: Path, dpi: int = 80, steps=None) -> Path:
         motion_panel(fig.add_subplot(gs[0, 0]), result, mo)
         side_panel(fig.add_subplot(gs[0, 1]), result, mo)
     r0 = 1 if has_motion else 0
-    panels = [fig.add_subplot(gs[r0 + i // 2, i % 2]) for i in range(2 * n_rows)]
+    # the energy's cell holds two axes: its parts, and under them the total's drift in
+    # flight (none on the face, where nothing flies, nor without the energy)
+    drifts = mo.T is not None and result.model != "base"
+    energy_cell = gs[r0 + 1, 1].subgridspec(2, 1, height_ratios=[2.3, 1], hspace=0.1) \
+        if drifts else None
+    panels = [fig.add_subplot(energy_cell[0] if i == 3 and drifts
+                              else gs[r0 + i // 2, i % 2]) for i in range(2 * n_rows)]
+    if drifts:
+        ax_drift = fig.add_subplot(energy_cell[1], sharex=panels[3])
+        ax_drift.tick_params(labelsize=8)
+        ax_drift.grid(True, lw=0.4, color="0.9")
     for ax in panels:
         ax.tick_params(labelsize=8)
         ax.grid(True, lw=0.4, color="0.9")
@@ -431,8 +449,7 @@ def overview(result, mo: Motion, path: Path, dpi: int = 80, steps=None) -> Path:
 
     ax = panels[0]
     if mo.h is not None:
-        i = drawing.drawn_rows(t, mo.h)
-        ax.plot(t[i], mo.h[i], lw=1, color="C0")
+        series.draw(ax, t, mo.h, "C0", _columns(ax, dpi))
         if s.plane:
             ax.axhline(0.0, color="k", lw=0.8)
         _impact_lines(ax, imp)
@@ -450,10 +467,9 @@ def overview(result, mo: Motion, path: Path, dpi: int = 80, steps=None) -> Path:
             ax.set_title(f"height of the lowest point S (min {result.min_height:.3g} m"
                          + (f" at t = {mh:.3g} s)" if np.isfinite(mh) else ")"), **_TITLE)
     elif mo.r_O is not None:
-        i = drawing.drawn_rows(t, *(P[:, 2] for P in mo.r_points), mo.r_O[:, 2], mo.r_C[:, 2])
         curves = [(P, drawing.point_colour(j)) for j, P in enumerate(mo.r_points)]
         for pts, colour in (*curves, (mo.r_O, "#3182bd"), (mo.r_C, "k")):
-            ax.plot(t[i], pts[i, 2], lw=1, color=colour)
+            series.draw(ax, t, pts[:, 2], colour, _columns(ax, dpi))
         ax.set_ylabel("[m]", fontsize=9)
         ax.set_title("heights of C, O and the points (no surface: no lowest point)", **_TITLE)
         _labels(ax, [("Z_C", "k"), ("Z_O", "#3182bd"), *_point_entries(mo, "Z_")])
@@ -467,9 +483,8 @@ def overview(result, mo: Motion, path: Path, dpi: int = 80, steps=None) -> Path:
         (result.model_q[:, layout.VERTICAL.n] if result.model == "vertical" else None)
     if n is not None:
         elev = np.degrees(np.arcsin(np.clip(n, -1.0, 1.0)))
-        i = drawing.drawn_rows(t, *elev.T)
         for k in range(3):
-            ax.plot(t[i], elev[i, k], lw=1, color=drawing.AXIS_COLOURS[k])
+            series.draw(ax, t, elev[:, k], drawing.AXIS_COLOURS[k], _columns(ax, dpi))
         ax.set_ylim(-95, 95)
         ax.set_yticks([-90, -45, 0, 45, 90])
         _impact_lines(ax, imp)
@@ -481,9 +496,8 @@ def overview(result, mo: Motion, path: Path, dpi: int = 80, steps=None) -> Path:
                 va="center", transform=ax.transAxes)
 
     ax = panels[2]
-    i = drawing.drawn_rows(t, *mo.omega.T)
     for k in range(3):
-        ax.plot(t[i], mo.omega[i, k], lw=1, color=drawing.AXIS_COLOURS[k])
+        series.draw(ax, t, mo.omega[:, k], drawing.AXIS_COLOURS[k], _columns(ax, dpi))
     _impact_lines(ax, imp)
     ax.set_ylabel("[rad/s]", fontsize=9)
     ax.set_title("angular velocity in body axes", **_TITLE)
@@ -503,20 +517,37 @@ def overview(result, mo: Motion, path: Path, dpi: int = 80, steps=None) -> Path:
                       else _point_entries(mo, "kinetic, "))
                    + ([(f"rotors' spin ({len(mo.T_rotors)})", drawing.ROTOR_COLOUR)]
                       if len(mo.T_rotors) else [])) if split else [("kinetic", "#3182bd")]
-        i = drawing.drawn_rows(t, *(y for y, _, _ in curves))
         for y, lw, colour in curves:
-            ax.plot(t[i], y[i], lw=lw, color=colour)
+            series.draw(ax, t, y, colour, _columns(ax, dpi), lw=lw)
+        # margins: the total (often the highest) off the frame's edge
+        lo = min(float(np.nanmin(y)) for y, _, _ in curves)
+        hi = max(float(np.nanmax(y)) for y, _, _ in curves)
+        pad = 0.06 * (hi - lo) or 0.06 * max(abs(hi), 1.0)
+        ax.set_ylim(lo - pad, hi + pad)
         entries += [("potential", "0.45"), ("total", "k")]
         _impact_lines(ax, imp)
         ax.set_ylabel("[J]", fontsize=9)
         ax.set_title("energy (potential: (m+M) g Z_C)", **_TITLE)
         _labels(ax, entries)
+        if drifts:
+            ax.tick_params(labelbottom=False)
+            _energy_drift(ax_drift, result, mo, steps if steps is not None else result,
+                          energy_trace, dpi)
     else:
         ax.text(0.5, 0.5, "energy needs the motion of C", ha="center", va="center",
                 transform=ax.transAxes)
 
     ax = panels[4]
-    if len(imp):
+    cols = _columns(ax, dpi)
+    if series.dense(len(imp), cols):     # per pixel column: a stem to the highest impulse
+        edges, _, hi = series.envelope(imp[:, 0], imp[:, 1], cols,
+                                        span=(t[0], max(t[-1], t[0] + 1e-9)))
+        at = np.isfinite(hi)
+        mid = 0.5 * (edges[:-1] + edges[1:])[at]
+        ax.vlines(mid, 0.0, hi[at], color="C0", lw=0.8)
+        ax.plot(mid, hi[at], "o", color="C0", ms=2, ls="none")
+        ax.set_ylim(0.0, 1.1 * max(imp[:, 1].max(), 1e-300))
+    elif len(imp):
         ax.vlines(imp[:, 0], 0.0, imp[:, 1], color="C0", lw=1.2)
         ax.plot(imp[:, 0], imp[:, 1], "o", color="C0", ms=4)
         ax.set_ylim(0.0, 1.1 * max(imp[:, 1].max(), 1e-300))
@@ -524,7 +555,9 @@ def overview(result, mo: Motion, path: Path, dpi: int = 80, steps=None) -> Path:
         ax.text(0.5, 0.5, "no impacts", ha="center", va="center", transform=ax.transAxes)
     ax.set_xlim(t[0], max(t[-1], t[0] + 1e-9))   # (a run stopped at its start: one instant)
     ax.set_ylabel("impulse I [N s]", fontsize=9)
-    ax.set_title(f"impulses ({count(len(imp), 'impact')})", **_TITLE)
+    ax.set_title(f"impulses ({count(len(imp), 'impact')}"
+                 + ("; per pixel column the highest" if series.dense(len(imp), cols)
+                    else "") + ")", **_TITLE)
 
     ax = panels[5]
     steps = steps if steps is not None else result
@@ -534,18 +567,24 @@ def overview(result, mo: Motion, path: Path, dpi: int = 80, steps=None) -> Path:
     # exactly 0 is drawn there (on a log axis 0 has no place, and a floor far below it
     # drew every exact row as a spike down, breaking the curve into segments)
     floor = float(np.finfo(float).eps) / 2
+    # the flights' drifts as one series, a NaN between two (one call to draw: a call per
+    # flight took 20 s for 21,834 impacts)
+    pieces_t, pieces_y = [], []
     for a, b, state in phases(steps):
         if state == "flight":
             in_flight += float(tK[b - 1] - tK[a])
         if state == "flight" and b - a > 2 and K[a] > 0:
             drift = np.abs(K[a + 1:b] - K[a]) / K[a]
             worst = max(worst, float(drift.max()))
-            drift = np.maximum(drift, floor)
-            i = drawing.drawn_rows(tK[a + 1:b], drift)
-            ax.plot(tK[a + 1:b][i], drift[i], lw=1, color="C0",
-                    marker="." if len(i) < 60 else None, ms=3)     # few steps: each shown
+            pieces_t += [tK[a + 1:b], tK[b - 1:b]]
+            pieces_y += [np.maximum(drift, floor), [np.nan]]
             drawn = True
     if drawn:
+        tt, yy = np.concatenate(pieces_t), np.concatenate(pieces_y)
+        if len(tt) < 60 + len(pieces_t) // 2:                 # few steps: each shown
+            ax.plot(tt, yy, lw=1, color="C0", marker=".", ms=3)
+        else:
+            series.draw(ax, tt, yy, "C0", _columns(ax, dpi))
         ax.axhline(floor, color="0.6", lw=0.8, ls=":")
         ax.text(0.99, floor, "round-off (0 drawn here)", transform=ax.get_yaxis_transform(),
                 ha="right", va="bottom", fontsize=7, color="0.45")
@@ -579,6 +618,37 @@ def overview(result, mo: Motion, path: Path, dpi: int = 80, steps=None) -> Path:
     scale_into_labels(fig)
     fig.savefig(path, dpi=dpi)
     return path
+
+
+def _energy_drift(ax, result, mo: Motion, steps, trace, dpi: int) -> None:
+    """Under the energy's parts, the total's drift in flight (series.energy_drift): the
+    balance's residual as it grows, from the balance of the run's own rows."""
+    from .motion import energy_balance, motion
+    ax.set_xlim(result.t[0], max(result.t[-1], result.t[0] + 1e-9))
+    if not trace:         # (not the summary's: drawn alone, or a hand-over's, whose
+        trace = []        # balance is its flight's)
+        handed = getattr(steps, "handover", None)
+        run = handed.flight if handed is not None else steps
+        energy_balance(run, mo if run is result else motion(run), trace)
+    drift = series.energy_drift(trace, float(mo.E[0]), float(result.t[0]))
+    if drift is None:
+        ax.text(0.5, 0.5, "no flight: no drift of E to draw", ha="center", va="center",
+                transform=ax.transAxes, fontsize=8)
+        ax.set_yticks([])
+        return
+    td, d = drift
+    if series.dense(len(td), _columns(ax, dpi)):
+        series.draw(ax, td, d, "k", _columns(ax, dpi))
+    else:
+        ax.plot(td, d, lw=1, color="k", marker="." if len(td) < 60 else None, ms=3)
+    ax.axhline(0.0, color="0.6", lw=0.6, zorder=0)
+    # three ticks written out (an axis' "1e-7" offset made the short axes' label too long)
+    worst = float(f"{float(np.max(np.abs(d))):.1e}") or 1e-16
+    ax.set_ylim(-1.3 * worst, 1.3 * worst)
+    ax.set_yticks([-worst, 0.0, worst], [f"{-worst:.1e}", "0", f"{worst:.1e}"])
+    ax.set_ylabel("drift of E", fontsize=8)
+    _labels(ax, [("in flight, at each", "k"), ("flight's end,", "k"), ("relative to E(0):", "k"),
+                 (f"end {d[-1]:.1e}", "k")])
 
 
 def _base_panels(ax_x, ax_v, ax_psi, result, mo) -> None:

@@ -45,7 +45,7 @@ def _finite(x: float):
     return float(x) if np.isfinite(x) else None
 
 
-def summary(result, mo: Motion | None = None) -> dict:
+def summary(result, mo: Motion | None = None, trace: list | None = None) -> dict:
     """What a run did, in numbers; ``energy`` is the balance of
     :func:`derive.runtime.motion.energy_balance` (in joules): ``end - start = at_impacts +
     drive_work_in_flight + drive_work_in_contact (+ change_in_contact_not_split) +
@@ -53,7 +53,8 @@ def summary(result, mo: Motion | None = None) -> dict:
     impact's jump is ``restitution_at_impacts`` (the sum of I (v_n- + v_n+)/2, zero for
     e = 1) plus ``drive_work_at_impacts`` (the impulsive work of the point's drive, zero for
     a point at rest in the body); ``drive_work_at_other_events`` is that work in the other
-    events' jumps (pushes, the impulse at S that ends a slip)."""
+    events' jumps (pushes, the impulse at S that ends a slip).  ``trace``: told the
+    residual's share of each flight (:func:`~derive.runtime.motion.energy_balance`)."""
     s = result.scene
     mo = mo if mo is not None else motion(result)
     steps, events = (np.flatnonzero(result.row_kind == abi.ROW_KIND["step"]),
@@ -61,7 +62,7 @@ def summary(result, mo: Motion | None = None) -> dict:
     base = result.model == "base"
     handed = result.handover
     energy = (base_report.energy(result, mo) if base else base_report.handover_energy(handed)
-              if handed is not None else energy_balance(result, mo))
+              if handed is not None else energy_balance(result, mo, trace))
     out = {
         "scene": s.name,
         "status": result.status,

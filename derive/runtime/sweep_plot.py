@@ -75,7 +75,7 @@ def sweep_plot(batch, grid: dict, folder: Path, column: str = "impacts") -> Path
     path = folder / "sweep.png"
     if len(names) == 1:
         x = np.array(grid[names[0]], dtype=float)
-        fig, ax = plt.subplots(figsize=(7, 3.6))
+        fig, ax = plt.subplots(figsize=(7, 4.0), layout="constrained")
         ax.plot(x, impacts, "o-", ms=3, lw=1, color="C0", label=label)
         ax.set_xlabel(names[0])
         ax.set_ylabel(label, color="C0")
@@ -98,13 +98,14 @@ def sweep_plot(batch, grid: dict, folder: Path, column: str = "impacts") -> Path
         ax.set_title(f"{len(batch.rows)} variants", fontsize=10)
         h1, l1 = ax.get_legend_handles_labels()
         h2, l2 = handles or ([], [])
-        ax.legend(h1 + h2, l1 + l2, loc="upper left", fontsize=8)
-        fig.tight_layout()
+        # under the axes, never over a point (upper left had sat on the first ones)
+        fig.legend(h1 + h2, l1 + l2, loc="outside lower center", ncols=3, fontsize=8,
+                   frameon=False)
     else:
         xs, ys = list(grid[names[0]]), list(grid[names[1]])
         nx, ny = len(xs), len(ys)
         Z = np.ma.masked_invalid(impacts.reshape(nx, ny).T)
-        fig, ax = plt.subplots(figsize=(6.5, 5))
+        fig, ax = plt.subplots(figsize=(6.5, 5), layout="constrained")
         signed = column in _SIGNED and Z.count() and Z.min() < 0 < Z.max()
         norm = signed_norm(Z) if signed else None
         mesh = ax.pcolormesh(np.arange(nx + 1) - 0.5, np.arange(ny + 1) - 0.5, Z,
@@ -135,11 +136,10 @@ def sweep_plot(batch, grid: dict, folder: Path, column: str = "impacts") -> Path
         if bad.any():
             X, Y = np.meshgrid(np.arange(nx), np.arange(ny))
             ax.plot(X[bad], Y[bad], "x", color="red", ms=6, label="not done")
-            ax.legend(fontsize=8, loc="upper right")
+            fig.legend(fontsize=8, loc="outside lower center", frameon=False)   # off the cells
         ax.set_xlabel(names[0])
         ax.set_ylabel(names[1])
         ax.set_title(f"{len(batch.rows)} variants: {label}", fontsize=10)
-        fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
     return path

@@ -125,7 +125,7 @@ def draw(sw: Sweep, path: Path) -> Path:
     X, Y = np.meshgrid(sw.x.values, sw.y.values)
     Z = np.ma.masked_invalid(sw.max_modulus)
     top = float(Z.max()) if Z.count() else 1.0
-    fig, ax = plt.subplots(figsize=(7.0, 5.2), constrained_layout=True)
+    fig, ax = plt.subplots(figsize=(7.0, 5.8), layout="constrained")
     ax.set_facecolor("0.85")                     # masked (no body): grey
     mesh = ax.pcolormesh(X, Y, np.ma.maximum(Z, 1.0), shading="nearest", cmap="magma_r",
                          norm=LogNorm(vmin=1.0, vmax=max(top, 1.0 + 1e-3)))
@@ -160,7 +160,6 @@ def draw(sw: Sweep, path: Path) -> Path:
                     sw.x.hi + 0.5 * (sw.x.hi - sw.x.lo) / max(sw.x.n - 1, 1))
         ax.set_ylim(sw.y.lo - 0.5 * (sw.y.hi - sw.y.lo) / max(sw.y.n - 1, 1),
                     sw.y.hi + 0.5 * (sw.y.hi - sw.y.lo) / max(sw.y.n - 1, 1))
-        ax.legend(loc="upper left", fontsize=8)
     c = counts(sw)
     others = ", ".join(f"{k}={v:g}" for k, v in fixed_values(sw).items())
     what = "" if fam.name == "bounce" else " stationary rotation"
@@ -168,14 +167,23 @@ def draw(sw: Sweep, path: Path) -> Path:
     ax.set_title(head + "\n" + textwrap.fill(others, 90), fontsize=9)
     ax.set_xlabel(sw.x.name)
     ax.set_ylabel(sw.y.name)
-    ax.text(0.01, 0.01, f"unstable (outlined, max |rho| > 1 + {sw.tol:g}): {c['unstable']}"
-            f"   linearly stable: {c['stable_linear']}"
-            + (f"\ncritical with a Jordan block at rho = 1 (dotted): {c['critical_jordan']}"
-               if c["critical_jordan"] else "")
-            + (f"   {missing_name(fam.name)} (grey): {c['no_body']}"
-               if c["no_body"] else ""),
-            transform=ax.transAxes, fontsize=8, va="bottom",
-            bbox={"facecolor": "white", "alpha": 0.8, "edgecolor": "none"})
+    # the counts and the closed forms in one legend under the chart, outside the axes
+    # (inside, the legend and the counts' box hid the cells at e 0.7-0.9, Gamma 0.5)
+    from matplotlib.patches import Patch
+    keys = [Patch(facecolor="none", edgecolor="tab:cyan", lw=1.4,
+                  label=f"unstable (outlined, max |rho| > 1 + {sw.tol:g}): {c['unstable']}"),
+            Patch(facecolor=mesh.cmap(mesh.norm(1.0)), edgecolor="0.6", lw=0.5,
+                  label=f"linearly stable: {c['stable_linear']}")]
+    if c["critical_jordan"]:
+        keys.append(Patch(facecolor="white", edgecolor="0.3", hatch="....", lw=0.0,
+                          label="critical with a Jordan block at rho = 1 (dotted): "
+                                f"{c['critical_jordan']}"))
+    if c["no_body"]:
+        keys.append(Patch(facecolor="0.85", edgecolor="0.6", lw=0.5,
+                          label=f"{missing_name(fam.name)} (grey): {c['no_body']}"))
+    lines, _ = ax.get_legend_handles_labels()
+    fig.legend(handles=lines + keys, loc="outside lower center", ncols=2, fontsize=8,
+               frameon=False)
     fig.savefig(path, dpi=130)
     plt.close(fig)
     return path
