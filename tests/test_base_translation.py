@@ -252,3 +252,32 @@ def test_a_slips_step_refused_is_not_taken_again_at_the_size_refused(index):
     result = run_scene(prepare(parse_scene(doc, "random")))
     assert judge_face_run(result)[0] == "ok"
     assert result.stats["rejected"] < 0.1 * result.stats["steps"], result.stats
+
+
+@pytest.mark.parametrize("twist", [(0.0, 6.0), (1.0, 6.0)])
+def test_a_slips_steps_are_clipped_to_hmax_not_refused_there(twist):
+    """A slip's step is clipped to opt hmax (along a line, hs: time; in s, hmax over the
+    start's dt/ds = rho) where its controller grows it past, not taken longer and refused:
+    the box spinning in place at 6 rad/s (a slip along a line: xi = (0, 0, psi')), and
+    sliding at 1 m/s as it spins (in s: the twist turns), each with hmax = T/640 (it had
+    refused 711 steps of 713 and 708 of 711: each step grown 6x past hmax, refused, then
+    shrunk to 0.9 hmax).  The steps are T/hmax and no more than a few past it, none
+    refused along the line; psi' of the spin on its closed form psi'(0) - mu kappa (M +
+    m) g t / J_z (kappa the face's mean distance from its centre), and the slip in s on
+    the same scene's run at T/64 to 1e-10 of the state's size."""
+    a, b, Jz, T = 0.1, 0.06, 0.025, 0.3
+    v, w0 = twist
+    q0 = [X0, Y0, PSI0, v * math.cos(PSI0), v * math.sin(PSI0), w0]
+    scene = tbr._scene(BOX, f'mass = {m}\nlaw = ["0", "0", "{Z0}"]', MU, T)
+    raw, coarse = (tbr.run_base(scene, q0, mu_s=MU_S, hmax=h) for h in (T / 640, T / 64))
+    assert raw.status == coarse.status == "done" and len(raw.events) == 0
+    assert 640 <= raw.stats["steps"] <= 650, raw.stats
+    assert raw.stats["rejected"] <= (0 if v == 0.0 else 3), raw.stats
+    assert np.diff(raw.t).max() <= T / 640 * (1 + 1e-12)
+    if v == 0.0:
+        d = math.hypot(a, b)
+        kappa = (a * b * d / 3 + a ** 3 / 6 * math.log((b + d) / a)
+                 + b ** 3 / 6 * math.log((a + d) / b)) / (a * b)
+        w = w0 - MU * kappa * (M + m) * G * np.asarray(raw.t) / Jz
+        assert np.abs(raw.q[:, 5] - w).max() < 1e-11 * w0
+    assert np.abs(raw.q[-1] - coarse.q[-1]).max() < 1e-10 * np.abs(coarse.q[-1]).max()
