@@ -333,3 +333,22 @@ def test_a_spin_stopping_just_before_or_after_the_runs_end(after):
     else:
         assert tbr._events(raw) == []
         assert abs(raw.q[-1, 5] - rate * -after) < 1e-9 * w0
+
+
+def test_a_spins_steps_in_small_buffers_are_shrunk_to_the_rows_that_fit(monkeypatch):
+    """The spin in place on a grid of 0.1 ms in buffers of 30 rows (room for 22 a step):
+    a step holding more rows than that is shrunk by the rows that fit over its rows
+    (crt_base_rows_fit's shrink, 22/23 = 0.957 included) and taken again; the grid's rows
+    are the default buffer's run's to 1e-12 of the spin, psi' on its closed form."""
+    from derive.runtime.session import Session
+    a, b, Jz, w0, T, dt = 0.1, 0.06, 0.025, 6.0, 0.3, 1e-4
+    scene = tbr._scene(BOX, f'mass = {m}\nlaw = ["0", "0", "{Z0}"]', MU, T)
+    q0 = [X0, Y0, PSI0, 0, 0, w0]
+    one = tbr.run_base(scene, q0, mu_s=MU_S, output_dt=dt)
+    monkeypatch.setattr(tbr, "Session", lambda lib: Session(lib, chunk=30))
+    run = tbr.run_base(scene, q0, mu_s=MU_S, output_dt=dt)
+    assert one.status == run.status == "done" and np.array_equal(run.t, one.t)
+    assert np.abs(run.q[:, 5] - one.q[:, 5]).max() < 1e-12 * w0
+    assert run.stats["steps"] > one.stats["steps"]          # (steps shrunk to the rows)
+    rate = MU * _kappa(a, b) * (M + m) * G / Jz
+    assert np.abs(run.q[:, 5] - (w0 - rate * run.t)).max() < 1e-9 * w0
