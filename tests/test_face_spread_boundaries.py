@@ -73,8 +73,9 @@ duration = 0.31
 
 # body x turned down: a quarter turn about the world's y
 _X_DOWN = (math.cos(math.pi / 4.0), 0.0, math.sin(math.pi / 4.0), 0.0)
-_CASES = {"cylinder": (_CYLINDER, (1.0, 0.0, 0.0, 0.0), H, lambda th: 2.0 * R * math.sin(th)),
-          "box -x": (_BOX, _X_DOWN, a, lambda th: math.sqrt(2.0) * math.sin(th) * (b + c))}
+# (scene, attitude before the tilt, the face's depth below C, K: the spread is K sin theta)
+_CASES = {"cylinder": (_CYLINDER, (1.0, 0.0, 0.0, 0.0), H, 2.0 * R),
+          "box -x": (_BOX, _X_DOWN, a, math.sqrt(2.0) * (b + c))}
 
 
 def _qmul(p, q):
@@ -136,15 +137,14 @@ def test_flat_on_the_face_at_the_free_fall_time(flat):
 
 def test_tilt_either_side_of_the_resolution(flat):
     case, run = flat
-    _, _, drop, spread_of = _CASES[case]
-    res = _resolution(run, len(run.t) - 1)
-    theta = math.asin(res / spread_of(1.0) * math.sin(1.0))   # spread_of(theta) = res
+    _, _, drop, K = _CASES[case]
+    theta = math.asin(_resolution(run, len(run.t) - 1) / K)     # K sin(theta): the resolution
     t_fall = math.sqrt(2.0 * (Z0 - drop) / g)
     below = _run(case, 0.98 * theta)
     assert below.status == "flat_landing" and [e["kind"] for e in below.events] == \
         ["flat_landing"]
     spread = below.events[0]["value"]
-    assert abs(spread - spread_of(0.98 * theta)) < 1e-6 * spread
+    assert abs(spread - K * math.sin(0.98 * theta)) < 1e-6 * spread
     assert abs(spread - handover.flat_spread(below.scene, below.model_q[-1, G.A])) \
         < 1e-6 * spread
     above = _run(case, 1.02 * theta)
