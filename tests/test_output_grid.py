@@ -94,6 +94,28 @@ def test_rows_every_output_dt_are_the_grid_and_the_closed_form_flights(t0, T):
     session_for(prep.kind)                               # the thread's own is untouched
 
 
+@pytest.mark.parametrize("t0, shift", [(30.0, 0.0), (30.0, 0.3), (-30.0, 0.3)])
+def test_rows_after_a_late_start_and_on_another_runs_grid(t0, shift):
+    """Started at t0 = 30 s (crt_loop_begin's first grid point is t0 + output_dt, the
+    initial row being t0's: a bound scaled by 5 % there put a second row at t0), and on
+    the grid of another run whose origin is shift output_dt before t0 (the flight after a
+    lift-off: driver.grid_phase puts the first grid point (1 - shift) output_dt after t0,
+    a row there, not one output_dt later)."""
+    doc = ball(e=E, z0=Z0, duration=T, output_dt=DT, rtol=1e-10, atol=1e-12)
+    doc["initial"]["time"] = t0
+    origin = t0 - shift * DT if shift else None
+    res = run_prepared(prepare(doc, output_origin=origin))
+    assert res.status == "done"
+    first = t0 + (1.0 - shift) * DT if shift else t0 + DT
+    grid = first + np.arange(0, 60) * DT
+    expected = np.concatenate(([t0], grid[grid < t0 + T], [t0 + T]))
+    steps = res.t[res.row_kind == STEP]
+    assert len(steps) == len(expected)
+    np.testing.assert_allclose(steps, expected, rtol=0, atol=1e-12)
+    z, v = closed_form(steps - t0)
+    np.testing.assert_allclose(res.model_q[res.row_kind == STEP, 0], z, rtol=0, atol=1e-8)
+
+
 @pytest.mark.parametrize("t0", [0.0, -30.0])
 def test_rows_left_pending_at_an_impact_are_the_grids(t0):
     """A grid point 1e-12 s after the first impact (within the last flush's slack of
