@@ -139,6 +139,18 @@ static double crt_rough_slip_value(const crt_session *s, const double *v)
   return crt_follow_value(s->fr.armed, s->fr.v_eps, s->fr.v_scale, s->fr.dir, 2, v);
 }
 
+/* a slip restarting from rest (not armed): zero where it is resolved, at twice v_arm,
+   where it is armed (crt_rough_transition; crt_couples_arm with couples), in whatever
+   direction it took: the friction then follows the slip.  Left to the end of its step,
+   a slip that grows across the reference (the sticking reaction turning as it leaves the
+   cone) has its friction held along the reference the whole step, and one that ends the
+   step across or against it is never armed: its event (v_t . dir = -v_eps) then takes a
+   resolved slip for one that stopped and removes it. */
+static double crt_rough_arm_value(const crt_session *s, const double *v)
+{
+  return (2.0 * s->fr.v_arm - sqrt(v[0] * v[0] + v[1] * v[1])) / s->fr.v_scale;
+}
+
 /* ---- spin friction and rolling resistance: the contact as a wrench ---------------------- */
 /* With either on (s->fr.couples), the contact's reaction is a wrench w = (R, T) at S (fixed
    axes); u = (v_S, Omega), Omega = A omega, changes as du/dt = a_free + G w
@@ -336,7 +348,7 @@ static double crt_wrench_slip_value(crt_session *s, const crt_wrench *w)
            / F;
   g = crt_min(w->N / F, crt_rough_slip_value(s, w->u));
   if (!s->fr.armed)            /* resolved: arm it (crt_couples_arm) */
-    g = crt_min(g, (2.0 * s->fr.v_arm - crt_norm_of(2, w->u)) / s->fr.v_scale);
+    g = crt_min(g, crt_rough_arm_value(s, w->u));
   return g;
 }
 
@@ -495,8 +507,9 @@ static void crt_rough_rhs(crt_session *s, double t, const double *q, double *dq)
 }
 
 /* The event function in contact (crt_contact_event_value): sticking, (mu_f R_Z - |R_t|)/F, zero
-   where R leaves the cone (or R_Z reaches 0 with it); sliding, the lesser of N/F and of
-   crt_rough_slip_value: zero at lift-off or where the slip reaches 0.  F = (m+M) g. */
+   where R leaves the cone (or R_Z reaches 0 with it); sliding, the least of N/F, of
+   crt_rough_slip_value and, restarting from rest, of crt_rough_arm_value: zero at
+   lift-off, where the slip reaches 0 or where it is resolved.  F = (m+M) g. */
 static double crt_rough_event_value(crt_session *s, double t, const double *y)
 {
   double dq[NQ];
@@ -518,8 +531,9 @@ static double crt_rough_event_value(crt_session *s, double t, const double *y)
   } else {
     double N, v[3], g;
     crt_rough_sliding(s, t, y, dq, &N, v);
-    g = N / F;
-    return crt_min(g, crt_rough_slip_value(s, v));
+    g = crt_min(N / F, crt_rough_slip_value(s, v));
+    if (!s->fr.armed) g = crt_min(g, crt_rough_arm_value(s, v));
+    return g;
   }
 }
 
