@@ -17,7 +17,7 @@
  * Transitions (events, each with the rows before and after it):
  *   sliding, N reaches 0              -> flight (lift_off);
  *   sliding from rest, the slip       -> the friction follows the slip from there on
- *   resolved (twice v_arm)               (armed along it; no event);
+ *   reaches v_freeze unarmed             (armed along it; no event);
  *   sliding, the slip reaches 0       -> slip set to 0; sticking if the sticking reaction R
  *                                        is inside the cone (stick), flight if R_Z <= 0
  *                                        (lift_off), else sliding again from rest along
@@ -424,9 +424,9 @@ static void crt_rough_transition(crt_session *s, crt_out *o, double t)
     crt_rough_sliding(s, t, s->q, dq, &N, v);
     before = sqrt(v[0] * v[0] + v[1] * v[1]);
     slip_value = crt_rough_slip_value(s, v);
-    if (!s->fr.armed && before > s->fr.v_arm
+    if (!s->fr.couples && !s->fr.armed && before > s->fr.v_arm
         && crt_rough_arm_value(s, v) < crt_min(N / F, slip_value)) {
-      /* a slip from rest resolved (crt_rough_arm_value): armed along itself, no event */
+      /* a slip from rest at v_freeze (crt_rough_arm_value): armed along itself, no event */
       s->fr.dir[0] = v[0] / before; s->fr.dir[1] = v[1] / before;
       s->fr.armed = 1;
       crt_changed(s);
