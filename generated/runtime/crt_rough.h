@@ -424,7 +424,7 @@ static void crt_rough_transition(crt_session *s, crt_out *o, double t)
     crt_rough_sliding(s, t, s->q, dq, &N, v);
     before = sqrt(v[0] * v[0] + v[1] * v[1]);
     slip_value = crt_rough_slip_value(s, v);
-    if (!s->fr.couples && !s->fr.armed && before > s->fr.v_arm
+    if (!s->fr.couples && !s->fr.armed && before > 0.0
         && crt_rough_arm_value(s, v) < crt_min(N / F, slip_value)) {
       /* a slip from rest at v_freeze (crt_rough_arm_value): armed along itself, no event */
       s->fr.dir[0] = v[0] / before; s->fr.dir[1] = v[1] / before;
@@ -433,7 +433,7 @@ static void crt_rough_transition(crt_session *s, crt_out *o, double t)
       s->g_valid = 0;
       return;
     }
-    if (N / F <= slip_value) { crt_lift_off(s, o, t, N); return; }
+    if (N / F <= crt_rough_slip_value(s, v)) { crt_lift_off(s, o, t, N); return; }
     /* the slip reached 0 */
     crt_project(s, t, s->q, 1);
     crt_emit(o, t, s->q, CRT_ROW_BEFORE_EVENT);
