@@ -426,11 +426,15 @@ static void crt_rough_transition(crt_session *s, crt_out *o, double t)
     slip_value = crt_rough_slip_value(s, v);
     if (!s->fr.couples && !s->fr.armed && before > 0.0
         && crt_rough_arm_value(s, v) < crt_min(N / F, slip_value)) {
-      /* a slip from rest at v_freeze (crt_rough_arm_value): armed along itself, no event */
+      /* a slip from rest at v_freeze (crt_rough_arm_value): armed along itself, no event;
+         sliding along the slip must leave N its coefficient (else painleve, as where the
+         end of a step arms it: crt_rough_after_step) */
       s->fr.dir[0] = v[0] / before; s->fr.dir[1] = v[1] / before;
       s->fr.armed = 1;
       crt_changed(s);
       s->g_valid = 0;
+      crt_rough_sliding(s, t, s->q, dq, &N, v);
+      crt_rough_consistent(s, t, N);
       return;
     }
     if (N / F <= crt_rough_slip_value(s, v)) { crt_lift_off(s, o, t, N); return; }
