@@ -83,6 +83,13 @@ def _balance(raw, start, along=0.0):
     return sol, u
 
 
+def _kappa(a, b):
+    """a rectangle's (half sides a, b) mean distance from its centre, closed form"""
+    d = math.hypot(a, b)
+    return (a * b * d / 3 + a ** 3 / 6 * math.log((b + d) / a)
+            + b ** 3 / 6 * math.log((a + d) / b)) / (a * b)
+
+
 @pytest.mark.parametrize("along", [0.0, 0.6])
 def test_a_yawed_box_translates_as_its_momentum_balance_integrated_apart(along):
     raw = _run(1.2, along)
@@ -202,9 +209,7 @@ def test_a_spin_in_place_steps_on_a_tables_knots_and_slows_as_its_closed_form(pa
     assert np.abs(t[np.searchsorted(t, knots)] - knots).max() <= 1e-12   # steps end on them
     if pairs:
         assert raw.stats["steps"] <= len(knots) + 10, (raw.stats, len(knots))
-    d = math.hypot(a, b)                          # the mean distance: the closed form
-    kappa = (a * b * d / 3 + a ** 3 / 6 * math.log((b + d) / a)
-             + b ** 3 / 6 * math.log((a + d) / b)) / (a * b)
+    kappa = _kappa(a, b)                          # the mean distance: the closed form
     assert abs(kappa - 4 * dblquad(lambda y, x: math.hypot(x, y), 0, a, 0, b, epsabs=1e-14,
                                    epsrel=1e-12)[0] / (4 * a * b)) < 1e-13 * kappa
     zd = CubicSpline(ts, zs, bc_type="periodic").derivative()
@@ -252,3 +257,98 @@ def test_a_slips_step_refused_is_not_taken_again_at_the_size_refused(index):
     result = run_scene(prepare(parse_scene(doc, "random")))
     assert judge_face_run(result)[0] == "ok"
     assert result.stats["rejected"] < 0.1 * result.stats["steps"], result.stats
+
+
+@pytest.mark.parametrize("twist", [(0.0, 6.0), (1.0, 6.0)])
+def test_a_slips_steps_are_clipped_to_hmax_not_refused_there(twist):
+    """A slip's step is clipped to opt hmax (along a line, hs: time; in s, hmax over the
+    start's dt/ds = rho) where its controller grows it past, not taken longer and refused:
+    the box spinning in place at 6 rad/s (a slip along a line: xi = (0, 0, psi')), and
+    sliding at 1 m/s as it spins (in s: the twist turns), each with hmax = T/640 (it had
+    refused 711 steps of 713 and 708 of 711: each step grown 6x past hmax, refused, then
+    shrunk to 0.9 hmax).  The steps are T/hmax and no more than a few past it, none
+    refused along the line; psi' of the spin on its closed form psi'(0) - mu kappa (M +
+    m) g t / J_z (kappa the face's mean distance from its centre), and the slip in s on
+    the same scene's run at T/64 to 1e-10 of the state's size; 12 rates a step (DOP853's
+    13 stages, the first the last step's end: FSAL)."""
+    a, b, Jz, T = 0.1, 0.06, 0.025, 0.3
+    v, w0 = twist
+    q0 = [X0, Y0, PSI0, v * math.cos(PSI0), v * math.sin(PSI0), w0]
+    scene = tbr._scene(BOX, f'mass = {m}\nlaw = ["0", "0", "{Z0}"]', MU, T)
+    raw, coarse = (tbr.run_base(scene, q0, mu_s=MU_S, hmax=h) for h in (T / 640, T / 64))
+    assert raw.status == coarse.status == "done" and len(raw.events) == 0
+    assert 640 <= raw.stats["steps"] <= 650, raw.stats
+    assert raw.stats["rejected"] <= (0 if v == 0.0 else 3), raw.stats
+    assert np.diff(raw.t).max() <= T / 640 * (1 + 1e-12)
+    # DOP853 with FSAL: 12 new stages a step (the last step's end rate reused)
+    st = raw.stats
+    assert st["rhs_evaluations"] <= 12 * (st["steps"] + st["rejected"]) + 20, st
+    if v == 0.0:
+        w = w0 - MU * _kappa(a, b) * (M + m) * G * np.asarray(raw.t) / Jz
+        assert np.abs(raw.q[:, 5] - w).max() < 1e-11 * w0
+    assert np.abs(raw.q[-1] - coarse.q[-1]).max() < 1e-10 * np.abs(coarse.q[-1]).max()
+
+
+def test_an_accelerating_slips_steps_cover_at_most_hmax():
+    """A slip in s whose speed grows (the box sliding back at 0.3 m/s as it spins at 3
+    rad/s, its point driven forward at x = 10 t^2: the push beats the friction), hmax =
+    T/200: a step's time grows past the start's rate over the step, and no step may cover
+    more than hmax (each first try past it is refused and taken within it; a step of
+    hmax at the start's rate covers 0.2 % more).  The end on the same scene's run at
+    hmax = T/20 to 1e-10 of the state's size."""
+    T = 0.1
+    scene = tbr._scene(BOX, f'mass = {m}\nlaw = ["10.0*t^2", "0", "{Z0}"]', MU, T)
+    q0 = [X0, Y0, PSI0, -0.3 * math.cos(PSI0), -0.3 * math.sin(PSI0), 3.0]
+    raw, coarse = (tbr.run_base(scene, q0, mu_s=MU_S, hmax=T / n) for n in (200, 20))
+    assert raw.status == coarse.status == "done" and len(raw.events) == 0
+    assert np.hypot(raw.q[-1, 3], raw.q[-1, 4]) > 1.9 * 0.3          # (it speeds up)
+    assert np.diff(raw.t).max() <= T / 200 * (1 + 1e-12)
+    assert np.abs(raw.q[-1] - coarse.q[-1]).max() < 1e-10 * np.abs(coarse.q[-1]).max()
+
+
+@pytest.mark.parametrize("after", [1e-6, -1e-6])
+def test_a_spin_stopping_just_before_or_after_the_runs_end(after):
+    """The box spinning in place from 6 rad/s (a slip along a line, the slip's DOP853 steps)
+    stops at the closed form's t* = psi'(0) J_z / (mu kappa (M + m) g), 1 microsecond
+    before or after the run's end, inside the slip's last step (the run's end and the stop
+    close on the step's fraction): the earlier is taken.  A stop before the end: a stick
+    event at t* to 1e-9 s, its two rows there (before, after) and the spin 0; after it: no
+    event, the run ending still spinning at mu kappa (M + m) g |after| / J_z.  The rows of
+    a grid of 10 ms (read from the steps' dense output) on the closed form psi'(t)."""
+    a, b, Jz, w0, dt = 0.1, 0.06, 0.025, 6.0, 0.01
+    rate = MU * _kappa(a, b) * (M + m) * G / Jz
+    t_stop = w0 / rate
+    raw = tbr.run_base(tbr._scene(BOX, f'mass = {m}\nlaw = ["0", "0", "{Z0}"]', MU,
+                                  t_stop + after), [X0, Y0, PSI0, 0, 0, w0], mu_s=MU_S,
+                       output_dt=dt)
+    assert raw.status == "done" and abs(raw.t[-1] - t_stop - after) < 1e-12
+    grid = raw.kinds == KIND["step"]
+    assert np.array_equal(raw.t[grid][:-1], dt * np.arange(int(t_stop / dt) + 1))
+    assert np.abs(raw.q[grid][:-1, 5] - (w0 - rate * raw.t[grid][:-1])).max() < 1e-9 * w0
+    if after > 0:
+        (t, kind), = tbr._events(raw)
+        assert kind == "stick" and abs(t - t_stop) < 1e-9 and raw.q[-1, 5] == 0.0
+        at = raw.kinds[raw.t == t]
+        assert list(at) == [KIND["before_event"], KIND["after_event"]]
+    else:
+        assert tbr._events(raw) == []
+        assert abs(raw.q[-1, 5] - rate * -after) < 1e-9 * w0
+
+
+def test_a_spins_steps_in_small_buffers_are_shrunk_to_the_rows_that_fit(monkeypatch):
+    """The spin in place on a grid of 0.1 ms in buffers of 30 rows (room for 22 a step):
+    a step holding more rows than that is shrunk by the rows that fit over its rows
+    (crt_base_rows_fit's shrink, 22/23 = 0.957 included) and taken again; the grid's rows
+    are the default buffer's run's to 1e-12 of the spin, psi' on its closed form."""
+    from derive.runtime.session import Session
+    a, b, Jz, w0, T, dt = 0.1, 0.06, 0.025, 6.0, 0.3, 1e-4
+    scene = tbr._scene(BOX, f'mass = {m}\nlaw = ["0", "0", "{Z0}"]', MU, T)
+    q0 = [X0, Y0, PSI0, 0, 0, w0]
+    one = tbr.run_base(scene, q0, mu_s=MU_S, output_dt=dt)
+    monkeypatch.setattr(tbr, "Session", lambda lib: Session(lib, chunk=30))
+    run = tbr.run_base(scene, q0, mu_s=MU_S, output_dt=dt)
+    assert one.status == run.status == "done" and np.array_equal(run.t, one.t)
+    assert np.abs(run.q[:, 5] - one.q[:, 5]).max() < 1e-12 * w0
+    assert run.stats["steps"] > one.stats["steps"]          # (steps shrunk to the rows)
+    rate = MU * _kappa(a, b) * (M + m) * G / Jz
+    assert np.abs(run.q[:, 5] - (w0 - rate * run.t)).max() < 1e-9 * w0

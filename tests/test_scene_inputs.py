@@ -286,3 +286,32 @@ def test_on_plane_with_several_points_uses_their_first_moment():
     sc = parse_scene(doc)
     oc_z = (0.2 * -0.05 + 0.3 * 0.1) / 1.5
     assert abs(sc.com[2] - (0.2 + oc_z)) < 1e-15
+
+
+@pytest.mark.parametrize("mode, command", [("mirror", "simulate"), ("hop", "simulate"),
+                                           ("replan", "control")])
+def test_a_sample_period_past_a_million_samples_is_refused(tmp_path, mode, command):
+    """A period of 1e-15 s had run the mirror law 167 calls below the loop's least step
+    into a penetration with a reaction of 4e27 N (exit 1, files written): a period giving
+    more than plant.MAX_SAMPLES samples of the run is refused, one line, exit 2, nothing
+    written; the count is duration / period (here 2 s at 1e-6 s: 2e6), at 0.98 and 1.02 of
+    the bound refused only above it."""
+    import subprocess
+    import sys
+
+    from derive.control import plant
+    from derive.scene import toml
+    doc = _example(mode)
+    doc["control"]["duration"] = 2.0
+    doc["control"]["period"] = 1e-6
+    path = tmp_path / "scene.toml"
+    path.write_text(toml.dumps(doc), encoding="utf-8")
+    out = subprocess.run([sys.executable, "-m", "derive", command, str(path), "-o",
+                          str(tmp_path / "out")], capture_output=True, text=True)
+    assert out.returncode == 2 and out.stderr.count("\n") == 1, out.stderr
+    assert "[control].period: gives 2e+06 samples over the run's 2 s (at most 1e+06" \
+        in out.stderr, out.stderr
+    assert not (tmp_path / "out").exists()
+    plant.check_samples(2.0 / (0.98 * plant.MAX_SAMPLES), 2.0)
+    with pytest.raises(SceneError, match=r"\[control\].period: gives 1\.02e\+06"):
+        plant.check_samples(2.0 / (1.02 * plant.MAX_SAMPLES), 2.0)

@@ -119,6 +119,7 @@ def simulate_closed(scene, progress=None) -> ClosedLoop:
         target = {"apex_height": apex}
     if ctl.duration is not None:
         pl = replace(pl, duration=ctl.duration)
+    plant.check_samples(period, pl.duration)
     loop = plant.loop(controller, sc, period)
     t_design = time.perf_counter() - start
     start = time.perf_counter()

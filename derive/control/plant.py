@@ -49,6 +49,20 @@ def plant_scene(scene: Scene, origin: str = "plant") -> Scene:
                                           f"{exc}") from None
 
 
+# a loop's samples over its run, at most: each is a step of the runtime and a row (a
+# period of 1e-15 s had run 167 calls below the loop's least step into a penetration with
+# a reaction of 4e27 N; one of 1e-6 s over 5 s, 5e6 steps and rows, for minutes)
+MAX_SAMPLES = 1e6
+
+
+def check_samples(period: float, duration: float) -> None:
+    """Refuse a sample period that asks more than MAX_SAMPLES samples of the run."""
+    if period > 0.0 and duration / period > MAX_SAMPLES:
+        raise SceneError("[control].period", f"gives {duration / period:.3g} samples over "
+                                             f"the run's {duration:g} s (at most "
+                                             f"{MAX_SAMPLES:.0e}: each is a step and a row)")
+
+
 def loop(controller, scene: Scene, period: float = 0.0, channels: tuple = ()) -> Loop:
     """The loop around a run of ``scene``'s plant: ``controller``, the sample period, and
     the disturbance's noise, seed and pushes (``channels``: on a law of several bodies,

@@ -154,15 +154,19 @@ def setup(task, progress: bool = False) -> Setup:
     import tempfile
     from ..planner.core import plan as make_plan
     from .core import default_duration, period_of, planned_bodies_doc, planned_doc
+    from .plant import check_samples
     start = time.perf_counter()
     check_task(task)
     ctl = task.scene.control
     period = period_of(task)
+    if ctl.duration is not None:           # refused before the plan where it can be
+        check_samples(period, float(ctl.duration))
     pl = make_plan(task, progress=progress)
     if not pl.ok:
         raise ControlError(f"the offline plan failed: {pl.message}")
     t0, T_plan = 0.0, pl.law.T
     duration = default_duration(task, T_plan)
+    check_samples(period, duration)
     seconds = {"plan": time.perf_counter() - start}
     tick = time.perf_counter()
     problem = Problem(task, ctl.intervals)

@@ -163,7 +163,8 @@ _BASE = ("tests/test_base_boundaries.py", "tests/test_crt_face.py",
 
 # Tests of what one header does that the tests of the units it is compiled into do not
 # reach (a controller sets the law during a run; rows on a uniform grid of output_dt;
-# steps that end on a table's knots; a loop's law logged to a stop):
+# steps that end on a table's knots; a loop's law logged to a stop; a face landing flat at
+# 0.98 and 1.02 of the height resolution, and that resolution as its rule's arithmetic):
 # run for that header's mutants too.
 HEADER_TESTS = {
     "crt_law.h": ("tests/test_law_boundaries.py", "tests/test_law.py"),
@@ -174,7 +175,8 @@ HEADER_TESTS = {
     "crt_events.h": (
         _HOP + "test_a_controllers_wider_gait_does_not_let_s_through_the_plane",
         "tests/test_events_boundaries.py::test_a_start_put_on_the_plane_begins_in_contact_"
-        "within_round_off_of_it"),
+        "within_round_off_of_it",
+        "tests/test_flat_landing.py", "tests/test_face_spread_boundaries.py"),
     "crt_step.h": ("tests/test_outputs.py::test_tables_have_plain_names_and_a_uniform_grid",),
     "crt_loop.h": ("tests/test_law.py::test_rk4_steps_end_on_each_knot_never_longer",
                    _HOP + "test_a_loop_stopped_by_max_events_logs_its_law_to_the_stop",
@@ -194,8 +196,13 @@ HEADER_TESTS = {
     "crt_plane.h": ("tests/test_flat_starts.py::test_a_cylinder_a_hair_off_its_side_stops_where_"
                     "its_far_rim_is_within_the_tolerance",
                     "tests/test_flat_starts.py::test_a_box_a_hair_off_a_face_stops_on_the_lower_"
-                    "of_its_far_corners"),
-    "crt_session.h": ("tests/test_runtime.py::test_max_events_is_a_status_not_a_hang",),
+                    "of_its_far_corners",
+                    "tests/test_face_spread_boundaries.py",
+                    "tests/test_trial3_api.py::test_rk4s_impacts_end_where_its_steps_resolve_"
+                    "them_whatever_rtol"),
+    "crt_session.h": ("tests/test_runtime.py::test_max_events_is_a_status_not_a_hang",
+                      "tests/test_flat_landing.py::test_trial_box_lands_flat_at_the_free_fall_"
+                      "time"),
     "crt_smooth.h": ("tests/test_runtime.py::test_the_least_normal_reaction_of_a_resting_ball_"
                      "is_the_closed_forms",
                      "tests/test_control_loop.py::test_the_least_normal_reaction_holds_across_"

@@ -327,7 +327,9 @@ static void crt_base_slip_step(crt_session *s, crt_out *o, double t_end)
                                               slip's, else a thousandth of the time scale */
     s->bs.hs = s->bs.line ? (s->bs.ht > 0.0 ? s->bs.ht : 1e-3 * s->bs.body.t_scale)
                           : 1e-3 * s->bs.body.t_scale / crt_max(rho, 1e-300);
-  hs = wanted = s->bs.hs;
+  /* at most opt[CRT_OPT_HMAX] of time at the start's rate dt/ds (1 along a line, rho in
+     s): the step is clipped there, not taken longer and refused (below) */
+  hs = wanted = crt_min(s->bs.hs, s->opt[CRT_OPT_HMAX] / crt_max(f0[0], 1e-300));
   if (s->bs.line && crt_law_next_knot(&s->law, s->t) < s->t + hs) {
     hs = crt_law_next_knot(&s->law, s->t) - s->t;  /* in t: steps end on a table's knots */
     cut = 1;
@@ -349,7 +351,7 @@ static void crt_base_slip_step(crt_session *s, crt_out *o, double t_end)
        exponential growth of rho in s, to 1e89 with an error norm below 1 (relative to
        z1's own size); a longer one is shrunk by hmax over its time (less than the share
        that fits: t grows faster than linearly in s while rho grows), by 1e-3 at most */
-    span = z1[0] - z0[0];
+    span = s->bs.line ? hs : z1[0] - z0[0];   /* (along a line: hs, not its round-off) */
     if (err <= 1.0 && crt_finite(z1 + 1) && span - span == 0.0 && span <= s->opt[CRT_OPT_HMAX])
       break;
     ++s->stat[CRT_STAT_REJECTED];
