@@ -13,7 +13,8 @@
   ``nan``, ``fell``, ``orthonormality``, ``integral`` (|K| not constant in a flight,
   E1.9); on a rough plane also ``painleve`` (an honest stop: sliding friction can leave
   no consistent reaction there), ``cone`` (a contact row's reaction outside the friction
-  cone) and ``energy`` (friction doing positive work, or the energy gaining more than the
+  cone), ``stop`` (a stick or a reversal where the slip, computed apart, had not stopped)
+  and ``energy`` (friction doing positive work, or the energy gaining more than the
   point's drive gave).
 * :func:`classify`: a hard scene's run against its reference: ``correct``, ``wrong``,
   ``missed events``, ``fell through the plane`` or a named status.
@@ -228,6 +229,7 @@ def judge_run(result, size: float) -> tuple[str, str]:
 # phases at rtol 1e-7)
 CONE_SLACK = 100.0
 ENERGY_SLACK = 1e-6
+STOP_SLACK = 2.0          # a stop of the slip: its speed before, in v_freeze (judge_reaction)
 
 
 def _couples_painleve_ratio(result) -> float:
@@ -313,7 +315,14 @@ def judge_reaction(result, slack: float) -> tuple[str, str] | None:
     * at each event what it decided: a stick (or an entry into contact that sticks) only
       inside the cone, a couple's stop only inside its bound; a slip, and a reversal, only
       where the sticking reaction is on or outside the cone; a lift-off only where N has
-      reached 0; a couple's start only where its held couple has reached its bound.  The
+      reached 0; a couple's start only where its held couple has reached its bound; a
+      stick or a reversal (a stop of the slip) only where the slip of the row before it
+      is below twice v_freeze (``Session.slip_band``: below v_freeze the runtime's
+      friction keeps the reference of the step's start, and a stop removes what the
+      step's lag leaves, the slip's growth in that step with it: 1.07 and 1.27 v_freeze
+      at scenes #717 and #565 of ``verify robustness --plane rough -n 1000``; far above
+      it removes a slip that had not stopped, 37 v_freeze at #204 before its fix:
+      verdict ``stop``).  The
       rows of an instant with several events (a spin's stop whose held couple makes the
       slip begin at once) are held to their own event's decision alone: what it did not
       decide, the next event at that instant does.
@@ -375,6 +384,12 @@ def judge_reaction(result, slack: float) -> tuple[str, str] | None:
         if _AT_THE_BOUND.get(ev) == side and Ns[k] > 0.0 and short[k] > slack:
             return "cone", (f"a {ev} where the sticking reaction is inside the cone by "
                             f"{short[k]:.3g} N (N = {Ns[k]:.3g} N) at {where(k)}")
+        if ev in ("stick", "reversal") and side == 1 and not sticking[k]:
+            slip = math.hypot(rr.kin.v_S[k, 0], rr.kin.v_S[k, 1])
+            freeze = result.session.slip_band(result.t[j], result.model_q[j])["freeze"]
+            if slip > STOP_SLACK * freeze:
+                return "stop", (f"a {ev} where the slip was {slip:.3g} m/s, "
+                                f"{slip / freeze:.3g} v_freeze, at {where(k)}")
         if ev == "lift_off" and side == 1 and (sticking[k] or known[k]):
             n_here = Ns[k] if sticking[k] else N[k]
             if n_here > slack:

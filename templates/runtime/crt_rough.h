@@ -16,6 +16,8 @@
  * prm[CRT_P_restitution_model]; it refuses with status painleve or restitution_refused.
  * Transitions (events, each with the rows before and after it):
  *   sliding, N reaches 0              -> flight (lift_off);
+ *   sliding from rest, the slip       -> the friction follows the slip from there on
+ *   reaches v_freeze unarmed             (armed along it; no event);
  *   sliding, the slip reaches 0       -> slip set to 0; sticking if the sticking reaction R
  *                                        is inside the cone (stick), flight if R_Z <= 0
  *                                        (lift_off), else sliding again from rest along
@@ -417,10 +419,24 @@ static void crt_rough_transition(crt_session *s, crt_out *o, double t)
                    CRT_MODE_SLIDING);
     crt_rough_consistent(s, t, 0.0);
   } else {
-    double N, before;
+    double N, before, slip_value;
     int mode;
     crt_rough_sliding(s, t, s->q, dq, &N, v);
     before = sqrt(v[0] * v[0] + v[1] * v[1]);
+    slip_value = crt_rough_slip_value(s, v);
+    if (!s->fr.couples && !s->fr.armed && before > 0.0
+        && crt_rough_arm_value(s, v) < crt_min(N / F, slip_value)) {
+      /* a slip from rest at v_freeze (crt_rough_arm_value): armed along itself, no event;
+         sliding along the slip must leave N its coefficient (else painleve, as where the
+         end of a step arms it: crt_rough_after_step) */
+      s->fr.dir[0] = v[0] / before; s->fr.dir[1] = v[1] / before;
+      s->fr.armed = 1;
+      crt_changed(s);
+      s->g_valid = 0;
+      crt_rough_sliding(s, t, s->q, dq, &N, v);
+      crt_rough_consistent(s, t, N);
+      return;
+    }
     if (N / F <= crt_rough_slip_value(s, v)) { crt_lift_off(s, o, t, N); return; }
     /* the slip reached 0 */
     crt_project(s, t, s->q, 1);

@@ -139,6 +139,21 @@ static double crt_rough_slip_value(const crt_session *s, const double *v)
   return crt_follow_value(s->fr.armed, s->fr.v_eps, s->fr.v_scale, s->fr.dir, 2, v);
 }
 
+/* without couples, a slip restarting from rest (not armed): zero where it reaches
+   v_freeze (its direction resolved to sqrt(rtol)), where it is armed along itself
+   (crt_rough_transition), in whatever direction it took: the friction then follows the
+   slip.  A slip that grows along the reference is armed at the end of its step, as
+   before (crt_rough_after_step); one that grows across it, or ends its step against it
+   (the sticking reaction turning as it leaves the cone: the slip's acceleration is 0 at
+   the onset), was held along the reference to the step's end and never armed, and its
+   event (v_t . dir = -v_eps) took a resolved slip for one that stopped and removed it.
+   (Armed at twice v_arm, as with couples, a slip's direction is the integrator's error
+   as much as the slip's: it turns back, and a slip that starts slowly chatters.) */
+static double crt_rough_arm_value(const crt_session *s, const double *v)
+{
+  return (s->fr.v_freeze - sqrt(v[0] * v[0] + v[1] * v[1])) / s->fr.v_scale;
+}
+
 /* ---- spin friction and rolling resistance: the contact as a wrench ---------------------- */
 /* With either on (s->fr.couples), the contact's reaction is a wrench w = (R, T) at S (fixed
    axes); u = (v_S, Omega), Omega = A omega, changes as du/dt = a_free + G w
@@ -495,8 +510,9 @@ static void crt_rough_rhs(crt_session *s, double t, const double *q, double *dq)
 }
 
 /* The event function in contact (crt_contact_event_value): sticking, (mu_f R_Z - |R_t|)/F, zero
-   where R leaves the cone (or R_Z reaches 0 with it); sliding, the lesser of N/F and of
-   crt_rough_slip_value: zero at lift-off or where the slip reaches 0.  F = (m+M) g. */
+   where R leaves the cone (or R_Z reaches 0 with it); sliding, the least of N/F, of
+   crt_rough_slip_value and, restarting from rest, of crt_rough_arm_value: zero at
+   lift-off, where the slip reaches 0 or where it reaches v_freeze.  F = (m+M) g. */
 static double crt_rough_event_value(crt_session *s, double t, const double *y)
 {
   double dq[NQ];
@@ -518,8 +534,9 @@ static double crt_rough_event_value(crt_session *s, double t, const double *y)
   } else {
     double N, v[3], g;
     crt_rough_sliding(s, t, y, dq, &N, v);
-    g = N / F;
-    return crt_min(g, crt_rough_slip_value(s, v));
+    g = crt_min(N / F, crt_rough_slip_value(s, v));
+    if (!s->fr.armed) g = crt_min(g, crt_rough_arm_value(s, v));
+    return g;
   }
 }
 
