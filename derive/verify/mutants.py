@@ -198,7 +198,7 @@ HEADER_TESTS = {
                     "tests/test_flat_starts.py::test_a_box_a_hair_off_a_face_stops_on_the_lower_"
                     "of_its_far_corners",
                     "tests/test_face_spread_boundaries.py",
-                    "tests/test_trial3_api.py::test_rk4s_impacts_end_where_its_steps_resolve_"
+                    "tests/test_names_models_and_rk4.py::test_rk4s_impacts_end_where_its_steps_resolve_"
                     "them_whatever_rtol"),
     "crt_session.h": ("tests/test_runtime.py::test_max_events_is_a_status_not_a_hang",
                       "tests/test_flat_landing.py::test_trial_box_lands_flat_at_the_free_fall_"

@@ -1,5 +1,6 @@
-"""A dynamicist's trial (branch trial3, scratch/FINDINGS.md findings 4, 9, 10, 13): small
-truths of the API and its docs, each pinned by the way the trial met it.
+"""A new user's trial (a dynamicist: rk4 and rtol, the state names, a forced model's why,
+export's counts): small truths of the API and its docs, each pinned by the way the trial
+met it.
 """
 import copy
 
